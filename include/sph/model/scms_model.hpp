@@ -1,0 +1,127 @@
+// Forward model of a spherical coordinate measuring system (SCMS) with its seven
+// position-independent geometric errors (Li, Yuan, He, Du; Eq. (1)).
+//
+// Axes: Theta turns the sphere (reading theta), Phi swings the probe (reading phi), the probe
+// reads r along its line. d is the nominal probe zero distance (distance from the axes' common
+// point at which the probe reads 0).
+//
+//   T_theta_phi = DH(theta, 0, a, pi/2 + alpha)
+//   T_phi_probe = Rz(-phi) * DH(beta, b, c, pi/2 + epsilon)
+//   p_probe     = [0, 0, r - (d + d'), 1]^T
+//   p_sphere    = T_theta_phi * T_phi_probe * p_probe
+//
+// p_sphere is expressed in the frame that turns with Theta, i.e. the frame in which the measured
+// sphere is at rest. With all errors zero, p_sphere = (d - r) * (sin phi cos theta, sin phi sin theta,
+// cos phi): phi is the polar angle, theta the azimuth.
+//
+// Geometry parameter block g[kNumScmsParams], internal units rad and mm:
+//   g[0] alpha   [rad] angle error between the Theta and Phi axis lines
+//   g[1] a       [mm]  offset between the Theta and Phi axis lines
+//   g[2] beta    [rad] angle error about the Phi axis (zero of the probe direction)
+//   g[3] b       [mm]  offset of the probe line along the Phi axis
+//   g[4] epsilon [rad] angle error between the Phi axis and the probe line
+//   g[5] c       [mm]  offset between the Phi axis line and the probe line
+//   g[6] d'      [mm]  error of the probe zero distance d
+//
+// Everything here is templated on the scalar (double, float, ceres::Jet) and includes Eigen only.
+#ifndef SPH_MODEL_SCMS_MODEL_HPP_
+#define SPH_MODEL_SCMS_MODEL_HPP_
+
+#include <array>
+
+#include "sph/model/dh.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph {
+
+/// Index of each geometric error in the geometry parameter block (see the file comment).
+enum ScmsParam : int { kAlpha = 0, kA, kBeta, kB, kEpsilon, kC, kDPrime, kNumScmsParams };
+
+/// Whether a parameter is an angle or a length, for unit conversion and reporting.
+enum class Quantity { kAngle, kLength };
+
+/// Static description of one geometry parameter.
+struct ScmsParamInfo {
+  const char* name;    ///< identifier used in files and reports ("alpha", "d_prime", ...)
+  const char* symbol;  ///< symbol as in the paper
+  Quantity quantity;
+};
+
+inline constexpr std::array<ScmsParamInfo, kNumScmsParams> kScmsParamInfo{{
+    {"alpha", "alpha", Quantity::kAngle},
+    {"a", "a", Quantity::kLength},
+    {"beta", "beta", Quantity::kAngle},
+    {"b", "b", Quantity::kLength},
+    {"epsilon", "epsilon", Quantity::kAngle},
+    {"c", "c", Quantity::kLength},
+    {"d_prime", "d'", Quantity::kLength},
+}};
+
+/// The seven geometric errors in internal units (rad, mm), in ScmsParam order.
+using ScmsGeometry = std::array<double, kNumScmsParams>;
+
+/// Converts a parameter from report units (deg or mm) to internal units (rad or mm).
+inline double FromReportUnits(int param, double value) {
+  return kScmsParamInfo[param].quantity == Quantity::kAngle ? value * kRadPerDeg : value;
+}
+/// Converts a parameter from internal units (rad or mm) to report units (deg or mm).
+inline double ToReportUnits(int param, double value) {
+  return kScmsParamInfo[param].quantity == Quantity::kAngle ? value * kDegPerRad : value;
+}
+
+/// Eq. (1) literally, as a product of 4x4 transforms. Clear, and the reference for ScmsPoint();
+/// ScmsPoint() is the same function written as successive operations on one point (faster).
+/// @param g geometry block (rad, mm); theta, phi [rad]; r, d [mm]. Returns p_sphere [mm].
+template <typename T>
+Vec3<T> ScmsPointDh(const T* g, const T& theta, const T& phi, const T& r, const T& d) {
+  const T half_pi(kPi / 2);
+  const Mat4<T> T_theta_phi = DhTransform(theta, T(0), g[kA], half_pi + g[kAlpha]);
+  const Mat4<T> T_phi_probe = RotZ(T(-phi)) * DhTransform(g[kBeta], g[kB], g[kC], half_pi + g[kEpsilon]);
+  const Vec4<T> p_probe(T(0), T(0), r - (d + g[kDPrime]), T(1));
+  return (T_theta_phi * T_phi_probe * p_probe).template head<3>();
+}
+
+/// Eq. (1) applied right to left to the probe point, given sin and cos of the axis readings.
+/// Uses sin(pi/2 + x) = cos x and cos(pi/2 + x) = -sin x. The reading trig may be precomputed
+/// (fixed readings) or a scalar of its own (corrected readings); G is the geometry scalar.
+/// @param g geometry block (rad, mm); theta, phi: sin and cos of the readings; r, d [mm].
+template <typename T, typename A>
+Vec3<T> ScmsPoint(const T* g, const SinCos<A>& theta, const SinCos<A>& phi, const T& r, const T& d) {
+  const SinCos<T> alpha = SinCosOf(g[kAlpha]);
+  const SinCos<T> beta = SinCosOf(g[kBeta]);
+  const SinCos<T> eps = SinCosOf(g[kEpsilon]);
+  const T z = r - (d + g[kDPrime]);  // probe point on the probe line (R frame z)
+
+  // q = DH(beta, b, c, pi/2 + eps) * [0, 0, z]: Rx(pi/2 + eps) gives [0, -cos(eps) z, -sin(eps) z],
+  // then + [c, 0, b], then Rz(beta).
+  const T u = -eps.cos * z;
+  const T qx = beta.cos * g[kC] - beta.sin * u;
+  const T qy = beta.sin * g[kC] + beta.cos * u;
+  const T qz = g[kB] - eps.sin * z;
+
+  // Rz(-phi) * q.
+  const T sx = phi.cos * qx + phi.sin * qy;
+  const T sy = phi.cos * qy - phi.sin * qx;
+
+  // DH(theta, 0, a, pi/2 + alpha) * s: Rx(pi/2 + alpha) gives [sx, -sin(alpha) sy - cos(alpha) qz,
+  // cos(alpha) sy - sin(alpha) qz], then + [a, 0, 0], then Rz(theta).
+  const T x = sx + g[kA];
+  const T y = -alpha.sin * sy - alpha.cos * qz;
+  return Vec3<T>(theta.cos * x - theta.sin * y, theta.sin * x + theta.cos * y, alpha.cos * sy - alpha.sin * qz);
+}
+
+/// Convenience overload of ScmsPoint() taking the readings theta, phi in rad.
+template <typename T>
+Vec3<T> ScmsPoint(const T* g, const T& theta, const T& phi, const T& r, const T& d) {
+  return ScmsPoint(g, SinCosOf(theta), SinCosOf(phi), r, d);
+}
+
+/// ScmsPoint() for a ScmsGeometry in double; readings in rad and mm.
+inline Eigen::Vector3d ScmsPoint(const ScmsGeometry& g, double theta_rad, double phi_rad, double r_mm,
+                                 double d_mm) {
+  return ScmsPoint(g.data(), theta_rad, phi_rad, r_mm, d_mm);
+}
+
+}  // namespace sph
+
+#endif  // SPH_MODEL_SCMS_MODEL_HPP_

@@ -1,0 +1,45 @@
+// Helpers shared by the tests.
+#ifndef SPH_TESTS_TEST_UTIL_HPP_
+#define SPH_TESTS_TEST_UTIL_HPP_
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+#include <string>
+
+#include <Eigen/Core>
+#include <gtest/gtest.h>
+
+namespace sph::testing {
+
+/// EXPECT_PRED_FORMAT3(MatrixNear, actual, expected, tol): element-wise |a - e| <= tol, printing
+/// both matrices and the difference on failure.
+template <typename A, typename B>
+::testing::AssertionResult MatrixNear(const char* a_expr, const char* b_expr, const char* /*tol_expr*/,
+                                      const Eigen::MatrixBase<A>& a, const Eigen::MatrixBase<B>& b, double tol) {
+  if (a.rows() != b.rows() || a.cols() != b.cols()) {
+    return ::testing::AssertionFailure() << a_expr << " and " << b_expr << " differ in size";
+  }
+  const double err = (a.template cast<double>() - b.template cast<double>()).cwiseAbs().maxCoeff();
+  if (err <= tol) return ::testing::AssertionSuccess();
+  std::ostringstream os;
+  os.precision(17);
+  os << a_expr << " and " << b_expr << " differ by " << err << " > " << tol << "\n"
+     << a_expr << " =\n" << a << "\n" << b_expr << " =\n" << b << "\ndifference =\n"
+     << (a.template cast<double>() - b.template cast<double>());
+  return ::testing::AssertionFailure() << os.str();
+}
+
+/// A fresh empty directory under the test's temporary directory.
+inline std::string MakeTempDir(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "sph_" + name + "_" + std::to_string(::getpid());
+  std::string cmd = "rm -rf '" + dir + "' && mkdir -p '" + dir + "'";
+  if (std::system(cmd.c_str()) != 0) ADD_FAILURE() << "cannot create " << dir;
+  return dir;
+}
+
+}  // namespace sph::testing
+
+#endif  // SPH_TESTS_TEST_UTIL_HPP_
