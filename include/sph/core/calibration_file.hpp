@@ -1,0 +1,50 @@
+// Calibration files: what sph_calibrate --output writes and compensation loads later.
+//
+// JSON, format "sph-calibration" version 1:
+//   {
+//     "format": "sph-calibration", "format_version": 1, "created_by": "sph_calibrate 0.1.0",
+//     "probe_offset_mm": 25.0,              nominal d the errors refer to
+//     "sphere_radius_mm": 20.0,             R0 of the reference sphere (information)
+//     "geometry": {"alpha": {"value": 0.02, "unit": "deg"}, "a": {"value": 0.002, "unit": "mm"}, ...},
+//     "covariance": {"parameters": ["alpha", ...], "units": ["deg", "mm", ...], "matrix": [[...], ...]},
+//     "effects": [],                        further effects (none in this version of the model)
+//     "source": {"points_file": "...", ...} free-form provenance
+//   }
+// Angles are stored in deg and lengths in mm; the covariance in the same units (deg^2, deg*mm, mm^2).
+#ifndef SPH_CORE_CALIBRATION_FILE_HPP_
+#define SPH_CORE_CALIBRATION_FILE_HPP_
+
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sph/model/scms_model.hpp"
+
+namespace sph {
+
+inline constexpr int kCalibrationFormatVersion = 1;
+
+/// Contents of a calibration file, in internal units (rad, mm).
+struct CalibrationFile {
+  ScmsGeometry geometry{};                  ///< the seven errors (rad, mm)
+  double probe_offset_mm = 0.0;             ///< nominal d
+  std::optional<double> sphere_radius_mm;   ///< R0 of the calibration sphere
+  /// Covariance of the seven errors (rad, mm), when the calibration computed one.
+  std::optional<Eigen::Matrix<double, kNumScmsParams, kNumScmsParams>> covariance;
+  std::string created_by;
+  std::vector<std::pair<std::string, std::string>> source;  ///< provenance, copied as strings
+};
+
+/// Writes a calibration file atomically. Throws sph::Error when it cannot be written.
+void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal);
+
+/// Reads a calibration file. Throws sph::Error naming the file and the problem when it is not
+/// JSON, is of another format or version, or lacks a field.
+CalibrationFile ReadCalibrationFile(const std::string& path);
+
+}  // namespace sph
+
+#endif  // SPH_CORE_CALIBRATION_FILE_HPP_

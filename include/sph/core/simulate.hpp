@@ -1,0 +1,66 @@
+// Simulated SCMS readings of a reference sphere, by intersecting the probe ray with the sphere.
+//
+// The probe line is built from elementary rotations and translations (Eigen::Transform), not from
+// the model headers or the residual functor, so data made here tests the calibration independently:
+//
+//   T_theta_phi = Rz(theta) * Tx(a) * Rx(pi/2 + alpha)
+//   T_phi_probe = Rz(-phi) * Rz(beta) * Tz(b) * Tx(c) * Rx(pi/2 + epsilon)
+//
+// The probe zero point is at z = -(d + d') on the probe frame's z axis, and the probe measures
+// along +z (towards the axes' common point): reading r is the distance from the zero point to the
+// first intersection of that ray with the sphere |p - O| = R0.
+#ifndef SPH_CORE_SIMULATE_HPP_
+#define SPH_CORE_SIMULATE_HPP_
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sph/core/points_file.hpp"
+#include "sph/model/scms_model.hpp"
+
+namespace sph {
+
+/// One commanded position of the two axes [deg].
+struct AnglePair {
+  double theta_deg = 0.0;
+  double phi_deg = 0.0;
+};
+
+/// A theta x phi grid: theta = 0, 360/nt, ...; phi = (j + 0.5) * 180/np (the paper's 24 x 12 grid
+/// is theta 0, 15, ..., 345 deg and phi 7.5, 22.5, ..., 172.5 deg). Rows: phi outer, theta inner.
+std::vector<AnglePair> GridPattern(int theta_steps, int phi_steps);
+
+/// What to simulate. Defaults are the paper's study (Table 1 truth, R0 20 mm, d 25 mm,
+/// 24 x 12 grid, centre (2, 0, 0) mm, noise on r 0.05 um).
+struct SimulationSpec {
+  ScmsGeometry truth = PaperTruth();  ///< internal units (rad, mm)
+  double sphere_radius_mm = 20.0;     ///< R0
+  double probe_offset_mm = 25.0;      ///< nominal d
+  /// Sphere centre of each setup [mm]; setup ids are 0, 1, ... in this order.
+  std::vector<Eigen::Vector3d> centers_mm{Eigen::Vector3d(2.0, 0.0, 0.0)};
+  std::vector<AnglePair> pattern = GridPattern(24, 12);  ///< measured at every setup
+  double noise_r_um = 0.05;          ///< sigma of Gaussian noise on r [um]
+  double noise_theta_arcsec = 0.0;   ///< sigma of the theta reading noise [arcsec]
+  double noise_phi_arcsec = 0.0;     ///< sigma of the phi reading noise [arcsec]
+  std::uint64_t seed = 1;
+  double sample_period_s = 1.0;      ///< t_s of row i is i * sample_period_s
+
+  /// Table 1 of the paper: alpha = beta = epsilon = 0.02 deg, a = b = c = 0.002 mm, d' = -0.062 mm.
+  static ScmsGeometry PaperTruth();
+};
+
+/// The probe reading r [mm] at the true axis positions theta, phi [rad], or nothing when the probe
+/// ray misses the sphere.
+std::optional<double> ProbeReading(const ScmsGeometry& truth, double theta_rad, double phi_rad, double probe_offset_mm,
+                                   const Eigen::Vector3d& center_mm, double sphere_radius_mm);
+
+/// Simulates a points file: for each setup, each pattern point in order; the axes are at the
+/// commanded angles, the readings carry the noise. Throws sph::Error when a ray misses the sphere.
+PointsData Simulate(const SimulationSpec& spec);
+
+}  // namespace sph
+
+#endif  // SPH_CORE_SIMULATE_HPP_

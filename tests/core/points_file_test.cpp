@@ -1,0 +1,127 @@
+#include "sph/core/points_file.hpp"
+
+#include <fstream>
+#include <sstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "sph/core/error.hpp"
+#include "test_util.hpp"
+
+namespace sph {
+namespace {
+
+using ::testing::HasSubstr;
+
+PointsData Parse(const std::string& text) {
+  std::istringstream in(text);
+  return ParsePoints(in, "pts.txt");
+}
+
+// The error message of parsing `text`, or "" if it parsed.
+std::string ErrorOf(const std::string& text) {
+  try {
+    Parse(text);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+constexpr const char* kHeader =
+    "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
+
+TEST(PointsFile, ReadsHeaderColumnsAndSamples) {
+  const PointsData d = Parse(std::string(kHeader) +
+                             "# operator: A. Smith\n# columns: theta_deg phi_deg r_mm t_s setup\n"
+                             "0.000000 7.500000 5.0912345 0.00 0\n"
+                             "# a comment between samples: value\n"
+                             "15 7.5 5.1 1.5 3\r\n");
+  EXPECT_EQ(d.source, "pts.txt");
+  EXPECT_DOUBLE_EQ(*d.header.sphere_radius_mm, 20.0);
+  EXPECT_DOUBLE_EQ(*d.header.probe_offset_mm, 25.0);
+  ASSERT_EQ(d.header.metadata.size(), 1u);
+  EXPECT_EQ(d.header.metadata[0].first, "operator");
+  EXPECT_EQ(d.header.metadata[0].second, "A. Smith");
+  ASSERT_EQ(d.samples.size(), 2u);
+  EXPECT_TRUE(d.has_time);
+  EXPECT_TRUE(d.has_setup);
+  EXPECT_DOUBLE_EQ(d.samples[0].r_mm, 5.0912345);
+  EXPECT_DOUBLE_EQ(d.samples[1].theta_deg, 15.0);
+  EXPECT_DOUBLE_EQ(d.samples[1].t_s, 1.5);
+  EXPECT_EQ(d.samples[1].setup, 3);
+  EXPECT_EQ(d.SetupIds(), (std::vector<int>{0, 3}));
+}
+
+TEST(PointsFile, DefaultColumnsAndRowIndexAsTime) {
+  const PointsData d = Parse("1 2 3\n4 5 6\n");
+  EXPECT_FALSE(d.header.sphere_radius_mm.has_value());
+  EXPECT_FALSE(d.has_time);
+  EXPECT_FALSE(d.has_setup);
+  ASSERT_EQ(d.samples.size(), 2u);
+  EXPECT_DOUBLE_EQ(d.samples[1].t_s, 1.0);
+  EXPECT_EQ(d.samples[1].setup, 0);
+}
+
+TEST(PointsFile, ColumnsInAnyOrder) {
+  const PointsData d = Parse("# columns: r_mm setup phi_deg theta_deg\n5.5 2 30 60\n");
+  EXPECT_DOUBLE_EQ(d.samples[0].r_mm, 5.5);
+  EXPECT_EQ(d.samples[0].setup, 2);
+  EXPECT_DOUBLE_EQ(d.samples[0].phi_deg, 30.0);
+  EXPECT_DOUBLE_EQ(d.samples[0].theta_deg, 60.0);
+}
+
+TEST(PointsFile, WriteThenReadRoundTrips) {
+  PointsData d;
+  d.header.sphere_radius_mm = 12.7;
+  d.header.probe_offset_mm = 25.0;
+  d.header.metadata = {{"sphere", "G3 ball #17"}};
+  d.has_time = d.has_setup = true;
+  d.samples = {{1.25, 7.5, 5.0912345678, 0.5, 0}, {359.9, 172.5, 4.0000000001, 1.0, 1}};
+  std::ostringstream out;
+  WritePoints(out, d);
+  const PointsData back = Parse(out.str());
+  EXPECT_EQ(back.header.metadata, d.header.metadata);
+  EXPECT_DOUBLE_EQ(*back.header.sphere_radius_mm, 12.7);
+  ASSERT_EQ(back.samples.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_NEAR(back.samples[i].theta_deg, d.samples[i].theta_deg, 1e-10);
+    EXPECT_NEAR(back.samples[i].r_mm, d.samples[i].r_mm, 1e-10);
+    EXPECT_EQ(back.samples[i].setup, d.samples[i].setup);
+  }
+}
+
+TEST(PointsFile, ErrorsNameFileLineAndProblem) {
+  EXPECT_THAT(ErrorOf(std::string(kHeader) + "1 2\n"), HasSubstr("pts.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 2"));
+  EXPECT_THAT(ErrorOf("1 2 x5\n"), HasSubstr("pts.txt:1: column r_mm: 'x5' is not a number"));
+  EXPECT_THAT(ErrorOf("1 2 3\n1 nan 3\n"), HasSubstr("pts.txt:2: column phi_deg: 'nan' is not a finite number"));
+  EXPECT_THAT(ErrorOf("inf 2 3\n"), HasSubstr("pts.txt:1: column theta_deg: 'inf' is not a finite number"));
+  EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm time\n1 2 3 4\n"),
+              HasSubstr("pts.txt:2: unknown column name 'time'"));
+  EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm r_mm\n1 2 3 4\n"), HasSubstr("column 'r_mm' is named twice"));
+  EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg\n1 2\n"), HasSubstr("required column 'r_mm' is missing"));
+  EXPECT_THAT(ErrorOf("# sphere_radius_mm: 20\n# sphere_radius_mm: 21\n1 2 3\n"),
+              HasSubstr("pts.txt:2: header key 'sphere_radius_mm' is given twice"));
+  EXPECT_THAT(ErrorOf("# sphere_radius_mm: -3\n1 2 3\n"), HasSubstr("pts.txt:1: sphere_radius_mm must be positive"));
+  EXPECT_THAT(ErrorOf("# probe_offset_mm: 0\n1 2 3\n"), HasSubstr("pts.txt:1: probe_offset_mm must be positive"));
+  EXPECT_THAT(ErrorOf("# sphere_radius_mm: twenty\n1 2 3\n"), HasSubstr("'twenty' is not a number"));
+  EXPECT_THAT(ErrorOf(kHeader), HasSubstr("pts.txt: no samples"));
+  EXPECT_THAT(ErrorOf(""), HasSubstr("pts.txt: no samples"));
+  EXPECT_THAT(ErrorOf("# sph-points 2\n1 2 3\n"), HasSubstr("pts.txt:1: format 'sph-points 2' is not supported"));
+  EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm setup\n1 2 3 1.5\n"),
+              HasSubstr("column setup: '1.5' is not an integer"));
+  EXPECT_THAT(ErrorOf(std::string("1 2 3\n\0\x01\x02 4\n", 13)), HasSubstr("pts.txt:2: binary data"));
+}
+
+TEST(PointsFile, MissingFileIsAnError) {
+  try {
+    ReadPointsFile("/nonexistent/points.txt");
+    FAIL() << "no exception";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("/nonexistent/points.txt: cannot open for reading"));
+  }
+}
+
+}  // namespace
+}  // namespace sph
