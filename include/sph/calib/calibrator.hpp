@@ -1,0 +1,63 @@
+// Calibration of the seven geometric errors from points measured on a reference sphere.
+//
+// Plain C++ API: no Ceres type appears here. The solver (Levenberg-Marquardt, Ceres) minimises
+//   S = sum_i (|p_sphere(g; theta_i, phi_i, r_i) - O_setup(i)| - R0)^2
+// over g (seven errors) and one centre O per setup; the errors start at zero (the paper's initial
+// guess) and each centre at an algebraic sphere fit of that setup's nominal-model points.
+#ifndef SPH_CALIB_CALIBRATOR_HPP_
+#define SPH_CALIB_CALIBRATOR_HPP_
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sph/calib/observability.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/model/scms_model.hpp"
+
+namespace sph {
+
+struct CalibrationOptions {
+  double sphere_radius_mm = 0.0;  ///< R0 (required, > 0)
+  double probe_offset_mm = 0.0;   ///< nominal d (required, > 0)
+  /// A parameter whose standard uncertainty, as a displacement of the probed point (lengths as
+  /// they are, angles times R0), exceeds this is reported as undetermined [um].
+  double max_std_um = 10.0;
+  int max_iterations = 100;
+  /// Compute the covariance, the observability analysis and the residual statistics. The Monte
+  /// Carlo study switches it off when it only needs the estimates.
+  bool analyse = true;
+  ScmsGeometry initial_geometry{};  ///< start of the errors (rad, mm); the paper starts at zero
+};
+
+/// The outcome of one calibration.
+struct CalibrationResult {
+  ScmsGeometry geometry{};                  ///< estimated errors (rad, mm)
+  std::vector<int> setup_ids;               ///< ascending; centres_mm[k] belongs to setup_ids[k]
+  std::vector<Eigen::Vector3d> centers_mm;  ///< estimated sphere centre of each setup
+  std::vector<double> residuals_mm;         ///< |p - O| - R0 of each sample, in file order
+  double rms_um = 0.0;                      ///< residual RMS
+  double pv_um = 0.0;                       ///< residual peak to valley
+  int n_points = 0;
+  int iterations = 0;
+  bool converged = false;
+  std::string solver_message;               ///< Ceres' termination message
+  /// Uncertainties, correlations and identifiability; parameters in the order: the seven errors,
+  /// then center_x, center_y, center_z of each setup. Empty when options.analyse is false.
+  ObservabilityReport analysis;
+  /// Plain-language warnings: undetermined parameters and why, no convergence, a poor design.
+  std::vector<std::string> warnings;
+
+  /// Converged and every parameter determined.
+  bool Usable() const;
+};
+
+/// Calibrates from the samples of `points`. Throws sph::Error on unusable input (radius or offset
+/// not positive, fewer samples than parameters, a setup whose points determine no centre).
+CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options);
+
+}  // namespace sph
+
+#endif  // SPH_CALIB_CALIBRATOR_HPP_

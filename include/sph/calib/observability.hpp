@@ -1,0 +1,60 @@
+// Uncertainty and identifiability of a least-squares fit from its Jacobian at the solution.
+//
+// With J (m x n) the Jacobian of the residuals, s^2 = sum(e^2) / (m - n) the residual variance:
+//   covariance = s^2 (J^T J)^-1, computed through the SVD of J D with D = diag(1 / |J_:,j|)
+// (column equilibration, so the units of the parameters do not matter). The condition number is
+// that of J D; the right singular vectors of its smallest singular values are the nearly dependent
+// parameter combinations. A parameter is undetermined when its standard uncertainty, as a
+// displacement of the probed point (lengths as they are, angles times a lever arm), exceeds a
+// threshold, or when it lies in the numerical null space of J.
+#ifndef SPH_CALIB_OBSERVABILITY_HPP_
+#define SPH_CALIB_OBSERVABILITY_HPP_
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sph/model/scms_model.hpp"
+
+namespace sph {
+
+/// A fitted parameter as the analysis sees it.
+struct ParameterDescription {
+  std::string name;  ///< "alpha", ..., "center_x", or "center_x@1" with several setups
+  Quantity quantity = Quantity::kLength;
+  double lever_mm = 1.0;  ///< for angles: the arm that turns an angle into a displacement [mm]
+};
+
+/// One nearly dependent combination of parameters.
+struct WeakCombination {
+  double relative_singular_value = 0.0;  ///< sigma_k / sigma_max of the equilibrated Jacobian
+  /// Parameter index and coefficient. The coefficients are displacement-equivalent (angles times
+  /// their lever arm) and scaled so that the largest magnitude is 1; only those >= 0.1 are kept.
+  std::vector<std::pair<int, double>> terms;
+};
+
+struct ObservabilityReport {
+  std::vector<ParameterDescription> parameters;
+  Eigen::VectorXd std;          ///< standard uncertainty, internal units; +inf in the null space
+  Eigen::MatrixXd covariance;   ///< internal units (rad, mm); rows of null-space parameters are NaN
+  Eigen::MatrixXd correlation;
+  std::vector<bool> determined;
+  double residual_sigma_mm = 0.0;  ///< s = sqrt(sum e^2 / (m - n))
+  double condition_number = 0.0;   ///< of the column-equilibrated Jacobian
+  std::vector<WeakCombination> weak;  ///< weakest first
+
+  bool Empty() const { return parameters.empty(); }
+  bool AllDetermined() const;
+  /// Standard uncertainty of parameter i as a displacement [um] (angles times their lever arm).
+  double StdAsDisplacementUm(int i) const;
+};
+
+/// Analyses a fit. `jacobian` is m x n with m > n, `residuals` has m entries (any unit, the same
+/// as the Jacobian's rows), `params` describes the n columns.
+ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
+                               std::vector<ParameterDescription> params, double max_std_um);
+
+}  // namespace sph
+
+#endif  // SPH_CALIB_OBSERVABILITY_HPP_

@@ -1,0 +1,192 @@
+// The only translation unit of the library that instantiates Ceres templates.
+#include "sph/calib/calibrator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <set>
+
+#include <ceres/ceres.h>
+
+#include "sph/ceres/sphere_residual.hpp"
+#include "sph/core/error.hpp"
+#include "sph/model/sphere_fit.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph {
+namespace {
+
+std::string Format(const char* fmt, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, a);
+  return buf;
+}
+
+// Distinct values of an angle column, to 1e-6 deg.
+std::size_t CountDistinct(const std::vector<double>& values) {
+  std::set<long long> keys;
+  for (double v : values) keys.insert(std::llround(v * 1e6));
+  return keys.size();
+}
+
+// Explains in words why the undetermined parameters are undetermined.
+void ExplainUndetermined(const PointsData& points, const CalibrationOptions& options, CalibrationResult& result) {
+  const ObservabilityReport& rep = result.analysis;
+  std::string names;
+  for (std::size_t i = 0; i < rep.parameters.size(); ++i) {
+    if (rep.determined[i]) continue;
+    const double disp = rep.StdAsDisplacementUm(static_cast<int>(i));
+    names += (names.empty() ? "" : ", ") + rep.parameters[i].name +
+             (std::isfinite(disp) ? " (std " + Format("%.3g", disp) + " um)" : " (no information at all)");
+  }
+  if (names.empty()) return;
+  result.warnings.push_back("undetermined parameters: " + names + "; a parameter counts as determined when its " +
+                            "standard uncertainty, as a displacement of the probed point (angles times R0), is at most " +
+                            Format("%g", options.max_std_um) + " um (--max-std-um)");
+
+  // Offset of each centre from the Theta axis (what turns with theta) and along it.
+  std::string offsets;
+  for (std::size_t k = 0; k < result.centers_mm.size(); ++k) {
+    const Eigen::Vector3d& c = result.centers_mm[k];
+    offsets += std::string(offsets.empty() ? "" : "; ") +
+               (result.centers_mm.size() > 1 ? "setup " + std::to_string(result.setup_ids[k]) + ": " : "") +
+               Format("%.3g", std::hypot(c.x(), c.y())) + " mm off the Theta axis and " + Format("%.3g", c.z()) +
+               " mm along it";
+  }
+  bool axis_related = false;
+  for (std::size_t i = 0; i < rep.parameters.size() && i < kNumScmsParams; ++i) {
+    if (!rep.determined[i]) axis_related = true;
+  }
+  if (axis_related) {
+    result.warnings.push_back(
+        "why: b, c, beta and epsilon move the probed point sideways, along the sphere's surface, and the measured "
+        "distance sees such a shift only where the surface is tilted against the probe line, i.e. through the "
+        "sphere's eccentricity; a centre on the Theta axis moreover looks the same from every theta. The centre is " +
+        offsets + ". Place the sphere off the Theta axis (the paper's study uses 2 mm) or add a setup at another "
+        "position.");
+  }
+  for (int id : result.setup_ids) {
+    std::vector<double> thetas, phis;
+    for (const Sample& s : points.samples) {
+      if (s.setup != id) continue;
+      thetas.push_back(s.theta_deg);
+      phis.push_back(s.phi_deg);
+    }
+    const std::size_t nt = CountDistinct(thetas), np = CountDistinct(phis);
+    const std::string where = result.setup_ids.size() > 1 ? " in setup " + std::to_string(id) : "";
+    if (np < 3) {
+      result.warnings.push_back("why: only " + std::to_string(np) + " phi position(s)" + where +
+                                "; errors that act along the Phi swing (alpha, a, d' and the centre's height) need "
+                                "points on at least three phi rings, spread over the sphere.");
+    }
+    if (nt < 3) {
+      result.warnings.push_back("why: only " + std::to_string(nt) + " theta position(s)" + where +
+                                "; the sphere must be turned through several Theta positions to separate the centre "
+                                "from the axis errors.");
+    }
+  }
+}
+
+}  // namespace
+
+bool CalibrationResult::Usable() const { return converged && (analysis.Empty() || analysis.AllDetermined()); }
+
+CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options) {
+  const std::string& src = points.source;
+  if (!(options.sphere_radius_mm > 0.0)) throw Error(src + ": the sphere radius must be positive");
+  if (!(options.probe_offset_mm > 0.0)) throw Error(src + ": the probe offset must be positive");
+
+  CalibrationResult result;
+  result.setup_ids = points.SetupIds();
+  const std::size_t n_setups = result.setup_ids.size();
+  const std::size_t n_params = kNumScmsParams + 3 * n_setups;
+  if (points.samples.size() <= n_params) {
+    throw Error(src + ": " + std::to_string(points.samples.size()) + " samples are too few to fit " +
+                std::to_string(n_params) + " parameters (7 errors and 3 centre coordinates for each of " +
+                std::to_string(n_setups) + " setup(s))");
+  }
+  std::map<int, std::size_t> setup_index;
+  for (std::size_t k = 0; k < n_setups; ++k) setup_index[result.setup_ids[k]] = k;
+
+  // Initial values: the errors as given (zero by default), each centre from an algebraic sphere
+  // fit of its setup's points computed with those errors.
+  result.geometry = options.initial_geometry;
+  std::vector<std::vector<Eigen::Vector3d>> nominal(n_setups);
+  for (const Sample& s : points.samples) {
+    nominal[setup_index[s.setup]].push_back(
+        ScmsPoint(result.geometry, s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg, s.r_mm, options.probe_offset_mm));
+  }
+  std::vector<std::array<double, 3>> centers(n_setups);
+  for (std::size_t k = 0; k < n_setups; ++k) {
+    const Sphere fit = FitSphereAlgebraic(nominal[k]);
+    if (!fit.ok) {
+      throw Error(src + ": the points of setup " + std::to_string(result.setup_ids[k]) +
+                  " do not determine a sphere (fewer than four, or all on one plane or line)");
+    }
+    centers[k] = {fit.center.x(), fit.center.y(), fit.center.z()};
+  }
+
+  ceres::Problem problem;
+  for (const Sample& s : points.samples) {
+    problem.AddResidualBlock(SphereResidual::Create(s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg, s.r_mm,
+                                                    options.probe_offset_mm, options.sphere_radius_mm),
+                             nullptr, result.geometry.data(), centers[setup_index[s.setup]].data());
+  }
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  solver_options.function_tolerance = 1e-6;
+  solver_options.gradient_tolerance = 1e-16;
+  solver_options.parameter_tolerance = 1e-12;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.iterations = static_cast<int>(summary.iterations.size()) - 1;  // iteration 0 is the start
+  result.solver_message = summary.message;
+  result.n_points = static_cast<int>(points.samples.size());
+  for (const auto& c : centers) result.centers_mm.emplace_back(c[0], c[1], c[2]);
+  if (!result.converged) {
+    result.warnings.push_back("the solver did not converge: " + summary.message);
+  }
+  if (!options.analyse) return result;
+
+  // Residuals and Jacobian at the solution, parameters in report order.
+  ceres::Problem::EvaluateOptions eval;
+  eval.parameter_blocks.push_back(result.geometry.data());
+  for (auto& c : centers) eval.parameter_blocks.push_back(c.data());
+  std::vector<double> residuals;
+  ceres::CRSMatrix crs;
+  double cost = 0.0;
+  problem.Evaluate(eval, &cost, &residuals, nullptr, &crs);
+  result.residuals_mm = residuals;
+  const Eigen::Index m = static_cast<Eigen::Index>(residuals.size());
+  Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(m, static_cast<Eigen::Index>(n_params));
+  for (int row = 0; row < crs.num_rows; ++row) {
+    for (int idx = crs.rows[static_cast<std::size_t>(row)]; idx < crs.rows[static_cast<std::size_t>(row) + 1]; ++idx) {
+      jac(row, crs.cols[static_cast<std::size_t>(idx)]) = crs.values[static_cast<std::size_t>(idx)];
+    }
+  }
+  const Eigen::Map<const Eigen::VectorXd> res(residuals.data(), m);
+  double sum2 = 0.0, lo = res.minCoeff(), hi = res.maxCoeff();
+  sum2 = res.squaredNorm();
+  result.rms_um = std::sqrt(sum2 / static_cast<double>(m)) * kUmPerMm;
+  result.pv_um = (hi - lo) * kUmPerMm;
+
+  std::vector<ParameterDescription> desc;
+  for (const auto& info : kScmsParamInfo) desc.push_back({info.name, info.quantity, options.sphere_radius_mm});
+  for (int id : result.setup_ids) {
+    const std::string suffix = n_setups > 1 ? "@" + std::to_string(id) : "";
+    for (const char* axis : {"center_x", "center_y", "center_z"}) desc.push_back({axis + suffix, Quantity::kLength, 1.0});
+  }
+  result.analysis = AnalyseFit(jac, res, std::move(desc), options.max_std_um);
+  ExplainUndetermined(points, options, result);
+  return result;
+}
+
+}  // namespace sph

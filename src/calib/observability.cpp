@@ -1,0 +1,124 @@
+#include "sph/calib/observability.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/SVD>
+
+#include "sph/model/units.hpp"
+
+namespace sph {
+namespace {
+
+// Right singular vectors whose relative singular value is below this are listed as nearly
+// dependent combinations (the weakest one is always listed).
+constexpr double kWeakRatio = 1e-2;
+// Coefficients below this fraction of the largest are left out of a combination.
+constexpr double kTermCutoff = 0.1;
+
+}  // namespace
+
+bool ObservabilityReport::AllDetermined() const {
+  return std::all_of(determined.begin(), determined.end(), [](bool d) { return d; });
+}
+
+double ObservabilityReport::StdAsDisplacementUm(int i) const {
+  const ParameterDescription& p = parameters[static_cast<std::size_t>(i)];
+  const double arm = p.quantity == Quantity::kAngle ? p.lever_mm : 1.0;
+  return std(i) * arm * kUmPerMm;
+}
+
+ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
+                               std::vector<ParameterDescription> params, double max_std_um) {
+  ObservabilityReport rep;
+  const Eigen::Index m = jacobian.rows();
+  const Eigen::Index n = jacobian.cols();
+  rep.parameters = std::move(params);
+  rep.std = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
+  rep.covariance = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
+  rep.correlation = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
+  rep.determined.assign(static_cast<std::size_t>(n), false);
+  rep.condition_number = std::numeric_limits<double>::infinity();
+  if (m <= n || n == 0) return rep;
+
+  rep.residual_sigma_mm = std::sqrt(residuals.squaredNorm() / static_cast<double>(m - n));
+
+  // Column equilibration: D = diag(1 / |J_:,j|); a zero column is a parameter nothing depends on.
+  Eigen::VectorXd scale(n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double norm = jacobian.col(j).norm();
+    scale(j) = norm > 0.0 ? 1.0 / norm : 0.0;
+  }
+  const Eigen::MatrixXd js = jacobian * scale.asDiagonal();
+  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::ColPivHouseholderQRPreconditioner> svd(js, Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();  // descending
+  const Eigen::MatrixXd& v = svd.matrixV();
+  const double sv_max = sv(0);
+  if (!(sv_max > 0.0)) return rep;
+  rep.condition_number = sv(n - 1) > 0.0 ? sv_max / sv(n - 1) : std::numeric_limits<double>::infinity();
+
+  // Numerical rank: singular values below this carry no information.
+  const double tol = static_cast<double>(std::max(m, n)) * std::numeric_limits<double>::epsilon() * sv_max;
+  std::vector<bool> in_null(static_cast<std::size_t>(n), false);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    if (scale(j) == 0.0) in_null[static_cast<std::size_t>(j)] = true;
+  }
+  Eigen::MatrixXd cov_scaled = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    if (sv(k) > tol) {
+      cov_scaled.noalias() += v.col(k) * v.col(k).transpose() / (sv(k) * sv(k));
+    } else {
+      for (Eigen::Index j = 0; j < n; ++j) {
+        if (std::abs(v(j, k)) > 1e-6) in_null[static_cast<std::size_t>(j)] = true;
+      }
+    }
+  }
+  const double s2 = rep.residual_sigma_mm * rep.residual_sigma_mm;
+  const Eigen::MatrixXd cov = s2 * scale.asDiagonal() * cov_scaled * scale.asDiagonal();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (in_null[static_cast<std::size_t>(i)]) continue;
+    rep.std(i) = std::sqrt(std::max(cov(i, i), 0.0));
+    for (Eigen::Index j = 0; j < n; ++j) {
+      if (in_null[static_cast<std::size_t>(j)]) continue;
+      rep.covariance(i, j) = cov(i, j);
+    }
+  }
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double denom = rep.std(i) * rep.std(j);
+      if (std::isfinite(denom) && denom > 0.0) rep.correlation(i, j) = rep.covariance(i, j) / denom;
+    }
+    const double disp_um = rep.StdAsDisplacementUm(static_cast<int>(i));
+    rep.determined[static_cast<std::size_t>(i)] = std::isfinite(disp_um) && disp_um <= max_std_um;
+  }
+
+  // Nearly dependent combinations, weakest first, in displacement-equivalent coefficients.
+  for (Eigen::Index k = n - 1; k >= 0; --k) {
+    const double ratio = sv(k) / sv_max;
+    if (ratio >= kWeakRatio && k != n - 1) break;
+    WeakCombination w;
+    w.relative_singular_value = ratio;
+    Eigen::VectorXd coef(n);
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const ParameterDescription& p = rep.parameters[static_cast<std::size_t>(j)];
+      coef(j) = v(j, k) * scale(j) * (p.quantity == Quantity::kAngle ? p.lever_mm : 1.0);
+    }
+    const double cmax = coef.cwiseAbs().maxCoeff();
+    if (!(cmax > 0.0)) continue;
+    coef /= cmax;
+    // Sign convention: the largest coefficient is positive.
+    Eigen::Index jmax = 0;
+    coef.cwiseAbs().maxCoeff(&jmax);
+    if (coef(jmax) < 0.0) coef = -coef;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      if (std::abs(coef(j)) >= kTermCutoff) w.terms.emplace_back(static_cast<int>(j), coef(j));
+    }
+    std::sort(w.terms.begin(), w.terms.end(),
+              [](const auto& a, const auto& b) { return std::abs(a.second) > std::abs(b.second); });
+    rep.weak.push_back(std::move(w));
+  }
+  return rep;
+}
+
+}  // namespace sph

@@ -1,0 +1,206 @@
+#include "sph/calib/report.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include <nlohmann/json.hpp>
+
+#include "sph/model/units.hpp"
+
+namespace sph {
+namespace {
+
+using nlohmann::json;
+
+struct Units {
+  const char* report;  // deg or mm
+  const char* fine;    // urad or um
+  double to_report;    // from internal units
+  double to_fine;
+};
+
+Units UnitsOf(Quantity q) {
+  return q == Quantity::kAngle ? Units{"deg", "urad", kDegPerRad, kUradPerRad} : Units{"mm", "um", 1.0, kUmPerMm};
+}
+
+std::string Printf(const char* fmt, double a) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, a);
+  return buf;
+}
+
+double ParamValue(const CalibrationResult& r, std::size_t i) {
+  if (i < kNumScmsParams) return r.geometry[i];
+  const std::size_t k = (i - kNumScmsParams) / 3;
+  return r.centers_mm[k](static_cast<Eigen::Index>((i - kNumScmsParams) % 3));
+}
+
+std::string WeakText(const ObservabilityReport& rep, const WeakCombination& w) {
+  std::string s;
+  for (const auto& [j, c] : w.terms) {
+    const ParameterDescription& p = rep.parameters[static_cast<std::size_t>(j)];
+    s += (s.empty() ? "" : ", ") + p.name + (p.quantity == Quantity::kAngle ? "*R0" : "") + " " + Printf("%+.2f", c);
+  }
+  return s;
+}
+
+}  // namespace
+
+void WriteTextReport(std::ostream& out, const CalibrationResult& r, const ReportContext& ctx) {
+  const ObservabilityReport& rep = r.analysis;
+  out << ctx.program << ": " << ctx.points_path << "\n";
+  out << "  " << r.n_points << " points, " << r.setup_ids.size() << (r.setup_ids.size() == 1 ? " setup" : " setups")
+      << ", R0 = " << Printf("%.6g", ctx.sphere_radius_mm) << " mm, d = " << Printf("%.6g", ctx.probe_offset_mm)
+      << " mm\n";
+  for (const auto& [k, v] : ctx.metadata) out << "  " << k << ": " << v << "\n";
+  out << "\n";
+  char line[200];
+  std::snprintf(line, sizeof line, "%-12s %15s %12s %-4s | %12s %10s %-4s\n", "parameter", "value", "std", "unit",
+                "value", "std", "unit");
+  out << line;
+  const std::size_t n = kNumScmsParams + 3 * r.centers_mm.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool analysed = !rep.Empty();
+    const std::string name = analysed ? rep.parameters[i].name
+                                      : (i < kNumScmsParams ? kScmsParamInfo[i].name : "center");
+    const Quantity q = i < kNumScmsParams ? kScmsParamInfo[i].quantity : Quantity::kLength;
+    const Units u = UnitsOf(q);
+    const double value = ParamValue(r, i);
+    if (analysed && !rep.determined[i]) {
+      const double disp = rep.StdAsDisplacementUm(static_cast<int>(i));
+      std::snprintf(line, sizeof line, "%-12s %15s  (std %s um as a displacement: not determined by these data)\n",
+                    name.c_str(), "undetermined", std::isfinite(disp) ? Printf("%.3g", disp).c_str() : "infinite");
+      out << line;
+      continue;
+    }
+    const double sd = analysed ? rep.std(static_cast<Eigen::Index>(i)) : std::nan("");
+    std::snprintf(line, sizeof line, "%-12s %15.9f %12.9f %-4s | %12.4f %10.4f %-4s\n", name.c_str(),
+                  value * u.to_report, sd * u.to_report, u.report, value * u.to_fine, sd * u.to_fine, u.fine);
+    out << line;
+  }
+  out << "\n";
+  out << "fit: rms " << Printf("%.4f", r.rms_um) << " um, peak-to-valley " << Printf("%.4f", r.pv_um) << " um, "
+      << r.n_points << " points, " << r.iterations << " iterations, "
+      << (r.converged ? "converged" : "NOT converged") << "\n";
+  if (!rep.Empty()) {
+    out << "residual sigma " << Printf("%.4f", rep.residual_sigma_mm * kUmPerMm)
+        << " um; condition number of the column-equilibrated Jacobian " << Printf("%.3g", rep.condition_number) << "\n";
+    for (const WeakCombination& w : rep.weak) {
+      out << "nearly dependent (relative singular value " << Printf("%.2g", w.relative_singular_value)
+          << "): " << WeakText(rep, w) << "\n";
+    }
+    out << "\ncorrelation matrix:\n";
+    std::snprintf(line, sizeof line, "%-12s", "");
+    out << line;
+    for (std::size_t j = 0; j < n; ++j) {
+      std::snprintf(line, sizeof line, " %6.6s", rep.parameters[j].name.c_str());
+      out << line;
+    }
+    out << "\n";
+    for (std::size_t i = 0; i < n; ++i) {
+      std::snprintf(line, sizeof line, "%-12s", rep.parameters[i].name.c_str());
+      out << line;
+      for (std::size_t j = 0; j < n; ++j) {
+        const double c = rep.correlation(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+        if (std::isfinite(c)) {
+          std::snprintf(line, sizeof line, " %6.3f", c);
+        } else {
+          std::snprintf(line, sizeof line, " %6s", "-");
+        }
+        out << line;
+      }
+      out << "\n";
+    }
+  }
+  if (!r.warnings.empty()) {
+    out << "\nwarnings:\n";
+    for (const auto& w : r.warnings) out << "  - " << w << "\n";
+  }
+  out << "\nresult: " << (r.Usable() ? "usable calibration" : "NOT a usable calibration") << "\n";
+}
+
+std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
+  const ObservabilityReport& rep = r.analysis;
+  json j;
+  j["program"] = ctx.program;
+  j["points_file"] = ctx.points_path;
+  j["sphere_radius_mm"] = ctx.sphere_radius_mm;
+  j["probe_offset_mm"] = ctx.probe_offset_mm;
+  json meta = json::object();
+  for (const auto& [k, v] : ctx.metadata) meta[k] = v;
+  j["metadata"] = meta;
+  json params = json::object();
+  json order = json::array();
+  json undetermined = json::array();
+  const std::size_t n = kNumScmsParams + 3 * r.centers_mm.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::string name = rep.Empty() ? std::string(i < kNumScmsParams ? kScmsParamInfo[i].name : "center")
+                                         : rep.parameters[i].name;
+    const Quantity q = i < kNumScmsParams ? kScmsParamInfo[i].quantity : Quantity::kLength;
+    const Units u = UnitsOf(q);
+    json p;
+    p["value"] = ParamValue(r, i) * u.to_report;
+    p["unit"] = u.report;
+    if (!rep.Empty()) {
+      const double sd = rep.std(static_cast<Eigen::Index>(i));
+      p["std"] = std::isfinite(sd) ? json(sd * u.to_report) : json(nullptr);
+      p["determined"] = static_cast<bool>(rep.determined[i]);
+      if (!rep.determined[i]) undetermined.push_back(name);
+    }
+    params[name] = p;
+    order.push_back(name);
+  }
+  j["parameters"] = params;
+  j["parameter_order"] = order;
+  json fit;
+  fit["rms_um"] = r.rms_um;
+  fit["pv_um"] = r.pv_um;
+  fit["n_points"] = r.n_points;
+  fit["n_setups"] = r.setup_ids.size();
+  fit["converged"] = r.converged;
+  fit["iterations"] = r.iterations;
+  fit["solver_message"] = r.solver_message;
+  if (!rep.Empty()) {
+    fit["residual_sigma_um"] = rep.residual_sigma_mm * kUmPerMm;
+    fit["condition_number"] = std::isfinite(rep.condition_number) ? json(rep.condition_number) : json(nullptr);
+    json corr = json::array();
+    for (Eigen::Index a = 0; a < rep.correlation.rows(); ++a) {
+      json row = json::array();
+      for (Eigen::Index b = 0; b < rep.correlation.cols(); ++b) {
+        const double c = rep.correlation(a, b);
+        row.push_back(std::isfinite(c) ? json(c) : json(nullptr));
+      }
+      corr.push_back(row);
+    }
+    j["correlation"] = corr;
+    json weak = json::array();
+    for (const WeakCombination& w : rep.weak) {
+      json terms = json::object();
+      for (const auto& [idx, c] : w.terms) terms[rep.parameters[static_cast<std::size_t>(idx)].name] = c;
+      weak.push_back({{"relative_singular_value", w.relative_singular_value}, {"terms", terms}});
+    }
+    j["nearly_dependent"] = weak;
+  }
+  j["fit"] = fit;
+  j["undetermined"] = undetermined;
+  j["usable"] = r.Usable();
+  j["warnings"] = r.warnings;
+  return j.dump(2) + "\n";
+}
+
+CalibrationFile MakeCalibrationFile(const CalibrationResult& r, const ReportContext& ctx) {
+  CalibrationFile cal;
+  cal.geometry = r.geometry;
+  cal.probe_offset_mm = ctx.probe_offset_mm;
+  cal.sphere_radius_mm = ctx.sphere_radius_mm;
+  cal.created_by = ctx.program;
+  if (!r.analysis.Empty()) cal.covariance = r.analysis.covariance.topLeftCorner<kNumScmsParams, kNumScmsParams>();
+  cal.source.emplace_back("points_file", ctx.points_path);
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6g", r.rms_um);
+  cal.source.emplace_back("fit_rms_um", buf);
+  for (const auto& kv : ctx.metadata) cal.source.push_back(kv);
+  return cal;
+}
+
+}  // namespace sph

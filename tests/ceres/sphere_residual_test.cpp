@@ -1,0 +1,107 @@
+#include "sph/ceres/sphere_residual.hpp"
+
+#include <random>
+
+#include <ceres/jet.h>
+#include <gtest/gtest.h>
+
+#include "sph/core/simulate.hpp"
+#include "test_util.hpp"
+
+namespace sph {
+namespace {
+
+using sph::testing::MatrixNear;
+using Jet10 = ceres::Jet<double, kNumScmsParams + 3>;
+
+constexpr double kD = 25.0;
+constexpr double kR0 = 20.0;
+
+ScmsGeometry SomeGeometry() { return {3e-4, 2e-3, -4e-4, 1e-3, 5e-4, -2e-3, -0.062}; }
+
+TEST(JetSinCos, EqualsCeresSinAndCos) {
+  Jet10 x(0.7, 3);
+  x.v(5) = -2.0;
+  const SinCos<Jet10> t = SinCosOf(x);
+  const Jet10 s = ceres::sin(x), c = ceres::cos(x);
+  EXPECT_EQ(t.sin.a, s.a);
+  EXPECT_EQ(t.cos.a, c.a);
+  EXPECT_PRED_FORMAT3(MatrixNear, t.sin.v, s.v, 0.0);
+  EXPECT_PRED_FORMAT3(MatrixNear, t.cos.v, c.v, 0.0);
+}
+
+TEST(ScmsPointJet, ValuePartEqualsTheDoubleResult) {
+  const ScmsGeometry g = SomeGeometry();
+  std::array<Jet10, kNumScmsParams> gj;
+  for (int i = 0; i < kNumScmsParams; ++i) gj[static_cast<std::size_t>(i)] = Jet10(g[static_cast<std::size_t>(i)], i);
+  for (double theta : {0.0, 0.9, 3.5}) {
+    for (double phi : {0.2, 1.6, 2.9}) {
+      const Vec3<Jet10> pj = ScmsPoint(gj.data(), Jet10(theta), Jet10(phi), Jet10(5.0), Jet10(kD));
+      const Eigen::Vector3d pd = ScmsPoint(g, theta, phi, 5.0, kD);
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(pj[k].a, pd[k]);
+      const Vec3<Jet10> pm = ScmsPointDh(gj.data(), Jet10(theta), Jet10(phi), Jet10(5.0), Jet10(kD));
+      for (int k = 0; k < 3; ++k) EXPECT_PRED_FORMAT3(MatrixNear, pj[k].v, pm[k].v, 1e-12);
+    }
+  }
+}
+
+// Central differences of the residual in double against the autodiff Jacobian of the cost function.
+TEST(SphereResidual, AutodiffJacobianEqualsCentralDifferences) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> angle(0.0, 6.2), polar(0.1, 3.0);
+  ScmsGeometry g = SomeGeometry();
+  std::array<double, 3> center{2.0, -0.3, 0.4};
+  for (int trial = 0; trial < 20; ++trial) {
+    const double theta = angle(rng), phi = polar(rng), r = 4.9;
+    std::unique_ptr<ceres::CostFunction> cost(SphereResidual::Create(theta, phi, r, kD, kR0));
+    const double* params[] = {g.data(), center.data()};
+    double residual = 0.0;
+    Eigen::Matrix<double, 1, kNumScmsParams, Eigen::RowMajor> j_g;
+    Eigen::Matrix<double, 1, 3, Eigen::RowMajor> j_c;
+    double* jacobians[] = {j_g.data(), j_c.data()};
+    ASSERT_TRUE(cost->Evaluate(params, &residual, jacobians));
+
+    const SphereResidual functor(theta, phi, r, kD, kR0);
+    auto eval = [&](const ScmsGeometry& gg, const std::array<double, 3>& cc) {
+      double e = 0.0;
+      functor(gg.data(), cc.data(), &e);
+      return e;
+    };
+    EXPECT_EQ(residual, eval(g, center));
+    // Step sizes: angles 1e-6 rad, lengths 1e-5 mm; truncation error ~h^2 * |f'''| < 1e-9.
+    for (int i = 0; i < kNumScmsParams; ++i) {
+      const double h = kScmsParamInfo[static_cast<std::size_t>(i)].quantity == Quantity::kAngle ? 1e-6 : 1e-5;
+      ScmsGeometry gp = g, gm = g;
+      gp[static_cast<std::size_t>(i)] += h;
+      gm[static_cast<std::size_t>(i)] -= h;
+      const double numeric = (eval(gp, center) - eval(gm, center)) / (2 * h);
+      EXPECT_NEAR(j_g(i), numeric, 1e-7 * std::max(1.0, std::abs(numeric))) << "parameter " << i;
+    }
+    for (int i = 0; i < 3; ++i) {
+      const double h = 1e-5;
+      auto cp = center, cm = center;
+      cp[static_cast<std::size_t>(i)] += h;
+      cm[static_cast<std::size_t>(i)] -= h;
+      EXPECT_NEAR(j_c(i), (eval(g, cp) - eval(g, cm)) / (2 * h), 1e-8) << "centre " << i;
+    }
+  }
+}
+
+// The simulator intersects the probe ray with the sphere by its own geometry code; the functor
+// must see exactly zero residual on its readings.
+TEST(SphereResidual, ZeroOnRayTracedReadings) {
+  const ScmsGeometry g = SomeGeometry();
+  const Eigen::Vector3d c(1.5, -0.7, 0.9);
+  for (const AnglePair& a : GridPattern(8, 6)) {
+    const double theta = a.theta_deg * kRadPerDeg, phi = a.phi_deg * kRadPerDeg;
+    const auto r = ProbeReading(g, theta, phi, kD, c, kR0);
+    ASSERT_TRUE(r.has_value());
+    const SphereResidual functor(theta, phi, *r, kD, kR0);
+    double e = 1.0;
+    functor(g.data(), c.data(), &e);
+    EXPECT_NEAR(e, 0.0, 1e-12);
+  }
+}
+
+}  // namespace
+}  // namespace sph
