@@ -1,0 +1,32 @@
+// sph_calibrate: options, CLI set-up and the run function (unit-tested directly).
+#ifndef SPH_APPS_CALIBRATE_CMD_HPP_
+#define SPH_APPS_CALIBRATE_CMD_HPP_
+
+#include <optional>
+#include <ostream>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace sph::apps {
+
+struct CalibrateOptions {
+  std::string points_path;
+  std::optional<double> sphere_radius_mm;  ///< overrides the file's header
+  std::optional<double> probe_offset_mm;   ///< overrides the file's header
+  std::string json_path;                   ///< JSON report ("-" for stdout), empty: none
+  std::string output_path;                 ///< calibration file, empty: none
+  double max_std_um = 10.0;
+  int max_iterations = 100;
+  bool quiet = false;                      ///< no text report on stdout
+};
+
+void SetupCalibrateApp(CLI::App& app, CalibrateOptions& options);
+
+/// Runs a calibration; the text report goes to `out`, errors and notes to `err`.
+/// Returns kExitOk, kExitNotUsable or kExitBadInput.
+int RunCalibrate(const CalibrateOptions& options, std::ostream& out, std::ostream& err);
+
+}  // namespace sph::apps
+
+#endif  // SPH_APPS_CALIBRATE_CMD_HPP_

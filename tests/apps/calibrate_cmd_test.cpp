@@ -1,0 +1,195 @@
+#include "calibrate_cmd.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "app_common.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/core/simulate.hpp"
+#include "test_util.hpp"
+
+namespace sph::apps {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+struct RunOutput {
+  int code;
+  std::string out;
+  std::string err;
+};
+
+RunOutput Calibrate(const CalibrateOptions& o) {
+  std::ostringstream out, err;
+  const int code = RunCalibrate(o, out, err);
+  return {code, out.str(), err.str()};
+}
+
+class CalibrateCmd : public ::testing::Test {
+ protected:
+  void SetUp() override { dir_ = sph::testing::MakeTempDir(::testing::UnitTest::GetInstance()->current_test_info()->name()); }
+
+  std::string WriteFile(const std::string& name, const std::string& text) {
+    const std::string path = dir_ + "/" + name;
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+  }
+
+  std::string Simulated(const std::string& name, const SimulationSpec& spec) {
+    const std::string path = dir_ + "/" + name;
+    WritePointsFile(path, Simulate(spec));
+    return path;
+  }
+
+  // Runs on a points file written from `text` and expects exit 2 with `message` on stderr.
+  void ExpectBadInput(const std::string& text, const std::string& message) {
+    CalibrateOptions o;
+    o.points_path = WriteFile("bad.txt", text);
+    const RunOutput r = Calibrate(o);
+    EXPECT_EQ(r.code, kExitBadInput) << text;
+    EXPECT_THAT(r.err, HasSubstr("sph_calibrate: error: " + o.points_path + message)) << text;
+  }
+
+  std::string dir_;
+};
+
+constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
+
+TEST_F(CalibrateCmd, ExampleDataGivesAUsableCalibration) {
+  CalibrateOptions o;
+  o.points_path = SPH_SOURCE_DIR "/data/example/points.txt";
+  o.json_path = dir_ + "/report.json";
+  o.output_path = dir_ + "/cal.json";
+  const RunOutput r = Calibrate(o);
+  EXPECT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("result: usable calibration"));
+  EXPECT_THAT(r.out, HasSubstr("alpha"));
+  EXPECT_THAT(r.out, HasSubstr("urad"));
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  for (const char* p : {"alpha", "a", "beta", "b", "epsilon", "c", "d_prime", "center_x", "center_y", "center_z"}) {
+    ASSERT_TRUE(j["parameters"].contains(p)) << p;
+    EXPECT_TRUE(j["parameters"][p]["value"].is_number());
+    EXPECT_TRUE(j["parameters"][p]["std"].is_number());
+  }
+  EXPECT_EQ(j["parameters"]["alpha"]["unit"], "deg");
+  EXPECT_EQ(j["parameters"]["a"]["unit"], "mm");
+  EXPECT_EQ(j["fit"]["n_points"], 288);
+  EXPECT_TRUE(j["fit"]["converged"].get<bool>());
+  EXPECT_TRUE(j["fit"]["rms_um"].is_number());
+  EXPECT_TRUE(j["fit"]["pv_um"].is_number());
+  EXPECT_TRUE(j["warnings"].is_array());
+  std::ifstream cal(o.output_path);
+  EXPECT_TRUE(cal.good());
+}
+
+TEST_F(CalibrateCmd, CentredSphereExitsOneAndWritesNoCalibration) {
+  SimulationSpec spec;
+  spec.centers_mm = {Eigen::Vector3d(0.01, 0, 0)};
+  CalibrateOptions o;
+  o.points_path = Simulated("centred.txt", spec);
+  o.output_path = dir_ + "/cal.json";
+  o.json_path = dir_ + "/report.json";
+  const RunOutput r = Calibrate(o);
+  EXPECT_EQ(r.code, kExitNotUsable);
+  EXPECT_THAT(r.out, HasSubstr("undetermined parameters"));
+  EXPECT_THAT(r.out, HasSubstr("NOT a usable calibration"));
+  EXPECT_THAT(r.err, HasSubstr("not writing"));
+  EXPECT_FALSE(std::ifstream(o.output_path).good());
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_FALSE(j["usable"].get<bool>());
+  EXPECT_FALSE(j["parameters"]["c"]["determined"].get<bool>());
+  EXPECT_THAT(j["undetermined"].get<std::vector<std::string>>(), ::testing::Contains("c"));
+}
+
+TEST_F(CalibrateCmd, TwoSetupsNameTheirCentres) {
+  SimulationSpec spec;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0)};
+  CalibrateOptions o;
+  o.points_path = Simulated("two.txt", spec);
+  o.json_path = dir_ + "/report.json";
+  EXPECT_EQ(Calibrate(o).code, kExitOk);
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["parameters"].contains("center_x@0"));
+  EXPECT_TRUE(j["parameters"].contains("center_z@1"));
+}
+
+TEST_F(CalibrateCmd, OptionsOverrideTheHeader) {
+  SimulationSpec spec;
+  PointsData d = Simulate(spec);
+  d.header.sphere_radius_mm.reset();
+  d.header.probe_offset_mm.reset();
+  const std::string path = dir_ + "/nohdr.txt";
+  WritePointsFile(path, d);
+  CalibrateOptions o;
+  o.points_path = path;
+  RunOutput r = Calibrate(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("the reference sphere radius R0 is not given: add a header line "
+                               "'# sphere_radius_mm: <R0>' to the file or pass --sphere-radius-mm"));
+  o.sphere_radius_mm = 20.0;
+  r = Calibrate(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("'# probe_offset_mm: <d>' to the file or pass --probe-offset-mm"));
+  o.probe_offset_mm = 25.0;
+  EXPECT_EQ(Calibrate(o).code, kExitOk);
+}
+
+TEST_F(CalibrateCmd, BadInputCasesExitTwoWithTheirMessage) {
+  const std::string h = kHeader;
+  ExpectBadInput(h + "1 2\n", ":4: expected 3 columns");
+  ExpectBadInput(h + "1 2 abc\n", ":4: column r_mm: 'abc' is not a number");
+  ExpectBadInput(h + "1 2 nan\n", ":4: column r_mm: 'nan' is not a finite number");
+  ExpectBadInput(h + "1 inf 3\n", ":4: column phi_deg: 'inf' is not a finite number");
+  ExpectBadInput(h + "# columns: theta_deg phi_deg r_mm temp_c\n1 2 3 4\n", ":5: unknown column name 'temp_c'");
+  ExpectBadInput(h + "# probe_offset_mm: 26\n1 2 3\n", ":4: header key 'probe_offset_mm' is given twice");
+  ExpectBadInput("# sphere_radius_mm: 0\n1 2 3\n", ":1: sphere_radius_mm must be positive");
+  ExpectBadInput(h, ": no samples");
+  ExpectBadInput(h + "0 10 5\n90 10 5\n180 10 5\n", ": 3 samples are too few to fit 10 parameters");
+}
+
+TEST_F(CalibrateCmd, MissingFileAndUnwritableOutputExitTwo) {
+  CalibrateOptions o;
+  o.points_path = dir_ + "/missing.txt";
+  RunOutput r = Calibrate(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("missing.txt: cannot open for reading"));
+
+  o.points_path = SPH_SOURCE_DIR "/data/example/points.txt";
+  o.json_path = dir_ + "/no/such/dir/report.json";
+  r = Calibrate(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("report.json: cannot"));
+}
+
+// CLI::App::parse(vector) takes the arguments in reverse order; this takes them as typed.
+void ParseArgs(CLI::App& app, std::vector<std::string> args) {
+  std::reverse(args.begin(), args.end());
+  app.parse(args);
+}
+
+TEST(CalibrateCli, ParsesOptions) {
+  CLI::App app;
+  CalibrateOptions o;
+  SetupCalibrateApp(app, o);
+  ParseArgs(app, {"p.txt", "--json", "r.json", "--sphere-radius-mm=12.5", "--max-std-um", "0.5"});
+  EXPECT_EQ(o.points_path, "p.txt");
+  EXPECT_DOUBLE_EQ(*o.sphere_radius_mm, 12.5);
+  EXPECT_DOUBLE_EQ(o.max_std_um, 0.5);
+  EXPECT_EQ(o.json_path, "r.json");
+  CLI::App bad;
+  CalibrateOptions o2;
+  SetupCalibrateApp(bad, o2);
+  EXPECT_THROW(ParseArgs(bad, {"p.txt", "--sphere-radius-mm", "-1"}), CLI::ValidationError);
+}
+
+}  // namespace
+}  // namespace sph::apps

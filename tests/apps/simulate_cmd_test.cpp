@@ -1,0 +1,65 @@
+#include "simulate_cmd.hpp"
+
+#include <fstream>
+#include <sstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "app_common.hpp"
+#include "sph/core/points_file.hpp"
+#include "test_util.hpp"
+
+namespace sph::apps {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(SimulateCmd, DefaultsAreThePapersStudy) {
+  const std::string dir = sph::testing::MakeTempDir("simcmd");
+  SimulateOptions o;
+  o.output_path = dir + "/p.txt";
+  o.truth_path = dir + "/truth.json";
+  std::ostringstream err;
+  ASSERT_EQ(RunSimulate(o, err), kExitOk) << err.str();
+  const PointsData d = ReadPointsFile(o.output_path);
+  EXPECT_EQ(d.samples.size(), 288u);
+  EXPECT_DOUBLE_EQ(*d.header.sphere_radius_mm, 20.0);
+  EXPECT_DOUBLE_EQ(*d.header.probe_offset_mm, 25.0);
+  EXPECT_TRUE(d.has_time);
+  std::ifstream in(o.truth_path);
+  const nlohmann::json t = nlohmann::json::parse(in);
+  EXPECT_DOUBLE_EQ(t["geometry"]["d_prime"]["value"].get<double>(), -0.062);
+  EXPECT_DOUBLE_EQ(t["centers_mm"][0][0].get<double>(), 2.0);
+}
+
+TEST(SimulateCmd, SeveralCentresAndAnExplicitPattern) {
+  const std::string dir = sph::testing::MakeTempDir("simcmd2");
+  std::ofstream(dir + "/angles.txt") << "# theta phi\n0 30\n90 60\n180 90\n270 120\n45 150\n";
+  SimulateOptions o;
+  o.output_path = dir + "/p.txt";
+  o.angles_path = dir + "/angles.txt";
+  o.centers_mm = {"1,0,0", "0,0,-1.5"};
+  std::ostringstream err;
+  ASSERT_EQ(RunSimulate(o, err), kExitOk) << err.str();
+  const PointsData d = ReadPointsFile(o.output_path);
+  EXPECT_EQ(d.samples.size(), 10u);
+  EXPECT_EQ(d.SetupIds(), (std::vector<int>{0, 1}));
+}
+
+TEST(SimulateCmd, BadOptionsExitTwo) {
+  SimulateOptions o;
+  o.output_path = "-";
+  o.centers_mm = {"1,0"};
+  std::ostringstream err;
+  EXPECT_EQ(RunSimulate(o, err), kExitBadInput);
+  EXPECT_THAT(err.str(), HasSubstr("--center-mm '1,0': expected x,y,z in mm"));
+  o.centers_mm = {"0,40,0"};
+  std::ostringstream err2;
+  EXPECT_EQ(RunSimulate(o, err2), kExitBadInput);
+  EXPECT_THAT(err2.str(), HasSubstr("misses the sphere"));
+}
+
+}  // namespace
+}  // namespace sph::apps
