@@ -1,0 +1,53 @@
+// Cost of one calibration at the paper's settings (288 points, 2 mm eccentricity, 0.05 um noise).
+//
+//   build/bench/calibrate_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
+#include "sph/calib/calibrator.hpp"
+#include "sph/core/simulate.hpp"
+
+namespace {
+
+sph::PointsData Data(int theta_steps, int phi_steps) {
+  sph::SimulationSpec spec;
+  spec.pattern = sph::GridPattern(theta_steps, phi_steps);
+  return sph::Simulate(spec);
+}
+
+sph::CalibrationOptions Options(bool analyse) {
+  sph::CalibrationOptions o;
+  o.sphere_radius_mm = 20.0;
+  o.probe_offset_mm = 25.0;
+  o.analyse = analyse;
+  return o;
+}
+
+// Solve only: problem building and Levenberg-Marquardt.
+void BM_CalibrateSolve(benchmark::State& state) {
+  const sph::PointsData data = Data(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const sph::CalibrationOptions o = Options(false);
+  int iterations = 0;
+  for (auto _ : state) {
+    const sph::CalibrationResult r = sph::Calibrate(data, o);
+    iterations = r.iterations;
+    benchmark::DoNotOptimize(r.geometry);
+  }
+  state.counters["points"] = static_cast<double>(data.samples.size());
+  state.counters["lm_iterations"] = iterations;
+}
+BENCHMARK(BM_CalibrateSolve)->Args({24, 12})->Args({48, 24})->Args({96, 48})->Unit(benchmark::kMillisecond);
+
+// Everything sph_calibrate computes: solve, residuals, covariance, observability.
+void BM_CalibrateFull(benchmark::State& state) {
+  const sph::PointsData data = Data(24, 12);
+  const sph::CalibrationOptions o = Options(true);
+  for (auto _ : state) {
+    const sph::CalibrationResult r = sph::Calibrate(data, o);
+    benchmark::DoNotOptimize(r.analysis.std);
+  }
+}
+BENCHMARK(BM_CalibrateFull)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,20 @@
+#!/bin/sh
+# Installs the Debian 12 packages sph needs to build and test, if any are missing. Idempotent:
+# when everything is present it changes nothing and needs no network. Runs apt-get through sudo
+# when not root.
+set -eu
+packages="cmake ninja-build g++ ccache libeigen3-dev libceres-dev libcli11-dev nlohmann-json3-dev \
+libgtest-dev libgmock-dev libbenchmark-dev"
+missing=""
+for p in $packages; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
+done
+if [ -z "$missing" ]; then
+  echo "install-deps: all packages present"
+  exit 0
+fi
+sudo=""
+[ "$(id -u)" -eq 0 ] || sudo="sudo"
+echo "install-deps: installing$missing"
+$sudo apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends $missing
