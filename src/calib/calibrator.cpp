@@ -10,7 +10,7 @@
 
 #include <ceres/ceres.h>
 
-#include "sph/ceres/sphere_residual.hpp"
+#include "sph/ceres/sphere_residual_batch.hpp"
 #include "sph/core/error.hpp"
 #include "sph/model/sphere_fit.hpp"
 #include "sph/model/units.hpp"
@@ -110,13 +110,23 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
   std::map<int, std::size_t> setup_index;
   for (std::size_t k = 0; k < n_setups; ++k) setup_index[result.setup_ids[k]] = k;
 
+  // Per sample: sin and cos of the readings (used for the start values and by the residuals).
+  struct ReadingTrig {
+    SinCos<double> theta, phi;
+  };
+  std::vector<ReadingTrig> trig;
+  trig.reserve(points.samples.size());
+  for (const Sample& s : points.samples) trig.push_back({SinCosOf(s.theta_deg * kRadPerDeg), SinCosOf(s.phi_deg * kRadPerDeg)});
+
   // Initial values: the errors as given (zero by default), each centre from an algebraic sphere
   // fit of its setup's points computed with those errors.
   result.geometry = options.initial_geometry;
+  const ScmsErrorTrig<double> start_trig = ErrorTrigOf(result.geometry.data());
   std::vector<std::vector<Eigen::Vector3d>> nominal(n_setups);
-  for (const Sample& s : points.samples) {
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
     nominal[setup_index[s.setup]].push_back(
-        ScmsPoint(result.geometry, s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg, s.r_mm, options.probe_offset_mm));
+        ScmsPoint(result.geometry.data(), start_trig, trig[i].theta, trig[i].phi, s.r_mm, options.probe_offset_mm));
   }
   std::vector<std::array<double, 3>> centers(n_setups);
   for (std::size_t k = 0; k < n_setups; ++k) {
@@ -128,11 +138,19 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
     centers[k] = {fit.center.x(), fit.center.y(), fit.center.z()};
   }
 
+  // One residual per sample, grouped into one cost function per setup (sph/ceres/sphere_residual_batch.hpp).
+  std::vector<std::vector<SphereResidual>> readings(n_setups);
+  std::vector<std::vector<std::size_t>> rows_of_setup(n_setups);  // sample index of each residual
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
+    rows_of_setup[setup_index[s.setup]].push_back(i);
+    readings[setup_index[s.setup]].emplace_back(trig[i].theta, trig[i].phi, s.r_mm, options.probe_offset_mm,
+                                                options.sphere_radius_mm);
+  }
   ceres::Problem problem;
-  for (const Sample& s : points.samples) {
-    problem.AddResidualBlock(SphereResidual::Create(s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg, s.r_mm,
-                                                    options.probe_offset_mm, options.sphere_radius_mm),
-                             nullptr, result.geometry.data(), centers[setup_index[s.setup]].data());
+  for (std::size_t k = 0; k < n_setups; ++k) {
+    problem.AddResidualBlock(new SphereResidualBatch(std::move(readings[k])), nullptr, result.geometry.data(),
+                             centers[k].data());
   }
 
   ceres::Solver::Options solver_options;
@@ -164,15 +182,21 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
   ceres::CRSMatrix crs;
   double cost = 0.0;
   problem.Evaluate(eval, &cost, &residuals, nullptr, &crs);
-  result.residuals_mm = residuals;
+  // Ceres orders the residuals by setup; put residuals and Jacobian rows back in file order.
+  std::vector<std::size_t> sample_of_row;
+  for (const auto& rows : rows_of_setup) sample_of_row.insert(sample_of_row.end(), rows.begin(), rows.end());
   const Eigen::Index m = static_cast<Eigen::Index>(residuals.size());
+  result.residuals_mm.assign(residuals.size(), 0.0);
   Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(m, static_cast<Eigen::Index>(n_params));
   for (int row = 0; row < crs.num_rows; ++row) {
+    const std::size_t sample = sample_of_row[static_cast<std::size_t>(row)];
+    result.residuals_mm[sample] = residuals[static_cast<std::size_t>(row)];
     for (int idx = crs.rows[static_cast<std::size_t>(row)]; idx < crs.rows[static_cast<std::size_t>(row) + 1]; ++idx) {
-      jac(row, crs.cols[static_cast<std::size_t>(idx)]) = crs.values[static_cast<std::size_t>(idx)];
+      jac(static_cast<Eigen::Index>(sample), crs.cols[static_cast<std::size_t>(idx)]) =
+          crs.values[static_cast<std::size_t>(idx)];
     }
   }
-  const Eigen::Map<const Eigen::VectorXd> res(residuals.data(), m);
+  const Eigen::Map<const Eigen::VectorXd> res(result.residuals_mm.data(), m);
   double sum2 = 0.0, lo = res.minCoeff(), hi = res.maxCoeff();
   sum2 = res.squaredNorm();
   result.rms_um = std::sqrt(sum2 / static_cast<double>(m)) * kUmPerMm;

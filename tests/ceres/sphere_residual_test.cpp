@@ -1,4 +1,5 @@
 #include "sph/ceres/sphere_residual.hpp"
+#include "sph/ceres/sphere_residual_batch.hpp"
 
 #include <random>
 
@@ -85,6 +86,39 @@ TEST(SphereResidual, AutodiffJacobianEqualsCentralDifferences) {
       EXPECT_NEAR(j_c(i), (eval(g, cp) - eval(g, cm)) / (2 * h), 1e-8) << "centre " << i;
     }
   }
+}
+
+// The batch must give what the per-reading AutoDiffCostFunctions give, to the last bit of the
+// value and to rounding in the derivatives (same operations, but the shared angle-error trig).
+TEST(SphereResidualBatch, EqualsThePerReadingCostFunctions) {
+  ScmsGeometry g = SomeGeometry();
+  std::array<double, 3> center{1.0, 0.5, -0.2};
+  std::vector<SphereResidual> functors;
+  std::vector<std::unique_ptr<ceres::CostFunction>> singles;
+  for (const AnglePair& a : GridPattern(6, 5)) {
+    functors.emplace_back(a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg, 5.1, kD, kR0);
+    singles.emplace_back(SphereResidual::Create(a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg, 5.1, kD, kR0));
+  }
+  const SphereResidualBatch batch(functors);
+  ASSERT_EQ(batch.num_residuals(), 30);
+  const double* params[] = {g.data(), center.data()};
+  std::vector<double> res(30), jg(30 * kNumScmsParams), jc(30 * 3);
+  double* jac[] = {jg.data(), jc.data()};
+  ASSERT_TRUE(batch.Evaluate(params, res.data(), jac));
+  std::vector<double> res_only(30);
+  ASSERT_TRUE(batch.Evaluate(params, res_only.data(), nullptr));
+  for (int i = 0; i < 30; ++i) {
+    double e = 0.0, sg[kNumScmsParams], sc[3];
+    double* sj[] = {sg, sc};
+    ASSERT_TRUE(singles[static_cast<std::size_t>(i)]->Evaluate(params, &e, sj));
+    EXPECT_EQ(res[static_cast<std::size_t>(i)], e);
+    EXPECT_EQ(res_only[static_cast<std::size_t>(i)], e);
+    for (int k = 0; k < kNumScmsParams; ++k) EXPECT_NEAR(jg[static_cast<std::size_t>(i * kNumScmsParams + k)], sg[k], 1e-14);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(jc[static_cast<std::size_t>(i * 3 + k)], sc[k], 1e-15);
+  }
+  // A block held constant: Ceres passes a null Jacobian for it.
+  double* only_centre[] = {nullptr, jc.data()};
+  ASSERT_TRUE(batch.Evaluate(params, res.data(), only_centre));
 }
 
 // The simulator intersects the probe ray with the sphere by its own geometry code; the functor

@@ -23,12 +23,23 @@ class SphereResidual {
   /// @param theta_rad, phi_rad axis readings; r_mm probe reading; d_mm nominal probe zero
   ///        distance; radius_mm R0 of the reference sphere.
   SphereResidual(double theta_rad, double phi_rad, double r_mm, double d_mm, double radius_mm)
-      : theta_(SinCosOf(theta_rad)), phi_(SinCosOf(phi_rad)), r_mm_(r_mm), d_mm_(d_mm), radius_mm_(radius_mm) {}
+      : SphereResidual(SinCosOf(theta_rad), SinCosOf(phi_rad), r_mm, d_mm, radius_mm) {}
+
+  /// As above, with sin and cos of the readings already computed.
+  SphereResidual(const SinCos<double>& theta, const SinCos<double>& phi, double r_mm, double d_mm, double radius_mm)
+      : theta_(theta), phi_(phi), r_mm_(r_mm), d_mm_(d_mm), radius_mm_(radius_mm) {}
 
   template <typename T>
   bool operator()(const T* const geometry, const T* const center, T* residual) const {
+    return Evaluate(geometry, ErrorTrigOf(geometry), center, residual);
+  }
+
+  /// operator() with the angle errors' sin and cos given (ErrorTrigOf(geometry)), so that code
+  /// evaluating many readings at one geometry computes them once (SphereResidualBatch).
+  template <typename T>
+  bool Evaluate(const T* const geometry, const ScmsErrorTrig<T>& trig, const T* const center, T* residual) const {
     using std::sqrt;
-    const Vec3<T> p = ScmsPoint(geometry, theta_, phi_, T(r_mm_), T(d_mm_));
+    const Vec3<T> p = ScmsPoint(geometry, trig, theta_, phi_, T(r_mm_), T(d_mm_));
     const T dx = p[0] - center[0];
     const T dy = p[1] - center[1];
     const T dz = p[2] - center[2];

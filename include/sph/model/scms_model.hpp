@@ -81,23 +81,37 @@ Vec3<T> ScmsPointDh(const T* g, const T& theta, const T& phi, const T& r, const 
   return (T_theta_phi * T_phi_probe * p_probe).template head<3>();
 }
 
-/// Eq. (1) applied right to left to the probe point, given sin and cos of the axis readings.
-/// Uses sin(pi/2 + x) = cos x and cos(pi/2 + x) = -sin x. The reading trig may be precomputed
-/// (fixed readings) or a scalar of its own (corrected readings); G is the geometry scalar.
-/// @param g geometry block (rad, mm); theta, phi: sin and cos of the readings; r, d [mm].
+/// sin and cos of the three angle errors. They depend on the geometry only, so code that evaluates
+/// many readings with one geometry computes them once (ErrorTrigOf) and passes them to ScmsPoint().
+template <typename T>
+struct ScmsErrorTrig {
+  SinCos<T> alpha;
+  SinCos<T> beta;
+  SinCos<T> epsilon;
+};
+
+/// sin and cos of alpha, beta and epsilon of the geometry block g.
+template <typename T>
+ScmsErrorTrig<T> ErrorTrigOf(const T* g) {
+  return {SinCosOf(g[kAlpha]), SinCosOf(g[kBeta]), SinCosOf(g[kEpsilon])};
+}
+
+/// Eq. (1) applied right to left to the probe point, given sin and cos of the angle errors
+/// (ErrorTrigOf(g)) and of the axis readings. Uses sin(pi/2 + x) = cos x and cos(pi/2 + x) = -sin x.
+/// The reading trig may be precomputed (fixed readings, A = double) or carry derivatives of its own.
+/// @param g geometry block (rad, mm); et = ErrorTrigOf(g); theta, phi: sin and cos of the readings;
+///        r, d [mm]. Returns p_sphere [mm].
 template <typename T, typename A>
-Vec3<T> ScmsPoint(const T* g, const SinCos<A>& theta, const SinCos<A>& phi, const T& r, const T& d) {
-  const SinCos<T> alpha = SinCosOf(g[kAlpha]);
-  const SinCos<T> beta = SinCosOf(g[kBeta]);
-  const SinCos<T> eps = SinCosOf(g[kEpsilon]);
+Vec3<T> ScmsPoint(const T* g, const ScmsErrorTrig<T>& et, const SinCos<A>& theta, const SinCos<A>& phi, const T& r,
+                  const T& d) {
   const T z = r - (d + g[kDPrime]);  // probe point on the probe line (R frame z)
 
   // q = DH(beta, b, c, pi/2 + eps) * [0, 0, z]: Rx(pi/2 + eps) gives [0, -cos(eps) z, -sin(eps) z],
   // then + [c, 0, b], then Rz(beta).
-  const T u = -eps.cos * z;
-  const T qx = beta.cos * g[kC] - beta.sin * u;
-  const T qy = beta.sin * g[kC] + beta.cos * u;
-  const T qz = g[kB] - eps.sin * z;
+  const T u = -et.epsilon.cos * z;
+  const T qx = et.beta.cos * g[kC] - et.beta.sin * u;
+  const T qy = et.beta.sin * g[kC] + et.beta.cos * u;
+  const T qz = g[kB] - et.epsilon.sin * z;
 
   // Rz(-phi) * q.
   const T sx = phi.cos * qx + phi.sin * qy;
@@ -106,8 +120,14 @@ Vec3<T> ScmsPoint(const T* g, const SinCos<A>& theta, const SinCos<A>& phi, cons
   // DH(theta, 0, a, pi/2 + alpha) * s: Rx(pi/2 + alpha) gives [sx, -sin(alpha) sy - cos(alpha) qz,
   // cos(alpha) sy - sin(alpha) qz], then + [a, 0, 0], then Rz(theta).
   const T x = sx + g[kA];
-  const T y = -alpha.sin * sy - alpha.cos * qz;
-  return Vec3<T>(theta.cos * x - theta.sin * y, theta.sin * x + theta.cos * y, alpha.cos * sy - alpha.sin * qz);
+  const T y = -et.alpha.sin * sy - et.alpha.cos * qz;
+  return Vec3<T>(theta.cos * x - theta.sin * y, theta.sin * x + theta.cos * y, et.alpha.cos * sy - et.alpha.sin * qz);
+}
+
+/// ScmsPoint() given sin and cos of the axis readings; computes the angle errors' trig itself.
+template <typename T, typename A>
+Vec3<T> ScmsPoint(const T* g, const SinCos<A>& theta, const SinCos<A>& phi, const T& r, const T& d) {
+  return ScmsPoint(g, ErrorTrigOf(g), theta, phi, r, d);
 }
 
 /// Convenience overload of ScmsPoint() taking the readings theta, phi in rad.
