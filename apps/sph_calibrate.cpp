@@ -5,14 +5,7 @@
 #include "calibrate_cmd.hpp"
 
 int main(int argc, char** argv) {
-  CLI::App app;
-  sph::apps::CalibrateOptions options;
-  sph::apps::SetupCalibrateApp(app, options);
-  app.set_version_flag("--version", "sph_calibrate " SPH_VERSION);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return sph::apps::ExitForParseError(app, e);
-  }
-  return sph::apps::RunCalibrate(options, std::cout, std::cerr);
+  return sph::apps::AppMain<sph::apps::CalibrateOptions>(
+      argc, argv, "sph_calibrate", sph::apps::SetupCalibrateApp,
+      [](const sph::apps::CalibrateOptions& o) { return sph::apps::RunCalibrate(o, std::cout, std::cerr); });
 }

@@ -5,14 +5,7 @@
 #include "simulate_cmd.hpp"
 
 int main(int argc, char** argv) {
-  CLI::App app;
-  sph::apps::SimulateOptions options;
-  sph::apps::SetupSimulateApp(app, options);
-  app.set_version_flag("--version", "sph_simulate " SPH_VERSION);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return sph::apps::ExitForParseError(app, e);
-  }
-  return sph::apps::RunSimulate(options, std::cerr);
+  return sph::apps::AppMain<sph::apps::SimulateOptions>(
+      argc, argv, "sph_simulate", sph::apps::SetupSimulateApp,
+      [](const sph::apps::SimulateOptions& o) { return sph::apps::RunSimulate(o, std::cerr); });
 }
