@@ -90,6 +90,16 @@ CalibrationFile ReadCalibrationFile(const std::string& path) {
     cal.geometry[static_cast<std::size_t>(p)] = FromReportUnits(p, Number(entry, "value", where, path));
   }
   if (j.contains("covariance")) {
+    // The matrix is only meaningful in the order and units it names: they must be the writer's.
+    for (const char* key : {"parameters", "units"}) {
+      json expected = json::array();
+      for (int p = 0; p < kNumScmsParams; ++p) {
+        expected.push_back(std::string(key) == "units" ? UnitOf(p) : kScmsParamInfo[static_cast<std::size_t>(p)].name);
+      }
+      if (Field(j["covariance"], key, "covariance.", path) != expected) {
+        throw Error(path + ": field 'covariance." + key + "' must be " + expected.dump());
+      }
+    }
     const json& rows = Field(j["covariance"], "matrix", "covariance.", path);
     if (!rows.is_array() || rows.size() != kNumScmsParams) throw Error(path + ": covariance.matrix must be 7 x 7");
     Eigen::Matrix<double, kNumScmsParams, kNumScmsParams> c;
@@ -112,5 +122,15 @@ CalibrationFile ReadCalibrationFile(const std::string& path) {
   }
   return cal;
 }
+
+Calibration ToCalibration(const CalibrationFile& file) {
+  Calibration cal;
+  cal.geometry = file.geometry;
+  cal.probe_offset_mm = file.probe_offset_mm;
+  cal.covariance = file.covariance;
+  return cal;
+}
+
+Calibration LoadCalibration(const std::string& path) { return ToCalibration(ReadCalibrationFile(path)); }
 
 }  // namespace sph

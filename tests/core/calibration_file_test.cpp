@@ -62,5 +62,73 @@ TEST(CalibrationFile, RejectsOtherFormatsAndMissingFields) {
   EXPECT_THAT(ErrorReading(dir + "/none.json"), HasSubstr("none.json: cannot open"));
 }
 
+// A complete, valid file in which one piece of text is replaced.
+std::string ValidFile(const std::string& from = "", const std::string& to = "") {
+  std::string text = R"({"format": "sph-calibration", "format_version": 1, "probe_offset_mm": 25,
+    "geometry": {"alpha": {"value": 0.02, "unit": "deg"}, "a": {"value": 0.002, "unit": "mm"},
+      "beta": {"value": 0.02, "unit": "deg"}, "b": {"value": 0.002, "unit": "mm"},
+      "epsilon": {"value": 0.02, "unit": "deg"}, "c": {"value": 0.002, "unit": "mm"},
+      "d_prime": {"value": -0.062, "unit": "mm"}},
+    "covariance": {"parameters": ["alpha", "a", "beta", "b", "epsilon", "c", "d_prime"],
+      "units": ["deg", "mm", "deg", "mm", "deg", "mm", "mm"],
+      "matrix": [[1e-8, 0, 0, 0, 0, 0, 0], [0, 1e-12, 0, 0, 0, 0, 0], [0, 0, 1e-8, 0, 0, 0, 0],
+                 [0, 0, 0, 1e-12, 0, 0, 0], [0, 0, 0, 0, 1e-8, 0, 0], [0, 0, 0, 0, 0, 1e-12, 0],
+                 [0, 0, 0, 0, 0, 0, 1e-12]]},
+    "effects": []})";
+  if (!from.empty()) {
+    const auto at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  }
+  return text;
+}
+
+TEST(CalibrationFile, LoadsTheCalibrationForCompensation) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_load");
+  WriteText(dir + "/cal.json", ValidFile());
+  const Calibration cal = LoadCalibration(dir + "/cal.json");
+  EXPECT_TRUE(cal.IsValid());
+  EXPECT_DOUBLE_EQ(cal.probe_offset_mm, 25.0);
+  EXPECT_NEAR(cal.geometry[kAlpha], 0.02 * kRadPerDeg, 1e-18);
+  EXPECT_DOUBLE_EQ(cal.geometry[kDPrime], -0.062);
+  ASSERT_TRUE(cal.covariance.has_value());
+  EXPECT_NEAR((*cal.covariance)(kBeta, kBeta), 1e-8 * kRadPerDeg * kRadPerDeg, 1e-24);
+  EXPECT_DOUBLE_EQ((*cal.covariance)(kB, kB), 1e-12);
+  // Without a covariance the calibration still compensates.
+  WriteText(dir + "/nocov.json", ValidFile(R"("covariance")", R"("no_covariance")"));
+  EXPECT_FALSE(LoadCalibration(dir + "/nocov.json").covariance.has_value());
+}
+
+TEST(CalibrationFile, NamesEveryMissingOrWrongField) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_fields");
+  const std::vector<std::pair<std::pair<std::string, std::string>, std::string>> cases{
+      {{R"("format_version": 1)", R"("format_version": "1")"}, "calibration format version \"1\" is not supported"},
+      {{R"("format_version": 1)", R"("format_version": 1.5)"}, "calibration format version 1.5 is not supported"},
+      {{R"("format_version": 1,)", ""}, "missing field 'format_version'"},
+      {{R"("probe_offset_mm": 25)", R"("probe_offset_mm": -25)"}, "probe_offset_mm must be positive"},
+      {{R"("probe_offset_mm": 25)", R"("probe_offset_mm": "25")"}, "field 'probe_offset_mm' must be a number"},
+      {{R"("geometry")", R"("geometrie")"}, "missing field 'geometry'"},
+      {{R"("d_prime": {"value": -0.062, "unit": "mm"})", R"("d_prime": {"unit": "mm"})"},
+       "missing field 'geometry.d_prime.value'"},
+      {{R"("beta": {"value": 0.02, "unit": "deg"})", R"("beta": {"value": 0.02, "unit": "rad"})"},
+       "field 'geometry.beta.unit' must be \"deg\""},
+      {{R"("beta": {"value": 0.02, "unit": "deg"})", R"("beta": {"value": 0.02})"}, "missing field 'geometry.beta.unit'"},
+      {{R"("parameters": ["alpha", "a", "beta", "b")", R"("parameters": ["a", "alpha", "beta", "b")"},
+       "field 'covariance.parameters' must be [\"alpha\",\"a\",\"beta\",\"b\",\"epsilon\",\"c\",\"d_prime\"]"},
+      {{R"("units": ["deg", "mm")", R"("units": ["rad", "mm")"}, "field 'covariance.units' must be"},
+      {{R"("units": [)", R"("unit": [)"}, "missing field 'covariance.units'"},
+      {{R"([0, 0, 0, 0, 0, 0, 1e-12]]})", R"([0, 0, 0, 0, 0, 0]]})"}, "covariance.matrix must be 7 x 7"},
+      {{R"(,
+    "effects": [])", ""}, "missing field 'effects'"},
+      {{R"("effects": [])", R"("effects": [{"name": "encoder"}])"}, "this program knows no further effects, but the file lists 1"},
+  };
+  int i = 0;
+  for (const auto& [edit, message] : cases) {
+    const std::string path = dir + "/f" + std::to_string(i++) + ".json";
+    WriteText(path, ValidFile(edit.first, edit.second));
+    EXPECT_THAT(ErrorReading(path), HasSubstr(path + ": " + message)) << edit.second;
+  }
+}
+
 }  // namespace
 }  // namespace sph

@@ -21,6 +21,7 @@
 
 #include <Eigen/Core>
 
+#include "sph/model/compensation.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph {
@@ -44,6 +45,13 @@ void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal);
 /// Reads a calibration file. Throws sph::Error naming the file and the problem when it is not
 /// JSON, is of another format or version, or lacks a field.
 CalibrationFile ReadCalibrationFile(const std::string& path);
+
+/// The part of a calibration file that compensation uses (sph/model/compensation.hpp).
+Calibration ToCalibration(const CalibrationFile& file);
+
+/// ReadCalibrationFile() then ToCalibration(): the calibration for the header-only compensation.
+/// Throws sph::Error as ReadCalibrationFile() does.
+Calibration LoadCalibration(const std::string& path);
 
 }  // namespace sph
 

@@ -1,0 +1,455 @@
+#include "measure_cmd.hpp"
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "app_common.hpp"
+#include "sph/core/atomic_file.hpp"
+#include "sph/core/calibration_file.hpp"
+#include "sph/core/error.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/core/sphere_measurement.hpp"
+#include "sph/core/xyz_file.hpp"
+#include "sph/model/compensation.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph::apps {
+namespace {
+
+using nlohmann::json;
+
+const char* const kProgram = "sph_measure";
+
+/// What was read: the points to evaluate and, for readings, what compensated them.
+struct Input {
+  std::vector<Eigen::Vector3d> points_mm;
+  std::vector<RawReading> readings;  ///< empty for x y z input
+  std::optional<Calibration> calibration;
+  std::optional<int> setup;
+  std::optional<double> header_radius_mm;
+  std::string description;  ///< one line for the report
+};
+
+std::string Printf(const char* fmt, double a) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, fmt, a);
+  return buf;
+}
+
+std::string Vec3Text(const Eigen::Vector3d& v, const char* fmt, double scale = 1.0) {
+  return Printf(fmt, v.x() * scale) + " " + Printf(fmt, v.y() * scale) + " " + Printf(fmt, v.z() * scale);
+}
+
+json Vec3Json(const Eigen::Vector3d& v, double scale = 1.0) {
+  return json::array({v.x() * scale, v.y() * scale, v.z() * scale});
+}
+
+Input ReadInput(const MeasureOptions& o) {
+  Input in;
+  if (o.xyz) {
+    if (!o.calibration_path.empty()) {
+      throw Error("--calibration compensates readings (theta, phi, r); " + o.points_path +
+                  " is read as x y z coordinates (--xyz), which need none");
+    }
+    if (o.setup) throw Error("--setup selects a setup of a points file of readings, not of x y z coordinates (--xyz)");
+    in.points_mm = ReadXyzFile(o.points_path);
+    in.description = std::to_string(in.points_mm.size()) + " points (x y z)";
+    return in;
+  }
+  if (o.calibration_path.empty()) {
+    throw Error(o.points_path +
+                ": readings (theta, phi, r) need a calibration to become points: pass "
+                "--calibration FILE, or --xyz when the file holds x y z coordinates");
+  }
+  const PointsData data = ReadPointsFile(o.points_path);
+  const Calibration cal = LoadCalibration(o.calibration_path);
+  const auto d = data.header.probe_offset_mm;
+  if (d && std::abs(*d - cal.probe_offset_mm) > 1e-9 * cal.probe_offset_mm) {
+    throw Error(o.points_path + ": probe_offset_mm " + Printf("%.9g", *d) + " differs from the calibration's " +
+                Printf("%.9g", cal.probe_offset_mm) + " (" + o.calibration_path +
+                "): the calibration belongs to another probe set-up");
+  }
+  const std::vector<int> ids = data.SetupIds();
+  if (o.setup) {
+    if (std::find(ids.begin(), ids.end(), *o.setup) == ids.end()) {
+      throw Error(o.points_path + ": there is no setup " + std::to_string(*o.setup));
+    }
+    in.setup = o.setup;
+  } else if (ids.size() > 1) {
+    std::string list;
+    for (const int id : ids) list += (list.empty() ? "" : " ") + std::to_string(id);
+    throw Error(o.points_path + ": the file holds several setups (" + list +
+                "), each a placement of a sphere: choose one with --setup");
+  } else if (data.has_setup) {
+    in.setup = ids.front();
+  }
+  for (const Sample& s : data.samples) {
+    if (!in.setup || s.setup == *in.setup) in.readings.push_back({s.theta_deg, s.phi_deg, s.r_mm});
+  }
+  in.points_mm = CompensateAll(cal, in.readings);
+  in.calibration = cal;
+  in.header_radius_mm = data.header.sphere_radius_mm;
+  in.description = std::to_string(in.readings.size()) + " readings" +
+                   (in.setup ? " (setup " + std::to_string(*in.setup) + ")" : "") + ", compensated with " +
+                   o.calibration_path;
+  return in;
+}
+
+// --- form-error map -------------------------------------------------------------------------------
+
+/// Quotes a string for gnuplot: single quotes, a quote doubled.
+std::string GnuplotQuoted(const std::string& s) {
+  std::string q = "'";
+  for (const char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
+  return q + "'";
+}
+
+/// Quotes a string for gnuplot in double quotes, where \n is a line break.
+std::string GnuplotDoubleQuoted(const std::string& s) {
+  std::string q = "\"";
+  for (const char c : s) {
+    if (c == '\n') {
+      q += "\\n";
+    } else {
+      if (c == '"' || c == '\\') q += '\\';
+      q += c;
+    }
+  }
+  return q + "\"";
+}
+
+/// Quotes a string for the POSIX shell.
+std::string ShellQuoted(const std::string& s) {
+  std::string q = "'";
+  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+/// A gnuplot script (data inline) that draws the radial residuals about the least-squares sphere
+/// over the sphere: azimuth about a pole against the angle from it, colour = residual [um]. The
+/// pole is the z axis (for an SCMS the Theta axis, so the map is the machine's theta/phi) unless
+/// the points form a cap, which is then centred at the top of the map.
+std::string FormMapScript(const std::vector<Eigen::Vector3d>& points, const SphereEvaluation& ev,
+                          const std::string& name, const std::string& png_path) {
+  const bool cap = ev.coverage.cap_half_angle_deg <= 135.0;
+  const Eigen::Vector3d e3 = cap ? ev.coverage.mean_direction : Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d ref = std::abs(e3.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d e1 = (ref - ref.dot(e3) * e3).normalized();
+  const Eigen::Vector3d e2 = e3.cross(e1);
+  double max_abs_um = 0.0, max_polar_deg = 0.0;
+  std::ostringstream data;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d v = (points[i] - ev.ls.sphere.center).normalized();
+    const double polar = std::acos(std::clamp(v.dot(e3), -1.0, 1.0)) * kDegPerRad;
+    double azimuth = std::atan2(v.dot(e2), v.dot(e1)) * kDegPerRad;
+    if (azimuth < 0.0) azimuth += 360.0;
+    const double res_um = ev.residuals_mm[i] * kUmPerMm;
+    max_abs_um = std::max(max_abs_um, std::abs(res_um));
+    max_polar_deg = std::max(max_polar_deg, polar);
+    char line[96];
+    std::snprintf(line, sizeof line, "%.4f %.4f %.6g\n", azimuth, polar, res_um);
+    data << line;
+  }
+  if (!(max_abs_um > 0.0)) max_abs_um = 1e-6;
+  const double y_max = std::min(180.0, 15.0 * std::ceil(max_polar_deg / 15.0 + 1e-9));
+  const double point_size = std::clamp(2.4 * std::sqrt(300.0 / static_cast<double>(points.size())), 0.35, 2.4);
+
+  std::ostringstream s;
+  s << "# Form-error map written by sph_measure " SPH_VERSION ". Run: gnuplot <this file>\n"
+    << "# Radial residuals about the least-squares sphere; data inline (azimuth_deg polar_deg residual_um).\n"
+    << "set encoding utf8\n"
+    << "if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) {\n"
+    << "  set terminal pngcairo size 1200,680 enhanced font 'sans,11'\n"
+    << "} else {\n"
+    << "  set terminal png size 1200,680\n"
+    << "}\n"
+    << "set output " << GnuplotQuoted(png_path) << "\n";
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "Form error of %s (%d points): radial residual about the least-squares sphere, R = %.6f mm\n"
+                "sphericity: least squares %.4f µm, minimum zone %.4f µm",
+                name.c_str(), ev.n_points, ev.ls.sphere.radius, ev.sphericity_ls_mm * kUmPerMm, ev.mz.width * kUmPerMm);
+  s << "set title " << GnuplotDoubleQuoted(buf) << " noenhanced\n";
+  s << "set xlabel "
+    << GnuplotQuoted(cap ? "azimuth about the cap's centre [deg]" : "azimuth about the z (Θ) axis [deg]") << "\n";
+  s << "set ylabel " << GnuplotQuoted(cap ? "angle from the cap's centre [deg]" : "polar angle from +z [deg]") << "\n";
+  s << "set cblabel 'radial residual [µm]'\n"
+    << "set xrange [0:360]\nset xtics 0,45,360\n";
+  std::snprintf(buf, sizeof buf, "set yrange [%g:0]\nset ytics 0,15,%g\n", y_max, y_max);
+  s << buf;
+  std::snprintf(buf, sizeof buf, "set cbrange [%.6g:%.6g]\n", -max_abs_um, max_abs_um);
+  s << buf << "set palette defined (0 '#2166ac', 0.25 '#67a9cf', 0.5 '#f7f7f7', 0.75 '#ef8a62', 1 '#b2182b')\n"
+    << "set object 1 rectangle from graph 0,0 to graph 1,1 behind fillcolor rgb '#d9d9d9' fillstyle solid noborder\n"
+    << "set grid front lc rgb '#ffffff'\nunset key\n"
+    << "$residuals << EOD\n"
+    << data.str() << "EOD\n";
+  std::snprintf(buf, sizeof buf, "plot $residuals using 1:2:3 with points pt 5 ps %.2f lc palette\n", point_size);
+  s << buf;
+  return s.str();
+}
+
+/// Runs gnuplot on `script_path`; the image goes to png_path.tmp and is renamed on success.
+void RunGnuplot(const MeasureOptions& o, const std::string& script_path, const std::string& png_tmp) {
+  const std::string cmd = ShellQuoted(o.gnuplot) + " " + ShellQuoted(script_path) + " 2>&1";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  if (!pipe) throw Error(o.plot_path + ": cannot run " + o.gnuplot);
+  std::string output;
+  std::array<char, 512> buf{};
+  while (std::fgets(buf.data(), static_cast<int>(buf.size()), pipe)) output += buf.data();
+  const int status = ::pclose(pipe);
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  if (code == 127) {
+    std::remove(png_tmp.c_str());
+    throw Error(o.plot_path + ": cannot draw the form-error map: the program '" + o.gnuplot +
+                "' was not found; install gnuplot (Debian: apt-get install gnuplot-nox), or write the script with "
+                "--plot-script and run gnuplot on it elsewhere");
+  }
+  if (code != 0) {
+    std::remove(png_tmp.c_str());
+    throw Error(o.plot_path + ": gnuplot failed (exit " + std::to_string(code) + "): " + output);
+  }
+  if (std::rename(png_tmp.c_str(), o.plot_path.c_str()) != 0) {
+    std::remove(png_tmp.c_str());
+    throw Error(o.plot_path + ": cannot write (gnuplot produced no image)");
+  }
+}
+
+void DrawFormMap(const MeasureOptions& o, const std::vector<Eigen::Vector3d>& points, const SphereEvaluation& ev) {
+  const std::string name = o.points_path.substr(o.points_path.find_last_of('/') + 1);
+  if (!o.plot_script_path.empty()) {
+    const std::string png = o.plot_path.empty() ? "form_map.png" : o.plot_path;
+    const std::string script = FormMapScript(points, ev, name, png);
+    WriteFileAtomically(o.plot_script_path, [&](std::ostream& f) { f << script; });
+  }
+  if (o.plot_path.empty()) return;
+  const std::string png_tmp = o.plot_path + ".tmp";
+  const std::string script_path = o.plot_path + ".gp.tmp";
+  {
+    std::ofstream f(script_path, std::ios::binary);
+    f << FormMapScript(points, ev, name, png_tmp);
+    if (!f.flush()) throw Error(script_path + ": cannot write");
+  }
+  try {
+    RunGnuplot(o, script_path, png_tmp);
+  } catch (...) {
+    std::remove(script_path.c_str());
+    throw;
+  }
+  std::remove(script_path.c_str());
+}
+
+// --- reports ------------------------------------------------------------------------------------
+
+void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, const SphereEvaluation& ev,
+               const std::optional<CalibrationUncertainty>& u, const std::string& uncertainty_note) {
+  const double r = ev.ls.sphere.radius;
+  char line[256];
+  out << kProgram << " " SPH_VERSION ": " << o.points_path << "\n  " << in.description << "\n\n";
+  out << "least-squares sphere\n";
+  out << "  center_mm          " << Vec3Text(ev.ls.sphere.center, "%.9f") << "\n";
+  std::snprintf(line, sizeof line, "  radius_mm          %.9f   (diameter_mm %.9f)\n", r, 2.0 * r);
+  out << line;
+  if (in.header_radius_mm) {
+    std::snprintf(line, sizeof line, "  radius_deviation_um %.4f   (from the file's sphere_radius_mm %.9g)\n",
+                  (r - *in.header_radius_mm) * kUmPerMm, *in.header_radius_mm);
+    out << line;
+  }
+  std::snprintf(line, sizeof line, "  rms_um             %.4f\n", ev.ls.rms * kUmPerMm);
+  out << line;
+  std::snprintf(line, sizeof line, "  sphericity_ls_um   %.4f   (peak to valley of the radial residuals)\n",
+                ev.sphericity_ls_mm * kUmPerMm);
+  out << line << "\nminimum-zone sphere\n";
+  std::snprintf(line, sizeof line, "  sphericity_mz_um   %.4f   (radial separation of the two enclosing spheres)\n",
+                ev.mz.width * kUmPerMm);
+  out << line;
+  out << "  mz_center_mm       " << Vec3Text(ev.mz.center, "%.9f") << "\n";
+  std::snprintf(line, sizeof line, "  mz_radii_mm        %.9f %.9f   (inner, outer)\n", ev.mz.inner_radius,
+                ev.mz.outer_radius);
+  out << line << "\ncoverage\n";
+  std::snprintf(line, sizeof line, "  cap_half_angle_deg %.1f   (90: a hemisphere, near 180: the whole sphere)\n",
+                ev.coverage.cap_half_angle_deg);
+  out << line;
+  std::snprintf(line, sizeof line,
+                "  radius_dilution    %.3g   center_dilution %.3g   (1: points over the whole sphere; limit %g)\n",
+                ev.radius_dilution, ev.center_dilution, o.max_dilution);
+  out << line;
+  std::snprintf(line, sizeof line,
+                "  radius_fit_std_um  %.4f   (from the scatter of the points, form counted as noise)\n",
+                ev.radius_fit_std_mm * kUmPerMm);
+  out << line;
+  out << "  center_fit_std_um  " << Vec3Text(ev.center_fit_std_mm, "%.4f", kUmPerMm) << "\n\n";
+  if (u) {
+    out << "uncertainty from the calibration's covariance (sampling: " << u->samples << " draws, seed " << u->seed
+        << ")\n";
+    std::snprintf(line, sizeof line, "  radius_std_um            %.4f\n", u->radius_std_mm * kUmPerMm);
+    out << line;
+    out << "  center_std_um            " << Vec3Text(u->center_std_mm, "%.4f", kUmPerMm) << "\n";
+    std::snprintf(line, sizeof line, "  sphericity_ls_std_um     %.4f\n  sphericity_mz_std_um     %.4f\n",
+                  u->sphericity_ls_std_mm * kUmPerMm, u->sphericity_mz_std_mm * kUmPerMm);
+    out << line;
+    std::snprintf(line, sizeof line,
+                  "  calibration_form_p95_um  %.4f   (form error the calibration's uncertainty alone produces in 95 %% "
+                  "of draws)\n",
+                  u->calibration_form_p95_mm * kUmPerMm);
+    out << line;
+    std::snprintf(
+        line, sizeof line,
+        u->form_exceeds_calibration
+            ? "  the form error (sphericity_ls %.4f um) exceeds it: it is in the measurement (the part or the "
+              "probe), not an artefact of the calibration\n"
+            : "  the form error (sphericity_ls %.4f um) is within it: it may be an artefact of the "
+              "calibration's uncertainty\n",
+        ev.sphericity_ls_mm * kUmPerMm);
+    out << line << "\n";
+  } else {
+    out << "uncertainty from the calibration: " << uncertainty_note << "\n\n";
+  }
+  if (ev.warnings.empty()) {
+    out << "warnings: none\n";
+  } else {
+    out << "warnings:\n";
+    for (const auto& w : ev.warnings) out << "  - " << w << "\n";
+  }
+}
+
+std::string JsonReport(const MeasureOptions& o, const Input& in, const SphereEvaluation& ev,
+                       const std::optional<CalibrationUncertainty>& u, const std::string& uncertainty_note) {
+  json j;
+  j["created_by"] = std::string(kProgram) + " " SPH_VERSION;
+  j["input"] = {{"points_file", o.points_path},
+                {"format", o.xyz ? "xyz" : "sph-points 1"},
+                {"calibration_file", o.calibration_path.empty() ? json(nullptr) : json(o.calibration_path)},
+                {"setup", in.setup ? json(*in.setup) : json(nullptr)},
+                {"n_points", ev.n_points}};
+  j["center_mm"] = Vec3Json(ev.ls.sphere.center);
+  j["radius_mm"] = ev.ls.sphere.radius;
+  j["diameter_mm"] = 2.0 * ev.ls.sphere.radius;
+  if (in.header_radius_mm) {
+    j["header_sphere_radius_mm"] = *in.header_radius_mm;
+    j["radius_deviation_um"] = (ev.ls.sphere.radius - *in.header_radius_mm) * kUmPerMm;
+  }
+  j["rms_um"] = ev.ls.rms * kUmPerMm;
+  j["sphericity_ls_um"] = ev.sphericity_ls_mm * kUmPerMm;
+  j["sphericity_mz_um"] = ev.mz.width * kUmPerMm;
+  j["mz_center_mm"] = Vec3Json(ev.mz.center);
+  j["mz_inner_radius_mm"] = ev.mz.inner_radius;
+  j["mz_outer_radius_mm"] = ev.mz.outer_radius;
+  j["fit"] = {{"ls_iterations", ev.ls.iterations},
+              {"ls_converged", ev.ls.converged},
+              {"mz_iterations", ev.mz.iterations},
+              {"mz_converged", ev.mz.converged}};
+  j["coverage"] = {{"cap_half_angle_deg", ev.coverage.cap_half_angle_deg},
+                   {"mean_direction", Vec3Json(ev.coverage.mean_direction)},
+                   {"radius_dilution", ev.radius_dilution},
+                   {"center_dilution", ev.center_dilution},
+                   {"max_dilution", o.max_dilution},
+                   {"radius_fit_std_um", ev.radius_fit_std_mm * kUmPerMm},
+                   {"center_fit_std_um", Vec3Json(ev.center_fit_std_mm, kUmPerMm)},
+                   {"ill_posed", ev.poorly_determined}};
+  if (u) {
+    j["uncertainty"] = {{"method", "sampling"},
+                        {"samples", u->samples},
+                        {"seed", u->seed},
+                        {"radius_std_um", u->radius_std_mm * kUmPerMm},
+                        {"center_std_um", Vec3Json(u->center_std_mm, kUmPerMm)},
+                        {"sphericity_ls_std_um", u->sphericity_ls_std_mm * kUmPerMm},
+                        {"sphericity_mz_std_um", u->sphericity_mz_std_mm * kUmPerMm},
+                        {"calibration_form_p95_um", u->calibration_form_p95_mm * kUmPerMm},
+                        {"form_exceeds_calibration", u->form_exceeds_calibration}};
+  } else {
+    j["uncertainty"] = nullptr;
+    j["uncertainty_note"] = uncertainty_note;
+  }
+  j["warnings"] = ev.warnings;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace
+
+void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
+  app.description(
+      "Measure a sphere: compensate raw readings with a calibration (or read x y z points), fit the "
+      "least-squares sphere, evaluate least-squares and minimum-zone sphericity and their uncertainty "
+      "from the calibration, and draw the form-error map.");
+  app.add_option("points", o.points_path, "Points file: readings (sph-points 1), or x y z [mm] with --xyz")->required();
+  app.add_flag("--xyz", o.xyz, "The points file holds x y z coordinates [mm], one point a line (also NIST .ds)");
+  app.add_option("-c,--calibration", o.calibration_path, "Calibration file (JSON, from sph_calibrate -o)");
+  app.add_option("--setup", o.setup, "Setup id to measure, when the points file holds several");
+  app.add_option("--json", o.json_path, "Write the results as JSON to this file ('-' for stdout)");
+  app.add_option("-o,--output", o.output_path, "Write the compensated points (x_mm y_mm z_mm) to this file");
+  app.add_option("--plot", o.plot_path, "Draw the form-error map to this PNG file (needs gnuplot)");
+  app.add_option("--plot-script", o.plot_script_path,
+                 "Write the form-error map as a gnuplot script (data inline; run: gnuplot FILE)");
+  app.add_option("--gnuplot", o.gnuplot, "The gnuplot program")->capture_default_str();
+  app.add_option("--uncertainty-samples", o.uncertainty_samples,
+                 "Calibration draws for the uncertainty from the calibration's covariance (0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000000));
+  app.add_option("--seed", o.seed, "Seed of the calibration draws")->capture_default_str();
+  app.add_option("--max-dilution", o.max_dilution,
+                 "Warn when the coverage determines radius or centre this many times worse than points over the "
+                 "whole sphere")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_flag("-q,--quiet", o.quiet, "No text report on stdout (warnings still go to stderr)");
+}
+
+int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
+  try {
+    if (o.uncertainty_samples == 1) throw Error("--uncertainty-samples: 1 draw gives no spread; use 0 or at least 2");
+    const Input in = ReadInput(o);
+    SphereEvaluationOptions eopts;
+    eopts.max_dilution = o.max_dilution;
+    const SphereEvaluation ev = EvaluateSphere(in.points_mm, o.points_path, eopts);
+
+    std::optional<CalibrationUncertainty> u;
+    std::string note;
+    if (!in.calibration) {
+      note = "none (x y z input carries no calibration)";
+    } else if (!in.calibration->covariance) {
+      note = "none (" + o.calibration_path + " holds no covariance)";
+    } else if (o.uncertainty_samples == 0) {
+      note = "not computed (--uncertainty-samples 0)";
+    } else {
+      UncertaintyOptions uopts;
+      uopts.samples = o.uncertainty_samples;
+      uopts.seed = o.seed;
+      u = PropagateCalibrationUncertainty(in.readings, *in.calibration, ev, uopts);
+    }
+
+    const bool text = !o.quiet && o.json_path != "-";
+    if (text) WriteText(out, o, in, ev, u, note);
+    if (!text) {
+      for (const auto& w : ev.warnings) err << kProgram << ": warning: " << w << "\n";
+    }
+    if (!o.json_path.empty()) {
+      const std::string report = JsonReport(o, in, ev, u, note);
+      if (o.json_path == "-") {
+        out << report;
+      } else {
+        WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << report; });
+      }
+    }
+    if (!o.output_path.empty()) {
+      WriteXyzFile(o.output_path, in.points_mm,
+                   {std::string(kProgram) + " " SPH_VERSION ": " + o.points_path + ", " + in.description,
+                    "columns: x_mm y_mm z_mm"});
+    }
+    if (!o.plot_path.empty() || !o.plot_script_path.empty()) DrawFormMap(o, in.points_mm, ev);
+    return kExitOk;
+  } catch (const std::exception& e) {
+    err << kProgram << ": error: " << e.what() << "\n";
+    return kExitBadInput;
+  }
+}
+
+}  // namespace sph::apps

@@ -1,0 +1,389 @@
+#include "measure_cmd.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "app_common.hpp"
+#include "calibrate_cmd.hpp"
+#include "sph/core/calibration_file.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/core/simulate.hpp"
+#include "sph/core/xyz_file.hpp"
+#include "sph/model/units.hpp"
+#include "test_util.hpp"
+
+namespace sph::apps {
+namespace {
+
+using nlohmann::json;
+using ::testing::HasSubstr;
+
+constexpr const char* kNistDir = SPH_TEST_DATA_DIR "/nist-ats-l2-sphere/";
+// Agreement with NIST's reference fits through the app (data units); see nist_sphere_test.cpp.
+constexpr double kNistTolerance = 1e-8;
+
+struct RunOutput {
+  int code;
+  std::string out;
+  std::string err;
+};
+
+RunOutput Measure(const MeasureOptions& o) {
+  std::ostringstream out, err;
+  const int code = RunMeasure(o, out, err);
+  return {code, out.str(), err.str()};
+}
+
+json ReadJson(const std::string& path) {
+  std::ifstream in(path);
+  return json::parse(in);
+}
+
+bool Exists(const std::string& path) { return std::ifstream(path).good(); }
+
+class MeasureCmd : public ::testing::Test {
+ protected:
+  // One calibration of the example data for the whole suite: the paper's study at 2 mm.
+  static void SetUpTestSuite() {
+    suite_dir_ = sph::testing::MakeTempDir("measure_suite");
+    CalibrateOptions c;
+    c.points_path = SPH_SOURCE_DIR "/data/example/points.txt";
+    c.output_path = suite_dir_ + "/cal.json";
+    c.quiet = true;
+    std::ostringstream out, err;
+    ASSERT_EQ(RunCalibrate(c, out, err), kExitOk) << err.str();
+  }
+
+  void SetUp() override {
+    dir_ = sph::testing::MakeTempDir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+  }
+
+  static std::string Calibration() { return suite_dir_ + "/cal.json"; }
+
+  std::string WriteFile(const std::string& name, const std::string& text) {
+    const std::string path = dir_ + "/" + name;
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+  }
+
+  // Readings of the paper's machine measuring a sphere at `centers` (one setup each).
+  std::string Simulated(const std::string& name, std::vector<Eigen::Vector3d> centers, double noise_r_um = 0.05) {
+    SimulationSpec spec;
+    spec.centers_mm = std::move(centers);
+    spec.noise_r_um = noise_r_um;
+    const std::string path = dir_ + "/" + name;
+    WritePointsFile(path, Simulate(spec));
+    return path;
+  }
+
+  static std::string suite_dir_;
+  std::string dir_;
+};
+
+std::string MeasureCmd::suite_dir_;
+
+TEST_F(MeasureCmd, XyzOfAllThirtyNistSetsGivesTheReferenceCentreAndDiameter) {
+  double worst = 0.0;
+  for (int k = 1; k <= 30; ++k) {
+    const std::string name = "sph" + std::to_string(k);
+    MeasureOptions o;
+    o.points_path = kNistDir + name + ".ds";
+    o.xyz = true;
+    o.json_path = dir_ + "/" + name + ".json";
+    o.quiet = true;
+    const RunOutput r = Measure(o);
+    ASSERT_EQ(r.code, kExitOk) << name << ": " << r.err;
+    const json j = ReadJson(o.json_path);
+    std::ifstream fit(kNistDir + name + ".fit");
+    double ref[4];
+    for (double& v : ref) fit >> v;
+    ASSERT_TRUE(fit) << name;
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(j["center_mm"][i].get<double>(), ref[i], kNistTolerance) << name << " centre " << i;
+      worst = std::max(worst, std::abs(j["center_mm"][i].get<double>() - ref[i]));
+    }
+    EXPECT_NEAR(j["diameter_mm"].get<double>(), ref[3], kNistTolerance) << name;
+    EXPECT_NEAR(2.0 * j["radius_mm"].get<double>(), ref[3], kNistTolerance) << name;
+    worst = std::max(worst, std::abs(j["diameter_mm"].get<double>() - ref[3]));
+    EXPECT_LE(j["sphericity_mz_um"].get<double>(), j["sphericity_ls_um"].get<double>()) << name;
+    EXPECT_TRUE(j["fit"]["ls_converged"].get<bool>()) << name;
+    EXPECT_TRUE(j["fit"]["mz_converged"].get<bool>()) << name;
+    EXPECT_TRUE(j["uncertainty"].is_null());
+  }
+  std::printf("sph_measure --xyz on the NIST sets: worst deviation %.3g\n", worst);
+}
+
+TEST_F(MeasureCmd, MeasuresWithACalibrationInTextAndJson) {
+  MeasureOptions o;
+  o.points_path = Simulated("measure.txt", {Eigen::Vector3d(1.0, 1.0, 0.5)});
+  o.calibration_path = Calibration();
+  o.json_path = dir_ + "/m.json";
+  const RunOutput r = Measure(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  for (const char* s : {"least-squares sphere", "center_mm", "radius_mm", "sphericity_ls_um", "minimum-zone sphere",
+                        "sphericity_mz_um", "mz_center_mm", "cap_half_angle_deg", "radius_dilution",
+                        "uncertainty from the calibration's covariance (sampling: 200 draws, seed 1)",
+                        "calibration_form_p95_um", "radius_deviation_um", "warnings: none"}) {
+    EXPECT_THAT(r.out, HasSubstr(s));
+  }
+  const json j = ReadJson(o.json_path);
+  ASSERT_EQ(j["center_mm"].size(), 3u);
+  EXPECT_NEAR(j["center_mm"][0].get<double>(), 1.0, 1e-3);
+  EXPECT_NEAR(j["center_mm"][1].get<double>(), 1.0, 1e-3);
+  EXPECT_NEAR(j["center_mm"][2].get<double>(), 0.5, 1e-3);
+  EXPECT_NEAR(j["radius_mm"].get<double>(), 20.0, 1e-4);
+  // Probe noise of 0.05 um and a good calibration: a few tenths of a micrometre, where the
+  // uncompensated machine shows about 3 um (the paper's Table 3).
+  EXPECT_GT(j["sphericity_ls_um"].get<double>(), 0.1);
+  EXPECT_LT(j["sphericity_ls_um"].get<double>(), 0.6);
+  EXPECT_LE(j["sphericity_mz_um"].get<double>(), j["sphericity_ls_um"].get<double>());
+  EXPECT_EQ(j["mz_center_mm"].size(), 3u);
+  EXPECT_EQ(j["input"]["n_points"], 288);
+  EXPECT_EQ(j["input"]["calibration_file"], Calibration());
+  EXPECT_FALSE(j["coverage"]["ill_posed"].get<bool>());
+  ASSERT_TRUE(j["uncertainty"].is_object());
+  EXPECT_EQ(j["uncertainty"]["method"], "sampling");
+  EXPECT_EQ(j["uncertainty"]["samples"], 200);
+  for (const char* k : {"radius_std_um", "sphericity_ls_std_um", "sphericity_mz_std_um", "calibration_form_p95_um"}) {
+    EXPECT_GT(j["uncertainty"][k].get<double>(), 0.0) << k;
+  }
+  EXPECT_TRUE(j["warnings"].empty());
+}
+
+TEST_F(MeasureCmd, CompensatedPointsRoundTripThroughXyz) {
+  MeasureOptions o;
+  o.points_path = Simulated("measure.txt", {Eigen::Vector3d(-1.0, 0.5, 0.0)});
+  o.calibration_path = Calibration();
+  o.json_path = dir_ + "/a.json";
+  o.output_path = dir_ + "/points.xyz";
+  o.quiet = true;
+  ASSERT_EQ(Measure(o).code, kExitOk);
+  std::ifstream in(o.output_path);
+  std::string first, second;
+  std::getline(in, first);
+  std::getline(in, second);
+  EXPECT_THAT(first, HasSubstr("# sph_measure"));
+  EXPECT_EQ(second, "# columns: x_mm y_mm z_mm");
+  MeasureOptions x;
+  x.points_path = o.output_path;
+  x.xyz = true;
+  x.json_path = dir_ + "/b.json";
+  x.quiet = true;
+  ASSERT_EQ(Measure(x).code, kExitOk);
+  const json a = ReadJson(o.json_path), b = ReadJson(x.json_path);
+  // The file carries 1e-10 mm.
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(a["center_mm"][i].get<double>(), b["center_mm"][i].get<double>(), 1e-9);
+  EXPECT_NEAR(a["radius_mm"].get<double>(), b["radius_mm"].get<double>(), 1e-9);
+  EXPECT_NEAR(a["sphericity_ls_um"].get<double>(), b["sphericity_ls_um"].get<double>(), 1e-6);
+  EXPECT_NEAR(a["sphericity_mz_um"].get<double>(), b["sphericity_mz_um"].get<double>(), 1e-6);
+}
+
+TEST_F(MeasureCmd, SaysWhenACapLeavesTheResultIllPosed) {
+  std::ostringstream cap;
+  for (int i = 0; i < 300; ++i) {  // a 25 deg cap of a 10 mm sphere, evenly covered
+    const double z = 1.0 - (1.0 - std::cos(25.0 * kRadPerDeg)) * (i + 0.5) / 300.0, s = std::sqrt(1.0 - z * z);
+    cap << 10.0 * s * std::cos(2.4 * i) << " " << 10.0 * s * std::sin(2.4 * i) << " " << 10.0 * z << "\n";
+  }
+  MeasureOptions o;
+  o.points_path = WriteFile("cap.xyz", cap.str());
+  o.xyz = true;
+  o.json_path = dir_ + "/cap.json";
+  const RunOutput r = Measure(o);
+  EXPECT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("ill-posed for the coverage"));
+  const json j = ReadJson(o.json_path);
+  EXPECT_TRUE(j["coverage"]["ill_posed"].get<bool>());
+  EXPECT_GT(j["coverage"]["radius_dilution"].get<double>(), 30.0);
+  EXPECT_NEAR(j["coverage"]["cap_half_angle_deg"].get<double>(), 25.0, 0.5);
+  ASSERT_EQ(j["warnings"].size(), 1u);
+  // With the report on stdout as JSON the warnings go to stderr.
+  o.json_path = "-";
+  const RunOutput as_json = Measure(o);
+  EXPECT_EQ(as_json.code, kExitOk);
+  EXPECT_TRUE(json::parse(as_json.out)["coverage"]["ill_posed"].get<bool>());
+  EXPECT_THAT(as_json.err, HasSubstr("sph_measure: warning: ill-posed for the coverage"));
+}
+
+TEST_F(MeasureCmd, ACalibrationWithoutCovarianceStillCompensates) {
+  CalibrationFile cal = ReadCalibrationFile(Calibration());
+  cal.covariance.reset();
+  const std::string path = dir_ + "/nocov.json";
+  WriteCalibrationFile(path, cal);
+  MeasureOptions o;
+  o.points_path = Simulated("measure.txt", {Eigen::Vector3d(2.0, 0.0, 0.0)});
+  o.calibration_path = path;
+  o.json_path = dir_ + "/m.json";
+  const RunOutput r = Measure(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("uncertainty from the calibration: none (" + path + " holds no covariance)"));
+  const json j = ReadJson(o.json_path);
+  EXPECT_TRUE(j["uncertainty"].is_null());
+  EXPECT_THAT(j["uncertainty_note"].get<std::string>(), HasSubstr("holds no covariance"));
+}
+
+TEST_F(MeasureCmd, ChoosesASetupOfSeveral) {
+  MeasureOptions o;
+  o.points_path = Simulated("two.txt", {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 3, 0)});
+  o.calibration_path = Calibration();
+  o.json_path = dir_ + "/m.json";
+  RunOutput r = Measure(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("two.txt: the file holds several setups (0 1), each a placement of a sphere: choose "
+                               "one with --setup"));
+  o.setup = 1;
+  r = Measure(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  const json j = ReadJson(o.json_path);
+  EXPECT_EQ(j["input"]["setup"], 1);
+  EXPECT_EQ(j["input"]["n_points"], 288);
+  EXPECT_NEAR(j["center_mm"][1].get<double>(), 3.0, 1e-3);
+  o.setup = 7;
+  EXPECT_THAT(Measure(o).err, HasSubstr("two.txt: there is no setup 7"));
+}
+
+TEST_F(MeasureCmd, BadInputExitsTwoNamingTheFile) {
+  const std::string readings = Simulated("r.txt", {Eigen::Vector3d(2, 0, 0)});
+  auto expect_bad = [&](MeasureOptions o, const std::string& message) {
+    const RunOutput r = Measure(o);
+    EXPECT_EQ(r.code, kExitBadInput) << message;
+    EXPECT_THAT(r.err, HasSubstr("sph_measure: error: " + message));
+    EXPECT_EQ(r.out, "");
+  };
+  MeasureOptions o;
+  o.points_path = readings;
+  expect_bad(o, readings +
+                    ": readings (theta, phi, r) need a calibration to become points: pass --calibration FILE, "
+                    "or --xyz when the file holds x y z coordinates");
+  o.xyz = true;
+  o.calibration_path = Calibration();
+  expect_bad(o, "--calibration compensates readings (theta, phi, r); " + readings + " is read as x y z coordinates");
+  o.calibration_path.clear();
+  {  // readings taken for coordinates: the first row is refused, by file and line
+    std::ifstream in(readings);
+    std::string line;
+    int line_no = 0, fields = 0;
+    while (std::getline(in, line)) {
+      ++line_no;
+      if (line[0] == '#') continue;
+      std::istringstream ls(line);
+      for (std::string t; ls >> t;) ++fields;
+      break;
+    }
+    ASSERT_NE(fields, 3);
+    expect_bad(o, readings + ":" + std::to_string(line_no) + ": expected 3 numbers (x y z), found " +
+                      std::to_string(fields) + " fields");
+  }
+  o.points_path = WriteFile("bad.xyz", "1 2 3\n4 5 6\n7 x 9\n");
+  expect_bad(o, o.points_path + ":3: y: 'x' is not a number");
+  o.points_path = WriteFile("three.xyz", "1 0 0\n0 1 0\n0 0 1\n");
+  expect_bad(o, o.points_path + ": 3 points are too few to determine a sphere (at least 4)");
+  o.points_path = dir_ + "/missing.xyz";
+  expect_bad(o, o.points_path + ": cannot open for reading");
+
+  MeasureOptions c;
+  c.points_path = readings;
+  c.calibration_path = WriteFile("v2.json", R"({"format": "sph-calibration", "format_version": 2})");
+  expect_bad(c, c.calibration_path + ": calibration format version 2 is not supported");
+  c.calibration_path = Calibration();
+  c.uncertainty_samples = 1;
+  expect_bad(c, "--uncertainty-samples: 1 draw gives no spread");
+  c.uncertainty_samples = 200;
+  PointsData other = ReadPointsFile(readings);
+  other.header.probe_offset_mm = 30.0;
+  c.points_path = dir_ + "/d30.txt";
+  WritePointsFile(c.points_path, other);
+  expect_bad(c, c.points_path + ": probe_offset_mm 30 differs from the calibration's 25 (" + Calibration() +
+                    "): the calibration belongs to another probe set-up");
+}
+
+bool HaveGnuplot() { return std::system("command -v gnuplot > /dev/null 2>&1") == 0; }
+
+TEST_F(MeasureCmd, DrawsTheFormErrorMap) {
+  if (!HaveGnuplot()) GTEST_SKIP() << "gnuplot is not installed (apt-get install gnuplot-nox)";
+  MeasureOptions o;
+  o.points_path = Simulated("measure.txt", {Eigen::Vector3d(2.0, 0.0, 0.0)});
+  o.calibration_path = Calibration();
+  o.uncertainty_samples = 0;
+  o.quiet = true;
+  o.plot_path = dir_ + "/form map.png";  // a space, to test the quoting
+  o.plot_script_path = dir_ + "/form.gp";
+  const RunOutput r = Measure(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  std::ifstream png(o.plot_path, std::ios::binary);
+  std::string head(8, '\0');
+  png.read(head.data(), 8);
+  EXPECT_EQ(head, std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_FALSE(Exists(o.plot_path + ".tmp"));
+  EXPECT_FALSE(Exists(o.plot_path + ".gp.tmp"));
+  std::ifstream script(o.plot_script_path);
+  const std::string text((std::istreambuf_iterator<char>(script)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(text, HasSubstr("$residuals << EOD"));
+  EXPECT_THAT(text, HasSubstr("set output '" + o.plot_path + "'"));
+  const auto begin = text.find("$residuals << EOD\n"), end = text.find("\nEOD\n");
+  ASSERT_NE(begin, std::string::npos);
+  ASSERT_NE(end, std::string::npos);
+  EXPECT_EQ(std::count(text.begin() + static_cast<long>(begin), text.begin() + static_cast<long>(end), '\n'), 288);
+}
+
+TEST_F(MeasureCmd, WithoutGnuplotSaysHowToGetIt) {
+  MeasureOptions o;
+  o.points_path = kNistDir + std::string("sph5.ds");
+  o.xyz = true;
+  o.quiet = true;
+  o.plot_path = dir_ + "/map.png";
+  o.gnuplot = dir_ + "/no-such-gnuplot";
+  const RunOutput r = Measure(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr(o.plot_path + ": cannot draw the form-error map: the program '" + o.gnuplot +
+                               "' was not found; install gnuplot (Debian: apt-get install gnuplot-nox)"));
+  EXPECT_FALSE(Exists(o.plot_path));
+  EXPECT_FALSE(Exists(o.plot_path + ".tmp"));
+  EXPECT_FALSE(Exists(o.plot_path + ".gp.tmp"));
+}
+
+// CLI::App::parse(vector) takes the arguments in reverse order; this takes them as typed.
+void ParseArgs(CLI::App& app, std::vector<std::string> args) {
+  std::reverse(args.begin(), args.end());
+  app.parse(args);
+}
+
+TEST(MeasureCli, ParsesOptions) {
+  CLI::App app;
+  MeasureOptions o;
+  SetupMeasureApp(app, o);
+  ParseArgs(app, {"p.txt", "-c", "cal.json", "--setup", "2", "--json", "-", "-o", "pts.xyz", "--plot", "m.png",
+                  "--uncertainty-samples", "50", "--seed", "9", "--max-dilution", "20"});
+  EXPECT_EQ(o.points_path, "p.txt");
+  EXPECT_EQ(o.calibration_path, "cal.json");
+  ASSERT_TRUE(o.setup.has_value());
+  EXPECT_EQ(*o.setup, 2);
+  EXPECT_EQ(o.json_path, "-");
+  EXPECT_EQ(o.output_path, "pts.xyz");
+  EXPECT_EQ(o.plot_path, "m.png");
+  EXPECT_EQ(o.uncertainty_samples, 50);
+  EXPECT_EQ(o.seed, 9u);
+  EXPECT_EQ(o.max_dilution, 20.0);
+  EXPECT_FALSE(o.xyz);
+
+  CLI::App app2;
+  MeasureOptions x;
+  SetupMeasureApp(app2, x);
+  ParseArgs(app2, {"--xyz", "sph1.ds"});
+  EXPECT_TRUE(x.xyz);
+  EXPECT_EQ(x.points_path, "sph1.ds");
+  CLI::App app3;
+  MeasureOptions bad;
+  SetupMeasureApp(app3, bad);
+  EXPECT_THROW(ParseArgs(app3, {"p.txt", "--max-dilution", "-1"}), CLI::ValidationError);
+}
+
+}  // namespace
+}  // namespace sph::apps

@@ -1,0 +1,205 @@
+#include "sph/core/sphere_measurement.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "sph/core/error.hpp"
+#include "sph/core/simulate.hpp"
+#include "sph/model/compensation.hpp"
+#include "test_util.hpp"
+
+namespace sph {
+namespace {
+
+using sph::testing::MatrixNear;
+using ::testing::HasSubstr;
+
+std::vector<RawReading> ReadingsOf(const PointsData& data) {
+  std::vector<RawReading> r;
+  for (const Sample& s : data.samples) r.push_back({s.theta_deg, s.phi_deg, s.r_mm});
+  return r;
+}
+
+// Readings of the paper's machine (Table 1 errors, R0 20 mm, d 25 mm, 24 x 12 grid) measuring a
+// sphere at `center`, ray-traced independently of the model, with noise on r [um].
+std::vector<RawReading> PaperReadings(const Eigen::Vector3d& center, double noise_r_um) {
+  SimulationSpec spec;
+  spec.centers_mm = {center};
+  spec.noise_r_um = noise_r_um;
+  return ReadingsOf(Simulate(spec));
+}
+
+Calibration TruthCalibration() {
+  Calibration cal;
+  cal.geometry = SimulationSpec::PaperTruth();
+  cal.probe_offset_mm = 25.0;
+  return cal;
+}
+
+// A plausible calibration covariance (rad, mm): angles 2e-5 rad, lengths 0.5 um, and the strong
+// b-c-beta-epsilon correlations an eccentric calibration leaves.
+ScmsCovariance PlausibleCovariance() {
+  Eigen::Matrix<double, kNumScmsParams, 1> sd;
+  sd << 2e-6, 2e-4, 2e-5, 5e-4, 2e-5, 5e-4, 1e-4;
+  ScmsCovariance corr = ScmsCovariance::Identity();
+  corr(kBeta, kC) = corr(kC, kBeta) = 0.9;
+  corr(kEpsilon, kB) = corr(kB, kEpsilon) = -0.8;
+  return sd.asDiagonal() * corr * sd.asDiagonal();
+}
+
+// Points evenly (Fibonacci lattice) over the cap within half_angle_deg of +z.
+std::vector<Eigen::Vector3d> Cap(double radius, double half_angle_deg, int n) {
+  const double z_min = std::cos(half_angle_deg * kRadPerDeg);
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; i < n; ++i) {
+    const double z = 1.0 - (1.0 - z_min) * (i + 0.5) / n, s = std::sqrt(1.0 - z * z), a = 2.39996323 * i;
+    pts.push_back(radius * Eigen::Vector3d(s * std::cos(a), s * std::sin(a), z));
+  }
+  return pts;
+}
+
+TEST(EvaluateSphere, CompensatedRayTracedReadingsLieOnTheSphere) {
+  // The compensation with the true errors inverts the independent ray tracer.
+  const SphereEvaluation ev =
+      EvaluateSphere(CompensateAll(TruthCalibration(), PaperReadings({5, 1, -0.5}, 0.0)), "sim");
+  EXPECT_PRED_FORMAT3(MatrixNear, ev.ls.sphere.center, Eigen::Vector3d(5, 1, -0.5), 1e-9);
+  EXPECT_NEAR(ev.ls.sphere.radius, 20.0, 1e-9);
+  EXPECT_LT(ev.sphericity_ls_mm, 1e-9);
+  EXPECT_LT(ev.mz.width, 1e-9);
+  EXPECT_EQ(ev.n_points, 288);
+  EXPECT_FALSE(ev.poorly_determined);
+  EXPECT_TRUE(ev.warnings.empty());
+  EXPECT_GT(ev.coverage.cap_half_angle_deg, 170.0);
+  EXPECT_LT(ev.radius_dilution, 1.2);
+}
+
+TEST(EvaluateSphere, TheNominalModelShowsTheGeometricErrors) {
+  // The paper's Table 3 "before": about 3.5 um of sphericity at 2 mm eccentricity.
+  Calibration nominal;
+  nominal.probe_offset_mm = 25.0;
+  const SphereEvaluation ev = EvaluateSphere(CompensateAll(nominal, PaperReadings({2, 0, 0}, 0.0)), "sim");
+  EXPECT_NEAR(ev.sphericity_ls_mm * 1e3, 3.53, 0.01);
+  EXPECT_LE(ev.mz.width, ev.sphericity_ls_mm);
+}
+
+TEST(EvaluateSphere, WarnsWhenTheCoverageLeavesTheSphereIllPosed) {
+  const SphereEvaluation hemisphere = EvaluateSphere(Cap(20.0, 90.0, 400), "hemi");
+  EXPECT_FALSE(hemisphere.poorly_determined);
+  EXPECT_NEAR(hemisphere.coverage.cap_half_angle_deg, 90.0, 0.5);
+
+  const SphereEvaluation cap = EvaluateSphere(Cap(20.0, 30.0, 400), "cap");
+  EXPECT_TRUE(cap.poorly_determined);
+  ASSERT_EQ(cap.warnings.size(), 1u);
+  EXPECT_THAT(
+      cap.warnings[0],
+      HasSubstr(
+          "ill-posed for the coverage: seen from the centre, the points lie within 30 deg of their mean direction"));
+  EXPECT_THAT(cap.warnings[0], HasSubstr("determine the radius 24.1 times"));
+
+  SphereEvaluationOptions loose;
+  loose.max_dilution = 30.0;
+  EXPECT_FALSE(EvaluateSphere(Cap(20.0, 30.0, 400), "cap", loose).poorly_determined);
+}
+
+TEST(EvaluateSphere, RefusesPointsThatDetermineNoSphere) {
+  try {
+    EvaluateSphere({{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, "three.xyz");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("three.xyz: 3 points are too few to determine a sphere (at least 4)"));
+  }
+  std::vector<Eigen::Vector3d> plane;
+  for (int i = 0; i < 10; ++i) plane.emplace_back(std::cos(i), std::sin(i), 0.0);
+  try {
+    EvaluateSphere(plane, "plane.xyz");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("plane.xyz: the points determine no sphere"));
+  }
+}
+
+TEST(EvaluateSphere, SaysThatFivePointsSayLittleAboutTheForm) {
+  const SphereEvaluation ev =
+      EvaluateSphere({{10, 0, 0}, {0, 10, 0}, {0, 0, 10}, {-10, 0, 0}, {0, -10.01, 0}}, "five.xyz");
+  ASSERT_FALSE(ev.warnings.empty());
+  EXPECT_THAT(ev.warnings.back(), HasSubstr("only 5 points"));
+}
+
+TEST(PropagateCalibrationUncertainty, SampledRadiusStdMatchesTheLinearisation) {
+  Calibration cal = TruthCalibration();
+  cal.covariance = PlausibleCovariance();
+  const std::vector<RawReading> readings = PaperReadings({5, 0, 0}, 0.0);
+  const SphereEvaluation nominal = EvaluateSphere(CompensateAll(cal, readings), "sim");
+  // Linearised: dR/dg by central differences, sigma_R^2 = J Sigma J^T.
+  Eigen::Matrix<double, 1, kNumScmsParams> j;
+  for (int k = 0; k < kNumScmsParams; ++k) {
+    const double h = 1e-3 * std::sqrt((*cal.covariance)(k, k));
+    Calibration plus = cal, minus = cal;
+    plus.geometry[static_cast<std::size_t>(k)] += h;
+    minus.geometry[static_cast<std::size_t>(k)] -= h;
+    j(k) = (FitSphereLeastSquares(CompensateAll(plus, readings)).sphere.radius -
+            FitSphereLeastSquares(CompensateAll(minus, readings)).sphere.radius) /
+           (2.0 * h);
+  }
+  const double linear = std::sqrt((j * *cal.covariance * j.transpose())(0, 0));
+  UncertaintyOptions options;
+  options.samples = 400;
+  const CalibrationUncertainty u = PropagateCalibrationUncertainty(readings, cal, nominal, options);
+  EXPECT_EQ(u.samples, 400);
+  // The std of a std from 400 draws is 3.5 %: 15 % is over four of them.
+  EXPECT_NEAR(u.radius_std_mm / linear, 1.0, 0.15) << "sampled " << u.radius_std_mm << " linearised " << linear;
+  EXPECT_GT(u.sphericity_ls_std_mm, 0.0);
+  EXPECT_GT(u.sphericity_mz_std_mm, 0.0);
+  EXPECT_GT(u.calibration_form_p95_mm, 0.0);
+  // The true form is nil: what is measured is within what the calibration alone produces.
+  EXPECT_FALSE(u.form_exceeds_calibration);
+}
+
+TEST(PropagateCalibrationUncertainty, ARealFormErrorExceedsTheCalibration) {
+  Calibration cal = TruthCalibration();
+  cal.covariance = PlausibleCovariance();
+  const std::vector<RawReading> readings = PaperReadings({5, 0, 0}, 0.5);  // 0.5 um of noise: ~3 um p-v
+  const SphereEvaluation nominal = EvaluateSphere(CompensateAll(cal, readings), "sim");
+  const CalibrationUncertainty u = PropagateCalibrationUncertainty(readings, cal, nominal);
+  EXPECT_GT(nominal.sphericity_ls_mm, 2e-3);
+  EXPECT_LT(u.calibration_form_p95_mm, 0.5 * nominal.sphericity_ls_mm);
+  EXPECT_TRUE(u.form_exceeds_calibration);
+}
+
+TEST(PropagateCalibrationUncertainty, IsReproducibleAndZeroForAnExactCalibration) {
+  Calibration cal = TruthCalibration();
+  cal.covariance = PlausibleCovariance();
+  const std::vector<RawReading> readings = PaperReadings({3, 0, 0}, 0.05);
+  const SphereEvaluation nominal = EvaluateSphere(CompensateAll(cal, readings), "sim");
+  UncertaintyOptions options;
+  options.samples = 50;
+  const CalibrationUncertainty a = PropagateCalibrationUncertainty(readings, cal, nominal, options);
+  const CalibrationUncertainty b = PropagateCalibrationUncertainty(readings, cal, nominal, options);
+  EXPECT_EQ(a.radius_std_mm, b.radius_std_mm);
+  EXPECT_EQ(a.calibration_form_p95_mm, b.calibration_form_p95_mm);
+  options.seed = 2;
+  EXPECT_NE(PropagateCalibrationUncertainty(readings, cal, nominal, options).radius_std_mm, a.radius_std_mm);
+
+  cal.covariance = ScmsCovariance::Zero();
+  const CalibrationUncertainty zero = PropagateCalibrationUncertainty(readings, cal, nominal, options);
+  EXPECT_EQ(zero.radius_std_mm, 0.0);
+  EXPECT_EQ(zero.sphericity_ls_std_mm, 0.0);
+  EXPECT_EQ(zero.calibration_form_p95_mm, 0.0);
+}
+
+TEST(PropagateCalibrationUncertainty, NeedsACovarianceAndTwoSamples) {
+  Calibration cal = TruthCalibration();
+  const std::vector<RawReading> readings = PaperReadings({2, 0, 0}, 0.0);
+  const SphereEvaluation nominal = EvaluateSphere(CompensateAll(cal, readings), "sim");
+  EXPECT_THROW(PropagateCalibrationUncertainty(readings, cal, nominal), std::invalid_argument);
+  cal.covariance = PlausibleCovariance();
+  UncertaintyOptions one;
+  one.samples = 1;
+  EXPECT_THROW(PropagateCalibrationUncertainty(readings, cal, nominal, one), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace sph
