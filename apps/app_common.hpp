@@ -5,8 +5,14 @@
 #include <exception>
 #include <iostream>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
 
 #include <CLI/CLI.hpp>
+
+#include "sph/core/simulate.hpp"
 
 namespace sph::apps {
 
@@ -16,6 +22,32 @@ enum ExitCode : int {
   kExitNotUsable = 1, ///< sph_calibrate: solved, but not usable (no convergence, undetermined parameters)
   kExitBadInput = 2,  ///< bad input or usage
 };
+
+/// The simulated machine and measurement shared by sph_simulate and sph_montecarlo: the true
+/// errors, the sphere, the pattern and the noise (defaults: the paper's study).
+struct MachineOptions {
+  double alpha_deg = 0.02, a_mm = 0.002, beta_deg = 0.02, b_mm = 0.002;
+  double epsilon_deg = 0.02, c_mm = 0.002, d_prime_mm = -0.062;
+  double sphere_radius_mm = 20.0;
+  double probe_offset_mm = 25.0;
+  int theta_steps = 24;
+  int phi_steps = 12;
+  std::string angles_path;  ///< explicit pattern: "theta_deg phi_deg" per line
+  double noise_r_um = 0.05;
+  double noise_theta_arcsec = 0.0;
+  double noise_phi_arcsec = 0.0;
+};
+
+/// Adds the MachineOptions options (--alpha-deg ... --noise-phi-arcsec) to an app, listed under
+/// `group` in --help when it is not empty.
+void AddMachineOptions(CLI::App& app, MachineOptions& o, const std::string& group = "");
+
+/// The simulation spec of the options (centres and seed left at their defaults). Reads the
+/// --angles file; throws sph::Error on a bad one.
+SimulationSpec ToSimulationSpec(const MachineOptions& o);
+
+/// Parses "x,y,z" (mm); `what` names the option in the error.
+Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what);
 
 /// Handles a CLI11 parse error the way every app does: --help and --version exit 0, anything else
 /// prints CLI11's message and exits with kExitBadInput.

@@ -91,6 +91,34 @@ void ExplainUndetermined(const PointsData& points, const CalibrationOptions& opt
 
 }  // namespace
 
+Eigen::MatrixXd ResidualJacobian(const PointsData& points, const CalibrationOptions& options,
+                                 const ScmsGeometry& geometry, const std::vector<Eigen::Vector3d>& centers_mm) {
+  const std::vector<int> ids = points.SetupIds();
+  if (centers_mm.size() != ids.size()) throw Error(points.source + ": one centre per setup is needed");
+  const Eigen::Index n = kNumScmsParams + 3 * static_cast<Eigen::Index>(ids.size());
+  Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(points.samples.size()), n);
+  std::map<int, std::size_t> index;
+  for (std::size_t k = 0; k < ids.size(); ++k) index[ids[k]] = k;
+  using Jet = SphereResidualBatch::Jet;
+  Jet g[kNumScmsParams];
+  for (int k = 0; k < kNumScmsParams; ++k) g[k] = Jet(geometry[static_cast<std::size_t>(k)], k);
+  const ScmsErrorTrig<Jet> trig = ErrorTrigOf(g);
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
+    const std::size_t k = index[s.setup];
+    Jet c[3];
+    for (int j = 0; j < 3; ++j) c[j] = Jet(centers_mm[k](j), kNumScmsParams + j);
+    const SphereResidual functor(s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg, s.r_mm, options.probe_offset_mm,
+                                 options.sphere_radius_mm);
+    Jet e;
+    functor.Evaluate(g, trig, c, &e);
+    const auto row = static_cast<Eigen::Index>(i);
+    jac.row(row).head<kNumScmsParams>() = e.v.head<kNumScmsParams>().transpose();
+    jac.row(row).segment<3>(kNumScmsParams + 3 * static_cast<Eigen::Index>(k)) = e.v.tail<3>().transpose();
+  }
+  return jac;
+}
+
 bool CalibrationResult::Usable() const { return converged && (analysis.Empty() || analysis.AllDetermined()); }
 
 CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options) {

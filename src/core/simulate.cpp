@@ -58,7 +58,7 @@ std::optional<double> ProbeReading(const ScmsGeometry& g, double theta_rad, doub
   return s;
 }
 
-PointsData Simulate(const SimulationSpec& spec) {
+PointsData SimulateExact(const SimulationSpec& spec) {
   if (!(spec.sphere_radius_mm > 0.0)) throw Error("simulation: the sphere radius must be positive");
   if (!(spec.probe_offset_mm > 0.0)) throw Error("simulation: the probe offset must be positive");
   if (spec.centers_mm.empty()) throw Error("simulation: no sphere centre given");
@@ -69,14 +69,9 @@ PointsData Simulate(const SimulationSpec& spec) {
   data.header.probe_offset_mm = spec.probe_offset_mm;
   data.has_time = true;
   data.has_setup = spec.centers_mm.size() > 1;
-  std::mt19937_64 rng(spec.seed);
-  std::normal_distribution<double> gauss(0.0, 1.0);
-  const double sigma_r_mm = spec.noise_r_um * kMmPerUm;
-  const double sigma_theta_deg = spec.noise_theta_arcsec / 3600.0;
-  const double sigma_phi_deg = spec.noise_phi_arcsec / 3600.0;
+  data.samples.reserve(spec.centers_mm.size() * spec.pattern.size());
   for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
-    for (std::size_t i = 0; i < spec.pattern.size(); ++i) {
-      const AnglePair& a = spec.pattern[i];
+    for (const AnglePair& a : spec.pattern) {
       const auto r = ProbeReading(spec.truth, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg, spec.probe_offset_mm,
                                   spec.centers_mm[k], spec.sphere_radius_mm);
       if (!r) {
@@ -84,16 +79,34 @@ PointsData Simulate(const SimulationSpec& spec) {
                     " deg, phi " + std::to_string(a.phi_deg) + " deg (setup " + std::to_string(k) + ")");
       }
       Sample s;
-      // Draw in a fixed order so that a given seed gives the same file whatever sigmas are zero.
-      const double n_r = gauss(rng), n_t = gauss(rng), n_p = gauss(rng);
-      s.theta_deg = a.theta_deg + sigma_theta_deg * n_t;
-      s.phi_deg = a.phi_deg + sigma_phi_deg * n_p;
-      s.r_mm = *r + sigma_r_mm * n_r;
+      s.theta_deg = a.theta_deg;
+      s.phi_deg = a.phi_deg;
+      s.r_mm = *r;
       s.t_s = static_cast<double>(data.samples.size()) * spec.sample_period_s;
       s.setup = static_cast<int>(k);
       data.samples.push_back(s);
     }
   }
+  return data;
+}
+
+void AddReadingNoise(PointsData& data, const SimulationSpec& spec) {
+  std::mt19937_64 rng(spec.seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const double sigma_r_mm = spec.noise_r_um * kMmPerUm;
+  const double sigma_theta_deg = spec.noise_theta_arcsec / 3600.0;
+  const double sigma_phi_deg = spec.noise_phi_arcsec / 3600.0;
+  for (Sample& s : data.samples) {
+    const double n_r = gauss(rng), n_t = gauss(rng), n_p = gauss(rng);
+    s.r_mm += sigma_r_mm * n_r;
+    s.theta_deg += sigma_theta_deg * n_t;
+    s.phi_deg += sigma_phi_deg * n_p;
+  }
+}
+
+PointsData Simulate(const SimulationSpec& spec) {
+  PointsData data = SimulateExact(spec);
+  AddReadingNoise(data, spec);
   return data;
 }
 

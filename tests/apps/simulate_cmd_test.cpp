@@ -39,7 +39,7 @@ TEST(SimulateCmd, SeveralCentresAndAnExplicitPattern) {
   std::ofstream(dir + "/angles.txt") << "# theta phi\n0 30\n90 60\n180 90\n270 120\n45 150\n";
   SimulateOptions o;
   o.output_path = dir + "/p.txt";
-  o.angles_path = dir + "/angles.txt";
+  o.machine.angles_path = dir + "/angles.txt";
   o.centers_mm = {"1,0,0", "0,0,-1.5"};
   std::ostringstream err;
   ASSERT_EQ(RunSimulate(o, err), kExitOk) << err.str();

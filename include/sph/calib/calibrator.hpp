@@ -54,6 +54,12 @@ struct CalibrationResult {
   bool Usable() const;
 };
 
+/// Jacobian of the residuals |p_i - O_setup(i)| - R0 with respect to the parameters, at the given
+/// errors (rad, mm) and centres (one per setup, in ascending setup id order). Rows in file order;
+/// columns: the seven errors, then x, y, z of each setup's centre.
+Eigen::MatrixXd ResidualJacobian(const PointsData& points, const CalibrationOptions& options,
+                                 const ScmsGeometry& geometry, const std::vector<Eigen::Vector3d>& centers_mm);
+
 /// Calibrates from the samples of `points`. Throws sph::Error on unusable input (radius or offset
 /// not positive, fewer samples than parameters, a setup whose points determine no centre).
 CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options);

@@ -59,7 +59,15 @@ std::optional<double> ProbeReading(const ScmsGeometry& truth, double theta_rad, 
 
 /// Simulates a points file: for each setup, each pattern point in order; the axes are at the
 /// commanded angles, the readings carry the noise. Throws sph::Error when a ray misses the sphere.
+/// Equals AddReadingNoise(SimulateExact(spec), spec).
 PointsData Simulate(const SimulationSpec& spec);
+
+/// Simulate() without noise: the exact readings of the stated truth.
+PointsData SimulateExact(const SimulationSpec& spec);
+
+/// Adds Gaussian noise with the spec's sigmas to every reading, drawn from std::mt19937_64(spec.seed)
+/// in the order (r, theta, phi) per sample, so that a seed gives the same noise whatever sigmas are zero.
+void AddReadingNoise(PointsData& data, const SimulationSpec& spec);
 
 }  // namespace sph
 

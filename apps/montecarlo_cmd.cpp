@@ -1,0 +1,393 @@
+#include "montecarlo_cmd.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "sph/calib/calibrator.hpp"
+#include "sph/calib/design.hpp"
+#include "sph/calib/montecarlo.hpp"
+#include "sph/core/atomic_file.hpp"
+#include "sph/core/error.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph::apps {
+namespace {
+
+using nlohmann::json;
+
+// The paper's Table 3 (um), printed beside the reproduction for comparison.
+constexpr double kPaperBeforeUm[10] = {1.786, 1.796, 1.811, 1.828, 1.842, 2.641, 3.097, 3.256, 3.306, 3.528};
+constexpr double kPaperAfterUm[10] = {0.00529, 0.00541, 0.00541, 0.00558, 0.00606,
+                                      0.01656, 0.02519, 0.02927, 0.03838, 0.04541};
+
+struct Unit {
+  const char* coarse;  // deg or mm (the paper's)
+  const char* fine;    // urad or um
+  double to_coarse;
+  double to_fine;
+};
+Unit UnitOf(int p) {
+  return kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle
+             ? Unit{"deg", "urad", kDegPerRad, kUradPerRad}
+             : Unit{"mm", "um", 1.0, kUmPerMm};
+}
+
+// printf into a std::string (table cells; always short).
+template <typename... Args>
+std::string Fmt(const char* format, Args... args) {
+  char b[256];
+  std::snprintf(b, sizeof b, format, args...);
+  return b;
+}
+
+MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
+  MonteCarloSpec spec;
+  spec.base = ToSimulationSpec(o.machine);
+  spec.eccentricities_mm = o.eccentricities_mm;
+  spec.direction = ParseVector3(o.direction, "--direction");
+  if (!o.random_direction && !(spec.direction.norm() > 0.0)) throw Error("--direction must not be zero");
+  spec.random_direction = o.random_direction;
+  spec.setups = o.setups;
+  spec.trials = o.trials;
+  spec.seed = o.seed;
+  spec.threads = o.threads;
+  for (double e : spec.eccentricities_mm) {
+    if (!(e >= 0.0) || !(e < o.machine.sphere_radius_mm)) {
+      throw Error("--eccentricities-mm: " + Fmt("%g", e) + " is not in [0, R0)");
+    }
+  }
+  return spec;
+}
+
+// Centres of the fixed-direction design at eccentricity e (setup j turned by j * 360/N about z).
+std::vector<Eigen::Vector3d> DesignCenters(const MonteCarloSpec& spec, double e) {
+  std::vector<Eigen::Vector3d> out;
+  const Eigen::Vector3d d = spec.direction.normalized();
+  for (int j = 0; j < spec.setups; ++j) {
+    const double a = 2.0 * kPi * j / spec.setups;
+    out.emplace_back(e * (std::cos(a) * d.x() - std::sin(a) * d.y()), e * (std::sin(a) * d.x() + std::cos(a) * d.y()),
+                     e * d.z());
+  }
+  return out;
+}
+
+class ProgressBar {
+ public:
+  ProgressBar(std::ostream& err, bool enabled) : err_(err), enabled_(enabled && ::isatty(STDERR_FILENO) == 1) {}
+  void operator()(long done, long total) {
+    if (!enabled_) return;
+    const int width = 40;
+    const int filled = static_cast<int>(width * done / total);
+    err_ << "\rsph_montecarlo: [" << std::string(static_cast<std::size_t>(filled), '#')
+         << std::string(static_cast<std::size_t>(width - filled), '.') << "] " << (100 * done / total) << "% ("
+         << done << "/" << total << ")" << (done == total ? "\n" : "") << std::flush;
+  }
+
+ private:
+  std::ostream& err_;
+  bool enabled_;
+};
+
+void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloOptions& o) {
+  out << "Table 2: mean of the calibrations (" << o.trials << " trials per eccentricity, seed " << o.seed
+      << ", sigma_r " << o.machine.noise_r_um << " um)\n";
+  out << Fmt("%-9s %-4s %12s", "param", "unit", "true");
+  for (const auto& row : r.rows) out << Fmt("%12s", Fmt("e=%g mm", row.eccentricity_mm).c_str());
+  out << "\n";
+  for (int p = 0; p < kNumScmsParams; ++p) {
+    const Unit u = UnitOf(p);
+    out << Fmt("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name) << Fmt(" %-4s", u.coarse)
+        << Fmt(" %12.6f", r.rows.front().params[static_cast<std::size_t>(p)].truth * u.to_coarse);
+    for (const auto& row : r.rows) out << Fmt(" %11.6f", row.params[static_cast<std::size_t>(p)].mean * u.to_coarse);
+    out << "\n";
+  }
+  for (const auto& row : r.rows) {
+    out << "\ne = " << row.eccentricity_mm << " mm: " << row.converged << " of " << row.trials << " converged\n";
+    out << Fmt("%-9s %14s %14s %10s %9s %9s %10s %9s %9s %9s\n", "param", "true", "mean", "std", "SE", "(m-t)/SE",
+               "CRLB", "std/CRLB", "bias2", "(m-t-b)/SE");
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      const Unit u = UnitOf(p);
+      const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
+      out << Fmt("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name)
+          << Fmt(" %10.6f ", s.truth * u.to_coarse) << Fmt("%-3s", u.coarse) << Fmt(" %10.6f ", s.mean * u.to_coarse)
+          << Fmt("%-3s", u.coarse) << Fmt(" %10.4f", s.std * u.to_fine) << Fmt(" %9.4f", s.se * u.to_fine)
+          << Fmt(" %9.2f", s.z) << Fmt(" %10.4f", s.crlb * u.to_fine) << Fmt(" %9.3f", s.std / s.crlb)
+          << Fmt(" %9.4f", s.bias * u.to_fine) << Fmt(" %9.2f", s.z_bias) << "  " << u.fine << "\n";
+    }
+  }
+}
+
+json StudyJson(const MonteCarloResult& r) {
+  json rows = json::array();
+  for (const auto& row : r.rows) {
+    json params = json::object();
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      const Unit u = UnitOf(p);
+      const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
+      params[kScmsParamInfo[static_cast<std::size_t>(p)].name] = {
+          {"unit", u.coarse},           {"true", s.truth * u.to_coarse}, {"mean", s.mean * u.to_coarse},
+          {"std", s.std * u.to_coarse}, {"se", s.se * u.to_coarse},      {"z", s.z},
+          {"crlb", s.crlb * u.to_coarse}, {"std_over_crlb", s.std / s.crlb},
+          {"bias_second_order", s.bias * u.to_coarse}, {"z_after_bias", s.z_bias}};
+    }
+    rows.push_back({{"eccentricity_mm", row.eccentricity_mm},
+                    {"trials", row.trials},
+                    {"converged", row.converged},
+                    {"parameters", params}});
+  }
+  return rows;
+}
+
+void WriteCsv(const std::string& path, const MonteCarloResult& r) {
+  WriteFileAtomically(path, [&](std::ostream& f) {
+    f << "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials\n";
+    for (const auto& row : r.rows) {
+      for (int p = 0; p < kNumScmsParams; ++p) {
+        const Unit u = UnitOf(p);
+        const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
+        f << row.eccentricity_mm << "," << kScmsParamInfo[static_cast<std::size_t>(p)].name << "," << u.coarse << ","
+          << s.truth * u.to_coarse << "," << s.mean * u.to_coarse << "," << s.std * u.to_coarse << ","
+          << s.se * u.to_coarse << "," << s.z << "," << s.crlb * u.to_coarse << "," << s.std / s.crlb << ","
+          << row.converged << "," << row.trials << "\n";
+      }
+    }
+  });
+}
+
+// Table 3: ten spheres whose nominal-model sphericity is the paper's "before" value.
+json Table3(std::ostream& out, const MonteCarloSpec& spec, const MonteCarloResult& r, const MonteCarloOptions& o) {
+  const std::vector<double> targets(std::begin(kPaperBeforeUm), std::end(kPaperBeforeUm));
+  const std::vector<SphericityRow> rows = SphericityStudy(spec, r, targets, o.table3_calibration_e_mm);
+  out << "\nTable 3: least-squares sphericity (um) of ten spheres, exact readings, evaluated with the nominal "
+         "errors (before) and with the errors calibrated at "
+      << o.table3_calibration_e_mm << " mm (after): one calibration (sigma_r " << o.machine.noise_r_um << " um, seed "
+      << o.seed << "), the median over the study's calibrations there, and their mean\n"
+      << "The paper does not give the spheres' centres: each eccentricity (along the study's direction) is the one "
+         "whose 'before' value is the paper's.\n";
+  out << Fmt("%-3s %9s %9s %9s %11s %12s %11s %11s\n", "#", "e_mm", "before", "paper", "after_one", "after_median",
+             "after_mean", "paper_after");
+  json j = json::array();
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const SphericityRow& w = rows[i];
+    out << Fmt("%-3d", static_cast<int>(i) + 1) << Fmt(" %9.4f", w.eccentricity_mm) << Fmt(" %9.3f", w.before_um)
+        << Fmt(" %9.3f", kPaperBeforeUm[i]) << Fmt(" %11.5f", w.after_one_um) << Fmt(" %12.5f", w.after_median_um)
+        << Fmt(" %11.5f", w.after_mean_um) << Fmt(" %11.5f", kPaperAfterUm[i]) << "\n";
+    auto num = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+    j.push_back({{"sphere", i + 1},
+                 {"eccentricity_mm", num(w.eccentricity_mm)},
+                 {"before_um", num(w.before_um)},
+                 {"paper_before_um", kPaperBeforeUm[i]},
+                 {"after_one_calibration_um", num(w.after_one_um)},
+                 {"after_median_um", num(w.after_median_um)},
+                 {"after_mean_um", num(w.after_mean_um)},
+                 {"paper_after_um", kPaperAfterUm[i]}});
+  }
+  return {{"calibration_eccentricity_mm", o.table3_calibration_e_mm}, {"rows", j}};
+}
+
+// Figure 4: std against eccentricity with the Cramer-Rao curve, and the spread of the estimates.
+void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloResult& r, std::ostream& err) {
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+    throw Error("--plot-dir needs gnuplot (Debian: apt-get install gnuplot-nox)");
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+  const double e_min = r.rows.front().eccentricity_mm, e_max = r.rows.back().eccentricity_mm;
+  WriteFileAtomically(dir + "/fig4_std.dat", [&](std::ostream& f) {
+    f << "# eccentricity_mm b_um c_um beta_urad epsilon_urad (Monte Carlo std)\n";
+    for (const auto& row : r.rows) {
+      f << row.eccentricity_mm << " " << row.params[kB].std * kUmPerMm << " " << row.params[kC].std * kUmPerMm << " "
+        << row.params[kBeta].std * kUradPerRad << " " << row.params[kEpsilon].std * kUradPerRad << "\n";
+    }
+  });
+  WriteFileAtomically(dir + "/fig4_crlb.dat", [&](std::ostream& f) {
+    f << "# eccentricity_mm b_um c_um beta_urad epsilon_urad (Cramer-Rao std)\n";
+    const double lo = std::max(0.8 * std::min(e_min, e_max), 0.05), hi = 1.1 * std::max(e_min, e_max);
+    for (int i = 0; i <= 60; ++i) {
+      const double e = lo * std::pow(hi / lo, i / 60.0);
+      SimulationSpec s = spec.base;
+      s.centers_mm = DesignCenters(spec, e);
+      const PredictedUncertainty u = PredictUncertainty(s);
+      f << e << " " << u.std(kB) * kUmPerMm << " " << u.std(kC) * kUmPerMm << " " << u.std(kBeta) * kUradPerRad << " "
+        << u.std(kEpsilon) * kUradPerRad << "\n";
+    }
+  });
+  WriteFileAtomically(dir + "/fig4_spread.dat", [&](std::ostream& f) {
+    f << "# eccentricity_mm b_error_um c_error_um (estimate minus truth, every converged trial)\n";
+    for (const auto& row : r.rows) {
+      for (const auto& g : row.estimates) {
+        f << row.eccentricity_mm << " " << (g[kB] - spec.base.truth[kB]) * kUmPerMm << " "
+          << (g[kC] - spec.base.truth[kC]) * kUmPerMm << "\n";
+      }
+    }
+  });
+  const std::string title = Fmt("%d trials per point, sigma_r %g um", spec.trials, spec.base.noise_r_um);
+  WriteFileAtomically(dir + "/fig4.gp", [&](std::ostream& f) {
+    f << "# Figure 4 of the study; rerun with: gnuplot fig4.gp (in this folder)\n"
+      << "set terminal pngcairo size 900,600 font ',11'\n"
+      << "set grid\nset logscale xy\nset key top right\nset xlabel 'eccentricity of the sphere [mm]'\n"
+      << "set xrange [" << 0.7 * std::min(e_min, e_max) << ":" << 1.4 * std::max(e_min, e_max) << "]\n"
+      << "set xtics (" << [&] {
+           std::string t;
+           for (const auto& row : r.rows) t += (t.empty() ? "" : ", ") + Fmt("%g", row.eccentricity_mm);
+           return t;
+         }() << ")\n"
+      << "set output 'fig4_b_c_std.png'\n"
+      << "set title 'Standard deviation of b and c (" << title << ")'\n"
+      << "set ylabel 'standard deviation [um]'\n"
+      << "plot 'fig4_crlb.dat' u 1:2 w l lw 2 lc rgb '#1f77b4' t 'b, Cramer-Rao', "
+         "'fig4_std.dat' u 1:2 w p pt 7 ps 1.5 lc rgb '#1f77b4' t 'b, Monte Carlo', "
+         "'fig4_crlb.dat' u 1:3 w l lw 2 lc rgb '#d62728' t 'c, Cramer-Rao', "
+         "'fig4_std.dat' u 1:3 w p pt 5 ps 1.5 lc rgb '#d62728' t 'c, Monte Carlo'\n"
+      << "set output 'fig4_beta_epsilon_std.png'\n"
+      << "set title 'Standard deviation of beta and epsilon (" << title << ")'\n"
+      << "set ylabel 'standard deviation [urad]'\n"
+      << "plot 'fig4_crlb.dat' u 1:4 w l lw 2 lc rgb '#1f77b4' t 'beta, Cramer-Rao', "
+         "'fig4_std.dat' u 1:4 w p pt 7 ps 1.5 lc rgb '#1f77b4' t 'beta, Monte Carlo', "
+         "'fig4_crlb.dat' u 1:5 w l lw 2 lc rgb '#d62728' t 'epsilon, Cramer-Rao', "
+         "'fig4_std.dat' u 1:5 w p pt 5 ps 1.5 lc rgb '#d62728' t 'epsilon, Monte Carlo'\n"
+      << "unset logscale\nset logscale x\nset key top right\n"
+      << "set output 'fig4_spread.png'\n"
+      << "set title 'Spread of the estimates of b and c (every trial)'\n"
+      << "set ylabel 'estimate - truth [um]'\n"
+      << "plot 'fig4_spread.dat' u ($1*0.97):2 w p pt 7 ps 0.3 lc rgb '#801f77b4' t 'b', "
+         "'fig4_spread.dat' u ($1*1.03):3 w p pt 7 ps 0.3 lc rgb '#80d62728' t 'c'\n";
+  });
+  const std::string cmd = "cd '" + dir + "' && gnuplot fig4.gp";
+  if (std::system(cmd.c_str()) != 0) throw Error(dir + "/fig4.gp: gnuplot failed");
+  err << "sph_montecarlo: wrote " << dir << "/fig4_b_c_std.png, fig4_beta_epsilon_std.png, fig4_spread.png\n";
+}
+
+int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream& out) {
+  out << "Predicted standard deviations (linearised at the truth, no simulation): "
+      << (o.machine.angles_path.empty() ? Fmt("%d", o.machine.theta_steps) + " x " + Fmt("%d", o.machine.phi_steps) + " grid"
+                                        : "pattern " + o.machine.angles_path)
+      << ", sigma_r " << o.machine.noise_r_um << " um, " << spec.setups << " setup(s)\n";
+  out << Fmt("%-8s", "e_mm");
+  for (int p = 0; p < kNumScmsParams; ++p) {
+    out << Fmt(" %12s", (std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_" + UnitOf(p).fine).c_str());
+  }
+  out << Fmt(" %12s\n", "worst_um");
+  json rows = json::array();
+  for (double e : spec.eccentricities_mm) {
+    SimulationSpec s = spec.base;
+    s.centers_mm = DesignCenters(spec, e);
+    const PredictedUncertainty u = PredictUncertainty(s);
+    out << Fmt("%-8g", e);
+    json row = {{"eccentricity_mm", e}};
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      out << Fmt(" %12.4f", u.std(p) * UnitOf(p).to_fine);
+      row[std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_std_" + UnitOf(p).fine] =
+          u.std(p) * UnitOf(p).to_fine;
+    }
+    out << Fmt(" %12.4f\n", u.WorstErrorStdUm());
+    row["worst_std_um"] = u.WorstErrorStdUm();
+    rows.push_back(row);
+  }
+  json j = {{"plan", rows}};
+  if (o.target_std_um) {
+    std::vector<Eigen::Vector3d> dirs = DesignCenters(spec, 1.0);
+    const double hi = 0.5 * spec.base.sphere_radius_mm;
+    out << "\nSmallest eccentricity at which every error's std, as a displacement (angles times R0), is at most "
+        << *o.target_std_um << " um:\n";
+    const auto e = SmallestEccentricityMm(spec.base, dirs, *o.target_std_um, 1e-3, hi);
+    out << "  this pattern: " << (e ? Fmt("%.3f mm", *e) : std::string("not reached below R0/2")) << "\n";
+    j["target_std_um"] = *o.target_std_um;
+    j["smallest_eccentricity_mm"] = e ? json(*e) : json(nullptr);
+    if (o.machine.angles_path.empty()) {
+      out << "  other grids (theta steps x phi rings):\n";
+      json grids = json::array();
+      for (auto [nt, np] : std::vector<std::pair<int, int>>{{12, 6}, {24, 12}, {36, 18}, {48, 24}, {72, 36}, {96, 48}}) {
+        SimulationSpec s = spec.base;
+        s.pattern = GridPattern(nt, np);
+        const auto eg = SmallestEccentricityMm(s, dirs, *o.target_std_um, 1e-3, hi);
+        out << Fmt("    %3d", nt) << Fmt(" x %-3d", np) << Fmt(" (%5d points): ", nt * np)
+            << (eg ? Fmt("%.3f mm", *eg) : std::string("not reached")) << "\n";
+        grids.push_back({{"theta_steps", nt}, {"phi_steps", np}, {"eccentricity_mm", eg ? json(*eg) : json(nullptr)}});
+      }
+      j["grids"] = grids;
+    }
+  }
+  if (!o.json_path.empty()) WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
+  return kExitOk;
+}
+
+}  // namespace
+
+void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
+  app.description("Monte Carlo study of the calibration against the sphere's eccentricity (the paper's Tables 2 and "
+                  "3 and Figure 4), with the Cramer-Rao prediction; --plan predicts without simulating.");
+  AddMachineOptions(app, o.machine);
+  app.add_option("--trials", o.trials, "Calibrations per eccentricity")->capture_default_str()->check(CLI::Range(2, 100000000));
+  app.add_option("--eccentricities-mm", o.eccentricities_mm, "Eccentricities of the sphere [mm]")
+      ->capture_default_str()
+      ->delimiter(',');
+  app.add_option("--direction", o.direction, "Direction of the eccentricity x,y,z")->capture_default_str();
+  app.add_flag("--random-direction", o.random_direction, "A random direction for every trial (and setup)");
+  app.add_option("--setups", o.setups, "Sphere placements per trial, turned evenly about the Theta axis")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100));
+  app.add_option("--seed", o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
+  app.add_option("--threads", o.threads, "Worker threads (0: all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  app.add_flag("!--no-table3", o.table3, "Skip Table 3 (sphericity of ten further spheres)");
+  app.add_option("--table3-calibration-e-mm", o.table3_calibration_e_mm,
+                 "Eccentricity of the calibration used for Table 3 [mm]")
+      ->capture_default_str();
+  app.add_option("--json", o.json_path, "Write the results as JSON ('-' for stdout)");
+  app.add_option("--csv", o.csv_path, "Write the per-parameter statistics as CSV");
+  app.add_option("--plot-dir", o.plot_dir, "Write Figure 4 (PNG, with gnuplot) and its data into this folder");
+  app.add_flag("--plan", o.plan, "Predict the standard deviations from the linearised model, without simulating");
+  app.add_option("--target-std-um", o.target_std_um,
+                 "With --plan: find the smallest eccentricity (and per grid) meeting this std as a displacement [um]")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("!--no-progress", o.progress, "No progress bar");
+}
+
+int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream& err) {
+  try {
+    const MonteCarloSpec spec = ToSpec(o);
+    if (o.plan) return RunPlan(o, spec, out);
+    if (o.target_std_um) throw Error("--target-std-um goes with --plan");
+    ProgressBar bar(err, o.progress);
+    const auto t0 = std::chrono::steady_clock::now();
+    const MonteCarloResult r = RunMonteCarlo(spec, [&](long d, long t) { bar(d, t); });
+    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (o.json_path != "-") PrintTable2(out, r, o);
+    json j = {{"program", "sph_montecarlo " SPH_VERSION},
+              {"trials", o.trials},
+              {"seed", o.seed},
+              {"noise_r_um", o.machine.noise_r_um},
+              {"noise_theta_arcsec", o.machine.noise_theta_arcsec},
+              {"noise_phi_arcsec", o.machine.noise_phi_arcsec},
+              {"setups", o.setups},
+              {"random_direction", o.random_direction},
+              {"direction", o.direction},
+              {"wall_time_s", wall_s},
+              {"eccentricities", StudyJson(r)}};
+    if (o.table3) {
+      std::ostringstream t3;
+      j["table3"] = Table3(t3, spec, r, o);
+      if (o.json_path != "-") out << t3.str();
+    }
+    if (o.json_path != "-") out << "\n" << o.trials * static_cast<int>(r.rows.size()) << " calibrations in " << Fmt("%.2f", wall_s) << " s\n" << std::flush;
+    if (!o.json_path.empty()) WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
+    if (!o.csv_path.empty()) WriteCsv(o.csv_path, r);
+    if (!o.plot_dir.empty()) Plot(o.plot_dir, spec, r, err);
+    return kExitOk;
+  } catch (const std::exception& e) {
+    err << "sph_montecarlo: error: " << e.what() << "\n";
+    return kExitBadInput;
+  }
+}
+
+}  // namespace sph::apps

@@ -1,0 +1,247 @@
+#include "sph/calib/montecarlo.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <limits>
+#include <cmath>
+#include <mutex>
+#include <random>
+#include <thread>
+
+#include "sph/calib/calibrator.hpp"
+#include "sph/calib/design.hpp"
+#include "sph/core/error.hpp"
+#include "sph/model/sphere_fit.hpp"
+#include "sph/model/sphere_form.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph {
+namespace {
+
+std::uint64_t SplitMix64(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ULL;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+  return x ^ (x >> 31);
+}
+
+// Centres of one trial: `setups` placements at eccentricity e.
+std::vector<Eigen::Vector3d> Centers(const MonteCarloSpec& spec, double e_mm, std::uint64_t trial_seed) {
+  std::vector<Eigen::Vector3d> out;
+  if (spec.random_direction) {
+    std::mt19937_64 rng(SplitMix64(trial_seed ^ 0xD1B54A32D192ED03ULL));
+    std::normal_distribution<double> g(0.0, 1.0);
+    for (int j = 0; j < spec.setups; ++j) {
+      Eigen::Vector3d u(g(rng), g(rng), g(rng));
+      out.push_back(e_mm * u.normalized());
+    }
+    return out;
+  }
+  const Eigen::Vector3d d = spec.direction.normalized();
+  for (int j = 0; j < spec.setups; ++j) {
+    const double a = 2.0 * kPi * j / spec.setups;
+    out.emplace_back(e_mm * (std::cos(a) * d.x() - std::sin(a) * d.y()), e_mm * (std::sin(a) * d.x() + std::cos(a) * d.y()),
+                     e_mm * d.z());
+  }
+  return out;
+}
+
+}  // namespace
+
+std::uint64_t TrialSeed(std::uint64_t seed, std::size_t k, std::size_t t) {
+  return SplitMix64(SplitMix64(SplitMix64(seed) + k) + t);
+}
+
+MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<void(long, long)>& progress) {
+  if (spec.trials < 2) throw Error("Monte Carlo: at least 2 trials are needed");
+  if (spec.setups < 1) throw Error("Monte Carlo: at least one setup per trial is needed");
+  if (spec.eccentricities_mm.empty()) throw Error("Monte Carlo: no eccentricity given");
+  if (!spec.random_direction && !(spec.direction.norm() > 0.0)) throw Error("Monte Carlo: the direction is zero");
+  const std::size_t n_ecc = spec.eccentricities_mm.size();
+  const std::size_t n_trials = static_cast<std::size_t>(spec.trials);
+  const long total = static_cast<long>(n_ecc * n_trials);
+
+  CalibrationOptions copts;
+  copts.sphere_radius_mm = spec.base.sphere_radius_mm;
+  copts.probe_offset_mm = spec.base.probe_offset_mm;
+  copts.analyse = false;
+
+  // Exact readings per eccentricity, when every trial measures the same placements.
+  std::vector<PointsData> exact(n_ecc);
+  if (!spec.random_direction) {
+    for (std::size_t k = 0; k < n_ecc; ++k) {
+      SimulationSpec s = spec.base;
+      s.centers_mm = Centers(spec, spec.eccentricities_mm[k], 0);
+      exact[k] = SimulateExact(s);
+    }
+  }
+
+  struct Trial {
+    ScmsGeometry geometry{};
+    bool converged = false;
+  };
+  std::vector<Trial> trials(static_cast<std::size_t>(total));
+  std::atomic<long> next{0};
+  std::atomic<long> done{0};
+  std::mutex progress_mutex;
+  std::mutex error_mutex;
+  std::string error;
+  const long step = std::max(1L, total / 100);
+
+  auto worker = [&]() {
+    for (long i = next++; i < total; i = next++) {
+      const std::size_t k = static_cast<std::size_t>(i) / n_trials;
+      const std::size_t t = static_cast<std::size_t>(i) % n_trials;
+      try {
+        SimulationSpec s = spec.base;
+        s.seed = TrialSeed(spec.seed, k, t);
+        PointsData data;
+        if (spec.random_direction) {
+          s.centers_mm = Centers(spec, spec.eccentricities_mm[k], s.seed);
+          data = SimulateExact(s);
+        } else {
+          data = exact[k];
+        }
+        AddReadingNoise(data, s);
+        const CalibrationResult r = Calibrate(data, copts);
+        trials[static_cast<std::size_t>(i)] = {r.geometry, r.converged};
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (error.empty()) error = e.what();
+      }
+      const long d = ++done;
+      if (progress && (d % step == 0 || d == total)) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        progress(d, total);
+      }
+    }
+  };
+  unsigned n_threads = spec.threads > 0 ? static_cast<unsigned>(spec.threads) : std::thread::hardware_concurrency();
+  n_threads = std::max(1u, std::min<unsigned>(n_threads, static_cast<unsigned>(total)));
+  std::vector<std::thread> pool;
+  for (unsigned w = 1; w < n_threads; ++w) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+  if (!error.empty()) throw Error("Monte Carlo: " + error);
+
+  MonteCarloResult result;
+  for (std::size_t k = 0; k < n_ecc; ++k) {
+    EccentricityResult row;
+    row.eccentricity_mm = spec.eccentricities_mm[k];
+    row.trials = spec.trials;
+    for (std::size_t t = 0; t < n_trials; ++t) {
+      const Trial& tr = trials[k * n_trials + t];
+      if (!tr.converged) continue;
+      ++row.converged;
+      row.estimates.push_back(tr.geometry);
+    }
+    SimulationSpec at_truth = spec.base;
+    at_truth.centers_mm = Centers(spec, row.eccentricity_mm, 0);
+    const PredictedUncertainty crlb = PredictUncertainty(at_truth);
+    const double n = static_cast<double>(row.estimates.size());
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      ParameterStats& st = row.params[static_cast<std::size_t>(p)];
+      st.truth = spec.base.truth[static_cast<std::size_t>(p)];
+      st.crlb = crlb.std(p);
+      st.bias = crlb.bias(p);
+      if (row.estimates.size() < 2) continue;
+      double sum = 0.0;
+      for (const auto& g : row.estimates) sum += g[static_cast<std::size_t>(p)];
+      st.mean = sum / n;
+      double ss = 0.0;
+      for (const auto& g : row.estimates) ss += (g[static_cast<std::size_t>(p)] - st.mean) * (g[static_cast<std::size_t>(p)] - st.mean);
+      st.std = std::sqrt(ss / (n - 1.0));
+      st.se = st.std / std::sqrt(n);
+      st.z = st.se > 0.0 ? (st.mean - st.truth) / st.se : 0.0;
+      st.z_bias = st.se > 0.0 ? (st.mean - st.truth - st.bias) / st.se : 0.0;
+    }
+    result.rows.push_back(std::move(row));
+  }
+  return result;
+}
+
+double EvaluatedSphericityUm(const SimulationSpec& base, const Eigen::Vector3d& center_mm, const ScmsGeometry& geometry) {
+  SimulationSpec s = base;
+  s.centers_mm = {center_mm};
+  const PointsData exact = SimulateExact(s);
+  std::vector<Eigen::Vector3d> pts;
+  pts.reserve(exact.samples.size());
+  for (const Sample& smp : exact.samples) {
+    pts.push_back(ScmsPoint(geometry, smp.theta_deg * kRadPerDeg, smp.phi_deg * kRadPerDeg, smp.r_mm, s.probe_offset_mm));
+  }
+  const LeastSquaresSphere fit = FitSphereLeastSquares(pts);
+  if (!fit.sphere.ok) throw Error("sphericity: the evaluated points determine no sphere");
+  return RadialPeakToValley(pts, fit.sphere.center) * kUmPerMm;
+}
+
+std::optional<double> EccentricityForNominalSphericity(const SimulationSpec& base, const Eigen::Vector3d& direction,
+                                                       double target_um, double max_mm) {
+  const Eigen::Vector3d u = direction.normalized();
+  const ScmsGeometry nominal{};
+  auto f = [&](double e) { return EvaluatedSphericityUm(base, e * u, nominal) - target_um; };
+  double lo = 0.0, hi = max_mm;
+  double f_lo = f(lo);
+  if (f_lo > 0.0 || f(hi) < 0.0) return std::nullopt;
+  for (int it = 0; it < 80 && hi - lo > 1e-9; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    const double f_mid = f(mid);
+    if ((f_mid < 0.0) == (f_lo < 0.0)) {
+      lo = mid;
+      f_lo = f_mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return 0.5 * (lo + hi);
+}
+
+std::vector<SphericityRow> SphericityStudy(const MonteCarloSpec& spec, const MonteCarloResult& result,
+                                           const std::vector<double>& before_targets_um, double calibration_e_mm) {
+  SimulationSpec cal_spec = spec.base;
+  cal_spec.centers_mm = Centers(spec, calibration_e_mm, 0);
+  cal_spec.seed = spec.seed;
+  CalibrationOptions copts;
+  copts.sphere_radius_mm = spec.base.sphere_radius_mm;
+  copts.probe_offset_mm = spec.base.probe_offset_mm;
+  copts.analyse = false;
+  const CalibrationResult one = Calibrate(Simulate(cal_spec), copts);
+
+  const EccentricityResult* at_cal = nullptr;
+  for (const auto& row : result.rows) {
+    if (std::abs(row.eccentricity_mm - calibration_e_mm) < 1e-12 && !row.estimates.empty()) at_cal = &row;
+  }
+  ScmsGeometry mean{};
+  if (at_cal != nullptr) {
+    for (int p = 0; p < kNumScmsParams; ++p) mean[static_cast<std::size_t>(p)] = at_cal->params[static_cast<std::size_t>(p)].mean;
+  }
+  // What one calibration typically achieves: the median over the first calibrations of the study
+  // (a single calibration's "after" values scatter by a factor of two or so).
+  constexpr std::size_t kMedianOf = 101;
+
+  const Eigen::Vector3d dir = spec.direction.normalized();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<SphericityRow> rows;
+  for (double target : before_targets_um) {
+    SphericityRow row{nan, nan, nan, nan, nan};
+    const auto e = EccentricityForNominalSphericity(spec.base, dir, target, 0.5 * spec.base.sphere_radius_mm);
+    if (e) {
+      const Eigen::Vector3d c = *e * dir;
+      row.eccentricity_mm = *e;
+      row.before_um = EvaluatedSphericityUm(spec.base, c, ScmsGeometry{});
+      row.after_one_um = EvaluatedSphericityUm(spec.base, c, one.geometry);
+      if (at_cal != nullptr) {
+        row.after_mean_um = EvaluatedSphericityUm(spec.base, c, mean);
+        std::vector<double> v;
+        for (std::size_t t = 0; t < std::min(kMedianOf, at_cal->estimates.size()); ++t) {
+          v.push_back(EvaluatedSphericityUm(spec.base, c, at_cal->estimates[t]));
+        }
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+        row.after_median_um = v[v.size() / 2];
+      }
+    }
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+}  // namespace sph

@@ -1,0 +1,106 @@
+#include "montecarlo_cmd.hpp"
+
+#include <fstream>
+#include <sstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "test_util.hpp"
+
+namespace sph::apps {
+namespace {
+
+using ::testing::HasSubstr;
+
+struct RunOutput {
+  int code;
+  std::string out, err;
+};
+
+RunOutput RunApp(const MonteCarloOptions& o) {
+  std::ostringstream out, err;
+  const int code = RunMonteCarloApp(o, out, err);
+  return {code, out.str(), err.str()};
+}
+
+TEST(MonteCarloCmd, TablesJsonAndCsv) {
+  const std::string dir = sph::testing::MakeTempDir("mccmd");
+  MonteCarloOptions o;
+  o.trials = 30;
+  o.eccentricities_mm = {1.0, 2.0};
+  o.json_path = dir + "/mc.json";
+  o.csv_path = dir + "/mc.csv";
+  const RunOutput r = RunApp(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("Table 2: mean of the calibrations (30 trials per eccentricity"));
+  EXPECT_THAT(r.out, HasSubstr("std/CRLB"));
+  EXPECT_THAT(r.out, HasSubstr("Table 3"));
+  EXPECT_THAT(r.out, HasSubstr("60 calibrations in"));
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["eccentricities"].size(), 2u);
+  const auto& c = j["eccentricities"][1]["parameters"]["c"];
+  EXPECT_EQ(c["unit"], "mm");
+  for (const char* k : {"true", "mean", "std", "se", "z", "crlb", "std_over_crlb", "bias_second_order"}) {
+    EXPECT_TRUE(c[k].is_number()) << k;
+  }
+  EXPECT_EQ(j["table3"]["rows"].size(), 10u);
+  std::ifstream csv(o.csv_path);
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials");
+  int lines = 0;
+  for (std::string line; std::getline(csv, line);) ++lines;
+  EXPECT_EQ(lines, 14);
+}
+
+TEST(MonteCarloCmd, FigureFourAsPng) {
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) GTEST_SKIP() << "gnuplot is not installed";
+  const std::string dir = sph::testing::MakeTempDir("mcplot") + "/figures";
+  MonteCarloOptions o;
+  o.trials = 20;
+  o.table3 = false;
+  o.plot_dir = dir;
+  const RunOutput r = RunApp(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  for (const char* name : {"fig4_b_c_std.png", "fig4_beta_epsilon_std.png", "fig4_spread.png"}) {
+    std::ifstream png(dir + "/" + name, std::ios::binary);
+    char magic[8] = {};
+    png.read(magic, 8);
+    EXPECT_EQ(std::string(magic + 1, 3), "PNG") << name;
+  }
+}
+
+TEST(MonteCarloCmd, PlanPredictsAndFindsTheEccentricity) {
+  MonteCarloOptions o;
+  o.plan = true;
+  o.target_std_um = 2.0;
+  const RunOutput r = RunApp(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("Predicted standard deviations"));
+  EXPECT_THAT(r.out, HasSubstr("this pattern: 1.9"));  // c needs e = 1.9... mm for 2 um (std ~ 1/e^2)
+  EXPECT_THAT(r.out, HasSubstr("96 x 48"));
+}
+
+TEST(MonteCarloCmd, BadOptionsExitTwo) {
+  MonteCarloOptions o;
+  o.direction = "0,0,0";
+  RunOutput r = RunApp(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("--direction must not be zero"));
+  o = MonteCarloOptions();
+  o.eccentricities_mm = {30.0};
+  r = RunApp(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("is not in [0, R0)"));
+  o = MonteCarloOptions();
+  o.target_std_um = 1.0;
+  r = RunApp(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("--target-std-um goes with --plan"));
+}
+
+}  // namespace
+}  // namespace sph::apps
