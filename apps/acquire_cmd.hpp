@@ -1,0 +1,89 @@
+// sph_acquired: options, CLI set-up and the run functions (unit-tested directly).
+//
+// Exit codes: 0 stopped cleanly (signal, end of replay, --duration-s) with no sample lost;
+// 1 stopped cleanly but samples were lost (incomplete cycles, missed SYNC, kernel drops: see the
+// summary); 2 bad input or usage; 3 output error (points file or frame log: e.g. a full disk;
+// everything written before is intact); 4 CAN interface error at start (no such interface, no
+// CAN support in the kernel).
+#ifndef SPH_APPS_ACQUIRE_CMD_HPP_
+#define SPH_APPS_ACQUIRE_CMD_HPP_
+
+#include <csignal>
+#include <cstdint>
+#include <optional>
+#include <ostream>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "can_options.hpp"
+#include "sph/can/pipeline.hpp"
+
+namespace sph::apps {
+
+enum AcquireExit : int {
+  kExitSamplesLost = 1,
+  kExitOutputError = 3,
+  kExitInterfaceError = 4,
+};
+
+struct AcquireOptions {
+  std::string iface;             ///< live: CAN interface
+  std::string replay_path;       ///< offline: candump log
+  std::string output_path;       ///< points file (appended)
+  std::string can_log_path;      ///< candump log of every frame (appended); empty: none
+  std::string mode = "stream";   ///< stream | points
+  int setup = 0;
+  std::optional<double> sphere_radius_mm;
+  std::optional<double> probe_offset_mm;
+  double fsync_interval_s = 1.0;
+  std::string sync_mode = "produce";  ///< produce | follow
+  double heartbeat_timeout_s = 0.0;
+  double standstill_tol_deg = 0.001;
+  double dwell_s = 0.2;
+  double average_s = 0.0;
+  int min_samples = 3;
+  double duration_s = 0.0;        ///< live: stop after this long; 0: until a signal
+  double replay_speed = 0.0;      ///< replay: 1 = real time; 0: as fast as possible
+  double reopen_interval_s = 0.5; ///< live: retry period while the interface is down
+  int rcvbuf_bytes = 0;
+  std::string log_level = "info";
+  int verbose = 0;
+  DeviceOptions devices;
+};
+
+/// Flags the signal handlers set (sph_acquired.cpp installs them).
+struct SignalFlags {
+  volatile std::sig_atomic_t stop = 0;     ///< SIGTERM, SIGINT
+  volatile std::sig_atomic_t summary = 0;  ///< SIGUSR1
+};
+/// The process's flags.
+SignalFlags& ProcessSignals();
+/// Installs SIGTERM/SIGINT/SIGUSR1 handlers (no SA_RESTART) that set ProcessSignals().
+void InstallSignalHandlers();
+
+void SetupAcquireApp(CLI::App& app, AcquireOptions& options);
+
+/// Runs the daemon (live or replay). Logs, warnings and the summary go to `err`.
+/// Returns one of the exit codes above.
+int RunAcquire(const AcquireOptions& options, std::ostream& err);
+
+// ---- for the run functions and their tests
+/// The pipeline configuration the options describe; throws sph::Error.
+can::PipelineConfig MakePipelineConfig(const AcquireOptions& options);
+
+/// Writes "sph_acquired: <level>: <text>" lines at or below a level.
+class Logger {
+ public:
+  Logger(std::ostream& out, can::LogLevel max_level) : out_(out), max_(max_level) {}
+  void operator()(can::LogLevel level, const std::string& text) const;
+  bool Enabled(can::LogLevel level) const { return static_cast<int>(level) <= static_cast<int>(max_); }
+
+ private:
+  std::ostream& out_;
+  can::LogLevel max_;
+};
+
+}  // namespace sph::apps
+
+#endif  // SPH_APPS_ACQUIRE_CMD_HPP_

@@ -1,0 +1,54 @@
+// sph_cansim: a simulated SCMS as CANopen traffic, into a candump log or onto a CAN interface.
+#ifndef SPH_APPS_CANSIM_CMD_HPP_
+#define SPH_APPS_CANSIM_CMD_HPP_
+
+#include <cstdint>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "app_common.hpp"
+#include "can_options.hpp"
+#include "sph/can/device_sim.hpp"
+
+namespace sph::apps {
+
+struct CansimOptions {
+  std::string output_path;            ///< candump log ("-": stdout)
+  std::string iface;                  ///< live: CAN interface, paced in real time
+  std::string log_iface = "can0";     ///< interface name written into the log
+  std::string sync_source = "internal";  ///< internal: the simulator sends SYNC; external: answers SYNC
+  MachineOptions machine;             ///< truth, sphere, pattern, noise (as sph_simulate)
+  std::string center_mm = "2,0,0";
+  std::uint64_t seed = 1;
+  double move_s = 0.5;
+  double stop_s = 1.0;
+  double heartbeat_period_s = 1.0;
+  double start_time_s = 1.7e9;        ///< log mode: time of the first SYNC
+  // faults
+  double drop_probability = 0.0;
+  double short_probability = 0.0;
+  double sync_drop_probability = 0.0;
+  double probe_out_of_range_probability = 0.0;
+  double jitter_us = 0.0;
+  double error_frame_period_s = 0.0;
+  std::vector<double> bus_off_at_s;
+  std::vector<std::string> silences;     ///< "device:from_s:to_s"
+  std::vector<std::string> emergencies;  ///< "device:at_s:code"
+  DeviceOptions devices;
+};
+
+void SetupCansimApp(CLI::App& app, CansimOptions& options);
+
+/// The simulator configuration of the options; throws sph::Error.
+can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& options);
+
+/// Writes the log or plays onto the interface; a summary of what was sent (and the faults
+/// injected) goes to `err`. Returns kExitOk, kExitBadInput, or kExitOutputError/kExitInterfaceError.
+int RunCansim(const CansimOptions& options, std::ostream& err);
+
+}  // namespace sph::apps
+
+#endif  // SPH_APPS_CANSIM_CMD_HPP_

@@ -1,0 +1,63 @@
+// Streaming output of points files (format sph-points 1, data/README.md): one record at a time,
+// for acquisition. The file is readable by ReadPointsFile() after every record.
+#ifndef SPH_CORE_POINTS_WRITER_HPP_
+#define SPH_CORE_POINTS_WRITER_HPP_
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "sph/core/append_file.hpp"
+#include "sph/core/points_file.hpp"
+
+namespace sph {
+
+struct PointsWriterOptions {
+  bool has_time = true;          ///< write the t_s column
+  bool has_setup = false;        ///< write the setup column
+  double fsync_interval_s = 1.0; ///< see AppendFile: 0 every record, < 0 only at Close()
+};
+
+/// Appends samples to a points file, each row written (one write()) before Write() returns.
+///
+/// A new or empty file gets the header first (format line, sphere_radius_mm, probe_offset_mm,
+/// the metadata, columns). An existing file is continued, never rewritten: its header must name
+/// the same columns and, where both give them, the same radius and probe offset, else the
+/// constructor throws sph::Error ("points.txt: has columns 'theta_deg phi_deg r_mm' but this run
+/// writes 'theta_deg phi_deg r_mm t_s': use another file"). An incomplete last line is cut off
+/// (see AppendFile). Rows have the same 10 decimals as WritePoints() (t_s: 6).
+class PointsWriter {
+ public:
+  PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options);
+
+  /// One row. Throws sph::Error on a write error (full disk), leaving the file as it was.
+  void Write(const Sample& sample);
+  /// A '#' comment line (between samples the reader skips it). Text that would read as a
+  /// "key: value" header field in a file without samples is prefixed with "note ", and line
+  /// breaks become spaces, so a comment never changes the header.
+  void WriteComment(std::string_view text);
+  void SyncIfDue() { file_.SyncIfDue(); }
+  void Sync() { file_.Sync(); }
+  void Close() { file_.Close(); }
+
+  /// The file had content when opened: this run continues it.
+  bool resumed() const { return resumed_; }
+  std::uint64_t truncated_bytes() const { return file_.truncated_bytes(); }
+  std::uint64_t samples_written() const { return samples_written_; }
+  const std::string& path() const { return file_.path(); }
+  AppendFile& file() { return file_; }
+
+  /// The row for `sample`, with its '\n'.
+  static std::string FormatRow(const Sample& sample, bool has_time, bool has_setup);
+
+ private:
+  AppendFile file_;
+  PointsWriterOptions options_;
+  bool resumed_ = false;
+  std::uint64_t samples_written_ = 0;
+};
+
+}  // namespace sph
+
+#endif  // SPH_CORE_POINTS_WRITER_HPP_

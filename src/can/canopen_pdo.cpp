@@ -1,0 +1,172 @@
+// PDO fields, CiA 406 position values and the probe value.
+#include <algorithm>
+#include <cstdio>
+#include <cmath>
+#include <limits>
+
+#include "sph/can/canopen.hpp"
+#include "sph/core/error.hpp"
+
+namespace sph::can {
+namespace {
+
+// Smallest and largest raw value a field can hold.
+std::int64_t FieldMin(const FieldLayout& l) {
+  if (!l.is_signed) return 0;
+  return l.width_bytes >= 8 ? std::numeric_limits<std::int64_t>::min() : -(std::int64_t{1} << (8 * l.width_bytes - 1));
+}
+std::int64_t FieldMax(const FieldLayout& l) {
+  if (l.width_bytes >= 8) return std::numeric_limits<std::int64_t>::max();
+  return l.is_signed ? (std::int64_t{1} << (8 * l.width_bytes - 1)) - 1 : (std::int64_t{1} << (8 * l.width_bytes)) - 1;
+}
+
+// x mod m in [0, m) for m > 0.
+std::int64_t PositiveMod(std::int64_t x, std::int64_t m) { return ((x % m) + m) % m; }
+
+}  // namespace
+
+const char* ToString(DecodeStatus status) {
+  switch (status) {
+    case DecodeStatus::kOk: return "ok";
+    case DecodeStatus::kShort: return "frame too short";
+    case DecodeStatus::kOutOfRange: return "out of range";
+    case DecodeStatus::kDeviceError: return "device error";
+  }
+  return "?";
+}
+
+void ValidateLayout(const FieldLayout& l, const std::string& what) {
+  if (l.width_bytes < 1 || l.width_bytes > 8) {
+    throw Error(what + ": width must be 1..8 bytes, got " + std::to_string(l.width_bytes));
+  }
+  if (l.offset_byte < 0 || l.offset_byte + l.width_bytes > kMaxDataBytes) {
+    throw Error(what + ": a " + std::to_string(l.width_bytes) + "-byte value at byte " +
+                std::to_string(l.offset_byte) + " does not fit in 8 data bytes");
+  }
+  const std::uint32_t id = l.can_id & ~kEffFlag;
+  if ((l.can_id & (kRtrFlag | kErrFlag)) != 0 || id > ((l.can_id & kEffFlag) ? kEffMask : kSffMask)) {
+    throw Error(what + ": invalid CAN id 0x" + [&] {
+      char b[16];
+      std::snprintf(b, sizeof b, "%X", l.can_id);
+      return std::string(b);
+    }());
+  }
+}
+
+std::optional<std::int64_t> ExtractField(const CanFrame& frame, const FieldLayout& l) {
+  if (l.offset_byte < 0 || l.width_bytes < 1 || l.width_bytes > 8 || frame.len < l.offset_byte + l.width_bytes) {
+    return std::nullopt;
+  }
+  std::uint64_t v = 0;
+  for (int i = 0; i < l.width_bytes; ++i) {
+    const int byte = l.big_endian ? l.offset_byte + i : l.offset_byte + l.width_bytes - 1 - i;  // most significant first
+    v = (v << 8) | frame.data[static_cast<std::size_t>(byte)];
+  }
+  const int bits = 8 * l.width_bytes;
+  if (l.is_signed && bits < 64 && (v >> (bits - 1)) != 0) v |= ~std::uint64_t{0} << bits;  // sign-extend
+  return static_cast<std::int64_t>(v);
+}
+
+void InsertField(CanFrame& frame, const FieldLayout& l, std::int64_t value) {
+  auto v = static_cast<std::uint64_t>(value);
+  for (int i = 0; i < l.width_bytes; ++i) {  // least significant first
+    const int byte = l.big_endian ? l.offset_byte + l.width_bytes - 1 - i : l.offset_byte + i;
+    frame.data[static_cast<std::size_t>(byte)] = static_cast<std::uint8_t>(v & 0xFF);
+    v >>= 8;
+  }
+  frame.len = static_cast<std::uint8_t>(std::max<int>(frame.len, l.offset_byte + l.width_bytes));
+}
+
+void ValidateEncoder(const EncoderConfig& c, const std::string& what) {
+  ValidateLayout(c.field, what);
+  if (c.counts_per_rev == 0) throw Error(what + ": counts per revolution must be positive");
+  if (c.direction != 1 && c.direction != -1) throw Error(what + ": direction must be 1 or -1");
+  if (c.node_id < 0 || c.node_id > 127) throw Error(what + ": node id must be 0..127");
+}
+
+DecodedValue DecodePosition(const EncoderConfig& c, const CanFrame& frame) {
+  DecodedValue out;
+  const auto raw = ExtractField(frame, c.field);
+  if (!raw) {
+    out.status = DecodeStatus::kShort;
+    return out;
+  }
+  out.raw = *raw;
+  const auto cpr = static_cast<std::int64_t>(c.counts_per_rev);
+  if (!c.multi_turn) {
+    if (*raw < 0 || *raw >= cpr) {
+      out.status = DecodeStatus::kOutOfRange;
+      return out;
+    }
+    const std::int64_t counts = PositiveMod(c.direction * (*raw - PositiveMod(c.zero_offset_counts, cpr)), cpr);
+    out.value = 360.0 * static_cast<double>(counts) / static_cast<double>(cpr);
+    return out;
+  }
+  // Multi-turn: the difference is taken on the field's own circle of 2^bits counts.
+  const int bits = 8 * c.field.width_bytes;
+  auto diff = static_cast<std::uint64_t>(*raw) - static_cast<std::uint64_t>(c.zero_offset_counts);
+  if (bits < 64) {
+    diff &= (std::uint64_t{1} << bits) - 1;
+    if ((diff >> (bits - 1)) != 0) diff |= ~std::uint64_t{0} << bits;
+  }
+  const auto counts = static_cast<std::int64_t>(diff) * c.direction;
+  out.value = 360.0 * static_cast<double>(counts) / static_cast<double>(cpr);
+  return out;
+}
+
+std::int64_t EncodePositionRaw(const EncoderConfig& c, double angle_deg) {
+  const auto cpr = static_cast<std::int64_t>(c.counts_per_rev);
+  const auto counts = static_cast<std::int64_t>(std::llround(angle_deg / 360.0 * static_cast<double>(cpr)));
+  const std::int64_t raw = c.zero_offset_counts + c.direction * counts;
+  if (!c.multi_turn) return PositiveMod(raw, cpr);
+  const int bits = 8 * c.field.width_bytes;
+  if (bits >= 64) return raw;
+  return static_cast<std::int64_t>(static_cast<std::uint64_t>(raw) & ((std::uint64_t{1} << bits) - 1));
+}
+
+void ValidateProbe(const ProbeConfig& c, const std::string& what) {
+  ValidateLayout(c.field, what);
+  if (!(c.scale_mm_per_count != 0.0) || !std::isfinite(c.scale_mm_per_count)) {
+    throw Error(what + ": the scale must be a non-zero number");
+  }
+  if (!std::isfinite(c.offset_mm)) throw Error(what + ": the offset must be finite");
+  if (c.status_offset_byte >= kMaxDataBytes) throw Error(what + ": the status byte must be 0..7 (or -1 for none)");
+  if (c.node_id < 0 || c.node_id > 127) throw Error(what + ": node id must be 0..127");
+}
+
+DecodedValue DecodeProbe(const ProbeConfig& c, const CanFrame& frame) {
+  DecodedValue out;
+  const auto raw = ExtractField(frame, c.field);
+  if (!raw || (c.status_offset_byte >= 0 && frame.len <= c.status_offset_byte)) {
+    out.status = DecodeStatus::kShort;
+    return out;
+  }
+  out.raw = *raw;
+  if (c.status_offset_byte >= 0 &&
+      (frame.data[static_cast<std::size_t>(c.status_offset_byte)] & c.status_error_mask) != 0) {
+    out.status = DecodeStatus::kDeviceError;
+    return out;
+  }
+  if (std::find(c.error_raw.begin(), c.error_raw.end(), *raw) != c.error_raw.end()) {
+    out.status = DecodeStatus::kDeviceError;
+    return out;
+  }
+  if ((c.over_range_raw && *raw == *c.over_range_raw) || (c.under_range_raw && *raw == *c.under_range_raw)) {
+    out.status = DecodeStatus::kOutOfRange;
+    return out;
+  }
+  out.value = c.offset_mm + c.scale_mm_per_count * static_cast<double>(*raw);
+  return out;
+}
+
+std::int64_t EncodeProbeRaw(const ProbeConfig& c, double r_mm) {
+  std::int64_t lo = FieldMin(c.field), hi = FieldMax(c.field);
+  if (c.under_range_raw && *c.under_range_raw == lo) ++lo;
+  if (c.over_range_raw && *c.over_range_raw == hi) --hi;
+  const double counts = std::round((r_mm - c.offset_mm) / c.scale_mm_per_count);
+  if (!(counts > static_cast<double>(lo))) return lo;
+  if (!(counts < static_cast<double>(hi))) return hi;
+  return static_cast<std::int64_t>(counts);
+}
+
+}  // namespace sph::can

@@ -1,0 +1,136 @@
+#include "sph/core/points_writer.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "sph/core/error.hpp"
+
+namespace sph {
+namespace {
+
+std::string Trim(std::string_view s) {
+  const auto first = s.find_first_not_of(" \t\r");
+  if (first == std::string_view::npos) return "";
+  const auto last = s.find_last_not_of(" \t\r");
+  return std::string(s.substr(first, last - first + 1));
+}
+
+bool IsKey(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  });
+}
+
+// Whether "# <body>" would be read as a header field (or the format line).
+bool LooksLikeHeaderField(const std::string& body) {
+  if (body.rfind("sph-points", 0) == 0) return true;
+  const auto colon = body.find(':');
+  return colon != std::string::npos && IsKey(Trim(body.substr(0, colon)));
+}
+
+std::string OneLine(std::string_view text) {
+  std::string s(text);
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  std::replace(s.begin(), s.end(), '\r', ' ');
+  return s;
+}
+
+std::string ColumnsOf(const PointsWriterOptions& o) {
+  return std::string("theta_deg phi_deg r_mm") + (o.has_time ? " t_s" : "") + (o.has_setup ? " setup" : "");
+}
+
+// The shortest text that reads back as `v` (12.7, not 12.699999999999999).
+std::string Number(double v) {
+  char buf[40];
+  for (int precision = 15; precision <= 17; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
+// The "key: value" header fields of an existing file (up to its first sample).
+std::map<std::string, std::string> ReadHeaderFields(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot read the existing header");
+  std::map<std::string, std::string> fields;
+  std::string line;
+  while (std::getline(in, line)) {
+    const std::string text = Trim(line);
+    if (text.empty()) continue;
+    if (text[0] != '#') break;  // the first sample ends the header
+    const std::string body = Trim(std::string_view(text).substr(1));
+    const auto colon = body.find(':');
+    if (colon == std::string::npos) continue;
+    const std::string key = Trim(body.substr(0, colon));
+    if (IsKey(key)) fields.emplace(key, Trim(body.substr(colon + 1)));
+  }
+  return fields;
+}
+
+void CheckSameNumber(const std::string& path, const std::map<std::string, std::string>& fields, const char* key,
+                     const std::optional<double>& ours) {
+  const auto it = fields.find(key);
+  if (it == fields.end() || !ours) return;
+  char* end = nullptr;
+  const double theirs = std::strtod(it->second.c_str(), &end);
+  if (end == it->second.c_str() || theirs != *ours) {
+    throw Error(path + ": has " + key + " " + it->second + " but this run writes " + Number(*ours) +
+                ": use another file");
+  }
+}
+
+}  // namespace
+
+PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options)
+    : file_(path, options.fsync_interval_s), options_(options) {
+  const std::string columns = ColumnsOf(options);
+  if (file_.had_content()) {
+    const auto fields = ReadHeaderFields(path);
+    const auto it = fields.find(kColumnsKey);
+    const std::string theirs = it == fields.end() ? "theta_deg phi_deg r_mm" : it->second;
+    if (theirs != columns) {
+      throw Error(path + ": has columns '" + theirs + "' but this run writes '" + columns + "': use another file");
+    }
+    CheckSameNumber(path, fields, kRadiusKey, header.sphere_radius_mm);
+    CheckSameNumber(path, fields, kProbeOffsetKey, header.probe_offset_mm);
+    resumed_ = true;
+    return;
+  }
+  std::string head = "# sph-points " + std::to_string(kPointsFormatVersion) + "\n";
+  if (header.sphere_radius_mm) head += std::string("# ") + kRadiusKey + ": " + Number(*header.sphere_radius_mm) + "\n";
+  if (header.probe_offset_mm) head += std::string("# ") + kProbeOffsetKey + ": " + Number(*header.probe_offset_mm) + "\n";
+  for (const auto& [key, value] : header.metadata) {
+    if (!IsKey(key)) throw Error(path + ": '" + key + "' is not a valid header key");
+    if (key == kRadiusKey || key == kProbeOffsetKey || key == kColumnsKey) continue;
+    head += "# " + key + ": " + OneLine(value) + "\n";
+  }
+  head += std::string("# ") + kColumnsKey + ": " + columns + "\n";
+  file_.Append(head);
+}
+
+std::string PointsWriter::FormatRow(const Sample& s, bool has_time, bool has_setup) {
+  char buf[1100];  // %.10f of the largest double is 320 characters
+  int n = std::snprintf(buf, sizeof buf, "%.10f %.10f %.10f", s.theta_deg, s.phi_deg, s.r_mm);
+  if (has_time) n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %.6f", s.t_s);
+  if (has_setup) n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %d", s.setup);
+  buf[n++] = '\n';
+  return std::string(buf, static_cast<std::size_t>(n));
+}
+
+void PointsWriter::Write(const Sample& sample) {
+  file_.Append(FormatRow(sample, options_.has_time, options_.has_setup));
+  ++samples_written_;
+}
+
+void PointsWriter::WriteComment(std::string_view text) {
+  std::string body = Trim(OneLine(text));
+  if (LooksLikeHeaderField(body)) body = "note " + body;
+  file_.Append("# " + body + "\n");
+}
+
+}  // namespace sph

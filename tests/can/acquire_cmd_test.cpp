@@ -1,0 +1,307 @@
+// sph_acquired and sph_cansim through their run functions, and the installed programs for the
+// signal tests: replay of simulated logs, every fault, restarts, output errors, the end-to-end
+// calibration.
+#include "acquire_cmd.hpp"
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "app_common.hpp"
+#include "cansim_cmd.hpp"
+#include "sph/calib/calibrator.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/core/simulate.hpp"
+#include "test_util.hpp"
+
+namespace sph::apps {
+namespace {
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// A simulated log of the default machine; `extra` adjusts the options.
+std::string MakeLog(const std::string& dir, const std::string& name, void (*extra)(CansimOptions&) = nullptr) {
+  CansimOptions o;
+  o.output_path = dir + "/" + name;
+  o.devices.sync_period_ms = 10.0;
+  o.stop_s = 1.0;
+  o.move_s = 0.5;
+  if (extra != nullptr) extra(o);
+  std::ostringstream err;
+  EXPECT_EQ(RunCansim(o, err), kExitOk) << err.str();
+  return o.output_path;
+}
+
+AcquireOptions ReplayOptions(const std::string& log, const std::string& out) {
+  AcquireOptions o;
+  o.replay_path = log;
+  o.output_path = out;
+  o.sphere_radius_mm = 20.0;
+  o.probe_offset_mm = 25.0;
+  o.devices.sync_period_ms = 10.0;
+  o.heartbeat_timeout_s = 2.5;
+  return o;
+}
+
+TEST(Acquire, StreamReplayWritesEverySyncCycle) {
+  const std::string dir = sph::testing::MakeTempDir("acq_stream");
+  const std::string log = MakeLog(dir, "sim.log", [](CansimOptions& o) {
+    o.machine.theta_steps = 4;
+    o.machine.phi_steps = 2;
+  });
+  std::ostringstream err;
+  EXPECT_EQ(RunAcquire(ReplayOptions(log, dir + "/p.txt"), err), kExitOk) << err.str();
+  const PointsData d = ReadPointsFile(dir + "/p.txt");
+  EXPECT_EQ(d.samples.size(), 1150U);  // 8 stops of 1 s + 7 moves of 0.5 s at 10 ms
+  EXPECT_NE(err.str().find("samples 1150"), std::string::npos) << err.str();
+}
+
+TEST(Acquire, EveryFaultIsCountedReportedAndTheFileStaysReadable) {
+  const std::string dir = sph::testing::MakeTempDir("acq_faults");
+  const std::string log = MakeLog(dir, "sim.log", [](CansimOptions& o) {
+    o.machine.theta_steps = 6;
+    o.machine.phi_steps = 3;
+    o.drop_probability = 0.01;
+    o.short_probability = 0.005;
+    o.sync_drop_probability = 0.005;
+    o.probe_out_of_range_probability = 0.005;
+    o.jitter_us = 2000;
+    o.error_frame_period_s = 5.0;
+    o.bus_off_at_s = {7.0};
+    o.silences = {"probe:10:14"};
+    o.emergencies = {"theta:3:8130"};
+    o.devices.sync_counter_max = 240;
+  });
+  { std::ofstream(log, std::ios::app) << "garbage line\n(1700000100.000000) can0 183#0102\n(1.0) can0 181##1\n"; }
+  AcquireOptions o = ReplayOptions(log, dir + "/p.txt");
+  o.devices.sync_counter_max = 240;
+  o.mode = "points";
+  o.can_log_path = dir + "/frames.log";
+  std::ostringstream err;
+  EXPECT_EQ(RunAcquire(o, err), kExitSamplesLost) << err.str();
+  const std::string e = err.str();
+  for (const char* expected :
+       {"error frame: controller-problem{rx-error-warning}", "error frame: bus-off", "node 3 (probe): heartbeat lost",
+        "theta node 1: EMCY 0x8130", "malformed probe PDO", "probe reports out of range",
+        "SYNC cycle missing (never received)", "malformed input: " , "sim.log:", ": CAN FD frames ('##') are not supported",
+        "samples were lost"}) {
+    EXPECT_NE(e.find(expected), std::string::npos) << "missing '" << expected << "' in:\n" << e;
+  }
+  const PointsData d = ReadPointsFile(dir + "/p.txt");
+  // Stops are 1 s at t = 1.5 i; the probe's silence from 10 to 14 s swallows the stops at 10.5 and
+  // 12 s whole; every other stop still gives its point.
+  EXPECT_EQ(d.samples.size(), 16U);
+  const std::string file = Slurp(dir + "/p.txt");
+  EXPECT_NE(file.find("incomplete SYNC cycle"), std::string::npos);
+  EXPECT_NE(file.find("probe no frame"), std::string::npos);
+  // The frame log holds every valid frame of the input, in can-utils' format.
+  std::size_t valid = 0;
+  {
+    std::ifstream in(log);
+    for (std::string line; std::getline(in, line);) valid += line.find("##") == std::string::npos && line[0] == '(';
+  }
+  std::size_t logged = 0;
+  {
+    std::ifstream in(dir + "/frames.log");
+    for (std::string line; std::getline(in, line);) ++logged;
+  }
+  EXPECT_EQ(logged, valid);
+}
+
+TEST(Acquire, ARestartAppendsToTheSameFile) {
+  const std::string dir = sph::testing::MakeTempDir("acq_restart");
+  const std::string log = MakeLog(dir, "sim.log", [](CansimOptions& o) {
+    o.machine.theta_steps = 3;
+    o.machine.phi_steps = 1;
+  });
+  AcquireOptions o = ReplayOptions(log, dir + "/p.txt");
+  o.mode = "points";
+  std::ostringstream err;
+  ASSERT_EQ(RunAcquire(o, err), kExitOk) << err.str();
+  const std::string first = Slurp(dir + "/p.txt");
+  ASSERT_EQ(RunAcquire(o, err), kExitOk) << err.str();
+  const std::string both = Slurp(dir + "/p.txt");
+  EXPECT_EQ(both.rfind(first, 0), 0U);
+  EXPECT_EQ(ReadPointsFile(dir + "/p.txt").samples.size(), 6U);
+  EXPECT_NE(both.find("# resumed by sph_acquired"), std::string::npos);
+}
+
+TEST(Acquire, OutputErrorsExitWith3) {
+  const std::string dir = sph::testing::MakeTempDir("acq_full");
+  const std::string log = MakeLog(dir, "sim.log", [](CansimOptions& o) {
+    o.machine.theta_steps = 2;
+    o.machine.phi_steps = 1;
+  });
+  std::ostringstream err;
+  EXPECT_EQ(RunAcquire(ReplayOptions(log, "/dev/full"), err), kExitOutputError);
+  EXPECT_NE(err.str().find("/dev/full: cannot write: No space left on device"), std::string::npos) << err.str();
+  std::ostringstream err2;
+  EXPECT_EQ(RunAcquire(ReplayOptions(log, dir + "/no/such/dir/p.txt"), err2), kExitOutputError);
+}
+
+TEST(Acquire, BadInputExitsWith2AndAMissingInterfaceWith4) {
+  std::ostringstream err;
+  AcquireOptions o;
+  o.output_path = sph::testing::MakeTempDir("acq_bad") + "/p.txt";
+  EXPECT_EQ(RunAcquire(o, err), kExitBadInput);  // neither --iface nor --replay
+  o.replay_path = "/nonexistent.log";
+  EXPECT_EQ(RunAcquire(o, err), kExitBadInput);
+  EXPECT_NE(err.str().find("/nonexistent.log: cannot open for reading"), std::string::npos) << err.str();
+  o.replay_path.clear();
+  o.iface = "nosuchcan9";
+  std::ostringstream err4;
+  EXPECT_EQ(RunAcquire(o, err4), kExitInterfaceError);
+  EXPECT_NE(err4.str().find("nosuchcan9: "), std::string::npos) << err4.str();
+  o.devices.phi.cob_id = o.devices.theta.cob_id;
+  std::ostringstream err2;
+  EXPECT_EQ(RunAcquire(o, err2), kExitBadInput);
+  EXPECT_NE(err2.str().find("theta and phi use the same CAN id 0x181"), std::string::npos) << err2.str();
+}
+
+TEST(Acquire, TheExampleConfigParsesAndSetsEveryDevice) {
+  CLI::App app;
+  AcquireOptions o;
+  SetupAcquireApp(app, o);
+  const std::string config = std::string(SPH_SOURCE_DIR) + "/data/sph_acquired.conf";
+  // CLI11 takes the arguments reversed.
+  ASSERT_NO_THROW(app.parse(std::vector<std::string>{"x.txt", "--output", config, "--config"}));
+  EXPECT_EQ(o.iface, "can0");
+  EXPECT_EQ(o.mode, "points");
+  EXPECT_EQ(o.devices.theta.cob_id, 0x181U);
+  EXPECT_EQ(o.devices.phi.counts_per_rev, 1U << 24);
+  EXPECT_EQ(o.devices.probe_scale_nm_per_count, 1.0);
+  EXPECT_EQ(o.devices.sync_counter_max, 0);
+  EXPECT_DOUBLE_EQ(o.fsync_interval_s, 1.0);
+  EXPECT_NO_THROW(MakePipelineConfig(o));
+}
+
+TEST(Acquire, HexIdsOnTheCommandLine) {
+  CLI::App app;
+  AcquireOptions o;
+  SetupAcquireApp(app, o);
+  ASSERT_NO_THROW(app.parse(std::vector<std::string>{"0x1A5", "--probe-cob-id", "o.txt", "-o", "0x8A", "--theta-cob-id"}));
+  EXPECT_EQ(o.devices.theta.cob_id, 0x8AU);
+  EXPECT_EQ(o.devices.probe_cob_id, 0x1A5U);
+}
+
+// Calibrate a points file as sph_calibrate does; the seven errors and their std (internal units).
+struct Fit {
+  ScmsGeometry value{};
+  std::array<double, kNumScmsParams> sd{};
+  bool usable = false;
+};
+Fit CalibrateFile(const PointsData& points) {
+  CalibrationOptions co;
+  co.sphere_radius_mm = 20.0;
+  co.probe_offset_mm = 25.0;
+  const CalibrationResult r = Calibrate(points, co);
+  Fit f;
+  f.value = r.geometry;
+  for (int i = 0; i < kNumScmsParams; ++i) f.sd[static_cast<std::size_t>(i)] = r.analysis.std(i);
+  f.usable = r.Usable();
+  return f;
+}
+
+TEST(EndToEnd, SimulatorLogDaemonPointsFileCalibratesLikeSphSimulate) {
+  const std::string dir = sph::testing::MakeTempDir("acq_e2e");
+  const std::string log = MakeLog(dir, "sim.log");  // the paper's 24 x 12 grid, 1 s stops at 100 Hz
+  AcquireOptions o = ReplayOptions(log, dir + "/p.txt");
+  o.mode = "points";
+  std::ostringstream err;
+  ASSERT_EQ(RunAcquire(o, err), kExitOk) << err.str();
+  const PointsData daemon = ReadPointsFile(dir + "/p.txt");
+  ASSERT_EQ(daemon.samples.size(), 288U);
+  const Fit from_daemon = CalibrateFile(daemon);
+  const Fit from_simulate = CalibrateFile(Simulate(SimulationSpec{}));  // what sph_simulate writes by default
+  ASSERT_TRUE(from_daemon.usable);
+  ASSERT_TRUE(from_simulate.usable);
+  const ScmsGeometry truth = SimulationSpec::PaperTruth();
+  for (int i = 0; i < kNumScmsParams; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    const double combined = std::hypot(from_daemon.sd[k], from_simulate.sd[k]);
+    // Coverage factor 3 on the reported standard uncertainties.
+    EXPECT_LE(std::abs(from_daemon.value[k] - from_simulate.value[k]), 3.0 * combined) << "parameter " << i;
+    EXPECT_LE(std::abs(from_daemon.value[k] - truth[k]), 3.0 * from_daemon.sd[k]) << "parameter " << i;
+  }
+}
+
+// The installed program under signals.
+pid_t Spawn(const std::vector<std::string>& args, const std::string& stderr_path) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::freopen(stderr_path.c_str(), "w", stderr);
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+TEST(AcquireProcess, SigtermFlushesClosesAndSigusr1PrintsTheSummary) {
+  const std::string dir = sph::testing::MakeTempDir("acq_sigterm");
+  const std::string log = MakeLog(dir, "sim.log", [](CansimOptions& o) {
+    o.machine.theta_steps = 24;
+    o.machine.phi_steps = 2;
+  });
+  const pid_t pid = Spawn({SPH_ACQUIRED_PATH, "--replay", log, "-o", dir + "/p.txt", "--replay-speed", "1",
+                           "--sync-period-ms", "10", "--fsync-interval-s", "0.2"},
+                          dir + "/stderr.txt");
+  ASSERT_GT(pid, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  kill(pid, SIGUSR1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(pid, SIGTERM);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), kExitOk);
+  const std::string e = Slurp(dir + "/stderr.txt");
+  EXPECT_NE(e.find("stop requested"), std::string::npos) << e;
+  const auto first = e.find("summary: frames");
+  ASSERT_NE(first, std::string::npos) << e;
+  EXPECT_NE(e.find("summary: frames", first + 1), std::string::npos) << "SIGUSR1 and the end each print one:\n" << e;
+  const PointsData d = ReadPointsFile(dir + "/p.txt");
+  EXPECT_GT(d.samples.size(), 100U);  // about 180 in 1.8 s at 100 Hz
+  EXPECT_LT(d.samples.size(), 400U);  // stopped long before the log's 36 s end
+}
+
+TEST(AcquireProcess, Kill9LosesNoWrittenRecordAndTheFileStaysReadable) {
+  const std::string dir = sph::testing::MakeTempDir("acq_kill9");
+  const std::string log = MakeLog(dir, "sim.log", [](CansimOptions& o) {
+    o.machine.theta_steps = 24;
+    o.machine.phi_steps = 2;
+  });
+  for (int run = 0; run < 2; ++run) {  // the second run continues the killed file
+    const pid_t pid = Spawn({SPH_ACQUIRED_PATH, "--replay", log, "-o", dir + "/p.txt", "--replay-speed", "1",
+                             "--sync-period-ms", "10", "--fsync-interval-s", "0.5"},
+                            dir + "/stderr.txt");
+    ASSERT_GT(pid, 0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    EXPECT_TRUE(WIFSIGNALED(status));
+    const PointsData d = ReadPointsFile(dir + "/p.txt");  // throws if a line is broken
+    EXPECT_GT(d.samples.size(), 50U * static_cast<std::size_t>(run + 1));
+    const std::string text = Slurp(dir + "/p.txt");
+    EXPECT_EQ(text.back(), '\n');
+  }
+}
+
+}  // namespace
+}  // namespace sph::apps

@@ -1,0 +1,181 @@
+#include "sph/core/points_writer.hpp"
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "sph/core/error.hpp"
+#include "test_util.hpp"
+
+namespace sph {
+namespace {
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+PointsHeader Header() {
+  PointsHeader h;
+  h.sphere_radius_mm = 20.0;
+  h.probe_offset_mm = 25.0;
+  h.metadata = {{"generator", "test"}};
+  return h;
+}
+
+PointsWriterOptions WithSetup() {
+  PointsWriterOptions o;
+  o.has_setup = true;
+  o.fsync_interval_s = 0.0;
+  return o;
+}
+
+TEST(PointsWriter, WritesWhatReadPointsFileReads) {
+  const std::string path = sph::testing::MakeTempDir("pw_basic") + "/p.txt";
+  {
+    PointsWriter w(path, Header(), WithSetup());
+    EXPECT_FALSE(w.resumed());
+    w.Write({1.25, 7.5, 5.0912345678, 1700000000.123456, 2});
+    w.WriteComment("incomplete: 3 cycles");  // would be a header key before the first sample
+    w.Write({15.0, 7.5, 5.1, 1700000000.2, 2});
+    w.Close();
+  }
+  const PointsData d = ReadPointsFile(path);
+  ASSERT_EQ(d.samples.size(), 2U);
+  EXPECT_DOUBLE_EQ(d.samples[0].theta_deg, 1.25);
+  EXPECT_DOUBLE_EQ(d.samples[0].r_mm, 5.0912345678);
+  EXPECT_NEAR(d.samples[0].t_s, 1700000000.123456, 1e-6);
+  EXPECT_EQ(d.samples[1].setup, 2);
+  EXPECT_EQ(d.header.sphere_radius_mm, std::optional<double>(20.0));
+  EXPECT_EQ(d.header.probe_offset_mm, std::optional<double>(25.0));
+  EXPECT_TRUE(d.has_time && d.has_setup);
+  EXPECT_NE(Slurp(path).find("# note incomplete: 3 cycles\n"), std::string::npos);
+}
+
+TEST(PointsWriter, CommentsBeforeTheFirstSampleNeverBecomeHeaderFields) {
+  const std::string path = sph::testing::MakeTempDir("pw_comment") + "/p.txt";
+  {
+    PointsWriter w(path, Header(), WithSetup());
+    w.WriteComment("resumed: twice");
+    w.WriteComment("resumed: twice");
+    w.WriteComment("sph-points 2");
+    w.Write({1.0, 2.0, 3.0, 4.0, 0});
+  }
+  EXPECT_EQ(ReadPointsFile(path).samples.size(), 1U);
+}
+
+TEST(PointsWriter, ARestartAppendsAndNeverRewrites) {
+  const std::string path = sph::testing::MakeTempDir("pw_restart") + "/p.txt";
+  {
+    PointsWriter w(path, Header(), WithSetup());
+    w.Write({1.0, 2.0, 3.0, 4.0, 0});
+  }
+  const std::string first = Slurp(path);
+  {
+    PointsWriter w(path, Header(), WithSetup());
+    EXPECT_TRUE(w.resumed());
+    w.Write({5.0, 6.0, 7.0, 8.0, 0});
+  }
+  const std::string both = Slurp(path);
+  EXPECT_EQ(both.rfind(first, 0), 0U) << "the first run's bytes must be unchanged";
+  EXPECT_EQ(ReadPointsFile(path).samples.size(), 2U);
+}
+
+TEST(PointsWriter, RefusesToContinueAFileOfAnotherShape) {
+  const std::string path = sph::testing::MakeTempDir("pw_shape") + "/p.txt";
+  { PointsWriter w(path, Header(), WithSetup()); }
+  PointsWriterOptions no_setup;
+  EXPECT_THROW(PointsWriter(path, Header(), no_setup), Error);
+  PointsHeader other = Header();
+  other.sphere_radius_mm = 12.7;
+  try {
+    PointsWriter w(path, other, WithSetup());
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": has sphere_radius_mm 20 but this run writes 12.7: use another file");
+  }
+}
+
+TEST(PointsWriter, AnIncompleteLastLineIsCutOff) {
+  const std::string path = sph::testing::MakeTempDir("pw_tail") + "/p.txt";
+  { PointsWriter w(path, Header(), WithSetup()); w.Write({1.0, 2.0, 3.0, 4.0, 0}); }
+  { std::ofstream(path, std::ios::app) << "5.0 6.0 7."; }  // a machine crash mid-record
+  {
+    PointsWriter w(path, Header(), WithSetup());
+    EXPECT_EQ(w.truncated_bytes(), 10U);
+    w.Write({5.0, 6.0, 7.0, 8.0, 0});
+  }
+  const PointsData d = ReadPointsFile(path);
+  ASSERT_EQ(d.samples.size(), 2U);
+  EXPECT_DOUBLE_EQ(d.samples[1].r_mm, 7.0);
+}
+
+TEST(PointsWriter, FullDiskLeavesNoPartialRecord) {
+  // RLIMIT_FSIZE makes write() stop at a size, like a full disk; in a child, so the test runner's
+  // own files are not limited.
+  const std::string path = sph::testing::MakeTempDir("pw_full") + "/p.txt";
+  std::size_t header_size = 0;
+  {
+    PointsWriter w(path, Header(), WithSetup());
+    w.Write({1.0, 2.0, 3.0, 4.0, 0});
+    header_size = Slurp(path).size();
+  }
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    std::signal(SIGXFSZ, SIG_IGN);
+    rlimit lim{static_cast<rlim_t>(header_size + 20), static_cast<rlim_t>(header_size + 20)};
+    setrlimit(RLIMIT_FSIZE, &lim);
+    PointsWriter w(path, Header(), WithSetup());
+    try {
+      w.Write({5.0, 6.0, 7.0, 8.0, 0});  // 52 bytes: only 20 fit
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      _exit(what.find("cannot write: File too large") != std::string::npos ? 42 : 1);
+    }
+    _exit(2);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 42) << "the write must fail with a clear error";
+  EXPECT_EQ(Slurp(path).size(), header_size) << "the partial record must be cut off";
+  EXPECT_EQ(ReadPointsFile(path).samples.size(), 1U);
+}
+
+TEST(PointsWriter, DevFullGivesAClearError) {
+  PointsWriterOptions o;
+  try {
+    PointsWriter w("/dev/full", Header(), o);
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/dev/full: cannot write: No space left on device"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(AppendFile, SyncsAtTheInterval) {
+  const std::string path = sph::testing::MakeTempDir("af_sync") + "/a.txt";
+  AppendFile every(path, 0.0);
+  every.Append("a\n");
+  every.Append("b\n");
+  EXPECT_EQ(every.syncs(), 2U);
+  AppendFile later(path + "2", 3600.0);
+  later.Append("a\n");
+  later.SyncIfDue();
+  EXPECT_EQ(later.syncs(), 0U);
+  later.Close();
+  EXPECT_EQ(later.syncs(), 0U);  // Close syncs without counting through Sync()
+  EXPECT_EQ(Slurp(path + "2"), "a\n");
+}
+
+}  // namespace
+}  // namespace sph

@@ -1,0 +1,116 @@
+#!/bin/bash
+# sph_acquired and sph_cansim against a real Linux CAN stack: runs inside the VM of
+# tests/vm/run-in-vcan-vm.sh (vcan0 up, can-utils on PATH), with the two programs in /work.
+# Prints one line per check and "N passed, N failed"; exits 1 if any check failed.
+cd /work || exit 1
+pass=0
+fail=0
+check() {  # check "what" command...
+  local what=$1; shift
+  if "$@"; then echo "[  OK  ] $what"; pass=$((pass + 1)); else echo "[ FAIL ] $what"; fail=$((fail + 1)); fi
+}
+rows() { grep -vc '^#' "$1"; }
+IP=/usr/sbin/ip
+SIM=(./sph_cansim --iface vcan0 --theta-steps 6 --phi-steps 2 --stop-s 0.5 --move-s 0.2)
+
+echo "== 1. simulator traffic answers the daemon's SYNC; candump sees that SYNC"
+candump -L -n 20 vcan0,080:7FF >sync.log &
+cd_pid=$!
+"${SIM[@]}" --sync-source external --sync-period-ms 10 2>sim1.err &
+sim_pid=$!
+sleep 0.5
+./sph_acquired --iface vcan0 -o stream.txt --sync-period-ms 10 --duration-s 4 --heartbeat-timeout-s 2.5 2>acq1.err
+rc=$?
+kill $sim_pid 2>/dev/null; wait $sim_pid; wait $cd_pid
+n=$(rows stream.txt)
+echo "   rows $n; daemon: $(grep -m1 'summary: frames' acq1.err)"
+grep -E 'incomplete|missing' acq1.err | head -5 | sed 's/^/   /'
+cycles=$(sed -n 's/.*summary: frames [0-9]*, SYNC [0-9]*, cycles \([0-9]*\),.*/\1/p' acq1.err | tail -1)
+incomplete=$(sed -n 's/.*lost: incomplete cycles \([0-9]*\),.*/\1/p' acq1.err | tail -1)
+# Under emulation the simulator sometimes answers a SYNC late: such a cycle must be reported, not lost.
+check "daemon stopped cleanly, exit $rc (0, or 1 when cycles were incomplete)" test "$rc" -le 1
+check "every SYNC cycle is a row or a reported incomplete cycle: $n + $incomplete = $cycles" \
+  test $((n + incomplete)) -eq "$cycles"
+check "rows from the simulator: $n of $cycles cycles" test "$n" -ge 350
+check "candump saw the daemon's SYNC frames" test "$(grep -c ' 080#' sync.log)" -eq 20
+
+echo "== 2. frames from cansend and cangen reach the daemon (external SYNC)"
+./sph_acquired --iface vcan0 -o manual.txt --sync-mode follow --sync-period-ms 0 --duration-s 3 2>acq2.err &
+acq=$!
+sleep 1
+cansend vcan0 080#
+cansend vcan0 181#01000000
+cansend vcan0 182#00800000
+cansend vcan0 183#40420F00
+cansend vcan0 20000040#0000000000000000
+cansend vcan0 083#3081110000000000
+cansend vcan0 080#
+cangen vcan0 -I 183 -L 2 -n 3 -g 10
+wait $acq
+cat acq2.err | sed 's/^/   /' | grep -v 'summary' | head -20
+check "the cansend cycle is a row (theta 1 count, phi 2^15 counts, r 1 mm)" \
+  grep -q '^0.0000214577 0.7031250000 1.0000000000 ' manual.txt
+check "bus-off error frame logged" grep -q 'error frame: bus-off' acq2.err
+check "EMCY logged with its code" grep -q 'EMCY 0x8130' acq2.err
+check "short PDO from cangen counted as malformed" grep -q 'malformed probe PDO' acq2.err
+
+echo "== 3. ip link set vcan0 down/up while acquiring"
+"${SIM[@]}" --sync-source external --sync-period-ms 10 2>sim3.err &
+sim_pid=$!
+./sph_acquired --iface vcan0 -o updown.txt --sync-period-ms 10 --duration-s 6 --reopen-interval-s 0.2 2>acq3.err &
+acq=$!
+sleep 2
+$IP link set vcan0 down
+sleep 1
+$IP link set vcan0 up
+wait $acq
+rc=$?
+kill $sim_pid 2>/dev/null; wait $sim_pid
+grep -E 'Network is down|up again|summary: frames|lost:' acq3.err | sed 's/^/   /'
+after=$(awk '/up again, acquisition resumed/ {on = 1; next} on && !/^#/ {n++} END {print n + 0}' updown.txt)
+check "daemon survived and stopped cleanly (exit $rc: 0 or 1)" test "$rc" -le 1
+check "interface loss reported" grep -q 'Network is down: waiting for the interface' acq3.err
+check "socket reopened when the interface came back" grep -q 'up again after' acq3.err
+check "rows after the interface came back: $after (about 200)" test "$after" -ge 150
+
+echo "== 4. throughput: canplayer sends a simulated 1 kHz log as fast as it can"
+./sph_cansim -o khz.log --log-iface vcan0 --theta-steps 8 --phi-steps 2 --stop-s 0.5 --move-s 0.2 --sync-period-ms 1 2>/dev/null
+sent=$(grep -c . khz.log)
+./sph_acquired --iface vcan0 -o khz.txt --sync-mode follow --sync-period-ms 0 --rcvbuf-bytes 4194304 --duration-s 25 2>acq4.err &
+acq=$!
+sleep 1
+t0=$(date +%s.%N)
+canplayer -t -I khz.log
+t1=$(date +%s.%N)
+sleep 1
+kill -TERM $acq; wait $acq
+frames=$(sed -n 's/.*summary: frames \([0-9]*\),.*/\1/p' acq4.err | tail -1)
+drops=$(sed -n 's/.*kernel drops (rx overflow) \([0-9]*\).*/\1/p' acq4.err | tail -1)
+echo "   canplayer sent $sent frames in $(awk -v a=$t0 -v b=$t1 'BEGIN {printf "%.2f", b - a}') s ($(awk -v n=$sent -v a=$t0 -v b=$t1 'BEGIN {printf "%.0f", n / (b - a)}') frames/s); daemon received $frames, kernel dropped $drops"
+grep -E 'summary: frames|lost:' acq4.err | sed 's/^/   /'
+check "every frame received or counted as a kernel drop: $frames + $drops = $sent" test $((frames + drops)) -eq "$sent"
+
+echo "== 5. SIGTERM flushes and closes"
+./sph_acquired --iface vcan0 -o term.txt --sync-period-ms 10 2>acq5.err &
+acq=$!
+sleep 1
+kill -TERM $acq
+wait $acq
+rc=$?
+check "exit after SIGTERM is 0 or 1 (no devices answered), got $rc" test "$rc" -le 1
+check "stop requested logged" grep -q 'stop requested' acq5.err
+
+echo "== 6. a full disk: clear error, exit 3, no broken record"
+mkdir -p /mnt/small && mount -t tmpfs -o size=12k tmpfs /mnt/small
+./sph_cansim -o full.log --theta-steps 6 --phi-steps 2 --stop-s 0.5 --move-s 0.2 --sync-period-ms 10 2>/dev/null
+./sph_acquired --replay full.log -o /mnt/small/p.txt --sync-period-ms 10 2>acq6.err
+rc=$?
+grep -E 'error' acq6.err | sed 's/^/   /'
+check "exit 3 on a full disk, got $rc" test "$rc" -eq 3
+check "the message says why" grep -q 'No space left on device' acq6.err
+check "every row in the file is whole" \
+  awk '!/^#/ && NF != 5 {bad = 1} END {exit bad}' /mnt/small/p.txt
+check "the file ends with a newline" test "$(tail -c 1 /mnt/small/p.txt | od -An -c | tr -d ' ')" = '\n'
+
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]
