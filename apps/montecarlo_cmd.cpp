@@ -4,24 +4,25 @@
 
 #include <algorithm>
 #include <chrono>
-#include <filesystem>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
-#include <sstream>
-
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"
 #include "sph/calib/montecarlo.hpp"
 #include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::apps {
 namespace {
 
+using internal::Format;
 using nlohmann::json;
 
 // The paper's Table 3 (um), printed beside the reproduction for comparison.
@@ -41,14 +42,6 @@ Unit UnitOf(int p) {
              : Unit{"mm", "um", 1.0, kUmPerMm};
 }
 
-// printf into a std::string (table cells; always short).
-template <typename... Args>
-std::string Fmt(const char* format, Args... args) {
-  char b[256];
-  std::snprintf(b, sizeof b, format, args...);
-  return b;
-}
-
 MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
   MonteCarloSpec spec;
   spec.base = ToSimulationSpec(o.machine);
@@ -62,22 +55,10 @@ MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
   spec.threads = o.threads;
   for (double e : spec.eccentricities_mm) {
     if (!(e >= 0.0) || !(e < o.machine.sphere_radius_mm)) {
-      throw Error("--eccentricities-mm: " + Fmt("%g", e) + " is not in [0, R0)");
+      throw Error("--eccentricities-mm: " + Format("%g", e) + " is not in [0, R0)");
     }
   }
   return spec;
-}
-
-// Centres of the fixed-direction design at eccentricity e (setup j turned by j * 360/N about z).
-std::vector<Eigen::Vector3d> DesignCenters(const MonteCarloSpec& spec, double e) {
-  std::vector<Eigen::Vector3d> out;
-  const Eigen::Vector3d d = spec.direction.normalized();
-  for (int j = 0; j < spec.setups; ++j) {
-    const double a = 2.0 * kPi * j / spec.setups;
-    out.emplace_back(e * (std::cos(a) * d.x() - std::sin(a) * d.y()), e * (std::sin(a) * d.x() + std::cos(a) * d.y()),
-                     e * d.z());
-  }
-  return out;
 }
 
 class ProgressBar {
@@ -88,8 +69,8 @@ class ProgressBar {
     const int width = 40;
     const int filled = static_cast<int>(width * done / total);
     err_ << "\rsph_montecarlo: [" << std::string(static_cast<std::size_t>(filled), '#')
-         << std::string(static_cast<std::size_t>(width - filled), '.') << "] " << (100 * done / total) << "% ("
-         << done << "/" << total << ")" << (done == total ? "\n" : "") << std::flush;
+         << std::string(static_cast<std::size_t>(width - filled), '.') << "] " << (100 * done / total) << "% (" << done
+         << "/" << total << ")" << (done == total ? "\n" : "") << std::flush;
   }
 
  private:
@@ -100,28 +81,29 @@ class ProgressBar {
 void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloOptions& o) {
   out << "Table 2: mean of the calibrations (" << o.trials << " trials per eccentricity, seed " << o.seed
       << ", sigma_r " << o.machine.noise_r_um << " um)\n";
-  out << Fmt("%-9s %-4s %12s", "param", "unit", "true");
-  for (const auto& row : r.rows) out << Fmt("%12s", Fmt("e=%g mm", row.eccentricity_mm).c_str());
+  out << Format("%-9s %-4s %12s", "param", "unit", "true");
+  for (const auto& row : r.rows) out << Format("%12s", Format("e=%g mm", row.eccentricity_mm).c_str());
   out << "\n";
   for (int p = 0; p < kNumScmsParams; ++p) {
     const Unit u = UnitOf(p);
-    out << Fmt("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name) << Fmt(" %-4s", u.coarse)
-        << Fmt(" %12.6f", r.rows.front().params[static_cast<std::size_t>(p)].truth * u.to_coarse);
-    for (const auto& row : r.rows) out << Fmt(" %11.6f", row.params[static_cast<std::size_t>(p)].mean * u.to_coarse);
+    out << Format("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name) << Format(" %-4s", u.coarse)
+        << Format(" %12.6f", r.rows.front().params[static_cast<std::size_t>(p)].truth * u.to_coarse);
+    for (const auto& row : r.rows) out << Format(" %11.6f", row.params[static_cast<std::size_t>(p)].mean * u.to_coarse);
     out << "\n";
   }
   for (const auto& row : r.rows) {
     out << "\ne = " << row.eccentricity_mm << " mm: " << row.converged << " of " << row.trials << " converged\n";
-    out << Fmt("%-9s %14s %14s %10s %9s %9s %10s %9s %9s %9s\n", "param", "true", "mean", "std", "SE", "(m-t)/SE",
-               "CRLB", "std/CRLB", "bias2", "(m-t-b)/SE");
+    out << Format("%-9s %14s %14s %10s %9s %9s %10s %9s %9s %9s\n", "param", "true", "mean", "std", "SE", "(m-t)/SE",
+                  "CRLB", "std/CRLB", "bias2", "(m-t-b)/SE");
     for (int p = 0; p < kNumScmsParams; ++p) {
       const Unit u = UnitOf(p);
       const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
-      out << Fmt("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name)
-          << Fmt(" %10.6f ", s.truth * u.to_coarse) << Fmt("%-3s", u.coarse) << Fmt(" %10.6f ", s.mean * u.to_coarse)
-          << Fmt("%-3s", u.coarse) << Fmt(" %10.4f", s.std * u.to_fine) << Fmt(" %9.4f", s.se * u.to_fine)
-          << Fmt(" %9.2f", s.z) << Fmt(" %10.4f", s.crlb * u.to_fine) << Fmt(" %9.3f", s.std / s.crlb)
-          << Fmt(" %9.4f", s.bias * u.to_fine) << Fmt(" %9.2f", s.z_bias) << "  " << u.fine << "\n";
+      out << Format("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name)
+          << Format(" %10.6f ", s.truth * u.to_coarse) << Format("%-3s", u.coarse)
+          << Format(" %10.6f ", s.mean * u.to_coarse) << Format("%-3s", u.coarse)
+          << Format(" %10.4f", s.std * u.to_fine) << Format(" %9.4f", s.se * u.to_fine) << Format(" %9.2f", s.z)
+          << Format(" %10.4f", s.crlb * u.to_fine) << Format(" %9.3f", s.std / s.crlb)
+          << Format(" %9.4f", s.bias * u.to_fine) << Format(" %9.2f", s.z_bias) << "  " << u.fine << "\n";
     }
   }
 }
@@ -133,11 +115,16 @@ json StudyJson(const MonteCarloResult& r) {
     for (int p = 0; p < kNumScmsParams; ++p) {
       const Unit u = UnitOf(p);
       const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
-      params[kScmsParamInfo[static_cast<std::size_t>(p)].name] = {
-          {"unit", u.coarse},           {"true", s.truth * u.to_coarse}, {"mean", s.mean * u.to_coarse},
-          {"std", s.std * u.to_coarse}, {"se", s.se * u.to_coarse},      {"z", s.z},
-          {"crlb", s.crlb * u.to_coarse}, {"std_over_crlb", s.std / s.crlb},
-          {"bias_second_order", s.bias * u.to_coarse}, {"z_after_bias", s.z_bias}};
+      params[kScmsParamInfo[static_cast<std::size_t>(p)].name] = {{"unit", u.coarse},
+                                                                  {"true", s.truth * u.to_coarse},
+                                                                  {"mean", s.mean * u.to_coarse},
+                                                                  {"std", s.std * u.to_coarse},
+                                                                  {"se", s.se * u.to_coarse},
+                                                                  {"z", s.z},
+                                                                  {"crlb", s.crlb * u.to_coarse},
+                                                                  {"std_over_crlb", s.std / s.crlb},
+                                                                  {"bias_second_order", s.bias * u.to_coarse},
+                                                                  {"z_after_bias", s.z_bias}};
     }
     rows.push_back({{"eccentricity_mm", row.eccentricity_mm},
                     {"trials", row.trials},
@@ -173,14 +160,15 @@ json Table3(std::ostream& out, const MonteCarloSpec& spec, const MonteCarloResul
       << o.seed << "), the median over the study's calibrations there, and their mean\n"
       << "The paper does not give the spheres' centres: each eccentricity (along the study's direction) is the one "
          "whose 'before' value is the paper's.\n";
-  out << Fmt("%-3s %9s %9s %9s %11s %12s %11s %11s\n", "#", "e_mm", "before", "paper", "after_one", "after_median",
-             "after_mean", "paper_after");
+  out << Format("%-3s %9s %9s %9s %11s %12s %11s %11s\n", "#", "e_mm", "before", "paper", "after_one", "after_median",
+                "after_mean", "paper_after");
   json j = json::array();
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const SphericityRow& w = rows[i];
-    out << Fmt("%-3d", static_cast<int>(i) + 1) << Fmt(" %9.4f", w.eccentricity_mm) << Fmt(" %9.3f", w.before_um)
-        << Fmt(" %9.3f", kPaperBeforeUm[i]) << Fmt(" %11.5f", w.after_one_um) << Fmt(" %12.5f", w.after_median_um)
-        << Fmt(" %11.5f", w.after_mean_um) << Fmt(" %11.5f", kPaperAfterUm[i]) << "\n";
+    out << Format("%-3d", static_cast<int>(i) + 1) << Format(" %9.4f", w.eccentricity_mm)
+        << Format(" %9.3f", w.before_um) << Format(" %9.3f", kPaperBeforeUm[i]) << Format(" %11.5f", w.after_one_um)
+        << Format(" %12.5f", w.after_median_um) << Format(" %11.5f", w.after_mean_um)
+        << Format(" %11.5f", kPaperAfterUm[i]) << "\n";
     auto num = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
     j.push_back({{"sphere", i + 1},
                  {"eccentricity_mm", num(w.eccentricity_mm)},
@@ -216,7 +204,7 @@ void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloRe
     for (int i = 0; i <= 60; ++i) {
       const double e = lo * std::pow(hi / lo, i / 60.0);
       SimulationSpec s = spec.base;
-      s.centers_mm = DesignCenters(spec, e);
+      s.centers_mm = PlacementCenters(spec, e);
       const PredictedUncertainty u = PredictUncertainty(s);
       f << e << " " << u.std(kB) * kUmPerMm << " " << u.std(kC) * kUmPerMm << " " << u.std(kBeta) * kUradPerRad << " "
         << u.std(kEpsilon) * kUradPerRad << "\n";
@@ -231,17 +219,19 @@ void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloRe
       }
     }
   });
-  const std::string title = Fmt("%d trials per point, sigma_r %g um", spec.trials, spec.base.noise_r_um);
+  const std::string title = Format("%d trials per point, sigma_r %g um", spec.trials, spec.base.noise_r_um);
   WriteFileAtomically(dir + "/fig4.gp", [&](std::ostream& f) {
     f << "# Figure 4 of the study; rerun with: gnuplot fig4.gp (in this folder)\n"
       << "set terminal pngcairo size 900,600 font ',11'\n"
       << "set grid\nset logscale xy\nset key top right\nset xlabel 'eccentricity of the sphere [mm]'\n"
       << "set xrange [" << 0.7 * std::min(e_min, e_max) << ":" << 1.4 * std::max(e_min, e_max) << "]\n"
-      << "set xtics (" << [&] {
-           std::string t;
-           for (const auto& row : r.rows) t += (t.empty() ? "" : ", ") + Fmt("%g", row.eccentricity_mm);
-           return t;
-         }() << ")\n"
+      << "set xtics (" <<
+        [&] {
+          std::string t;
+          for (const auto& row : r.rows) t += (t.empty() ? "" : ", ") + Format("%g", row.eccentricity_mm);
+          return t;
+        }()
+      << ")\n"
       << "set output 'fig4_b_c_std.png'\n"
       << "set title 'Standard deviation of b and c (" << title << ")'\n"
       << "set ylabel 'standard deviation [um]'\n"
@@ -270,49 +260,52 @@ void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloRe
 
 int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream& out) {
   out << "Predicted standard deviations (linearised at the truth, no simulation): "
-      << (o.machine.angles_path.empty() ? Fmt("%d", o.machine.theta_steps) + " x " + Fmt("%d", o.machine.phi_steps) + " grid"
-                                        : "pattern " + o.machine.angles_path)
+      << (o.machine.angles_path.empty()
+              ? Format("%d", o.machine.theta_steps) + " x " + Format("%d", o.machine.phi_steps) + " grid"
+              : "pattern " + o.machine.angles_path)
       << ", sigma_r " << o.machine.noise_r_um << " um, " << spec.setups << " setup(s)\n";
-  out << Fmt("%-8s", "e_mm");
+  out << Format("%-8s", "e_mm");
   for (int p = 0; p < kNumScmsParams; ++p) {
-    out << Fmt(" %12s", (std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_" + UnitOf(p).fine).c_str());
+    out << Format(" %12s",
+                  (std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_" + UnitOf(p).fine).c_str());
   }
-  out << Fmt(" %12s\n", "worst_um");
+  out << Format(" %12s\n", "worst_um");
   json rows = json::array();
   for (double e : spec.eccentricities_mm) {
     SimulationSpec s = spec.base;
-    s.centers_mm = DesignCenters(spec, e);
+    s.centers_mm = PlacementCenters(spec, e);
     const PredictedUncertainty u = PredictUncertainty(s);
-    out << Fmt("%-8g", e);
+    out << Format("%-8g", e);
     json row = {{"eccentricity_mm", e}};
     for (int p = 0; p < kNumScmsParams; ++p) {
-      out << Fmt(" %12.4f", u.std(p) * UnitOf(p).to_fine);
+      out << Format(" %12.4f", u.std(p) * UnitOf(p).to_fine);
       row[std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_std_" + UnitOf(p).fine] =
           u.std(p) * UnitOf(p).to_fine;
     }
-    out << Fmt(" %12.4f\n", u.WorstErrorStdUm());
+    out << Format(" %12.4f\n", u.WorstErrorStdUm());
     row["worst_std_um"] = u.WorstErrorStdUm();
     rows.push_back(row);
   }
   json j = {{"plan", rows}};
   if (o.target_std_um) {
-    std::vector<Eigen::Vector3d> dirs = DesignCenters(spec, 1.0);
+    std::vector<Eigen::Vector3d> dirs = PlacementCenters(spec, 1.0);
     const double hi = 0.5 * spec.base.sphere_radius_mm;
     out << "\nSmallest eccentricity at which every error's std, as a displacement (angles times R0), is at most "
         << *o.target_std_um << " um:\n";
     const auto e = SmallestEccentricityMm(spec.base, dirs, *o.target_std_um, 1e-3, hi);
-    out << "  this pattern: " << (e ? Fmt("%.3f mm", *e) : std::string("not reached below R0/2")) << "\n";
+    out << "  this pattern: " << (e ? Format("%.3f mm", *e) : std::string("not reached below R0/2")) << "\n";
     j["target_std_um"] = *o.target_std_um;
     j["smallest_eccentricity_mm"] = e ? json(*e) : json(nullptr);
     if (o.machine.angles_path.empty()) {
       out << "  other grids (theta steps x phi rings):\n";
       json grids = json::array();
-      for (auto [nt, np] : std::vector<std::pair<int, int>>{{12, 6}, {24, 12}, {36, 18}, {48, 24}, {72, 36}, {96, 48}}) {
+      for (auto [nt, np] :
+           std::vector<std::pair<int, int>>{{12, 6}, {24, 12}, {36, 18}, {48, 24}, {72, 36}, {96, 48}}) {
         SimulationSpec s = spec.base;
         s.pattern = GridPattern(nt, np);
         const auto eg = SmallestEccentricityMm(s, dirs, *o.target_std_um, 1e-3, hi);
-        out << Fmt("    %3d", nt) << Fmt(" x %-3d", np) << Fmt(" (%5d points): ", nt * np)
-            << (eg ? Fmt("%.3f mm", *eg) : std::string("not reached")) << "\n";
+        out << Format("    %3d", nt) << Format(" x %-3d", np) << Format(" (%5d points): ", nt * np)
+            << (eg ? Format("%.3f mm", *eg) : std::string("not reached")) << "\n";
         grids.push_back({{"theta_steps", nt}, {"phi_steps", np}, {"eccentricity_mm", eg ? json(*eg) : json(nullptr)}});
       }
       j["grids"] = grids;
@@ -325,10 +318,13 @@ int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream
 }  // namespace
 
 void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
-  app.description("Monte Carlo study of the calibration against the sphere's eccentricity (the paper's Tables 2 and "
-                  "3 and Figure 4), with the Cramer-Rao prediction; --plan predicts without simulating.");
+  app.description(
+      "Monte Carlo study of the calibration against the sphere's eccentricity (the paper's Tables 2 and "
+      "3 and Figure 4), with the Cramer-Rao prediction; --plan predicts without simulating.");
   AddMachineOptions(app, o.machine);
-  app.add_option("--trials", o.trials, "Calibrations per eccentricity")->capture_default_str()->check(CLI::Range(2, 100000000));
+  app.add_option("--trials", o.trials, "Calibrations per eccentricity")
+      ->capture_default_str()
+      ->check(CLI::Range(2, 100000000));
   app.add_option("--eccentricities-mm", o.eccentricities_mm, "Eccentricities of the sphere [mm]")
       ->capture_default_str()
       ->delimiter(',');
@@ -338,7 +334,9 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(1, 100));
   app.add_option("--seed", o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
-  app.add_option("--threads", o.threads, "Worker threads (0: all cores)")->capture_default_str()->check(CLI::Range(0, 1024));
+  app.add_option("--threads", o.threads, "Worker threads (0: all cores)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1024));
   app.add_flag("!--no-table3", o.table3, "Skip Table 3 (sphericity of ten further spheres)");
   app.add_option("--table3-calibration-e-mm", o.table3_calibration_e_mm,
                  "Eccentricity of the calibration used for Table 3 [mm]")
@@ -379,7 +377,10 @@ int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream
       j["table3"] = Table3(t3, spec, r, o);
       if (o.json_path != "-") out << t3.str();
     }
-    if (o.json_path != "-") out << "\n" << o.trials * static_cast<int>(r.rows.size()) << " calibrations in " << Fmt("%.2f", wall_s) << " s\n" << std::flush;
+    if (o.json_path != "-")
+      out << "\n"
+          << o.trials * static_cast<int>(r.rows.size()) << " calibrations in " << Format("%.2f", wall_s) << " s\n"
+          << std::flush;
     if (!o.json_path.empty()) WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
     if (!o.csv_path.empty()) WriteCsv(o.csv_path, r);
     if (!o.plot_dir.empty()) Plot(o.plot_dir, spec, r, err);

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <sstream>
 #include <string>
 
@@ -30,6 +31,14 @@ template <typename A, typename B>
      << a_expr << " =\n" << a << "\n" << b_expr << " =\n" << b << "\ndifference =\n"
      << (a.template cast<double>() - b.template cast<double>());
   return ::testing::AssertionFailure() << os.str();
+}
+
+/// The whole content of a file ("" when it cannot be read).
+inline std::string ReadWholeFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 /// A fresh empty directory under the test's temporary directory.

@@ -1,6 +1,8 @@
 // The only translation unit of the library that instantiates Ceres templates.
 #include "sph/calib/calibrator.hpp"
 
+#include <ceres/ceres.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -8,21 +10,16 @@
 #include <memory>
 #include <set>
 
-#include <ceres/ceres.h>
-
 #include "sph/ceres/sphere_residual_batch.hpp"
 #include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/sphere_fit.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
 
-std::string Format(const char* fmt, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, a);
-  return buf;
-}
+using internal::Format;
 
 // Distinct values of an angle column, to 1e-6 deg.
 std::size_t CountDistinct(const std::vector<double>& values) {
@@ -42,9 +39,10 @@ void ExplainUndetermined(const PointsData& points, const CalibrationOptions& opt
              (std::isfinite(disp) ? " (std " + Format("%.3g", disp) + " um)" : " (no information at all)");
   }
   if (names.empty()) return;
-  result.warnings.push_back("undetermined parameters: " + names + "; a parameter counts as determined when its " +
-                            "standard uncertainty, as a displacement of the probed point (angles times R0), is at most " +
-                            Format("%g", options.max_std_um) + " um (--max-std-um)");
+  result.warnings.push_back(
+      "undetermined parameters: " + names + "; a parameter counts as determined when its " +
+      "standard uncertainty, as a displacement of the probed point (angles times R0), is at most " +
+      Format("%g", options.max_std_um) + " um (--max-std-um)");
 
   // Offset of each centre from the Theta axis (what turns with theta) and along it.
   std::string offsets;
@@ -64,7 +62,8 @@ void ExplainUndetermined(const PointsData& points, const CalibrationOptions& opt
         "why: b, c, beta and epsilon move the probed point sideways, along the sphere's surface, and the measured "
         "distance sees such a shift only where the surface is tilted against the probe line, i.e. through the "
         "sphere's eccentricity; a centre on the Theta axis moreover looks the same from every theta. The centre is " +
-        offsets + ". Place the sphere off the Theta axis (the paper's study uses 2 mm) or add a setup at another "
+        offsets +
+        ". Place the sphere off the Theta axis (the paper's study uses 2 mm) or add a setup at another "
         "position.");
   }
   for (int id : result.setup_ids) {
@@ -144,7 +143,8 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
   };
   std::vector<ReadingTrig> trig;
   trig.reserve(points.samples.size());
-  for (const Sample& s : points.samples) trig.push_back({SinCosOf(s.theta_deg * kRadPerDeg), SinCosOf(s.phi_deg * kRadPerDeg)});
+  for (const Sample& s : points.samples)
+    trig.push_back({SinCosOf(s.theta_deg * kRadPerDeg), SinCosOf(s.phi_deg * kRadPerDeg)});
 
   // Initial values: the errors as given (zero by default), each centre from an algebraic sphere
   // fit of its setup's points computed with those errors.
@@ -234,7 +234,8 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
   for (const auto& info : kScmsParamInfo) desc.push_back({info.name, info.quantity, options.sphere_radius_mm});
   for (int id : result.setup_ids) {
     const std::string suffix = n_setups > 1 ? "@" + std::to_string(id) : "";
-    for (const char* axis : {"center_x", "center_y", "center_z"}) desc.push_back({axis + suffix, Quantity::kLength, 1.0});
+    for (const char* axis : {"center_x", "center_y", "center_z"})
+      desc.push_back({axis + suffix, Quantity::kLength, 1.0});
   }
   result.analysis = AnalyseFit(jac, res, std::move(desc), options.max_std_um);
   ExplainUndetermined(points, options, result);

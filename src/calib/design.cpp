@@ -3,8 +3,6 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/SVD>
-
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/error.hpp"
 #include "sph/model/units.hpp"
@@ -59,8 +57,8 @@ PredictedUncertainty PredictUncertainty(const SimulationSpec& spec) {
   Eigen::VectorXd jac_weight(jac.rows());  // 1 / s_i
   for (std::size_t i = 0; i < exact.samples.size(); ++i) {
     const Sample& s = exact.samples[i];
-    const ReadingSlopes k = Slopes(spec.truth, s, spec.probe_offset_mm, spec.centers_mm[static_cast<std::size_t>(s.setup)],
-                                   spec.sphere_radius_mm);
+    const ReadingSlopes k = Slopes(spec.truth, s, spec.probe_offset_mm,
+                                   spec.centers_mm[static_cast<std::size_t>(s.setup)], spec.sphere_radius_mm);
     const double var = sr * sr * k.d_r * k.d_r + st * st * k.d_theta * k.d_theta + sp * sp * k.d_phi * k.d_phi;
     if (!(var > 0.0)) throw Error("design: the noise is zero, so every parameter would be known exactly");
     jac_weight(static_cast<Eigen::Index>(i)) = 1.0 / std::sqrt(var);
@@ -71,51 +69,31 @@ PredictedUncertainty PredictUncertainty(const SimulationSpec& spec) {
   for (const auto& info : kScmsParamInfo) out.parameters.push_back({info.name, info.quantity, spec.sphere_radius_mm});
   for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
     const std::string suffix = spec.centers_mm.size() > 1 ? "@" + std::to_string(k) : "";
-    for (const char* axis : {"center_x", "center_y", "center_z"}) out.parameters.push_back({axis + suffix, Quantity::kLength, 1.0});
+    for (const char* axis : {"center_x", "center_y", "center_z"})
+      out.parameters.push_back({axis + suffix, Quantity::kLength, 1.0});
   }
-  // Covariance through the SVD of the column-equilibrated Jacobian (see observability.hpp).
+  // Covariance through the SVD of the column-equilibrated Jacobian (observability.hpp).
+  const NormalInverse inv = InvertNormalMatrix(jac);
   const Eigen::Index n = jac.cols();
-  Eigen::VectorXd scale(n);
+  out.condition_number = inv.condition_number;
+  out.std = Eigen::VectorXd(n);
   for (Eigen::Index j = 0; j < n; ++j) {
-    const double norm = jac.col(j).norm();
-    scale(j) = norm > 0.0 ? 1.0 / norm : 0.0;
-  }
-  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::ColPivHouseholderQRPreconditioner> svd(jac * scale.asDiagonal(),
-                                                                                         Eigen::ComputeThinV);
-  const Eigen::VectorXd& sv = svd.singularValues();
-  const double tol = static_cast<double>(jac.rows()) * std::numeric_limits<double>::epsilon() * sv(0);
-  out.condition_number = sv(n - 1) > 0.0 ? sv(0) / sv(n - 1) : std::numeric_limits<double>::infinity();
-  out.std = Eigen::VectorXd::Zero(n);
-  for (Eigen::Index k = 0; k < n; ++k) {
-    const Eigen::VectorXd v2 = svd.matrixV().col(k).cwiseAbs2();
-    if (sv(k) > tol) {
-      out.std += v2 / (sv(k) * sv(k));
-    } else {
-      for (Eigen::Index j = 0; j < n; ++j) {
-        if (v2(j) > 1e-12) out.std(j) = std::numeric_limits<double>::infinity();
-      }
-    }
-  }
-  out.std = out.std.cwiseSqrt().cwiseProduct(scale);
-  for (Eigen::Index j = 0; j < n; ++j) {
-    if (scale(j) == 0.0) out.std(j) = std::numeric_limits<double>::infinity();
+    out.std(j) = inv.in_null[static_cast<std::size_t>(j)] ? std::numeric_limits<double>::infinity()
+                                                          : std::sqrt(inv.inverse(j, j));
   }
   if (!out.std.allFinite()) {
     out.bias = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
     return out;
   }
 
-  // Box's second-order bias. C = (J^T W J)^-1 from the SVD; H_i by central differences of the
-  // (exact, autodiff) Jacobian: column k of H_i = (J_i(x + h e_k) - J_i(x - h e_k)) / 2h.
-  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(n, n);
-  for (Eigen::Index k = 0; k < n; ++k) {
-    cov.noalias() += svd.matrixV().col(k) * svd.matrixV().col(k).transpose() / (sv(k) * sv(k));
-  }
-  cov = scale.asDiagonal() * cov * scale.asDiagonal();
+  // Box's second-order bias. C = (J^T W J)^-1; H_i by central differences of the (exact, autodiff)
+  // Jacobian: column k of H_i = (J_i(x + h e_k) - J_i(x - h e_k)) / 2h.
+  const Eigen::MatrixXd& cov = inv.inverse;
   const Eigen::Index m = jac.rows();
   Eigen::VectorXd d = Eigen::VectorXd::Zero(m);
   for (Eigen::Index k = 0; k < n; ++k) {
-    const double h = k < kNumScmsParams && kScmsParamInfo[static_cast<std::size_t>(k)].quantity == Quantity::kAngle ? 1e-6 : 1e-5;
+    const double h =
+        k < kNumScmsParams && kScmsParamInfo[static_cast<std::size_t>(k)].quantity == Quantity::kAngle ? 1e-6 : 1e-5;
     auto shifted = [&](double step) {
       ScmsGeometry g = spec.truth;
       std::vector<Eigen::Vector3d> c = spec.centers_mm;
@@ -127,7 +105,7 @@ PredictedUncertainty PredictUncertainty(const SimulationSpec& spec) {
       return ResidualJacobian(exact, o, g, c);
     };
     const Eigen::MatrixXd dj = (shifted(h) - shifted(-h)) / (2 * h);  // row i: column k of H_i
-    d += dj * cov.col(k);                                            // sum_j H_i(j, k) C(j, k)
+    d += dj * cov.col(k);                                             // sum_j H_i(j, k) C(j, k)
   }
   // jac is already weighted by W^(1/2); d_i must be too.
   for (Eigen::Index i = 0; i < m; ++i) d(i) *= jac_weight(i);

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <atomic>
-#include <limits>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <random>
 #include <thread>
@@ -25,7 +25,7 @@ std::uint64_t SplitMix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
-// Centres of one trial: `setups` placements at eccentricity e.
+// Centres of one trial: `setups` placements at eccentricity e, random or the fixed design.
 std::vector<Eigen::Vector3d> Centers(const MonteCarloSpec& spec, double e_mm, std::uint64_t trial_seed) {
   std::vector<Eigen::Vector3d> out;
   if (spec.random_direction) {
@@ -37,16 +37,21 @@ std::vector<Eigen::Vector3d> Centers(const MonteCarloSpec& spec, double e_mm, st
     }
     return out;
   }
-  const Eigen::Vector3d d = spec.direction.normalized();
-  for (int j = 0; j < spec.setups; ++j) {
-    const double a = 2.0 * kPi * j / spec.setups;
-    out.emplace_back(e_mm * (std::cos(a) * d.x() - std::sin(a) * d.y()), e_mm * (std::sin(a) * d.x() + std::cos(a) * d.y()),
-                     e_mm * d.z());
-  }
-  return out;
+  return PlacementCenters(spec, e_mm);
 }
 
 }  // namespace
+
+std::vector<Eigen::Vector3d> PlacementCenters(const MonteCarloSpec& spec, double e_mm) {
+  std::vector<Eigen::Vector3d> out;
+  const Eigen::Vector3d d = spec.direction.normalized();
+  for (int j = 0; j < spec.setups; ++j) {
+    const double a = 2.0 * kPi * j / spec.setups;
+    out.emplace_back(e_mm * (std::cos(a) * d.x() - std::sin(a) * d.y()),
+                     e_mm * (std::sin(a) * d.x() + std::cos(a) * d.y()), e_mm * d.z());
+  }
+  return out;
+}
 
 std::uint64_t TrialSeed(std::uint64_t seed, std::size_t k, std::size_t t) {
   return SplitMix64(SplitMix64(SplitMix64(seed) + k) + t);
@@ -71,7 +76,7 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
   if (!spec.random_direction) {
     for (std::size_t k = 0; k < n_ecc; ++k) {
       SimulationSpec s = spec.base;
-      s.centers_mm = Centers(spec, spec.eccentricities_mm[k], 0);
+      s.centers_mm = PlacementCenters(spec, spec.eccentricities_mm[k]);
       exact[k] = SimulateExact(s);
     }
   }
@@ -136,7 +141,7 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
       row.estimates.push_back(tr.geometry);
     }
     SimulationSpec at_truth = spec.base;
-    at_truth.centers_mm = Centers(spec, row.eccentricity_mm, 0);
+    at_truth.centers_mm = PlacementCenters(spec, row.eccentricity_mm);
     const PredictedUncertainty crlb = PredictUncertainty(at_truth);
     const double n = static_cast<double>(row.estimates.size());
     for (int p = 0; p < kNumScmsParams; ++p) {
@@ -149,7 +154,8 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
       for (const auto& g : row.estimates) sum += g[static_cast<std::size_t>(p)];
       st.mean = sum / n;
       double ss = 0.0;
-      for (const auto& g : row.estimates) ss += (g[static_cast<std::size_t>(p)] - st.mean) * (g[static_cast<std::size_t>(p)] - st.mean);
+      for (const auto& g : row.estimates)
+        ss += (g[static_cast<std::size_t>(p)] - st.mean) * (g[static_cast<std::size_t>(p)] - st.mean);
       st.std = std::sqrt(ss / (n - 1.0));
       st.se = st.std / std::sqrt(n);
       st.z = st.se > 0.0 ? (st.mean - st.truth) / st.se : 0.0;
@@ -160,14 +166,16 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
   return result;
 }
 
-double EvaluatedSphericityUm(const SimulationSpec& base, const Eigen::Vector3d& center_mm, const ScmsGeometry& geometry) {
+double EvaluatedSphericityUm(const SimulationSpec& base, const Eigen::Vector3d& center_mm,
+                             const ScmsGeometry& geometry) {
   SimulationSpec s = base;
   s.centers_mm = {center_mm};
   const PointsData exact = SimulateExact(s);
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(exact.samples.size());
   for (const Sample& smp : exact.samples) {
-    pts.push_back(ScmsPoint(geometry, smp.theta_deg * kRadPerDeg, smp.phi_deg * kRadPerDeg, smp.r_mm, s.probe_offset_mm));
+    pts.push_back(
+        ScmsPoint(geometry, smp.theta_deg * kRadPerDeg, smp.phi_deg * kRadPerDeg, smp.r_mm, s.probe_offset_mm));
   }
   const LeastSquaresSphere fit = FitSphereLeastSquares(pts);
   if (!fit.sphere.ok) throw Error("sphericity: the evaluated points determine no sphere");
@@ -198,7 +206,7 @@ std::optional<double> EccentricityForNominalSphericity(const SimulationSpec& bas
 std::vector<SphericityRow> SphericityStudy(const MonteCarloSpec& spec, const MonteCarloResult& result,
                                            const std::vector<double>& before_targets_um, double calibration_e_mm) {
   SimulationSpec cal_spec = spec.base;
-  cal_spec.centers_mm = Centers(spec, calibration_e_mm, 0);
+  cal_spec.centers_mm = PlacementCenters(spec, calibration_e_mm);
   cal_spec.seed = spec.seed;
   CalibrationOptions copts;
   copts.sphere_radius_mm = spec.base.sphere_radius_mm;
@@ -212,7 +220,8 @@ std::vector<SphericityRow> SphericityStudy(const MonteCarloSpec& spec, const Mon
   }
   ScmsGeometry mean{};
   if (at_cal != nullptr) {
-    for (int p = 0; p < kNumScmsParams; ++p) mean[static_cast<std::size_t>(p)] = at_cal->params[static_cast<std::size_t>(p)].mean;
+    for (int p = 0; p < kNumScmsParams; ++p)
+      mean[static_cast<std::size_t>(p)] = at_cal->params[static_cast<std::size_t>(p)].mean;
   }
   // What one calibration typically achieves: the median over the first calibrations of the study
   // (a single calibration's "after" values scatter by a factor of two or so).

@@ -1,10 +1,9 @@
 #include "sph/calib/observability.hpp"
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/SVD>
 
 #include "sph/model/units.hpp"
 
@@ -29,6 +28,51 @@ double ObservabilityReport::StdAsDisplacementUm(int i) const {
   return std(i) * arm * kUmPerMm;
 }
 
+NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian) {
+  const Eigen::Index m = jacobian.rows();
+  const Eigen::Index n = jacobian.cols();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  NormalInverse out;
+  out.inverse = Eigen::MatrixXd::Constant(n, n, nan);
+  out.in_null.assign(static_cast<std::size_t>(n), true);
+  out.condition_number = std::numeric_limits<double>::infinity();
+  out.scale = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double norm = jacobian.col(j).norm();
+    out.scale(j) = norm > 0.0 ? 1.0 / norm : 0.0;
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::ColPivHouseholderQRPreconditioner> svd(
+      jacobian * out.scale.asDiagonal(), Eigen::ComputeThinV);
+  out.singular_values = svd.singularValues();
+  out.v = svd.matrixV();
+  const Eigen::VectorXd& sv = out.singular_values;
+  if (n == 0 || !(sv(0) > 0.0)) return out;
+  out.condition_number = sv(n - 1) > 0.0 ? sv(0) / sv(n - 1) : std::numeric_limits<double>::infinity();
+
+  // Numerical rank: singular values below this carry no information.
+  const double tol = static_cast<double>(std::max(m, n)) * std::numeric_limits<double>::epsilon() * sv(0);
+  for (Eigen::Index j = 0; j < n; ++j) out.in_null[static_cast<std::size_t>(j)] = out.scale(j) == 0.0;
+  Eigen::MatrixXd inv_scaled = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    if (sv(k) > tol) {
+      inv_scaled.noalias() += out.v.col(k) * out.v.col(k).transpose() / (sv(k) * sv(k));
+    } else {
+      for (Eigen::Index j = 0; j < n; ++j) {
+        if (std::abs(out.v(j, k)) > 1e-6) out.in_null[static_cast<std::size_t>(j)] = true;
+      }
+    }
+  }
+  const Eigen::MatrixXd inverse = out.scale.asDiagonal() * inv_scaled * out.scale.asDiagonal();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index j = 0; j < n; ++j) {
+      if (!out.in_null[static_cast<std::size_t>(i)] && !out.in_null[static_cast<std::size_t>(j)]) {
+        out.inverse(i, j) = inverse(i, j);
+      }
+    }
+  }
+  return out;
+}
+
 ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
                                std::vector<ParameterDescription> params, double max_std_um) {
   ObservabilityReport rep;
@@ -44,44 +88,14 @@ ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::Vec
 
   rep.residual_sigma_mm = std::sqrt(residuals.squaredNorm() / static_cast<double>(m - n));
 
-  // Column equilibration: D = diag(1 / |J_:,j|); a zero column is a parameter nothing depends on.
-  Eigen::VectorXd scale(n);
-  for (Eigen::Index j = 0; j < n; ++j) {
-    const double norm = jacobian.col(j).norm();
-    scale(j) = norm > 0.0 ? 1.0 / norm : 0.0;
-  }
-  const Eigen::MatrixXd js = jacobian * scale.asDiagonal();
-  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::ColPivHouseholderQRPreconditioner> svd(js, Eigen::ComputeThinV);
-  const Eigen::VectorXd& sv = svd.singularValues();  // descending
-  const Eigen::MatrixXd& v = svd.matrixV();
-  const double sv_max = sv(0);
-  if (!(sv_max > 0.0)) return rep;
-  rep.condition_number = sv(n - 1) > 0.0 ? sv_max / sv(n - 1) : std::numeric_limits<double>::infinity();
-
-  // Numerical rank: singular values below this carry no information.
-  const double tol = static_cast<double>(std::max(m, n)) * std::numeric_limits<double>::epsilon() * sv_max;
-  std::vector<bool> in_null(static_cast<std::size_t>(n), false);
-  for (Eigen::Index j = 0; j < n; ++j) {
-    if (scale(j) == 0.0) in_null[static_cast<std::size_t>(j)] = true;
-  }
-  Eigen::MatrixXd cov_scaled = Eigen::MatrixXd::Zero(n, n);
-  for (Eigen::Index k = 0; k < n; ++k) {
-    if (sv(k) > tol) {
-      cov_scaled.noalias() += v.col(k) * v.col(k).transpose() / (sv(k) * sv(k));
-    } else {
-      for (Eigen::Index j = 0; j < n; ++j) {
-        if (std::abs(v(j, k)) > 1e-6) in_null[static_cast<std::size_t>(j)] = true;
-      }
-    }
-  }
+  const NormalInverse inv = InvertNormalMatrix(jacobian);
+  rep.condition_number = inv.condition_number;
   const double s2 = rep.residual_sigma_mm * rep.residual_sigma_mm;
-  const Eigen::MatrixXd cov = s2 * scale.asDiagonal() * cov_scaled * scale.asDiagonal();
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (in_null[static_cast<std::size_t>(i)]) continue;
-    rep.std(i) = std::sqrt(std::max(cov(i, i), 0.0));
+    if (inv.in_null[static_cast<std::size_t>(i)]) continue;
+    rep.std(i) = std::sqrt(std::max(s2 * inv.inverse(i, i), 0.0));
     for (Eigen::Index j = 0; j < n; ++j) {
-      if (in_null[static_cast<std::size_t>(j)]) continue;
-      rep.covariance(i, j) = cov(i, j);
+      if (!inv.in_null[static_cast<std::size_t>(j)]) rep.covariance(i, j) = s2 * inv.inverse(i, j);
     }
   }
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -92,6 +106,11 @@ ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::Vec
     const double disp_um = rep.StdAsDisplacementUm(static_cast<int>(i));
     rep.determined[static_cast<std::size_t>(i)] = std::isfinite(disp_um) && disp_um <= max_std_um;
   }
+  const Eigen::VectorXd& sv = inv.singular_values;
+  const Eigen::MatrixXd& v = inv.v;
+  const Eigen::VectorXd& scale = inv.scale;
+  const double sv_max = sv(0);
+  if (!(sv_max > 0.0)) return rep;
 
   // Nearly dependent combinations, weakest first, in displacement-equivalent coefficients.
   for (Eigen::Index k = n - 1; k >= 0; --k) {

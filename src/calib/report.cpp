@@ -2,14 +2,15 @@
 
 #include <cmath>
 #include <cstdio>
-
 #include <nlohmann/json.hpp>
 
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
 
+using internal::Format;
 using nlohmann::json;
 
 struct Units {
@@ -23,12 +24,6 @@ Units UnitsOf(Quantity q) {
   return q == Quantity::kAngle ? Units{"deg", "urad", kDegPerRad, kUradPerRad} : Units{"mm", "um", 1.0, kUmPerMm};
 }
 
-std::string Printf(const char* fmt, double a) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, fmt, a);
-  return buf;
-}
-
 double ParamValue(const CalibrationResult& r, std::size_t i) {
   if (i < kNumScmsParams) return r.geometry[i];
   const std::size_t k = (i - kNumScmsParams) / 3;
@@ -39,7 +34,7 @@ std::string WeakText(const ObservabilityReport& rep, const WeakCombination& w) {
   std::string s;
   for (const auto& [j, c] : w.terms) {
     const ParameterDescription& p = rep.parameters[static_cast<std::size_t>(j)];
-    s += (s.empty() ? "" : ", ") + p.name + (p.quantity == Quantity::kAngle ? "*R0" : "") + " " + Printf("%+.2f", c);
+    s += (s.empty() ? "" : ", ") + p.name + (p.quantity == Quantity::kAngle ? "*R0" : "") + " " + Format("%+.2f", c);
   }
   return s;
 }
@@ -50,64 +45,51 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
   const ObservabilityReport& rep = r.analysis;
   out << ctx.program << ": " << ctx.points_path << "\n";
   out << "  " << r.n_points << " points, " << r.setup_ids.size() << (r.setup_ids.size() == 1 ? " setup" : " setups")
-      << ", R0 = " << Printf("%.6g", ctx.sphere_radius_mm) << " mm, d = " << Printf("%.6g", ctx.probe_offset_mm)
+      << ", R0 = " << Format("%.6g", ctx.sphere_radius_mm) << " mm, d = " << Format("%.6g", ctx.probe_offset_mm)
       << " mm\n";
   for (const auto& [k, v] : ctx.metadata) out << "  " << k << ": " << v << "\n";
   out << "\n";
-  char line[200];
-  std::snprintf(line, sizeof line, "%-12s %15s %12s %-4s | %12s %10s %-4s\n", "parameter", "value", "std", "unit",
-                "value", "std", "unit");
-  out << line;
+  out << Format("%-12s %15s %12s %-4s | %12s %10s %-4s\n", "parameter", "value", "std", "unit", "value", "std", "unit");
   const std::size_t n = kNumScmsParams + 3 * r.centers_mm.size();
   for (std::size_t i = 0; i < n; ++i) {
     const bool analysed = !rep.Empty();
-    const std::string name = analysed ? rep.parameters[i].name
-                                      : (i < kNumScmsParams ? kScmsParamInfo[i].name : "center");
+    const std::string name =
+        analysed ? rep.parameters[i].name : (i < kNumScmsParams ? kScmsParamInfo[i].name : "center");
     const Quantity q = i < kNumScmsParams ? kScmsParamInfo[i].quantity : Quantity::kLength;
     const Units u = UnitsOf(q);
     const double value = ParamValue(r, i);
     if (analysed && !rep.determined[i]) {
       const double disp = rep.StdAsDisplacementUm(static_cast<int>(i));
-      std::snprintf(line, sizeof line, "%-12s %15s  (std %s um as a displacement: not determined by these data)\n",
-                    name.c_str(), "undetermined", std::isfinite(disp) ? Printf("%.3g", disp).c_str() : "infinite");
-      out << line;
+      out << Format("%-12s %15s  (std %s um as a displacement: not determined by these data)\n", name.c_str(),
+                    "undetermined", std::isfinite(disp) ? Format("%.3g", disp).c_str() : "infinite");
       continue;
     }
     const double sd = analysed ? rep.std(static_cast<Eigen::Index>(i)) : std::nan("");
-    std::snprintf(line, sizeof line, "%-12s %15.9f %12.9f %-4s | %12.4f %10.4f %-4s\n", name.c_str(),
-                  value * u.to_report, sd * u.to_report, u.report, value * u.to_fine, sd * u.to_fine, u.fine);
-    out << line;
+    out << Format("%-12s %15.9f %12.9f %-4s | %12.4f %10.4f %-4s\n", name.c_str(), value * u.to_report,
+                  sd * u.to_report, u.report, value * u.to_fine, sd * u.to_fine, u.fine);
   }
   out << "\n";
-  out << "fit: rms " << Printf("%.4f", r.rms_um) << " um, peak-to-valley " << Printf("%.4f", r.pv_um) << " um, "
-      << r.n_points << " points, " << r.iterations << " iterations, "
-      << (r.converged ? "converged" : "NOT converged") << "\n";
+  out << "fit: rms " << Format("%.4f", r.rms_um) << " um, peak-to-valley " << Format("%.4f", r.pv_um) << " um, "
+      << r.n_points << " points, " << r.iterations << " iterations, " << (r.converged ? "converged" : "NOT converged")
+      << "\n";
   if (!rep.Empty()) {
-    out << "residual sigma " << Printf("%.4f", rep.residual_sigma_mm * kUmPerMm)
-        << " um; condition number of the column-equilibrated Jacobian " << Printf("%.3g", rep.condition_number) << "\n";
+    out << "residual sigma " << Format("%.4f", rep.residual_sigma_mm * kUmPerMm)
+        << " um; condition number of the column-equilibrated Jacobian " << Format("%.3g", rep.condition_number) << "\n";
     for (const WeakCombination& w : rep.weak) {
-      out << "nearly dependent (relative singular value " << Printf("%.2g", w.relative_singular_value)
+      out << "nearly dependent (relative singular value " << Format("%.2g", w.relative_singular_value)
           << "): " << WeakText(rep, w) << "\n";
     }
     out << "\ncorrelation matrix:\n";
-    std::snprintf(line, sizeof line, "%-12s", "");
-    out << line;
+    out << Format("%-12s", "");
     for (std::size_t j = 0; j < n; ++j) {
-      std::snprintf(line, sizeof line, " %6.6s", rep.parameters[j].name.c_str());
-      out << line;
+      out << Format(" %6.6s", rep.parameters[j].name.c_str());
     }
     out << "\n";
     for (std::size_t i = 0; i < n; ++i) {
-      std::snprintf(line, sizeof line, "%-12s", rep.parameters[i].name.c_str());
-      out << line;
+      out << Format("%-12s", rep.parameters[i].name.c_str());
       for (std::size_t j = 0; j < n; ++j) {
         const double c = rep.correlation(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
-        if (std::isfinite(c)) {
-          std::snprintf(line, sizeof line, " %6.3f", c);
-        } else {
-          std::snprintf(line, sizeof line, " %6s", "-");
-        }
-        out << line;
+        out << (std::isfinite(c) ? Format(" %6.3f", c) : Format(" %6s", "-"));
       }
       out << "\n";
     }
@@ -134,8 +116,8 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   json undetermined = json::array();
   const std::size_t n = kNumScmsParams + 3 * r.centers_mm.size();
   for (std::size_t i = 0; i < n; ++i) {
-    const std::string name = rep.Empty() ? std::string(i < kNumScmsParams ? kScmsParamInfo[i].name : "center")
-                                         : rep.parameters[i].name;
+    const std::string name =
+        rep.Empty() ? std::string(i < kNumScmsParams ? kScmsParamInfo[i].name : "center") : rep.parameters[i].name;
     const Quantity q = i < kNumScmsParams ? kScmsParamInfo[i].quantity : Quantity::kLength;
     const Units u = UnitsOf(q);
     json p;
@@ -196,9 +178,7 @@ CalibrationFile MakeCalibrationFile(const CalibrationResult& r, const ReportCont
   cal.created_by = ctx.program;
   if (!r.analysis.Empty()) cal.covariance = r.analysis.covariance.topLeftCorner<kNumScmsParams, kNumScmsParams>();
   cal.source.emplace_back("points_file", ctx.points_path);
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6g", r.rms_um);
-  cal.source.emplace_back("fit_rms_um", buf);
+  cal.source.emplace_back("fit_rms_um", Format("%.6g", r.rms_um));
   for (const auto& kv : ctx.metadata) cal.source.push_back(kv);
   return cal;
 }

@@ -24,18 +24,11 @@ int CountEntries(const std::string& dir) {
   return n;
 }
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 TEST(WriteFileAtomically, WritesAndReplaces) {
   const std::string dir = sph::testing::MakeTempDir("atomic");
   WriteFileAtomically(dir + "/f.txt", [](std::ostream& o) { o << "one\n"; });
   WriteFileAtomically(dir + "/f.txt", [](std::ostream& o) { o << "two\n"; });
-  EXPECT_EQ(Slurp(dir + "/f.txt"), "two\n");
+  EXPECT_EQ(sph::testing::ReadWholeFile(dir + "/f.txt"), "two\n");
   EXPECT_EQ(CountEntries(dir), 1);
 }
 
@@ -48,7 +41,7 @@ TEST(WriteFileAtomically, FailureLeavesNothingBehind) {
                                      throw Error("writer failed");
                                    }),
                Error);
-  EXPECT_EQ(Slurp(dir + "/keep.txt"), "old\n");
+  EXPECT_EQ(sph::testing::ReadWholeFile(dir + "/keep.txt"), "old\n");
   EXPECT_EQ(CountEntries(dir), 1);
   EXPECT_THROW(WriteFileAtomically(dir + "/no/such/dir/f.txt", [](std::ostream& o) { o << "x"; }), Error);
   EXPECT_EQ(CountEntries(dir), 1);

@@ -16,13 +16,6 @@
 namespace sph {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 PointsHeader Header() {
   PointsHeader h;
   h.sphere_radius_mm = 20.0;
@@ -57,7 +50,7 @@ TEST(PointsWriter, WritesWhatReadPointsFileReads) {
   EXPECT_EQ(d.header.sphere_radius_mm, std::optional<double>(20.0));
   EXPECT_EQ(d.header.probe_offset_mm, std::optional<double>(25.0));
   EXPECT_TRUE(d.has_time && d.has_setup);
-  EXPECT_NE(Slurp(path).find("# note incomplete: 3 cycles\n"), std::string::npos);
+  EXPECT_NE(sph::testing::ReadWholeFile(path).find("# note incomplete: 3 cycles\n"), std::string::npos);
 }
 
 TEST(PointsWriter, CommentsBeforeTheFirstSampleNeverBecomeHeaderFields) {
@@ -78,13 +71,13 @@ TEST(PointsWriter, ARestartAppendsAndNeverRewrites) {
     PointsWriter w(path, Header(), WithSetup());
     w.Write({1.0, 2.0, 3.0, 4.0, 0});
   }
-  const std::string first = Slurp(path);
+  const std::string first = sph::testing::ReadWholeFile(path);
   {
     PointsWriter w(path, Header(), WithSetup());
     EXPECT_TRUE(w.resumed());
     w.Write({5.0, 6.0, 7.0, 8.0, 0});
   }
-  const std::string both = Slurp(path);
+  const std::string both = sph::testing::ReadWholeFile(path);
   EXPECT_EQ(both.rfind(first, 0), 0U) << "the first run's bytes must be unchanged";
   EXPECT_EQ(ReadPointsFile(path).samples.size(), 2U);
 }
@@ -126,7 +119,7 @@ TEST(PointsWriter, FullDiskLeavesNoPartialRecord) {
   {
     PointsWriter w(path, Header(), WithSetup());
     w.Write({1.0, 2.0, 3.0, 4.0, 0});
-    header_size = Slurp(path).size();
+    header_size = sph::testing::ReadWholeFile(path).size();
   }
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
@@ -147,7 +140,7 @@ TEST(PointsWriter, FullDiskLeavesNoPartialRecord) {
   waitpid(pid, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 42) << "the write must fail with a clear error";
-  EXPECT_EQ(Slurp(path).size(), header_size) << "the partial record must be cut off";
+  EXPECT_EQ(sph::testing::ReadWholeFile(path).size(), header_size) << "the partial record must be cut off";
   EXPECT_EQ(ReadPointsFile(path).samples.size(), 1U);
 }
 
@@ -174,7 +167,7 @@ TEST(AppendFile, SyncsAtTheInterval) {
   EXPECT_EQ(later.syncs(), 0U);
   later.Close();
   EXPECT_EQ(later.syncs(), 0U);  // Close syncs without counting through Sync()
-  EXPECT_EQ(Slurp(path + "2"), "a\n");
+  EXPECT_EQ(sph::testing::ReadWholeFile(path + "2"), "a\n");
 }
 
 }  // namespace

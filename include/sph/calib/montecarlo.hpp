@@ -58,6 +58,10 @@ struct MonteCarloResult {
   std::vector<EccentricityResult> rows;
 };
 
+/// The sphere centres of the fixed-direction design at eccentricity e_mm: spec.setups centres,
+/// setup j along spec.direction turned by j * 360/setups deg about the Theta axis (z).
+std::vector<Eigen::Vector3d> PlacementCenters(const MonteCarloSpec& spec, double e_mm);
+
 /// The seed of trial t at eccentricity index k (a SplitMix64 mix of the three).
 std::uint64_t TrialSeed(std::uint64_t seed, std::size_t k, std::size_t t);
 

@@ -50,6 +50,21 @@ struct ObservabilityReport {
   double StdAsDisplacementUm(int i) const;
 };
 
+/// (J^T J)^-1 through the SVD of the column-equilibrated J D (see the file comment), and what the
+/// SVD tells about J. Singular values below max(m, n) * eps * sigma_max count as zero; a parameter
+/// with a component above 1e-6 in their right singular vectors (or a zero column) is in the null space.
+struct NormalInverse {
+  Eigen::MatrixXd inverse;          ///< (J^T J)^-1; rows and columns of null-space parameters are NaN
+  std::vector<bool> in_null;        ///< parameter j lies in the numerical null space of J
+  double condition_number = 0.0;    ///< sigma_max / sigma_min of J D (inf when singular)
+  Eigen::VectorXd singular_values;  ///< of J D, descending
+  Eigen::MatrixXd v;                ///< right singular vectors of J D, in the same order
+  Eigen::VectorXd scale;            ///< the diagonal of D: 1 / |J_:,j|, 0 for a zero column
+};
+
+/// NormalInverse of a Jacobian with at least as many rows as columns.
+NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian);
+
 /// Analyses a fit. `jacobian` is m x n with m > n, `residuals` has m entries (any unit, the same
 /// as the Jacobian's rows), `params` describes the n columns.
 ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
