@@ -63,31 +63,31 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
       ->check(CLI::IsMember({"stream", "points"}));
   app.add_option("--setup", o.setup, "Sphere placement id written in the setup column");
   app.add_option("--sphere-radius-mm", o.sphere_radius_mm, "Header: reference sphere radius R0 [mm]")
-      ->check(CLI::PositiveNumber);
+      ->check(Positive());
   app.add_option("--probe-offset-mm", o.probe_offset_mm, "Header: nominal probe zero distance d [mm]")
-      ->check(CLI::PositiveNumber);
+      ->check(Positive());
   app.add_option("--fsync-interval-s", o.fsync_interval_s,
                  "fsync the output at most this long after a record [s]; 0: every record; -1: only at the end");
   app.add_option("--sync-mode", o.sync_mode, "produce: send SYNC every --sync-period-ms; follow: an external producer")
       ->check(CLI::IsMember({"produce", "follow"}));
   app.add_option("--heartbeat-timeout-s", o.heartbeat_timeout_s, "A node without heartbeat this long is lost; 0: off")
-      ->check(CLI::NonNegativeNumber);
+      ->check(NonNegative());
   app.add_option("--standstill-tol-deg", o.standstill_tol_deg, "Points mode: both axes within this of the stop [deg]")
-      ->check(CLI::PositiveNumber);
+      ->check(Positive());
   app.add_option("--dwell-s", o.dwell_s, "Points mode: still this long before averaging starts [s]")
-      ->check(CLI::NonNegativeNumber);
+      ->check(NonNegative());
   app.add_option("--average-s", o.average_s, "Points mode: averaging time per stop [s]; 0: until the axes move")
-      ->check(CLI::NonNegativeNumber);
+      ->check(NonNegative());
   app.add_option("--min-samples", o.min_samples, "Points mode: fewer averaged samples: no point")
       ->check(CLI::Range(1, 100000000));
   app.add_option("--duration-s", o.duration_s, "Live: stop after this long [s]; 0: until SIGTERM/SIGINT")
-      ->check(CLI::NonNegativeNumber);
+      ->check(NonNegative());
   app.add_option("--replay-speed", o.replay_speed, "Replay: 1 = the log's own pace; 0: as fast as possible")
-      ->check(CLI::NonNegativeNumber);
+      ->check(NonNegative());
   app.add_option("--reopen-interval-s", o.reopen_interval_s, "Live: check this often whether a lost interface is back [s]")
-      ->check(CLI::PositiveNumber);
+      ->check(Positive());
   app.add_option("--rcvbuf-bytes", o.rcvbuf_bytes, "Live: socket receive buffer (SO_RCVBUF); 0: kernel default")
-      ->check(CLI::NonNegativeNumber);
+      ->check(NonNegative());
   app.add_option("--log-level", o.log_level, "error, warning, info or debug")
       ->check(CLI::IsMember({"error", "warning", "info", "debug"}));
   app.add_flag("-v,--verbose", o.verbose, "One log level more (repeatable)");

@@ -65,16 +65,16 @@ void AddMachineOptions(CLI::App& app, MachineOptions& o, const std::string& grou
   add("--epsilon-deg", o.epsilon_deg, "True epsilon [deg]");
   add("--c-mm", o.c_mm, "True c [mm]");
   add("--d-prime-mm", o.d_prime_mm, "True d' [mm]");
-  add("--sphere-radius-mm", o.sphere_radius_mm, "Sphere radius R0 [mm]")->check(CLI::PositiveNumber);
-  add("--probe-offset-mm", o.probe_offset_mm, "Nominal probe zero distance d [mm]")->check(CLI::PositiveNumber);
+  add("--sphere-radius-mm", o.sphere_radius_mm, "Sphere radius R0 [mm]")->check(Positive());
+  add("--probe-offset-mm", o.probe_offset_mm, "Nominal probe zero distance d [mm]")->check(Positive());
   add("--theta-steps", o.theta_steps, "Grid: theta positions per ring")->check(CLI::Range(1, 1000000));
   add("--phi-steps", o.phi_steps, "Grid: phi rings")->check(CLI::Range(1, 1000000));
   add("--angles", o.angles_path, "Explicit pattern instead of the grid: file of 'theta_deg phi_deg' lines");
-  add("--noise-r-um", o.noise_r_um, "Sigma of the noise on r [um]")->check(CLI::NonNegativeNumber);
+  add("--noise-r-um", o.noise_r_um, "Sigma of the noise on r [um]")->check(NonNegative());
   add("--noise-theta-arcsec", o.noise_theta_arcsec, "Sigma of the noise on the theta reading [arcsec]")
-      ->check(CLI::NonNegativeNumber);
+      ->check(NonNegative());
   add("--noise-phi-arcsec", o.noise_phi_arcsec, "Sigma of the noise on the phi reading [arcsec]")
-      ->check(CLI::NonNegativeNumber);
+      ->check(NonNegative());
 }
 
 SimulationSpec ToSimulationSpec(const MachineOptions& o) {

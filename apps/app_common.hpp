@@ -2,6 +2,7 @@
 #ifndef SPH_APPS_APP_COMMON_HPP_
 #define SPH_APPS_APP_COMMON_HPP_
 
+#include <cstdlib>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -22,6 +23,27 @@ enum ExitCode : int {
   kExitNotUsable = 1, ///< sph_calibrate: solved, but not usable (no convergence, undetermined parameters)
   kExitBadInput = 2,  ///< bad input or usage
 };
+
+/// CLI11 checks for numbers with plain messages ("must be positive"); CLI11 2.1's PositiveNumber
+/// and NonNegativeNumber are ranges that print their 300-digit upper bound.
+inline CLI::Validator Positive() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        return end != text.c_str() && *end == '\0' && v > 0.0 ? "" : "must be a positive number, got " + text;
+      },
+      "POSITIVE");
+}
+inline CLI::Validator NonNegative() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        return end != text.c_str() && *end == '\0' && v >= 0.0 ? "" : "must be a number >= 0, got " + text;
+      },
+      "NONNEGATIVE");
+}
 
 /// The simulated machine and measurement shared by sph_simulate and sph_montecarlo: the true
 /// errors, the sphere, the pattern and the noise (defaults: the paper's study).

@@ -16,10 +16,10 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("points", o.points_path, "Points file (sph-points 1)")->required();
   app.add_option("--sphere-radius-mm", o.sphere_radius_mm,
                  "Reference sphere radius R0 [mm] (overrides the file's sphere_radius_mm)")
-      ->check(CLI::PositiveNumber);
+      ->check(Positive());
   app.add_option("--probe-offset-mm", o.probe_offset_mm,
                  "Nominal probe zero distance d [mm] (overrides the file's probe_offset_mm)")
-      ->check(CLI::PositiveNumber);
+      ->check(Positive());
   app.add_option("--json", o.json_path, "Write the report as JSON to this file ('-' for stdout)");
   app.add_option("-o,--output", o.output_path,
                  "Write the calibration file (JSON) that compensation loads; written only when usable");
@@ -27,7 +27,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "A parameter whose standard uncertainty, as a displacement of the probed point (angles times "
                  "R0), exceeds this is undetermined [um]")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(Positive());
   app.add_option("--max-iterations", o.max_iterations, "Levenberg-Marquardt iteration limit")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));

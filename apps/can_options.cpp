@@ -1,5 +1,6 @@
 #include "can_options.hpp"
 
+#include "app_common.hpp"
 #include "sph/core/error.hpp"
 
 namespace sph::apps {
@@ -17,7 +18,7 @@ void AddEncoder(CLI::App& app, const std::string& name, EncoderOptions& e) {
   app.add_option("--" + name + "-width-bytes", e.width_bytes, axis + " encoder: bytes of the position value")
       ->check(CLI::Range(1, 8))->group(g);
   app.add_option("--" + name + "-counts-per-rev", e.counts_per_rev, axis + " encoder: counts per revolution")
-      ->check(CLI::PositiveNumber)->group(g);
+      ->check(Positive())->group(g);
   app.add_option("--" + name + "-direction", e.direction, axis + " encoder: counting direction, 1 or -1")
       ->check(CLI::IsMember({1, -1}))->group(g);
   app.add_option("--" + name + "-zero-counts", e.zero_counts, axis + " encoder: raw value at angle 0 [counts]")->group(g);
@@ -56,7 +57,7 @@ void AddDeviceOptions(CLI::App& app, DeviceOptions& o) {
   auto* nm = app.add_option("--probe-scale-nm-per-count", o.probe_scale_nm_per_count, "Probe: scale [nm per count]")
                  ->group(g);
   app.add_option("--probe-scale-um-per-count", o.probe_scale_um_per_count, "Probe: scale [um per count] (instead of nm)")
-      ->check(CLI::PositiveNumber)->excludes(nm)->group(g);
+      ->check(Positive())->excludes(nm)->group(g);
   app.add_option("--probe-value-offset-mm", o.probe_offset_mm, "Probe: r = value offset + scale * raw [mm]")->group(g);
   app.add_option("--probe-over-range-raw", o.probe_over_range_raw, "Probe: raw value meaning 'over range'")->group(g);
   app.add_option("--probe-under-range-raw", o.probe_under_range_raw, "Probe: raw value meaning 'under range'")->group(g);
@@ -74,7 +75,7 @@ void AddDeviceOptions(CLI::App& app, DeviceOptions& o) {
   app.add_option("--sync-period-ms", o.sync_period_ms,
                  "SYNC period [ms]: produced at this period, or expected from the external producer (gap detection; "
                  "0: unknown)")
-      ->check(CLI::NonNegativeNumber)->group(g);
+      ->check(NonNegative())->group(g);
 }
 
 void ApplyDeviceOptions(const DeviceOptions& o, can::PipelineConfig& c) {

@@ -124,10 +124,10 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
   AddMachineOptions(app, o.machine, m);
   app.add_option("--center-mm", o.center_mm, "Sphere centre x,y,z [mm]")->group(m);
   app.add_option("--seed", o.seed, "Random seed")->group(m);
-  app.add_option("--move-s", o.move_s, "Time to move between pattern points [s]")->check(CLI::NonNegativeNumber)->group(m);
-  app.add_option("--stop-s", o.stop_s, "Standstill at each pattern point [s]")->check(CLI::NonNegativeNumber)->group(m);
+  app.add_option("--move-s", o.move_s, "Time to move between pattern points [s]")->check(NonNegative())->group(m);
+  app.add_option("--stop-s", o.stop_s, "Standstill at each pattern point [s]")->check(NonNegative())->group(m);
   app.add_option("--heartbeat-period-s", o.heartbeat_period_s, "Heartbeat period of every node [s]; 0: none")
-      ->check(CLI::NonNegativeNumber)->group(m);
+      ->check(NonNegative())->group(m);
   app.add_option("--start-time-s", o.start_time_s, "Log: time of the first SYNC [s since the epoch]")->group(m);
   const std::string f = "Faults";
   app.add_option("--drop-probability", o.drop_probability, "Each PDO is lost with this probability")
@@ -139,9 +139,9 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
   app.add_option("--probe-out-of-range-probability", o.probe_out_of_range_probability,
                  "The probe sends its over-range code")->check(CLI::Range(0.0, 1.0))->group(f);
   app.add_option("--jitter-us", o.jitter_us, "Extra PDO delay, uniform in [0, jitter] [us]")
-      ->check(CLI::NonNegativeNumber)->group(f);
+      ->check(NonNegative())->group(f);
   app.add_option("--error-frame-period-s", o.error_frame_period_s, "An error frame (controller problem) this often [s]")
-      ->check(CLI::NonNegativeNumber)->group(f);
+      ->check(NonNegative())->group(f);
   app.add_option("--bus-off-at-s", o.bus_off_at_s, "A bus-off error frame at this time after the start [s] (repeatable)")
       ->group(f);
   app.add_option("--silence", o.silences, "device:from_s:to_s: the device sends nothing then (repeatable)")->group(f);

@@ -347,7 +347,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   app.add_flag("--plan", o.plan, "Predict the standard deviations from the linearised model, without simulating");
   app.add_option("--target-std-um", o.target_std_um,
                  "With --plan: find the smallest eccentricity (and per grid) meeting this std as a displacement [um]")
-      ->check(CLI::PositiveNumber);
+      ->check(Positive());
   app.add_flag("!--no-progress", o.progress, "No progress bar");
 }
 

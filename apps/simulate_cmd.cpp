@@ -20,7 +20,7 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
   AddMachineOptions(app, o.machine);
   app.add_option("--center-mm", o.centers_mm, "Sphere centre x,y,z [mm]; repeat for several setups");
   app.add_option("--seed", o.seed, "Random seed");
-  app.add_option("--sample-period-s", o.sample_period_s, "Time between samples [s]")->check(CLI::NonNegativeNumber);
+  app.add_option("--sample-period-s", o.sample_period_s, "Time between samples [s]")->check(NonNegative());
 }
 
 int RunSimulate(const SimulateOptions& o, std::ostream& err) {
