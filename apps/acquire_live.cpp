@@ -200,7 +200,10 @@ int RunLive(AcquireContext& ctx) {
       for (int i = 0; i < 256 && !went_down; ++i) {  // drain, bounded so the timer is served
         const can::RxResult r = sock->Receive();
         if (r.new_drops > 0) ctx.pipeline.OnRxOverflow(r.new_drops, RealtimeNs());
-        if (r.status == can::RxStatus::kNone) break;
+        if (r.status == can::RxStatus::kNone) {  // queue empty: drops that no frame followed
+          ctx.pipeline.OnRxOverflow(sock->TakeDrops(), RealtimeNs());
+          break;
+        }
         if (r.status == can::RxStatus::kDown) {
           went_down = true;
           down_errno = r.error;
@@ -213,6 +216,7 @@ int RunLive(AcquireContext& ctx) {
       }
     }
     if (went_down) {
+      ctx.pipeline.OnRxOverflow(sock->TakeDrops(), RealtimeNs());
       ctx.log(can::LogLevel::kWarning, o.iface + ": " + std::strerror(down_errno) +
                                            ": waiting for the interface to come back");
       ctx.pipeline.OnLinkEvent("interface " + o.iface + " lost (" + std::strerror(down_errno) + ")", RealtimeNs());
@@ -223,6 +227,7 @@ int RunLive(AcquireContext& ctx) {
     ctx.pipeline.OnTime(RealtimeNs());
     ctx.FlushOutputs();
   }
+  if (sock) ctx.pipeline.OnRxOverflow(sock->TakeDrops(), RealtimeNs());  // drops after the last frame read
   if (ctx.signals.stop) ctx.log(can::LogLevel::kInfo, "stop requested: flushing and closing");
   pthread_sigmask(SIG_UNBLOCK, &blocked, nullptr);
   if (produce) {

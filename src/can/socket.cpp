@@ -4,6 +4,7 @@
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <linux/net_tstamp.h>
+#include <linux/sock_diag.h>
 #include <net/if.h>
 #include <poll.h>
 #include <sys/ioctl.h>
@@ -161,8 +162,7 @@ RxResult CanSocket::Receive() {
     } else if (c->cmsg_type == SO_RXQ_OVFL) {
       std::uint32_t drops = 0;
       std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
-      r.new_drops = static_cast<std::uint32_t>(drops - last_drops_);  // the kernel counter wraps at 2^32
-      last_drops_ = drops;
+      r.new_drops = AdvanceDropCounter(&last_drops_, drops);
     }
   }
   if (n != static_cast<ssize_t>(CAN_MTU) || cf.can_dlc > CAN_MAX_DLEN) {
@@ -198,6 +198,20 @@ TxStatus CanSocket::Send(const CanFrame& frame, int* error) {
     if (error != nullptr) *error = err;
     return (err == ENOBUFS || err == EAGAIN) ? TxStatus::kBusy : TxStatus::kDown;
   }
+}
+
+std::uint64_t CanSocket::TakeDrops() {
+  std::uint32_t info[SK_MEMINFO_VARS] = {};
+  socklen_t len = sizeof info;
+  if (::getsockopt(fd_, SOL_SOCKET, SO_MEMINFO, info, &len) != 0 || len <= SK_MEMINFO_DROPS * sizeof info[0]) return 0;
+  return AdvanceDropCounter(&last_drops_, info[SK_MEMINFO_DROPS]);
+}
+
+std::uint64_t AdvanceDropCounter(std::uint32_t* last, std::uint32_t counter) {
+  const std::uint32_t diff = counter - *last;  // the kernel counter wraps at 2^32
+  if (diff == 0 || diff > 0x7fffffffU) return 0;  // unchanged, or an older reading
+  *last = counter;
+  return diff;
 }
 
 bool InterfaceIsUp(const std::string& iface) {

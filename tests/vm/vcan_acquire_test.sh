@@ -90,6 +90,65 @@ echo "   canplayer sent $sent frames in $(awk -v a=$t0 -v b=$t1 'BEGIN {printf "
 grep -E 'summary: frames|lost:' acq4.err | sed 's/^/   /'
 check "every frame received or counted as a kernel drop: $frames + $drops = $sent" test $((frames + drops)) -eq "$sent"
 
+# start_follow OUT ERR [OPTIONS...]: sph_acquired on vcan0 with external SYNC, in the background ($acq);
+# returns once its socket is bound (it logged "acquiring"), so no frame sent afterwards can miss it.
+start_follow() {
+  local out=$1 err=$2; shift 2
+  ./sph_acquired --iface vcan0 -o "$out" --sync-mode follow --sync-period-ms 0 --duration-s 60 "$@" 2>"$err" &
+  acq=$!
+  for _ in $(seq 100); do grep -q ': acquiring' "$err" && return 0; sleep 0.05; done
+  return 1
+}
+counts() {  # counts ERR: "frames drops" from the daemon's last summary
+  echo "$(sed -n 's/.*summary: frames \([0-9]*\),.*/\1/p' "$1" | tail -1) $(sed -n 's/.*kernel drops (rx overflow) \([0-9]*\).*/\1/p' "$1" | tail -1)"
+}
+elapsed() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.3f", b - a}'; }
+
+echo "== 4b. receive-queue overflow: the daemon stopped (SIGSTOP) while cangen floods its smallest queue"
+start_follow ovf.txt acq4b.err --rcvbuf-bytes 1   # SO_RCVBUF 1: the kernel's minimum, a few frames
+sent=2000
+kill -STOP $acq
+cangen vcan0 -I 181 -L 8 -g 0 -n $sent
+kill -CONT $acq
+sleep 0.5
+kill -TERM $acq; wait $acq
+rc=$?
+read -r frames drops < <(counts acq4b.err)
+grep -E 'kernel dropped|summary: frames|lost:' acq4b.err | sed 's/^/   /'
+check "exit 1 (samples lost), got $rc" test "$rc" -eq 1
+check "the kernel dropped frames and the summary says so: $drops" test "${drops:-0}" -gt 0
+check "every frame received or counted as a kernel drop: $frames + $drops = $sent" test $((frames + drops)) -eq "$sent"
+noted=$(awk '/^#.*the kernel dropped [0-9]+ received frames/ {for (i = 1; i < NF; i++) if ($i == "dropped") n += $(i + 1)} END {print n + 0}' ovf.txt)
+check "the drops are comments in the points file: $noted" test "$noted" -eq "${drops:-0}"
+check "the drops are in the loss total" grep -q "samples were lost: $drops " acq4b.err
+
+echo "== 4c. highest sustained rate: canplayer at 1000..6000 frames/s, then cangen -g 0 (default SO_RCVBUF)"
+best=0
+for rate in 1000 2000 4000 6000 flood; do
+  start_follow rate.txt rate.err
+  if [ "$rate" = flood ]; then
+    sent=10000
+    t0=$EPOCHREALTIME
+    cangen vcan0 -I 181 -L 8 -g 0 -n $sent
+    t1=$EPOCHREALTIME
+  else
+    sent=$((rate * 3 / 2))  # 1.5 s of PDOs at the rate
+    awk -v n=$sent -v r=$rate 'BEGIN {for (i = 0; i < n; i++) printf "(%.6f) vcan0 181#%08X00000000\n", 100 + i / r, i}' >rate.log
+    t0=$EPOCHREALTIME
+    canplayer -I rate.log
+    t1=$EPOCHREALTIME
+  fi
+  sleep 0.5
+  kill -TERM $acq; wait $acq
+  read -r frames drops < <(counts rate.err)
+  fps=$(awk -v n=$sent -v s="$(elapsed "$t0" "$t1")" 'BEGIN {printf "%.0f", n / s}')
+  echo "   $rate: sent $sent in $(elapsed "$t0" "$t1") s ($fps frames/s), received $frames, kernel drops $drops"
+  check "at $rate every frame received or counted as a kernel drop: $frames + $drops = $sent" \
+    test $((frames + drops)) -eq "$sent"
+  [ "${drops:-1}" -eq 0 ] && [ "$fps" -gt "$best" ] && best=$fps
+done
+echo "vm max sustained: $best frames/s, 0 drops (daemon with the default receive buffer, one vCPU under TCG)"
+
 echo "== 5. SIGTERM flushes and closes"
 ./sph_acquired --iface vcan0 -o term.txt --sync-period-ms 10 2>acq5.err &
 acq=$!

@@ -3,7 +3,9 @@
 // Receive timestamps come with each frame from recvmsg() control messages: SO_TIMESTAMPING
 // (hardware time when the driver gives one, else the kernel's software receive time), or
 // SO_TIMESTAMP where SO_TIMESTAMPING is refused. SO_RXQ_OVFL reports how many frames the kernel
-// dropped because the receive queue was full. Every setsockopt is checked.
+// dropped because the receive queue was full, with the next frame queued after the drops; drops
+// that no frame followed are read from the socket's counter (SO_MEMINFO) by TakeDrops(). Every
+// setsockopt is checked.
 //
 // Not exceptional, returned as status: nothing to read, the interface going down (ENETDOWN) or
 // away (ENODEV, ENXIO), a TX queue that is full (ENOBUFS). Exceptional (sph::Error with the
@@ -77,6 +79,10 @@ class CanSocket {
   RxResult Receive(int timeout_ms);
   /// One write(); `error` gets errno when not kOk.
   TxStatus Send(const CanFrame& frame, int* error = nullptr);
+  /// Frames the kernel dropped that no received frame has reported yet: the socket's drop counter
+  /// (getsockopt SO_MEMINFO, SK_MEMINFO_DROPS; Linux 4.12 and later, else always 0). Call it when
+  /// the queue is empty and before closing, so that drops after the last queued frame are counted.
+  std::uint64_t TakeDrops();
 
  private:
   int fd_ = -1;
@@ -85,6 +91,11 @@ class CanSocket {
   bool timestamping_ = false;  // SO_TIMESTAMPING (else SO_TIMESTAMP)
   std::uint32_t last_drops_ = 0;
 };
+
+/// Frames newly dropped when the kernel's drop counter (32 bits, wrapping) reads `counter` after
+/// `*last`, which becomes `counter`. A reading older than `*last` (a frame queued before the drops
+/// that TakeDrops() already counted) gives 0 and leaves `*last`: every drop is counted once.
+std::uint64_t AdvanceDropCounter(std::uint32_t* last, std::uint32_t counter);
 
 /// Whether the interface exists and is administratively up (SIOCGIFFLAGS IFF_UP); false when
 /// there is no such interface or no CAN support to ask with.
