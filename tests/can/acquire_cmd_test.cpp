@@ -25,13 +25,6 @@
 namespace sph::apps {
 namespace {
 
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 // A simulated log of the default machine; `extra` adjusts the options.
 std::string MakeLog(const std::string& dir, const std::string& name, void (*extra)(CansimOptions&) = nullptr) {
   CansimOptions o;
@@ -104,7 +97,7 @@ TEST(Acquire, EveryFaultIsCountedReportedAndTheFileStaysReadable) {
   // Stops are 1 s at t = 1.5 i; the probe's silence from 10 to 14 s swallows the stops at 10.5 and
   // 12 s whole; every other stop still gives its point.
   EXPECT_EQ(d.samples.size(), 16U);
-  const std::string file = Slurp(dir + "/p.txt");
+  const std::string file = sph::testing::ReadWholeFile(dir + "/p.txt");
   EXPECT_NE(file.find("incomplete SYNC cycle"), std::string::npos);
   EXPECT_NE(file.find("probe no frame"), std::string::npos);
   // The frame log holds every valid frame of the input, in can-utils' format.
@@ -131,9 +124,9 @@ TEST(Acquire, ARestartAppendsToTheSameFile) {
   o.mode = "points";
   std::ostringstream err;
   ASSERT_EQ(RunAcquire(o, err), kExitOk) << err.str();
-  const std::string first = Slurp(dir + "/p.txt");
+  const std::string first = sph::testing::ReadWholeFile(dir + "/p.txt");
   ASSERT_EQ(RunAcquire(o, err), kExitOk) << err.str();
-  const std::string both = Slurp(dir + "/p.txt");
+  const std::string both = sph::testing::ReadWholeFile(dir + "/p.txt");
   EXPECT_EQ(both.rfind(first, 0), 0U);
   EXPECT_EQ(ReadPointsFile(dir + "/p.txt").samples.size(), 6U);
   EXPECT_NE(both.find("# resumed by sph_acquired"), std::string::npos);
@@ -270,7 +263,7 @@ TEST(AcquireProcess, SigtermFlushesClosesAndSigusr1PrintsTheSummary) {
   waitpid(pid, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), kExitOk);
-  const std::string e = Slurp(dir + "/stderr.txt");
+  const std::string e = sph::testing::ReadWholeFile(dir + "/stderr.txt");
   EXPECT_NE(e.find("stop requested"), std::string::npos) << e;
   const auto first = e.find("summary: frames");
   ASSERT_NE(first, std::string::npos) << e;
@@ -298,7 +291,7 @@ TEST(AcquireProcess, Kill9LosesNoWrittenRecordAndTheFileStaysReadable) {
     EXPECT_TRUE(WIFSIGNALED(status));
     const PointsData d = ReadPointsFile(dir + "/p.txt");  // throws if a line is broken
     EXPECT_GT(d.samples.size(), 50U * static_cast<std::size_t>(run + 1));
-    const std::string text = Slurp(dir + "/p.txt");
+    const std::string text = sph::testing::ReadWholeFile(dir + "/p.txt");
     EXPECT_EQ(text.back(), '\n');
   }
 }
