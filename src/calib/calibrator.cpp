@@ -10,6 +10,7 @@
 #include <memory>
 #include <set>
 
+#include "problem_eval.hpp"
 #include "sph/ceres/sphere_residual_batch.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
@@ -181,15 +182,7 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
                              centers[k].data());
   }
 
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options.max_iterations;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
-  solver_options.function_tolerance = 1e-6;
-  solver_options.gradient_tolerance = 1e-16;
-  solver_options.parameter_tolerance = 1e-12;
+  const ceres::Solver::Options solver_options = internal::CalibrationSolverOptions(options.max_iterations);
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
   result.converged = summary.termination_type == ceres::CONVERGENCE;
@@ -202,41 +195,19 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
   }
   if (!options.analyse) return result;
 
-  // Residuals and Jacobian at the solution, parameters in report order.
-  ceres::Problem::EvaluateOptions eval;
-  eval.parameter_blocks.push_back(result.geometry.data());
-  for (auto& c : centers) eval.parameter_blocks.push_back(c.data());
-  std::vector<double> residuals;
-  ceres::CRSMatrix crs;
-  double cost = 0.0;
-  problem.Evaluate(eval, &cost, &residuals, nullptr, &crs);
-  // Ceres orders the residuals by setup; put residuals and Jacobian rows back in file order.
+  // Residuals and Jacobian at the solution, parameters in report order, rows in file order.
+  std::vector<double*> blocks{result.geometry.data()};
+  for (auto& c : centers) blocks.push_back(c.data());
   std::vector<std::size_t> sample_of_row;
   for (const auto& rows : rows_of_setup) sample_of_row.insert(sample_of_row.end(), rows.begin(), rows.end());
-  const Eigen::Index m = static_cast<Eigen::Index>(residuals.size());
-  result.residuals_mm.assign(residuals.size(), 0.0);
-  Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(m, static_cast<Eigen::Index>(n_params));
-  for (int row = 0; row < crs.num_rows; ++row) {
-    const std::size_t sample = sample_of_row[static_cast<std::size_t>(row)];
-    result.residuals_mm[sample] = residuals[static_cast<std::size_t>(row)];
-    for (int idx = crs.rows[static_cast<std::size_t>(row)]; idx < crs.rows[static_cast<std::size_t>(row) + 1]; ++idx) {
-      jac(static_cast<Eigen::Index>(sample), crs.cols[static_cast<std::size_t>(idx)]) =
-          crs.values[static_cast<std::size_t>(idx)];
-    }
-  }
-  const Eigen::Map<const Eigen::VectorXd> res(result.residuals_mm.data(), m);
-  double sum2 = 0.0, lo = res.minCoeff(), hi = res.maxCoeff();
-  sum2 = res.squaredNorm();
-  result.rms_um = std::sqrt(sum2 / static_cast<double>(m)) * kUmPerMm;
-  result.pv_um = (hi - lo) * kUmPerMm;
+  Eigen::MatrixXd jac;
+  internal::EvaluateInFileOrder(problem, blocks, sample_of_row, static_cast<Eigen::Index>(n_params),
+                                &result.residuals_mm, &jac);
+  internal::SetResidualStatistics(result);
+  const Eigen::Map<const Eigen::VectorXd> res(result.residuals_mm.data(),
+                                              static_cast<Eigen::Index>(result.residuals_mm.size()));
 
-  std::vector<ParameterDescription> desc;
-  for (const auto& info : kScmsParamInfo) desc.push_back({info.name, info.quantity, options.sphere_radius_mm});
-  for (int id : result.setup_ids) {
-    const std::string suffix = n_setups > 1 ? "@" + std::to_string(id) : "";
-    for (const char* axis : {"center_x", "center_y", "center_z"})
-      desc.push_back({axis + suffix, Quantity::kLength, 1.0});
-  }
+  std::vector<ParameterDescription> desc = internal::BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
   result.analysis = AnalyseFit(jac, res, std::move(desc), options.max_std_um);
   ExplainUndetermined(points, options, result);
   return result;

@@ -83,6 +83,7 @@ ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::Vec
   rep.covariance = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
   rep.correlation = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
   rep.determined.assign(static_cast<std::size_t>(n), false);
+  rep.vif = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
   rep.condition_number = std::numeric_limits<double>::infinity();
   if (m <= n || n == 0) return rep;
 
@@ -93,6 +94,8 @@ ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::Vec
   const double s2 = rep.residual_sigma_mm * rep.residual_sigma_mm;
   for (Eigen::Index i = 0; i < n; ++i) {
     if (inv.in_null[static_cast<std::size_t>(i)]) continue;
+    // The column-equilibrated normal matrix has a unit diagonal, so its inverse's diagonal is the VIF.
+    rep.vif(i) = inv.inverse(i, i) / (inv.scale(i) * inv.scale(i));
     rep.std(i) = std::sqrt(std::max(s2 * inv.inverse(i, i), 0.0));
     for (Eigen::Index j = 0; j < n; ++j) {
       if (!inv.in_null[static_cast<std::size_t>(j)]) rep.covariance(i, j) = s2 * inv.inverse(i, j);

@@ -1,6 +1,8 @@
 #include "sph/core/simulate.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <random>
 #include <string>
 
@@ -35,34 +37,152 @@ std::vector<AnglePair> GridPattern(int theta_steps, int phi_steps) {
   return out;
 }
 
-std::optional<double> ProbeReading(const ScmsGeometry& g, double theta_rad, double phi_rad, double probe_offset_mm,
-                                   const Eigen::Vector3d& center_mm, double sphere_radius_mm) {
+namespace {
+
+// sum over the components of `term` on `axis` of value * basis(x), written out from the definition
+// in sph/model/effects.hpp (deliberately not through the model header's own evaluation).
+double TermValue(const EffectTerm& term, const std::vector<double>& values, int axis, double x) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < term.components.size(); ++i) {
+    const EffectComponent& c = term.components[i];
+    if (c.axis != axis) continue;
+    const double basis = !term.info().harmonic ? std::pow(x, c.order)
+                         : c.sine             ? std::sin(c.order * x)
+                                              : std::cos(c.order * x);
+    sum += values[i] * basis;
+  }
+  return sum;
+}
+
+double EffectValue(const SimulatedEffects& e, Effect which, int axis, double x) {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < e.model.terms.size(); ++i) {
+    if (e.model.terms[i].effect == which) sum += TermValue(e.model.terms[i], e.values[i], axis, x);
+  }
+  return sum;
+}
+
+// Associated Legendre function P_l^m(x), m >= 0, without the Condon-Shortley phase.
+double Legendre(int l, int m, double x) {
+  double pmm = 1.0;
+  const double s = std::sqrt(std::max(0.0, 1.0 - x * x));
+  for (int i = 1; i <= m; ++i) pmm *= (2.0 * i - 1.0) * s;
+  if (l == m) return pmm;
+  double pm1 = x * (2.0 * m + 1.0) * pmm;
+  for (int ll = m + 2; ll <= l; ++ll) {
+    const double pll = (x * (2.0 * ll - 1.0) * pm1 - (ll + m - 1.0) * pmm) / (ll - m);
+    pmm = pm1;
+    pm1 = pll;
+  }
+  return pm1;
+}
+
+// Form error [mm] of the sphere's surface in the direction u (unit, sphere frame).
+double FormError(const std::vector<FormComponent>& form, const Eigen::Vector3d& u) {
+  double sum = 0.0;
+  const double lon = std::atan2(u.y(), u.x());
+  for (const FormComponent& f : form) {
+    const int m = std::abs(f.m);
+    double norm = 1.0;  // Schmidt: sqrt(2 (l-m)! / (l+m)!) for m > 0
+    if (m > 0) {
+      double ratio = 1.0;
+      for (int i = f.l - m + 1; i <= f.l + m; ++i) ratio /= i;
+      norm = std::sqrt(2.0 * ratio);
+    }
+    const double trig = f.m >= 0 ? std::cos(m * lon) : std::sin(m * lon);
+    sum += f.amplitude_um * kMmPerUm * norm * Legendre(f.l, m, u.z()) * trig;
+  }
+  return sum;
+}
+
+// First intersection of the ray origin + s dir (unit) with the sphere |p - O| = radius.
+std::optional<double> RaySphere(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, const Eigen::Vector3d& center,
+                                double radius) {
+  // |origin + s dir - O|^2 = R^2  ->  s^2 + 2 s dir.(origin - O) + |origin - O|^2 - R^2 = 0
+  const Eigen::Vector3d w = origin - center;
+  const double half_b = dir.dot(w);
+  const double disc = half_b * half_b - (w.squaredNorm() - radius * radius);
+  if (!(disc >= 0.0)) return std::nullopt;
+  return -half_b - std::sqrt(disc);
+}
+
+}  // namespace
+
+std::optional<double> TrueProbeDistance(const ScmsGeometry& g, const SimulatedEffects& e, double theta_rad,
+                                        double phi_rad, double probe_offset_mm, const Eigen::Vector3d& center_mm,
+                                        double sphere_radius_mm) {
   using Eigen::AngleAxisd;
   using Eigen::Translation3d;
   using Eigen::Vector3d;
-  const Eigen::Affine3d T_theta_phi = AngleAxisd(theta_rad, Vector3d::UnitZ()) * Translation3d(g[kA], 0.0, 0.0) *
-                                      AngleAxisd(kPi / 2 + g[kAlpha], Vector3d::UnitX());
-  const Eigen::Affine3d T_phi_probe = AngleAxisd(-phi_rad, Vector3d::UnitZ()) * AngleAxisd(g[kBeta], Vector3d::UnitZ()) *
+  const double theta = theta_rad + EffectValue(e, Effect::kThetaEncoder, 0, theta_rad);
+  const double phi = phi_rad + EffectValue(e, Effect::kPhiEncoder, 0, phi_rad);
+  const Vector3d motion(EffectValue(e, Effect::kThetaRadialMotion, 0, theta_rad),
+                        EffectValue(e, Effect::kThetaRadialMotion, 1, theta_rad),
+                        EffectValue(e, Effect::kThetaAxialMotion, 0, theta_rad));
+  const double wx = EffectValue(e, Effect::kPhiWobble, 0, phi_rad);
+  const double wy = EffectValue(e, Effect::kPhiWobble, 1, phi_rad);
+  const Eigen::Affine3d T_theta_phi = AngleAxisd(theta, Vector3d::UnitZ()) * Translation3d(-motion) *
+                                      Translation3d(g[kA], 0.0, 0.0) *
+                                      AngleAxisd(kPi / 2 + g[kAlpha], Vector3d::UnitX()) *
+                                      AngleAxisd(wx, Vector3d::UnitX()) * AngleAxisd(wy, Vector3d::UnitY());
+  const Eigen::Affine3d T_phi_probe = AngleAxisd(-phi, Vector3d::UnitZ()) * AngleAxisd(g[kBeta], Vector3d::UnitZ()) *
                                       Translation3d(0.0, 0.0, g[kB]) * Translation3d(g[kC], 0.0, 0.0) *
                                       AngleAxisd(kPi / 2 + g[kEpsilon], Vector3d::UnitX());
   const Eigen::Affine3d T_sphere_probe = T_theta_phi * T_phi_probe;
   const double zero_z = -(probe_offset_mm + g[kDPrime]);
   const Vector3d origin = T_sphere_probe * Vector3d(0.0, 0.0, zero_z);  // probe zero point
   const Vector3d dir = T_sphere_probe.linear() * Vector3d::UnitZ();      // unit: rotations only
-  // |origin + s dir - O|^2 = R0^2  ->  s^2 + 2 s dir.(origin - O) + |origin - O|^2 - R0^2 = 0
-  const Vector3d w = origin - center_mm;
-  const double half_b = dir.dot(w);
-  const double disc = half_b * half_b - (w.squaredNorm() - sphere_radius_mm * sphere_radius_mm);
-  if (!(disc >= 0.0)) return std::nullopt;
-  const double s = -half_b - std::sqrt(disc);  // first hit along the ray
+  std::optional<double> s = RaySphere(origin, dir, center_mm, sphere_radius_mm);
+  // A form error: intersect with the sphere whose radius is the surface radius in the direction
+  // of the last hit, until the hit stops moving (the form error is smooth and tiny against R0).
+  for (int it = 0; s && !e.form.empty() && it < 20; ++it) {
+    const Vector3d u = (origin + *s * dir - center_mm).normalized();
+    const std::optional<double> next = RaySphere(origin, dir, center_mm, sphere_radius_mm + FormError(e.form, u));
+    if (!next) return std::nullopt;
+    const bool settled = std::abs(*next - *s) < 1e-15;
+    s = next;
+    if (settled) break;
+  }
   return s;
 }
 
-PointsData SimulateExact(const SimulationSpec& spec) {
+std::optional<double> ProbeReading(const ScmsGeometry& g, double theta_rad, double phi_rad, double probe_offset_mm,
+                                   const Eigen::Vector3d& center_mm, double sphere_radius_mm) {
+  return TrueProbeDistance(g, SimulatedEffects{}, theta_rad, phi_rad, probe_offset_mm, center_mm, sphere_radius_mm);
+}
+
+double ProbeReadingOfDistance(const SimulatedEffects& e, double distance_mm, double t_s) {
+  const EffectReference& ref = e.model.reference;
+  const double tau = (t_s - ref.t_start_s) / ref.t_span_s;
+  const double drift = EffectValue(e, Effect::kProbeDrift, 0, tau);
+  // r + error(r) = distance, error(r) = gain + nonlinearity in u(r) + drift: a contraction (the
+  // errors change by far less than r does), so fixed-point iteration converges in a few steps.
+  double r = distance_mm;
+  for (int it = 0; it < 100; ++it) {
+    const double u = (r - ref.r_ref_mm) / ref.r_half_range_mm;
+    const double next = distance_mm - drift - EffectValue(e, Effect::kProbeGain, 0, u) -
+                        EffectValue(e, Effect::kProbeNonlinearity, 0, u);
+    const bool settled = next == r;
+    r = next;
+    if (settled) break;
+  }
+  return r;
+}
+
+PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference) {
   if (!(spec.sphere_radius_mm > 0.0)) throw Error("simulation: the sphere radius must be positive");
   if (!(spec.probe_offset_mm > 0.0)) throw Error("simulation: the probe offset must be positive");
   if (spec.centers_mm.empty()) throw Error("simulation: no sphere centre given");
   if (spec.pattern.empty()) throw Error("simulation: the measuring pattern is empty");
+  if (spec.effects.values.size() != spec.effects.model.terms.size()) {
+    throw Error("simulation: one block of values is needed for each effect");
+  }
+  for (std::size_t i = 0; i < spec.effects.values.size(); ++i) {
+    if (static_cast<int>(spec.effects.values[i].size()) != spec.effects.model.terms[i].size()) {
+      throw Error(std::string("simulation: effect ") + spec.effects.model.terms[i].info().id + " needs " +
+                  std::to_string(spec.effects.model.terms[i].size()) + " values");
+    }
+  }
   PointsData data;
   data.source = "simulation";
   data.header.sphere_radius_mm = spec.sphere_radius_mm;
@@ -72,8 +192,8 @@ PointsData SimulateExact(const SimulationSpec& spec) {
   data.samples.reserve(spec.centers_mm.size() * spec.pattern.size());
   for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
     for (const AnglePair& a : spec.pattern) {
-      const auto r = ProbeReading(spec.truth, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg, spec.probe_offset_mm,
-                                  spec.centers_mm[k], spec.sphere_radius_mm);
+      const auto r = TrueProbeDistance(spec.truth, spec.effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg,
+                                       spec.probe_offset_mm, spec.centers_mm[k], spec.sphere_radius_mm);
       if (!r) {
         throw Error("simulation: the probe ray misses the sphere at theta " + std::to_string(a.theta_deg) +
                     " deg, phi " + std::to_string(a.phi_deg) + " deg (setup " + std::to_string(k) + ")");
@@ -87,6 +207,11 @@ PointsData SimulateExact(const SimulationSpec& spec) {
       data.samples.push_back(s);
     }
   }
+  // The probe's own errors act on the reading, normalised by the range and run of the true readings.
+  SimulatedEffects effects = spec.effects;
+  effects.model.reference = EffectReferenceOf(data.samples);
+  for (Sample& s : data.samples) s.r_mm = ProbeReadingOfDistance(effects, s.r_mm, s.t_s);
+  if (reference) *reference = effects.model.reference;
   return data;
 }
 
@@ -102,10 +227,18 @@ void AddReadingNoise(PointsData& data, const SimulationSpec& spec) {
     s.theta_deg += sigma_theta_deg * n_t;
     s.phi_deg += sigma_phi_deg * n_p;
   }
+  if (spec.effects.outlier_fraction > 0.0) {
+    std::mt19937_64 gross(spec.seed ^ 0x6f75746c69657273ULL);  // its own stream: the noise above stays the same
+    std::uniform_real_distribution<double> uniform(0.0, 1.0);
+    for (Sample& s : data.samples) {
+      const double pick = uniform(gross), sign = uniform(gross) < 0.5 ? -1.0 : 1.0;
+      if (pick < spec.effects.outlier_fraction) s.r_mm += sign * spec.effects.outlier_um * kMmPerUm;
+    }
+  }
 }
 
-PointsData Simulate(const SimulationSpec& spec) {
-  PointsData data = SimulateExact(spec);
+PointsData Simulate(const SimulationSpec& spec, EffectReference* reference) {
+  PointsData data = SimulateExact(spec, reference);
   AddReadingNoise(data, spec);
   return data;
 }

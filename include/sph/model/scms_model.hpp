@@ -96,32 +96,49 @@ ScmsErrorTrig<T> ErrorTrigOf(const T* g) {
   return {SinCosOf(g[kAlpha]), SinCosOf(g[kBeta]), SinCosOf(g[kEpsilon])};
 }
 
-/// Eq. (1) applied right to left to the probe point, given sin and cos of the angle errors
-/// (ErrorTrigOf(g)) and of the axis readings. Uses sin(pi/2 + x) = cos x and cos(pi/2 + x) = -sin x.
-/// The reading trig may be precomputed (fixed readings, A = double) or carry derivatives of its own.
-/// @param g geometry block (rad, mm); et = ErrorTrigOf(g); theta, phi: sin and cos of the readings;
-///        r, d [mm]. Returns p_sphere [mm].
-template <typename T, typename A>
-Vec3<T> ScmsPoint(const T* g, const ScmsErrorTrig<T>& et, const SinCos<A>& theta, const SinCos<A>& phi, const T& r,
-                  const T& d) {
-  const T z = r - (d + g[kDPrime]);  // probe point on the probe line (R frame z)
+/// Eq. (1) applied right to left, in three stages that the effect model (sph/model/effects.hpp)
+/// also uses, with its own terms between them:
+///   ProbeToPhiFrame:    s = Rz(-phi) * DH(beta, b, c, pi/2 + eps) * [0, 0, z]   (frame of the Phi axis)
+///   PhiFrameToMachine:  m = Tx(a) * Rx(pi/2 + alpha) * s                         (machine frame)
+///   MachineToSphere:    p = Rz(theta) * m                                         (frame turning with Theta)
+/// They use sin(pi/2 + x) = cos x and cos(pi/2 + x) = -sin x. The reading trig may be precomputed
+/// (fixed readings, A = double) or carry derivatives of its own.
 
+/// The probe point at z on the probe line (R frame), in the frame of the Phi axis [mm].
+template <typename T, typename A>
+Vec3<T> ProbeToPhiFrame(const T* g, const ScmsErrorTrig<T>& et, const SinCos<A>& phi, const T& z) {
   // q = DH(beta, b, c, pi/2 + eps) * [0, 0, z]: Rx(pi/2 + eps) gives [0, -cos(eps) z, -sin(eps) z],
   // then + [c, 0, b], then Rz(beta).
   const T u = -et.epsilon.cos * z;
   const T qx = et.beta.cos * g[kC] - et.beta.sin * u;
   const T qy = et.beta.sin * g[kC] + et.beta.cos * u;
   const T qz = g[kB] - et.epsilon.sin * z;
-
   // Rz(-phi) * q.
-  const T sx = phi.cos * qx + phi.sin * qy;
-  const T sy = phi.cos * qy - phi.sin * qx;
+  return Vec3<T>(phi.cos * qx + phi.sin * qy, phi.cos * qy - phi.sin * qx, qz);
+}
 
-  // DH(theta, 0, a, pi/2 + alpha) * s: Rx(pi/2 + alpha) gives [sx, -sin(alpha) sy - cos(alpha) qz,
-  // cos(alpha) sy - sin(alpha) qz], then + [a, 0, 0], then Rz(theta).
-  const T x = sx + g[kA];
-  const T y = -et.alpha.sin * sy - et.alpha.cos * qz;
-  return Vec3<T>(theta.cos * x - theta.sin * y, theta.sin * x + theta.cos * y, et.alpha.cos * sy - et.alpha.sin * qz);
+/// A point s of the Phi-axis frame in the machine frame (fixed to the base, before the Theta turn) [mm].
+template <typename T>
+Vec3<T> PhiFrameToMachine(const T* g, const ScmsErrorTrig<T>& et, const Vec3<T>& s) {
+  // Rx(pi/2 + alpha) gives [sx, -sin(alpha) sy - cos(alpha) sz, cos(alpha) sy - sin(alpha) sz], then + [a, 0, 0].
+  return Vec3<T>(s[0] + g[kA], -et.alpha.sin * s[1] - et.alpha.cos * s[2], et.alpha.cos * s[1] - et.alpha.sin * s[2]);
+}
+
+/// A machine-frame point m in the frame that turns with Theta (the sphere's frame) [mm].
+template <typename T, typename A>
+Vec3<T> MachineToSphere(const SinCos<A>& theta, const Vec3<T>& m) {
+  return Vec3<T>(theta.cos * m[0] - theta.sin * m[1], theta.sin * m[0] + theta.cos * m[1], m[2]);
+}
+
+/// Eq. (1) applied right to left to the probe point, given sin and cos of the angle errors
+/// (ErrorTrigOf(g)) and of the axis readings.
+/// @param g geometry block (rad, mm); et = ErrorTrigOf(g); theta, phi: sin and cos of the readings;
+///        r, d [mm]. Returns p_sphere [mm].
+template <typename T, typename A>
+Vec3<T> ScmsPoint(const T* g, const ScmsErrorTrig<T>& et, const SinCos<A>& theta, const SinCos<A>& phi, const T& r,
+                  const T& d) {
+  const T z = r - (d + g[kDPrime]);  // probe point on the probe line (R frame z)
+  return MachineToSphere(theta, PhiFrameToMachine(g, et, ProbeToPhiFrame(g, et, phi, z)));
 }
 
 /// ScmsPoint() given sin and cos of the axis readings; computes the angle errors' trig itself.

@@ -1,0 +1,65 @@
+// Calibration with effects beyond the seven errors (sph/model/effects.hpp).
+//
+// The solver (Levenberg-Marquardt, Ceres) minimises
+//   S = sum_i (|EffectScmsPoint(g, effects; reading_i) - O_setup(i)| - R0)^2
+// over the seven errors g, one centre per setup and one parameter block per effect term, from a
+// given start (usually the seven-error calibration, with the effects at zero). With no terms it is
+// the seven-error calibration of sph/calib/calibrator.hpp.
+//
+// Plain C++ API: no Ceres type appears here.
+#ifndef SPH_CALIB_EFFECT_FIT_HPP_
+#define SPH_CALIB_EFFECT_FIT_HPP_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sph/calib/calibrator.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/model/effects.hpp"
+
+namespace sph {
+
+/// Where a fit with effects starts.
+struct EffectFitStart {
+  ScmsGeometry geometry{};                  ///< (rad, mm)
+  std::vector<Eigen::Vector3d> centers_mm;  ///< one per setup, ascending setup id
+  /// One block per term of the model (rad, mm); missing or wrongly sized blocks start at zero.
+  std::vector<std::vector<double>> values;
+
+  /// The seven-error calibration's solution, effects at zero.
+  static EffectFitStart From(const CalibrationResult& calibration);
+};
+
+/// The outcome of a fit with effects.
+struct EffectFit {
+  /// The seven errors, centres, residuals (file order), rms, peak-to-valley and warnings. When
+  /// analysed, `calibration.analysis` covers every parameter: the seven errors, x, y, z of each
+  /// centre, then the effects' parameters in term order.
+  CalibrationResult calibration;
+  EffectModel model;
+  std::vector<std::vector<double>> values;  ///< one block per term (rad, mm)
+  /// Jacobian of the residuals at the solution (rows in file order, columns as the analysis'
+  /// parameters); empty when not analysed.
+  Eigen::MatrixXd jacobian;
+  double rss_mm2 = 0.0;  ///< sum of squared residuals
+  int n_params = 0;      ///< fitted parameters in all
+
+  /// Bayesian information criterion m ln(RSS / m) + n ln(m) of the fit (Gaussian residuals).
+  double Bic() const;
+  /// Index of the first parameter of term `term` in the analysis' parameter list.
+  int TermOffset(std::size_t term) const;
+};
+
+/// Fits `model` (its reference as given) to `points` from `start`. With options.analyse the
+/// Jacobian, covariance, VIF and determinacy are computed too. Throws sph::Error as Calibrate().
+EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
+                     const EffectFitStart& start);
+
+/// Residuals |p - O| - R0 [mm] of the samples of `points`, in file order, under the parameters of
+/// `fit`. Every setup of `points` must be one of the fit's; throws sph::Error otherwise.
+std::vector<double> EffectResiduals(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);
+
+}  // namespace sph
+
+#endif  // SPH_CALIB_EFFECT_FIT_HPP_

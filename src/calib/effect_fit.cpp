@@ -1,0 +1,181 @@
+// Calibration with effects: one dynamic-autodiff cost function per setup over all its readings.
+#include "sph/calib/effect_fit.hpp"
+
+#include <ceres/ceres.h>
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <utility>
+
+#include "problem_eval.hpp"
+#include "sph/ceres/jet_sincos.hpp"
+#include "sph/core/error.hpp"
+
+namespace sph {
+namespace {
+
+// The residuals of one setup's readings. Parameter blocks: geometry[7], center[3], then one block
+// per effect term. Ceres' DynamicAutoDiffCostFunction differentiates it in passes of kStride
+// parameters, because the number of parameters depends on the model.
+struct SetupResiduals {
+  const EffectModel* model;
+  std::vector<EffectReading> readings;
+  double probe_offset_mm;
+  double sphere_radius_mm;
+
+  template <typename T>
+  bool operator()(T const* const* params, T* residuals) const {
+    using std::sqrt;
+    const T* g = params[0];
+    const T* center = params[1];
+    const ScmsErrorTrig<T> trig = ErrorTrigOf(g);
+    for (std::size_t i = 0; i < readings.size(); ++i) {
+      const Vec3<T> p = EffectScmsPoint(g, trig, *model, params + 2, readings[i], probe_offset_mm);
+      const T dx = p[0] - center[0], dy = p[1] - center[1], dz = p[2] - center[2];
+      residuals[i] = sqrt(dx * dx + dy * dy + dz * dz) - T(sphere_radius_mm);
+    }
+    return true;
+  }
+};
+constexpr int kStride = 16;
+
+std::map<int, std::size_t> IndexOfSetups(const std::vector<int>& ids) {
+  std::map<int, std::size_t> index;
+  for (std::size_t k = 0; k < ids.size(); ++k) index[ids[k]] = k;
+  return index;
+}
+
+}  // namespace
+
+EffectFitStart EffectFitStart::From(const CalibrationResult& calibration) {
+  EffectFitStart s;
+  s.geometry = calibration.geometry;
+  s.centers_mm = calibration.centers_mm;
+  return s;
+}
+
+double EffectFit::Bic() const {
+  const double m = static_cast<double>(calibration.residuals_mm.size());
+  return m * std::log(rss_mm2 / m) + n_params * std::log(m);
+}
+
+int EffectFit::TermOffset(std::size_t term) const {
+  int offset = kNumScmsParams + 3 * static_cast<int>(calibration.centers_mm.size());
+  for (std::size_t i = 0; i < term; ++i) offset += model.terms[i].size();
+  return offset;
+}
+
+EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
+                     const EffectFitStart& start) {
+  const std::string& src = points.source;
+  if (!(options.sphere_radius_mm > 0.0)) throw Error(src + ": the sphere radius must be positive");
+  if (!(options.probe_offset_mm > 0.0)) throw Error(src + ": the probe offset must be positive");
+  EffectFit fit;
+  fit.model = model;
+  CalibrationResult& result = fit.calibration;
+  result.setup_ids = points.SetupIds();
+  const std::size_t n_setups = result.setup_ids.size();
+  if (start.centers_mm.size() != n_setups) throw Error(src + ": the start needs one centre per setup");
+  fit.n_params = kNumScmsParams + 3 * static_cast<int>(n_setups) + model.NumParams();
+  if (points.samples.size() <= static_cast<std::size_t>(fit.n_params)) {
+    throw Error(src + ": " + std::to_string(points.samples.size()) + " samples are too few to fit " +
+                std::to_string(fit.n_params) + " parameters");
+  }
+  const std::map<int, std::size_t> setup_index = IndexOfSetups(result.setup_ids);
+
+  result.geometry = start.geometry;
+  std::vector<std::array<double, 3>> centers(n_setups);
+  for (std::size_t k = 0; k < n_setups; ++k) centers[k] = {start.centers_mm[k].x(), start.centers_mm[k].y(), start.centers_mm[k].z()};
+  fit.values.resize(model.terms.size());
+  for (std::size_t t = 0; t < model.terms.size(); ++t) {
+    const auto size = static_cast<std::size_t>(model.terms[t].size());
+    if (t < start.values.size() && start.values[t].size() == size) {
+      fit.values[t] = start.values[t];
+    } else {
+      fit.values[t].assign(size, 0.0);
+    }
+  }
+
+  std::vector<std::unique_ptr<SetupResiduals>> functors(n_setups);
+  std::vector<std::vector<std::size_t>> rows_of_setup(n_setups);
+  for (std::size_t k = 0; k < n_setups; ++k) {
+    functors[k] = std::make_unique<SetupResiduals>(
+        SetupResiduals{&fit.model, {}, options.probe_offset_mm, options.sphere_radius_mm});
+  }
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
+    const std::size_t k = setup_index.at(s.setup);
+    rows_of_setup[k].push_back(i);
+    functors[k]->readings.emplace_back(s.theta_deg, s.phi_deg, s.r_mm, s.t_s);
+  }
+  ceres::Problem problem;
+  for (std::size_t k = 0; k < n_setups; ++k) {
+    const int n_res = static_cast<int>(functors[k]->readings.size());
+    auto* cost = new ceres::DynamicAutoDiffCostFunction<SetupResiduals, kStride>(functors[k].release());
+    std::vector<double*> blocks{result.geometry.data(), centers[k].data()};
+    cost->AddParameterBlock(kNumScmsParams);
+    cost->AddParameterBlock(3);
+    for (auto& v : fit.values) {
+      cost->AddParameterBlock(static_cast<int>(v.size()));
+      blocks.push_back(v.data());
+    }
+    cost->SetNumResiduals(n_res);
+    problem.AddResidualBlock(cost, nullptr, blocks);
+  }
+
+  ceres::Solver::Summary summary;
+  ceres::Solve(internal::CalibrationSolverOptions(options.max_iterations), &problem, &summary);
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  result.solver_message = summary.message;
+  result.n_points = static_cast<int>(points.samples.size());
+  for (const auto& c : centers) result.centers_mm.emplace_back(c[0], c[1], c[2]);
+  if (!result.converged) result.warnings.push_back("the solver did not converge: " + summary.message);
+
+  std::vector<double*> blocks{result.geometry.data()};
+  for (auto& c : centers) blocks.push_back(c.data());
+  for (auto& v : fit.values) blocks.push_back(v.data());
+  std::vector<std::size_t> sample_of_row;
+  for (const auto& rows : rows_of_setup) sample_of_row.insert(sample_of_row.end(), rows.begin(), rows.end());
+  internal::EvaluateInFileOrder(problem, blocks, sample_of_row, fit.n_params, &result.residuals_mm,
+                                options.analyse ? &fit.jacobian : nullptr);
+  internal::SetResidualStatistics(result);
+  for (double e : result.residuals_mm) fit.rss_mm2 += e * e;
+  if (!options.analyse) return fit;
+
+  std::vector<ParameterDescription> desc =
+      internal::BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
+  for (const EffectTerm& term : model.terms) {
+    for (std::size_t i = 0; i < term.components.size(); ++i) {
+      desc.push_back({term.ParamName(i), term.info().quantity, options.sphere_radius_mm});
+    }
+  }
+  const Eigen::Map<const Eigen::VectorXd> res(result.residuals_mm.data(),
+                                              static_cast<Eigen::Index>(result.residuals_mm.size()));
+  result.analysis = AnalyseFit(fit.jacobian, res, std::move(desc), options.max_std_um);
+  return fit;
+}
+
+std::vector<double> EffectResiduals(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
+  const std::map<int, std::size_t> setup_index = IndexOfSetups(fit.calibration.setup_ids);
+  const CalibrationResult& cal = fit.calibration;
+  std::vector<const double*> blocks;
+  for (const auto& v : fit.values) blocks.push_back(v.data());
+  const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());
+  std::vector<double> out;
+  out.reserve(points.samples.size());
+  for (const Sample& s : points.samples) {
+    const auto it = setup_index.find(s.setup);
+    if (it == setup_index.end()) {
+      throw Error(points.source + ": setup " + std::to_string(s.setup) + " is not one of the calibration's");
+    }
+    const Eigen::Vector3d p = EffectScmsPoint(cal.geometry.data(), trig, fit.model, blocks.data(),
+                                              EffectReading(s.theta_deg, s.phi_deg, s.r_mm, s.t_s),
+                                              options.probe_offset_mm);
+    out.push_back((p - cal.centers_mm[it->second]).norm() - options.sphere_radius_mm);
+  }
+  return out;
+}
+
+}  // namespace sph
