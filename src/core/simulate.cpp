@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "sph/core/error.hpp"
+#include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
@@ -62,36 +63,11 @@ double EffectValue(const SimulatedEffects& e, Effect which, int axis, double x) 
   return sum;
 }
 
-// Associated Legendre function P_l^m(x), m >= 0, without the Condon-Shortley phase.
-double Legendre(int l, int m, double x) {
-  double pmm = 1.0;
-  const double s = std::sqrt(std::max(0.0, 1.0 - x * x));
-  for (int i = 1; i <= m; ++i) pmm *= (2.0 * i - 1.0) * s;
-  if (l == m) return pmm;
-  double pm1 = x * (2.0 * m + 1.0) * pmm;
-  for (int ll = m + 2; ll <= l; ++ll) {
-    const double pll = (x * (2.0 * ll - 1.0) * pm1 - (ll + m - 1.0) * pmm) / (ll - m);
-    pmm = pm1;
-    pm1 = pll;
-  }
-  return pm1;
-}
-
 // Form error [mm] of the sphere's surface in the direction u (unit, sphere frame).
 double FormError(const std::vector<FormComponent>& form, const Eigen::Vector3d& u) {
   double sum = 0.0;
   const double lon = std::atan2(u.y(), u.x());
-  for (const FormComponent& f : form) {
-    const int m = std::abs(f.m);
-    double norm = 1.0;  // Schmidt: sqrt(2 (l-m)! / (l+m)!) for m > 0
-    if (m > 0) {
-      double ratio = 1.0;
-      for (int i = f.l - m + 1; i <= f.l + m; ++i) ratio /= i;
-      norm = std::sqrt(2.0 * ratio);
-    }
-    const double trig = f.m >= 0 ? std::cos(m * lon) : std::sin(m * lon);
-    sum += f.amplitude_um * kMmPerUm * norm * Legendre(f.l, m, u.z()) * trig;
-  }
+  for (const FormComponent& f : form) sum += f.amplitude_um * kMmPerUm * SchmidtHarmonic(f.l, f.m, lon, u.z());
   return sum;
 }
 

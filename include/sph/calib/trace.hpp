@@ -1,0 +1,103 @@
+// Closing the loop: from the seven-error fit's residual to the effect the model lacks.
+//
+// 1. Fit the seven errors; analyse what is left (sph/calib/residual_structure.hpp).
+// 2. For each effect of the library not yet in the model, refit with it added. Components the
+//    data cannot separate from the rest (variance inflation above max_vif) are left out, the
+//    weakest first; then components that are not significantly non-zero (|value| < min_t std),
+//    so that a term keeps only what the data show.
+// 3. Score each candidate by the change of the Bayesian information criterion (delta_bic) and by
+//    k-fold cross-validated RMS (each fold fitted without its points, then predicted). The best
+//    candidate is added when delta_bic <= -min_delta_bic (strong evidence), its cross-validated
+//    RMS is lower, and every parameter of the model stays determined. Repeat until none is.
+// 4. Report candidates that explain the residual about as well as the one added (their BICs within
+//    ambiguity_bic), with the measurement that would separate them, and structure that remains
+//    with what it follows and its size.
+#ifndef SPH_CALIB_TRACE_HPP_
+#define SPH_CALIB_TRACE_HPP_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "sph/calib/effect_fit.hpp"
+#include "sph/calib/residual_structure.hpp"
+
+namespace sph {
+
+struct TraceOptions {
+  std::vector<Effect> candidates;  ///< effects to try; empty: the whole library
+  int harmonics = 4;               ///< highest harmonic order of the harmonic effects
+  int drift_order = 2;             ///< highest power of time of probe_drift
+  int folds = 5;                   ///< cross-validation folds
+  std::uint64_t seed = 1;          ///< of the fold assignment
+  double min_delta_bic = 10.0;     ///< an effect is added only when it lowers the BIC by at least this
+  double ambiguity_bic = 10.0;     ///< candidates whose BICs differ by less are "about equal"
+  double max_vif = 1e4;            ///< components less separable than this are left out
+  double min_t = 3.0;              ///< components with |value| / std below this are left out
+  int max_effects = 4;             ///< at most this many effects are added
+  double structure_p = 1e-3;       ///< remaining structure with a p-value below this is reported
+};
+
+/// One candidate tried in one round.
+struct CandidateScore {
+  Effect effect = Effect::kThetaEncoder;
+  int round = 0;             ///< 1 for the first effect added, ...
+  EffectTerm term;           ///< the components kept (empty: nothing the data determine)
+  double delta_bic = 0.0;    ///< BIC with it minus BIC without
+  double rms_um = 0.0;       ///< fit RMS with it
+  double cv_rms_um = 0.0;    ///< cross-validated RMS with it
+  bool determined = false;   ///< every parameter of the model with it is determined
+  bool added = false;
+  std::string note;          ///< why it was not added, or what was left out
+};
+
+/// Two effects that explain the residual about equally.
+struct Ambiguity {
+  Effect chosen, other;
+  double delta_bic_chosen = 0.0, delta_bic_other = 0.0;
+  std::string separate_by;  ///< the measurement that would tell them apart
+};
+
+/// Structure left after the final model.
+struct Unexplained {
+  std::string variable;     ///< what it follows (StructureGroup::variable)
+  std::string description;  ///< in words
+  double rms_um = 0.0;      ///< RMS of the part that group explains
+  double p_value = 1.0;
+};
+
+/// The fit, its residual analysis and its cross-validated RMS.
+struct TracedFit {
+  EffectFit fit;
+  ResidualStructure structure;
+  double cv_rms_um = 0.0;
+};
+
+struct TraceResult {
+  TracedFit before;                 ///< seven errors only
+  TracedFit after;                  ///< with the effects added
+  std::vector<Effect> added;        ///< in the order added
+  std::vector<CandidateScore> candidates;  ///< every candidate of every round
+  std::vector<Ambiguity> ambiguous;
+  std::vector<Unexplained> unexplained;
+};
+
+/// Traces the residual of `points` (see the file comment). `base` is the seven-error calibration
+/// of the same points and options. The effect reference is that of the points (EffectReferenceOf).
+TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
+                          const TraceOptions& trace);
+
+/// Fits a fixed model: the seven errors and the default terms of `effects` (no selection, nothing
+/// left out), with the same residual analysis and cross-validation; `after` holds the fit.
+TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options,
+                            const CalibrationResult& base, const std::vector<Effect>& effects,
+                            const TraceOptions& trace);
+
+/// The cross-validated RMS [um] of `model` on `points`: `folds` random folds (seeded), each fitted
+/// from `start` without its points and then predicted.
+double CrossValidatedRms(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
+                         const EffectFitStart& start, int folds, std::uint64_t seed);
+
+}  // namespace sph
+
+#endif  // SPH_CALIB_TRACE_HPP_

@@ -1,0 +1,281 @@
+#include "sph/calib/trace.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+
+#include "sph/internal/format.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph {
+namespace {
+
+using internal::Format;
+
+bool IsThetaMachine(Effect e) { return e == Effect::kThetaEncoder || e == Effect::kThetaRadialMotion || e == Effect::kThetaAxialMotion; }
+bool IsPhiMachine(Effect e) { return e == Effect::kPhiEncoder || e == Effect::kPhiWobble; }
+bool IsProbe(Effect e) { return e == Effect::kProbeGain || e == Effect::kProbeNonlinearity; }
+
+// The measurement that tells two effects apart, from how each maps onto the readings.
+std::string SeparateBy(Effect a, Effect b) {
+  if (a == Effect::kProbeDrift || b == Effect::kProbeDrift) {
+    return "repeated reference points: return to one position at the start, middle and end of the run, or measure "
+           "the pattern in another order (drift follows time, the other follows the position)";
+  }
+  if (IsThetaMachine(a) && IsThetaMachine(b)) {
+    return "a second sphere position at another eccentricity or azimuth: an encoder error moves the probed point "
+           "along the surface and shows only through the eccentricity, a spindle motion moves the sphere along the "
+           "probe line whatever the eccentricity";
+  }
+  if (IsPhiMachine(a) && IsPhiMachine(b)) {
+    return "a second sphere position at another height along the Theta axis, which changes the lever of a Phi axis "
+           "tilt but not that of a Phi positioning error";
+  }
+  if (IsProbe(a) && IsProbe(b)) {
+    return "another eccentricity, which changes the range the probe works over";
+  }
+  return "a second sphere position (another eccentricity or azimuth), which changes how machine errors map onto the "
+         "readings";
+}
+
+EffectFitStart StartFrom(const EffectFit& fit) {
+  EffectFitStart s;
+  s.geometry = fit.calibration.geometry;
+  s.centers_mm = fit.calibration.centers_mm;
+  s.values = fit.values;
+  return s;
+}
+
+TracedFit Analysed(EffectFit fit, const PointsData& points, const CalibrationOptions& options, const TraceOptions& trace) {
+  TracedFit t;
+  t.structure = AnalyseResidualStructure(points, fit.calibration.residuals_mm, fit.jacobian, fit.model.reference);
+  t.cv_rms_um = CrossValidatedRms(points, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
+  t.fit = std::move(fit);
+  return t;
+}
+
+// The model of `current` with `term` added, fitted; components that the data cannot separate or
+// do not show are left out one at a time. The last term of the returned fit is the candidate
+// (absent when nothing of it is left).
+EffectFit FitCandidate(const PointsData& points, const CalibrationOptions& options, const EffectFit& current,
+                       EffectTerm term, const TraceOptions& trace, std::string* note) {
+  EffectModel model = current.model;
+  model.terms.push_back(term);
+  EffectFitStart start = StartFrom(current);
+  start.values.emplace_back(static_cast<std::size_t>(term.size()), 0.0);
+  std::vector<std::string> left_out_vif, left_out_t;
+  for (;;) {
+    EffectFit fit = FitEffects(points, options, model, start);
+    EffectTerm& cand = model.terms.back();
+    const ObservabilityReport& rep = fit.calibration.analysis;
+    const int offset = fit.TermOffset(model.terms.size() - 1);
+    int worst_vif = -1, weakest = -1;
+    double vif_max = 0.0, t_min = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < cand.size(); ++j) {
+      const double vif = rep.vif(offset + j);
+      if (!(vif <= vif_max)) {  // NaN and inf count as worst
+        vif_max = std::isfinite(vif) ? vif : std::numeric_limits<double>::infinity();
+        worst_vif = j;
+      }
+      const double t = std::abs(fit.values.back()[static_cast<std::size_t>(j)]) / rep.std(offset + j);
+      if (!(t >= t_min)) {
+        t_min = std::isfinite(t) ? t : 0.0;
+        weakest = j;
+      }
+    }
+    int drop = -1;
+    if (vif_max > trace.max_vif) {
+      drop = worst_vif;
+      left_out_vif.push_back(cand.ParamName(static_cast<std::size_t>(drop)).substr(std::string(cand.info().id).size() + 1));
+    } else if (t_min < trace.min_t) {
+      drop = weakest;
+      left_out_t.push_back(cand.ParamName(static_cast<std::size_t>(drop)).substr(std::string(cand.info().id).size() + 1));
+    }
+    if (drop < 0) {
+      *note = "";
+      if (!left_out_vif.empty()) {
+        std::string s;
+        for (const auto& n : left_out_vif) s += (s.empty() ? "" : " ") + n;
+        *note += "left out, not separable from the other parameters: " + s;
+      }
+      if (!left_out_t.empty()) {
+        std::string s;
+        for (const auto& n : left_out_t) s += (s.empty() ? "" : " ") + n;
+        *note += std::string(note->empty() ? "" : "; ") + "left out, not significant: " + s;
+      }
+      return fit;
+    }
+    start = StartFrom(fit);
+    cand.components.erase(cand.components.begin() + drop);
+    start.values.back().erase(start.values.back().begin() + drop);
+    if (cand.components.empty()) {
+      model.terms.pop_back();
+      start.values.pop_back();
+      EffectFit without = current;
+      *note = left_out_vif.empty() ? "no component is significant"
+                                   : "no component is both separable from the other parameters and significant";
+      return without;
+    }
+  }
+}
+
+std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const TraceOptions& trace) {
+  std::vector<Unexplained> out;
+  if (!(s.all.p_value < trace.structure_p)) return out;
+  std::vector<const StructureGroup*> groups;
+  for (const StructureGroup& g : s.groups) {
+    if (g.p_value < trace.structure_p) groups.push_back(&g);
+  }
+  std::sort(groups.begin(), groups.end(),
+            [](const StructureGroup* a, const StructureGroup* b) { return a->explained_rms_um > b->explained_rms_um; });
+  for (const StructureGroup* g : groups) {
+    Unexplained u;
+    u.variable = g->variable;
+    u.rms_um = g->explained_rms_um;
+    u.p_value = g->p_value;
+    const std::string what = g->variable == "sphere"
+                                 ? "a pattern fixed on the sphere (its own form error, or an effect outside the library)"
+                                 : "structure that follows " + g->variable + " (" + g->description + ")";
+    u.description = what + ", " + Format("%.3g", g->explained_rms_um) + " um RMS; strongest " + g->strongest + " " +
+                    Format("%+.3g", g->strongest_um) + " um";
+    out.push_back(u);
+  }
+  if (out.empty()) {
+    Unexplained u;
+    u.variable = "all";
+    u.rms_um = s.all.explained_rms_um;
+    u.p_value = s.all.p_value;
+    u.description = "structure that no single variable explains, " + Format("%.3g", s.all.explained_rms_um) + " um RMS";
+    out.push_back(u);
+  }
+  return out;
+}
+
+EffectFit FitNone(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base) {
+  EffectModel none;
+  none.reference = EffectReferenceOf(points.samples);
+  return FitEffects(points, options, none, EffectFitStart::From(base));
+}
+
+}  // namespace
+
+double CrossValidatedRms(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
+                         const EffectFitStart& start, int folds, std::uint64_t seed) {
+  const std::size_t m = points.samples.size();
+  std::vector<std::size_t> order(m);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::mt19937_64 rng(seed);
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<int> fold_of(m);
+  for (std::size_t k = 0; k < m; ++k) fold_of[order[k]] = static_cast<int>(k % static_cast<std::size_t>(folds));
+  CalibrationOptions quick = options;
+  quick.analyse = false;
+  double sum2 = 0.0;
+  for (int f = 0; f < folds; ++f) {
+    PointsData train, test;
+    train.source = test.source = points.source;
+    train.header = test.header = points.header;
+    for (std::size_t i = 0; i < m; ++i) (fold_of[i] == f ? test : train).samples.push_back(points.samples[i]);
+    const EffectFit fit = FitEffects(train, quick, model, start);
+    for (double e : EffectResiduals(test, options, fit)) sum2 += e * e;
+  }
+  return std::sqrt(sum2 / static_cast<double>(m)) * kUmPerMm;
+}
+
+TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
+                          const TraceOptions& trace) {
+  TraceResult r;
+  r.before = Analysed(FitNone(points, options, base), points, options, trace);
+  std::vector<Effect> pool = trace.candidates;
+  if (pool.empty()) {
+    for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
+  }
+  TracedFit current = r.before;
+  for (int round = 1; round <= trace.max_effects; ++round) {
+    std::vector<std::pair<CandidateScore, EffectFit>> tried;
+    for (Effect e : pool) {
+      if (current.fit.model.Find(e) >= 0) continue;
+      CandidateScore c;
+      c.effect = e;
+      c.round = round;
+      EffectFit fit = FitCandidate(points, options, current.fit, DefaultTerm(e, trace.harmonics, trace.drift_order),
+                                   trace, &c.note);
+      if (fit.model.terms.size() == current.fit.model.terms.size()) {
+        c.delta_bic = 0.0;
+        c.rms_um = current.fit.calibration.rms_um;
+        c.cv_rms_um = current.cv_rms_um;
+        tried.emplace_back(c, std::move(fit));
+        continue;
+      }
+      c.term = fit.model.terms.back();
+      c.delta_bic = fit.Bic() - current.fit.Bic();
+      c.rms_um = fit.calibration.rms_um;
+      c.cv_rms_um = CrossValidatedRms(points, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
+      c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
+      if (!c.determined) {
+        c.note += std::string(c.note.empty() ? "" : "; ") + "with it, some parameters are not determined";
+      }
+      tried.emplace_back(c, std::move(fit));
+    }
+    auto admissible = [&](const CandidateScore& c) {
+      return !c.term.components.empty() && c.determined && c.delta_bic <= -trace.min_delta_bic &&
+             c.cv_rms_um < current.cv_rms_um;
+    };
+    int best = -1;
+    for (std::size_t i = 0; i < tried.size(); ++i) {
+      if (admissible(tried[i].first) &&
+          (best < 0 || tried[i].first.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic)) {
+        best = static_cast<int>(i);
+      }
+    }
+    if (best < 0) {
+      for (auto& [c, fit] : tried) r.candidates.push_back(c);
+      break;
+    }
+    CandidateScore& chosen = tried[static_cast<std::size_t>(best)].first;
+    chosen.added = true;
+    for (std::size_t i = 0; i < tried.size(); ++i) {
+      const CandidateScore& c = tried[i].first;
+      if (static_cast<int>(i) == best || !admissible(c)) continue;
+      if (c.delta_bic - chosen.delta_bic < trace.ambiguity_bic) {
+        r.ambiguous.push_back({chosen.effect, c.effect, chosen.delta_bic, c.delta_bic, SeparateBy(chosen.effect, c.effect)});
+      }
+    }
+    for (auto& [c, fit] : tried) {
+      if (!c.added && c.note.empty() && !admissible(c)) {
+        c.note = c.delta_bic > -trace.min_delta_bic ? "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")"
+                                                    : "no lower cross-validated RMS";
+      }
+      r.candidates.push_back(c);
+    }
+    r.added.push_back(chosen.effect);
+    current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), points, options, trace);
+  }
+  for (CandidateScore& c : r.candidates) {
+    if (!c.added && c.note.empty()) {
+      c.note = c.delta_bic > -trace.min_delta_bic
+                   ? "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")"
+                   : "no lower cross-validated RMS";
+    }
+  }
+  r.after = std::move(current);
+  r.unexplained = RemainingStructure(r.after.structure, trace);
+  return r;
+}
+
+TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
+                            const std::vector<Effect>& effects, const TraceOptions& trace) {
+  TraceResult r;
+  r.before = Analysed(FitNone(points, options, base), points, options, trace);
+  EffectModel model;
+  model.reference = r.before.fit.model.reference;
+  for (Effect e : effects) model.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
+  r.added = effects;
+  r.after = Analysed(FitEffects(points, options, model, StartFrom(r.before.fit)), points, options, trace);
+  r.unexplained = RemainingStructure(r.after.structure, trace);
+  return r;
+}
+
+}  // namespace sph

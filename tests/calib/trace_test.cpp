@@ -1,0 +1,123 @@
+#include "sph/calib/trace.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "sph/core/simulate.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph {
+namespace {
+
+CalibrationOptions PaperOptions() {
+  CalibrationOptions o;
+  o.sphere_radius_mm = 20.0;
+  o.probe_offset_mm = 25.0;
+  return o;
+}
+
+// The points of the paper's study with one effect the file does not declare.
+PointsData WithEffect(Effect e, std::vector<EffectComponent> components, std::vector<double> values,
+                      std::uint64_t seed = 1) {
+  SimulationSpec spec;
+  spec.seed = seed;
+  EffectTerm term;
+  term.effect = e;
+  term.components = std::move(components);
+  spec.effects.model.terms = {term};
+  spec.effects.values = {std::move(values)};
+  return Simulate(spec);
+}
+
+TraceResult Trace(const PointsData& points) {
+  const CalibrationResult base = Calibrate(points, PaperOptions());
+  return TraceResidual(points, PaperOptions(), base, TraceOptions{});
+}
+
+std::string Describe(const TraceResult& r) {
+  std::string s = "added:";
+  for (Effect e : r.added) s += std::string(" ") + InfoOf(e).id;
+  s += "\ncandidates:";
+  for (const CandidateScore& c : r.candidates) {
+    s += "\n  round " + std::to_string(c.round) + " " + InfoOf(c.effect).id + " dBIC " + std::to_string(c.delta_bic) +
+         " cv " + std::to_string(c.cv_rms_um) + " " + c.note;
+  }
+  for (const Unexplained& u : r.unexplained) s += "\nunexplained: " + u.description;
+  return s;
+}
+
+TEST(FUpperTail, MatchesTabulatedValues) {
+  // F(1, 10) = t(10)^2: P(|t| > 2) = 0.07339 (two-sided t table).
+  EXPECT_NEAR(FUpperTail(4.0, 1.0, 10.0), 0.073388, 1e-5);
+  // The 5 % point of F(5, 20) is 2.71 (F table); of F(2, 100), 3.087.
+  EXPECT_NEAR(FUpperTail(2.7109, 5.0, 20.0), 0.05, 1e-4);
+  EXPECT_NEAR(FUpperTail(3.0873, 2.0, 100.0), 0.05, 1e-4);
+}
+
+TEST(TraceResidual, AddsNothingToDataWithoutEffects) {
+  const TraceResult r = Trace(Simulate(SimulationSpec{}));
+  EXPECT_TRUE(r.added.empty()) << Describe(r);
+  EXPECT_TRUE(r.unexplained.empty()) << Describe(r);
+  EXPECT_EQ(r.candidates.size(), static_cast<std::size_t>(kNumEffects));
+}
+
+TEST(TraceResidual, FindsAnUndeclaredProbeDrift) {
+  // 1 um over the run, linear. (With the rows in phi rings, a drift follows the ring order, and
+  // the seven errors and the centre absorb most of it: 0.3 um is estimated only to +-0.1 um.)
+  const TraceResult r = Trace(WithEffect(Effect::kProbeDrift, {{1, 0, false}}, {1.0 * kMmPerUm}));
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kProbeDrift}) << Describe(r);
+  EXPECT_GT(r.before.fit.calibration.rms_um, 1.1 * r.after.fit.calibration.rms_um);
+  EXPECT_LT(r.after.fit.calibration.rms_um, 0.05);
+  EXPECT_LT(r.after.cv_rms_um, r.before.cv_rms_um);
+  const EffectFit& fit = r.after.fit;
+  ASSERT_EQ(fit.model.terms[0].ParamName(0), "probe_drift.t1");
+  EXPECT_NEAR(fit.values[0][0], 1.0 * kMmPerUm, 4 * fit.calibration.analysis.std(fit.TermOffset(0)));
+  EXPECT_LT(r.before.structure.all.p_value, 1e-6);
+  EXPECT_TRUE(r.unexplained.empty()) << Describe(r);
+}
+
+// With one sphere position, a twice-per-revolution Theta encoder error and a two-lobe radial
+// motion of the Theta spindle explain the residual about equally: the tracer must say so.
+TEST(TraceResidual, SaysWhenAnEncoderErrorAndASpindleMotionCannotBeTold) {
+  const TraceResult r = Trace(WithEffect(Effect::kThetaEncoder, {{2, 0, false}}, {10 * kRadPerArcsec}));
+  ASSERT_EQ(r.added.size(), 1u) << Describe(r);
+  EXPECT_TRUE(r.added[0] == Effect::kThetaEncoder || r.added[0] == Effect::kThetaRadialMotion) << Describe(r);
+  ASSERT_EQ(r.ambiguous.size(), 1u) << Describe(r);
+  const Ambiguity& a = r.ambiguous[0];
+  EXPECT_TRUE((a.chosen == Effect::kThetaEncoder && a.other == Effect::kThetaRadialMotion) ||
+              (a.chosen == Effect::kThetaRadialMotion && a.other == Effect::kThetaEncoder));
+  EXPECT_NE(a.separate_by.find("second sphere position"), std::string::npos) << a.separate_by;
+  EXPECT_LT(r.after.fit.calibration.rms_um, 1.02 * 0.05) << Describe(r);
+}
+
+// A second sphere position at another eccentricity separates them.
+TEST(TraceResidual, TwoSpherePositionsTellTheEncoderErrorFromASpindleMotion) {
+  SimulationSpec spec;
+  spec.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, 4.0, 0.0)};
+  EffectTerm term;
+  term.effect = Effect::kThetaEncoder;
+  term.components = {{2, 0, false}};
+  spec.effects.model.terms = {term};
+  spec.effects.values = {{10 * kRadPerArcsec}};
+  const TraceResult r = Trace(Simulate(spec));
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kThetaEncoder}) << Describe(r);
+  EXPECT_TRUE(r.ambiguous.empty()) << Describe(r);
+  const EffectFit& fit = r.after.fit;
+  const int c2 = fit.TermOffset(0);
+  // The component found is c2, with its true value within 4 std.
+  ASSERT_EQ(fit.model.terms[0].size(), 1) << Describe(r);
+  EXPECT_EQ(fit.model.terms[0].ParamName(0), "theta_encoder.c2");
+  EXPECT_NEAR(fit.values[0][0], 10 * kRadPerArcsec, 4 * fit.calibration.analysis.std(c2));
+}
+
+TEST(TraceResidual, ReportsASphereFormErrorAsUnexplained) {
+  SimulationSpec spec;
+  spec.effects.form = {{3, 2, 0.2}, {4, -3, 0.1}};
+  const TraceResult r = Trace(Simulate(spec));
+  ASSERT_FALSE(r.unexplained.empty()) << Describe(r);
+}
+
+}  // namespace
+}  // namespace sph
