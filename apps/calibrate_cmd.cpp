@@ -1,8 +1,15 @@
 #include "calibrate_cmd.hpp"
 
+#include <algorithm>
+#include <optional>
+
+#include <nlohmann/json.hpp>
+
 #include "app_common.hpp"
+#include "calibrate_trace.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/report.hpp"
+#include "sph/calib/trace.hpp"
 #include "sph/core/atomic_file.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
@@ -32,6 +39,31 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
   app.add_flag("-q,--quiet", o.quiet, "No text report on stdout (warnings still go to stderr)");
+  std::string ids;
+  for (const EffectInfo& e : kEffectInfo) ids += (ids.empty() ? "" : ", ") + std::string(e.id);
+  auto* no_extend = app.add_flag("--no-extend", o.no_extend,
+                                 "Fit the seven errors only; do not trace the residual to further effects");
+  app.add_option("--effects", o.effects, "Fit exactly these effects (comma-separated), no selection: " + ids)
+      ->delimiter(',')
+      ->excludes(no_extend)
+      ->check(CLI::IsMember([] {
+        std::vector<std::string> v;
+        for (const EffectInfo& e : kEffectInfo) v.emplace_back(e.id);
+        return v;
+      }()));
+  app.add_option("--validate", o.validate_path,
+                 "Another points file of the same machine (another sphere or position): report its least-squares "
+                 "sphericity compensated before and after")
+      ->excludes(no_extend);
+  app.add_option("--plot-dir", o.plot_dir,
+                 "Write residual_map.png and residual_time.png (gnuplot) with their data into this folder")
+      ->excludes(no_extend);
+  app.add_option("--harmonics", o.harmonics, "Highest harmonic order of the harmonic effects")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 12));
+  app.add_option("--drift-order", o.drift_order, "Highest power of time of probe_drift")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 3));
 }
 
 int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err) {
@@ -53,7 +85,30 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     copts.probe_offset_mm = *offset;
     copts.max_std_um = o.max_std_um;
     copts.max_iterations = o.max_iterations;
-    const CalibrationResult result = Calibrate(points, copts);
+    const CalibrationResult base = Calibrate(points, copts);
+    std::optional<TraceResult> trace;
+    std::optional<Validation> validation;
+    if (!o.no_extend) {
+      TraceOptions topts;
+      topts.harmonics = o.harmonics;
+      topts.drift_order = o.drift_order;
+      if (o.effects.empty()) {
+        trace = TraceResidual(points, copts, base, topts);
+      } else {
+        std::vector<Effect> fixed;
+        for (const std::string& id : o.effects) {
+          Effect e;
+          EffectFromId(id, &e);  // checked by the option's validator
+          if (std::find(fixed.begin(), fixed.end(), e) == fixed.end()) fixed.push_back(e);
+        }
+        trace = FitFixedEffects(points, copts, base, fixed, topts);
+      }
+      if (!o.validate_path.empty()) validation = Validate(o.validate_path, *offset, *trace);
+      if (!o.plot_dir.empty()) PlotTrace(o.plot_dir, points, *trace);
+    }
+    // The calibration reported: the seven errors of the final model.
+    const bool extended = trace && !trace->after.fit.model.Empty();
+    const CalibrationResult& result = extended ? trace->after.fit.calibration : base;
 
     ReportContext ctx;
     ctx.program = prog + " " SPH_VERSION;
@@ -62,17 +117,28 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     ctx.probe_offset_mm = *offset;
     ctx.max_std_um = o.max_std_um;
     ctx.metadata = points.header.metadata;
-    if (!o.quiet && o.json_path != "-") WriteTextReport(out, result, ctx);
+    if (!o.quiet && o.json_path != "-") {
+      WriteTextReport(out, result, ctx);
+      if (trace) WriteTraceText(out, *trace, validation ? &*validation : nullptr);
+    }
     if (o.quiet) {
       for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";
     }
     if (!o.json_path.empty()) {
-      const std::string json = JsonReport(result, ctx);
+      nlohmann::json report = nlohmann::json::parse(JsonReport(result, ctx));
+      if (trace) AddTraceJson(report, *trace, validation ? &*validation : nullptr);
+      const std::string json = report.dump(2) + "\n";
       WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << json; });
     }
     if (!o.output_path.empty()) {
-      if (result.Usable()) {
-        WriteCalibrationFile(o.output_path, MakeCalibrationFile(result, ctx));
+      if (extended) {
+        // Calibration files hold the seven errors only: store the seven-error calibration, which
+        // is consistent on its own, rather than errors fitted jointly with effects left out.
+        err << prog << ": note: " << o.output_path
+            << " holds the seven-error calibration; the added effects are in the report only\n";
+      }
+      if (base.Usable()) {
+        WriteCalibrationFile(o.output_path, MakeCalibrationFile(base, ctx));
       } else {
         err << prog << ": not writing " << o.output_path << ": the calibration is not usable\n";
       }

@@ -5,6 +5,7 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -19,6 +20,12 @@ struct CalibrateOptions {
   double max_std_um = 10.0;
   int max_iterations = 100;
   bool quiet = false;                      ///< no text report on stdout
+  bool no_extend = false;                  ///< fit the seven errors only, no residual tracing
+  std::vector<std::string> effects;        ///< a fixed model: these effects, no selection
+  std::string validate_path;               ///< another sphere measured on the same machine
+  std::string plot_dir;                    ///< residual plots (PNG, gnuplot) into this folder
+  int harmonics = 4;                       ///< highest harmonic order of the harmonic effects
+  int drift_order = 2;                     ///< highest power of time of probe_drift
 };
 
 void SetupCalibrateApp(CLI::App& app, CalibrateOptions& options);

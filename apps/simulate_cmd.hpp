@@ -20,7 +20,18 @@ struct SimulateOptions {
   std::vector<std::string> centers_mm{"2,0,0"};  ///< "x,y,z" per setup
   std::uint64_t seed = 1;
   double sample_period_s = 1.0;
+  /// Effects of the library, "id.param=value": angles in arcsec, lengths in um (e.g.
+  /// "theta_encoder.c2=10", "probe_drift.t1=0.5"); the points file does not declare them.
+  std::vector<std::string> effects_arcsec;
+  std::vector<std::string> effects_um;
+  std::vector<std::string> form_um;  ///< form error of the sphere, "l,m,amplitude_um" each
+  double outlier_fraction = 0.0;
+  double outlier_um = 0.0;
 };
+
+/// Parses "id.param=value" into `effects` (value in arcsec for angle effects, um for length
+/// effects, as `unit` says). Throws sph::Error naming the option and the problem.
+void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& effects);
 
 void SetupSimulateApp(CLI::App& app, SimulateOptions& options);
 

@@ -11,6 +11,7 @@
 #include "app_common.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/model/units.hpp"
 #include "test_util.hpp"
 
 namespace sph::apps {
@@ -170,6 +171,83 @@ TEST_F(CalibrateCmd, MissingFileAndUnwritableOutputExitTwo) {
   EXPECT_THAT(r.err, HasSubstr("report.json: cannot"));
 }
 
+// A measurement with effects the file does not declare: two sphere positions, a Theta encoder
+// error twice and three times per turn, and a probe drift of 0.6 um over the run.
+SimulationSpec UndeclaredEffects() {
+  SimulationSpec spec;
+  spec.seed = 7;
+  spec.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, -3.0, 0.5)};
+  EffectTerm enc{Effect::kThetaEncoder, {{2, 0, false}, {3, 0, true}}};
+  EffectTerm drift{Effect::kProbeDrift, {{1, 0, false}}};
+  spec.effects.model.terms = {enc, drift};
+  spec.effects.values = {{6 * kRadPerArcsec, -4 * kRadPerArcsec}, {0.6 * kMmPerUm}};
+  return spec;
+}
+
+TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
+  CalibrateOptions o;
+  o.points_path = Simulated("points.txt", UndeclaredEffects());
+  SimulationSpec other = UndeclaredEffects();
+  other.centers_mm = {Eigen::Vector3d(1.5, 1.5, -1.0)};
+  other.seed = 8;
+  o.validate_path = Simulated("validate.txt", other);
+  o.json_path = dir_ + "/report.json";
+  o.plot_dir = dir_ + "/plots";
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("closing the loop"));
+  EXPECT_THAT(r.out, HasSubstr("theta_encoder.c2"));
+  const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
+  EXPECT_EQ(j["effects_added"], nlohmann::json({"probe_drift", "theta_encoder"})) << j.dump(2);
+  const double before = j["before"]["rms_um"], after = j["after"]["rms_um"];
+  EXPECT_GT(before, 2.5 * after);
+  EXPECT_LT(after, 0.05);
+  EXPECT_LT(j["after"]["cv_rms_um"].get<double>(), j["before"]["cv_rms_um"].get<double>());
+  EXPECT_TRUE(j["unexplained"].empty()) << j["unexplained"].dump(2);
+  EXPECT_TRUE(j["ambiguous"].is_array());
+  // Every candidate of every round is listed with its scores.
+  ASSERT_GE(j["candidates"].size(), 8u);
+  for (const auto& c : j["candidates"]) {
+    EXPECT_TRUE(c.contains("delta_bic") && c.contains("cv_rms_um") && c.contains("id")) << c.dump();
+  }
+  // The parameters found are the simulated ones, within 4 std.
+  for (const auto& e : j["effects"]) {
+    for (const auto& p : e["parameters"]) {
+      const std::string name = p["name"];
+      const double truth = name == "theta_encoder.c2" ? 6.0 : name == "theta_encoder.s3" ? -4.0
+                           : name == "probe_drift.t1" ? 0.6 : 0.0;
+      EXPECT_NE(truth, 0.0) << "unexpected component " << name;
+      EXPECT_NEAR(p["value"].get<double>(), truth, 4 * p["std"].get<double>()) << name;
+    }
+  }
+  EXPECT_GT(j["validation"]["before_ls_sphericity_um"].get<double>(), 0.0);
+  EXPECT_GT(sph::testing::ReadWholeFile(o.plot_dir + "/residual_map.png").size(), 1000u);
+  EXPECT_GT(sph::testing::ReadWholeFile(o.plot_dir + "/residual_time.png").size(), 1000u);
+}
+
+TEST_F(CalibrateCmd, NoExtendFitsTheSevenErrorsOnly) {
+  CalibrateOptions o;
+  o.points_path = Simulated("points.txt", UndeclaredEffects());
+  o.no_extend = true;
+  o.json_path = dir_ + "/report.json";
+  const RunOutput r = Calibrate(o);
+  EXPECT_THAT(r.out, Not(HasSubstr("closing the loop")));
+  const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
+  EXPECT_FALSE(j.contains("effects_added"));
+}
+
+TEST_F(CalibrateCmd, FixedEffectsAreFittedWithoutSelection) {
+  CalibrateOptions o;
+  o.points_path = Simulated("points.txt", UndeclaredEffects());
+  o.effects = {"probe_gain", "probe_drift"};
+  o.json_path = dir_ + "/report.json";
+  const RunOutput r = Calibrate(o);
+  const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
+  EXPECT_EQ(j["effects_added"], nlohmann::json({"probe_gain", "probe_drift"}));
+  ASSERT_EQ(j["effects"].size(), 2u);
+  EXPECT_EQ(j["effects"][1]["parameters"].size(), 2u);  // t1 and t2: nothing left out
+}
+
 // CLI::App::parse(vector) takes the arguments in reverse order; this takes them as typed.
 void ParseArgs(CLI::App& app, std::vector<std::string> args) {
   std::reverse(args.begin(), args.end());
@@ -189,6 +267,19 @@ TEST(CalibrateCli, ParsesOptions) {
   CalibrateOptions o2;
   SetupCalibrateApp(bad, o2);
   EXPECT_THROW(ParseArgs(bad, {"p.txt", "--sphere-radius-mm", "-1"}), CLI::ValidationError);
+  CLI::App effects;
+  CalibrateOptions o3;
+  SetupCalibrateApp(effects, o3);
+  ParseArgs(effects, {"p.txt", "--effects", "probe_gain,theta_encoder"});
+  EXPECT_EQ(o3.effects, (std::vector<std::string>{"probe_gain", "theta_encoder"}));
+  CLI::App unknown;
+  CalibrateOptions o4;
+  SetupCalibrateApp(unknown, o4);
+  EXPECT_THROW(ParseArgs(unknown, {"p.txt", "--effects", "probe_temperature"}), CLI::ValidationError);
+  CLI::App contradictory;
+  CalibrateOptions o5;
+  SetupCalibrateApp(contradictory, o5);
+  EXPECT_THROW(ParseArgs(contradictory, {"p.txt", "--no-extend", "--effects", "probe_gain"}), CLI::ExcludesError);
 }
 
 }  // namespace

@@ -1,0 +1,248 @@
+#include "calibrate_trace.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
+#include "sph/model/sphere_fit.hpp"
+#include "sph/model/sphere_form.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph::apps {
+namespace {
+
+using internal::Format;
+using nlohmann::json;
+
+// Effect parameters are reported in arcsec (angles) or um (lengths).
+struct EffectUnit {
+  const char* name;
+  double per_internal;
+};
+EffectUnit UnitOf(const EffectTerm& term) {
+  return term.info().quantity == Quantity::kAngle ? EffectUnit{"arcsec", 1.0 / kRadPerArcsec}
+                                                  : EffectUnit{"um", kUmPerMm};
+}
+
+double LsSphericityUm(const std::vector<Eigen::Vector3d>& points) {
+  const LeastSquaresSphere fit = FitSphereLeastSquares(points);
+  if (!fit.sphere.ok) throw Error("the validation points do not determine a sphere");
+  return RadialPeakToValley(points, fit.sphere.center) * kUmPerMm;
+}
+
+json FitJson(const TracedFit& f) {
+  return {{"rms_um", f.fit.calibration.rms_um},
+          {"pv_um", f.fit.calibration.pv_um},
+          {"cv_rms_um", f.cv_rms_um},
+          {"structure_p_value", f.structure.all.p_value},
+          {"n_params", f.fit.n_params},
+          {"bic", f.fit.Bic()}};
+}
+
+}  // namespace
+
+Validation Validate(const std::string& path, double probe_offset_mm, const TraceResult& trace) {
+  const PointsData data = ReadPointsFile(path);
+  Validation v;
+  v.path = path;
+  v.n_points = static_cast<int>(data.samples.size());
+  // The machine's model without probe_drift, which belongs to the calibration run.
+  const EffectFit& after = trace.after.fit;
+  EffectModel model;
+  model.reference = after.model.reference;
+  std::vector<std::vector<double>> values;
+  for (std::size_t t = 0; t < after.model.terms.size(); ++t) {
+    if (after.model.terms[t].effect == Effect::kProbeDrift) {
+      v.note = "probe_drift is not applied: a drift belongs to the run it was measured in";
+      continue;
+    }
+    model.terms.push_back(after.model.terms[t]);
+    values.push_back(after.values[t]);
+  }
+  std::vector<Eigen::Vector3d> before_pts, after_pts;
+  const ScmsGeometry& g0 = trace.before.fit.calibration.geometry;
+  for (const Sample& s : data.samples) {
+    const EffectReading x(s.theta_deg, s.phi_deg, s.r_mm, s.t_s);
+    before_pts.push_back(ScmsPoint(g0, x.theta_rad, x.phi_rad, s.r_mm, probe_offset_mm));
+    after_pts.push_back(EffectScmsPoint(after.calibration.geometry, model, values, x, probe_offset_mm));
+  }
+  try {
+    v.before_um = LsSphericityUm(before_pts);
+    v.after_um = LsSphericityUm(after_pts);
+  } catch (const Error& e) {
+    throw Error(path + ": " + e.what());
+  }
+  return v;
+}
+
+void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* validation) {
+  const TracedFit& b = r.before;
+  const TracedFit& a = r.after;
+  out << "\nclosing the loop (residual traced to effects the seven-error model lacks)\n";
+  out << Format("  %-34s %10s %10s %10s %12s\n", "", "rms um", "p-v um", "cv rms um", "structure p");
+  out << Format("  %-34s %10.4f %10.4f %10.4f %12.2g\n", "before (seven errors)", b.fit.calibration.rms_um,
+                b.fit.calibration.pv_um, b.cv_rms_um, b.structure.all.p_value);
+  std::string added;
+  for (Effect e : r.added) added += (added.empty() ? "" : " + ") + std::string(InfoOf(e).id);
+  out << Format("  %-34s %10.4f %10.4f %10.4f %12.2g\n", ("after" + (added.empty() ? "" : " (+ " + added + ")")).c_str(),
+                a.fit.calibration.rms_um, a.fit.calibration.pv_um, a.cv_rms_um, a.structure.all.p_value);
+  out << "  structure before, by variable (F test against white noise):\n";
+  for (const StructureGroup& g : b.structure.groups) {
+    out << Format("    %-7s explains %.4f um rms, p = %.2g, strongest %s %+.4f um\n", g.variable.c_str(),
+                  g.explained_rms_um, g.p_value, g.strongest.c_str(), g.strongest_um);
+  }
+  out << "  candidates (delta BIC < 0 is better; added when <= -10 with a lower cv rms):\n";
+  for (const CandidateScore& c : r.candidates) {
+    out << Format("    round %d %-20s delta BIC %9.1f  cv rms %.4f um  %s%s\n", c.round, InfoOf(c.effect).id,
+                  c.delta_bic, c.cv_rms_um, c.added ? "ADDED" : "", c.note.empty() ? "" : ("  (" + c.note + ")").c_str());
+  }
+  const ObservabilityReport& rep = a.fit.calibration.analysis;
+  for (std::size_t t = 0; t < a.fit.model.terms.size(); ++t) {
+    const EffectTerm& term = a.fit.model.terms[t];
+    const EffectUnit u = UnitOf(term);
+    out << "  " << term.info().id << ": " << term.info().description << "\n";
+    for (std::size_t i = 0; i < term.components.size(); ++i) {
+      const int col = a.fit.TermOffset(t) + static_cast<int>(i);
+      out << Format("    %-30s %12.5f +- %.5f %s\n", term.ParamName(i).c_str(), a.fit.values[t][i] * u.per_internal,
+                    rep.Empty() ? std::nan("") : rep.std(col) * u.per_internal, u.name);
+    }
+  }
+  if (!a.fit.model.Empty()) {
+    const EffectReference& ref = a.fit.model.reference;
+    out << Format("  reference: u = (r - %.6f mm) / %.6f mm, tau = (t - %.6g s) / %.6g s\n", ref.r_ref_mm,
+                  ref.r_half_range_mm, ref.t_start_s, ref.t_span_s);
+  }
+  for (const Ambiguity& x : r.ambiguous) {
+    out << "  ambiguous: " << InfoOf(x.other).id << " explains the residual about as well as " << InfoOf(x.chosen).id
+        << Format(" (delta BIC %.1f against %.1f); to separate them: ", x.delta_bic_other, x.delta_bic_chosen)
+        << x.separate_by << "\n";
+  }
+  for (const Unexplained& u : r.unexplained) {
+    out << "  unexplained: " << u.description << Format(" (p = %.2g)", u.p_value) << "\n";
+  }
+  if (r.unexplained.empty()) out << "  no significant structure remains\n";
+  if (validation) {
+    out << Format("  validation on %s (%d points): least-squares sphericity %.4f um before, %.4f um after\n",
+                  validation->path.c_str(), validation->n_points, validation->before_um, validation->after_um);
+    if (!validation->note.empty()) out << "    " << validation->note << "\n";
+  }
+}
+
+void AddTraceJson(json& report, const TraceResult& r, const Validation* validation) {
+  json added = json::array();
+  for (Effect e : r.added) added.push_back(InfoOf(e).id);
+  report["effects_added"] = added;
+  report["before"] = FitJson(r.before);
+  report["after"] = FitJson(r.after);
+  json effects = json::array();
+  const EffectFit& a = r.after.fit;
+  const ObservabilityReport& rep = a.calibration.analysis;
+  for (std::size_t t = 0; t < a.model.terms.size(); ++t) {
+    const EffectTerm& term = a.model.terms[t];
+    const EffectUnit u = UnitOf(term);
+    json params = json::array();
+    for (std::size_t i = 0; i < term.components.size(); ++i) {
+      const int col = a.TermOffset(t) + static_cast<int>(i);
+      params.push_back({{"name", term.ParamName(i)},
+                        {"value", a.values[t][i] * u.per_internal},
+                        {"std", rep.Empty() ? json(nullptr) : json(rep.std(col) * u.per_internal)},
+                        {"unit", u.name}});
+    }
+    effects.push_back({{"id", term.info().id}, {"description", term.info().description}, {"parameters", params}});
+  }
+  report["effects"] = effects;
+  const EffectReference& ref = a.model.reference;
+  report["effect_reference"] = {{"r_ref_mm", ref.r_ref_mm},
+                                {"r_half_range_mm", ref.r_half_range_mm},
+                                {"t_start_s", ref.t_start_s},
+                                {"t_span_s", ref.t_span_s}};
+  json candidates = json::array();
+  for (const CandidateScore& c : r.candidates) {
+    json kept = json::array();
+    for (std::size_t i = 0; i < c.term.components.size(); ++i) kept.push_back(c.term.ParamName(i));
+    candidates.push_back({{"id", InfoOf(c.effect).id},
+                          {"round", c.round},
+                          {"delta_bic", c.delta_bic},
+                          {"rms_um", c.rms_um},
+                          {"cv_rms_um", c.cv_rms_um},
+                          {"components", kept},
+                          {"added", c.added},
+                          {"note", c.note}});
+  }
+  report["candidates"] = candidates;
+  json ambiguous = json::array();
+  for (const Ambiguity& x : r.ambiguous) {
+    ambiguous.push_back({{"chosen", InfoOf(x.chosen).id},
+                         {"other", InfoOf(x.other).id},
+                         {"delta_bic_chosen", x.delta_bic_chosen},
+                         {"delta_bic_other", x.delta_bic_other},
+                         {"separate_by", x.separate_by}});
+  }
+  report["ambiguous"] = ambiguous;
+  json unexplained = json::array();
+  for (const Unexplained& u : r.unexplained) {
+    unexplained.push_back(
+        {{"follows", u.variable}, {"rms_um", u.rms_um}, {"p_value", u.p_value}, {"description", u.description}});
+  }
+  report["unexplained"] = unexplained;
+  if (validation) {
+    report["validation"] = {{"points_file", validation->path},
+                            {"n_points", validation->n_points},
+                            {"before_ls_sphericity_um", validation->before_um},
+                            {"after_ls_sphericity_um", validation->after_um},
+                            {"note", validation->note}};
+  }
+}
+
+void PlotTrace(const std::string& dir, const PointsData& points, const TraceResult& r) {
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+    throw Error("--plot-dir needs gnuplot (Debian: apt-get install gnuplot-nox)");
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+  const std::string data_path = dir + "/residuals.dat";
+  {
+    std::ofstream f(data_path);
+    f << "# theta_deg phi_deg t_s residual_before_um residual_after_um\n";
+    for (std::size_t i = 0; i < points.samples.size(); ++i) {
+      const Sample& s = points.samples[i];
+      f << Format("%.6f %.6f %.6f %.6f %.6f\n", s.theta_deg, s.phi_deg, s.t_s,
+                  r.before.fit.calibration.residuals_mm[i] * kUmPerMm, r.after.fit.calibration.residuals_mm[i] * kUmPerMm);
+    }
+    if (!f) throw Error(data_path + ": cannot write");
+  }
+  double lim = 0.0;
+  for (double e : r.before.fit.calibration.residuals_mm) lim = std::max(lim, std::abs(e) * kUmPerMm);
+  std::string added;
+  for (Effect e : r.added) added += (added.empty() ? " + " : ", ") + std::string(InfoOf(e).id);
+  const std::string script_path = dir + "/residuals.gp";
+  {
+    std::ofstream f(script_path);
+    f << "# Residual plots of sph_calibrate; rerun with: gnuplot residuals.gp (in this folder)\n"
+      << "set terminal pngcairo size 1400,560 noenhanced font ',11'\n"
+      << "set output 'residual_map.png'\n"
+      << "set multiplot layout 1,2 title 'Residual |p - O| - R0 [um] over theta and phi'\n"
+      << "set xlabel 'theta [deg]'\nset ylabel 'phi [deg]'\nset xrange [0:360]\nset yrange [180:0]\n"
+      << "set palette defined (-1 'blue', 0 'white', 1 'red')\n"
+      << Format("set cbrange [%.6f:%.6f]\n", -lim, lim) << "set cblabel 'um'\n"
+      << Format("set title 'before: seven errors, rms %.4f um'\n", r.before.fit.calibration.rms_um)
+      << "plot 'residuals.dat' using 1:2:4 with points pt 5 ps 2.2 lc palette notitle\n"
+      << Format("set title 'after: seven errors%s, rms %.4f um'\n", added.c_str(), r.after.fit.calibration.rms_um)
+      << "plot 'residuals.dat' using 1:2:5 with points pt 5 ps 2.2 lc palette notitle\n"
+      << "unset multiplot\n"
+      << "set output 'residual_time.png'\nset size 1,1\nset autoscale\nset yrange [*:*]\n"
+      << "set title 'Residual against acquisition time'\nset xlabel 't [s]'\nset ylabel 'residual [um]'\n"
+      << "set key top left\n"
+      << "plot 'residuals.dat' using 3:4 with points pt 7 ps 0.6 lc rgb '#c03030' title 'before', "
+         "'residuals.dat' using 3:5 with points pt 7 ps 0.6 lc rgb '#3050c0' title 'after'\n";
+    if (!f) throw Error(script_path + ": cannot write");
+  }
+  const std::string cmd = "cd '" + dir + "' && gnuplot residuals.gp 2>&1";
+  if (std::system(cmd.c_str()) != 0) throw Error(script_path + ": gnuplot failed");
+}
+
+}  // namespace sph::apps

@@ -1,0 +1,42 @@
+// sph_calibrate's closing of the loop: the report of a residual trace (text, JSON), the
+// validation on another sphere, and the residual plots.
+#ifndef SPH_APPS_CALIBRATE_TRACE_HPP_
+#define SPH_APPS_CALIBRATE_TRACE_HPP_
+
+#include <ostream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "sph/calib/trace.hpp"
+
+namespace sph::apps {
+
+/// Least-squares sphericity [um] of another sphere measured on the same machine, compensated with
+/// the seven-error model and with the model after tracing.
+struct Validation {
+  std::string path;
+  int n_points = 0;
+  double before_um = 0.0;
+  double after_um = 0.0;
+  std::string note;  ///< what of the model was not applied, and why
+};
+
+/// Compensates the points of `path` with `before` and `after` and fits a least-squares sphere
+/// to each. probe_drift is not applied: a drift belongs to the run it was measured in.
+Validation Validate(const std::string& path, double probe_offset_mm, const TraceResult& trace);
+
+/// The trace section of the text report.
+void WriteTraceText(std::ostream& out, const TraceResult& trace, const Validation* validation);
+
+/// Adds the trace to the JSON report: effects_added, before, after, effects, candidates,
+/// ambiguous, unexplained and validation.
+void AddTraceJson(nlohmann::json& report, const TraceResult& trace, const Validation* validation);
+
+/// Writes residual_map.png (over theta and phi, before and after) and residual_time.png
+/// (against t) with their gnuplot scripts and data into `dir`.
+void PlotTrace(const std::string& dir, const PointsData& points, const TraceResult& trace);
+
+}  // namespace sph::apps
+
+#endif  // SPH_APPS_CALIBRATE_TRACE_HPP_
