@@ -116,9 +116,16 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
                   ref.r_half_range_mm, ref.t_start_s, ref.t_span_s);
   }
   for (const Ambiguity& x : r.ambiguous) {
-    out << "  ambiguous: " << InfoOf(x.other).id << " explains the residual about as well as " << InfoOf(x.chosen).id
-        << Format(" (delta BIC %.1f against %.1f); to separate them: ", x.delta_bic_other, x.delta_bic_chosen)
-        << x.separate_by << "\n";
+    if (x.other == "sphere_form") {
+      out << "  ambiguous: " << Format("%.0f %%", 100 * x.sphere_fraction) << " of what " << x.chosen
+          << " explains is a pattern fixed on the sphere, which the reference sphere's own form error would give as "
+             "well; to separate them: "
+          << x.separate_by << "\n";
+    } else {
+      out << "  ambiguous: " << x.other << " explains the residual about as well as " << x.chosen
+          << Format(" (delta BIC %.1f against %.1f); to separate them: ", x.delta_bic_other, x.delta_bic_chosen)
+          << x.separate_by << "\n";
+    }
   }
   for (const Unexplained& u : r.unexplained) {
     out << "  unexplained: " << u.description << Format(" (p = %.2g)", u.p_value) << "\n";
@@ -169,16 +176,18 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
                           {"rms_um", c.rms_um},
                           {"cv_rms_um", c.cv_rms_um},
                           {"components", kept},
+                          {"sphere_fraction", c.sphere_fraction},
                           {"added", c.added},
                           {"note", c.note}});
   }
   report["candidates"] = candidates;
   json ambiguous = json::array();
   for (const Ambiguity& x : r.ambiguous) {
-    ambiguous.push_back({{"chosen", InfoOf(x.chosen).id},
-                         {"other", InfoOf(x.other).id},
+    ambiguous.push_back({{"chosen", x.chosen},
+                         {"other", x.other},
                          {"delta_bic_chosen", x.delta_bic_chosen},
-                         {"delta_bic_other", x.delta_bic_other},
+                         {"delta_bic_other", std::isfinite(x.delta_bic_other) ? json(x.delta_bic_other) : json(nullptr)},
+                         {"sphere_fraction", x.sphere_fraction},
                          {"separate_by", x.separate_by}});
   }
   report["ambiguous"] = ambiguous;

@@ -132,10 +132,12 @@ int ResidualStructure::Strongest() const {
   return best;
 }
 
-ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::vector<double>& residuals_mm,
-                                           const Eigen::MatrixXd& jacobian, const EffectReference& ref) {
+namespace {
+
+// The groups of functions of the readings (see the header); `e` is the fit's residual, used to
+// take u from the reading the fit expects.
+std::vector<Basis> BuildBases(const PointsData& points, const Eigen::VectorXd& e, const EffectReference& ref) {
   const auto m = static_cast<Eigen::Index>(points.samples.size());
-  const Eigen::Map<const Eigen::VectorXd> e(residuals_mm.data(), m);
   std::vector<Basis> bases(5);
   bases[0] = {"theta", "harmonics k = 1.." + std::to_string(kThetaHarmonics) + " of theta", Eigen::MatrixXd(m, 2 * kThetaHarmonics), {}};
   bases[1] = {"phi", "cos(k phi), k = 1.." + std::to_string(kPhiTerms), Eigen::MatrixXd(m, kPhiTerms), {}};
@@ -178,15 +180,11 @@ ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::
       for (int mm = -l; mm <= l; ++mm) bases[4].columns(i, col++) = SchmidtHarmonic(l, mm, th, std::cos(ph));
     }
   }
-  Basis all{"all", "all of the above", Eigen::MatrixXd(m, 0), {}};
-  for (const Basis& b : bases) {
-    Eigen::MatrixXd joined(m, all.columns.cols() + b.columns.cols());
-    joined << all.columns, b.columns;
-    all.columns = joined;
-    all.names.insert(all.names.end(), b.names.begin(), b.names.end());
-  }
+  return bases;
+}
 
-  // Orthonormal basis of the Jacobian's column space (its numerical rank).
+// Orthonormal basis of the Jacobian's column space (its numerical rank).
+Eigen::MatrixXd ColumnSpace(const Eigen::MatrixXd& jacobian) {
   Eigen::MatrixXd jn = jacobian;
   for (Eigen::Index j = 0; j < jn.cols(); ++j) {
     const double norm = jn.col(j).norm();
@@ -194,8 +192,24 @@ ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::
   }
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(jn);
   qr.setThreshold(1e-12);
-  const Eigen::Index rank = qr.rank();
-  const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(m, rank);
+  return qr.householderQ() * Eigen::MatrixXd::Identity(jn.rows(), qr.rank());
+}
+
+}  // namespace
+
+ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::vector<double>& residuals_mm,
+                                           const Eigen::MatrixXd& jacobian, const EffectReference& ref) {
+  const auto m = static_cast<Eigen::Index>(points.samples.size());
+  const Eigen::Map<const Eigen::VectorXd> e(residuals_mm.data(), m);
+  const std::vector<Basis> bases = BuildBases(points, e, ref);
+  Basis all{"all", "all of the above", Eigen::MatrixXd(m, 0), {}};
+  for (const Basis& b : bases) {
+    Eigen::MatrixXd joined(m, all.columns.cols() + b.columns.cols());
+    joined << all.columns, b.columns;
+    all.columns = joined;
+    all.names.insert(all.names.end(), b.names.begin(), b.names.end());
+  }
+  const Eigen::MatrixXd q = ColumnSpace(jacobian);
   const int n_fit = static_cast<int>(jacobian.cols());
 
   ResidualStructure out;
@@ -208,6 +222,21 @@ ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::
     out.theta_harmonics_um.push_back(coef.norm() * kUmPerMm);
   }
   return out;
+}
+
+double SpherePatternFraction(const PointsData& points, const std::vector<double>& signal_mm,
+                             const Eigen::MatrixXd& jacobian, const std::vector<double>& residuals_mm,
+                             const EffectReference& reference) {
+  const auto m = static_cast<Eigen::Index>(points.samples.size());
+  const Eigen::Map<const Eigen::VectorXd> e(residuals_mm.data(), m);
+  const Eigen::MatrixXd q = ColumnSpace(jacobian);
+  const Eigen::Map<const Eigen::VectorXd> raw(signal_mm.data(), m);
+  const Eigen::VectorXd s = raw - q * (q.transpose() * raw);
+  const double total = s.squaredNorm();
+  if (!(total > 0.0)) return 0.0;
+  const StructureGroup g = Regress(BuildBases(points, e, reference)[4], q, s, static_cast<int>(jacobian.cols()));
+  const double explained = g.explained_rms_um * g.explained_rms_um / (kUmPerMm * kUmPerMm) * static_cast<double>(m);
+  return explained / total;
 }
 
 }  // namespace sph

@@ -240,8 +240,25 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
       const CandidateScore& c = tried[i].first;
       if (static_cast<int>(i) == best || !admissible(c)) continue;
       if (c.delta_bic - chosen.delta_bic < trace.ambiguity_bic) {
-        r.ambiguous.push_back({chosen.effect, c.effect, chosen.delta_bic, c.delta_bic, SeparateBy(chosen.effect, c.effect)});
+        r.ambiguous.push_back({InfoOf(chosen.effect).id, InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
+                               SeparateBy(chosen.effect, c.effect)});
       }
+    }
+    // What the effect explains: the change of the residual. When that is mostly a pattern fixed on
+    // the sphere, the sphere's own form error explains it as well.
+    const EffectFit& with = tried[static_cast<std::size_t>(best)].second;
+    std::vector<double> signal(points.samples.size());
+    for (std::size_t i = 0; i < signal.size(); ++i) {
+      signal[i] = current.fit.calibration.residuals_mm[i] - with.calibration.residuals_mm[i];
+    }
+    chosen.sphere_fraction = SpherePatternFraction(points, signal, current.fit.jacobian,
+                                                   current.fit.calibration.residuals_mm, current.fit.model.reference);
+    if (chosen.sphere_fraction >= trace.max_sphere_fraction) {
+      r.ambiguous.push_back(
+          {InfoOf(chosen.effect).id, "sphere_form", chosen.delta_bic, std::numeric_limits<double>::quiet_NaN(),
+           chosen.sphere_fraction,
+           "a second setup with the sphere turned on its mount (a form error turns with the sphere, a machine error "
+           "stays with the machine), or the sphere's form from its certificate"});
     }
     for (auto& [c, fit] : tried) {
       if (!c.added && c.note.empty() && !admissible(c)) {

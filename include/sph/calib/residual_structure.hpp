@@ -46,6 +46,14 @@ struct ResidualStructure {
 ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::vector<double>& residuals_mm,
                                            const Eigen::MatrixXd& jacobian, const EffectReference& reference);
 
+/// The share of a signal (file order, mm; e.g. what an effect added to the fitted readings) that
+/// is a pattern fixed on the sphere: of its part outside the columns of `jacobian`, the fraction
+/// that spherical harmonics of degree 2..5 of the probed direction explain. `residuals_mm` and
+/// `reference` are those of the fit the Jacobian belongs to.
+double SpherePatternFraction(const PointsData& points, const std::vector<double>& signal_mm,
+                             const Eigen::MatrixXd& jacobian, const std::vector<double>& residuals_mm,
+                             const EffectReference& reference);
+
 /// P(F(d1, d2) >= f), the upper tail of Fisher's F distribution.
 double FUpperTail(double f, double d1, double d2);
 

@@ -10,8 +10,9 @@
 //    candidate is added when delta_bic <= -min_delta_bic (strong evidence), its cross-validated
 //    RMS is lower, and every parameter of the model stays determined. Repeat until none is.
 // 4. Report candidates that explain the residual about as well as the one added (their BICs within
-//    ambiguity_bic), with the measurement that would separate them, and structure that remains
-//    with what it follows and its size.
+//    ambiguity_bic), with the measurement that would separate them; an added effect whose signal is
+//    mostly a pattern fixed on the sphere (SpherePatternFraction), which the sphere's own form error
+//    would give as well; and structure that remains, with what it follows and its size.
 #ifndef SPH_CALIB_TRACE_HPP_
 #define SPH_CALIB_TRACE_HPP_
 
@@ -36,6 +37,9 @@ struct TraceOptions {
   double min_t = 3.0;              ///< components with |value| / std below this are left out
   int max_effects = 4;             ///< at most this many effects are added
   double structure_p = 1e-3;       ///< remaining structure with a p-value below this is reported
+  /// An added effect whose signal is at least this much a pattern fixed on the sphere is reported
+  /// as ambiguous with the sphere's own form error.
+  double max_sphere_fraction = 0.5;
 };
 
 /// One candidate tried in one round.
@@ -48,14 +52,19 @@ struct CandidateScore {
   double cv_rms_um = 0.0;    ///< cross-validated RMS with it
   bool determined = false;   ///< every parameter of the model with it is determined
   bool added = false;
+  double sphere_fraction = 0.0;  ///< of the added effect's signal (SpherePatternFraction); 0 when not added
   std::string note;          ///< why it was not added, or what was left out
 };
 
-/// Two effects that explain the residual about equally.
+/// Two explanations of the residual that the data cannot tell apart: an effect added and another
+/// candidate whose BIC is about as good, or the form error of the reference sphere ("sphere_form")
+/// when most of what the added effect explains is a pattern fixed on the sphere.
 struct Ambiguity {
-  Effect chosen, other;
-  double delta_bic_chosen = 0.0, delta_bic_other = 0.0;
-  std::string separate_by;  ///< the measurement that would tell them apart
+  std::string chosen, other;  ///< effect ids, or "sphere_form"
+  double delta_bic_chosen = 0.0;
+  double delta_bic_other = 0.0;  ///< NaN for sphere_form
+  double sphere_fraction = 0.0;  ///< share of the chosen effect's signal that is a pattern fixed on the sphere
+  std::string separate_by;       ///< the measurement that would tell them apart
 };
 
 /// Structure left after the final model.
