@@ -15,6 +15,7 @@
 
 #include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/points_writer.hpp"
 
 namespace sph {
 namespace {
@@ -207,12 +208,7 @@ void WritePoints(std::ostream& out, const PointsData& data) {
   out << "# " << kColumnsKey << ": theta_deg phi_deg r_mm" << (data.has_time ? " t_s" : "")
       << (data.has_setup ? " setup" : "") << "\n";
   // 10 decimals: 1e-10 deg (2 pm of arc at 20 mm) and 0.1 pm in r, far below any instrument.
-  for (const Sample& s : data.samples) {
-    int n = std::snprintf(buf, sizeof buf, "%.10f %.10f %.10f", s.theta_deg, s.phi_deg, s.r_mm);
-    if (data.has_time) n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %.6f", s.t_s);
-    if (data.has_setup) std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %d", s.setup);
-    out << buf << "\n";
-  }
+  for (const Sample& s : data.samples) out << PointsWriter::FormatRow(s, data.has_time, data.has_setup);
 }
 
 void WritePointsFile(const std::string& path, const PointsData& data) {

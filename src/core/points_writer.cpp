@@ -43,6 +43,13 @@ std::string ColumnsOf(const PointsWriterOptions& o) {
   return std::string("theta_deg phi_deg r_mm") + (o.has_time ? " t_s" : "") + (o.has_setup ? " setup" : "");
 }
 
+// `v` in fixed point with `decimals` (at most 10) decimals, whatever its magnitude.
+void AppendFixed(std::string& out, double v, int decimals) {
+  char buf[340];  // the longest: sign, 309 digits of the largest double, point, 10 decimals
+  const int n = std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  out.append(buf, static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof buf) - 1)));
+}
+
 // The shortest text that reads back as `v` (12.7, not 12.699999999999999).
 std::string Number(double v) {
   char buf[40];
@@ -114,12 +121,23 @@ PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, 
 }
 
 std::string PointsWriter::FormatRow(const Sample& s, bool has_time, bool has_setup) {
-  char buf[1100];  // %.10f of the largest double is 320 characters
-  int n = std::snprintf(buf, sizeof buf, "%.10f %.10f %.10f", s.theta_deg, s.phi_deg, s.r_mm);
-  if (has_time) n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %.6f", s.t_s);
-  if (has_setup) n += std::snprintf(buf + n, sizeof buf - static_cast<std::size_t>(n), " %d", s.setup);
-  buf[n++] = '\n';
-  return std::string(buf, static_cast<std::size_t>(n));
+  std::string row;
+  row.reserve(64);
+  AppendFixed(row, s.theta_deg, 10);
+  row += ' ';
+  AppendFixed(row, s.phi_deg, 10);
+  row += ' ';
+  AppendFixed(row, s.r_mm, 10);
+  if (has_time) {
+    row += ' ';
+    AppendFixed(row, s.t_s, 6);
+  }
+  if (has_setup) {
+    row += ' ';
+    row += std::to_string(s.setup);
+  }
+  row += '\n';
+  return row;
 }
 
 void PointsWriter::Write(const Sample& sample) {

@@ -97,7 +97,7 @@ std::vector<Eigen::Vector3d> ParseXyz(std::istream& in, const std::string& sourc
 
 void WriteXyz(std::ostream& out, const std::vector<Eigen::Vector3d>& points, const std::vector<std::string>& comments) {
   for (const auto& c : comments) out << "# " << c << "\n";
-  char buf[128];
+  char buf[1000];  // three of the longest %.10f (sign, 309 digits, point, 10 decimals) fit
   for (const auto& p : points) {
     std::snprintf(buf, sizeof buf, "%.10f %.10f %.10f", p.x(), p.y(), p.z());
     out << buf << "\n";

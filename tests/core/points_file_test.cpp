@@ -1,6 +1,7 @@
 #include "sph/core/points_file.hpp"
 
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <gmock/gmock.h>
@@ -90,6 +91,25 @@ TEST(PointsFile, WriteThenReadRoundTrips) {
     EXPECT_NEAR(back.samples[i].r_mm, d.samples[i].r_mm, 1e-10);
     EXPECT_EQ(back.samples[i].setup, d.samples[i].setup);
   }
+}
+
+// The largest finite values take 320 characters each in fixed point: rows of any length are
+// written whole and read back exactly.
+TEST(PointsFile, WritesTheLargestFiniteValuesWhole) {
+  constexpr double kMax = std::numeric_limits<double>::max();
+  PointsData d;
+  d.has_time = d.has_setup = true;
+  d.samples = {{-kMax, kMax, -kMax, -kMax, std::numeric_limits<int>::min()}, {1.5, 2.5, 3.5, 4.5, 1}};
+  std::ostringstream out;
+  WritePoints(out, d);
+  const PointsData back = Parse(out.str());
+  ASSERT_EQ(back.samples.size(), 2u);
+  EXPECT_EQ(back.samples[0].theta_deg, -kMax);
+  EXPECT_EQ(back.samples[0].phi_deg, kMax);
+  EXPECT_EQ(back.samples[0].r_mm, -kMax);
+  EXPECT_EQ(back.samples[0].t_s, -kMax);
+  EXPECT_EQ(back.samples[0].setup, std::numeric_limits<int>::min());
+  EXPECT_EQ(back.samples[1].t_s, 4.5);
 }
 
 TEST(PointsFile, ErrorsNameFileLineAndProblem) {

@@ -6,6 +6,7 @@
 
 #include <csignal>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -51,6 +52,22 @@ TEST(PointsWriter, WritesWhatReadPointsFileReads) {
   EXPECT_EQ(d.header.probe_offset_mm, std::optional<double>(25.0));
   EXPECT_TRUE(d.has_time && d.has_setup);
   EXPECT_NE(sph::testing::ReadWholeFile(path).find("# note incomplete: 3 cycles\n"), std::string::npos);
+}
+
+TEST(PointsWriter, FormatsRowsOfTheLargestFiniteValuesWhole) {
+  constexpr double kMax = std::numeric_limits<double>::max();
+  const Sample s{-kMax, -kMax, -kMax, -kMax, std::numeric_limits<int>::min()};
+  const std::string row = PointsWriter::FormatRow(s, true, true);
+  ASSERT_FALSE(row.empty());
+  EXPECT_EQ(row.back(), '\n');
+  EXPECT_EQ(row.find('\n'), row.size() - 1);
+  std::istringstream in("# columns: theta_deg phi_deg r_mm t_s setup\n" + row);
+  const PointsData d = ParsePoints(in, "row");
+  ASSERT_EQ(d.samples.size(), 1U);
+  EXPECT_EQ(d.samples[0].theta_deg, -kMax);
+  EXPECT_EQ(d.samples[0].r_mm, -kMax);
+  EXPECT_EQ(d.samples[0].t_s, -kMax);
+  EXPECT_EQ(d.samples[0].setup, std::numeric_limits<int>::min());
 }
 
 TEST(PointsWriter, CommentsBeforeTheFirstSampleNeverBecomeHeaderFields) {

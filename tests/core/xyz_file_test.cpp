@@ -1,6 +1,7 @@
 #include "sph/core/xyz_file.hpp"
 
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <gmock/gmock.h>
@@ -75,6 +76,17 @@ TEST(XyzFile, RoundTripsWithTenDecimals) {
   const auto back = ReadXyzFile(dir + "/p.xyz");
   ASSERT_EQ(back.size(), 2u);
   for (std::size_t i = 0; i < 2; ++i) EXPECT_PRED_FORMAT3(MatrixNear, back[i], pts[i], 5e-11);
+}
+
+TEST(XyzFile, WritesTheLargestFiniteValuesWhole) {
+  constexpr double kMax = std::numeric_limits<double>::max();
+  const std::vector<Eigen::Vector3d> pts{Eigen::Vector3d(-kMax, kMax, -kMax), Eigen::Vector3d(1, 2, 3)};
+  std::ostringstream out;
+  WriteXyz(out, pts, {});
+  const auto back = Parse(out.str());
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0], pts[0]);
+  EXPECT_EQ(back[1], pts[1]);
 }
 
 }  // namespace
