@@ -20,8 +20,11 @@ std::int64_t FieldMax(const FieldLayout& l) {
   return l.is_signed ? (std::int64_t{1} << (8 * l.width_bytes - 1)) - 1 : (std::int64_t{1} << (8 * l.width_bytes)) - 1;
 }
 
-// x mod m in [0, m) for m > 0.
-std::int64_t PositiveMod(std::int64_t x, std::int64_t m) { return ((x % m) + m) % m; }
+// x mod m in [0, m) for m > 0, without overflow for any m.
+std::int64_t PositiveMod(std::int64_t x, std::int64_t m) {
+  const std::int64_t r = x % m;
+  return r < 0 ? r + m : r;
+}
 
 }  // namespace
 
@@ -79,7 +82,9 @@ void InsertField(CanFrame& frame, const FieldLayout& l, std::int64_t value) {
 
 void ValidateEncoder(const EncoderConfig& c, const std::string& what) {
   ValidateLayout(c.field, what);
-  if (c.counts_per_rev == 0) throw Error(what + ": counts per revolution must be positive");
+  if (c.counts_per_rev == 0 || c.counts_per_rev > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
+    throw Error(what + ": counts per revolution must be 1..9223372036854775807, got " + std::to_string(c.counts_per_rev));
+  }
   if (c.direction != 1 && c.direction != -1) throw Error(what + ": direction must be 1 or -1");
   if (c.node_id < 0 || c.node_id > 127) throw Error(what + ": node id must be 0..127");
 }
@@ -109,7 +114,8 @@ DecodedValue DecodePosition(const EncoderConfig& c, const CanFrame& frame) {
     diff &= (std::uint64_t{1} << bits) - 1;
     if ((diff >> (bits - 1)) != 0) diff |= ~std::uint64_t{0} << bits;
   }
-  const auto counts = static_cast<std::int64_t>(diff) * c.direction;
+  if (c.direction < 0) diff = ~diff + 1;  // negated on the same circle: -(-2^63) stays -2^63
+  const auto counts = static_cast<std::int64_t>(diff);
   out.value = 360.0 * static_cast<double>(counts) / static_cast<double>(cpr);
   return out;
 }
@@ -117,7 +123,10 @@ DecodedValue DecodePosition(const EncoderConfig& c, const CanFrame& frame) {
 std::int64_t EncodePositionRaw(const EncoderConfig& c, double angle_deg) {
   const auto cpr = static_cast<std::int64_t>(c.counts_per_rev);
   const auto counts = static_cast<std::int64_t>(std::llround(angle_deg / 360.0 * static_cast<double>(cpr)));
-  const std::int64_t raw = c.zero_offset_counts + c.direction * counts;
+  // On the circle of 2^64 counts, as the encoder's counter wraps.
+  const auto turn = static_cast<std::uint64_t>(counts);
+  const auto raw = static_cast<std::int64_t>(static_cast<std::uint64_t>(c.zero_offset_counts) +
+                                             (c.direction < 0 ? ~turn + 1 : turn));
   if (!c.multi_turn) return PositiveMod(raw, cpr);
   const int bits = 8 * c.field.width_bytes;
   if (bits >= 64) return raw;

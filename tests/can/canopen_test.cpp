@@ -1,5 +1,7 @@
 #include "sph/can/canopen.hpp"
 
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
@@ -158,8 +160,32 @@ TEST(Encoder, EncodeIsTheInverseOfDecode) {
   }
 }
 
+// The extremes of a 64-bit field: the arithmetic stays on the counter's circle, never overflows.
+TEST(Encoder, SixtyFourBitFieldsAtTheirExtremes) {
+  constexpr std::int64_t kMin = std::numeric_limits<std::int64_t>::min();
+  constexpr std::int64_t kMax = std::numeric_limits<std::int64_t>::max();
+  // Single turn, the largest counts per revolution: zero offsets far from the raw value.
+  const auto big = Encoder(static_cast<std::uint64_t>(kMax), 1, kMax - 1, false, 8);
+  EXPECT_DOUBLE_EQ(DecodePosition(big, PositionFrame(big, kMax - 1)).value, 0.0);
+  const auto big_back = Encoder(static_cast<std::uint64_t>(kMax), -1, -1, false, 8);
+  const DecodedValue v = DecodePosition(big_back, PositionFrame(big_back, kMax / 2));
+  EXPECT_EQ(v.status, DecodeStatus::kOk);
+  EXPECT_NEAR(v.value, 180.0, 1e-9);
+  // Multi-turn, reversed: -(-2^63) is -2^63 on a 64-bit counter.
+  const auto multi = Encoder(1U << 20, -1, 0, true, 8);
+  EXPECT_DOUBLE_EQ(DecodePosition(multi, PositionFrame(multi, kMin)).value, 360.0 * -0x1p63 / 0x1p20);
+  EXPECT_DOUBLE_EQ(DecodePosition(multi, PositionFrame(multi, kMax)).value, 360.0 * -static_cast<double>(kMax) / 0x1p20);
+  const auto multi_zero = Encoder(1U << 20, -1, kMin, true, 8);
+  EXPECT_DOUBLE_EQ(DecodePosition(multi_zero, PositionFrame(multi_zero, kMax)).value, 360.0 / 0x1p20);
+  // Encoding from a zero offset at the end of the range wraps like the counter.
+  const auto enc = Encoder(1U << 20, -1, kMin, true, 8);
+  EXPECT_NEAR(DecodePosition(enc, PositionFrame(enc, EncodePositionRaw(enc, 90.0))).value, 90.0, 1e-9);
+}
+
 TEST(Encoder, Validation) {
   EXPECT_THROW(ValidateEncoder(Encoder(0, 1, 0, false), "theta"), Error);
+  EXPECT_THROW(ValidateEncoder(Encoder(std::uint64_t{1} << 63, 1, 0, false), "theta"), Error);
+  EXPECT_NO_THROW(ValidateEncoder(Encoder((std::uint64_t{1} << 63) - 1, 1, 0, false), "theta"));
   EXPECT_THROW(ValidateEncoder(Encoder(4096, 2, 0, false), "theta"), Error);
   EXPECT_NO_THROW(ValidateEncoder(Encoder(4096, -1, 0, false), "theta"));
 }
