@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <limits>
 
 #include "sph/core/error.hpp"
 
@@ -59,6 +60,10 @@ bool ParseFrameToken(std::string_view tok, CanFrame& f, std::string& error) {
     return false;
   }
   if (!rest.empty() && (rest[0] == 'R' || rest[0] == 'r')) {
+    if ((f.id & kErrFlag) != 0) {  // the kernel never reports one, and no log could carry it back
+      error = "an error frame cannot be a remote frame: '" + std::string(tok) + "'";
+      return false;
+    }
     f.id |= kRtrFlag;
     if (rest.size() == 2 && rest[1] >= '0' && rest[1] <= '8') {
       f.len = static_cast<std::uint8_t>(rest[1] - '0');
@@ -133,6 +138,12 @@ bool ParseCandumpLine(std::string_view line, CanFrame& f, std::string& iface, st
     return false;
   }
   ++i;
+  // The time in ns must fit in 64 bits: up to the year 2262.
+  constexpr std::int64_t kMaxSeconds = std::numeric_limits<std::int64_t>::max() / 1000000000 - 1;
+  if (sec > kMaxSeconds) {
+    error = "time " + std::to_string(sec) + " s is out of range (at most " + std::to_string(kMaxSeconds) + ")";
+    return false;
+  }
   for (int d = frac_digits; d < 9; ++d) frac *= 10;
   f.t_ns = sec * 1000000000 + frac;
   // interface

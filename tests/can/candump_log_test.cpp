@@ -88,6 +88,12 @@ TEST(CandumpLine, MalformedLinesSayWhy) {
   EXPECT_EQ(why("(1.0) vcan0 181#010203040506070809"), "more than 8 data bytes");
   EXPECT_EQ(why("(1.0) vcan0 181##10011"), "CAN FD frames ('##') are not supported");
   EXPECT_EQ(why("(1.0) vcan0 181#01 extra"), "unexpected text after the frame: 'extra'");
+  EXPECT_EQ(why("(1.0) vcan0 20000040#R"), "an error frame cannot be a remote frame: '20000040#R'");
+  // Times whose nanoseconds do not fit in 64 bits (after the year 2262).
+  EXPECT_EQ(why("(17000000000.000000) vcan0 080#"), "time 17000000000 s is out of range (at most 9223372035)");
+  EXPECT_EQ(why("(999999999999.999999) vcan0 080#"), "time 999999999999 s is out of range (at most 9223372035)");
+  ASSERT_TRUE(ParseCandumpLine("(9223372035.999999) vcan0 080#", f, iface, error)) << error;
+  EXPECT_EQ(f.t_ns, 9223372035999999000);
 }
 
 TEST(CandumpReader, ReportsMalformedLinesWithLineNumbersAndGoesOn) {
