@@ -61,6 +61,10 @@ void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal) {
 CalibrationFile ReadCalibrationFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open for reading");
+  return ParseCalibration(in, path);
+}
+
+CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
   json j;
   try {
     in >> j;

@@ -14,6 +14,7 @@
 #ifndef SPH_CORE_CALIBRATION_FILE_HPP_
 #define SPH_CORE_CALIBRATION_FILE_HPP_
 
+#include <iosfwd>
 #include <optional>
 #include <string>
 #include <utility>
@@ -45,6 +46,9 @@ void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal);
 /// Reads a calibration file. Throws sph::Error naming the file and the problem when it is not
 /// JSON, is of another format or version, or lacks a field.
 CalibrationFile ReadCalibrationFile(const std::string& path);
+
+/// As ReadCalibrationFile(), from a stream; `source` names it in messages.
+CalibrationFile ParseCalibration(std::istream& in, const std::string& source);
 
 /// The part of a calibration file that compensation uses (sph/model/compensation.hpp).
 Calibration ToCalibration(const CalibrationFile& file);
