@@ -86,6 +86,7 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     copts.max_std_um = o.max_std_um;
     copts.max_iterations = o.max_iterations;
     const CalibrationResult base = Calibrate(points, copts);
+    const PointsData fitted = WithoutOutliers(points, base);  // what the seven-error fit used
     std::optional<TraceResult> trace;
     std::optional<Validation> validation;
     if (!o.no_extend) {
@@ -93,7 +94,7 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       topts.harmonics = o.harmonics;
       topts.drift_order = o.drift_order;
       if (o.effects.empty()) {
-        trace = TraceResidual(points, copts, base, topts);
+        trace = TraceResidual(fitted, copts, base, topts);
       } else {
         std::vector<Effect> fixed;
         for (const std::string& id : o.effects) {
@@ -101,10 +102,10 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
           EffectFromId(id, &e);  // checked by the option's validator
           if (std::find(fixed.begin(), fixed.end(), e) == fixed.end()) fixed.push_back(e);
         }
-        trace = FitFixedEffects(points, copts, base, fixed, topts);
+        trace = FitFixedEffects(fitted, copts, base, fixed, topts);
       }
       if (!o.validate_path.empty()) validation = Validate(o.validate_path, *offset, *trace);
-      if (!o.plot_dir.empty()) PlotTrace(o.plot_dir, points, *trace);
+      if (!o.plot_dir.empty()) PlotTrace(o.plot_dir, fitted, *trace);
     }
     // The calibration reported: the seven errors of the final model.
     const bool extended = trace && !trace->after.fit.model.Empty();

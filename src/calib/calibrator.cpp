@@ -4,6 +4,7 @@
 #include <ceres/ceres.h>
 
 #include <algorithm>
+#include <cstddef>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -121,7 +122,10 @@ Eigen::MatrixXd ResidualJacobian(const PointsData& points, const CalibrationOpti
 
 bool CalibrationResult::Usable() const { return converged && (analysis.Empty() || analysis.AllDetermined()); }
 
-CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options) {
+namespace {
+
+// One least-squares fit of all samples of `points`.
+CalibrationResult CalibrateAll(const PointsData& points, const CalibrationOptions& options) {
   const std::string& src = points.source;
   if (!(options.sphere_radius_mm > 0.0)) throw Error(src + ": the sphere radius must be positive");
   if (!(options.probe_offset_mm > 0.0)) throw Error(src + ": the probe offset must be positive");
@@ -210,6 +214,140 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
   std::vector<ParameterDescription> desc = internal::BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
   result.analysis = AnalyseFit(jac, res, std::move(desc), options.max_std_um);
   ExplainUndetermined(points, options, result);
+  return result;
+}
+
+double Median(std::vector<double> v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// Residual [mm] of every sample of `points` under the result's parameters.
+std::vector<double> ResidualsOf(const PointsData& points, const CalibrationOptions& options,
+                                const CalibrationResult& r) {
+  std::map<int, std::size_t> index;
+  for (std::size_t k = 0; k < r.setup_ids.size(); ++k) index[r.setup_ids[k]] = k;
+  const ScmsErrorTrig<double> trig = ErrorTrigOf(r.geometry.data());
+  std::vector<double> out;
+  out.reserve(points.samples.size());
+  for (const Sample& s : points.samples) {
+    const Eigen::Vector3d p = ScmsPoint(r.geometry.data(), trig, SinCosOf(s.theta_deg * kRadPerDeg),
+                                        SinCosOf(s.phi_deg * kRadPerDeg), s.r_mm, options.probe_offset_mm);
+    out.push_back((p - r.centers_mm[index.at(s.setup)]).norm() - options.sphere_radius_mm);
+  }
+  return out;
+}
+
+}  // namespace
+
+PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& result) {
+  PointsData kept = points;
+  kept.samples.clear();
+  std::size_t next = 0;
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    if (next < result.outliers.size() && result.outliers[next].sample == i) {
+      ++next;
+      continue;
+    }
+    kept.samples.push_back(points.samples[i]);
+  }
+  return kept;
+}
+
+namespace {
+
+// Marks the samples not yet out whose residual is farther than k robust standard deviations
+// (1.4826 MAD, at least 1 nm, so that rounding-level residuals of exact data are no outliers)
+// from the median of those not out. Returns whether any was marked.
+bool MarkOutliers(const std::vector<double>& residuals, double k, std::vector<bool>& out) {
+  std::vector<double> kept;
+  for (std::size_t i = 0; i < residuals.size(); ++i) {
+    if (!out[i]) kept.push_back(residuals[i]);
+  }
+  if (kept.empty()) return false;
+  const double med = Median(kept);
+  for (double& e : kept) e = std::abs(e - med);
+  const double limit = std::max(k * 1.4826 * Median(kept), 1e-6);
+  bool changed = false;
+  for (std::size_t i = 0; i < residuals.size(); ++i) {
+    if (!out[i] && !(std::abs(residuals[i] - med) <= limit)) out[i] = changed = true;
+  }
+  return changed;
+}
+
+// Residuals [mm] at the start of the fit: the initial errors, and per setup an algebraic sphere
+// fit of the points not out. Gross errors stand out here, before least squares can spread them
+// over the seven errors.
+std::vector<double> StartResiduals(const PointsData& points, const CalibrationOptions& options,
+                                   const std::vector<bool>& out) {
+  const ScmsErrorTrig<double> trig = ErrorTrigOf(options.initial_geometry.data());
+  std::vector<Eigen::Vector3d> p(points.samples.size());
+  std::map<int, std::vector<Eigen::Vector3d>> kept;
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
+    p[i] = ScmsPoint(options.initial_geometry.data(), trig, SinCosOf(s.theta_deg * kRadPerDeg),
+                     SinCosOf(s.phi_deg * kRadPerDeg), s.r_mm, options.probe_offset_mm);
+    if (!out[i]) kept[s.setup].push_back(p[i]);
+  }
+  std::map<int, Sphere> spheres;
+  for (const auto& [id, pts] : kept) spheres[id] = FitSphereAlgebraic(pts);
+  std::vector<double> e(points.samples.size(), 0.0);
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const auto it = spheres.find(points.samples[i].setup);
+    if (it != spheres.end() && it->second.ok) e[i] = (p[i] - it->second.center).norm() - it->second.radius;
+  }
+  return e;
+}
+
+}  // namespace
+
+CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options) {
+  if (!options.analyse || !(options.outlier_sigma > 0.0)) return CalibrateAll(points, options);
+  // Robust rejection: the median and the median absolute deviation of the residuals do not follow
+  // a few gross errors, as a least-squares fit does. Marked first at the start values, so that the
+  // first fit is not pulled away by them; then judged again under each fit.
+  std::vector<bool> out(points.samples.size(), false);
+  for (int round = 0; round < 5 && MarkOutliers(StartResiduals(points, options, out), options.outlier_sigma, out);
+       ++round) {
+  }
+  auto fit_kept = [&] {
+    CalibrationResult r;
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      if (out[i]) r.outliers.push_back({i, 0.0});
+    }
+    const std::vector<Outlier> outliers = r.outliers;
+    r = CalibrateAll(WithoutOutliers(points, r), options);
+    r.outliers = outliers;
+    return r;
+  };
+  CalibrationResult result = fit_kept();
+  // Under the fit of the readings kept, the outliers are judged afresh (a reading marked at the
+  // start may come back), until the set no longer changes.
+  for (int round = 0; round < 10; ++round) {
+    std::vector<bool> judged(points.samples.size(), false);
+    MarkOutliers(ResidualsOf(points, options, result), options.outlier_sigma, judged);
+    if (judged == out) break;
+    out = judged;
+    result = fit_kept();
+  }
+  if (result.outliers.empty()) return result;
+  result.residuals_mm = ResidualsOf(points, options, result);  // every sample, in file order
+  std::string rows;
+  for (Outlier& o : result.outliers) {
+    o.residual_um = result.residuals_mm[o.sample] * kUmPerMm;
+    if (rows.size() < 400) {
+      const Sample& s = points.samples[o.sample];
+      rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(o.sample + 1) + " (theta " +
+              Format("%g", s.theta_deg) + " deg, phi " + Format("%g", s.phi_deg) + " deg, residual " +
+              Format("%+.3g", o.residual_um) + " um)";
+    }
+  }
+  result.warnings.insert(result.warnings.begin(),
+                         std::to_string(result.outliers.size()) + " outlier(s) left out of the fit, farther than " +
+                             Format("%g", options.outlier_sigma) +
+                             " robust standard deviations from the median residual: " + rows +
+                             (rows.size() >= 400 ? "; ..." : ""));
   return result;
 }
 

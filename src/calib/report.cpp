@@ -166,6 +166,9 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   j["fit"] = fit;
   j["undetermined"] = undetermined;
   j["usable"] = r.Usable();
+  json outliers = json::array();
+  for (const Outlier& o : r.outliers) outliers.push_back({{"sample", o.sample + 1}, {"residual_um", o.residual_um}});
+  j["outliers"] = outliers;
   j["warnings"] = r.warnings;
   return j.dump(2) + "\n";
 }

@@ -56,6 +56,7 @@ TEST(Calibrate, NoiseFreeDataWithAngleErrorsFarFromTheStart) {
   const CalibrationResult r = Calibrate(Simulate(spec), PaperOptions());
   EXPECT_TRUE(r.converged) << r.solver_message;
   ExpectRecovered(r, spec, 1e-9);
+  EXPECT_TRUE(r.outliers.empty());  // the large errors' own residuals at the start are no outliers
 }
 
 TEST(Calibrate, NoisyPaperCaseIsWithinThreeReportedStd) {
@@ -177,6 +178,52 @@ TEST(Calibrate, AnalysisCanBeSkipped) {
   EXPECT_TRUE(r.converged);
   EXPECT_TRUE(r.analysis.Empty());
   EXPECT_TRUE(r.Usable());
+}
+
+}  // namespace
+}  // namespace sph
+
+namespace sph {
+namespace {
+
+// Gross errors in otherwise good data: each is found, left out, and the calibration is that of
+// the good readings.
+TEST(Calibrate, LeavesOutGrossErrorsAndSaysWhich) {
+  for (const double size_um : {1000.0, 2.0}) {
+    SimulationSpec spec;
+    PointsData points = Simulate(spec);
+    const CalibrationResult clean = Calibrate(points, PaperOptions());
+    for (std::size_t i : {17u, 140u, 263u}) points.samples[i].r_mm += (i % 2 ? 1 : -1) * size_um * kMmPerUm;
+    const CalibrationResult r = Calibrate(points, PaperOptions());
+    ASSERT_EQ(r.outliers.size(), 3u) << size_um;
+    EXPECT_EQ(r.outliers[0].sample, 17u);
+    EXPECT_EQ(r.outliers[1].sample, 140u);
+    EXPECT_EQ(r.outliers[2].sample, 263u);
+    EXPECT_NEAR(std::abs(r.outliers[1].residual_um), size_um, 0.5 + 0.01 * size_um);
+    EXPECT_TRUE(r.Usable());
+    EXPECT_EQ(r.n_points, 285);
+    EXPECT_EQ(r.residuals_mm.size(), points.samples.size());
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      // Three readings fewer: the estimates move by a small fraction of their std.
+      EXPECT_NEAR(r.geometry[static_cast<std::size_t>(p)], clean.geometry[static_cast<std::size_t>(p)],
+                  0.5 * clean.analysis.std(p))
+          << kScmsParamInfo[static_cast<std::size_t>(p)].name;
+    }
+    ASSERT_FALSE(r.warnings.empty());
+    EXPECT_THAT(r.warnings[0], HasSubstr("3 outlier(s) left out"));
+    EXPECT_THAT(r.warnings[0], HasSubstr("sample 18 (theta"));
+  }
+}
+
+TEST(Calibrate, FindsNoOutliersInGaussianNoise) {
+  for (std::uint64_t seed = 1; seed <= 30; ++seed) {
+    SimulationSpec spec;
+    spec.seed = seed;
+    EXPECT_TRUE(Calibrate(Simulate(spec), PaperOptions()).outliers.empty()) << "seed " << seed;
+  }
+  SimulationSpec exact;
+  exact.noise_r_um = 0.0;
+  EXPECT_TRUE(Calibrate(Simulate(exact), PaperOptions()).outliers.empty());
 }
 
 }  // namespace

@@ -30,6 +30,17 @@ struct CalibrationOptions {
   /// Carlo study switches it off when it only needs the estimates.
   bool analyse = true;
   ScmsGeometry initial_geometry{};  ///< start of the errors (rad, mm); the paper starts at zero
+  /// A reading whose residual is farther than this many robust standard deviations (1.4826 times
+  /// the median absolute deviation) from the median residual is an outlier and is left out: first
+  /// judged at the start values, then under the fit of the readings kept, until the set of
+  /// outliers no longer changes. The limit is at least 1 nm. 0 keeps every reading. Needs `analyse`.
+  double outlier_sigma = 5.0;
+};
+
+/// A reading left out of the fit as an outlier.
+struct Outlier {
+  std::size_t sample = 0;   ///< index in the points file's samples (0-based, file order)
+  double residual_um = 0.0; ///< its residual under the final fit
 };
 
 /// The outcome of one calibration.
@@ -37,10 +48,11 @@ struct CalibrationResult {
   ScmsGeometry geometry{};                  ///< estimated errors (rad, mm)
   std::vector<int> setup_ids;               ///< ascending; centres_mm[k] belongs to setup_ids[k]
   std::vector<Eigen::Vector3d> centers_mm;  ///< estimated sphere centre of each setup
-  std::vector<double> residuals_mm;         ///< |p - O| - R0 of each sample, in file order
-  double rms_um = 0.0;                      ///< residual RMS
-  double pv_um = 0.0;                       ///< residual peak to valley
-  int n_points = 0;
+  std::vector<double> residuals_mm;         ///< |p - O| - R0 of each sample, in file order (outliers too)
+  double rms_um = 0.0;                      ///< residual RMS of the readings fitted
+  double pv_um = 0.0;                       ///< residual peak to valley of the readings fitted
+  int n_points = 0;                         ///< readings fitted (outliers not counted)
+  std::vector<Outlier> outliers;            ///< readings left out, in file order
   int iterations = 0;
   bool converged = false;
   std::string solver_message;               ///< Ceres' termination message
@@ -60,9 +72,13 @@ struct CalibrationResult {
 Eigen::MatrixXd ResidualJacobian(const PointsData& points, const CalibrationOptions& options,
                                  const ScmsGeometry& geometry, const std::vector<Eigen::Vector3d>& centers_mm);
 
-/// Calibrates from the samples of `points`. Throws sph::Error on unusable input (radius or offset
-/// not positive, fewer samples than parameters, a setup whose points determine no centre).
+/// Calibrates from the samples of `points`, leaving out outliers (options.outlier_sigma). Throws
+/// sph::Error on unusable input (radius or offset not positive, fewer samples than parameters, a
+/// setup whose points determine no centre).
 CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options);
+
+/// `points` without the samples that `result` left out as outliers.
+PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& result);
 
 }  // namespace sph
 
