@@ -132,14 +132,13 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << json; });
     }
     if (!o.output_path.empty()) {
-      if (extended) {
-        // Calibration files hold the seven errors only: store the seven-error calibration, which
-        // is consistent on its own, rather than errors fitted jointly with effects left out.
-        err << prog << ": note: " << o.output_path
-            << " holds the seven-error calibration; the added effects are in the report only\n";
-      }
-      if (base.Usable()) {
-        WriteCalibrationFile(o.output_path, MakeCalibrationFile(base, ctx));
+      if (result.Usable()) {
+        CalibrationFile file = MakeCalibrationFile(result, ctx);
+        if (extended && AddEffectsToCalibrationFile(trace->after.fit, file)) {
+          err << prog << ": note: " << o.output_path
+              << " leaves out probe_drift: a drift belongs to the run it was measured in\n";
+        }
+        WriteCalibrationFile(o.output_path, file);
       } else {
         err << prog << ": not writing " << o.output_path << ": the calibration is not usable\n";
       }

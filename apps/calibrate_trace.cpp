@@ -44,6 +44,20 @@ json FitJson(const TracedFit& f) {
 
 }  // namespace
 
+bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
+  bool drift = false;
+  file.effects.reference = fit.model.reference;
+  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
+    if (fit.model.terms[t].effect == Effect::kProbeDrift) {
+      drift = true;
+      continue;
+    }
+    file.effects.terms.push_back(fit.model.terms[t]);
+    file.effect_values.push_back(fit.values[t]);
+  }
+  return drift;
+}
+
 Validation Validate(const std::string& path, double probe_offset_mm, const TraceResult& trace) {
   const PointsData data = ReadPointsFile(path);
   Validation v;

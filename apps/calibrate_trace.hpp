@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sph/calib/trace.hpp"
+#include "sph/core/calibration_file.hpp"
 
 namespace sph::apps {
 
@@ -25,6 +26,10 @@ struct Validation {
 /// Compensates the points of `path` with `before` and `after` and fits a least-squares sphere
 /// to each. probe_drift is not applied: a drift belongs to the run it was measured in.
 Validation Validate(const std::string& path, double probe_offset_mm, const TraceResult& trace);
+
+/// Puts the effects of `fit` into a calibration file, except probe_drift (it belongs to the run).
+/// Returns whether a probe_drift was left out.
+bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file);
 
 /// The trace section of the text report.
 void WriteTraceText(std::ostream& out, const TraceResult& trace, const Validation* validation);

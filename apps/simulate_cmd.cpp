@@ -34,17 +34,8 @@ void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& ef
   if (value_text.empty() || *end != '\0' || !std::isfinite(value)) {
     throw Error(opt + " " + text + ": '" + value_text + "' is not a number");
   }
-  // The component whose name is `param`, among those of a term with every order up to 12.
-  const EffectTerm all = DefaultTerm(e, 12, 3);
   EffectComponent comp;
-  bool found = false;
-  for (std::size_t i = 0; i < all.components.size() && !found; ++i) {
-    if (all.ParamName(i) == text.substr(0, eq)) {
-      comp = all.components[i];
-      found = true;
-    }
-  }
-  if (!found) throw Error(opt + " " + text + ": " + id + " has no parameter '" + param + "'");
+  if (!FindComponent(e, text.substr(0, eq), &comp)) throw Error(opt + " " + text + ": " + id + " has no parameter '" + param + "'");
   int t = effects.model.Find(e);
   if (t < 0) {
     effects.model.terms.push_back({e, {}});

@@ -1,11 +1,13 @@
 #include "sph/core/calibration_file.hpp"
 
+#include <cmath>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
 
 #include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
@@ -23,6 +25,62 @@ double Number(const json& obj, const char* key, const std::string& where, const 
   const json& v = Field(obj, key, where, path);
   if (!v.is_number()) throw Error(path + ": field '" + where + key + "' must be a number");
   return v.get<double>();
+}
+
+const char* EffectUnit(const EffectTerm& t) { return t.info().quantity == Quantity::kAngle ? "arcsec" : "um"; }
+double EffectScale(const EffectTerm& t) { return t.info().quantity == Quantity::kAngle ? kRadPerArcsec : kMmPerUm; }
+
+// The "effects" array and "effect_reference" of a calibration file.
+void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) {
+  const json& effects = Field(j, "effects", "", path);
+  if (!effects.is_array()) throw Error(path + ": field 'effects' must be an array");
+  for (std::size_t k = 0; k < effects.size(); ++k) {
+    const std::string where = "effects[" + std::to_string(k) + "].";
+    const json& id = Field(effects[k], "id", where, path);
+    Effect e;
+    if (!id.is_string() || !EffectFromId(id.get<std::string>(), &e)) {
+      throw Error(path + ": field '" + where + "id': unknown effect " + id.dump());
+    }
+    if (e == Effect::kProbeDrift) {
+      throw Error(path + ": field '" + where + "id': probe_drift belongs to the run it was measured in and cannot be "
+                  "applied to other measurements");
+    }
+    if (cal.effects.Find(e) >= 0) throw Error(path + ": field '" + where + "id': " + InfoOf(e).id + " is listed twice");
+    EffectTerm term{e, {}};
+    std::vector<double> values;
+    const json& params = Field(effects[k], "parameters", where, path);
+    if (!params.is_array() || params.empty()) throw Error(path + ": field '" + where + "parameters' must be a non-empty array");
+    for (std::size_t i = 0; i < params.size(); ++i) {
+      const std::string pw = where + "parameters[" + std::to_string(i) + "].";
+      const json& name = Field(params[i], "name", pw, path);
+      EffectComponent c;
+      if (!name.is_string() || !FindComponent(e, name.get<std::string>(), &c)) {
+        throw Error(path + ": field '" + pw + "name': " + name.dump() + " is no parameter of " + InfoOf(e).id);
+      }
+      for (std::size_t q = 0; q < term.components.size(); ++q) {
+        if (term.ParamName(q) == name.get<std::string>()) throw Error(path + ": field '" + pw + "name': " + name.dump() + " is listed twice");
+      }
+      term.components.push_back(c);
+      if (Field(params[i], "unit", pw, path) != EffectUnit(term)) {
+        throw Error(path + ": field '" + pw + "unit' must be \"" + EffectUnit(term) + "\"");
+      }
+      const double v = Number(params[i], "value", pw, path);
+      if (!std::isfinite(v)) throw Error(path + ": field '" + pw + "value' must be finite");
+      values.push_back(v * EffectScale(term));
+    }
+    cal.effects.terms.push_back(term);
+    cal.effect_values.push_back(values);
+  }
+  if (cal.effects.Empty()) return;
+  const json& ref = Field(j, "effect_reference", "", path);
+  EffectReference& r = cal.effects.reference;
+  r.r_ref_mm = Number(ref, "r_ref_mm", "effect_reference.", path);
+  r.r_half_range_mm = Number(ref, "r_half_range_mm", "effect_reference.", path);
+  r.t_start_s = Number(ref, "t_start_s", "effect_reference.", path);
+  r.t_span_s = Number(ref, "t_span_s", "effect_reference.", path);
+  if (!(r.r_half_range_mm > 0.0) || !(r.t_span_s > 0.0) || !std::isfinite(r.r_ref_mm) || !std::isfinite(r.t_start_s)) {
+    throw Error(path + ": field 'effect_reference': r_half_range_mm and t_span_s must be positive, all finite");
+  }
 }
 
 }  // namespace
@@ -51,7 +109,25 @@ void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal) {
     }
     j["covariance"] = {{"parameters", names}, {"units", units}, {"matrix", rows}};
   }
-  j["effects"] = json::array();
+  json effects = json::array();
+  for (std::size_t t = 0; t < cal.effects.terms.size(); ++t) {
+    const EffectTerm& term = cal.effects.terms[t];
+    json params = json::array();
+    for (std::size_t i = 0; i < term.components.size(); ++i) {
+      params.push_back({{"name", term.ParamName(i)},
+                        {"value", cal.effect_values[t][i] / EffectScale(term)},
+                        {"unit", EffectUnit(term)}});
+    }
+    effects.push_back({{"id", term.info().id}, {"parameters", params}});
+  }
+  j["effects"] = effects;
+  if (!cal.effects.Empty()) {
+    const EffectReference& r = cal.effects.reference;
+    j["effect_reference"] = {{"r_ref_mm", r.r_ref_mm},
+                             {"r_half_range_mm", r.r_half_range_mm},
+                             {"t_start_s", r.t_start_s},
+                             {"t_span_s", r.t_span_s}};
+  }
   json source = json::object();
   for (const auto& [k, v] : cal.source) source[k] = v;
   j["source"] = source;
@@ -118,9 +194,7 @@ CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
     }
     cal.covariance = c;
   }
-  const json& effects = Field(j, "effects", "", path);
-  if (!effects.is_array()) throw Error(path + ": field 'effects' must be an array");
-  if (!effects.empty()) throw Error(path + ": this program knows no further effects, but the file lists " + std::to_string(effects.size()));
+  ParseEffects(j, path, cal);
   if (j.contains("source") && j["source"].is_object()) {
     for (const auto& [k, v] : j["source"].items()) cal.source.emplace_back(k, v.is_string() ? v.get<std::string>() : v.dump());
   }
@@ -132,6 +206,8 @@ Calibration ToCalibration(const CalibrationFile& file) {
   cal.geometry = file.geometry;
   cal.probe_offset_mm = file.probe_offset_mm;
   cal.covariance = file.covariance;
+  cal.effects = file.effects;
+  cal.effect_values = file.effect_values;
   return cal;
 }
 

@@ -9,8 +9,11 @@
 #include <nlohmann/json.hpp>
 
 #include "app_common.hpp"
+#include "sph/core/calibration_file.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/model/sphere_fit.hpp"
+#include "sph/model/sphere_form.hpp"
 #include "sph/model/units.hpp"
 #include "test_util.hpp"
 
@@ -193,8 +196,10 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
   o.validate_path = Simulated("validate.txt", other);
   o.json_path = dir_ + "/report.json";
   o.plot_dir = dir_ + "/plots";
+  o.output_path = dir_ + "/cal.json";
   const RunOutput r = Calibrate(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("leaves out probe_drift"));
   EXPECT_THAT(r.out, HasSubstr("closing the loop"));
   EXPECT_THAT(r.out, HasSubstr("theta_encoder.c2"));
   const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
@@ -221,6 +226,16 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
     }
   }
   EXPECT_GT(j["validation"]["before_ls_sphericity_um"].get<double>(), 0.0);
+  // The calibration file carries the machine's effects (not the run's drift), and compensation
+  // with it gives the validation sphere the sphericity the report states.
+  const Calibration cal = LoadCalibration(o.output_path);
+  ASSERT_EQ(cal.effects.terms.size(), 1u);
+  EXPECT_EQ(cal.effects.terms[0].effect, Effect::kThetaEncoder);
+  const std::vector<Eigen::Vector3d> pts = CompensateAll(cal, ReadPointsFile(o.validate_path).samples);
+  const LeastSquaresSphere ls = FitSphereLeastSquares(pts);
+  ASSERT_TRUE(ls.sphere.ok);
+  EXPECT_NEAR(RadialPeakToValley(pts, ls.sphere.center) * 1e3, j["validation"]["after_ls_sphericity_um"].get<double>(),
+              1e-9);
   EXPECT_GT(sph::testing::ReadWholeFile(o.plot_dir + "/residual_map.png").size(), 1000u);
   EXPECT_GT(sph::testing::ReadWholeFile(o.plot_dir + "/residual_time.png").size(), 1000u);
 }

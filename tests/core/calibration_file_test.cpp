@@ -1,11 +1,14 @@
 #include "sph/core/calibration_file.hpp"
 
+#include <cmath>
+
 #include <fstream>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
+#include "sph/model/units.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -99,6 +102,35 @@ TEST(CalibrationFile, LoadsTheCalibrationForCompensation) {
   EXPECT_FALSE(LoadCalibration(dir + "/nocov.json").covariance.has_value());
 }
 
+TEST(CalibrationFile, EffectsGoThroughTheFileAndIntoCompensation) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_effects");
+  CalibrationFile file;
+  file.geometry = {1e-4, 0.002, -2e-4, 0.001, 3e-4, -0.002, -0.06};
+  file.probe_offset_mm = 25.0;
+  file.effects.terms = {{Effect::kThetaEncoder, {{2, 0, false}, {3, 0, true}}},
+                        {Effect::kThetaRadialMotion, {{3, 1, true}}},
+                        {Effect::kProbeGain, {{1, 0, false}}}};
+  file.effect_values = {{6 * kRadPerArcsec, -4 * kRadPerArcsec}, {0.1 * kMmPerUm}, {0.4 * kMmPerUm}};
+  file.effects.reference = {4.9, 2.1, 0.0, 287.0};
+  WriteCalibrationFile(dir + "/cal.json", file);
+  const Calibration cal = LoadCalibration(dir + "/cal.json");
+  ASSERT_TRUE(cal.IsValid());
+  ASSERT_EQ(cal.effects.terms.size(), 3u);
+  for (std::size_t t = 0; t < 3; ++t) {
+    ASSERT_EQ(cal.effect_values[t].size(), file.effect_values[t].size());
+    for (std::size_t i = 0; i < file.effect_values[t].size(); ++i) {
+      EXPECT_NEAR(cal.effect_values[t][i], file.effect_values[t][i], 1e-15 * std::abs(file.effect_values[t][i]));
+      EXPECT_EQ(cal.effects.terms[t].ParamName(i), file.effects.terms[t].ParamName(i));
+    }
+  }
+  EXPECT_DOUBLE_EQ(cal.effects.reference.r_half_range_mm, 2.1);
+  // Compensation applies them: the point is EffectScmsPoint's, and differs from the seven errors' alone.
+  const Eigen::Vector3d p = Compensate(cal, 30.0, 60.0, 5.1);
+  const Eigen::Vector3d q = EffectScmsPoint(cal.geometry, cal.effects, cal.effect_values, EffectReading(30.0, 60.0, 5.1, 0.0), 25.0);
+  EXPECT_EQ(p, q);
+  EXPECT_GT((p - ScmsPoint(cal.geometry, 30 * kRadPerDeg, 60 * kRadPerDeg, 5.1, 25.0)).norm(), 1e-5);
+}
+
 TEST(CalibrationFile, NamesEveryMissingOrWrongField) {
   const std::string dir = sph::testing::MakeTempDir("calfile_fields");
   const std::vector<std::pair<std::pair<std::string, std::string>, std::string>> cases{
@@ -120,7 +152,18 @@ TEST(CalibrationFile, NamesEveryMissingOrWrongField) {
       {{R"([0, 0, 0, 0, 0, 0, 1e-12]]})", R"([0, 0, 0, 0, 0, 0]]})"}, "covariance.matrix must be 7 x 7"},
       {{R"(,
     "effects": [])", ""}, "missing field 'effects'"},
-      {{R"("effects": [])", R"("effects": [{"name": "encoder"}])"}, "this program knows no further effects, but the file lists 1"},
+      {{R"("effects": [])", R"("effects": [{"name": "encoder"}])"}, "missing field 'effects[0].id'"},
+      {{R"("effects": [])", R"("effects": [{"id": "encoder"}])"}, "field 'effects[0].id': unknown effect \"encoder\""},
+      {{R"("effects": [])", R"("effects": [{"id": "probe_drift", "parameters": []}])"},
+       "field 'effects[0].id': probe_drift belongs to the run it was measured in"},
+      {{R"("effects": [])", R"("effects": [{"id": "probe_gain", "parameters": []}])"},
+       "field 'effects[0].parameters' must be a non-empty array"},
+      {{R"("effects": [])", R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.c2", "value": 1, "unit": "um"}]}])"},
+       "field 'effects[0].parameters[0].name': \"probe_gain.c2\" is no parameter of probe_gain"},
+      {{R"("effects": [])", R"("effects": [{"id": "theta_encoder", "parameters": [{"name": "theta_encoder.c2", "value": 1, "unit": "um"}]}])"},
+       "field 'effects[0].parameters[0].unit' must be \"arcsec\""},
+      {{R"("effects": [])", R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.u1", "value": 1, "unit": "um"}]}])"},
+       "missing field 'effect_reference'"},
   };
   int i = 0;
   for (const auto& [edit, message] : cases) {

@@ -7,10 +7,16 @@
 //     "sphere_radius_mm": 20.0,             R0 of the reference sphere (information)
 //     "geometry": {"alpha": {"value": 0.02, "unit": "deg"}, "a": {"value": 0.002, "unit": "mm"}, ...},
 //     "covariance": {"parameters": ["alpha", ...], "units": ["deg", "mm", ...], "matrix": [[...], ...]},
-//     "effects": [],                        further effects (none in this version of the model)
+//     "effects": [                          further effects of the machine (sph/model/effects.hpp), may be empty
+//       {"id": "theta_encoder", "parameters": [{"name": "theta_encoder.c2", "value": 5.5, "unit": "arcsec"}, ...]},
+//       ...],
+//     "effect_reference": {"r_ref_mm": .., "r_half_range_mm": .., "t_start_s": .., "t_span_s": ..},
+//                                           with effects: what u and tau are normalised by
 //     "source": {"points_file": "...", ...} free-form provenance
 //   }
 // Angles are stored in deg and lengths in mm; the covariance in the same units (deg^2, deg*mm, mm^2).
+// Effect parameters are in arcsec (angle effects) or um (length effects). probe_drift is refused:
+// a drift belongs to the run it was measured in, not to the machine.
 #ifndef SPH_CORE_CALIBRATION_FILE_HPP_
 #define SPH_CORE_CALIBRATION_FILE_HPP_
 
@@ -23,6 +29,7 @@
 #include <Eigen/Core>
 
 #include "sph/model/compensation.hpp"
+#include "sph/model/effects.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph {
@@ -36,6 +43,8 @@ struct CalibrationFile {
   std::optional<double> sphere_radius_mm;   ///< R0 of the calibration sphere
   /// Covariance of the seven errors (rad, mm), when the calibration computed one.
   std::optional<Eigen::Matrix<double, kNumScmsParams, kNumScmsParams>> covariance;
+  EffectModel effects;                          ///< further effects (no probe_drift), with their reference
+  std::vector<std::vector<double>> effect_values;  ///< one block per term (rad, mm)
   std::string created_by;
   std::vector<std::pair<std::string, std::string>> source;  ///< provenance, copied as strings
 };

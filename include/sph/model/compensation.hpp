@@ -3,6 +3,10 @@
 //
 //   p_sphere = ScmsPoint(g; theta, phi, r, d)          (sph/model/scms_model.hpp, the paper's Eq. (1))
 //
+// or, when the calibration has further effects of the machine (encoder errors, spindle motions,
+// probe gain, ...), EffectScmsPoint(g, effects; reading) of sph/model/effects.hpp. A probe drift
+// belongs to the run it was measured in and is never part of a calibration.
+//
 // with g the seven geometric errors of the calibration and d its nominal probe zero distance. The
 // readings come as the machine gives them: theta_deg, phi_deg [deg], r_mm [mm]; the result is in mm,
 // in the frame that turns with Theta (the frame in which the measured sphere is at rest).
@@ -15,6 +19,7 @@
 #ifndef SPH_MODEL_COMPENSATION_HPP_
 #define SPH_MODEL_COMPENSATION_HPP_
 
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <optional>
@@ -22,6 +27,7 @@
 
 #include <Eigen/Core>
 
+#include "sph/model/effects.hpp"
 #include "sph/model/scms_model.hpp"
 #include "sph/model/units.hpp"
 
@@ -38,12 +44,31 @@ struct Calibration {
   /// Covariance of the seven errors (rad, mm), when the calibration computed one; it lets a
   /// measurement state how much of its result the calibration's own uncertainty can explain.
   std::optional<ScmsCovariance> covariance;
+  /// Further effects of the machine (no probe_drift) and their values, one block per term (rad, mm).
+  EffectModel effects;
+  std::vector<std::vector<double>> effect_values;
 
-  /// d positive and every value finite.
+  /// d positive, every value finite, at most one term per effect, no probe_drift, one block of the
+  /// right size per term and a positive normalisation.
   bool IsValid() const {
     if (!(probe_offset_mm > 0.0) || !std::isfinite(probe_offset_mm)) return false;
     for (const double v : geometry) {
       if (!std::isfinite(v)) return false;
+    }
+    if (effects.terms.size() > static_cast<std::size_t>(kNumEffects) || effect_values.size() != effects.terms.size()) {
+      return false;
+    }
+    for (std::size_t t = 0; t < effects.terms.size(); ++t) {
+      const EffectTerm& term = effects.terms[t];
+      if (term.effect == Effect::kProbeDrift || effects.Find(term.effect) != static_cast<int>(t)) return false;
+      if (effect_values[t].size() != term.components.size()) return false;
+      for (const double v : effect_values[t]) {
+        if (!std::isfinite(v)) return false;
+      }
+    }
+    const EffectReference& ref = effects.reference;
+    if (!effects.Empty() && !(ref.r_half_range_mm > 0.0 && std::isfinite(ref.r_ref_mm) && ref.t_span_s > 0.0)) {
+      return false;
     }
     return !covariance || covariance->allFinite();
   }
@@ -57,18 +82,33 @@ struct RawReading {
 };
 
 namespace internal {
-/// Compensate() with the angle errors' trig given (ErrorTrigOf(cal.geometry)), for batches.
-/// `Reading` has members theta_deg, phi_deg [deg] and r_mm [mm].
+/// What compensation computes once per calibration: the angle errors' trig and the effects'
+/// parameter blocks (no allocation: at most one term per effect).
+struct CompensationContext {
+  ScmsErrorTrig<double> trig;
+  std::array<const double*, kNumEffects> blocks{};
+
+  explicit CompensationContext(const Calibration& cal) : trig(ErrorTrigOf(cal.geometry.data())) {
+    for (std::size_t t = 0; t < cal.effect_values.size() && t < blocks.size(); ++t) blocks[t] = cal.effect_values[t].data();
+  }
+};
+
+/// Compensate() with the context given, for batches. `Reading` has members theta_deg, phi_deg
+/// [deg] and r_mm [mm].
 template <typename Reading>
-Eigen::Vector3d CompensateWith(const Calibration& cal, const ScmsErrorTrig<double>& trig, const Reading& r) {
-  return ScmsPoint(cal.geometry.data(), trig, SinCosOf(r.theta_deg * kRadPerDeg), SinCosOf(r.phi_deg * kRadPerDeg),
-                   r.r_mm, cal.probe_offset_mm);
+Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const Reading& r) {
+  if (cal.effects.Empty()) {
+    return ScmsPoint(cal.geometry.data(), ctx.trig, SinCosOf(r.theta_deg * kRadPerDeg),
+                     SinCosOf(r.phi_deg * kRadPerDeg), r.r_mm, cal.probe_offset_mm);
+  }
+  return EffectScmsPoint(cal.geometry.data(), ctx.trig, cal.effects, ctx.blocks.data(),
+                         EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), cal.probe_offset_mm);
 }
 }  // namespace internal
 
 /// The compensated point [mm] of one reading (theta_deg, phi_deg in deg, r_mm in mm).
 inline Eigen::Vector3d Compensate(const Calibration& cal, double theta_deg, double phi_deg, double r_mm) {
-  return ScmsPoint(cal.geometry, theta_deg * kRadPerDeg, phi_deg * kRadPerDeg, r_mm, cal.probe_offset_mm);
+  return internal::CompensateWith(cal, internal::CompensationContext(cal), RawReading{theta_deg, phi_deg, r_mm});
 }
 
 /// The compensated point [mm] of one reading.
@@ -79,8 +119,8 @@ inline Eigen::Vector3d Compensate(const Calibration& cal, const RawReading& read
 /// Batch without allocation: points_mm[i] = Compensate(cal, readings[i]) for i < count.
 inline void Compensate(const Calibration& cal, const RawReading* readings, std::size_t count,
                        Eigen::Vector3d* points_mm) {
-  const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());  // once for the batch
-  for (std::size_t i = 0; i < count; ++i) points_mm[i] = internal::CompensateWith(cal, trig, readings[i]);
+  const internal::CompensationContext ctx(cal);  // once for the batch
+  for (std::size_t i = 0; i < count; ++i) points_mm[i] = internal::CompensateWith(cal, ctx, readings[i]);
 }
 
 /// Batch over any container of readings with members theta_deg, phi_deg and r_mm (RawReading,
@@ -89,8 +129,8 @@ template <typename Readings>
 std::vector<Eigen::Vector3d> CompensateAll(const Calibration& cal, const Readings& readings) {
   std::vector<Eigen::Vector3d> points_mm;
   points_mm.reserve(readings.size());
-  const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());  // once for the batch
-  for (const auto& r : readings) points_mm.push_back(internal::CompensateWith(cal, trig, r));
+  const internal::CompensationContext ctx(cal);  // once for the batch
+  for (const auto& r : readings) points_mm.push_back(internal::CompensateWith(cal, ctx, r));
   return points_mm;
 }
 

@@ -151,6 +151,22 @@ inline EffectTerm DefaultTerm(Effect e, int harmonics = 4, int drift_order = 1) 
   return t;
 }
 
+/// Highest harmonic order and highest power of time that parameter names may carry.
+inline constexpr int kMaxEffectHarmonic = 12;
+inline constexpr int kMaxDriftOrder = 3;
+
+/// The component of effect `e` whose parameter is called `name` ("theta_encoder.c2", ...), or false.
+inline bool FindComponent(Effect e, const std::string& name, EffectComponent* out) {
+  const EffectTerm all = DefaultTerm(e, kMaxEffectHarmonic, kMaxDriftOrder);
+  for (std::size_t i = 0; i < all.components.size(); ++i) {
+    if (all.ParamName(i) == name) {
+      *out = all.components[i];
+      return true;
+    }
+  }
+  return false;
+}
+
 /// What the probe and drift terms are normalised by (see the file comment).
 struct EffectReference {
   double r_ref_mm = 0.0;         ///< centre of the probe range
