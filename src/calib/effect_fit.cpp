@@ -48,6 +48,50 @@ std::map<int, std::size_t> IndexOfSetups(const std::vector<int>& ids) {
 
 }  // namespace
 
+Eigen::MatrixXd JacobianAt(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
+  const std::map<int, std::size_t> setup_index = IndexOfSetups(fit.calibration.setup_ids);
+  const std::size_t n_setups = fit.calibration.setup_ids.size();
+  std::vector<std::unique_ptr<SetupResiduals>> functors(n_setups);
+  std::vector<std::vector<std::size_t>> rows_of_setup(n_setups);
+  for (std::size_t k = 0; k < n_setups; ++k) {
+    functors[k] = std::make_unique<SetupResiduals>(
+        SetupResiduals{&fit.model, {}, options.probe_offset_mm, options.sphere_radius_mm});
+  }
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
+    const std::size_t k = setup_index.at(s.setup);
+    rows_of_setup[k].push_back(i);
+    functors[k]->readings.emplace_back(s.theta_deg, s.phi_deg, s.r_mm, s.t_s);
+  }
+  ScmsGeometry geometry = fit.calibration.geometry;
+  std::vector<std::array<double, 3>> centers;
+  for (const auto& c : fit.calibration.centers_mm) centers.push_back({c.x(), c.y(), c.z()});
+  std::vector<std::vector<double>> values = fit.values;
+  ceres::Problem problem;
+  for (std::size_t k = 0; k < n_setups; ++k) {
+    const int n_res = static_cast<int>(functors[k]->readings.size());
+    auto* cost = new ceres::DynamicAutoDiffCostFunction<SetupResiduals, kStride>(functors[k].release());
+    std::vector<double*> blocks{geometry.data(), centers[k].data()};
+    cost->AddParameterBlock(kNumScmsParams);
+    cost->AddParameterBlock(3);
+    for (auto& v : values) {
+      cost->AddParameterBlock(static_cast<int>(v.size()));
+      blocks.push_back(v.data());
+    }
+    cost->SetNumResiduals(n_res);
+    problem.AddResidualBlock(cost, nullptr, blocks);
+  }
+  std::vector<double*> blocks{geometry.data()};
+  for (auto& c : centers) blocks.push_back(c.data());
+  for (auto& v : values) blocks.push_back(v.data());
+  std::vector<std::size_t> sample_of_row;
+  for (const auto& rows : rows_of_setup) sample_of_row.insert(sample_of_row.end(), rows.begin(), rows.end());
+  std::vector<double> residuals;
+  Eigen::MatrixXd jac;
+  internal::EvaluateInFileOrder(problem, blocks, sample_of_row, fit.n_params, &residuals, &jac);
+  return jac;
+}
+
 EffectFitStart EffectFitStart::From(const CalibrationResult& calibration) {
   EffectFitStart s;
   s.geometry = calibration.geometry;
@@ -143,6 +187,12 @@ EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options
   internal::SetResidualStatistics(result);
   for (double e : result.residuals_mm) fit.rss_mm2 += e * e;
   if (!options.analyse) return fit;
+  fit.structure_jacobian = fit.jacobian;
+  if (model.Find(Effect::kProbeGain) >= 0 || model.Find(Effect::kProbeNonlinearity) >= 0) {
+    PointsData expected = points;
+    for (std::size_t i = 0; i < expected.samples.size(); ++i) expected.samples[i].r_mm += result.residuals_mm[i];
+    fit.structure_jacobian = JacobianAt(expected, options, fit);
+  }
 
   std::vector<ParameterDescription> desc =
       internal::BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);

@@ -169,6 +169,7 @@ std::vector<Basis> BuildBases(const PointsData& points, const Eigen::VectorXd& e
     for (int k = 1; k <= kPhiTerms; ++k) bases[1].columns(i, k - 1) = std::cos(k * ph);
     // u of the reading the fit expects, r + e (de/dr is -1 for a probe aimed at the centre): the
     // measured r carries the very noise the residual is, and powers of it would fit that noise.
+    // (The Jacobian to project off is evaluated there too: EffectFit::structure_jacobian.)
     const double u = (s.r_mm + e(i) - ref.r_ref_mm) / ref.r_half_range_mm;
     const double tau = (s.t_s - ref.t_start_s) / ref.t_span_s;
     for (int k = 1; k <= kPowers; ++k) {

@@ -50,7 +50,8 @@ EffectFitStart StartFrom(const EffectFit& fit) {
 
 TracedFit Analysed(EffectFit fit, const PointsData& points, const CalibrationOptions& options, const TraceOptions& trace) {
   TracedFit t;
-  t.structure = AnalyseResidualStructure(points, fit.calibration.residuals_mm, fit.jacobian, fit.model.reference);
+  t.structure =
+      AnalyseResidualStructure(points, fit.calibration.residuals_mm, fit.structure_jacobian, fit.model.reference);
   t.cv_rms_um = CrossValidatedRms(points, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
   t.fit = std::move(fit);
   return t;
@@ -251,7 +252,7 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
     for (std::size_t i = 0; i < signal.size(); ++i) {
       signal[i] = current.fit.calibration.residuals_mm[i] - with.calibration.residuals_mm[i];
     }
-    chosen.sphere_fraction = SpherePatternFraction(points, signal, current.fit.jacobian,
+    chosen.sphere_fraction = SpherePatternFraction(points, signal, current.fit.structure_jacobian,
                                                    current.fit.calibration.residuals_mm, current.fit.model.reference);
     if (chosen.sphere_fraction >= trace.max_sphere_fraction) {
       r.ambiguous.push_back(

@@ -141,3 +141,27 @@ TEST(TraceResidual, ReportsASphereFormErrorAsUnexplained) {
 
 }  // namespace
 }  // namespace sph
+
+namespace sph {
+namespace {
+
+// With the probe gain in the model, its columns come from the noisy readings; the structure test
+// must not mistake that noise for structure (it is evaluated at the readings the fit expects).
+TEST(TraceResidual, NoStructureRemainsOnceTheProbeGainIsFitted) {
+  for (const double noise_um : {0.001, 0.05}) {
+    SimulationSpec spec;
+    spec.seed = 2;
+    spec.noise_r_um = noise_um;
+    spec.effects.model.terms = {{Effect::kProbeGain, {{1, 0, false}}}};
+    spec.effects.values = {{10.0 * kMmPerUm}};  // 10 um at the end of the range: 0.5 %
+    const PointsData points = Simulate(spec);
+    const CalibrationResult base = Calibrate(points, PaperOptions());
+    const TraceResult r = FitFixedEffects(points, PaperOptions(), base, {Effect::kProbeGain}, TraceOptions{});
+    EXPECT_LT(r.before.structure.all.p_value, 1e-20) << noise_um;
+    EXPECT_GT(r.after.structure.all.p_value, 1e-3) << noise_um;
+    EXPECT_LT(r.after.fit.calibration.rms_um, 1.05 * noise_um);
+  }
+}
+
+}  // namespace
+}  // namespace sph

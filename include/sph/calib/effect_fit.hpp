@@ -42,6 +42,11 @@ struct EffectFit {
   /// Jacobian of the residuals at the solution (rows in file order, columns as the analysis'
   /// parameters); empty when not analysed.
   Eigen::MatrixXd jacobian;
+  /// The Jacobian at the readings the fit expects, r + e, for the residual structure analysis
+  /// (sph/calib/residual_structure.hpp): with probe terms in the model, the measured r carries the
+  /// noise that the residual is, and columns computed from it would let the analysis fit that
+  /// noise. Equal to `jacobian` without probe gain or nonlinearity.
+  Eigen::MatrixXd structure_jacobian;
   double rss_mm2 = 0.0;  ///< sum of squared residuals
   int n_params = 0;      ///< fitted parameters in all
 
@@ -55,6 +60,10 @@ struct EffectFit {
 /// Jacobian, covariance, VIF and determinacy are computed too. Throws sph::Error as Calibrate().
 EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
                      const EffectFitStart& start);
+
+/// The Jacobian of the residuals of `points` (rows in file order) at the parameters of `fit`,
+/// columns as fit.jacobian's. Every setup of `points` must be one of the fit's.
+Eigen::MatrixXd JacobianAt(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);
 
 /// Residuals |p - O| - R0 [mm] of the samples of `points`, in file order, under the parameters of
 /// `fit`. Every setup of `points` must be one of the fit's; throws sph::Error otherwise.
