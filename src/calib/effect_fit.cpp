@@ -23,6 +23,13 @@ struct SetupResiduals {
   std::vector<EffectReading> readings;
   double probe_offset_mm;
   double sphere_radius_mm;
+  std::vector<double> basis;  // EffectBasisOf() of each reading, one after the other
+
+  void Add(const Sample& s) {
+    readings.emplace_back(s.theta_deg, s.phi_deg, s.r_mm, s.t_s);
+    const std::vector<double> b = EffectBasisOf(*model, readings.back());
+    basis.insert(basis.end(), b.begin(), b.end());
+  }
 
   template <typename T>
   bool operator()(T const* const* params, T* residuals) const {
@@ -30,8 +37,10 @@ struct SetupResiduals {
     const T* g = params[0];
     const T* center = params[1];
     const ScmsErrorTrig<T> trig = ErrorTrigOf(g);
+    const auto stride = static_cast<std::size_t>(model->NumParams());
     for (std::size_t i = 0; i < readings.size(); ++i) {
-      const Vec3<T> p = EffectScmsPoint(g, trig, *model, params + 2, readings[i], probe_offset_mm);
+      const Vec3<T> p =
+          EffectScmsPoint(g, trig, *model, params + 2, readings[i], probe_offset_mm, basis.data() + i * stride);
       const T dx = p[0] - center[0], dy = p[1] - center[1], dz = p[2] - center[2];
       residuals[i] = sqrt(dx * dx + dy * dy + dz * dz) - T(sphere_radius_mm);
     }
@@ -55,13 +64,13 @@ Eigen::MatrixXd JacobianAt(const PointsData& points, const CalibrationOptions& o
   std::vector<std::vector<std::size_t>> rows_of_setup(n_setups);
   for (std::size_t k = 0; k < n_setups; ++k) {
     functors[k] = std::make_unique<SetupResiduals>(
-        SetupResiduals{&fit.model, {}, options.probe_offset_mm, options.sphere_radius_mm});
+        SetupResiduals{&fit.model, {}, options.probe_offset_mm, options.sphere_radius_mm, {}});
   }
   for (std::size_t i = 0; i < points.samples.size(); ++i) {
     const Sample& s = points.samples[i];
     const std::size_t k = setup_index.at(s.setup);
     rows_of_setup[k].push_back(i);
-    functors[k]->readings.emplace_back(s.theta_deg, s.phi_deg, s.r_mm, s.t_s);
+    functors[k]->Add(s);
   }
   ScmsGeometry geometry = fit.calibration.geometry;
   std::vector<std::array<double, 3>> centers;
@@ -145,13 +154,13 @@ EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options
   std::vector<std::vector<std::size_t>> rows_of_setup(n_setups);
   for (std::size_t k = 0; k < n_setups; ++k) {
     functors[k] = std::make_unique<SetupResiduals>(
-        SetupResiduals{&fit.model, {}, options.probe_offset_mm, options.sphere_radius_mm});
+        SetupResiduals{&fit.model, {}, options.probe_offset_mm, options.sphere_radius_mm, {}});
   }
   for (std::size_t i = 0; i < points.samples.size(); ++i) {
     const Sample& s = points.samples[i];
     const std::size_t k = setup_index.at(s.setup);
     rows_of_setup[k].push_back(i);
-    functors[k]->readings.emplace_back(s.theta_deg, s.phi_deg, s.r_mm, s.t_s);
+    functors[k]->Add(s);
   }
   ceres::Problem problem;
   for (std::size_t k = 0; k < n_setups; ++k) {

@@ -1,10 +1,13 @@
 #include "sph/calib/trace.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <numeric>
 #include <random>
+#include <thread>
 
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
@@ -67,6 +70,43 @@ EffectFit FitCandidate(const PointsData& points, const CalibrationOptions& optio
   EffectFitStart start = StartFrom(current);
   start.values.emplace_back(static_cast<std::size_t>(term.size()), 0.0);
   std::vector<std::string> left_out_vif, left_out_t;
+  auto short_name = [](const EffectTerm& t, int j) {
+    return t.ParamName(static_cast<std::size_t>(j)).substr(std::string(t.info().id).size() + 1);
+  };
+  // Components that the linearised problem at the start cannot separate are left out before any
+  // fit: the fit would only crawl along their valley.
+  for (;;) {
+    EffectFit at_start;
+    at_start.model = model;
+    at_start.values = start.values;
+    at_start.calibration.geometry = start.geometry;
+    at_start.calibration.centers_mm = start.centers_mm;
+    at_start.calibration.setup_ids = current.calibration.setup_ids;
+    at_start.n_params = current.n_params + model.terms.back().size();
+    const NormalInverse inv = InvertNormalMatrix(JacobianAt(points, options, at_start));
+    EffectTerm& cand = model.terms.back();
+    const int offset = at_start.TermOffset(model.terms.size() - 1);
+    int worst = -1;
+    double vif_max = trace.max_vif;
+    for (int j = 0; j < cand.size(); ++j) {
+      const auto col = static_cast<Eigen::Index>(offset + j);
+      const double vif = inv.in_null[static_cast<std::size_t>(col)]
+                             ? std::numeric_limits<double>::infinity()
+                             : inv.inverse(col, col) / (inv.scale(col) * inv.scale(col));
+      if (!(vif <= vif_max)) {
+        vif_max = std::isfinite(vif) ? vif : std::numeric_limits<double>::infinity();
+        worst = j;
+      }
+    }
+    if (worst < 0) break;
+    left_out_vif.push_back(short_name(cand, worst));
+    cand.components.erase(cand.components.begin() + worst);
+    start.values.back().erase(start.values.back().begin() + worst);
+    if (cand.components.empty()) {
+      *note = "no component is separable from the other parameters";
+      return current;
+    }
+  }
   for (;;) {
     EffectFit fit = FitEffects(points, options, model, start);
     EffectTerm& cand = model.terms.back();
@@ -89,10 +129,10 @@ EffectFit FitCandidate(const PointsData& points, const CalibrationOptions& optio
     int drop = -1;
     if (vif_max > trace.max_vif) {
       drop = worst_vif;
-      left_out_vif.push_back(cand.ParamName(static_cast<std::size_t>(drop)).substr(std::string(cand.info().id).size() + 1));
+      left_out_vif.push_back(short_name(cand, drop));
     } else if (t_min < trace.min_t) {
       drop = weakest;
-      left_out_t.push_back(cand.ParamName(static_cast<std::size_t>(drop)).substr(std::string(cand.info().id).size() + 1));
+      left_out_t.push_back(short_name(cand, drop));
     }
     if (drop < 0) {
       *note = "";
@@ -195,30 +235,52 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
   }
   TracedFit current = r.before;
   for (int round = 1; round <= trace.max_effects; ++round) {
-    std::vector<std::pair<CandidateScore, EffectFit>> tried;
+    // The candidates of a round are independent: they are scored on up to trace.threads threads,
+    // each writing only its own slot, so the result does not depend on the number of threads.
+    std::vector<Effect> todo;
     for (Effect e : pool) {
-      if (current.fit.model.Find(e) >= 0) continue;
-      CandidateScore c;
-      c.effect = e;
-      c.round = round;
-      EffectFit fit = FitCandidate(points, options, current.fit, DefaultTerm(e, trace.harmonics, trace.drift_order),
-                                   trace, &c.note);
-      if (fit.model.terms.size() == current.fit.model.terms.size()) {
-        c.delta_bic = 0.0;
-        c.rms_um = current.fit.calibration.rms_um;
-        c.cv_rms_um = current.cv_rms_um;
-        tried.emplace_back(c, std::move(fit));
-        continue;
+      if (current.fit.model.Find(e) < 0) todo.push_back(e);
+    }
+    std::vector<std::pair<CandidateScore, EffectFit>> tried(todo.size());
+    std::vector<std::exception_ptr> failures(todo.size());
+    auto score = [&](std::size_t i) {
+      try {
+        CandidateScore& c = tried[i].first;
+        c.effect = todo[i];
+        c.round = round;
+        EffectFit fit = FitCandidate(points, options, current.fit,
+                                     DefaultTerm(todo[i], trace.harmonics, trace.drift_order), trace, &c.note);
+        if (fit.model.terms.size() == current.fit.model.terms.size()) {
+          c.rms_um = current.fit.calibration.rms_um;
+          c.cv_rms_um = current.cv_rms_um;
+        } else {
+          c.term = fit.model.terms.back();
+          c.delta_bic = fit.Bic() - current.fit.Bic();
+          c.rms_um = fit.calibration.rms_um;
+          c.cv_rms_um = CrossValidatedRms(points, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
+          c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
+          if (!c.determined) {
+            c.note += std::string(c.note.empty() ? "" : "; ") + "with it, some parameters are not determined";
+          }
+        }
+        tried[i].second = std::move(fit);
+      } catch (...) {
+        failures[i] = std::current_exception();
       }
-      c.term = fit.model.terms.back();
-      c.delta_bic = fit.Bic() - current.fit.Bic();
-      c.rms_um = fit.calibration.rms_um;
-      c.cv_rms_um = CrossValidatedRms(points, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
-      c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
-      if (!c.determined) {
-        c.note += std::string(c.note.empty() ? "" : "; ") + "with it, some parameters are not determined";
-      }
-      tried.emplace_back(c, std::move(fit));
+    };
+    const unsigned threads = trace.threads > 0 ? static_cast<unsigned>(trace.threads)
+                                               : std::max(1u, std::thread::hardware_concurrency());
+    std::atomic<std::size_t> next{0};
+    std::vector<std::thread> workers;
+    for (unsigned w = 1; w < std::min<std::size_t>(threads, todo.size()); ++w) {
+      workers.emplace_back([&] {
+        for (std::size_t i; (i = next++) < todo.size();) score(i);
+      });
+    }
+    for (std::size_t i; (i = next++) < todo.size();) score(i);
+    for (std::thread& t : workers) t.join();
+    for (const std::exception_ptr& f : failures) {
+      if (f) std::rethrow_exception(f);
     }
     auto admissible = [&](const CandidateScore& c) {
       return !c.term.components.empty() && c.determined && c.delta_bic <= -trace.min_delta_bic &&

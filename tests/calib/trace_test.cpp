@@ -165,3 +165,27 @@ TEST(TraceResidual, NoStructureRemainsOnceTheProbeGainIsFitted) {
 
 }  // namespace
 }  // namespace sph
+
+namespace sph {
+namespace {
+
+TEST(TraceResidual, TheNumberOfThreadsDoesNotChangeTheResult) {
+  const PointsData points = WithEffect(Effect::kProbeDrift, {{1, 0, false}}, {1.0 * kMmPerUm});
+  const CalibrationResult base = Calibrate(points, PaperOptions());
+  TraceOptions one, two;
+  one.threads = 1;
+  two.threads = 2;
+  const TraceResult a = TraceResidual(points, PaperOptions(), base, one);
+  const TraceResult b = TraceResidual(points, PaperOptions(), base, two);
+  ASSERT_EQ(a.candidates.size(), b.candidates.size());
+  for (std::size_t i = 0; i < a.candidates.size(); ++i) {
+    EXPECT_EQ(a.candidates[i].effect, b.candidates[i].effect);
+    EXPECT_EQ(a.candidates[i].delta_bic, b.candidates[i].delta_bic);
+    EXPECT_EQ(a.candidates[i].cv_rms_um, b.candidates[i].cv_rms_um);
+  }
+  EXPECT_EQ(a.added, b.added);
+  EXPECT_EQ(a.after.fit.values, b.after.fit.values);
+}
+
+}  // namespace
+}  // namespace sph

@@ -36,6 +36,7 @@ struct TraceOptions {
   double max_vif = 1e4;            ///< components less separable than this are left out
   double min_t = 3.0;              ///< components with |value| / std below this are left out
   int max_effects = 4;             ///< at most this many effects are added
+  int threads = 0;                 ///< candidates scored in parallel; 0: one per hardware thread
   double structure_p = 1e-3;       ///< remaining structure with a p-value below this is reported
   /// An added effect whose signal is at least this much a pattern fixed on the sphere is reported
   /// as ambiguous with the sphere's own form error.

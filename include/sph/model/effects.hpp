@@ -38,6 +38,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
@@ -235,90 +236,94 @@ struct EffectReading {
         phi(SinCosOf(phi_rad)) {}
 };
 
+/// The value of component `c` of a term of effect `e` at reading x: cos(k x) or sin(k x) of the
+/// reading the effect follows, or the power of u or tau.
+inline double EffectBasis(const EffectTerm& term, const EffectComponent& c, const EffectReference& ref,
+                          const EffectReading& x) {
+  const EffectInfo& info = term.info();
+  if (info.harmonic) {
+    const double angle = std::strcmp(info.variable, "theta") == 0 ? x.theta_rad : x.phi_rad;
+    return c.sine ? std::sin(c.order * angle) : std::cos(c.order * angle);
+  }
+  const double v = term.effect == Effect::kProbeDrift ? (x.t_s - ref.t_start_s) / ref.t_span_s
+                                                      : (x.r_mm - ref.r_ref_mm) / ref.r_half_range_mm;
+  return std::pow(v, c.order);
+}
+
+/// The basis values of every component of every term of `model` at one reading, in term and then
+/// component order: what EffectScmsPoint() evaluates. A fit, which evaluates each reading many
+/// times, computes them once.
+inline std::vector<double> EffectBasisOf(const EffectModel& model, const EffectReading& x) {
+  std::vector<double> out;
+  out.reserve(static_cast<std::size_t>(model.NumParams()));
+  for (const EffectTerm& term : model.terms) {
+    for (const EffectComponent& c : term.components) out.push_back(EffectBasis(term, c, model.reference, x));
+  }
+  return out;
+}
+
 namespace internal {
 
-/// sum_i p[i] * basis_i(x) over the components of `term` on `axis`: cos(k x) or sin(k x) for a
-/// harmonic term, x^k for powers.
+/// sum_i p[i] * basis[i] over the components of `term` on `axis`; basis: the term's values of
+/// EffectBasisOf(), or nullptr to compute them here.
 template <typename T>
-T EffectSum(const EffectTerm& term, const T* p, double x, int axis) {
+T EffectSum(const EffectTerm& term, const T* p, const double* basis, const EffectReference& ref, const EffectReading& x,
+            int axis) {
   T sum(0.0);
   for (std::size_t i = 0; i < term.components.size(); ++i) {
     const EffectComponent& c = term.components[i];
     if (c.axis != axis) continue;
-    double basis;
-    if (term.info().harmonic) {
-      basis = c.sine ? std::sin(c.order * x) : std::cos(c.order * x);
-    } else {
-      basis = std::pow(x, c.order);
-    }
-    sum += p[i] * basis;
+    sum += p[i] * (basis ? basis[i] : EffectBasis(term, c, ref, x));
   }
   return sum;
 }
 
 }  // namespace internal
 
-/// The probe correction r_true - r_read [mm] of the probe terms of `model` (gain, nonlinearity, drift).
-template <typename T>
-T ProbeCorrection(const EffectModel& model, const T* const* blocks, double r_mm, double t_s) {
-  const EffectReference& ref = model.reference;
-  const double u = (r_mm - ref.r_ref_mm) / ref.r_half_range_mm;
-  const double tau = (t_s - ref.t_start_s) / ref.t_span_s;
-  T dr(0.0);
-  for (std::size_t i = 0; i < model.terms.size(); ++i) {
-    const EffectTerm& term = model.terms[i];
-    if (term.effect == Effect::kProbeGain || term.effect == Effect::kProbeNonlinearity) {
-      dr += internal::EffectSum(term, blocks[i], u, 0);
-    } else if (term.effect == Effect::kProbeDrift) {
-      dr += internal::EffectSum(term, blocks[i], tau, 0);
-    }
-  }
-  return dr;
-}
-
 /// The point in the sphere frame [mm] of one reading under the seven errors g (rad, mm; et =
 /// ErrorTrigOf(g)) and the effects of `model` with parameter blocks `blocks` (one per term).
-/// d: nominal probe zero distance [mm].
+/// d: nominal probe zero distance [mm]. basis: EffectBasisOf(model, x), or nullptr to compute it.
 template <typename T>
 Vec3<T> EffectScmsPoint(const T* g, const ScmsErrorTrig<T>& et, const EffectModel& model, const T* const* blocks,
-                        const EffectReading& x, double d) {
-  using std::cos;
-  using std::sin;
-  T dtheta(0.0), dphi(0.0), wx(0.0), wy(0.0);
+                        const EffectReading& x, double d, const double* basis = nullptr) {
+  T dtheta(0.0), dphi(0.0), wx(0.0), wy(0.0), dr(0.0);
   Vec3<T> motion(T(0.0), T(0.0), T(0.0));
   bool theta_enc = false, phi_enc = false, wobble = false;
+  const EffectReference& ref = model.reference;
   for (std::size_t i = 0; i < model.terms.size(); ++i) {
     const EffectTerm& term = model.terms[i];
     const T* p = blocks[i];
+    const double* b = basis;
+    if (basis) basis += term.components.size();
     switch (term.effect) {
       case Effect::kThetaEncoder:
-        dtheta += internal::EffectSum(term, p, x.theta_rad, 0);
+        dtheta += internal::EffectSum(term, p, b, ref, x, 0);
         theta_enc = true;
         break;
       case Effect::kPhiEncoder:
-        dphi += internal::EffectSum(term, p, x.phi_rad, 0);
+        dphi += internal::EffectSum(term, p, b, ref, x, 0);
         phi_enc = true;
         break;
       case Effect::kThetaRadialMotion:
-        motion[0] += internal::EffectSum(term, p, x.theta_rad, 0);
-        motion[1] += internal::EffectSum(term, p, x.theta_rad, 1);
+        motion[0] += internal::EffectSum(term, p, b, ref, x, 0);
+        motion[1] += internal::EffectSum(term, p, b, ref, x, 1);
         break;
       case Effect::kThetaAxialMotion:
-        motion[2] += internal::EffectSum(term, p, x.theta_rad, 0);
+        motion[2] += internal::EffectSum(term, p, b, ref, x, 0);
         break;
       case Effect::kPhiWobble:
-        wx += internal::EffectSum(term, p, x.phi_rad, 0);
-        wy += internal::EffectSum(term, p, x.phi_rad, 1);
+        wx += internal::EffectSum(term, p, b, ref, x, 0);
+        wy += internal::EffectSum(term, p, b, ref, x, 1);
         wobble = true;
         break;
       case Effect::kProbeGain:
       case Effect::kProbeNonlinearity:
       case Effect::kProbeDrift:
-        break;  // ProbeCorrection below
+        dr += internal::EffectSum(term, p, b, ref, x, 0);  // r_true - r_read
+        break;
     }
   }
-  const T r = T(x.r_mm) + ProbeCorrection(model, blocks, x.r_mm, x.t_s);
-  const T z = r - (T(d) + g[kDPrime]);
+  const T z = (T(x.r_mm) + dr) - (T(d) + g[kDPrime]);
   Vec3<T> s = phi_enc ? ProbeToPhiFrame(g, et, SinCosOf(T(x.phi_rad) + dphi), z) : ProbeToPhiFrame(g, et, x.phi, z);
   if (wobble) {
     // Rx(wx) Ry(wy) s.

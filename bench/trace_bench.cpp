@@ -1,0 +1,70 @@
+// Cost of closing the loop: the residual trace that sph_calibrate runs by default.
+//
+//   build/bench/trace_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
+#include "sph/calib/trace.hpp"
+#include "sph/core/simulate.hpp"
+#include "sph/model/units.hpp"
+
+namespace {
+
+sph::CalibrationOptions Options() {
+  sph::CalibrationOptions o;
+  o.sphere_radius_mm = 20.0;
+  o.probe_offset_mm = 25.0;
+  return o;
+}
+
+// The paper's study (one position, no further effect), or the example with undeclared effects
+// (two positions, a Theta encoder error and a probe drift: two effects added).
+sph::PointsData Data(bool undeclared) {
+  sph::SimulationSpec spec;
+  if (undeclared) {
+    spec.seed = 7;
+    spec.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, -3.0, 0.5)};
+    spec.effects.model.terms = {{sph::Effect::kThetaEncoder, {{2, 0, false}, {3, 0, true}}},
+                                {sph::Effect::kProbeDrift, {{1, 0, false}}}};
+    spec.effects.values = {{6 * sph::kRadPerArcsec, -4 * sph::kRadPerArcsec}, {0.6 * sph::kMmPerUm}};
+  }
+  return sph::Simulate(spec);
+}
+
+// Seven-error calibration, then the whole trace: every candidate with its pruning and 5-fold
+// cross-validation, round after round.
+void BM_Trace(benchmark::State& state) {
+  const sph::PointsData data = Data(state.range(0) != 0);
+  const sph::CalibrationOptions o = Options();
+  sph::TraceOptions trace;
+  trace.threads = static_cast<int>(state.range(1));
+  std::size_t added = 0;
+  for (auto _ : state) {
+    const sph::CalibrationResult base = sph::Calibrate(data, o);
+    const sph::TraceResult r = sph::TraceResidual(data, o, base, trace);
+    added = r.added.size();
+    benchmark::DoNotOptimize(r.after.cv_rms_um);
+  }
+  state.counters["points"] = static_cast<double>(data.samples.size());
+  state.counters["effects_added"] = static_cast<double>(added);
+}
+BENCHMARK(BM_Trace)->ArgsProduct({{0, 1}, {1, 2}})->ArgNames({"undeclared", "threads"})->Unit(benchmark::kMillisecond);
+
+// One fit with one effect term of 6 parameters (Theta encoder harmonics 2..4), with the analysis.
+void BM_FitOneEffect(benchmark::State& state) {
+  const sph::PointsData data = Data(false);
+  const sph::CalibrationOptions o = Options();
+  const sph::CalibrationResult base = sph::Calibrate(data, o);
+  sph::EffectModel model;
+  model.terms = {sph::DefaultTerm(sph::Effect::kThetaEncoder, 4, 2)};
+  model.terms[0].components.erase(model.terms[0].components.begin(), model.terms[0].components.begin() + 2);
+  model.reference = sph::EffectReferenceOf(data.samples);
+  for (auto _ : state) {
+    const sph::EffectFit fit = sph::FitEffects(data, o, model, sph::EffectFitStart::From(base));
+    benchmark::DoNotOptimize(fit.rss_mm2);
+  }
+}
+BENCHMARK(BM_FitOneEffect)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
