@@ -33,11 +33,23 @@ double LsSphericityUm(const std::vector<Eigen::Vector3d>& points) {
   return RadialPeakToValley(points, fit.sphere.center) * kUmPerMm;
 }
 
+json GroupJson(const StructureGroup& g) {
+  return {{"functions", g.description},   {"rank", g.rank},
+          {"explained_rms_um", g.explained_rms_um}, {"f", g.f},
+          {"p_value", g.p_value},          {"strongest", g.strongest},
+          {"strongest_um", g.strongest_um}};
+}
+
 json FitJson(const TracedFit& f) {
+  json structure = json::object();
+  for (const StructureGroup& g : f.structure.groups) structure[g.variable] = GroupJson(g);
+  structure["all"] = GroupJson(f.structure.all);
   return {{"rms_um", f.fit.calibration.rms_um},
           {"pv_um", f.fit.calibration.pv_um},
           {"cv_rms_um", f.cv_rms_um},
           {"structure_p_value", f.structure.all.p_value},
+          {"structure", structure},
+          {"theta_harmonics_um", f.structure.theta_harmonics_um},
           {"n_params", f.fit.n_params},
           {"bic", f.fit.Bic()}};
 }
@@ -108,7 +120,11 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
     out << Format("    %-7s explains %.4f um rms, p = %.2g, strongest %s %+.4f um\n", g.variable.c_str(),
                   g.explained_rms_um, g.p_value, g.strongest.c_str(), g.strongest_um);
   }
-  out << "  candidates (delta BIC < 0 is better; added when <= -10 with a lower cv rms):\n";
+  out << "  harmonics of theta before, amplitude fitted alone [um]:";
+  for (std::size_t k = 0; k < b.structure.theta_harmonics_um.size(); ++k) {
+    out << Format(" %zu: %.4f", k + 1, b.structure.theta_harmonics_um[k]);
+  }
+  out << "\n  candidates (delta BIC < 0 is better; added when <= -10 with a lower cv rms):\n";
   for (const CandidateScore& c : r.candidates) {
     out << Format("    round %d %-20s delta BIC %9.1f  cv rms %.4f um  %s%s\n", c.round, InfoOf(c.effect).id,
                   c.delta_bic, c.cv_rms_um, c.added ? "ADDED" : "", c.note.empty() ? "" : ("  (" + c.note + ")").c_str());
