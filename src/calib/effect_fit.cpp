@@ -55,49 +55,66 @@ std::map<int, std::size_t> IndexOfSetups(const std::vector<int>& ids) {
   return index;
 }
 
+// The parameter blocks of a fit with effects, and the problem over them: one cost function per
+// setup over all its readings. Blocks and problem live together, so that the problem's pointers
+// stay valid.
+struct EffectProblem {
+  ScmsGeometry geometry{};
+  std::vector<std::array<double, 3>> centers;
+  std::vector<std::vector<double>> values;
+  ceres::Problem problem;
+  std::vector<std::size_t> sample_of_row;  // the sample (file row) of each residual, in Ceres' order
+
+  EffectProblem(const PointsData& points, const CalibrationOptions& options, const EffectModel* model,
+                const std::vector<int>& setup_ids, const ScmsGeometry& g, const std::vector<Eigen::Vector3d>& c,
+                std::vector<std::vector<double>> v)
+      : geometry(g), values(std::move(v)) {
+    const std::map<int, std::size_t> setup_index = IndexOfSetups(setup_ids);
+    for (const auto& x : c) centers.push_back({x.x(), x.y(), x.z()});
+    std::vector<std::unique_ptr<SetupResiduals>> functors(setup_ids.size());
+    std::vector<std::vector<std::size_t>> rows_of_setup(setup_ids.size());
+    for (auto& f : functors) {
+      f = std::make_unique<SetupResiduals>(
+          SetupResiduals{model, {}, options.probe_offset_mm, options.sphere_radius_mm, {}});
+    }
+    for (std::size_t i = 0; i < points.samples.size(); ++i) {
+      const std::size_t k = setup_index.at(points.samples[i].setup);
+      rows_of_setup[k].push_back(i);
+      functors[k]->Add(points.samples[i]);
+    }
+    for (std::size_t k = 0; k < functors.size(); ++k) {
+      const int n_res = static_cast<int>(functors[k]->readings.size());
+      auto* cost = new ceres::DynamicAutoDiffCostFunction<SetupResiduals, kStride>(functors[k].release());
+      std::vector<double*> blocks{geometry.data(), centers[k].data()};
+      cost->AddParameterBlock(kNumScmsParams);
+      cost->AddParameterBlock(3);
+      for (auto& b : values) {
+        cost->AddParameterBlock(static_cast<int>(b.size()));
+        blocks.push_back(b.data());
+      }
+      cost->SetNumResiduals(n_res);
+      problem.AddResidualBlock(cost, nullptr, blocks);
+      sample_of_row.insert(sample_of_row.end(), rows_of_setup[k].begin(), rows_of_setup[k].end());
+    }
+  }
+
+  /// Every parameter block, in the order of the Jacobian's columns.
+  std::vector<double*> Blocks() {
+    std::vector<double*> blocks{geometry.data()};
+    for (auto& c : centers) blocks.push_back(c.data());
+    for (auto& v : values) blocks.push_back(v.data());
+    return blocks;
+  }
+};
+
 }  // namespace
 
 Eigen::MatrixXd JacobianAt(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
-  const std::map<int, std::size_t> setup_index = IndexOfSetups(fit.calibration.setup_ids);
-  const std::size_t n_setups = fit.calibration.setup_ids.size();
-  std::vector<std::unique_ptr<SetupResiduals>> functors(n_setups);
-  std::vector<std::vector<std::size_t>> rows_of_setup(n_setups);
-  for (std::size_t k = 0; k < n_setups; ++k) {
-    functors[k] = std::make_unique<SetupResiduals>(
-        SetupResiduals{&fit.model, {}, options.probe_offset_mm, options.sphere_radius_mm, {}});
-  }
-  for (std::size_t i = 0; i < points.samples.size(); ++i) {
-    const Sample& s = points.samples[i];
-    const std::size_t k = setup_index.at(s.setup);
-    rows_of_setup[k].push_back(i);
-    functors[k]->Add(s);
-  }
-  ScmsGeometry geometry = fit.calibration.geometry;
-  std::vector<std::array<double, 3>> centers;
-  for (const auto& c : fit.calibration.centers_mm) centers.push_back({c.x(), c.y(), c.z()});
-  std::vector<std::vector<double>> values = fit.values;
-  ceres::Problem problem;
-  for (std::size_t k = 0; k < n_setups; ++k) {
-    const int n_res = static_cast<int>(functors[k]->readings.size());
-    auto* cost = new ceres::DynamicAutoDiffCostFunction<SetupResiduals, kStride>(functors[k].release());
-    std::vector<double*> blocks{geometry.data(), centers[k].data()};
-    cost->AddParameterBlock(kNumScmsParams);
-    cost->AddParameterBlock(3);
-    for (auto& v : values) {
-      cost->AddParameterBlock(static_cast<int>(v.size()));
-      blocks.push_back(v.data());
-    }
-    cost->SetNumResiduals(n_res);
-    problem.AddResidualBlock(cost, nullptr, blocks);
-  }
-  std::vector<double*> blocks{geometry.data()};
-  for (auto& c : centers) blocks.push_back(c.data());
-  for (auto& v : values) blocks.push_back(v.data());
-  std::vector<std::size_t> sample_of_row;
-  for (const auto& rows : rows_of_setup) sample_of_row.insert(sample_of_row.end(), rows.begin(), rows.end());
+  EffectProblem p(points, options, &fit.model, fit.calibration.setup_ids, fit.calibration.geometry,
+                  fit.calibration.centers_mm, fit.values);
   std::vector<double> residuals;
   Eigen::MatrixXd jac;
-  internal::EvaluateInFileOrder(problem, blocks, sample_of_row, fit.n_params, &residuals, &jac);
+  internal::EvaluateInFileOrder(p.problem, p.Blocks(), p.sample_of_row, fit.n_params, &residuals, &jac);
   return jac;
 }
 
@@ -135,63 +152,27 @@ EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options
     throw Error(src + ": " + std::to_string(points.samples.size()) + " samples are too few to fit " +
                 std::to_string(fit.n_params) + " parameters");
   }
-  const std::map<int, std::size_t> setup_index = IndexOfSetups(result.setup_ids);
-
-  result.geometry = start.geometry;
-  std::vector<std::array<double, 3>> centers(n_setups);
-  for (std::size_t k = 0; k < n_setups; ++k) centers[k] = {start.centers_mm[k].x(), start.centers_mm[k].y(), start.centers_mm[k].z()};
-  fit.values.resize(model.terms.size());
+  std::vector<std::vector<double>> values(model.terms.size());
   for (std::size_t t = 0; t < model.terms.size(); ++t) {
     const auto size = static_cast<std::size_t>(model.terms[t].size());
     if (t < start.values.size() && start.values[t].size() == size) {
-      fit.values[t] = start.values[t];
+      values[t] = start.values[t];
     } else {
-      fit.values[t].assign(size, 0.0);
+      values[t].assign(size, 0.0);
     }
   }
-
-  std::vector<std::unique_ptr<SetupResiduals>> functors(n_setups);
-  std::vector<std::vector<std::size_t>> rows_of_setup(n_setups);
-  for (std::size_t k = 0; k < n_setups; ++k) {
-    functors[k] = std::make_unique<SetupResiduals>(
-        SetupResiduals{&fit.model, {}, options.probe_offset_mm, options.sphere_radius_mm, {}});
-  }
-  for (std::size_t i = 0; i < points.samples.size(); ++i) {
-    const Sample& s = points.samples[i];
-    const std::size_t k = setup_index.at(s.setup);
-    rows_of_setup[k].push_back(i);
-    functors[k]->Add(s);
-  }
-  ceres::Problem problem;
-  for (std::size_t k = 0; k < n_setups; ++k) {
-    const int n_res = static_cast<int>(functors[k]->readings.size());
-    auto* cost = new ceres::DynamicAutoDiffCostFunction<SetupResiduals, kStride>(functors[k].release());
-    std::vector<double*> blocks{result.geometry.data(), centers[k].data()};
-    cost->AddParameterBlock(kNumScmsParams);
-    cost->AddParameterBlock(3);
-    for (auto& v : fit.values) {
-      cost->AddParameterBlock(static_cast<int>(v.size()));
-      blocks.push_back(v.data());
-    }
-    cost->SetNumResiduals(n_res);
-    problem.AddResidualBlock(cost, nullptr, blocks);
-  }
-
+  EffectProblem p(points, options, &fit.model, result.setup_ids, start.geometry, start.centers_mm, std::move(values));
   ceres::Solver::Summary summary;
-  ceres::Solve(internal::CalibrationSolverOptions(options.max_iterations), &problem, &summary);
+  ceres::Solve(internal::CalibrationSolverOptions(options.max_iterations), &p.problem, &summary);
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.iterations = static_cast<int>(summary.iterations.size()) - 1;
   result.solver_message = summary.message;
   result.n_points = static_cast<int>(points.samples.size());
-  for (const auto& c : centers) result.centers_mm.emplace_back(c[0], c[1], c[2]);
+  result.geometry = p.geometry;
+  for (const auto& c : p.centers) result.centers_mm.emplace_back(c[0], c[1], c[2]);
+  fit.values = p.values;
   if (!result.converged) result.warnings.push_back("the solver did not converge: " + summary.message);
-
-  std::vector<double*> blocks{result.geometry.data()};
-  for (auto& c : centers) blocks.push_back(c.data());
-  for (auto& v : fit.values) blocks.push_back(v.data());
-  std::vector<std::size_t> sample_of_row;
-  for (const auto& rows : rows_of_setup) sample_of_row.insert(sample_of_row.end(), rows.begin(), rows.end());
-  internal::EvaluateInFileOrder(problem, blocks, sample_of_row, fit.n_params, &result.residuals_mm,
+  internal::EvaluateInFileOrder(p.problem, p.Blocks(), p.sample_of_row, fit.n_params, &result.residuals_mm,
                                 options.analyse ? &fit.jacobian : nullptr);
   internal::SetResidualStatistics(result);
   for (double e : result.residuals_mm) fit.rss_mm2 += e * e;

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
+#include "calib_test_util.hpp"
 #include "sph/core/simulate.hpp"
 #include "test_util.hpp"
 
@@ -14,12 +15,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-CalibrationOptions PaperOptions() {
-  CalibrationOptions o;
-  o.sphere_radius_mm = 20.0;
-  o.probe_offset_mm = 25.0;
-  return o;
-}
+using sph::testing::PaperOptions;
 
 // Every estimate of the ten parameters (rad, mm) against the truth.
 void ExpectRecovered(const CalibrationResult& r, const SimulationSpec& spec, double tol) {

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "calib_test_util.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "test_util.hpp"
@@ -12,12 +13,7 @@
 namespace sph {
 namespace {
 
-CalibrationOptions PaperOptions() {
-  CalibrationOptions o;
-  o.sphere_radius_mm = 20.0;
-  o.probe_offset_mm = 25.0;
-  return o;
-}
+using sph::testing::PaperOptions;
 
 TEST(FitEffects, WithoutEffectsIsTheSevenErrorCalibration) {
   const PointsData points = Simulate(SimulationSpec{});

@@ -5,18 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include "calib_test_util.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
 
-CalibrationOptions PaperOptions() {
-  CalibrationOptions o;
-  o.sphere_radius_mm = 20.0;
-  o.probe_offset_mm = 25.0;
-  return o;
-}
+using sph::testing::PaperOptions;
 
 // The points of the paper's study with one effect the file does not declare.
 PointsData WithEffect(Effect e, std::vector<EffectComponent> components, std::vector<double> values,
