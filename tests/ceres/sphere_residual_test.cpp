@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/core/simulate.hpp"
+#include "sph/model/effects.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -42,6 +43,42 @@ TEST(ScmsPointJet, ValuePartEqualsTheDoubleResult) {
       for (int k = 0; k < 3; ++k) EXPECT_EQ(pj[k].a, pd[k]);
       const Vec3<Jet10> pm = ScmsPointDh(gj.data(), Jet10(theta), Jet10(phi), Jet10(5.0), Jet10(kD));
       for (int k = 0; k < 3; ++k) EXPECT_PRED_FORMAT3(MatrixNear, pj[k].v, pm[k].v, 1e-12);
+    }
+  }
+}
+
+// Every effect of the library at once, instantiated with Jets: the value part is the double result.
+TEST(EffectScmsPointJet, ValuePartEqualsTheDoubleResult) {
+  using Jet = ceres::Jet<double, 4>;
+  EffectModel model;
+  std::vector<std::vector<double>> values;
+  for (int e = 0; e < kNumEffects; ++e) {
+    model.terms.push_back(DefaultTerm(static_cast<Effect>(e), 2, 2));
+    std::vector<double> v;
+    for (int i = 0; i < model.terms.back().size(); ++i) v.push_back(1e-5 * (i + 1) * (e % 2 ? -1 : 1));
+    values.push_back(v);
+  }
+  model.reference = {5.0, 2.0, 0.0, 100.0};
+  const ScmsGeometry g = SomeGeometry();
+  std::array<Jet, kNumScmsParams> gj;
+  for (int i = 0; i < kNumScmsParams; ++i) gj[static_cast<std::size_t>(i)] = Jet(g[static_cast<std::size_t>(i)], i % 4);
+  std::vector<std::vector<Jet>> vj;
+  std::vector<const Jet*> blocks;
+  for (const auto& v : values) vj.emplace_back(v.begin(), v.end());
+  for (const auto& v : vj) blocks.push_back(v.data());
+  for (double theta : {0.0, 50.0, 200.0}) {
+    for (double phi : {10.0, 90.0, 170.0}) {
+      const EffectReading x(theta, phi, 5.3, 40.0);
+      const Vec3<Jet> pj = EffectScmsPoint(gj.data(), ErrorTrigOf(gj.data()), model, blocks.data(), x, kD);
+      const Eigen::Vector3d pd = EffectScmsPoint(g, model, values, x, kD);
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(pj[k].a, pd[k]);
+      // The precomputed basis gives the same point.
+      const std::vector<double> basis = EffectBasisOf(model, x);
+      const Vec3<Jet> pb = EffectScmsPoint(gj.data(), ErrorTrigOf(gj.data()), model, blocks.data(), x, kD, basis.data());
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(pb[k].a, pj[k].a);
+        EXPECT_PRED_FORMAT3(MatrixNear, pb[k].v, pj[k].v, 0.0);
+      }
     }
   }
 }

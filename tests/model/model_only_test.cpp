@@ -2,9 +2,11 @@
 // part of a test binary that links sph::model and GoogleTest, and nothing of Ceres.
 #include "sph/model/compensation.hpp"
 #include "sph/model/dh.hpp"
+#include "sph/model/effects.hpp"
 #include "sph/model/scms_model.hpp"
 #include "sph/model/sphere_fit.hpp"
 #include "sph/model/sphere_form.hpp"
+#include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
 
 #include <gtest/gtest.h>

@@ -6,6 +6,13 @@
 // given start (usually the seven-error calibration, with the effects at zero). With no terms it is
 // the seven-error calibration of sph/calib/calibrator.hpp.
 //
+// Each effect term is its own parameter block. Its size is data: a term keeps only the components
+// that the measurement determines (sph/calib/trace.hpp leaves the others out). So the cost
+// function is a ceres::DynamicAutoDiffCostFunction over the blocks present, one per setup over all
+// its readings, rather than one fixed-size functor with switched-off blocks held constant
+// (Problem::SetParameterBlockConstant), which would need a block of every size that pruning can
+// leave and would differentiate the held ones too.
+//
 // Plain C++ API: no Ceres type appears here.
 #ifndef SPH_CALIB_EFFECT_FIT_HPP_
 #define SPH_CALIB_EFFECT_FIT_HPP_

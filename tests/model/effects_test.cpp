@@ -1,0 +1,125 @@
+// The effect terms of sph/model/effects.hpp against values worked by hand, each effect alone on
+// the nominal machine (all seven errors zero), where p = rho (sin phi cos theta, sin phi sin theta,
+// cos phi) with rho = d - r.
+#include "sph/model/effects.hpp"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "sph/model/units.hpp"
+#include "test_util.hpp"
+
+namespace sph {
+namespace {
+
+constexpr double kD = 25.0;
+constexpr double kTol = 1e-12;  // mm: rounding of a few operations on 20 mm
+
+// The point of one reading with one term of one component.
+Eigen::Vector3d PointWith(Effect e, EffectComponent c, double value, double theta_deg, double phi_deg, double r_mm,
+                          double t_s = 0.0, EffectReference ref = {}) {
+  EffectModel model;
+  model.terms = {{e, {c}}};
+  model.reference = ref;
+  return EffectScmsPoint(ScmsGeometry{}, model, {{value}}, EffectReading(theta_deg, phi_deg, r_mm, t_s), kD);
+}
+
+Eigen::Vector3d Nominal(double theta_rad, double phi_rad, double rho) {
+  return rho * Eigen::Vector3d(std::sin(phi_rad) * std::cos(theta_rad), std::sin(phi_rad) * std::sin(theta_rad),
+                               std::cos(phi_rad));
+}
+
+TEST(EffectScmsPoint, WithoutTermsIsScmsPointBitForBit) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < 200; ++i) {
+    ScmsGeometry g;
+    for (double& v : g) v = 1e-3 * u(rng);
+    const EffectReading x(180 * (1 + u(rng)), 90 * (1 + u(rng)), 5 + u(rng), 0.0);
+    const Eigen::Vector3d a = EffectScmsPoint(g, EffectModel{}, {}, x, kD);
+    const Eigen::Vector3d b = ScmsPoint(g, x.theta_rad, x.phi_rad, x.r_mm, kD);
+    EXPECT_EQ(a, b);
+  }
+}
+
+TEST(EffectScmsPoint, ThetaEncoderTurnsThePointAboutTheThetaAxis) {
+  // c1 = delta at theta = 0: theta_true = delta.
+  const double delta = 20 * kRadPerArcsec;
+  const Eigen::Vector3d p = PointWith(Effect::kThetaEncoder, {1, 0, false}, delta, 0.0, 60.0, 5.0);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, Nominal(delta, 60 * kRadPerDeg, 20.0), kTol);
+  // s2 at theta = 45 deg: sin(90 deg) = 1, so theta_true = 45 deg + value.
+  const Eigen::Vector3d q = PointWith(Effect::kThetaEncoder, {2, 0, true}, delta, 45.0, 60.0, 5.0);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, q, Nominal(45 * kRadPerDeg + delta, 60 * kRadPerDeg, 20.0), kTol);
+}
+
+TEST(EffectScmsPoint, PhiEncoderChangesThePolarAngle) {
+  const double delta = -15 * kRadPerArcsec;
+  const Eigen::Vector3d p = PointWith(Effect::kPhiEncoder, {1, 0, false}, delta, 30.0, 0.0, 5.0);  // cos(0) = 1
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, Nominal(30 * kRadPerDeg, delta, 20.0), kTol);
+}
+
+TEST(EffectScmsPoint, SpindleMotionsMoveTheSphereInTheMachineFrame) {
+  // x_c2 = A at theta = 0: the sphere moves by +A along machine x, so the point relative to it by -A.
+  const double a = 0.3e-3;
+  const Eigen::Vector3d p = PointWith(Effect::kThetaRadialMotion, {2, 0, false}, a, 0.0, 70.0, 5.0);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, Nominal(0.0, 70 * kRadPerDeg, 20.0) - Eigen::Vector3d(a, 0, 0), kTol);
+  // y_s3 at theta = 30 deg (sin 90 deg = 1): machine y, turned by theta into the sphere frame.
+  const double th = 30 * kRadPerDeg;
+  const Eigen::Vector3d q = PointWith(Effect::kThetaRadialMotion, {3, 1, true}, a, 30.0, 70.0, 5.0);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, q,
+                      Nominal(th, 70 * kRadPerDeg, 20.0) - a * Eigen::Vector3d(-std::sin(th), std::cos(th), 0), kTol);
+  // Axial c1 = A at theta = 0: along the Theta axis.
+  const Eigen::Vector3d z = PointWith(Effect::kThetaAxialMotion, {1, 0, false}, a, 0.0, 70.0, 5.0);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, z, Nominal(0.0, 70 * kRadPerDeg, 20.0) - Eigen::Vector3d(0, 0, a), kTol);
+}
+
+TEST(EffectScmsPoint, PhiWobbleTiltsThePhiFrame) {
+  // x_c1 = w: a tilt w cos(phi) about the Phi frame's x axis. On the nominal machine the point in
+  // the Phi frame is rho (sin phi, cos phi, 0); Rx(t) makes it rho (sin phi, cos phi cos t,
+  // cos phi sin t), and the machine frame (Rx(pi/2)) rho (sin phi, -cos phi sin t, cos phi cos t).
+  const double w = 30 * kRadPerArcsec, phi = 50 * kRadPerDeg, t = w * std::cos(phi), rho = 20.0;
+  const Eigen::Vector3d p = PointWith(Effect::kPhiWobble, {1, 0, false}, w, 0.0, 50.0, 5.0);
+  const Eigen::Vector3d expected(rho * std::sin(phi), -rho * std::cos(phi) * std::sin(t),
+                                 rho * std::cos(phi) * std::cos(t));
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, expected, kTol);
+}
+
+TEST(EffectScmsPoint, ProbeTermsCorrectTheReading) {
+  const EffectReference ref{5.0, 2.0, 100.0, 400.0};
+  const double phi = 40 * kRadPerDeg;
+  // Gain: r_true = r + k (r - 5) / 2; at r = 6: r + k / 2.
+  const double k = 0.4e-3;
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, PointWith(Effect::kProbeGain, {1, 0, false}, k, 0.0, 40.0, 6.0, 0, ref),
+                      Nominal(0.0, phi, kD - 6.0 - k / 2), kTol);
+  // Cubic: q3 u^3 at r = 4: u = -0.5.
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear,
+                      PointWith(Effect::kProbeNonlinearity, {3, 0, false}, k, 0.0, 40.0, 4.0, 0, ref),
+                      Nominal(0.0, phi, kD - 4.0 + 0.125 * k), kTol);
+  // Drift v2 tau^2 at t = 300 s: tau = 0.5.
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear,
+                      PointWith(Effect::kProbeDrift, {2, 0, false}, k, 0.0, 40.0, 5.0, 300.0, ref),
+                      Nominal(0.0, phi, kD - 5.0 - 0.25 * k), kTol);
+}
+
+TEST(EffectTerm, NamesAndDefaults) {
+  const EffectTerm radial = DefaultTerm(Effect::kThetaRadialMotion, 3, 1);
+  ASSERT_EQ(radial.size(), 8);  // k = 2, 3; cos and sin; x and y
+  EXPECT_EQ(radial.ParamName(0), "theta_radial_motion.x_c2");
+  EXPECT_EQ(radial.ParamName(7), "theta_radial_motion.y_s3");
+  EXPECT_EQ(DefaultTerm(Effect::kProbeDrift, 4, 2).ParamName(1), "probe_drift.t2");
+  EffectComponent c;
+  ASSERT_TRUE(FindComponent(Effect::kPhiWobble, "phi_wobble.y_s4", &c));
+  EXPECT_EQ(c.order, 4);
+  EXPECT_EQ(c.axis, 1);
+  EXPECT_TRUE(c.sine);
+  EXPECT_FALSE(FindComponent(Effect::kProbeGain, "probe_gain.u2", &c));
+  Effect e;
+  EXPECT_TRUE(EffectFromId("probe_nonlinearity", &e));
+  EXPECT_EQ(e, Effect::kProbeNonlinearity);
+  EXPECT_FALSE(EffectFromId("probe_temperature", &e));
+}
+
+}  // namespace
+}  // namespace sph
