@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <utility>
 
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
@@ -88,18 +90,28 @@ Validation Validate(const std::string& path, double probe_offset_mm, const Trace
     model.terms.push_back(after.model.terms[t]);
     values.push_back(after.values[t]);
   }
-  std::vector<Eigen::Vector3d> before_pts, after_pts;
+  // Each setup is a sphere position of its own: one least-squares sphere each.
+  std::map<int, std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>>> points;
   const ScmsGeometry& g0 = trace.before.fit.calibration.geometry;
   for (const Sample& s : data.samples) {
     const EffectReading x(s.theta_deg, s.phi_deg, s.r_mm, s.t_s);
+    auto& [before_pts, after_pts] = points[s.setup];
     before_pts.push_back(ScmsPoint(g0, x.theta_rad, x.phi_rad, s.r_mm, probe_offset_mm));
     after_pts.push_back(EffectScmsPoint(after.calibration.geometry, model, values, x, probe_offset_mm));
   }
-  try {
-    v.before_um = LsSphericityUm(before_pts);
-    v.after_um = LsSphericityUm(after_pts);
-  } catch (const Error& e) {
-    throw Error(path + ": " + e.what());
+  for (const auto& [setup, pts] : points) {
+    ValidationSetup vs;
+    vs.setup = setup;
+    vs.n_points = static_cast<int>(pts.first.size());
+    try {
+      vs.before_um = LsSphericityUm(pts.first);
+      vs.after_um = LsSphericityUm(pts.second);
+    } catch (const Error& e) {
+      throw Error(path + ": setup " + std::to_string(setup) + ": " + e.what());
+    }
+    v.before_um = std::max(v.before_um, vs.before_um);
+    v.after_um = std::max(v.after_um, vs.after_um);
+    v.setups.push_back(vs);
   }
   return v;
 }
@@ -164,6 +176,12 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   if (validation) {
     out << Format("  validation on %s (%d points): least-squares sphericity %.4f um before, %.4f um after\n",
                   validation->path.c_str(), validation->n_points, validation->before_um, validation->after_um);
+    if (validation->setups.size() > 1) {
+      for (const ValidationSetup& s : validation->setups) {
+        out << Format("    setup %d (%d points): %.4f um before, %.4f um after\n", s.setup, s.n_points, s.before_um,
+                      s.after_um);
+      }
+    }
     if (!validation->note.empty()) out << "    " << validation->note << "\n";
   }
 }
@@ -228,10 +246,18 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
   }
   report["unexplained"] = unexplained;
   if (validation) {
+    json setups = json::array();
+    for (const ValidationSetup& s : validation->setups) {
+      setups.push_back({{"setup", s.setup},
+                        {"n_points", s.n_points},
+                        {"before_ls_sphericity_um", s.before_um},
+                        {"after_ls_sphericity_um", s.after_um}});
+    }
     report["validation"] = {{"points_file", validation->path},
                             {"n_points", validation->n_points},
                             {"before_ls_sphericity_um", validation->before_um},
                             {"after_ls_sphericity_um", validation->after_um},
+                            {"setups", setups},
                             {"note", validation->note}};
   }
 }

@@ -5,6 +5,7 @@
 
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -13,13 +14,23 @@
 
 namespace sph::apps {
 
+/// Least-squares sphericity [um] of one sphere position of the validation file.
+struct ValidationSetup {
+  int setup = 0;
+  int n_points = 0;
+  double before_um = 0.0;
+  double after_um = 0.0;
+};
+
 /// Least-squares sphericity [um] of another sphere measured on the same machine, compensated with
-/// the seven-error model and with the model after tracing.
+/// the seven-error model and with the model after tracing; the largest over its setups (sphere
+/// positions), each of which has a sphere of its own.
 struct Validation {
   std::string path;
   int n_points = 0;
   double before_um = 0.0;
   double after_um = 0.0;
+  std::vector<ValidationSetup> setups;
   std::string note;  ///< what of the model was not applied, and why
 };
 
