@@ -1,5 +1,10 @@
 #include "acquire_cmd.hpp"
 
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <memory>
 
@@ -67,7 +72,15 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
   app.add_option("--probe-offset-mm", o.probe_offset_mm, "Header: nominal probe zero distance d [mm]")
       ->check(Positive());
   app.add_option("--fsync-interval-s", o.fsync_interval_s,
-                 "fsync the output at most this long after a record [s]; 0: every record; -1: only at the end");
+                 "fsync the output at most this long after a record [s]; 0: every record; -1: only at the end")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            char* end = nullptr;
+            const double v = std::strtod(text.c_str(), &end);
+            const bool ok = end != text.c_str() && *end == '\0' && std::isfinite(v) && (v >= 0.0 || v == -1.0);
+            return ok ? "" : "must be -1, 0 or a positive number of seconds, got " + text;
+          },
+          "SECONDS"));
   app.add_option("--sync-mode", o.sync_mode, "produce: send SYNC every --sync-period-ms; follow: an external producer")
       ->check(CLI::IsMember({"produce", "follow"}));
   app.add_option("--heartbeat-timeout-s", o.heartbeat_timeout_s, "A node without heartbeat this long is lost; 0: off")
@@ -139,8 +152,20 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
     log(can::LogLevel::kError, e.what());
     return kExitBadInput;
   }
+  if (!o.replay_path.empty()) {
+    // Before any output file is made: a log that cannot be read or holds no frame is bad input.
+    const std::string problem = CheckReplayLog(o.replay_path);
+    if (!problem.empty()) {
+      log(can::LogLevel::kError, problem);
+      return kExitBadInput;
+    }
+  }
   std::unique_ptr<PointsWriter> points;
   std::unique_ptr<can::CandumpWriter> frame_log;
+  // Files this run creates; removed again when the outputs cannot all be opened, so that a
+  // failed start leaves no header-only file behind.
+  const bool points_existed = ::access(o.output_path.c_str(), F_OK) == 0;
+  const bool log_existed = o.can_log_path.empty() || ::access(o.can_log_path.c_str(), F_OK) == 0;
   try {
     PointsHeader header;
     header.sphere_radius_mm = o.sphere_radius_mm;
@@ -168,6 +193,12 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
     }
   } catch (const std::exception& e) {
     log(can::LogLevel::kError, e.what());
+    try {
+      if (points) points->Close();
+    } catch (const std::exception&) {  // the first error is the one to report
+    }
+    if (points && !points_existed) std::remove(o.output_path.c_str());
+    if (frame_log == nullptr && !log_existed) std::remove(o.can_log_path.c_str());
     return kExitOutputError;
   }
 

@@ -38,6 +38,9 @@ struct AcquireContext {
 int RunLive(AcquireContext& context);
 /// Replay of a candump log. Returns kExitOk or kExitBadInput (unreadable log).
 int RunReplay(AcquireContext& context);
+/// Why `path` cannot be replayed ("log.txt: cannot open for reading: ...", "log.txt: no CAN frame
+/// in its 12 lines: ..."), or "" when it can be opened and holds at least one frame.
+std::string CheckReplayLog(const std::string& path);
 
 }  // namespace sph::apps
 

@@ -25,6 +25,26 @@ void SleepUntil(std::int64_t mono_ns) {
 
 }  // namespace
 
+std::string CheckReplayLog(const std::string& path) {
+  try {
+    can::CandumpReader reader(path);
+    std::string first_problem;
+    for (;;) {
+      const can::CandumpReader::Result r = reader.Next();
+      if (r.status == can::CandumpReader::Status::kFrame) return "";
+      if (r.status == can::CandumpReader::Status::kMalformed && first_problem.empty()) first_problem = r.error;
+      if (r.status == can::CandumpReader::Status::kEnd) break;
+    }
+    const std::int64_t lines = reader.line_number();
+    if (lines == 0) return path + ": empty: no CAN frame to replay";
+    if (first_problem.empty()) return path + ": no CAN frame to replay, only blank lines";
+    return path + ": no CAN frame in its " + std::to_string(lines) + (lines == 1 ? " line" : " lines") +
+           ": not a candump log (first: " + first_problem + ")";
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+}
+
 int RunReplay(AcquireContext& ctx) {
   std::unique_ptr<can::CandumpReader> reader;
   try {

@@ -4,9 +4,11 @@
 #include "acquire_cmd.hpp"
 
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -294,6 +296,123 @@ TEST(AcquireProcess, Kill9LosesNoWrittenRecordAndTheFileStaysReadable) {
     const std::string text = sph::testing::ReadWholeFile(dir + "/p.txt");
     EXPECT_EQ(text.back(), '\n');
   }
+}
+
+// The program on broken input: one error line, exit 2 (bad input) or 3 (output error), and no
+// points file or frame log made.
+struct ProcessResult {
+  int code = -1;
+  std::string err;
+};
+
+ProcessResult RunAcquired(const std::vector<std::string>& args, const std::string& dir) {
+  std::vector<std::string> argv{SPH_ACQUIRED_PATH};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const pid_t pid = Spawn(argv, dir + "/stderr.txt");
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ProcessResult r;
+  if (WIFEXITED(status)) r.code = WEXITSTATUS(status);
+  r.err = sph::testing::ReadWholeFile(dir + "/stderr.txt");
+  return r;
+}
+
+bool Exists(const std::string& path) { return ::access(path.c_str(), F_OK) == 0; }
+
+std::string WriteBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+
+TEST(AcquireProcess, BrokenReplayLogsAreBadInputAndMakeNoFile) {
+  const std::string dir = sph::testing::MakeTempDir("acq_broken_log");
+  const std::string out = dir + "/p.txt", frames = dir + "/frames.log";
+  const struct {
+    std::string log;
+    std::string message;
+  } cases[] = {
+      {dir + "/missing.log", dir + "/missing.log: cannot open for reading: No such file or directory"},
+      {WriteBytes(dir + "/empty.log", ""), dir + "/empty.log: empty: no CAN frame to replay"},
+      {WriteBytes(dir + "/blank.log", "\n\n  \n"), dir + "/blank.log: no CAN frame to replay, only blank lines"},
+      {WriteBytes(dir + "/binary.log", std::string("\x7f" "ELF\x02\x01\x01\0\0\n\xff\xfe(\0)\n", 16)),
+       dir + "/binary.log: no CAN frame in its 2 lines: not a candump log (first: " + dir +
+           "/binary.log:1: expected '(seconds.microseconds)' at the start)"},
+      {WriteBytes(dir + "/points.log", "# sph-points 1\n# columns: theta_deg phi_deg r_mm\n0 7.5 4.9\n"),
+       dir + "/points.log: no CAN frame in its 3 lines: not a candump log (first: " + dir +
+           "/points.log:1: expected '(seconds.microseconds)' at the start)"},
+      {WriteBytes(dir + "/nan.log", "(nan) can0 080#\n(1.0) can0 181#zz\n"),
+       dir + "/nan.log: no CAN frame in its 2 lines: not a candump log (first: " + dir +
+           "/nan.log:1: expected '(seconds.microseconds)' at the start)"},
+  };
+  for (const auto& c : cases) {
+    const ProcessResult r = RunAcquired({"--replay", c.log, "-o", out, "--can-log", frames}, dir);
+    EXPECT_EQ(r.code, kExitBadInput) << c.log << "\n" << r.err;
+    EXPECT_EQ(r.err, "sph_acquired: error: " + c.message + "\n");
+    EXPECT_FALSE(Exists(out)) << c.log;
+    EXPECT_FALSE(Exists(frames)) << c.log;
+  }
+}
+
+TEST(AcquireProcess, BadNumbersAndAMissingConfigAreBadInput) {
+  const std::string dir = sph::testing::MakeTempDir("acq_bad_numbers");
+  const std::string log = WriteBytes(dir + "/one.log", "(1.000000) can0 080#\n");
+  const std::string out = dir + "/p.txt";
+  const std::string nan_conf = WriteBytes(dir + "/nan.conf", "sphere-radius-mm = nan\n");
+  const struct {
+    std::vector<std::string> args;
+    std::string message;
+  } cases[] = {
+      {{"--sphere-radius-mm", "nan"}, "--sphere-radius-mm: must be a positive number, got nan"},
+      {{"--probe-offset-mm", "-25"}, "--probe-offset-mm: must be a positive number, got -25"},
+      {{"--fsync-interval-s", "nan"}, "--fsync-interval-s: must be -1, 0 or a positive number of seconds, got nan"},
+      {{"--fsync-interval-s", "-2"}, "--fsync-interval-s: must be -1, 0 or a positive number of seconds, got -2"},
+      {{"--config", dir + "/missing.conf"}, dir + "/missing.conf was not readable (missing?)"},
+      {{"--config", nan_conf}, "--sphere-radius-mm: must be a positive number, got nan"},
+  };
+  for (const auto& c : cases) {
+    std::vector<std::string> args{"--replay", log, "-o", out};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const ProcessResult r = RunAcquired(args, dir);
+    EXPECT_EQ(r.code, kExitBadInput) << c.message << "\n" << r.err;
+    EXPECT_EQ(r.err.substr(0, r.err.find('\n') + 1), c.message + "\n");
+    EXPECT_FALSE(Exists(out)) << c.message;
+  }
+}
+
+TEST(AcquireProcess, AnUnwritableOutputExitsThreeAndLeavesNoFile) {
+  const std::string dir = sph::testing::MakeTempDir("acq_unwritable");
+  const std::string log = MakeLog(dir, "sim.log", [](CansimOptions& o) {
+    o.machine.theta_steps = 2;
+    o.machine.phi_steps = 1;
+  });
+  const std::string out = dir + "/p.txt", frames = dir + "/frames.log";
+  ASSERT_EQ(::mkdir((dir + "/a_dir").c_str(), 0755), 0);
+  const struct {
+    std::string points, frame_log, message;
+  } cases[] = {
+      {dir + "/no/such/dir/p.txt", "", dir + "/no/such/dir/p.txt: cannot open"},
+      {dir + "/a_dir", "", dir + "/a_dir: cannot open"},
+      {out, dir + "/no/such/dir/frames.log", dir + "/no/such/dir/frames.log: cannot open"},
+      {out, dir + "/a_dir", dir + "/a_dir: cannot open"},
+  };
+  for (const auto& c : cases) {
+    std::vector<std::string> args{"--replay", log, "-o", c.points, "--sync-period-ms", "10"};
+    if (!c.frame_log.empty()) args.insert(args.end(), {"--can-log", c.frame_log});
+    const ProcessResult r = RunAcquired(args, dir);
+    EXPECT_EQ(r.code, kExitOutputError) << c.message << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind("sph_acquired: error: " + c.message, 0), 0U) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(Exists(out)) << c.message;
+    EXPECT_FALSE(Exists(frames)) << c.message;
+  }
+  // A file that was there is continued, never removed, when the other output fails.
+  const ProcessResult first = RunAcquired({"--replay", log, "-o", out, "--sync-period-ms", "10"}, dir);
+  ASSERT_EQ(first.code, kExitOk) << first.err;
+  const std::string before = sph::testing::ReadWholeFile(out);
+  const ProcessResult r = RunAcquired({"--replay", log, "-o", out, "--can-log", dir + "/a_dir"}, dir);
+  EXPECT_EQ(r.code, kExitOutputError) << r.err;
+  ASSERT_TRUE(Exists(out));
+  EXPECT_EQ(sph::testing::ReadWholeFile(out).rfind(before, 0), 0U);
 }
 
 }  // namespace
