@@ -304,6 +304,85 @@ TEST_F(MeasureCmd, BadInputExitsTwoNamingTheFile) {
                     "): the calibration belongs to another probe set-up");
 }
 
+// Broken input files and unusable output paths: exit 2, one error line naming the file and the
+// problem, nothing on stdout, and no output file (whole or partial) left behind.
+TEST_F(MeasureCmd, BrokenFilesGiveOneMessageAndExitTwo) {
+  auto expect_one_error = [&](const MeasureOptions& o, const std::string& message) {
+    const RunOutput r = Measure(o);
+    EXPECT_EQ(r.code, kExitBadInput) << message;
+    EXPECT_EQ(r.out, "") << message;
+    EXPECT_THAT(r.err, HasSubstr("sph_measure: error: " + message));
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  };
+  MeasureOptions o;
+  o.calibration_path = Calibration();
+  o.points_path = WriteFile("empty.txt", "");
+  expect_one_error(o, o.points_path + ": no samples (the file has 0 lines, none of them a sample)");
+  o.points_path = WriteFile("header.txt", "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n");
+  expect_one_error(o, o.points_path + ": no samples (the file has 3 lines, none of them a sample)");
+  o.points_path = WriteFile("binary.txt", std::string("\x7f" "ELF\x02\x01\x01\0\0\0\0\0\0\0\0\0\x03\0>\0", 20));
+  expect_one_error(o, o.points_path + ":1: binary data (NUL byte): this is not a points file");
+  o.points_path = WriteFile("garbage.txt", "\xde\xad\xbe\xef 7.5 4.9\n");
+  expect_one_error(o, o.points_path + ":1: column theta_deg: '\xde\xad\xbe\xef' is not a number");
+  o.points_path = WriteFile("nan.txt", "# sph-points 1\n0 7.5 4.9\n15 7.5 nan\n");
+  expect_one_error(o, o.points_path + ":3: column r_mm: 'nan' is not a finite number");
+  o.points_path = WriteFile("inf.txt", "0 -inf 4.9\n");
+  expect_one_error(o, o.points_path + ":1: column phi_deg: '-inf' is not a finite number");
+  o.points_path = dir_ + "/missing.txt";
+  expect_one_error(o, o.points_path + ": cannot open for reading");
+  o.points_path = Simulated("r.txt", {Eigen::Vector3d(2, 0, 0)});
+  o.calibration_path = dir_ + "/missing.json";
+  expect_one_error(o, o.calibration_path + ": cannot open for reading");
+  o.calibration_path = WriteFile("garbage.json", std::string("\0\x01\x02{[", 5));
+  expect_one_error(o, o.calibration_path + ": not valid JSON");
+  o.calibration_path = WriteFile("empty.json", "");
+  expect_one_error(o, o.calibration_path + ": not valid JSON");
+
+  MeasureOptions x;
+  x.xyz = true;
+  x.points_path = WriteFile("empty.xyz", "");
+  expect_one_error(x, x.points_path + ": no points (expected lines 'x y z')");
+  x.points_path = WriteFile("comments.xyz", "# x y z\n# nothing else\n");
+  expect_one_error(x, x.points_path + ": no points (expected lines 'x y z')");
+  x.points_path = WriteFile("binary.xyz", std::string("1 2 3\n\0\0\0\xff\n", 10));
+  expect_one_error(x, x.points_path + ":2: binary data (NUL byte): this is not a text file of points");
+  x.points_path = WriteFile("nan.xyz", "1 0 0\n0 1 0\n0 0 nan\n0 0 -1\n");
+  expect_one_error(x, x.points_path + ":3: z: 'nan' is not a finite number");
+  x.points_path = WriteFile("inf.xyz", "inf 0 0\n");
+  expect_one_error(x, x.points_path + ":1: x: 'inf' is not a finite number");
+}
+
+TEST_F(MeasureCmd, AnUnwritableOutputLeavesNoFileBehind) {
+  const std::string busy = dir_ + "/busy";  // a directory where the file should go
+  ASSERT_EQ(std::system(("mkdir -p '" + busy + "/inside'").c_str()), 0);
+  auto entries = [&] {
+    std::vector<std::string> names;
+    const std::string list = dir_ + "/ls.txt";
+    EXPECT_EQ(std::system(("ls -A '" + dir_ + "' > '" + list + "'").c_str()), 0);
+    std::ifstream in(list);
+    for (std::string n; std::getline(in, n);) {
+      if (n != "ls.txt") names.push_back(n);
+    }
+    return names;
+  };
+  MeasureOptions o;
+  o.xyz = true;
+  o.points_path = WriteFile("p.xyz", "1 0 0\n0 1 0\n0 0 1\n-1 0 0\n0 -1 0\n0 0 -1\n");
+  const std::vector<std::string> before = entries();
+  for (const std::string& target : {std::string("output"), std::string("json")}) {
+    for (const std::string& path : {busy, dir_ + "/no/such/dir/out"}) {
+      MeasureOptions bad = o;
+      (target == "json" ? bad.json_path : bad.output_path) = path;
+      const RunOutput r = Measure(bad);
+      EXPECT_EQ(r.code, kExitBadInput) << target << " " << path;
+      EXPECT_THAT(r.err, HasSubstr("sph_measure: error: " + path + ": cannot "));
+      EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+      EXPECT_EQ(entries(), before) << "left behind by --" << target << " " << path;
+      EXPECT_TRUE(Exists(busy + "/inside"));
+    }
+  }
+}
+
 bool HaveGnuplot() { return std::system("command -v gnuplot > /dev/null 2>&1") == 0; }
 
 TEST_F(MeasureCmd, DrawsTheFormErrorMap) {
