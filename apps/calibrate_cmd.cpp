@@ -64,6 +64,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("--drift-order", o.drift_order, "Highest power of time of probe_drift")
       ->capture_default_str()
       ->check(CLI::Range(1, 3));
+  app.add_option("--seed", o.seed, "Seed of the cross-validation folds")->capture_default_str();
 }
 
 int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err) {
@@ -86,15 +87,15 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     copts.max_std_um = o.max_std_um;
     copts.max_iterations = o.max_iterations;
     const CalibrationResult base = Calibrate(points, copts);
-    const PointsData fitted = WithoutOutliers(points, base);  // what the seven-error fit used
     std::optional<TraceResult> trace;
     std::optional<Validation> validation;
     if (!o.no_extend) {
       TraceOptions topts;
       topts.harmonics = o.harmonics;
       topts.drift_order = o.drift_order;
+      topts.seed = o.seed;
       if (o.effects.empty()) {
-        trace = TraceResidual(fitted, copts, base, topts);
+        trace = TraceResidual(points, copts, base, topts);
       } else {
         std::vector<Effect> fixed;
         for (const std::string& id : o.effects) {
@@ -102,10 +103,10 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
           EffectFromId(id, &e);  // checked by the option's validator
           if (std::find(fixed.begin(), fixed.end(), e) == fixed.end()) fixed.push_back(e);
         }
-        trace = FitFixedEffects(fitted, copts, base, fixed, topts);
+        trace = FitFixedEffects(points, copts, base, fixed, topts);
       }
       if (!o.validate_path.empty()) validation = Validate(o.validate_path, *offset, *trace);
-      if (!o.plot_dir.empty()) PlotTrace(o.plot_dir, fitted, *trace);
+      if (!o.plot_dir.empty()) PlotTrace(o.plot_dir, points, copts, *trace);
     }
     // The calibration reported: the seven errors of the final model.
     const bool extended = trace && !trace->after.fit.model.Empty();

@@ -2,6 +2,7 @@
 #ifndef SPH_APPS_CALIBRATE_CMD_HPP_
 #define SPH_APPS_CALIBRATE_CMD_HPP_
 
+#include <cstdint>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -26,6 +27,7 @@ struct CalibrateOptions {
   std::string plot_dir;                    ///< residual plots (PNG, gnuplot) into this folder
   int harmonics = 4;                       ///< highest harmonic order of the harmonic effects
   int drift_order = 2;                     ///< highest power of time of probe_drift
+  std::uint64_t seed = 1;                  ///< of the cross-validation folds
 };
 
 void SetupCalibrateApp(CLI::App& app, CalibrateOptions& options);

@@ -39,7 +39,7 @@ json GroupJson(const StructureGroup& g) {
   return {{"functions", g.description},   {"rank", g.rank},
           {"explained_rms_um", g.explained_rms_um}, {"f", g.f},
           {"p_value", g.p_value},          {"strongest", g.strongest},
-          {"strongest_um", g.strongest_um}};
+          {"strongest_rms_um", g.strongest_rms_um}, {"delta_bic", g.delta_bic}};
 }
 
 json FitJson(const TracedFit& f) {
@@ -129,8 +129,8 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
                 a.fit.calibration.rms_um, a.fit.calibration.pv_um, a.cv_rms_um, a.structure.all.p_value);
   out << "  structure before, by variable (F test against white noise):\n";
   for (const StructureGroup& g : b.structure.groups) {
-    out << Format("    %-7s explains %.4f um rms, p = %.2g, strongest %s %+.4f um\n", g.variable.c_str(),
-                  g.explained_rms_um, g.p_value, g.strongest.c_str(), g.strongest_um);
+    out << Format("    %-7s explains %.4f um rms, p = %.2g, strongest %s (%.4f um rms alone)\n", g.variable.c_str(),
+                  g.explained_rms_um, g.p_value, g.strongest.c_str(), g.strongest_rms_um);
   }
   out << "  harmonics of theta before, amplitude fitted alone [um]:";
   for (std::size_t k = 0; k < b.structure.theta_harmonics_um.size(); ++k) {
@@ -138,8 +138,10 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   }
   out << "\n  candidates (delta BIC < 0 is better; added when <= -10 with a lower cv rms):\n";
   for (const CandidateScore& c : r.candidates) {
-    out << Format("    round %d %-20s delta BIC %9.1f  cv rms %.4f um  %s%s\n", c.round, InfoOf(c.effect).id,
-                  c.delta_bic, c.cv_rms_um, c.added ? "ADDED" : "", c.note.empty() ? "" : ("  (" + c.note + ")").c_str());
+    const std::string bic = std::isfinite(c.delta_bic) ? Format("%9.1f", c.delta_bic) : "        -";
+    const std::string cv = std::isfinite(c.cv_rms_um) ? Format("%.4f um", c.cv_rms_um) : "      -   ";
+    out << Format("    round %d %-20s delta BIC %s  cv rms %s  %s%s\n", c.round, c.Id().c_str(), bic.c_str(), cv.c_str(),
+                  c.added ? "ADDED" : "", c.note.empty() ? "" : ("  (" + c.note + ")").c_str());
   }
   const ObservabilityReport& rep = a.fit.calibration.analysis;
   for (std::size_t t = 0; t < a.fit.model.terms.size(); ++t) {
@@ -174,8 +176,9 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   }
   if (r.unexplained.empty()) out << "  no significant structure remains\n";
   if (validation) {
-    out << Format("  validation on %s (%d points): least-squares sphericity %.4f um before, %.4f um after\n",
-                  validation->path.c_str(), validation->n_points, validation->before_um, validation->after_um);
+    out << Format("  validation on %s (%d points): least-squares sphericity %.4f um before, %.4f um after%s\n",
+                  validation->path.c_str(), validation->n_points, validation->before_um, validation->after_um,
+                  validation->setups.size() > 1 ? " (worst setup)" : "");
     if (validation->setups.size() > 1) {
       for (const ValidationSetup& s : validation->setups) {
         out << Format("    setup %d (%d points): %.4f um before, %.4f um after\n", s.setup, s.n_points, s.before_um,
@@ -218,11 +221,12 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
   for (const CandidateScore& c : r.candidates) {
     json kept = json::array();
     for (std::size_t i = 0; i < c.term.components.size(); ++i) kept.push_back(c.term.ParamName(i));
-    candidates.push_back({{"id", InfoOf(c.effect).id},
+    auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+    candidates.push_back({{"id", c.Id()},
                           {"round", c.round},
-                          {"delta_bic", c.delta_bic},
+                          {"delta_bic", number(c.delta_bic)},
                           {"rms_um", c.rms_um},
-                          {"cv_rms_um", c.cv_rms_um},
+                          {"cv_rms_um", number(c.cv_rms_um)},
                           {"components", kept},
                           {"sphere_fraction", c.sphere_fraction},
                           {"added", c.added},
@@ -262,25 +266,29 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
   }
 }
 
-void PlotTrace(const std::string& dir, const PointsData& points, const TraceResult& r) {
+void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
+               const TraceResult& r) {
   if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
     throw Error("--plot-dir needs gnuplot (Debian: apt-get install gnuplot-nox)");
   }
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+  // Every reading under each model (outliers too: they show at the end of the colour scale).
+  const std::vector<double> before = EffectResiduals(points, options, r.before.fit);
+  const std::vector<double> after = EffectResiduals(points, options, r.after.fit);
   const std::string data_path = dir + "/residuals.dat";
   {
     std::ofstream f(data_path);
     f << "# theta_deg phi_deg t_s residual_before_um residual_after_um\n";
     for (std::size_t i = 0; i < points.samples.size(); ++i) {
       const Sample& s = points.samples[i];
-      f << Format("%.6f %.6f %.6f %.6f %.6f\n", s.theta_deg, s.phi_deg, s.t_s,
-                  r.before.fit.calibration.residuals_mm[i] * kUmPerMm, r.after.fit.calibration.residuals_mm[i] * kUmPerMm);
+      f << Format("%.6f %.6f %.6f %.6f %.6f\n", s.theta_deg, s.phi_deg, s.t_s, before[i] * kUmPerMm, after[i] * kUmPerMm);
     }
     if (!f) throw Error(data_path + ": cannot write");
   }
-  double lim = 0.0;
+  // The colour scale of the readings the seven-error fit used (at least 1 nm).
+  double lim = 1e-3;
   for (double e : r.before.fit.calibration.residuals_mm) lim = std::max(lim, std::abs(e) * kUmPerMm);
   std::string added;
   for (Effect e : r.added) added += (added.empty() ? " + " : ", ") + std::string(InfoOf(e).id);
@@ -306,7 +314,10 @@ void PlotTrace(const std::string& dir, const PointsData& points, const TraceResu
          "'residuals.dat' using 3:5 with points pt 7 ps 0.6 lc rgb '#3050c0' title 'after'\n";
     if (!f) throw Error(script_path + ": cannot write");
   }
-  const std::string cmd = "cd '" + dir + "' && gnuplot residuals.gp 2>&1";
+  std::string quoted = "'";  // the folder for the shell, in single quotes
+  for (const char c : dir) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  quoted += "'";
+  const std::string cmd = "cd " + quoted + " && gnuplot residuals.gp 2>&1";
   if (std::system(cmd.c_str()) != 0) throw Error(script_path + ": gnuplot failed");
 }
 

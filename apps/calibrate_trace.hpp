@@ -51,7 +51,9 @@ void AddTraceJson(nlohmann::json& report, const TraceResult& trace, const Valida
 
 /// Writes residual_map.png (over theta and phi, before and after) and residual_time.png
 /// (against t) with their gnuplot scripts and data into `dir`.
-void PlotTrace(const std::string& dir, const PointsData& points, const TraceResult& trace);
+/// `points`: every reading of the calibration (outliers too).
+void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
+               const TraceResult& trace);
 
 }  // namespace sph::apps
 

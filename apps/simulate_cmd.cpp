@@ -37,6 +37,12 @@ void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& ef
   EffectComponent comp;
   if (!FindComponent(e, text.substr(0, eq), &comp)) throw Error(opt + " " + text + ": " + id + " has no parameter '" + param + "'");
   int t = effects.model.Find(e);
+  if (t >= 0) {
+    const EffectTerm& term = effects.model.terms[static_cast<std::size_t>(t)];
+    for (std::size_t i = 0; i < term.components.size(); ++i) {
+      if (term.ParamName(i) == text.substr(0, eq)) throw Error(opt + " " + text + ": " + text.substr(0, eq) + " is given twice");
+    }
+  }
   if (t < 0) {
     effects.model.terms.push_back({e, {}});
     effects.values.emplace_back();

@@ -302,6 +302,12 @@ std::vector<double> StartResiduals(const PointsData& points, const CalibrationOp
 
 }  // namespace
 
+std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, double k) {
+  std::vector<bool> out(residuals_mm.size(), false);
+  if (k > 0.0) MarkOutliers(residuals_mm, k, out);
+  return out;
+}
+
 CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options) {
   if (!options.analyse || !(options.outlier_sigma > 0.0)) return CalibrateAll(points, options);
   // Robust rejection: the median and the median absolute deviation of the residuals do not follow
@@ -325,8 +331,7 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
   // Under the fit of the readings kept, the outliers are judged afresh (a reading marked at the
   // start may come back), until the set no longer changes.
   for (int round = 0; round < 10; ++round) {
-    std::vector<bool> judged(points.samples.size(), false);
-    MarkOutliers(ResidualsOf(points, options, result), options.outlier_sigma, judged);
+    const std::vector<bool> judged = RobustOutliers(ResidualsOf(points, options, result), options.outlier_sigma);
     if (judged == out) break;
     out = judged;
     result = fit_kept();

@@ -3,6 +3,7 @@
 
 #include <ceres/ceres.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -127,7 +128,8 @@ EffectFitStart EffectFitStart::From(const CalibrationResult& calibration) {
 
 double EffectFit::Bic() const {
   const double m = static_cast<double>(calibration.residuals_mm.size());
-  return m * std::log(rss_mm2 / m) + n_params * std::log(m);
+  // Residuals of exact data can be zero: no fit is better than rounding (1e-12 mm).
+  return m * std::log(std::max(rss_mm2 / m, 1e-24)) + n_params * std::log(m);
 }
 
 int EffectFit::TermOffset(std::size_t term) const {
@@ -197,13 +199,14 @@ EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options
   return fit;
 }
 
-std::vector<double> EffectResiduals(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
+std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const CalibrationOptions& options,
+                                               const EffectFit& fit) {
   const std::map<int, std::size_t> setup_index = IndexOfSetups(fit.calibration.setup_ids);
   const CalibrationResult& cal = fit.calibration;
   std::vector<const double*> blocks;
   for (const auto& v : fit.values) blocks.push_back(v.data());
   const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());
-  std::vector<double> out;
+  std::vector<Eigen::Vector3d> out;
   out.reserve(points.samples.size());
   for (const Sample& s : points.samples) {
     const auto it = setup_index.find(s.setup);
@@ -213,8 +216,14 @@ std::vector<double> EffectResiduals(const PointsData& points, const CalibrationO
     const Eigen::Vector3d p = EffectScmsPoint(cal.geometry.data(), trig, fit.model, blocks.data(),
                                               EffectReading(s.theta_deg, s.phi_deg, s.r_mm, s.t_s),
                                               options.probe_offset_mm);
-    out.push_back((p - cal.centers_mm[it->second]).norm() - options.sphere_radius_mm);
+    out.push_back(p - cal.centers_mm[it->second]);
   }
+  return out;
+}
+
+std::vector<double> EffectResiduals(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
+  std::vector<double> out;
+  for (const Eigen::Vector3d& v : OffsetsFromCentre(points, options, fit)) out.push_back(v.norm() - options.sphere_radius_mm);
   return out;
 }
 

@@ -145,10 +145,12 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   if (!rep.Empty()) {
     fit["residual_sigma_um"] = rep.residual_sigma_mm * kUmPerMm;
     fit["condition_number"] = std::isfinite(rep.condition_number) ? json(rep.condition_number) : json(nullptr);
+    // The rows and columns of "parameter_order" (the seven errors and the centres; a fit with
+    // further effects reports those in its own section).
     json corr = json::array();
-    for (Eigen::Index a = 0; a < rep.correlation.rows(); ++a) {
+    for (Eigen::Index a = 0; a < static_cast<Eigen::Index>(n); ++a) {
       json row = json::array();
-      for (Eigen::Index b = 0; b < rep.correlation.cols(); ++b) {
+      for (Eigen::Index b = 0; b < static_cast<Eigen::Index>(n); ++b) {
         const double c = rep.correlation(a, b);
         row.push_back(std::isfinite(c) ? json(c) : json(nullptr));
       }

@@ -69,10 +69,12 @@ StructureGroup Regress(const Basis& basis, const Eigen::MatrixXd& q, const Eigen
   g.description = basis.description;
   const Eigen::Index m = e.size();
   // Gram-Schmidt of the unit columns against col(J) and against the columns kept before them. A
-  // column whose remainder is below kMinRemainder of itself is dropped: that remainder would be
-  // rounding and reading noise (r, and so u, is noisy) amplified, and regressing the residual on
-  // it would fit the noise with itself.
-  constexpr double kMinRemainder = 1e-3;
+  // column whose remainder is below 1 % of itself is dropped: the functions are computed at the
+  // readings the fit expects, which still carry the part of the noise the fit absorbed, and a
+  // small remainder is mostly that part, amplified; regressing the residual on it would fit the
+  // noise with itself. (At 0.1 %, the union of all groups after a fit with a probe gain showed
+  // p = 1e-7 on white noise; at 1 %, p spreads over (0, 1) as it should.)
+  constexpr double kMinRemainder = 1e-2;
   Eigen::MatrixXd b(m, basis.columns.cols());
   Eigen::Index kept = 0;
   for (Eigen::Index j = 0; j < basis.columns.cols(); ++j) {
@@ -92,6 +94,8 @@ StructureGroup Regress(const Basis& basis, const Eigen::MatrixXd& q, const Eigen
   const double explained = (b.leftCols(kept).transpose() * e).squaredNorm();
   g.explained_rms_um = std::sqrt(explained / static_cast<double>(m)) * kUmPerMm;
   const double d2 = static_cast<double>(m - n_fit - g.rank);
+  g.delta_bic = static_cast<double>(m) * std::log(std::max(rss - explained, 1e-300) / std::max(rss, 1e-300)) +
+                g.rank * std::log(static_cast<double>(m));
   const double rest = std::max(rss - explained, std::numeric_limits<double>::min());
   g.f = (explained / g.rank) / (rest / d2);
   g.p_value = FUpperTail(g.f, g.rank, d2);
@@ -107,7 +111,7 @@ StructureGroup Regress(const Basis& basis, const Eigen::MatrixXd& q, const Eigen
     if (dot * dot / nn > best) {
       best = dot * dot / nn;
       g.strongest = basis.names[static_cast<std::size_t>(j)];
-      g.strongest_um = dot / nn * kUmPerMm;
+      g.strongest_rms_um = std::abs(dot) / std::sqrt(nn * static_cast<double>(m)) * kUmPerMm;
     }
   }
   return g;
@@ -136,7 +140,8 @@ namespace {
 
 // The groups of functions of the readings (see the header); `e` is the fit's residual, used to
 // take u from the reading the fit expects.
-std::vector<Basis> BuildBases(const PointsData& points, const Eigen::VectorXd& e, const EffectReference& ref) {
+std::vector<Basis> BuildBases(const PointsData& points, const Eigen::VectorXd& e, const EffectReference& ref,
+                              const std::vector<Eigen::Vector3d>& directions) {
   const auto m = static_cast<Eigen::Index>(points.samples.size());
   std::vector<Basis> bases(5);
   bases[0] = {"theta", "harmonics k = 1.." + std::to_string(kThetaHarmonics) + " of theta", Eigen::MatrixXd(m, 2 * kThetaHarmonics), {}};
@@ -145,7 +150,7 @@ std::vector<Basis> BuildBases(const PointsData& points, const Eigen::VectorXd& e
   bases[3] = {"t", "powers 1..3 of the acquisition time", Eigen::MatrixXd(m, kPowers), {}};
   const int n_sphere = (kSphereDegree + 1) * (kSphereDegree + 1) - 4;  // degrees 2..5
   bases[4] = {"sphere", "spherical harmonics of degree 2.." + std::to_string(kSphereDegree) +
-                            " of the probed direction (a pattern fixed on the sphere)",
+                            " of the direction from the centre (a pattern fixed on the sphere)",
               Eigen::MatrixXd(m, n_sphere), {}};
   for (int k = 1; k <= kThetaHarmonics; ++k) {
     bases[0].names.push_back("cos(" + std::to_string(k) + " theta)");
@@ -176,9 +181,11 @@ std::vector<Basis> BuildBases(const PointsData& points, const Eigen::VectorXd& e
       bases[2].columns(i, k - 1) = std::pow(u, k);
       bases[3].columns(i, k - 1) = std::pow(tau, k);
     }
+    const Eigen::Vector3d& dir = directions[static_cast<std::size_t>(i)];
+    const double lon = std::atan2(dir.y(), dir.x());
     int col = 0;
     for (int l = 2; l <= kSphereDegree; ++l) {
-      for (int mm = -l; mm <= l; ++mm) bases[4].columns(i, col++) = SchmidtHarmonic(l, mm, th, std::cos(ph));
+      for (int mm = -l; mm <= l; ++mm) bases[4].columns(i, col++) = SchmidtHarmonic(l, mm, lon, dir.z());
     }
   }
   return bases;
@@ -198,11 +205,11 @@ Eigen::MatrixXd ColumnSpace(const Eigen::MatrixXd& jacobian) {
 
 }  // namespace
 
-ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::vector<double>& residuals_mm,
-                                           const Eigen::MatrixXd& jacobian, const EffectReference& ref) {
+ResidualStructure AnalyseResidualStructure(const FitResiduals& fit) {
+  const PointsData& points = fit.points;
   const auto m = static_cast<Eigen::Index>(points.samples.size());
-  const Eigen::Map<const Eigen::VectorXd> e(residuals_mm.data(), m);
-  const std::vector<Basis> bases = BuildBases(points, e, ref);
+  const Eigen::Map<const Eigen::VectorXd> e(fit.residuals_mm.data(), m);
+  const std::vector<Basis> bases = BuildBases(points, e, fit.reference, fit.directions);
   Basis all{"all", "all of the above", Eigen::MatrixXd(m, 0), {}};
   for (const Basis& b : bases) {
     Eigen::MatrixXd joined(m, all.columns.cols() + b.columns.cols());
@@ -210,8 +217,8 @@ ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::
     all.columns = joined;
     all.names.insert(all.names.end(), b.names.begin(), b.names.end());
   }
-  const Eigen::MatrixXd q = ColumnSpace(jacobian);
-  const int n_fit = static_cast<int>(jacobian.cols());
+  const Eigen::MatrixXd q = ColumnSpace(fit.jacobian);
+  const int n_fit = static_cast<int>(q.cols());  // the Jacobian's rank: the parameters the fit determines
 
   ResidualStructure out;
   for (const Basis& b : bases) out.groups.push_back(Regress(b, q, e, n_fit));
@@ -225,17 +232,16 @@ ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::
   return out;
 }
 
-double SpherePatternFraction(const PointsData& points, const std::vector<double>& signal_mm,
-                             const Eigen::MatrixXd& jacobian, const std::vector<double>& residuals_mm,
-                             const EffectReference& reference) {
-  const auto m = static_cast<Eigen::Index>(points.samples.size());
-  const Eigen::Map<const Eigen::VectorXd> e(residuals_mm.data(), m);
-  const Eigen::MatrixXd q = ColumnSpace(jacobian);
+double SpherePatternFraction(const FitResiduals& fit, const std::vector<double>& signal_mm) {
+  const auto m = static_cast<Eigen::Index>(fit.points.samples.size());
+  const Eigen::Map<const Eigen::VectorXd> e(fit.residuals_mm.data(), m);
+  const Eigen::MatrixXd q = ColumnSpace(fit.jacobian);
   const Eigen::Map<const Eigen::VectorXd> raw(signal_mm.data(), m);
   const Eigen::VectorXd s = raw - q * (q.transpose() * raw);
   const double total = s.squaredNorm();
   if (!(total > 0.0)) return 0.0;
-  const StructureGroup g = Regress(BuildBases(points, e, reference)[4], q, s, static_cast<int>(jacobian.cols()));
+  const StructureGroup g =
+      Regress(BuildBases(fit.points, e, fit.reference, fit.directions)[4], q, s, static_cast<int>(q.cols()));
   const double explained = g.explained_rms_um * g.explained_rms_um / (kUmPerMm * kUmPerMm) * static_cast<double>(m);
   return explained / total;
 }

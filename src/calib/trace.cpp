@@ -5,8 +5,10 @@
 #include <cmath>
 #include <exception>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <random>
+#include <system_error>
 #include <thread>
 
 #include "sph/internal/format.hpp"
@@ -51,10 +53,25 @@ EffectFitStart StartFrom(const EffectFit& fit) {
   return s;
 }
 
+// Unit directions from the fitted centre to each probed point, at the readings the fit expects
+// (r + e, as the structure analysis' other functions of r): the measured r would carry the noise
+// that the residual is into the directions.
+std::vector<Eigen::Vector3d> Directions(const PointsData& points, const CalibrationOptions& options,
+                                        const EffectFit& fit) {
+  PointsData expected = points;
+  for (std::size_t i = 0; i < expected.samples.size(); ++i) {
+    expected.samples[i].r_mm += fit.calibration.residuals_mm[i];
+  }
+  std::vector<Eigen::Vector3d> d = OffsetsFromCentre(expected, options, fit);
+  for (Eigen::Vector3d& v : d) v.normalize();
+  return d;
+}
+
 TracedFit Analysed(EffectFit fit, const PointsData& points, const CalibrationOptions& options, const TraceOptions& trace) {
   TracedFit t;
-  t.structure =
-      AnalyseResidualStructure(points, fit.calibration.residuals_mm, fit.structure_jacobian, fit.model.reference);
+  t.directions = Directions(points, options, fit);
+  t.structure = AnalyseResidualStructure(
+      {points, fit.calibration.residuals_mm, fit.structure_jacobian, fit.model.reference, t.directions});
   t.cv_rms_um = CrossValidatedRms(points, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
   t.fit = std::move(fit);
   return t;
@@ -179,8 +196,8 @@ std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const Tr
     const std::string what = g->variable == "sphere"
                                  ? "a pattern fixed on the sphere (its own form error, or an effect outside the library)"
                                  : "structure that follows " + g->variable + " (" + g->description + ")";
-    u.description = what + ", " + Format("%.3g", g->explained_rms_um) + " um RMS; strongest " + g->strongest + " " +
-                    Format("%+.3g", g->strongest_um) + " um";
+    u.description = what + ", " + Format("%.3g", g->explained_rms_um) + " um RMS; strongest " + g->strongest + " (" +
+                    Format("%.3g", g->strongest_rms_um) + " um RMS alone)";
     out.push_back(u);
   }
   if (out.empty()) {
@@ -194,10 +211,70 @@ std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const Tr
   return out;
 }
 
-EffectFit FitNone(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base) {
+EffectFit FitNone(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
+                  const EffectReference& reference) {
   EffectModel none;
-  none.reference = EffectReferenceOf(points.samples);
+  none.reference = reference;
   return FitEffects(points, options, none, EffectFitStart::From(base));
+}
+
+// The readings of `all` that are outliers under `fit` (the rule of Calibrate()), as indices.
+std::vector<std::size_t> OutliersUnder(const PointsData& all, const CalibrationOptions& options, const EffectFit& fit) {
+  const std::vector<bool> out = RobustOutliers(EffectResiduals(all, options, fit), options.outlier_sigma);
+  std::vector<std::size_t> idx;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    if (out[i]) idx.push_back(i);
+  }
+  return idx;
+}
+
+PointsData Without(const PointsData& points, const std::vector<std::size_t>& outliers) {
+  CalibrationResult r;
+  for (std::size_t i : outliers) r.outliers.push_back({i, 0.0});
+  return WithoutOutliers(points, r);
+}
+
+// The seven-error calibration left out readings as outliers. Those that carry an effect the seven
+// errors lack are no outliers under the final model: they are judged again under it and the model
+// refitted on the readings it keeps, until the set no longer changes. The final model's result then
+// names its outliers and says so.
+void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
+                     const TraceOptions& trace, TracedFit& after, PointsData* kept) {
+  std::vector<std::size_t> outliers;
+  for (const Outlier& o : base.outliers) outliers.push_back(o.sample);
+  if (options.outlier_sigma > 0.0) {
+    for (int round = 0; round < 5; ++round) {
+      const std::vector<std::size_t> judged = OutliersUnder(all, options, after.fit);
+      if (judged == outliers) break;
+      outliers = judged;
+      *kept = Without(all, outliers);
+      EffectFitStart start = StartFrom(after.fit);
+      after = Analysed(FitEffects(*kept, options, after.fit.model, start), *kept, options, trace);
+    }
+  }
+  CalibrationResult& cal = after.fit.calibration;
+  const std::vector<double> residuals = EffectResiduals(all, options, after.fit);
+  cal.outliers.clear();
+  std::string rows;
+  for (std::size_t i : outliers) {
+    cal.outliers.push_back({i, residuals[i] * kUmPerMm});
+    if (rows.size() < 400) {
+      const Sample& s = all.samples[i];
+      rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(i + 1) + " (theta " +
+              Format("%g", s.theta_deg) + " deg, phi " + Format("%g", s.phi_deg) + " deg, residual " +
+              Format("%+.3g", residuals[i] * kUmPerMm) + " um)";
+    }
+  }
+  if (!outliers.empty()) {
+    cal.warnings.insert(cal.warnings.begin(), std::to_string(outliers.size()) +
+                                                  " outlier(s) left out of the fit under the final model: " + rows +
+                                                  (rows.size() >= 400 ? "; ..." : ""));
+  }
+  if (outliers.size() < base.outliers.size()) {
+    cal.warnings.push_back(std::to_string(base.outliers.size() - outliers.size()) +
+                           " reading(s) that the seven-error fit left out as outliers fit the final model and are "
+                           "used again");
+  }
 }
 
 }  // namespace
@@ -205,12 +282,15 @@ EffectFit FitNone(const PointsData& points, const CalibrationOptions& options, c
 double CrossValidatedRms(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
                          const EffectFitStart& start, int folds, std::uint64_t seed) {
   const std::size_t m = points.samples.size();
-  std::vector<std::size_t> order(m);
-  std::iota(order.begin(), order.end(), std::size_t{0});
+  // Folds within each setup, so that every fold leaves every setup points to fit its centre.
+  std::map<int, std::vector<std::size_t>> of_setup;
+  for (std::size_t i = 0; i < m; ++i) of_setup[points.samples[i].setup].push_back(i);
   std::mt19937_64 rng(seed);
-  std::shuffle(order.begin(), order.end(), rng);
   std::vector<int> fold_of(m);
-  for (std::size_t k = 0; k < m; ++k) fold_of[order[k]] = static_cast<int>(k % static_cast<std::size_t>(folds));
+  for (auto& [setup, rows] : of_setup) {
+    std::shuffle(rows.begin(), rows.end(), rng);
+    for (std::size_t k = 0; k < rows.size(); ++k) fold_of[rows[k]] = static_cast<int>(k % static_cast<std::size_t>(folds));
+  }
   CalibrationOptions quick = options;
   quick.analyse = false;
   double sum2 = 0.0;
@@ -219,16 +299,19 @@ double CrossValidatedRms(const PointsData& points, const CalibrationOptions& opt
     train.source = test.source = points.source;
     train.header = test.header = points.header;
     for (std::size_t i = 0; i < m; ++i) (fold_of[i] == f ? test : train).samples.push_back(points.samples[i]);
+    if (test.samples.empty()) continue;
     const EffectFit fit = FitEffects(train, quick, model, start);
     for (double e : EffectResiduals(test, options, fit)) sum2 += e * e;
   }
   return std::sqrt(sum2 / static_cast<double>(m)) * kUmPerMm;
 }
 
-TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
+TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
                           const TraceOptions& trace) {
   TraceResult r;
-  r.before = Analysed(FitNone(points, options, base), points, options, trace);
+  const PointsData points = WithoutOutliers(all, base);  // what the seven-error fit used
+  const EffectReference reference = EffectReferenceOf(all.samples);
+  r.before = Analysed(FitNone(points, options, base, reference), points, options, trace);
   std::vector<Effect> pool = trace.candidates;
   if (pool.empty()) {
     for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
@@ -251,6 +334,7 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
         EffectFit fit = FitCandidate(points, options, current.fit,
                                      DefaultTerm(todo[i], trace.harmonics, trace.drift_order), trace, &c.note);
         if (fit.model.terms.size() == current.fit.model.terms.size()) {
+          c.delta_bic = std::numeric_limits<double>::quiet_NaN();  // nothing of it left to fit
           c.rms_um = current.fit.calibration.rms_um;
           c.cv_rms_um = current.cv_rms_um;
         } else {
@@ -273,9 +357,13 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
     std::atomic<std::size_t> next{0};
     std::vector<std::thread> workers;
     for (unsigned w = 1; w < std::min<std::size_t>(threads, todo.size()); ++w) {
-      workers.emplace_back([&] {
-        for (std::size_t i; (i = next++) < todo.size();) score(i);
-      });
+      try {
+        workers.emplace_back([&] {
+          for (std::size_t i; (i = next++) < todo.size();) score(i);
+        });
+      } catch (const std::system_error&) {
+        break;  // no more threads to be had: this one scores the rest
+      }
     }
     for (std::size_t i; (i = next++) < todo.size();) score(i);
     for (std::thread& t : workers) t.join();
@@ -293,8 +381,43 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
         best = static_cast<int>(i);
       }
     }
-    if (best < 0) {
-      for (auto& [c, fit] : tried) r.candidates.push_back(c);
+    // The competitor no effect of the library is: a pattern fixed on the sphere (its form error,
+    // or an effect outside the library), scored by the BIC of adding the spherical harmonics to the
+    // current fit. When it explains the residual better than the best effect, no effect is added.
+    const StructureGroup& sphere = current.structure.groups[4];
+    CandidateScore form;
+    form.sphere_form = true;
+    form.round = round;
+    form.delta_bic = sphere.delta_bic;
+    form.rms_um = std::sqrt(std::max(0.0, current.fit.calibration.rms_um * current.fit.calibration.rms_um -
+                                              sphere.explained_rms_um * sphere.explained_rms_um));
+    form.cv_rms_um = std::numeric_limits<double>::quiet_NaN();
+    const bool form_wins = sphere.delta_bic <= -trace.min_delta_bic &&
+                           (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic);
+    form.note = "spherical harmonics of degree 2..5 on the sphere (" + std::to_string(sphere.rank) +
+                " functions, linearised): " +
+                (form_wins ? "explain the residual better than any effect of the library, so none is added"
+                           : "not better than the best effect");
+    auto explain = [&](CandidateScore& c) {
+      if (c.added) return;
+      std::string why;
+      if (admissible(c)) {
+        const CandidateScore& b = tried[static_cast<std::size_t>(best)].first;
+        why = form_wins ? "qualifies, but a pattern fixed on the sphere explains more"
+                        : "qualifies; " + b.Id() + Format(" scored better (delta BIC %.1f)", b.delta_bic);
+      } else if (!c.term.components.empty() && c.determined) {
+        why = c.delta_bic > -trace.min_delta_bic
+                  ? "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")"
+                  : "no lower cross-validated RMS";
+      }
+      if (!why.empty()) c.note += std::string(c.note.empty() ? "" : "; ") + why;
+    };
+    if (best < 0 || form_wins) {
+      for (auto& [c, fit] : tried) {
+        explain(c);
+        r.candidates.push_back(c);
+      }
+      r.candidates.push_back(form);
       break;
     }
     CandidateScore& chosen = tried[static_cast<std::size_t>(best)].first;
@@ -314,8 +437,10 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
     for (std::size_t i = 0; i < signal.size(); ++i) {
       signal[i] = current.fit.calibration.residuals_mm[i] - with.calibration.residuals_mm[i];
     }
-    chosen.sphere_fraction = SpherePatternFraction(points, signal, current.fit.structure_jacobian,
-                                                   current.fit.calibration.residuals_mm, current.fit.model.reference);
+    chosen.sphere_fraction = SpherePatternFraction(
+        {points, current.fit.calibration.residuals_mm, current.fit.structure_jacobian, current.fit.model.reference,
+         current.directions},
+        signal);
     if (chosen.sphere_fraction >= trace.max_sphere_fraction) {
       r.ambiguous.push_back(
           {InfoOf(chosen.effect).id, "sphere_form", chosen.delta_bic, std::numeric_limits<double>::quiet_NaN(),
@@ -324,36 +449,35 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
            "stays with the machine), or the sphere's form from its certificate"});
     }
     for (auto& [c, fit] : tried) {
-      if (!c.added && c.note.empty() && !admissible(c)) {
-        c.note = c.delta_bic > -trace.min_delta_bic ? "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")"
-                                                    : "no lower cross-validated RMS";
-      }
+      explain(c);
       r.candidates.push_back(c);
     }
+    r.candidates.push_back(form);
     r.added.push_back(chosen.effect);
     current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), points, options, trace);
   }
-  for (CandidateScore& c : r.candidates) {
-    if (!c.added && c.note.empty()) {
-      c.note = c.delta_bic > -trace.min_delta_bic
-                   ? "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")"
-                   : "no lower cross-validated RMS";
-    }
-  }
   r.after = std::move(current);
+  PointsData kept = points;
+  RejudgeOutliers(all, options, base, trace, r.after, &kept);
   r.unexplained = RemainingStructure(r.after.structure, trace);
   return r;
 }
 
-TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
+TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
                             const std::vector<Effect>& effects, const TraceOptions& trace) {
   TraceResult r;
-  r.before = Analysed(FitNone(points, options, base), points, options, trace);
+  const PointsData points = WithoutOutliers(all, base);
+  const EffectReference reference = EffectReferenceOf(all.samples);
+  r.before = Analysed(FitNone(points, options, base, reference), points, options, trace);
   EffectModel model;
-  model.reference = r.before.fit.model.reference;
-  for (Effect e : effects) model.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
-  r.added = effects;
+  model.reference = reference;
+  for (Effect e : effects) {
+    if (model.Find(e) < 0) model.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
+  }
+  for (const EffectTerm& t : model.terms) r.added.push_back(t.effect);
   r.after = Analysed(FitEffects(points, options, model, StartFrom(r.before.fit)), points, options, trace);
+  PointsData kept = points;
+  RejudgeOutliers(all, options, base, trace, r.after, &kept);
   r.unexplained = RemainingStructure(r.after.structure, trace);
   return r;
 }

@@ -78,8 +78,10 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
   r.r_half_range_mm = Number(ref, "r_half_range_mm", "effect_reference.", path);
   r.t_start_s = Number(ref, "t_start_s", "effect_reference.", path);
   r.t_span_s = Number(ref, "t_span_s", "effect_reference.", path);
-  if (!(r.r_half_range_mm > 0.0) || !(r.t_span_s > 0.0) || !std::isfinite(r.r_ref_mm) || !std::isfinite(r.t_start_s)) {
-    throw Error(path + ": field 'effect_reference': r_half_range_mm and t_span_s must be positive, all finite");
+  if (!(r.r_half_range_mm >= kMinProbeHalfRangeMm) || !(r.t_span_s > 0.0) || !std::isfinite(r.r_ref_mm) ||
+      !std::isfinite(r.t_start_s)) {
+    throw Error(path + ": field 'effect_reference': r_half_range_mm must be at least " +
+                std::to_string(kMinProbeHalfRangeMm) + " mm and t_span_s positive, all finite");
   }
 }
 

@@ -183,10 +183,22 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
       data.samples.push_back(s);
     }
   }
-  // The probe's own errors act on the reading, normalised by the range and run of the true readings.
+  // The probe's own errors act on the reading, normalised by the range and run of the readings
+  // themselves, as a calibration normalises them: the reference and the readings are iterated to
+  // their common fixed point (the errors are tiny against the range, so two or three steps do).
   SimulatedEffects effects = spec.effects;
-  effects.model.reference = EffectReferenceOf(data.samples);
-  for (Sample& s : data.samples) s.r_mm = ProbeReadingOfDistance(effects, s.r_mm, s.t_s);
+  const std::vector<Sample> distances = data.samples;
+  effects.model.reference = EffectReferenceOf(distances);
+  for (int it = 0; it < 20; ++it) {
+    for (std::size_t i = 0; i < distances.size(); ++i) {
+      data.samples[i].r_mm = ProbeReadingOfDistance(effects, distances[i].r_mm, distances[i].t_s);
+    }
+    const EffectReference next = EffectReferenceOf(data.samples);
+    const bool settled = next.r_ref_mm == effects.model.reference.r_ref_mm &&
+                         next.r_half_range_mm == effects.model.reference.r_half_range_mm;
+    effects.model.reference = next;
+    if (settled) break;
+  }
   if (reference) *reference = effects.model.reference;
   return data;
 }

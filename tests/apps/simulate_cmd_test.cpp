@@ -63,3 +63,52 @@ TEST(SimulateCmd, BadOptionsExitTwo) {
 
 }  // namespace
 }  // namespace sph::apps
+
+namespace sph::apps {
+namespace {
+
+TEST(SimulateCmd, EffectsGoIntoTheReadingsAndTheTruthButNotTheFile) {
+  const std::string dir = sph::testing::MakeTempDir("simcmd_effects");
+  SimulateOptions o;
+  o.output_path = dir + "/p.txt";
+  o.truth_path = dir + "/truth.json";
+  o.effects_arcsec = {"theta_encoder.c2=6", "theta_encoder.s3=-4"};
+  o.effects_um = {"probe_drift.t1=0.6"};
+  o.form_um = {"3,2,0.1"};
+  std::ostringstream err;
+  ASSERT_EQ(RunSimulate(o, err), kExitOk) << err.str();
+  const std::string text = sph::testing::ReadWholeFile(o.output_path);
+  EXPECT_THAT(text, ::testing::Not(HasSubstr("encoder")));
+  EXPECT_THAT(text, ::testing::Not(HasSubstr("drift")));
+  std::ifstream in(o.truth_path);
+  const nlohmann::json t = nlohmann::json::parse(in);
+  ASSERT_EQ(t["effects"].size(), 2u);
+  EXPECT_EQ(t["effects"][0]["id"], "theta_encoder");
+  EXPECT_DOUBLE_EQ(t["effects"][0]["parameters"]["theta_encoder.s3"]["value"].get<double>(), -4.0);
+  EXPECT_EQ(t["effects"][0]["parameters"]["theta_encoder.s3"]["unit"], "arcsec");
+  EXPECT_DOUBLE_EQ(t["form_um"][0]["amplitude_um"].get<double>(), 0.1);
+}
+
+TEST(SimulateCmd, BadEffectsAreRefusedWithTheirOption) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
+      {{"theta_encoder"}, "--effect-arcsec theta_encoder: expected id.param=value"},
+      {{"encoder.c2=1"}, "unknown effect 'encoder'"},
+      {{"theta_encoder.c0=1"}, "theta_encoder has no parameter 'c0'"},
+      {{"theta_encoder.c2=x"}, "'x' is not a number"},
+      {{"probe_drift.t1=1"}, "probe_drift is a length; give it with --effect-um"},
+      {{"theta_encoder.c2=1", "theta_encoder.c2=2"}, "theta_encoder.c2 is given twice"},
+  };
+  for (const auto& [args, message] : cases) {
+    const std::string dir = sph::testing::MakeTempDir("simcmd_bad");
+    SimulateOptions o;
+    o.output_path = dir + "/p.txt";
+    o.effects_arcsec = args;
+    std::ostringstream err;
+    EXPECT_EQ(RunSimulate(o, err), kExitBadInput);
+    EXPECT_THAT(err.str(), HasSubstr(message));
+    EXPECT_TRUE(sph::testing::ReadWholeFile(o.output_path).empty()) << "no file is left behind";
+  }
+}
+
+}  // namespace
+}  // namespace sph::apps

@@ -129,6 +129,11 @@ TEST(CalibrationFile, EffectsGoThroughTheFileAndIntoCompensation) {
   const Eigen::Vector3d q = EffectScmsPoint(cal.geometry, cal.effects, cal.effect_values, EffectReading(30.0, 60.0, 5.1, 0.0), 25.0);
   EXPECT_EQ(p, q);
   EXPECT_GT((p - ScmsPoint(cal.geometry, 30 * kRadPerDeg, 60 * kRadPerDeg, 5.1, 25.0)).norm(), 1e-5);
+  // An invalid calibration (a block missing) compensates to NaN rather than reading out of range.
+  Calibration broken = cal;
+  broken.effect_values.pop_back();
+  EXPECT_FALSE(broken.IsValid());
+  EXPECT_TRUE(Compensate(broken, 30.0, 60.0, 5.1).array().isNaN().all());
 }
 
 TEST(CalibrationFile, NamesEveryMissingOrWrongField) {
@@ -164,6 +169,9 @@ TEST(CalibrationFile, NamesEveryMissingOrWrongField) {
        "field 'effects[0].parameters[0].unit' must be \"arcsec\""},
       {{R"("effects": [])", R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.u1", "value": 1, "unit": "um"}]}])"},
        "missing field 'effect_reference'"},
+      {{R"("effects": [])", R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.u1", "value": 1, "unit": "um"}]}],
+        "effect_reference": {"r_ref_mm": 5, "r_half_range_mm": 1e-300, "t_start_s": 0, "t_span_s": 1})"},
+       "field 'effect_reference': r_half_range_mm must be at least"},
   };
   int i = 0;
   for (const auto& [edit, message] : cases) {

@@ -77,6 +77,10 @@ Eigen::MatrixXd ResidualJacobian(const PointsData& points, const CalibrationOpti
 /// setup whose points determine no centre).
 CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options);
 
+/// The outliers among residuals (any order, mm) by the rule of CalibrationOptions::outlier_sigma:
+/// farther than k robust standard deviations (1.4826 MAD, at least 1 nm) from the median.
+std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, double k);
+
 /// `points` without the samples that `result` left out as outliers.
 PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& result);
 

@@ -72,6 +72,11 @@ EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options
 /// columns as fit.jacobian's. Every setup of `points` must be one of the fit's.
 Eigen::MatrixXd JacobianAt(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);
 
+/// p - O [mm] of each sample of `points` (file order) under the parameters of `fit`: the probed
+/// point relative to its setup's centre, in the sphere frame. Throws sph::Error as EffectResiduals().
+std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const CalibrationOptions& options,
+                                               const EffectFit& fit);
+
 /// Residuals |p - O| - R0 [mm] of the samples of `points`, in file order, under the parameters of
 /// `fit`. Every setup of `points` must be one of the fit's; throws sph::Error otherwise.
 std::vector<double> EffectResiduals(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);

@@ -30,7 +30,10 @@ struct StructureGroup {
   double f = 0.0;              ///< the F statistic
   double p_value = 1.0;        ///< P(F(r, m - n - r) >= f)
   std::string strongest;       ///< the single function that explains most, e.g. "cos(2 theta)"
-  double strongest_um = 0.0;   ///< its coefficient alone [um]
+  double strongest_rms_um = 0.0;  ///< RMS of what it explains alone [um]
+  /// The change of the BIC if the group's functions were added to the fit (linearised):
+  /// m ln((RSS - explained) / RSS) + rank ln m.
+  double delta_bic = 0.0;
 };
 
 struct ResidualStructure {
@@ -41,18 +44,25 @@ struct ResidualStructure {
   int Strongest() const;
 };
 
-/// Analyses the residuals (file order, mm) of a fit with Jacobian `jacobian` (m x n) to `points`;
-/// `reference` normalises r and t as the effect model does.
-ResidualStructure AnalyseResidualStructure(const PointsData& points, const std::vector<double>& residuals_mm,
-                                           const Eigen::MatrixXd& jacobian, const EffectReference& reference);
+/// What the analysis needs of a fit to `points`: its residuals (file order, mm), its Jacobian
+/// (m x n, at the readings the fit expects: EffectFit::structure_jacobian), the reference that
+/// normalises r and t, and the unit direction from the fitted centre to each probed point (sphere
+/// frame).
+struct FitResiduals {
+  const PointsData& points;
+  const std::vector<double>& residuals_mm;
+  const Eigen::MatrixXd& jacobian;
+  const EffectReference& reference;
+  const std::vector<Eigen::Vector3d>& directions;
+};
+
+/// Analyses the residuals of a fit (see the file comment).
+ResidualStructure AnalyseResidualStructure(const FitResiduals& fit);
 
 /// The share of a signal (file order, mm; e.g. what an effect added to the fitted readings) that
-/// is a pattern fixed on the sphere: of its part outside the columns of `jacobian`, the fraction
-/// that spherical harmonics of degree 2..5 of the probed direction explain. `residuals_mm` and
-/// `reference` are those of the fit the Jacobian belongs to.
-double SpherePatternFraction(const PointsData& points, const std::vector<double>& signal_mm,
-                             const Eigen::MatrixXd& jacobian, const std::vector<double>& residuals_mm,
-                             const EffectReference& reference);
+/// is a pattern fixed on the sphere: of its part outside the columns of the fit's Jacobian, the
+/// fraction that spherical harmonics of degree 2..5 of the direction from the centre explain.
+double SpherePatternFraction(const FitResiduals& fit, const std::vector<double>& signal_mm);
 
 /// P(F(d1, d2) >= f), the upper tail of Fisher's F distribution.
 double FUpperTail(double f, double d1, double d2);

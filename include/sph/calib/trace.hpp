@@ -6,9 +6,12 @@
 //    weakest first; then components that are not significantly non-zero (|value| < min_t std),
 //    so that a term keeps only what the data show.
 // 3. Score each candidate by the change of the Bayesian information criterion (delta_bic) and by
-//    k-fold cross-validated RMS (each fold fitted without its points, then predicted). The best
-//    candidate is added when delta_bic <= -min_delta_bic (strong evidence), its cross-validated
-//    RMS is lower, and every parameter of the model stays determined. Repeat until none is.
+//    k-fold cross-validated RMS (folds within each setup; each fitted without its points, then
+//    predicted). The best candidate is added when delta_bic <= -min_delta_bic (strong evidence),
+//    its cross-validated RMS is lower, every parameter of the model stays determined, and a
+//    pattern fixed on the sphere (spherical harmonics of degree 2..5 of the direction from the
+//    centre, the reference sphere's own form error or an effect outside the library) does not
+//    explain the residual better by the BIC. Repeat until none is.
 // 4. Report candidates that explain the residual about as well as the one added (their BICs within
 //    ambiguity_bic), with the measurement that would separate them; an added effect whose signal is
 //    mostly a pattern fixed on the sphere (SpherePatternFraction), which the sphere's own form error
@@ -43,14 +46,18 @@ struct TraceOptions {
   double max_sphere_fraction = 0.5;
 };
 
-/// One candidate tried in one round.
+/// One candidate tried in one round: an effect of the library, or (sphere_form) the pattern fixed
+/// on the sphere that competes with them.
 struct CandidateScore {
   Effect effect = Effect::kThetaEncoder;
+  bool sphere_form = false;  ///< the competitor: spherical harmonics of degree 2..5 on the sphere
+  /// "sphere_form" or the effect's id.
+  std::string Id() const { return sphere_form ? "sphere_form" : InfoOf(effect).id; }
   int round = 0;             ///< 1 for the first effect added, ...
   EffectTerm term;           ///< the components kept (empty: nothing the data determine)
-  double delta_bic = 0.0;    ///< BIC with it minus BIC without
+  double delta_bic = 0.0;    ///< BIC with it minus BIC without; NaN when nothing of it was left to fit
   double rms_um = 0.0;       ///< fit RMS with it
-  double cv_rms_um = 0.0;    ///< cross-validated RMS with it
+  double cv_rms_um = 0.0;    ///< cross-validated RMS with it (NaN for sphere_form: not fitted)
   bool determined = false;   ///< every parameter of the model with it is determined
   bool added = false;
   double sphere_fraction = 0.0;  ///< of the added effect's signal (SpherePatternFraction); 0 when not added
@@ -79,6 +86,7 @@ struct Unexplained {
 /// The fit, its residual analysis and its cross-validated RMS.
 struct TracedFit {
   EffectFit fit;
+  std::vector<Eigen::Vector3d> directions;  ///< from the fitted centre to each probed point (unit)
   ResidualStructure structure;
   double cv_rms_um = 0.0;
 };
@@ -93,7 +101,9 @@ struct TraceResult {
 };
 
 /// Traces the residual of `points` (see the file comment). `base` is the seven-error calibration
-/// of the same points and options. The effect reference is that of the points (EffectReferenceOf).
+/// of the same points and options; the readings it left out as outliers are left out of the
+/// selection and judged again under the final model. The effect reference is that of all the
+/// readings (EffectReferenceOf).
 TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
                           const TraceOptions& trace);
 

@@ -58,8 +58,8 @@ struct FormComponent {
 
 /// What the simulated machine and sphere have beyond the seven errors.
 struct SimulatedEffects {
-  /// Library effects; `model.reference` is set by the simulator from the exact readings
-  /// (EffectReferenceOf of the true distances and times), as a calibration would from its data.
+  /// Library effects; `model.reference` is set by the simulator from the simulated readings
+  /// themselves (EffectReferenceOf, before noise), as a calibration sets it from its data.
   EffectModel model;
   std::vector<std::vector<double>> values;  ///< one block per term of `model` (rad, mm)
   std::vector<FormComponent> form;          ///< form error of the reference sphere

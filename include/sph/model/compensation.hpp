@@ -22,6 +22,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -32,6 +33,10 @@
 #include "sph/model/units.hpp"
 
 namespace sph {
+
+/// The smallest half range of the probe that probe terms may be normalised by [mm] (1 um): below
+/// it u = (r - r_ref) / r_half would blow rounding up into the correction.
+inline constexpr double kMinProbeHalfRangeMm = 1e-3;
 
 /// Covariance of the seven geometric errors, internal units (rad, mm), in ScmsParam order.
 using ScmsCovariance = Eigen::Matrix<double, kNumScmsParams, kNumScmsParams>;
@@ -67,7 +72,8 @@ struct Calibration {
       }
     }
     const EffectReference& ref = effects.reference;
-    if (!effects.Empty() && !(ref.r_half_range_mm > 0.0 && std::isfinite(ref.r_ref_mm) && ref.t_span_s > 0.0)) {
+    if (!effects.Empty() && !(ref.r_half_range_mm >= kMinProbeHalfRangeMm && std::isfinite(ref.r_half_range_mm) &&
+                              std::isfinite(ref.r_ref_mm) && ref.t_span_s > 0.0 && std::isfinite(ref.t_span_s))) {
       return false;
     }
     return !covariance || covariance->allFinite();
@@ -87,9 +93,10 @@ namespace internal {
 struct CompensationContext {
   ScmsErrorTrig<double> trig;
   std::array<const double*, kNumEffects> blocks{};
+  bool valid;  ///< cal.IsValid(): otherwise every point is NaN (no exceptions here)
 
-  explicit CompensationContext(const Calibration& cal) : trig(ErrorTrigOf(cal.geometry.data())) {
-    for (std::size_t t = 0; t < cal.effect_values.size() && t < blocks.size(); ++t) blocks[t] = cal.effect_values[t].data();
+  explicit CompensationContext(const Calibration& cal) : trig(ErrorTrigOf(cal.geometry.data())), valid(cal.IsValid()) {
+    for (std::size_t t = 0; valid && t < cal.effect_values.size(); ++t) blocks[t] = cal.effect_values[t].data();
   }
 };
 
@@ -97,6 +104,7 @@ struct CompensationContext {
 /// [deg] and r_mm [mm].
 template <typename Reading>
 Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const Reading& r) {
+  if (!ctx.valid) return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   if (cal.effects.Empty()) {
     return ScmsPoint(cal.geometry.data(), ctx.trig, SinCosOf(r.theta_deg * kRadPerDeg),
                      SinCosOf(r.phi_deg * kRadPerDeg), r.r_mm, cal.probe_offset_mm);
