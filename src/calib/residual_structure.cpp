@@ -232,6 +232,62 @@ ResidualStructure AnalyseResidualStructure(const FitResiduals& fit) {
   return out;
 }
 
+SpherePattern BestSpherePattern(const FitResiduals& fit) {
+  const auto m = static_cast<Eigen::Index>(fit.points.samples.size());
+  const Eigen::Map<const Eigen::VectorXd> e(fit.residuals_mm.data(), m);
+  const Eigen::MatrixXd q = ColumnSpace(fit.jacobian);
+  const Basis sphere = BuildBases(fit.points, e, fit.reference, fit.directions)[4];
+  // Unit remainders of the functions off col(J), as in Regress().
+  constexpr double kMinRemainder = 1e-2;
+  std::vector<Eigen::VectorXd> rest;
+  std::vector<std::string> names;
+  for (Eigen::Index j = 0; j < sphere.columns.cols(); ++j) {
+    const double norm = sphere.columns.col(j).norm();
+    if (!(norm > 0.0)) continue;
+    Eigen::VectorXd r = sphere.columns.col(j) / norm;
+    r -= q * (q.transpose() * r);
+    r -= q * (q.transpose() * r);
+    if (r.norm() >= kMinRemainder) {
+      rest.push_back(r);
+      names.push_back(sphere.names[static_cast<std::size_t>(j)]);
+    }
+  }
+  SpherePattern out;
+  const double rss0 = e.squaredNorm(), log_m = std::log(static_cast<double>(m));
+  double rss = rss0;
+  Eigen::VectorXd left = e;
+  std::vector<bool> used(rest.size(), false);
+  for (std::size_t step = 0; step < rest.size(); ++step) {
+    int best = -1;
+    double gain = 0.0;
+    for (std::size_t j = 0; j < rest.size(); ++j) {
+      if (used[j]) continue;
+      const double nn = rest[j].squaredNorm();
+      if (!(nn >= kMinRemainder * kMinRemainder)) continue;
+      const double g = std::pow(rest[j].dot(left), 2) / nn;
+      if (g > gain) {
+        gain = g;
+        best = static_cast<int>(j);
+      }
+    }
+    if (best < 0) break;
+    const double next_bic = static_cast<double>(m) * std::log(std::max(rss - gain, 1e-300) / rss0) +
+                            static_cast<double>(step + 1) * log_m;
+    if (next_bic >= out.delta_bic) break;  // the BIC no longer falls
+    out.delta_bic = next_bic;
+    rss -= gain;
+    const Eigen::VectorXd dir = rest[static_cast<std::size_t>(best)] / rest[static_cast<std::size_t>(best)].norm();
+    left -= dir * dir.dot(left);
+    used[static_cast<std::size_t>(best)] = true;
+    out.functions.push_back(names[static_cast<std::size_t>(best)]);
+    for (std::size_t j = 0; j < rest.size(); ++j) {
+      if (!used[j]) rest[j] -= dir * dir.dot(rest[j]);  // keep the others orthogonal to what is chosen
+    }
+  }
+  out.explained_rms_um = std::sqrt(std::max(rss0 - rss, 0.0) / static_cast<double>(m)) * kUmPerMm;
+  return out;
+}
+
 double SpherePatternFraction(const FitResiduals& fit, const std::vector<double>& signal_mm) {
   const auto m = static_cast<Eigen::Index>(fit.points.samples.size());
   const Eigen::Map<const Eigen::VectorXd> e(fit.residuals_mm.data(), m);

@@ -382,9 +382,12 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
       }
     }
     // The competitor no effect of the library is: a pattern fixed on the sphere (its form error,
-    // or an effect outside the library), scored by the BIC of adding the spherical harmonics to the
-    // current fit. When it explains the residual better than the best effect, no effect is added.
-    const StructureGroup& sphere = current.structure.groups[4];
+    // or an effect outside the library), the spherical harmonics that the BIC keeps, scored as if
+    // added to the current fit. When it explains the residual better than the best effect, no
+    // effect is added.
+    const SpherePattern sphere = BestSpherePattern({points, current.fit.calibration.residuals_mm,
+                                                    current.fit.structure_jacobian, current.fit.model.reference,
+                                                    current.directions});
     CandidateScore form;
     form.sphere_form = true;
     form.round = round;
@@ -394,10 +397,13 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     form.cv_rms_um = std::numeric_limits<double>::quiet_NaN();
     const bool form_wins = sphere.delta_bic <= -trace.min_delta_bic &&
                            (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic);
-    form.note = "spherical harmonics of degree 2..5 on the sphere (" + std::to_string(sphere.rank) +
-                " functions, linearised): " +
-                (form_wins ? "explain the residual better than any effect of the library, so none is added"
-                           : "not better than the best effect");
+    std::string functions;
+    for (const std::string& f : sphere.functions) functions += (functions.empty() ? "" : " ") + f;
+    form.note = "a pattern fixed on the sphere, spherical harmonics of the direction from the centre, linearised: " +
+                (functions.empty() ? std::string("none lowers the BIC")
+                                   : functions + (form_wins ? "; explains the residual better than any effect of the "
+                                                              "library, so none is added"
+                                                            : "; not better than the best effect"));
     auto explain = [&](CandidateScore& c) {
       if (c.added) return;
       std::string why;

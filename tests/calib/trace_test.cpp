@@ -118,22 +118,19 @@ TEST(TraceResidual, TwoSpherePositionsTellTheEncoderErrorFromASpindleMotion) {
   EXPECT_NEAR(fit.values[0][0], 10 * kRadPerArcsec, 4 * fit.calibration.analysis.std(c2));
 }
 
-// The reference sphere's own form error is no effect of the library. What remains must be named
-// as a pattern fixed on the sphere, and the effect added first (probe_drift: with the rows in phi
-// rings, time follows phi, and the form error has a phi profile) must be flagged as what the form
-// error explains as well. (A second effect, a 0.03 um axial motion at 3 per turn, is added too:
-// 37 % of its signal is a sphere pattern, below the flagging share of 50 %.)
+// The reference sphere's own form error is no effect of the library. The pattern fixed on the
+// sphere must win against every effect (which would each explain part of it), nothing be added,
+// and what remains be named as such.
 TEST(TraceResidual, ReportsASphereFormErrorAsUnexplained) {
   SimulationSpec spec;
   spec.effects.form = {{3, 2, 0.2}, {4, -3, 0.1}};
   const TraceResult r = Trace(Simulate(spec));
+  EXPECT_TRUE(r.added.empty()) << Describe(r);
   ASSERT_FALSE(r.unexplained.empty()) << Describe(r);
   EXPECT_EQ(r.unexplained[0].variable, "sphere") << Describe(r);
-  ASSERT_FALSE(r.added.empty()) << Describe(r);
-  const bool flagged = std::any_of(r.ambiguous.begin(), r.ambiguous.end(), [&](const Ambiguity& a) {
-    return a.chosen == InfoOf(r.added[0]).id && a.other == "sphere_form";
-  });
-  EXPECT_TRUE(flagged) << Describe(r);
+  ASSERT_FALSE(r.candidates.empty());
+  EXPECT_TRUE(r.candidates.back().sphere_form);
+  EXPECT_LT(r.candidates.back().delta_bic, -10.0) << Describe(r);
   EXPECT_GT(r.after.fit.calibration.rms_um, 1.1 * 0.05) << "the form error cannot be explained away";
 }
 

@@ -59,6 +59,17 @@ struct FitResiduals {
 /// Analyses the residuals of a fit (see the file comment).
 ResidualStructure AnalyseResidualStructure(const FitResiduals& fit);
 
+/// The best small pattern fixed on the sphere: spherical harmonics of degree 2..5 of the direction
+/// from the centre chosen one at a time (each the one that explains most of what is left) while
+/// the BIC falls, as a fit that added them would (linearised). It competes with the effects of
+/// the library, which keep only their significant components too.
+struct SpherePattern {
+  double delta_bic = 0.0;               ///< of adding the chosen functions (0: none chosen)
+  double explained_rms_um = 0.0;
+  std::vector<std::string> functions;   ///< e.g. "S(3,2)", in the order chosen
+};
+SpherePattern BestSpherePattern(const FitResiduals& fit);
+
 /// The share of a signal (file order, mm; e.g. what an effect added to the fitted readings) that
 /// is a pattern fixed on the sphere: of its part outside the columns of the fit's Jacobian, the
 /// fraction that spherical harmonics of degree 2..5 of the direction from the centre explain.
