@@ -2,6 +2,7 @@
 #ifndef SPH_APPS_APP_COMMON_HPP_
 #define SPH_APPS_APP_COMMON_HPP_
 
+#include <cmath>
 #include <cstdlib>
 #include <exception>
 #include <iostream>
@@ -25,13 +26,16 @@ enum ExitCode : int {
 };
 
 /// CLI11 checks for numbers with plain messages ("must be positive"); CLI11 2.1's PositiveNumber
-/// and NonNegativeNumber are ranges that print their 300-digit upper bound.
+/// and NonNegativeNumber are ranges that print their 300-digit upper bound. Infinity is refused
+/// too: a value written on into a file's header would make a file the readers refuse.
 inline CLI::Validator Positive() {
   return CLI::Validator(
       [](std::string& text) -> std::string {
         char* end = nullptr;
         const double v = std::strtod(text.c_str(), &end);
-        return end != text.c_str() && *end == '\0' && v > 0.0 ? "" : "must be a positive number, got " + text;
+        return end != text.c_str() && *end == '\0' && v > 0.0 && std::isfinite(v)
+                   ? ""
+                   : "must be a positive number, got " + text;
       },
       "POSITIVE");
 }
@@ -40,7 +44,9 @@ inline CLI::Validator NonNegative() {
       [](std::string& text) -> std::string {
         char* end = nullptr;
         const double v = std::strtod(text.c_str(), &end);
-        return end != text.c_str() && *end == '\0' && v >= 0.0 ? "" : "must be a number >= 0, got " + text;
+        return end != text.c_str() && *end == '\0' && v >= 0.0 && std::isfinite(v)
+                   ? ""
+                   : "must be a finite number >= 0, got " + text;
       },
       "NONNEGATIVE");
 }
