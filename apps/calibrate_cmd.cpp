@@ -86,6 +86,8 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     copts.probe_offset_mm = *offset;
     copts.max_std_um = o.max_std_um;
     copts.max_iterations = o.max_iterations;
+    // Readings that parse but look wrong: said first, on stderr, whatever the report's form.
+    for (const std::string& w : PlausibilityWarnings(points)) err << prog << ": warning: " << w << "\n";
     const CalibrationResult base = Calibrate(points, copts);
     std::optional<TraceResult> trace;
     std::optional<Validation> validation;

@@ -37,6 +37,7 @@ struct Input {
   std::optional<int> setup;
   std::optional<double> header_radius_mm;
   std::string description;  ///< one line for the report
+  std::vector<std::string> warnings;  ///< readings that parse but look wrong (PlausibilityWarnings)
 };
 
 std::string Printf(const char* fmt, double a) {
@@ -71,6 +72,7 @@ Input ReadInput(const MeasureOptions& o) {
                 "--calibration FILE, or --xyz when the file holds x y z coordinates");
   }
   const PointsData data = ReadPointsFile(o.points_path);
+  in.warnings = PlausibilityWarnings(data);
   const Calibration cal = LoadCalibration(o.calibration_path);
   const auto d = data.header.probe_offset_mm;
   if (d && std::abs(*d - cal.probe_offset_mm) > 1e-9 * cal.probe_offset_mm) {
@@ -407,6 +409,7 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
   try {
     if (o.uncertainty_samples == 1) throw Error("--uncertainty-samples: 1 draw gives no spread; use 0 or at least 2");
     const Input in = ReadInput(o);
+    for (const std::string& w : in.warnings) err << kProgram << ": warning: " << w << "\n";
     SphereEvaluationOptions eopts;
     eopts.max_dilution = o.max_dilution;
     const SphereEvaluation ev = EvaluateSphere(in.points_mm, o.points_path, eopts);

@@ -9,9 +9,11 @@
 #include <cstdio>
 #include <fstream>
 #include <istream>
+#include <map>
 #include <ostream>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
@@ -191,6 +193,44 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
   if (in.bad()) throw Error(source + ": read error");
   if (data.samples.empty()) throw Error(source + ": no samples (the file has " + std::to_string(line_no) + " lines, none of them a sample)");
   return data;
+}
+
+std::vector<std::string> PlausibilityWarnings(const PointsData& data) {
+  std::vector<std::string> out;
+  if (data.samples.size() >= 10) {
+    double t_lo = data.samples[0].theta_deg, t_hi = t_lo, p_lo = data.samples[0].phi_deg, p_hi = p_lo;
+    for (const Sample& s : data.samples) {
+      t_lo = std::min(t_lo, s.theta_deg);
+      t_hi = std::max(t_hi, s.theta_deg);
+      p_lo = std::min(p_lo, s.phi_deg);
+      p_hi = std::max(p_hi, s.phi_deg);
+    }
+    constexpr double kTwoPi = 6.2832, kPi = 3.1416;
+    // A measurement in degrees turns Theta through far more than 6.3 deg; one in radians stays within it.
+    if (t_hi - t_lo > 1.0 && t_lo >= -kTwoPi && t_hi <= kTwoPi && p_lo >= -0.01 && p_hi <= kPi) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "theta_deg spans only %.4g..%.4g and phi_deg %.4g..%.4g: are the angles in radians? The "
+                    "columns are in degrees",
+                    t_lo, t_hi, p_lo, p_hi);
+      out.emplace_back(data.source + ": " + buf);
+    }
+  }
+  // Exact repeats of an earlier row.
+  std::map<std::tuple<double, double, double, double, int>, std::size_t> seen;
+  std::size_t repeats = 0, first = 0;
+  for (std::size_t i = 0; i < data.samples.size(); ++i) {
+    const Sample& s = data.samples[i];
+    // Without a t_s column the time is the row index, which no repeat shares.
+    const double t = data.has_time ? s.t_s : 0.0;
+    const auto [it, inserted] = seen.emplace(std::make_tuple(s.theta_deg, s.phi_deg, s.r_mm, t, s.setup), i);
+    if (!inserted && repeats++ == 0) first = i;
+  }
+  if (repeats > 0) {
+    out.push_back(data.source + ": " + std::to_string(repeats) + " sample(s) repeat an earlier one exactly (the first: " +
+                  "sample " + std::to_string(first + 1) + "); a repeated reading counts twice in a fit");
+  }
+  return out;
 }
 
 void WritePoints(std::ostream& out, const PointsData& data) {

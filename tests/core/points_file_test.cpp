@@ -143,5 +143,23 @@ TEST(PointsFile, MissingFileIsAnError) {
   }
 }
 
+TEST(PlausibilityWarnings, RadiansInADegreeColumnAndRepeatedRows) {
+  std::string text = "# columns: theta_deg phi_deg r_mm\n";
+  for (int i = 0; i < 24; ++i) text += std::to_string(0.2618 * i) + " 1.5708 5.0\n";  // 15 deg steps, in rad
+  std::istringstream rad(text);
+  const std::vector<std::string> w = PlausibilityWarnings(ParsePoints(rad, "rad.txt"));
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_THAT(w[0], HasSubstr("rad.txt: theta_deg spans only 0..6.021"));
+  EXPECT_THAT(w[0], HasSubstr("are the angles in radians?"));
+
+  std::string deg = "# columns: theta_deg phi_deg r_mm\n";
+  for (int i = 0; i < 24; ++i) deg += std::to_string(15 * i) + " 90 5.0\n";
+  deg += "30 90 5.0\n";  // sample 25 repeats sample 3
+  std::istringstream in(deg);
+  const std::vector<std::string> d = PlausibilityWarnings(ParsePoints(in, "deg.txt"));
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_THAT(d[0], HasSubstr("deg.txt: 1 sample(s) repeat an earlier one exactly (the first: sample 25)"));
+}
+
 }  // namespace
 }  // namespace sph

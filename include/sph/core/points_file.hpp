@@ -63,6 +63,12 @@ PointsData ReadPointsFile(const std::string& path);
 /// As ReadPointsFile(), from a stream; `source` names it in messages.
 PointsData ParsePoints(std::istream& in, const std::string& source);
 
+/// What looks wrong in readings that parsed well, in words, one warning each: angle columns that
+/// span no more than a radian measure would (theta within 0..2 pi, phi within 0..pi: degrees are
+/// expected, "theta_deg"), and rows that repeat an earlier row exactly (a logger that wrote a
+/// sample twice). Empty when nothing does.
+std::vector<std::string> PlausibilityWarnings(const PointsData& data);
+
 /// Writes `data` in format sph-points 1 (header, then one row a sample). Columns: theta_deg
 /// phi_deg r_mm, then t_s if data.has_time, then setup if data.has_setup.
 void WritePoints(std::ostream& out, const PointsData& data);
