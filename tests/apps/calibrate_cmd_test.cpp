@@ -160,6 +160,32 @@ TEST_F(CalibrateCmd, BadInputCasesExitTwoWithTheirMessage) {
   ExpectBadInput(h + "0 10 5\n90 10 5\n180 10 5\n", ": 3 samples are too few to fit 10 parameters");
 }
 
+// The bad-input matrix: each case one clear message naming the file and exit 2, and no output
+// file left behind.
+TEST_F(CalibrateCmd, BadFilesExitTwoAndLeaveNothingBehind) {
+  const std::string garbage("\x7f" "ELF\x02\x01\x01\0\0\0\xff\xfe\n\x01\x02", 16);
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"", ": no samples"},
+      {kHeader, ": no samples"},
+      {garbage, ":1: "},
+      {std::string(kHeader) + "0 7.5 nan\n", "is not a finite number"},
+      {std::string(kHeader) + "0 7.5 inf\n", "is not a finite number"},
+  };
+  for (const auto& [text, message] : cases) {
+    CalibrateOptions o;
+    o.points_path = WriteFile("bad.txt", text);
+    o.json_path = dir_ + "/report.json";
+    o.output_path = dir_ + "/cal.json";
+    const RunOutput r = Calibrate(o);
+    EXPECT_EQ(r.code, kExitBadInput) << message;
+    EXPECT_THAT(r.err, HasSubstr("sph_calibrate: error: " + o.points_path)) << message;
+    EXPECT_THAT(r.err, HasSubstr(message));
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_TRUE(sph::testing::ReadWholeFile(o.json_path).empty()) << "no report is left behind";
+    EXPECT_TRUE(sph::testing::ReadWholeFile(o.output_path).empty()) << "no calibration is left behind";
+  }
+}
+
 TEST_F(CalibrateCmd, MissingFileAndUnwritableOutputExitTwo) {
   CalibrateOptions o;
   o.points_path = dir_ + "/missing.txt";
@@ -172,6 +198,15 @@ TEST_F(CalibrateCmd, MissingFileAndUnwritableOutputExitTwo) {
   r = Calibrate(o);
   EXPECT_EQ(r.code, kExitBadInput);
   EXPECT_THAT(r.err, HasSubstr("report.json: cannot"));
+
+  // A calibration file into a folder that does not exist, and one that is a folder.
+  o.json_path.clear();
+  for (const std::string& out : {dir_ + "/no/such/dir/cal.json", dir_}) {
+    o.output_path = out;
+    r = Calibrate(o);
+    EXPECT_EQ(r.code, kExitBadInput) << out;
+    EXPECT_THAT(r.err, HasSubstr("sph_calibrate: error: " + out)) << r.err;
+  }
 }
 
 // A measurement with effects the file does not declare: two sphere positions, a Theta encoder

@@ -100,6 +100,21 @@ TEST(MonteCarloCmd, BadOptionsExitTwo) {
   r = RunApp(o);
   EXPECT_EQ(r.code, kExitBadInput);
   EXPECT_THAT(r.err, HasSubstr("--target-std-um goes with --plan"));
+  // Outputs that cannot be written: one message, exit 2, nothing left behind.
+  const std::string dir = sph::testing::MakeTempDir("mccmd_bad");
+  o = MonteCarloOptions();
+  o.trials = 5;
+  o.eccentricities_mm = {2.0};
+  o.json_path = dir + "/no/such/dir/mc.json";
+  o.csv_path = dir + "/mc.csv";
+  r = RunApp(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("mc.json: cannot"));
+  o.json_path.clear();
+  o.csv_path = dir;  // a folder
+  r = RunApp(o);
+  EXPECT_EQ(r.code, kExitBadInput);
+  EXPECT_THAT(r.err, HasSubstr("sph_montecarlo: error: " + dir));
 }
 
 }  // namespace

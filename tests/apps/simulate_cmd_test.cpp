@@ -89,6 +89,24 @@ TEST(SimulateCmd, EffectsGoIntoTheReadingsAndTheTruthButNotTheFile) {
   EXPECT_DOUBLE_EQ(t["form_um"][0]["amplitude_um"].get<double>(), 0.1);
 }
 
+TEST(SimulateCmd, UnwritableOutputsExitTwoAndLeaveNothing) {
+  const std::string dir = sph::testing::MakeTempDir("simcmd_out");
+  for (const std::string& path : {dir + "/no/such/dir/p.txt", dir}) {
+    SimulateOptions o;
+    o.output_path = path;
+    std::ostringstream err;
+    EXPECT_EQ(RunSimulate(o, err), kExitBadInput) << path;
+    EXPECT_THAT(err.str(), HasSubstr("sph_simulate: error: " + path));
+  }
+  SimulateOptions o;
+  o.output_path = dir + "/p.txt";
+  o.truth_path = dir + "/no/such/dir/truth.json";
+  std::ostringstream err;
+  EXPECT_EQ(RunSimulate(o, err), kExitBadInput);
+  EXPECT_THAT(err.str(), HasSubstr("truth.json: cannot"));
+  EXPECT_TRUE(sph::testing::ReadWholeFile(o.output_path).empty()) << "the points file is not written either";
+}
+
 TEST(SimulateCmd, BadEffectsAreRefusedWithTheirOption) {
   const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
       {{"theta_encoder"}, "--effect-arcsec theta_encoder: expected id.param=value"},

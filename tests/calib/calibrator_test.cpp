@@ -224,3 +224,24 @@ TEST(Calibrate, FindsNoOutliersInGaussianNoise) {
 
 }  // namespace
 }  // namespace sph
+
+namespace sph {
+namespace {
+
+// Hostile data: a clear error, never a silently wrong calibration.
+TEST(Calibrate, AllPointsEqualOrOnePhiRingIsAnError) {
+  PointsData equal;
+  equal.source = "equal.txt";
+  for (int i = 0; i < 50; ++i) equal.samples.push_back({10.0, 45.0, 5.0, static_cast<double>(i), 0});
+  EXPECT_THAT([&] { Calibrate(equal, PaperOptions()); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("equal.txt: the points of setup 0 do not determine a sphere")));
+  SimulationSpec ring;
+  ring.pattern = GridPattern(24, 1);  // phi = 90 deg only: all points on one plane
+  PointsData one_ring = Simulate(ring);
+  one_ring.source = "ring.txt";
+  EXPECT_THAT([&] { Calibrate(one_ring, PaperOptions()); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("ring.txt: the points of setup 0 do not determine a sphere")));
+}
+
+}  // namespace
+}  // namespace sph
