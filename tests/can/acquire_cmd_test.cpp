@@ -15,6 +15,7 @@
 #include <sstream>
 #include <thread>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "app_common.hpp"
@@ -413,6 +414,35 @@ TEST(AcquireProcess, AnUnwritableOutputExitsThreeAndLeavesNoFile) {
   EXPECT_EQ(r.code, kExitOutputError) << r.err;
   ASSERT_TRUE(Exists(out));
   EXPECT_EQ(sph::testing::ReadWholeFile(out).rfind(before, 0), 0U);
+}
+
+// sph_cansim's bad-input matrix: each case one message naming the option or file, exit 2 for bad
+// options and 3 for a log that cannot be written (the exit codes of sph_acquired), and no log left
+// behind.
+TEST(CansimCmd, BadOptionsAndUnwritableLogsFailAndLeaveNothing) {
+  const std::string dir = sph::testing::MakeTempDir("cansim_bad");
+  struct Case {
+    void (*edit)(CansimOptions&);
+    int exit;
+    std::string message;
+  };
+  const std::vector<Case> cases{
+      {[](CansimOptions& o) { o.silences = {"probe:1"}; }, kExitBadInput,
+       "--silence 'probe:1': expected device:from_s:to_s"},
+      {[](CansimOptions& o) { o.emergencies = {"theta:1:xyz"}; }, kExitBadInput,
+       "--emcy 'theta:1:xyz': code must be 16-bit hex"},
+      {[](CansimOptions& o) { o.center_mm = "1,2"; }, kExitBadInput, "--center-mm"},
+      {[](CansimOptions& o) { o.output_path += "/no/such/dir/sim.log"; }, kExitOutputError, "sim.log"},
+  };
+  for (const auto& [edit, exit, message] : cases) {
+    CansimOptions o;
+    o.output_path = dir + "/sim.log";
+    edit(o);
+    std::ostringstream err;
+    EXPECT_EQ(RunCansim(o, err), exit) << message;
+    EXPECT_THAT(err.str(), ::testing::HasSubstr(message));
+    EXPECT_TRUE(sph::testing::ReadWholeFile(dir + "/sim.log").empty()) << message;
+  }
 }
 
 }  // namespace
