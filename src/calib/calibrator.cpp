@@ -241,6 +241,18 @@ std::vector<double> ResidualsOf(const PointsData& points, const CalibrationOptio
 
 }  // namespace
 
+std::string DescribeOutliers(const PointsData& points, const std::vector<Outlier>& outliers) {
+  std::string rows;
+  for (const Outlier& o : outliers) {
+    if (rows.size() >= 400) return rows + "; ...";
+    const Sample& s = points.samples[o.sample];
+    rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(o.sample + 1) + " (theta " +
+            Format("%g", s.theta_deg) + " deg, phi " + Format("%g", s.phi_deg) + " deg, residual " +
+            Format("%+.3g", o.residual_um) + " um)";
+  }
+  return rows;
+}
+
 PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& result) {
   PointsData kept = points;
   kept.samples.clear();
@@ -338,21 +350,12 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
   }
   if (result.outliers.empty()) return result;
   result.residuals_mm = ResidualsOf(points, options, result);  // every sample, in file order
-  std::string rows;
-  for (Outlier& o : result.outliers) {
-    o.residual_um = result.residuals_mm[o.sample] * kUmPerMm;
-    if (rows.size() < 400) {
-      const Sample& s = points.samples[o.sample];
-      rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(o.sample + 1) + " (theta " +
-              Format("%g", s.theta_deg) + " deg, phi " + Format("%g", s.phi_deg) + " deg, residual " +
-              Format("%+.3g", o.residual_um) + " um)";
-    }
-  }
+  for (Outlier& o : result.outliers) o.residual_um = result.residuals_mm[o.sample] * kUmPerMm;
   result.warnings.insert(result.warnings.begin(),
                          std::to_string(result.outliers.size()) + " outlier(s) left out of the fit, farther than " +
                              Format("%g", options.outlier_sigma) +
-                             " robust standard deviations from the median residual: " + rows +
-                             (rows.size() >= 400 ? "; ..." : ""));
+                             " robust standard deviations from the median residual: " +
+                             DescribeOutliers(points, result.outliers));
   return result;
 }
 

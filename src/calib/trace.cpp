@@ -255,20 +255,11 @@ void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, c
   CalibrationResult& cal = after.fit.calibration;
   const std::vector<double> residuals = EffectResiduals(all, options, after.fit);
   cal.outliers.clear();
-  std::string rows;
-  for (std::size_t i : outliers) {
-    cal.outliers.push_back({i, residuals[i] * kUmPerMm});
-    if (rows.size() < 400) {
-      const Sample& s = all.samples[i];
-      rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(i + 1) + " (theta " +
-              Format("%g", s.theta_deg) + " deg, phi " + Format("%g", s.phi_deg) + " deg, residual " +
-              Format("%+.3g", residuals[i] * kUmPerMm) + " um)";
-    }
-  }
+  for (std::size_t i : outliers) cal.outliers.push_back({i, residuals[i] * kUmPerMm});
   if (!outliers.empty()) {
     cal.warnings.insert(cal.warnings.begin(), std::to_string(outliers.size()) +
-                                                  " outlier(s) left out of the fit under the final model: " + rows +
-                                                  (rows.size() >= 400 ? "; ..." : ""));
+                                                  " outlier(s) left out of the fit under the final model: " +
+                                                  DescribeOutliers(all, cal.outliers));
   }
   if (outliers.size() < base.outliers.size()) {
     cal.warnings.push_back(std::to_string(base.outliers.size() - outliers.size()) +

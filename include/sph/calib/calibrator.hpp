@@ -81,6 +81,10 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
 /// farther than k robust standard deviations (1.4826 MAD, at least 1 nm) from the median.
 std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, double k);
 
+/// "sample 18 (theta 240 deg, phi 7.5 deg, residual +999 um); ...": the outliers of `points` in
+/// words, cut after about 400 characters.
+std::string DescribeOutliers(const PointsData& points, const std::vector<Outlier>& outliers);
+
 /// `points` without the samples that `result` left out as outliers.
 PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& result);
 
