@@ -8,12 +8,15 @@
 #include <nlohmann/json.hpp>
 
 #include "app_common.hpp"
-#include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::apps {
+
+using internal::Format;
 
 void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& effects) {
   const std::string opt = unit == Quantity::kAngle ? "--effect-arcsec" : "--effect-um";
@@ -31,9 +34,9 @@ void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& ef
   char* end = nullptr;
   const std::string value_text = text.substr(eq + 1);
   const double value = std::strtod(value_text.c_str(), &end);
-  if (value_text.empty() || *end != '\0' || !std::isfinite(value)) {
-    throw Error(opt + " " + text + ": '" + value_text + "' is not a number");
-  }
+  if (value_text.empty() || *end != '\0') throw Error(opt + " " + text + ": '" + value_text + "' is not a number");
+  CheckedValue(value, unit == Quantity::kAngle ? ranges::kEffectArcsec : ranges::kEffectUm, opt + " " + text,
+               value_text);
   EffectComponent comp;
   if (!FindComponent(e, text.substr(0, eq), &comp)) throw Error(opt + " " + text + ": " + id + " has no parameter '" + param + "'");
   int t = effects.model.Find(e);
@@ -62,7 +65,8 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
   AddMachineOptions(app, o.machine);
   app.add_option("--center-mm", o.centers_mm, "Sphere centre x,y,z [mm]; repeat for several setups");
   app.add_option("--seed", o.seed, "Random seed");
-  app.add_option("--sample-period-s", o.sample_period_s, "Time between samples [s]")->check(NonNegative());
+  app.add_option("--sample-period-s", o.sample_period_s, "Time between samples [s]")
+      ->check(InRange({0.0, 86400.0, "s"}));
   app.add_option("--effect-arcsec", o.effects_arcsec,
                  "An angle effect's parameter, id.param=value [arcsec], e.g. theta_encoder.c2=10; repeatable")
       ->group("Effects (not declared in the points file)");
@@ -77,12 +81,16 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
       ->check(CLI::Range(0.0, 1.0))
       ->group("Effects (not declared in the points file)");
   app.add_option("--outlier-um", o.outlier_um, "Size of the gross error (random sign) [um]")
-      ->check(NonNegative())
+      ->check(InRange({0.0, 1e6, "um"}))
       ->group("Effects (not declared in the points file)");
 }
 
 int RunSimulate(const SimulateOptions& o, std::ostream& err) {
   try {
+    RunPaths()
+        .Input("--angles", o.machine.angles_path)
+        .Output("--output", o.output_path)
+        .Output("--truth", o.truth_path);
     SimulationSpec spec = ToSimulationSpec(o.machine);
     spec.centers_mm.clear();
     for (const auto& c : o.centers_mm) spec.centers_mm.push_back(ParseVector3(c, "--center-mm"));
@@ -94,9 +102,10 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
       FormComponent c;
       char tail = 0;
       if (std::sscanf(f.c_str(), "%d,%d,%lf%c", &c.l, &c.m, &c.amplitude_um, &tail) != 3 || c.l < 0 || c.l > 20 ||
-          std::abs(c.m) > c.l || !std::isfinite(c.amplitude_um)) {
+          std::abs(c.m) > c.l) {
         throw Error("--form-um " + f + ": expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l");
       }
+      CheckedValue(c.amplitude_um, ranges::kEffectUm, "--form-um " + f, Format("%g", c.amplitude_um));
       spec.effects.form.push_back(c);
     }
     spec.effects.outlier_fraction = o.outlier_fraction;
@@ -106,6 +115,7 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
     data.header.metadata.emplace_back("generator", "sph_simulate " SPH_VERSION);
     data.header.metadata.emplace_back("seed", std::to_string(o.seed));
 
+    OutputFiles files;
     if (!o.truth_path.empty()) {
       nlohmann::json t;
       t["format"] = "sph-truth";
@@ -147,9 +157,10 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
       t["form_um"] = form;
       t["outliers"] = {{"fraction", o.outlier_fraction}, {"size_um", o.outlier_um}};
       t["n_points"] = data.samples.size();
-      WriteFileAtomically(o.truth_path, [&](std::ostream& f) { f << t.dump(2) << "\n"; });
+      files.Stage(o.truth_path, [&](std::ostream& f) { f << t.dump(2) << "\n"; });
     }
-    WritePointsFile(o.output_path, data);
+    files.Stage(o.output_path, [&](std::ostream& f) { WritePoints(f, data); });
+    files.Commit();
     return kExitOk;
   } catch (const std::exception& e) {
     err << "sph_simulate: error: " << e.what() << "\n";

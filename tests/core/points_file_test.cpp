@@ -117,7 +117,8 @@ TEST(PointsFile, ErrorsNameFileLineAndProblem) {
   EXPECT_THAT(ErrorOf("1 2 x5\n"), HasSubstr("pts.txt:1: column r_mm: 'x5' is not a number"));
   EXPECT_THAT(ErrorOf("1 2 3\n1 nan 3\n"), HasSubstr("pts.txt:2: column phi_deg: 'nan' is not a finite number"));
   EXPECT_THAT(ErrorOf("inf 2 3\n"), HasSubstr("pts.txt:1: column theta_deg: 'inf' is not a finite number"));
-  EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm time\n1 2 3 4\n"),
+  // A bad columns line is named at its own line, not at the first sample.
+  EXPECT_THAT(ErrorOf("# sph-points 1\n# columns: theta_deg phi_deg r_mm time\n1 2 3 4\n"),
               HasSubstr("pts.txt:2: unknown column name 'time'"));
   EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm r_mm\n1 2 3 4\n"), HasSubstr("column 'r_mm' is named twice"));
   EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg\n1 2\n"), HasSubstr("required column 'r_mm' is missing"));
@@ -132,6 +133,47 @@ TEST(PointsFile, ErrorsNameFileLineAndProblem) {
   EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm setup\n1 2 3 1.5\n"),
               HasSubstr("column setup: '1.5' is not an integer"));
   EXPECT_THAT(ErrorOf(std::string("1 2 3\n\0\x01\x02 4\n", 13)), HasSubstr("pts.txt:2: binary data"));
+  EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm setup\n1 2 3 99999999999\n"),
+              HasSubstr("pts.txt:2: column setup: '99999999999' is out of the range of an integer (-2147483648 to "
+                        "2147483647)"));
+  EXPECT_THAT(ErrorOf("1 2 3\n1 2 1e999\n"),
+              HasSubstr("pts.txt:2: column r_mm: '1e999' is out of the range of a double"));
+}
+
+TEST(PointsFile, ALongFieldIsCutInTheMessage) {
+  const std::string field(1 << 20, '7');
+  const std::string message = ErrorOf("1 2 3x" + field + "\n");
+  EXPECT_THAT(message, HasSubstr("pts.txt:1: column r_mm: '3x" + field.substr(0, 38) +
+                                 "...' (1048578 characters) is "
+                                 "not a number"));
+  EXPECT_LT(message.size(), 200u);
+}
+
+TEST(PointsFile, AUtf8ByteOrderMarkIsSkipped) {
+  const PointsData d = Parse("\xEF\xBB\xBF# sph-points 1\n# sphere_radius_mm: 20\n1 2 3\n");
+  EXPECT_EQ(d.header.sphere_radius_mm, 20.0);
+  ASSERT_EQ(d.samples.size(), 1u);
+  EXPECT_EQ(d.sample_lines, std::vector<long>{3});
+}
+
+TEST(PointsFile, ADirectoryIsNamedAsOne) {
+  const std::string dir = sph::testing::MakeTempDir("points_dir");
+  try {
+    ReadPointsFile(dir);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr(dir + ": is a directory, not a file"));
+  }
+}
+
+TEST(PointsFile, AnAbsurdReadingIsNamedByItsLine) {
+  std::string text = std::string(kHeader) + "# columns: theta_deg phi_deg r_mm\n";
+  for (int i = 0; i < 20; ++i) text += std::to_string(15 * i) + " 45 " + (i == 7 ? "1e10" : "4.9") + "\n";
+  const std::vector<std::string> w = PlausibilityWarnings(Parse(text));
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_THAT(w[0], HasSubstr("1 probe reading(s) lie farther from the median reading (4.9 mm) than the sphere's "
+                              "diameter (40 mm)"));
+  EXPECT_THAT(w[0], HasSubstr("pts.txt:12: r_mm 1e+10"));
 }
 
 TEST(PointsFile, MissingFileIsAnError) {

@@ -49,6 +49,11 @@ struct PointsData {
   std::vector<Sample> samples;
   bool has_time = false;   ///< the file had a t_s column
   bool has_setup = false;  ///< the file had a setup column
+  /// The file line of each sample, for messages; empty for data not read from a file.
+  std::vector<long> sample_lines;
+
+  /// "points.txt:120" for sample i (0-based), or "points.txt: sample 115" without line numbers.
+  std::string WhereIs(std::size_t i) const;
 
   /// The distinct setup ids, ascending.
   std::vector<int> SetupIds() const;
@@ -65,15 +70,16 @@ PointsData ParsePoints(std::istream& in, const std::string& source);
 
 /// What looks wrong in readings that parsed well, in words, one warning each: angle columns that
 /// span no more than a radian measure would (theta within 0..2 pi, phi within 0..pi: degrees are
-/// expected, "theta_deg"), and rows that repeat an earlier row exactly (a logger that wrote a
-/// sample twice). Empty when nothing does.
+/// expected, "theta_deg"), rows that repeat an earlier row exactly (a logger that wrote a sample
+/// twice), and probe readings farther from the median reading than any point of the sphere can
+/// be (its diameter, with the header's sphere_radius_mm), named by line. Empty when nothing does.
 std::vector<std::string> PlausibilityWarnings(const PointsData& data);
 
 /// Writes `data` in format sph-points 1 (header, then one row a sample). Columns: theta_deg
 /// phi_deg r_mm, then t_s if data.has_time, then setup if data.has_setup.
 void WritePoints(std::ostream& out, const PointsData& data);
 
-/// WritePoints() to a file, atomically (sph/core/atomic_file.hpp).
+/// WritePoints() to a file, atomically (sph/core/output_files.hpp).
 void WritePointsFile(const std::string& path, const PointsData& data);
 
 /// The header field "key: value" for the radius and offset, and the allowed column names.
