@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "sph/core/error.hpp"
+#include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
@@ -15,13 +16,11 @@ using internal::Format;
 using internal::Quoted;
 
 std::vector<AnglePair> ReadAngles(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open for reading");
+  std::ifstream in = OpenInputFile(path);
+  TextLines lines(in, path, "a file of angles");
   std::vector<AnglePair> out;
   std::string line;
-  long n = 0;
-  while (std::getline(in, line)) {
-    ++n;
+  while (lines.Next(line)) {
     const auto hash = line.find('#');
     if (hash != std::string::npos) line.resize(hash);
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
@@ -29,7 +28,10 @@ std::vector<AnglePair> ReadAngles(const std::string& path) {
     AnglePair a;
     std::string extra;
     if (!(ls >> a.theta_deg >> a.phi_deg) || (ls >> extra) || !std::isfinite(a.theta_deg) || !std::isfinite(a.phi_deg)) {
-      throw Error(path + ":" + std::to_string(n) + ": expected 'theta_deg phi_deg'");
+      throw Error(lines.Where() + "expected 'theta_deg phi_deg'");
+    }
+    if (static_cast<long>(out.size()) == kMaxGridPoints) {
+      throw Error(lines.Where() + "more than " + std::to_string(kMaxGridPoints) + " pattern points");
     }
     out.push_back(a);
   }

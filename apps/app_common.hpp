@@ -16,6 +16,7 @@
 
 #include "sph/core/cleanup.hpp"
 #include "sph/core/output_files.hpp"
+#include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/scms_model.hpp"
 
@@ -81,8 +82,8 @@ inline CLI::Validator NonNegative() {
 
 /// Ranges shared by several apps.
 namespace ranges {
-inline constexpr ValidRange kSphereRadiusMm{0.0, 1000.0, "mm", true};
-inline constexpr ValidRange kProbeOffsetMm{0.0, 10000.0, "mm", true};
+inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};
+inline constexpr ValidRange kProbeOffsetMm{0.0, kMaxProbeOffsetMm, "mm", true};
 /// The seven errors: kScmsParamInfo's bounds, in deg or mm (and |d'| < d).
 constexpr ValidRange ErrorRange(int p) {
   return {-kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report,
@@ -142,6 +143,7 @@ inline int ExitForParseError(const CLI::App& app, const CLI::ParseError& e) {
 template <typename Options, typename Setup, typename Run>
 int AppMain(int argc, char** argv, const char* name, Setup setup, Run run) {
   RemoveTempFilesOnSignals();
+  const StandardOutput standard_output;
   CLI::App app;
   Options options;
   setup(app, options);

@@ -44,6 +44,7 @@ struct SetupResiduals {
           EffectScmsPoint(g, trig, *model, params + 2, readings[i], probe_offset_mm, basis.data() + i * stride);
       const T dx = p[0] - center[0], dy = p[1] - center[1], dz = p[2] - center[2];
       residuals[i] = sqrt(dx * dx + dy * dy + dz * dz) - T(sphere_radius_mm);
+      if (!internal::AllFinite(residuals[i])) return false;
     }
     return true;
   }

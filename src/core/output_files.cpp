@@ -332,11 +332,42 @@ void WriteFileAtomically(const std::string& path, const std::function<void(std::
   files.Commit();
 }
 
-std::string FlushStandardOutput() {
-  errno = 0;
+struct StandardOutput::Buffer : FdStreamBuf {
+  Buffer() : FdStreamBuf(STDOUT_FILENO) {}
+  bool told = false;  // the failure was reported
+};
+
+namespace {
+StandardOutput* g_standard_output = nullptr;
+}  // namespace
+
+StandardOutput::StandardOutput() : buffer_(std::make_unique<Buffer>()) {
   std::cout.flush();
+  saved_ = std::cout.rdbuf(buffer_.get());
+  g_standard_output = this;
+}
+
+StandardOutput::~StandardOutput() {
+  std::cout.flush();
+  std::cout.rdbuf(saved_);
+  g_standard_output = nullptr;
+}
+
+std::string FlushStandardOutput() {
+  std::cout.flush();
+  if (g_standard_output != nullptr) {
+    StandardOutput::Buffer& b = *g_standard_output->buffer_;
+    b.pubsync();
+    std::cout.clear();
+    if (b.error() == 0 || b.told) return "";
+    b.told = true;
+    return ErrnoText(b.error());
+  }
+  errno = 0;
   const bool failed = std::fflush(stdout) != 0 || std::ferror(stdout) != 0 || !std::cout;
   if (!failed) return "";
+  std::clearerr(stdout);
+  std::cout.clear();
   return errno != 0 ? ErrnoText(errno) : "write error";
 }
 

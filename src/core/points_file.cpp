@@ -147,7 +147,9 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
       if (!seen_keys.insert(key).second) fail("header key " + Quoted(key) + " is given twice");
       if (key == kRadiusKey || key == kProbeOffsetKey) {
         const double v = ParseNumber(value, key, fail.where());
+        const double max = key == kRadiusKey ? kMaxSphereRadiusMm : kMaxProbeOffsetMm;
         if (!(v > 0.0)) fail(key + " must be positive, got " + Quoted(value));
+        if (v > max) fail(key + " must be at most " + internal::Format("%g", max) + " mm, got " + Quoted(value));
         (key == kRadiusKey ? data.header.sphere_radius_mm : data.header.probe_offset_mm) = v;
       } else if (key == kColumnsKey) {
         data.header.columns = SplitWhitespace(value);

@@ -86,8 +86,24 @@ class OutputFiles {
 /// Writes one file the way OutputFiles does: complete or absent, "-" standard output.
 void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write);
 
-/// Flushes standard output (std::cout and stdio) and reports a failure that an earlier write
-/// left pending (a full disk, a closed pipe): returns "" or the reason ("No space left on device").
+/// Routes std::cout, while it lives, through a buffer that remembers why its first write failed
+/// (std::cout's own state only says that one did). A program's main() makes one.
+class StandardOutput {
+ public:
+  StandardOutput();
+  ~StandardOutput();  ///< flushes and gives std::cout its own buffer back
+  StandardOutput(const StandardOutput&) = delete;
+  StandardOutput& operator=(const StandardOutput&) = delete;
+
+ private:
+  friend std::string FlushStandardOutput();
+  struct Buffer;
+  std::unique_ptr<Buffer> buffer_;
+  std::streambuf* saved_ = nullptr;
+};
+
+/// Flushes standard output and tells a failure of a write since the last call (a full disk, a
+/// closed pipe): "" or the reason ("No space left on device"). Each failure is told once.
 std::string FlushStandardOutput();
 
 }  // namespace sph

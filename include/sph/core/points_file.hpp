@@ -82,6 +82,10 @@ void WritePoints(std::ostream& out, const PointsData& data);
 /// WritePoints() to a file, atomically (sph/core/output_files.hpp).
 void WritePointsFile(const std::string& path, const PointsData& data);
 
+/// The largest sphere radius R0 and probe zero distance d that files and options accept [mm].
+inline constexpr double kMaxSphereRadiusMm = 1000.0;
+inline constexpr double kMaxProbeOffsetMm = 10000.0;
+
 /// The header field "key: value" for the radius and offset, and the allowed column names.
 inline constexpr const char* kRadiusKey = "sphere_radius_mm";
 inline constexpr const char* kProbeOffsetKey = "probe_offset_mm";
