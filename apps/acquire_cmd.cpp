@@ -230,7 +230,7 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
   int code = kExitOk;
   try {
     code = o.iface.empty() ? RunReplay(ctx) : RunLive(ctx);
-    pipeline.Finish(ctx.signals.stop != 0);
+    pipeline.Finish();
     if (frame_log) frame_log->Close();
     points->Close();
   } catch (const OutputError& e) {

@@ -38,6 +38,13 @@ const char* ToString(DecodeStatus status) {
   return "?";
 }
 
+int PredefinedTpdo(std::uint32_t cob_id, int node_id) {
+  for (int k = 1; k <= 4; ++k) {
+    if (cob_id == 0x080U + 0x100U * static_cast<std::uint32_t>(k) + static_cast<std::uint32_t>(node_id)) return k;
+  }
+  return 0;
+}
+
 void ValidateLayout(const FieldLayout& l, const std::string& what) {
   if (l.width_bytes < 1 || l.width_bytes > 8) {
     throw Error(what + ": width must be 1..8 bytes, got " + std::to_string(l.width_bytes));
