@@ -1,4 +1,7 @@
-// sph_acquired --replay: the pipeline offline, from a candump log.
+// sph_acquired --replay: the master and the pipeline offline, from a candump log. The master
+// runs as it did live, its frames going nowhere: the log holds what it sent, and its answers
+// drive it. A log without the master's NMT commands or SDO requests (recorded while another
+// master ran the bus, or made by sph_cansim -o) is replayed as with --no-nmt or --no-sdo.
 #include <time.h>
 
 #include <cerrno>
@@ -6,6 +9,8 @@
 #include "acquire_internal.hpp"
 #include "app_common.hpp"
 #include "sph/can/candump_log.hpp"
+#include "sph/can/canopen.hpp"
+#include "sph/can/sdo.hpp"
 
 namespace sph::apps {
 namespace {
@@ -45,19 +50,59 @@ std::string CheckReplayLog(const std::string& path) {
   }
 }
 
+// Whether the log holds NMT commands, and SDO requests to the configured nodes.
+struct MasterTraffic {
+  bool nmt = false;
+  bool sdo = false;
+};
+MasterTraffic ScanForMaster(const std::string& path, const can::MasterConfig& master) {
+  MasterTraffic t;
+  can::CandumpReader reader(path);
+  for (;;) {
+    const can::CandumpReader::Result r = reader.Next();
+    if (r.status == can::CandumpReader::Status::kEnd) break;
+    if (r.status != can::CandumpReader::Status::kFrame || r.frame.IsExtended() || r.frame.IsRemote()) continue;
+    if (r.frame.id == can::kNmtCobId && can::DecodeNmt(r.frame)) t.nmt = true;
+    for (const can::MasterNode& n : master.nodes) {
+      if (r.frame.id == can::kSdoRequestBase + static_cast<std::uint32_t>(n.node_id)) t.sdo = true;
+    }
+    if (t.nmt && t.sdo) break;
+  }
+  return t;
+}
+
 int RunReplay(AcquireContext& ctx) {
   std::unique_ptr<can::CandumpReader> reader;
+  can::MasterConfig master = ctx.master_config;
   try {
+    const MasterTraffic traffic = ScanForMaster(ctx.options.replay_path, master);
+    if (master.nmt && !traffic.nmt) {
+      ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no NMT command in it: replayed as with --no-nmt");
+      master.nmt = false;
+      master.configure_pdo = false;
+      master.reset_communication = false;
+    }
+    if (master.sdo && !traffic.sdo) {
+      ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no SDO request in it: replayed as with --no-sdo");
+      master.sdo = false;
+      master.configure_pdo = false;
+    }
     reader = std::make_unique<can::CandumpReader>(ctx.options.replay_path);
   } catch (const std::exception& e) {
     ctx.log(can::LogLevel::kError, e.what());
     return kExitBadInput;
   }
-  ctx.log(can::LogLevel::kInfo, "replaying " + ctx.options.replay_path);
+  ctx.session = std::make_unique<AcquireSession>(ctx.options, ctx.pipeline_config, master, ctx.log,
+                                                 "replay of " + ctx.options.replay_path);
+  AcquireSession& session = *ctx.session;
   const double speed = ctx.options.replay_speed;
-  std::int64_t first_frame_ns = 0, start_mono_ns = 0;
+  std::int64_t first_frame_ns = 0, start_mono_ns = 0, last_ns = 0;
   std::uint64_t n = 0;
   for (;;) {
+    if (session.state() == AcquireSession::State::kStartRefused ||
+        session.state() == AcquireSession::State::kOutputFailed) {
+      return kExitOk;
+    }
     if (ctx.signals.stop) {
       ctx.log(can::LogLevel::kInfo, "stop requested: ending the replay");
       break;
@@ -75,9 +120,10 @@ int RunReplay(AcquireContext& ctx) {
     }
     if (r.status == can::CandumpReader::Status::kEnd) break;
     if (r.status == can::CandumpReader::Status::kMalformed) {
-      ctx.pipeline.OnMalformedInput(r.error);
+      session.OnMalformedInput(r.error);
       continue;
     }
+    if (n == 0) session.Begin(r.frame.t_ns);
     if (speed > 0.0) {
       if (n == 0) {
         first_frame_ns = r.frame.t_ns;
@@ -85,16 +131,21 @@ int RunReplay(AcquireContext& ctx) {
       } else {
         const auto due = start_mono_ns + static_cast<std::int64_t>(static_cast<double>(r.frame.t_ns - first_frame_ns) / speed);
         if (due > MonotonicNs()) {
-          ctx.FlushOutputs();  // idle anyway: make what we have visible
+          session.FlushOutputs();  // idle anyway: make what we have visible
           SleepUntil(due);
         }
       }
     }
-    ctx.LogFrame(r.frame);
-    ctx.pipeline.OnFrame(r.frame);
-    if ((++n & 0xFFF) == 0) ctx.FlushOutputs();
+    session.OnTime(r.frame.t_ns);
+    session.OnFrame(r.frame);
+    last_ns = r.frame.t_ns;
+    if ((++n & 0xFFF) == 0) session.FlushOutputs();
   }
-  ctx.FlushOutputs();
+  // A start the log ends in the middle of: its timeouts run out.
+  if (session.state() == AcquireSession::State::kStarting && !ctx.signals.stop) {
+    session.OnTime(last_ns + 3600LL * 1000000000LL);
+  }
+  if (session.state() == AcquireSession::State::kAcquiring) session.FlushOutputs();
   return kExitOk;
 }
 

@@ -122,12 +122,11 @@ DeviceSimulator::DeviceSimulator(const DeviceSimConfig& config) : config_(config
     auto n = std::make_unique<Node>();
     n->node_id = ids[d];
     n->device = d;
-    const std::uint32_t cob = (d == kTheta ? config_.devices.theta.field
-                               : d == kPhi ? config_.devices.phi.field
-                                           : config_.devices.probe.field)
-                                  .can_id;
-    const int k = n->node_id == 0 ? 0 : PredefinedTpdo(cob, n->node_id);
-    n->tpdo = k == 0 ? 1 : k;
+    const PipelineConfig& dc = config_.devices;
+    const std::uint32_t cob = d == kTheta ? dc.theta.field.can_id
+                              : d == kPhi ? dc.phi.field.can_id
+                                          : dc.probe.field.can_id;
+    n->tpdo = TpdoNumber(d == kTheta ? dc.theta.tpdo : d == kPhi ? dc.phi.tpdo : dc.probe.tpdo, cob, n->node_id);
     for (const RebootEvent& r : config_.faults.reboots) {
       if (r.node_id == n->node_id) n->reboot_at.push_back(start_ns_ + ToNs(r.at_s));
     }

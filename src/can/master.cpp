@@ -111,8 +111,8 @@ std::vector<MasterNode> MasterNodesFor(const PipelineConfig& c) {
     dev.role = DeviceName(d);
     dev.header_key = keys[d];
     dev.field = *fields[d];
-    const int k = PredefinedTpdo(fields[d]->can_id, ids[d]);
-    dev.tpdo = k == 0 ? 1 : k;
+    const int tpdos[] = {c.theta.tpdo, c.phi.tpdo, c.probe.tpdo};
+    dev.tpdo = TpdoNumber(tpdos[d], fields[d]->can_id, ids[d]);
     if (d != kProbe) {
       const EncoderConfig& e = d == kTheta ? c.theta : c.phi;
       dev.encoder = true;

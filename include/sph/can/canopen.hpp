@@ -146,6 +146,7 @@ struct EncoderConfig {
   int direction = 1;                       ///< +1 or -1
   std::int64_t zero_offset_counts = 0;     ///< raw value at angle 0
   bool multi_turn = false;
+  int tpdo = 0;  ///< the TPDO's number (objects 1800h/1A00h + tpdo - 1); 0: PredefinedTpdo() or 1
 };
 
 enum class DecodeStatus {
@@ -188,7 +189,12 @@ struct ProbeConfig {
   std::vector<std::int64_t> error_raw;  ///< further raw values that mean "no valid reading"
   int status_offset_byte = -1;          ///< a status byte in the frame, -1 = none
   std::uint8_t status_error_mask = 0xFF;
+  int tpdo = 0;  ///< as EncoderConfig::tpdo
 };
+
+/// The TPDO number a device's `tpdo` setting means: itself, else the predefined one of its
+/// COB-ID and node, else 1.
+int TpdoNumber(int tpdo, std::uint32_t cob_id, int node_id);
 
 void ValidateProbe(const ProbeConfig& config, const std::string& what);
 DecodedValue DecodeProbe(const ProbeConfig& config, const CanFrame& frame);
