@@ -112,23 +112,59 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
     err << "sph_cansim: error: " << e.what() << "\n";
     return kExitInterfaceError;
   }
-  std::vector<can::CanFrame> pending;  // planned frames, sent at their times
-  std::uint64_t sent = 0, failed = 0;
+  // Planned frames, sent at their times; a synchronous PDO remembers its SYNC, because it must
+  // not go out once its synchronous window has closed (CiA 301, object 1007h): when the next
+  // SYNC came first, or 0.9 periods after its own. A real device drops it then; a simulator
+  // slowed down (an emulated machine) would otherwise answer one SYNC after the next.
+  struct Planned {
+    can::CanFrame frame;
+    std::int64_t sync_ns = 0;
+  };
+  std::vector<Planned> pending;
+  std::vector<can::CanFrame> out;
+  std::uint64_t sent = 0, failed = 0, late = 0;
   const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(c.sync_period_s * 1e9));
   const std::int64_t start_ns = static_cast<std::int64_t>(std::llround(c.start_time_s * 1e9));
   std::int64_t next_sync = external ? std::numeric_limits<std::int64_t>::max() : start_ns;
+  std::int64_t last_sync = 0;
   std::uint8_t counter = 0;
   const std::int64_t end_ns = o.duration_s > 0.0 ? start_ns + static_cast<std::int64_t>(o.duration_s * 1e9)
                                                  : std::numeric_limits<std::int64_t>::max();
-  auto by_time = [](const can::CanFrame& a, const can::CanFrame& b) { return a.t_ns < b.t_ns; };
+  const std::uint32_t pdo_ids[] = {c.devices.theta.field.can_id, c.devices.phi.field.can_id,
+                                   c.devices.probe.field.can_id};
+  // The devices take `frame` (received, or the simulator's own SYNC); their answers are planned.
+  auto deliver = [&](const can::CanFrame& frame) {
+    out.clear();
+    sim.AdvanceTo(frame.t_ns, out);
+    const bool sync = can::DecodeSync(frame, c.devices.sync_cob_id).has_value();
+    if (sync) last_sync = frame.t_ns;
+    const std::size_t before = out.size();
+    sim.OnFrame(frame, out);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      const bool pdo =
+          i >= before && sync && std::find(std::begin(pdo_ids), std::end(pdo_ids), out[i].id) != std::end(pdo_ids);
+      pending.push_back({out[i], pdo ? frame.t_ns : 0});
+    }
+  };
+  auto by_time = [](const Planned& a, const Planned& b) { return a.frame.t_ns < b.frame.t_ns; };
   while (!ProcessSignals().stop) {
-    std::int64_t now = RealtimeNs();
+    // Take every frame queued first: a SYNC waiting in the queue closes the window before.
+    for (int i = 0; i < 64; ++i) {
+      const can::RxResult r = sock->Receive();
+      if (r.status != can::RxStatus::kFrame) break;
+      deliver(r.frame);
+    }
+    const std::int64_t now = RealtimeNs();
     if (now >= end_ns || (sim.finished() && pending.empty())) break;
-    // Send what is due, in time order.
     std::stable_sort(pending.begin(), pending.end(), by_time);
     std::size_t k = 0;
-    for (; k < pending.size() && pending[k].t_ns <= now; ++k) {
-      if (sock->Send(pending[k]) == can::TxStatus::kOk) {
+    for (; k < pending.size() && pending[k].frame.t_ns <= now; ++k) {
+      const Planned& p = pending[k];
+      if (p.sync_ns != 0 && (p.sync_ns < last_sync || now - p.sync_ns > period_ns * 9 / 10)) {
+        ++late;
+        continue;
+      }
+      if (sock->Send(p.frame) == can::TxStatus::kOk) {
         ++sent;
       } else {
         ++failed;
@@ -142,21 +178,22 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
               : std::nullopt,
           c.devices.sync_cob_id);
       sync.t_ns = next_sync;
-      sim.AdvanceTo(next_sync, pending);
-      pending.push_back(sync);
-      sim.OnFrame(sync, pending);
+      pending.push_back({sync, 0});
+      deliver(sync);
       next_sync += period_ns;
       continue;
     }
-    sim.AdvanceTo(now, pending);
+    out.clear();
+    sim.AdvanceTo(now, out);
+    for (const can::CanFrame& f : out) pending.push_back({f, 0});
     std::int64_t wake = std::min({sim.NextEventNs(), next_sync, end_ns});
-    for (const can::CanFrame& f : pending) wake = std::min(wake, f.t_ns);
+    for (const Planned& p : pending) wake = std::min(wake, p.frame.t_ns);
     const std::int64_t wait_ns = std::max<std::int64_t>(0, std::min<std::int64_t>(wake - now, 200000000));
     const can::RxResult r = sock->Receive(static_cast<int>((wait_ns + 999999) / 1000000));
-    if (r.status == can::RxStatus::kFrame) {
-      sim.AdvanceTo(r.frame.t_ns, pending);
-      sim.OnFrame(r.frame, pending);
-    }
+    if (r.status == can::RxStatus::kFrame) deliver(r.frame);
+  }
+  if (late > 0) {
+    err << "sph_cansim: " << late << " PDOs not sent: their synchronous window had closed (the simulator was late)\n";
   }
   err << "sph_cansim: " << o.iface << ": sent " << sent << " frames, " << failed << " failed\n";
   return kExitOk;
