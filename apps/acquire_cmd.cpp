@@ -96,21 +96,14 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
       ->check(CLI::IsMember({"error", "warning", "info", "debug"}));
   app.add_flag("-v,--verbose", o.verbose, "One log level more (repeatable)");
   const std::string m = "CANopen master";
-  auto* no_nmt = app.add_flag("--no-nmt", o.no_nmt, "Send no NMT command: another master starts the devices")->group(m);
-  app.add_flag("--nmt-broadcast", o.nmt_broadcast, "Start all nodes with one NMT command to node 0")
-      ->excludes(no_nmt)
-      ->group(m);
+  // Conflicts are found by MakeMasterConfig: CLI11 counts a flag set false in a config file as given.
+  app.add_flag("--no-nmt", o.no_nmt, "Send no NMT command: another master starts the devices")->group(m);
+  app.add_flag("--nmt-broadcast", o.nmt_broadcast, "Start all nodes with one NMT command to node 0")->group(m);
   app.add_flag("--nmt-reset-comm", o.nmt_reset_comm,
                "First NMT Reset communication, then wait for each node's boot-up message")
-      ->excludes(no_nmt)
       ->group(m);
-  auto* stop = app.add_flag("--nmt-stop-at-exit", o.nmt_stop_at_exit, "At the end, NMT Stop remote node")
-                   ->excludes(no_nmt)
-                   ->group(m);
-  app.add_flag("--nmt-preop-at-exit", o.nmt_preop_at_exit, "At the end, NMT Enter pre-operational")
-      ->excludes(no_nmt)
-      ->excludes(stop)
-      ->group(m);
+  app.add_flag("--nmt-stop-at-exit", o.nmt_stop_at_exit, "At the end, NMT Stop remote node")->group(m);
+  app.add_flag("--nmt-preop-at-exit", o.nmt_preop_at_exit, "At the end, NMT Enter pre-operational")->group(m);
   app.add_flag("--no-sdo", o.no_sdo, "Do not identify or check the devices over SDO (no identity in the header)")
       ->group(m);
   app.add_flag("--trust-config", o.trust_config,
@@ -118,7 +111,6 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
       ->group(m);
   app.add_flag("--configure-pdo", o.configure_pdo,
                "Write each TPDO's COB-ID, transmission type 1 and mapping (pre-operational), verify by reading back")
-      ->excludes(no_nmt)
       ->group(m);
   app.add_option("--sdo-timeout-ms", o.sdo_timeout_ms, "An SDO answer later than this fails the transfer [ms]")
       ->check(CLI::Range(1.0, 60000.0))
@@ -148,6 +140,19 @@ can::PipelineConfig MakePipelineConfig(const AcquireOptions& o) {
 }
 
 can::MasterConfig MakeMasterConfig(const AcquireOptions& o, const can::PipelineConfig& pc) {
+  if (o.no_nmt) {
+    for (const auto& [set, name] : {std::pair{o.nmt_broadcast, "--nmt-broadcast"},
+                                    {o.nmt_reset_comm, "--nmt-reset-comm"},
+                                    {o.nmt_stop_at_exit, "--nmt-stop-at-exit"},
+                                    {o.nmt_preop_at_exit, "--nmt-preop-at-exit"},
+                                    {o.configure_pdo, "--configure-pdo"}}) {
+      if (set) throw Error(std::string("--no-nmt: ") + name + " needs NMT");
+    }
+  }
+  if (o.nmt_stop_at_exit && o.nmt_preop_at_exit) {
+    throw Error("--nmt-stop-at-exit and --nmt-preop-at-exit: give one of them");
+  }
+  if (o.configure_pdo && o.no_sdo) throw Error("--configure-pdo: writing the TPDO settings needs SDO (no --no-sdo)");
   can::MasterConfig m;
   m.nodes = can::MasterNodesFor(pc);
   for (can::MasterNode& n : m.nodes) {

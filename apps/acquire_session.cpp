@@ -152,8 +152,11 @@ void AcquireSession::StartAcquisition(std::int64_t now_ns) {
                                  (master_.config().nmt ? ", the devices started by NMT" : "") + ")");
 }
 
-void AcquireSession::OnFrame(const can::CanFrame& frame) {
+void AcquireSession::OnFrame(const can::CanFrame& received) {
   if (state_ == State::kStartRefused || state_ == State::kOutputFailed) return;
+  // The frame log holds microseconds: a live run works on the same times as its replay.
+  can::CanFrame frame = received;
+  frame.t_ns -= ((frame.t_ns % 1000) + 1000) % 1000;
   if (frame_log_) {
     try {
       frame_log_->Write(frame);

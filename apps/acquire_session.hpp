@@ -46,7 +46,8 @@ class AcquireSession {
   void set_send(std::function<void(const can::CanFrame&)> send) { send_ = std::move(send); }
   /// Starts the master at `now_ns`.
   void Begin(std::int64_t now_ns);
-  /// A received frame (own ones included), in receive order. Throws OutputError.
+  /// A received frame (own ones included), in receive order; its time is taken to the
+  /// microsecond, as the frame log keeps it. Throws OutputError.
   void OnFrame(const can::CanFrame& frame);
   /// Timeouts. Throws OutputError.
   void OnTime(std::int64_t now_ns);

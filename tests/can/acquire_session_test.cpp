@@ -156,7 +156,7 @@ TEST(AcquireSession, RebootedNodesAreRestartedAndTheReplayOfTheLogGivesTheSamePo
   r.output_path = dir + "/replay.txt";
   std::ostringstream err;
   const int code = RunAcquire(r, err);
-  EXPECT_EQ(code, live.session->Losses() > 0 ? kExitSamplesLost : kExitOk) << err.str();
+  EXPECT_EQ(code, live.session->Losses() > 0 ? int{kExitSamplesLost} : int{kExitOk}) << err.str();
   const auto a = Content(o.output_path), b = Content(r.output_path);
   ASSERT_EQ(a.size(), b.size()) << err.str();
   for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a[i], b[i]) << "line " << i;
@@ -207,6 +207,14 @@ TEST(AcquireSession, OptionsForTheMaster) {
   o.no_nmt = true;
   o.configure_pdo = true;
   EXPECT_THROW(MakeMasterConfig(o, MakePipelineConfig(o)), Error);
+  o.configure_pdo = false;
+  o.nmt_stop_at_exit = true;
+  try {
+    MakeMasterConfig(o, MakePipelineConfig(o));
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "--no-nmt: --nmt-stop-at-exit needs NMT");
+  }
 }
 
 }  // namespace
