@@ -263,7 +263,8 @@ void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bo
   const std::uint64_t spans = std::min<std::uint64_t>(missed, kMaxRecovered) + 1;
   const double period = static_cast<double>(next_ns - window_.t_ns) / static_cast<double>(missed + 1);
   const bool placeable = config_.sync_period_s > 0.0 || (config_.sync_counter_max != 0 && window_.counter);
-  std::vector<std::array<Slot, kNumDevices>> cycles(static_cast<std::size_t>(spans));
+  std::vector<std::array<Slot, kNumDevices>>& cycles = scratch_;  // reused: no allocation per SYNC
+  cycles.assign(static_cast<std::size_t>(spans), std::array<Slot, kNumDevices>{});
   for (int d = 0; d < kNumDevices; ++d) {
     const auto di = static_cast<std::size_t>(d);
     const auto& list = window_.pdos[di];

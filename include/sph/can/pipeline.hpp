@@ -202,6 +202,7 @@ class AcquisitionPipeline {
   Callbacks cb_;
   PipelineCounts counts_;
   Window window_;
+  std::vector<std::array<Slot, kNumDevices>> scratch_;  ///< the cycles of the window being resolved
   IncompleteRun run_;
   std::array<Gap, kNumDevices> gaps_{};
   std::optional<std::uint8_t> last_counter_;
