@@ -5,6 +5,8 @@
 #include <time.h>
 
 #include <cerrno>
+#include <limits>
+#include <optional>
 
 #include "acquire_internal.hpp"
 #include "app_common.hpp"
@@ -50,10 +52,12 @@ std::string CheckReplayLog(const std::string& path) {
   }
 }
 
-// Whether the log holds NMT commands, and SDO requests to the configured nodes.
+// Whether the log holds NMT commands, and SDO requests to the configured nodes; when the first
+// of them came.
 struct MasterTraffic {
   bool nmt = false;
   bool sdo = false;
+  std::optional<std::int64_t> first_ns;
 };
 MasterTraffic ScanForMaster(const std::string& path, const can::MasterConfig& master) {
   MasterTraffic t;
@@ -62,10 +66,12 @@ MasterTraffic ScanForMaster(const std::string& path, const can::MasterConfig& ma
     const can::CandumpReader::Result r = reader.Next();
     if (r.status == can::CandumpReader::Status::kEnd) break;
     if (r.status != can::CandumpReader::Status::kFrame || r.frame.IsExtended() || r.frame.IsRemote()) continue;
-    if (r.frame.id == can::kNmtCobId && can::DecodeNmt(r.frame)) t.nmt = true;
+    bool ours = false;
+    if (r.frame.id == can::kNmtCobId && can::DecodeNmt(r.frame)) ours = t.nmt = true;
     for (const can::MasterNode& n : master.nodes) {
-      if (r.frame.id == can::kSdoRequestBase + static_cast<std::uint32_t>(n.node_id)) t.sdo = true;
+      if (r.frame.id == can::kSdoRequestBase + static_cast<std::uint32_t>(n.node_id)) ours = t.sdo = true;
     }
+    if (ours && !t.first_ns) t.first_ns = r.frame.t_ns;
     if (t.nmt && t.sdo) break;
   }
   return t;
@@ -74,8 +80,9 @@ MasterTraffic ScanForMaster(const std::string& path, const can::MasterConfig& ma
 int RunReplay(AcquireContext& ctx) {
   std::unique_ptr<can::CandumpReader> reader;
   can::MasterConfig master = ctx.master_config;
+  MasterTraffic traffic;
   try {
-    const MasterTraffic traffic = ScanForMaster(ctx.options.replay_path, master);
+    traffic = ScanForMaster(ctx.options.replay_path, master);
     if (master.nmt && !traffic.nmt) {
       ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no NMT command in it: replayed as with --no-nmt");
       master.nmt = false;
@@ -97,7 +104,12 @@ int RunReplay(AcquireContext& ctx) {
   AcquireSession& session = *ctx.session;
   const double speed = ctx.options.replay_speed;
   std::int64_t first_frame_ns = 0, start_mono_ns = 0, last_ns = 0;
-  std::uint64_t n = 0;
+  std::uint64_t n = 0, before = 0;
+  // The daemon that recorded the log began just before its first request; a log that another
+  // program (candump) began earlier holds frames the daemon never saw: they are left out.
+  const bool uses_master = master.nmt || master.sdo;
+  const std::int64_t begin_ns =
+      uses_master && traffic.first_ns ? *traffic.first_ns - 10000000 : std::numeric_limits<std::int64_t>::min();
   for (;;) {
     if (session.state() == AcquireSession::State::kStartRefused ||
         session.state() == AcquireSession::State::kOutputFailed) {
@@ -123,7 +135,17 @@ int RunReplay(AcquireContext& ctx) {
       session.OnMalformedInput(r.error);
       continue;
     }
-    if (n == 0) session.Begin(r.frame.t_ns);
+    if (r.frame.t_ns < begin_ns) {
+      ++before;
+      continue;
+    }
+    if (n == 0) {
+      if (before > 0) {
+        ctx.log(can::LogLevel::kInfo, ctx.options.replay_path + ": " + std::to_string(before) +
+                                          " frames before the daemon's first request are left out");
+      }
+      session.Begin(r.frame.t_ns);
+    }
     if (speed > 0.0) {
       if (n == 0) {
         first_frame_ns = r.frame.t_ns;

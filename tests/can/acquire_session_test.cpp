@@ -68,15 +68,16 @@ struct LiveRun {
     sim.set_recording(true);
     session = std::make_unique<AcquireSession>(options, pipeline, master, log, "CAN interface vcan0");
     session->set_send([this](const can::CanFrame& f) { bus.Send(f); });
-    bus.set_host({[this](const can::CanFrame& f) {
-                    session->OnFrame(f);
-                    StartSync();
-                  },
-                  [this](std::int64_t t) {
-                    session->OnTime(t);
-                    StartSync();
-                  },
-                  [this] { return session->NextDeadline(); }});
+    bus_host = {[this](const can::CanFrame& f) {
+                  session->OnFrame(f);
+                  StartSync();
+                },
+                [this](std::int64_t t) {
+                  session->OnTime(t);
+                  StartSync();
+                },
+                [this] { return session->NextDeadline(); }};
+    bus.set_host(bus_host);
   }
   void StartSync() {
     if (!syncing && session->acquiring()) {
@@ -84,8 +85,16 @@ struct LiveRun {
       bus.ProduceSync(bus.now() + 10 * kMs, 10 * kMs, pipeline.sync_counter_max);
     }
   }
-  void Run(std::int64_t until) {
-    session->Begin(kT0);
+  // The daemon begins at `begin_ns` (the bus runs from kT0 on).
+  void Run(std::int64_t until, std::int64_t begin_ns = kT0) {
+    if (begin_ns > kT0) {
+      // Not yet there: the bus runs without the daemon.
+      auto host = bus_host;
+      bus.set_host({});
+      bus.RunUntil(begin_ns);
+      bus.set_host(host);
+    }
+    session->Begin(begin_ns);
     bus.RunUntil(until);
     session->Finish();
   }
@@ -98,8 +107,15 @@ struct LiveRun {
   can::DeviceSimulator sim;
   can::testing::SimBus bus;
   std::unique_ptr<AcquireSession> session;
+  can::testing::SimBus::Host bus_host;
   bool syncing = false;
 };
+
+// The frames on the bus, as candump writes them.
+void WriteBusLog(const can::testing::SimBus& bus, const std::string& path) {
+  std::ofstream out(path);
+  for (const can::CanFrame& f : bus.log()) out << can::FormatCandumpLine(f, "vcan0") << "\n";
+}
 
 // The lines of a points file but its header's source and start time.
 std::vector<std::string> Content(const std::string& path) {
@@ -176,10 +192,7 @@ TEST(AcquireSession, AWrongCountsPerRevolutionRefusesTheStartAndMakesNoFile) {
   EXPECT_EQ(::access(o.can_log_path.c_str(), F_OK), -1);
   // The same start, replayed from a recording of the bus: refused alike, exit 5.
   const std::string log = dir + "/bus.log";
-  {
-    std::ofstream out(log);
-    for (const can::CanFrame& f : live.bus.log()) out << can::FormatCandumpLine(f, "vcan0") << "\n";
-  }
+  WriteBusLog(live.bus, log);
   AcquireOptions r = o;
   r.iface.clear();
   r.replay_path = log;
@@ -189,6 +202,26 @@ TEST(AcquireSession, AWrongCountsPerRevolutionRefusesTheStartAndMakesNoFile) {
   EXPECT_THAT(err.str(), HasSubstr("object 0x6001:00 (measuring units per revolution): the device has 16777216, "
                                    "--theta-counts-per-rev 8192"));
   EXPECT_EQ(::access(o.output_path.c_str(), F_OK), -1);
+}
+
+// candump began 2 s before the daemon: its log holds boot-ups and heartbeats the daemon never
+// saw. Replayed, they are left out and the points file is the daemon's.
+TEST(AcquireSession, TheReplayOfABusLogBegunBeforeTheDaemonLeavesOutWhatItNeverSaw) {
+  const std::string dir = sph::testing::MakeTempDir("acq_buslog");
+  AcquireOptions o = Options(dir);
+  LiveRun live(o, Devices(MakePipelineConfig(o)));
+  live.Run(kT0 + 6000 * kMs, kT0 + 2000 * kMs);
+  ASSERT_EQ(live.session->state(), AcquireSession::State::kAcquiring) << live.err.str();
+  WriteBusLog(live.bus, dir + "/bus.log");
+  AcquireOptions r = Options(dir);
+  r.iface.clear();
+  r.replay_path = dir + "/bus.log";
+  r.can_log_path.clear();
+  r.output_path = dir + "/replay.txt";
+  std::ostringstream err;
+  RunAcquire(r, err);
+  EXPECT_THAT(err.str(), HasSubstr("frames before the daemon's first request are left out"));
+  EXPECT_EQ(Content(o.output_path), Content(r.output_path)) << err.str();
 }
 
 TEST(AcquireSession, OptionsForTheMaster) {
