@@ -258,36 +258,35 @@ void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
   for (std::size_t i = 0; i < 8; ++i) {
     od.SetUnsigned({n.Map(), static_cast<std::uint8_t>(i + 1)}, i < entries.size() ? entries[i] : 0, 4, A::kReadWrite);
   }
-  n.server =
-      std::make_unique<SdoServer>(n.node_id, &n.od, [this, &n](ObjectAddress o, const std::vector<std::uint8_t>& v) {
-        const bool comm = o.index == n.Comm(), map = o.index == n.Map();
-        if (!comm && !map) return std::uint32_t{0};
-        if (n.st == Node::St::kOperational) return kAbortDeviceState;
-        const std::uint64_t value = LittleEndianValue(v);
-        if (comm && o.subindex == 1) {
-          const std::uint64_t old = n.od.Unsigned(o);
-          const bool old_valid = (old & 0x80000000U) == 0, new_valid = (value & 0x80000000U) == 0;
-          if (old_valid && new_valid && (old & 0x3FFFFFFFU) != (value & 0x3FFFFFFFU)) return kAbortInvalidValue;
-        } else if (comm && o.subindex == 2) {
-          if (value >= 241 && value <= 251) return kAbortInvalidValue;
-        } else if (map && o.subindex == 0) {
-          if (value > 8) return kAbortPdoLength;
-          int bits = 0;
-          for (std::uint64_t sub = 1; sub <= value; ++sub)
-            bits += static_cast<int>(n.od.Unsigned({o.index, static_cast<std::uint8_t>(sub)}) & 0xFF);
-          if (bits > 64) return kAbortPdoLength;
-        } else if (map) {
-          if (n.od.Unsigned({o.index, 0}) != 0) return kAbortUnsupportedAccess;
-          const ObjectAddress target{static_cast<std::uint16_t>(value >> 16),
-                                     static_cast<std::uint8_t>((value >> 8) & 0xFF)};
-          const int bits = static_cast<int>(value & 0xFF);
-          if (IsDummy(target.index)) return bits == DummyBits(target.index) ? std::uint32_t{0} : kAbortNotMappable;
-          const ObjectDictionary::Entry* e = n.od.Find(target);
-          if (e == nullptr) return kAbortNoObject;
-          if (!e->mappable || static_cast<int>(8 * e->value.size()) != bits) return kAbortNotMappable;
-        }
-        return std::uint32_t{0};
-      });
+  n.server = std::make_unique<SdoServer>(n.node_id, &n.od, [&n](ObjectAddress o, const std::vector<std::uint8_t>& v) {
+    const bool comm = o.index == n.Comm(), map = o.index == n.Map();
+    if (!comm && !map) return std::uint32_t{0};
+    if (n.st == Node::St::kOperational) return kAbortDeviceState;
+    const std::uint64_t value = LittleEndianValue(v);
+    if (comm && o.subindex == 1) {
+      const std::uint64_t old = n.od.Unsigned(o);
+      const bool old_valid = (old & 0x80000000U) == 0, new_valid = (value & 0x80000000U) == 0;
+      if (old_valid && new_valid && (old & 0x3FFFFFFFU) != (value & 0x3FFFFFFFU)) return kAbortInvalidValue;
+    } else if (comm && o.subindex == 2) {
+      if (value >= 241 && value <= 251) return kAbortInvalidValue;
+    } else if (map && o.subindex == 0) {
+      if (value > 8) return kAbortPdoLength;
+      int bits = 0;
+      for (std::uint64_t sub = 1; sub <= value; ++sub)
+        bits += static_cast<int>(n.od.Unsigned({o.index, static_cast<std::uint8_t>(sub)}) & 0xFF);
+      if (bits > 64) return kAbortPdoLength;
+    } else if (map) {
+      if (n.od.Unsigned({o.index, 0}) != 0) return kAbortUnsupportedAccess;
+      const ObjectAddress target{static_cast<std::uint16_t>(value >> 16),
+                                 static_cast<std::uint8_t>((value >> 8) & 0xFF)};
+      const int bits = static_cast<int>(value & 0xFF);
+      if (IsDummy(target.index)) return bits == DummyBits(target.index) ? std::uint32_t{0} : kAbortNotMappable;
+      const ObjectDictionary::Entry* e = n.od.Find(target);
+      if (e == nullptr) return kAbortNoObject;
+      if (!e->mappable || static_cast<int>(8 * e->value.size()) != bits) return kAbortNotMappable;
+    }
+    return std::uint32_t{0};
+  });
   n.st = Node::St::kPreOp;
   n.boot_at = kNever;
   n.syncs_seen = 0;
