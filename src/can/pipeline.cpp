@@ -283,8 +283,12 @@ void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bo
           continue;
         }
       } else if (missed > 0) {
+        if (!(period > 0.0)) {  // the SYNCs' times do not advance (a log's): no period to place it in
+          ++counts_.unplaced;
+          continue;
+        }
         const double x = std::floor(static_cast<double>(a.t_ns - window_.t_ns) / period);
-        k = x <= 0.0 ? 0 : std::min<std::uint64_t>(static_cast<std::uint64_t>(x), missed);
+        k = x <= 0.0 ? 0 : static_cast<std::uint64_t>(std::min(x, static_cast<double>(missed)));
       }
       if (k >= spans) continue;
       Slot& s = cycles[static_cast<std::size_t>(k)][di];

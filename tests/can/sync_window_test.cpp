@@ -194,6 +194,21 @@ TEST(SyncWindow, CounterAndTimeTogetherTellGapsLongerThanTheCounter) {
   EXPECT_EQ(p.counts().missed_syncs, 22U);
 }
 
+// A log whose SYNC times do not advance while the counter says one was missed: nothing to split
+// the window by, so its PDOs are not used (found by the fuzzer: this divided by zero).
+TEST(SyncWindow, SyncsWhoseTimeDoesNotAdvanceLeaveTheirPdosUnplaced) {
+  const PipelineConfig c = Config(0.0, 10);
+  Sink sink;
+  AcquisitionPipeline p(c, sink.Callbacks());
+  p.OnFrame(Sync(T(0), 1));
+  for (int d = 0; d < kNumDevices; ++d) p.OnFrame(Pdo(c, d, 0, T(0)));
+  p.OnFrame(Sync(T(0), 3));  // the same time, one SYNC missed
+  p.Finish();
+  EXPECT_TRUE(sink.samples.empty());
+  EXPECT_EQ(p.counts().unplaced, 3U);
+  EXPECT_EQ(p.counts().missed_syncs, 1U);
+}
+
 TEST(SyncWindow, ARebootIsAGapInTheFile) {
   const PipelineConfig c = Config(0.001, 0);
   Sink sink;
