@@ -45,8 +45,10 @@ void Logger::operator()(can::LogLevel level, const std::string& text) const {
 }
 
 void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
-  app.description("Acquire SCMS samples from CANopen encoders and a probe over SocketCAN (or replay a candump log) "
-                  "into an sph-points 1 file, appending record by record.");
+  app.description(
+      "Acquire SCMS samples from CANopen encoders and a probe over SocketCAN (or replay a candump log) "
+      "into an sph-points 1 file, appending record by record. As CANopen master it starts the devices "
+      "(NMT), identifies and checks them (SDO) and restarts a node that reboots.");
   app.option_defaults()->always_capture_default();
   app.set_config("--config", "", "Read options from this file (TOML/INI, 'name = value'; see data/sph_acquired.conf)");
   auto* iface = app.add_option("-i,--iface", o.iface, "CAN interface to acquire from (live)");

@@ -261,6 +261,7 @@ int RunLive(AcquireContext& ctx) {
     for (const can::CanFrame& f : session.master().CommandAll(command)) sock->Send(f);
     ctx.log(can::LogLevel::kInfo, "NMT " + can::NmtCommandName(static_cast<std::uint8_t>(command)) + " sent");
   }
+  session.set_send(nullptr);  // the socket goes with this function; the session lives on
   pthread_sigmask(SIG_UNBLOCK, &blocked, nullptr);
   if (produce && timer) {
     ctx.log(can::LogLevel::kInfo, "SYNC sent " + std::to_string(syncs_sent) + ", timer overruns " +

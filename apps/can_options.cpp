@@ -9,8 +9,9 @@ namespace {
 void AddEncoder(CLI::App& app, const std::string& name, EncoderOptions& e) {
   const std::string g = "Devices";
   const std::string axis = name == "theta" ? "Theta" : "Phi";
-  app.add_option("--" + name + "-node", e.node, axis + " encoder: CANopen node id (heartbeat, EMCY); 0: none")
-      ->check(CLI::Range(0, 127))->group(g);
+  app.add_option("--" + name + "-node", e.node, axis + " encoder: CANopen node id (NMT, SDO, heartbeat, EMCY); 0: none")
+      ->check(CLI::Range(0, 127))
+      ->group(g);
   app.add_option("--" + name + "-cob-id", e.cob_id, axis + " encoder: TPDO COB-ID carrying the position (0x6004)")
       ->check(CLI::Range(1, 0x7FF))->group(g);
   app.add_option("--" + name + "-offset-byte", e.offset_byte, axis + " encoder: first byte of the position in the PDO")
@@ -54,8 +55,10 @@ void AddDeviceOptions(CLI::App& app, DeviceOptions& o) {
   AddEncoder(app, "theta", o.theta);
   AddEncoder(app, "phi", o.phi);
   const std::string g = "Devices";
-  app.add_option("--probe-node", o.probe_node, "Probe: CANopen node id (heartbeat, EMCY); 0: a sensor with its own frames")
-      ->check(CLI::Range(0, 127))->group(g);
+  app.add_option("--probe-node", o.probe_node,
+                 "Probe: CANopen node id (NMT, SDO, heartbeat, EMCY); 0: a sensor with its own frames")
+      ->check(CLI::Range(0, 127))
+      ->group(g);
   app.add_option("--probe-cob-id", o.probe_cob_id, "Probe: CAN id of the frame carrying the reading")->group(g);
   app.add_flag("--probe-extended-id", o.probe_extended_id, "Probe: the id is a 29-bit (extended) id")->group(g);
   app.add_option("--probe-offset-byte", o.probe_offset_byte, "Probe: first byte of the reading")
