@@ -267,5 +267,32 @@ check "candump: 6001h read (601#40 01 60 00 ...) and answered 2^24 (581#43 01 60
 check "no node was started (no NMT Start on the bus)" test "$(grep -c -F ' 000#01' bus8.log)" -eq 0
 check "no points file" test ! -e wrong.txt
 
+echo "== 9. an event-driven TPDO: refused, then written to synchronous by --configure-pdo"
+"${SIM[@]}" --sync-source external --sync-period-ms 10 --transmission-type 254 2>sim9.err &
+sim_pid=$!
+sleep 1
+./sph_acquired --iface vcan0 -o event.txt --sync-period-ms 10 --duration-s 3 2>acq9a.err
+rc_a=$?
+candump -L vcan0 >bus9.log &
+cd_pid=$!
+sleep 0.2
+./sph_acquired --iface vcan0 -o configured.txt --sync-period-ms 10 --duration-s 4 --configure-pdo 2>acq9b.err
+rc_b=$?
+sleep 0.2
+kill $cd_pid 2>/dev/null; wait $cd_pid
+kill $sim_pid 2>/dev/null; wait $sim_pid
+grep -m1 'transmission type' acq9a.err | sed 's/^/   /'
+check "without --configure-pdo: exit 5, got $rc_a" test "$rc_a" -eq 5
+check "the message names the object and both values" grep -q \
+  'node 1 (theta): object 0x1800:02 (TPDO1 transmission type): the device has 254 (event-driven, manufacturer-specific), the daemon needs 1' \
+  acq9a.err
+check "with --configure-pdo: exit $rc_b (0 or 1)" test "$rc_b" -le 1
+check "candump: Enter pre-operational (000#80 01), then the COB-ID made invalid (601#23 00 18 01 81 01 00 80)" \
+  test -n "$(grep -m1 -F ' 000#8001' bus9.log)" -a -n "$(grep -m1 -F ' 601#2300180181010080' bus9.log)"
+check "candump: transmission type 1 written (601#2F 00 18 02 01) and confirmed (581#60 00 18 02)" \
+  test -n "$(grep -m1 -F ' 601#2F00180201000000' bus9.log)" -a -n "$(grep -m1 -F ' 581#6000180200000000' bus9.log)"
+check "... read back as 1 (581#4F 00 18 02 01)" grep -q -F ' 581#4F00180201000000' bus9.log
+check "rows from the configured devices: $(rows configured.txt)" test "$(rows configured.txt)" -ge 150
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
