@@ -147,22 +147,38 @@ void AcquisitionPipeline::OnFrame(const CanFrame& frame) {
   CheckHeartbeats(frame.t_ns);
 }
 
-std::uint64_t AcquisitionPipeline::MissedBefore(const CanFrame& frame, const SyncInfo& sync) const {
+std::uint64_t AcquisitionPipeline::MissedBefore(const CanFrame& frame, const SyncInfo& sync) {
   if (!have_sync_) return 0;
   std::optional<std::uint64_t> by_counter, by_time;
   if (config_.sync_counter_max != 0 && sync.counter && last_counter_) {
     by_counter = static_cast<std::uint64_t>(MissedSyncs(*last_counter_, *sync.counter, config_.sync_counter_max));
   }
-  if (config_.sync_period_s > 0.0) {
-    const double gap = static_cast<double>(frame.t_ns - last_sync_ns_) * 1e-9 / config_.sync_period_s;
+  // The period: configured, else as observed between SYNCs that followed each other.
+  const double period_s =
+      config_.sync_period_s > 0.0 ? config_.sync_period_s : static_cast<double>(observed_period_ns_) * 1e-9;
+  const std::int64_t interval_ns = frame.t_ns - last_sync_ns_;
+  if (period_s > 0.0) {
+    const double gap = static_cast<double>(interval_ns) * 1e-9 / period_s;
     by_time = gap > 1.5 ? static_cast<std::uint64_t>(std::llround(gap)) - 1 : 0;
   }
+  std::uint64_t missed = by_counter ? *by_counter : by_time.value_or(0);
   if (by_counter && by_time) {  // the counter's residue, the time's magnitude
     const double m = config_.sync_counter_max;
     const double turns = std::round((static_cast<double>(*by_time) - static_cast<double>(*by_counter)) / m);
-    return *by_counter + (turns > 0.0 ? static_cast<std::uint64_t>(turns) * config_.sync_counter_max : 0);
+    missed = *by_counter + (turns > 0.0 ? static_cast<std::uint64_t>(turns) * config_.sync_counter_max : 0);
+    // More SYNCs missed than fit in the time: the producer restarted its counter (as after an
+    // NMT reset). A paused producer, whose counter did not move, is the other way round.
+    if (missed > *by_time + 1) {
+      ++counts_.counter_jumps;
+      LogLimited(counts_.counter_jumps, LogLevel::kWarning,
+                 "the SYNC counter went from " + std::to_string(*last_counter_) + " to " +
+                     std::to_string(*sync.counter) + " in " + TimeText(interval_ns) +
+                     " s: a restarted counter, not missed SYNCs");
+      missed = *by_time;
+    }
   }
-  return by_counter ? *by_counter : by_time.value_or(0);
+  if (missed == 0 && interval_ns > 0) observed_period_ns_ = interval_ns;
+  return missed;
 }
 
 void AcquisitionPipeline::OnSync(const CanFrame& frame, const SyncInfo& sync) {

@@ -194,6 +194,26 @@ TEST(SyncWindow, CounterAndTimeTogetherTellGapsLongerThanTheCounter) {
   EXPECT_EQ(p.counts().missed_syncs, 22U);
 }
 
+// A SYNC producer that restarts its counter (as after an NMT reset) between two SYNCs one period
+// apart: not missed SYNCs, else the window would be cut into pieces too small for its PDOs.
+TEST(SyncWindow, ACounterThatRestartsIsTakenByTheTime) {
+  for (const double period : {0.001, 0.0}) {  // configured, or as observed
+    const PipelineConfig c = Config(period, 10);
+    Sink sink;
+    AcquisitionPipeline p(c, sink.Callbacks());
+    const std::uint8_t counters[] = {4, 5, 1, 2};  // 5 -> 1: restarted
+    for (int k = 0; k < 4; ++k) {
+      p.OnFrame(Sync(T(k), counters[k]));
+      for (int d = 0; d < kNumDevices; ++d) p.OnFrame(Pdo(c, d, k, T(k) + (d + 1) * 100000));
+    }
+    p.Finish();
+    EXPECT_EQ(sink.samples.size(), 4U) << period;
+    EXPECT_EQ(p.counts().missed_syncs, 0U) << period;
+    EXPECT_EQ(p.counts().counter_jumps, 1U) << period;
+    EXPECT_THAT(sink.logs, Contains(HasSubstr("the SYNC counter went from 5 to 1 in 0.001000 s: a restarted counter")));
+  }
+}
+
 // A log whose SYNC times do not advance while the counter says one was missed: nothing to split
 // the window by, so its PDOs are not used (found by the fuzzer: this divided by zero).
 TEST(SyncWindow, SyncsWhoseTimeDoesNotAdvanceLeaveTheirPdosUnplaced) {

@@ -9,7 +9,9 @@
 // The sample's time is the SYNC's receive time. A window is resolved when the next SYNC arrives
 // (or at the end): only then is it known how many SYNC cycles it spans. SYNCs that never arrived
 // are found by a gap in the SYNC counter (CiA 301 §7.2.5, object 1019h) or by more than 1.5
-// periods without SYNC; both together tell gaps longer than the counter's range. A window that
+// periods (configured, else as observed) without SYNC; both together tell gaps longer than the
+// counter's range, and a counter that jumps further than the time allows (a producer that
+// restarted its counter) is taken by the time. A window that
 // spans m + 1 cycles (m SYNCs missed) is split in time: a PDO belongs to the cycle in whose
 // period it arrived (a synchronous PDO is sent within its SYNC's synchronous window, CiA 301
 // object 1007h, which is at most the period), or, when the device maps the SYNC counter into
@@ -79,6 +81,7 @@ struct PipelineCounts {
   std::uint64_t incomplete_cycles = 0;
   std::uint64_t missed_syncs = 0;        ///< SYNCs that never arrived (counter or time gaps)
   std::uint64_t recovered = 0;           ///< of those, cycles whose PDOs all came: samples
+  std::uint64_t counter_jumps = 0;       ///< SYNC counters that jumped further than the time allows
   std::array<std::uint64_t, kNumDevices> missing{};   ///< cycles without a frame from the device
   std::array<std::uint64_t, kNumDevices> flagged{};   ///< values out of range or device errors
   std::array<std::uint64_t, kNumDevices> malformed{}; ///< frames too short for the configured field
@@ -181,7 +184,8 @@ class AcquisitionPipeline {
   /// Resolves the open window into 1 + `missed` cycles; `next_ns` is the next SYNC's time. With
   /// `last` (the end) an incomplete cycle is cut, not counted as incomplete.
   void Resolve(std::uint64_t missed, std::int64_t next_ns, bool last = false);
-  std::uint64_t MissedBefore(const CanFrame& frame, const SyncInfo& sync) const;
+  /// SYNCs missed before `frame` (see the file comment); remembers the period it observes.
+  std::uint64_t MissedBefore(const CanFrame& frame, const SyncInfo& sync);
   /// Why a cycle with these slots is no sample ("theta no frame, probe 2 PDOs"); "" for a sample.
   std::string Reason(const std::array<Slot, kNumDevices>& slots) const;
   void EmitCycle(const std::array<Slot, kNumDevices>& slots, std::int64_t t_ns);
@@ -207,6 +211,7 @@ class AcquisitionPipeline {
   std::array<Gap, kNumDevices> gaps_{};
   std::optional<std::uint8_t> last_counter_;
   std::int64_t last_sync_ns_ = 0;
+  std::int64_t observed_period_ns_ = 0;  ///< the last interval between two SYNCs that followed
   bool have_sync_ = false;
   std::int64_t start_ns_ = 0;
   std::vector<Node> nodes_;
