@@ -143,6 +143,33 @@ TEST(SimulateCmd, MountRotationsFormsAndScanOrders) {
   }
 }
 
+TEST(SimulateCmd, TheSeparationExampleIsWhatItsCommandMakes) {
+  // data/example/separation/points.txt, made again with the options data/README.md gives for it.
+  const std::string dir = sph::testing::MakeTempDir("simcmd_example");
+  SimulateOptions o;
+  o.output_path = dir + "/points.txt";
+  o.centers_mm = {"2,0,0", "0,2,0", "-2,0,0", "2,0,0"};
+  o.mount_rotations_deg = {"1:0,0,90", "2:0,0,180", "3:90,0,0"};
+  o.scan_orders = {"1:serpentine", "2:columns", "3:shuffled"};
+  o.form_um = {"2,0,0.062",  "2,2,-0.049", "3,1,0.049",  "3,-3,0.037", "4,0,-0.043", "4,2,0.031", "5,-2,0.037",
+               "5,4,-0.025", "6,1,0.031",  "6,-5,0.025", "7,3,-0.025", "8,0,0.025",  "8,-6,0.019"};
+  o.effects_arcsec = {"theta_encoder.c3=5"};
+  o.effects_um = {"probe_drift.t1=0.4"};
+  o.seed = 11;
+  std::ostringstream err;
+  ASSERT_EQ(RunSimulate(o, err), kExitOk) << err.str();
+  const PointsData made = ReadPointsFile(o.output_path);
+  const PointsData example = ReadPointsFile(SPH_SOURCE_DIR "/data/example/separation/points.txt");
+  EXPECT_EQ(made.header.mount_rotations, example.header.mount_rotations);
+  EXPECT_EQ(example.header.mount_rotations.at(3), MountRotation::Known(Eigen::Vector3d(90, 0, 0)));
+  ASSERT_EQ(made.samples.size(), example.samples.size());
+  for (std::size_t i = 0; i < made.samples.size(); ++i) {
+    EXPECT_EQ(made.samples[i].theta_deg, example.samples[i].theta_deg) << i;
+    EXPECT_EQ(made.samples[i].setup, example.samples[i].setup) << i;
+    EXPECT_NEAR(made.samples[i].r_mm, example.samples[i].r_mm, 2e-10) << i;  // the last of 10 decimals
+  }
+}
+
 TEST(SimulateCmd, BadSphereOptionsNameTheOption) {
   const std::vector<std::pair<std::function<void(SimulateOptions&)>, std::string>> cases{
       {[](SimulateOptions& o) { o.mount_rotations_deg = {"0,0,90"}; },

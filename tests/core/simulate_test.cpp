@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
+#include "sph/model/scms_model.hpp"
 #include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
 #include "test_util.hpp"
@@ -419,6 +420,39 @@ TEST(Simulate, MountRotationsGoIntoTheHeaderAndTheReadings) {
     EXPECT_THAT(err.what(),
                 ::testing::HasSubstr("a mount rotation is given for setup 3, but the 3 setup(s) are 0 to 2"));
   }
+}
+
+TEST(Simulate, ReadingsLieOnTheTurnedFormBearingSurfaceSeenThroughTheModel) {
+  // Noise-free readings of the Table 1 machine, mapped back to points by the model header's
+  // forward model (Eq. 1), lie on the surface of each setup: |p - O| = rho(R^T (p - O) / |p - O|),
+  // with rho written here from the model's harmonics, the bump's Gaussian and the flat's plane.
+  SimulationSpec spec;
+  spec.noise_r_um = 0.0;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(2, 0, 0)};
+  spec.mount_rotations_deg = {{1, Eigen::Vector3d(0, 0, 90)}, {2, Eigen::Vector3d(90, 0, 0)}};
+  spec.scan_orders = {{2, ScanOrder::kShuffled}};
+  spec.effects.form = {{2, 2, 0.3}, {5, -3, 0.1}};
+  spec.effects.bumps = {{0.4, 10.0, Eigen::Vector3d(0, 1, 0)}};
+  spec.effects.flats = {{1.0, Eigen::Vector3d(0, 0, 1)}};
+  const PointsData d = Simulate(spec);
+  const ScmsGeometry g = SimulationSpec::PaperTruth();
+  const double w = 10.0 * kPi / 180.0;
+  double worst = 0.0;
+  for (const Sample& s : d.samples) {
+    const Eigen::Vector3d x =
+        ScmsPoint(g, s.theta_deg * kPi / 180.0, s.phi_deg * kPi / 180.0, s.r_mm, 25.0) - spec.centers_mm[s.setup];
+    const Eigen::Vector3d rv = s.setup == 0 ? Eigen::Vector3d::Zero() : spec.mount_rotations_deg.at(s.setup);
+    const Eigen::Vector3d u =
+        (s.setup == 0 ? Eigen::Matrix3d::Identity() : HandRotation(rv)).transpose() * x.normalized();
+    const double lon = std::atan2(u.y(), u.x());
+    const double gamma = std::acos(std::clamp(u.y(), -1.0, 1.0));
+    const double h_um = 0.3 * SchmidtHarmonic(2, 2, lon, u.z()) + 0.1 * SchmidtHarmonic(5, -3, lon, u.z()) +
+                        0.4 * std::exp(-gamma * gamma / (2 * w * w));
+    double rho = 20.0 + 1e-3 * h_um;
+    if (u.z() > 0.0) rho = std::min(rho, (20.0 - 1e-3) / u.z());
+    worst = std::max(worst, std::abs(x.norm() - rho));
+  }
+  EXPECT_LT(worst, 1e-11);  // the 10 decimals of a points file are not involved: PointsData in memory
 }
 
 TEST(Simulate, RefusesFormsThatCannotBeASurface) {
