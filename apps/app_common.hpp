@@ -96,6 +96,11 @@ inline constexpr ValidRange kCenterMm{-1000.0, 1000.0, "mm"};  ///< each coordin
 inline constexpr ValidRange kEffectArcsec{-kMaxEffectArcsec, kMaxEffectArcsec, "arcsec"};
 inline constexpr ValidRange kEffectUm{-kMaxEffectUm, kMaxEffectUm, "um"};
 inline constexpr ValidRange kStdUm{0.0, 1e6, "um", true};
+/// The sphere on its mount and its form (sph_simulate).
+inline constexpr ValidRange kMountRotationDeg{-360.0, 360.0, "deg"};  ///< each component of a rotation vector
+inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
+inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
+inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
 }  // namespace ranges
 
 /// The most grid points (theta steps times phi rings) a simulation makes: 10 million.

@@ -49,12 +49,6 @@ std::vector<std::string> SplitWhitespace(const std::string& s) {
   return out;
 }
 
-bool IsKey(const std::string& s) {
-  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
-  });
-}
-
 // Throws "<source>:<line>: <what>".
 class LineError {
  public:
@@ -67,6 +61,42 @@ class LineError {
 };
 
 }  // namespace
+
+bool IsHeaderKey(std::string_view key) {
+  const auto is_name_char = [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  };
+  const auto at = key.find('@');
+  const std::string_view name = key.substr(0, at);
+  if (name.empty() || !std::all_of(name.begin(), name.end(), is_name_char)) return false;
+  if (at == std::string_view::npos) return true;
+  const std::string_view setup = key.substr(at + 1);
+  return !setup.empty() && setup.find_first_of(" \t\r") == std::string_view::npos;
+}
+
+std::string MountRotationKey(int setup) { return std::string(kMountRotationKey) + "@" + std::to_string(setup); }
+
+std::string MountRotationValue(const MountRotation& rotation) {
+  if (!rotation.known()) return "unknown";
+  const Eigen::Vector3d& v = *rotation.rotation_deg;
+  return internal::Shortest(v.x()) + " " + internal::Shortest(v.y()) + " " + internal::Shortest(v.z());
+}
+
+MountRotation ParseMountRotation(const std::string& value, const std::string& key, const std::string& where) {
+  const std::vector<std::string> words = SplitWhitespace(value);
+  if (words.size() == 1 && words[0] == "unknown") return MountRotation::Unknown();
+  if (words.size() != 3) {
+    throw Error(where + key +
+                ": expected 'rx ry rz' (a rotation vector in deg, axis times angle) or 'unknown', found " +
+                std::to_string(words.size()) + (words.size() == 1 ? " value" : " values"));
+  }
+  Eigen::Vector3d v;
+  constexpr std::array<const char*, 3> kNames{"rx", "ry", "rz"};
+  for (int i = 0; i < 3; ++i) {
+    v(i) = ParseNumber(words[static_cast<std::size_t>(i)], key + " " + kNames[static_cast<std::size_t>(i)], where);
+  }
+  return MountRotation::Known(v);
+}
 
 std::vector<int> PointsData::SetupIds() const {
   std::set<int> ids;
@@ -88,6 +118,7 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
   PointsData data;
   data.source = source;
   std::set<std::string> seen_keys;
+  std::map<int, long> mount_lines;  // the header line of each setup's mount rotation
   std::vector<long> key_lines;
   std::array<int, kNumColumns> index{};  // file column index of each known column, -1 if absent
   index.fill(-1);
@@ -142,10 +173,24 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
       const auto colon = body.find(':');
       if (colon == std::string::npos) continue;  // a plain comment
       const std::string key = Trim(body.substr(0, colon));
-      if (!IsKey(key)) continue;  // prose that happens to contain a colon
+      if (!IsHeaderKey(key)) continue;  // prose that happens to contain a colon
       const std::string value = Trim(body.substr(colon + 1));
       if (!seen_keys.insert(key).second) fail("header key " + Quoted(key) + " is given twice");
-      if (key == kRadiusKey || key == kProbeOffsetKey) {
+      const auto at = key.find('@');
+      const std::string name = key.substr(0, at);
+      if (name == kMountRotationKey) {
+        if (at == std::string::npos) {
+          fail(std::string(kMountRotationKey) + " belongs to one setup: write '" + kMountRotationKey +
+               "@<setup>: rx ry rz'");
+        }
+        const int setup = ParseInteger(key.substr(at + 1), key + ": setup id", fail.where());
+        const auto [it, inserted] = mount_lines.emplace(setup, line_no);
+        if (!inserted) {
+          fail("the mount rotation of setup " + std::to_string(setup) + " is given twice (first at line " +
+               std::to_string(it->second) + ")");
+        }
+        data.header.mount_rotations[setup] = ParseMountRotation(value, key, fail.where());
+      } else if (key == kRadiusKey || key == kProbeOffsetKey) {
         const double v = ParseNumber(value, key, fail.where());
         const double max = key == kRadiusKey ? kMaxSphereRadiusMm : kMaxProbeOffsetMm;
         if (!(v > 0.0)) fail(key + " must be positive, got " + Quoted(value));
@@ -184,6 +229,20 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
     data.sample_lines.push_back(line_no);
   }
   if (data.samples.empty()) throw Error(source + ": no samples (the file has " + std::to_string(line_no) + " lines, none of them a sample)");
+  // A mount rotation of a setup that has no samples: a typo in the setup id, or a setup whose rows went missing.
+  if (!mount_lines.empty()) {
+    const std::vector<int> ids = data.SetupIds();
+    for (const auto& [setup, header_line] : mount_lines) {
+      if (std::binary_search(ids.begin(), ids.end(), setup)) continue;
+      std::string have;
+      for (int id : ids) have += (have.empty() ? "" : " ") + std::to_string(id);
+      throw Error(source + ":" + std::to_string(header_line) + ": " + MountRotationKey(setup) + ": setup " +
+                  std::to_string(setup) + " has no samples (" +
+                  (data.has_setup ? "the file's setups: " + have
+                                  : std::string("the file has no setup column: all its samples are setup 0")) +
+                  ")");
+    }
+  }
   return data;
 }
 
@@ -259,6 +318,9 @@ void WritePoints(std::ostream& out, const PointsData& data) {
   if (data.header.probe_offset_mm) {
     std::snprintf(buf, sizeof buf, "%.17g", *data.header.probe_offset_mm);
     out << "# " << kProbeOffsetKey << ": " << buf << "\n";
+  }
+  for (const auto& [setup, rotation] : data.header.mount_rotations) {
+    out << "# " << MountRotationKey(setup) << ": " << MountRotationValue(rotation) << "\n";
   }
   for (const auto& [key, value] : data.header.metadata) out << "# " << key << ": " << value << "\n";
   out << "# " << kColumnsKey << ": theta_deg phi_deg r_mm" << (data.has_time ? " t_s" : "")

@@ -3,6 +3,7 @@
 #define SPH_INTERNAL_FORMAT_HPP_
 
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <string_view>
 
@@ -40,6 +41,17 @@ inline std::string Quoted(std::string_view text) {
   out += text.size() > kShown ? "...'" : "'";
   if (text.size() > kShown) out += " (" + std::to_string(text.size()) + " characters)";
   return out;
+}
+
+/// The shortest text (15 to 17 significant digits) that reads back as `v`: 12.7, not
+/// 12.699999999999999.
+inline std::string Shortest(double v) {
+  char buf[40];
+  for (int precision = 15; precision <= 17; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
 }
 
 }  // namespace sph::internal
