@@ -24,9 +24,9 @@ namespace sph::apps {
 
 /// Exit codes of every sph app.
 enum ExitCode : int {
-  kExitOk = 0,        ///< success (sph_calibrate: a usable calibration)
-  kExitNotUsable = 1, ///< sph_calibrate: solved, but not usable (no convergence, undetermined parameters)
-  kExitBadInput = 2,  ///< bad input or usage
+  kExitOk = 0,         ///< success (sph_calibrate: a usable calibration)
+  kExitNotUsable = 1,  ///< sph_calibrate: solved, but not usable (no convergence, undetermined parameters)
+  kExitBadInput = 2,   ///< bad input or usage
 };
 
 /// The valid values of a numeric option: finite, between `lo` and `hi` (excluded where open), in
@@ -101,7 +101,13 @@ inline constexpr ValidRange kMountRotationDeg{-360.0, 360.0, "deg"};  ///< each 
 inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
 inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
 inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
+inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
 }  // namespace ranges
+
+/// The options of the uncertainty inputs, one per field of kConditionFields ("--sphere-radius-u-um"
+/// for the header field sphere_radius_u_um), with the same ranges. `source` ends the help text:
+/// "(overrides the file's " gives "... (overrides the file's sphere_radius_u_um)".
+void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source);
 
 /// The most grid points (theta steps times phi rings) a simulation makes: 10 million.
 inline constexpr long kMaxGridPoints = 10000000;

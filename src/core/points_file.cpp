@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <istream>
 #include <map>
@@ -201,6 +201,14 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
         if (data.header.columns.empty()) fail("the columns line names no columns");
         fix_columns(fail);
       } else {
+        for (const ConditionField& c : kConditionFields) {
+          if (key != c.key) continue;
+          const double v = ParseNumber(value, key, fail.where());
+          if (!(v >= c.min && v <= c.max)) {
+            fail(key + " must be within [" + internal::Format("%g", c.min) + ", " + internal::Format("%g", c.max) +
+                 "] " + c.unit + ", got " + Quoted(value));
+          }
+        }
         data.header.metadata.emplace_back(key, value);
       }
       continue;
@@ -228,7 +236,8 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
     data.samples.push_back(s);
     data.sample_lines.push_back(line_no);
   }
-  if (data.samples.empty()) throw Error(source + ": no samples (the file has " + std::to_string(line_no) + " lines, none of them a sample)");
+  if (data.samples.empty())
+    throw Error(source + ": no samples (the file has " + std::to_string(line_no) + " lines, none of them a sample)");
   // A mount rotation of a setup that has no samples: a typo in the setup id, or a setup whose rows went missing.
   if (!mount_lines.empty()) {
     const std::vector<int> ids = data.SetupIds();
@@ -302,10 +311,21 @@ std::vector<std::string> PlausibilityWarnings(const PointsData& data) {
     }
   }
   if (repeats > 0) {
-    out.push_back(data.source + ": " + std::to_string(repeats) + " sample(s) repeat an earlier one exactly (the first: " +
-                  "sample " + std::to_string(first + 1) + "); a repeated reading counts twice in a fit");
+    out.push_back(data.source + ": " + std::to_string(repeats) +
+                  " sample(s) repeat an earlier one exactly (the first: " + "sample " + std::to_string(first + 1) +
+                  "); a repeated reading counts twice in a fit");
   }
   return out;
+}
+
+SphereConditions ConditionsOf(const PointsHeader& header) {
+  SphereConditions c;
+  for (const auto& [key, value] : header.metadata) {
+    for (const ConditionField& f : kConditionFields) {
+      if (key == f.key) c.*f.field = ParseNumber(value, key, "header");
+    }
+  }
+  return c;
 }
 
 void WritePoints(std::ostream& out, const PointsData& data) {

@@ -1,6 +1,7 @@
 #include "calibrate_cmd.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -37,7 +38,9 @@ RunOutput Calibrate(const CalibrateOptions& o) {
 
 class CalibrateCmd : public ::testing::Test {
  protected:
-  void SetUp() override { dir_ = sph::testing::MakeTempDir(::testing::UnitTest::GetInstance()->current_test_info()->name()); }
+  void SetUp() override {
+    dir_ = sph::testing::MakeTempDir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+  }
 
   std::string WriteFile(const std::string& name, const std::string& text) {
     const std::string path = dir_ + "/" + name;
@@ -163,7 +166,10 @@ TEST_F(CalibrateCmd, BadInputCasesExitTwoWithTheirMessage) {
 // The bad-input matrix: each case one clear message naming the file and exit 2, and no output
 // file left behind.
 TEST_F(CalibrateCmd, BadFilesExitTwoAndLeaveNothingBehind) {
-  const std::string garbage("\x7f" "ELF\x02\x01\x01\0\0\0\xff\xfe\n\x01\x02", 16);
+  const std::string garbage(
+      "\x7f"
+      "ELF\x02\x01\x01\0\0\0\xff\xfe\n\x01\x02",
+      16);
   const std::vector<std::pair<std::string, std::string>> cases{
       {"", ": no samples"},
       {kHeader, ": no samples"},
@@ -254,8 +260,10 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
   for (const auto& e : j["effects"]) {
     for (const auto& p : e["parameters"]) {
       const std::string name = p["name"];
-      const double truth = name == "theta_encoder.c2" ? 6.0 : name == "theta_encoder.s3" ? -4.0
-                           : name == "probe_drift.t1" ? 0.6 : 0.0;
+      const double truth = name == "theta_encoder.c2"   ? 6.0
+                           : name == "theta_encoder.s3" ? -4.0
+                           : name == "probe_drift.t1"   ? 0.6
+                                                        : 0.0;
       EXPECT_NE(truth, 0.0) << "unexpected component " << name;
       EXPECT_NEAR(p["value"].get<double>(), truth, 4 * p["std"].get<double>()) << name;
     }
@@ -302,6 +310,59 @@ TEST_F(CalibrateCmd, FixedEffectsAreFittedWithoutSelection) {
 void ParseArgs(CLI::App& app, std::vector<std::string> args) {
   std::reverse(args.begin(), args.end());
   app.parse(args);
+}
+
+TEST_F(CalibrateCmd, StatesTheGumBudgetAndPutsTheCombinedCovarianceInTheCalibrationFile) {
+  // The certificate's u(R0) from the header, the probe scale from an option (which would
+  // override a header field of the same name), coverage k = 2.
+  SimulationSpec spec;
+  PointsData data = Simulate(spec);
+  data.header.metadata.emplace_back("sphere_radius_u_um", "0.1");
+  const std::string points = dir_ + "/points.txt";
+  WritePointsFile(points, data);
+  CalibrateOptions o;
+  o.points_path = points;
+  o.no_extend = true;
+  o.conditions.probe_scale_u = 1e-5;
+  o.json_path = dir_ + "/report.json";
+  o.output_path = dir_ + "/cal.json";
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("uncertainty (GUM)"));
+  EXPECT_THAT(r.out, HasSubstr("R0 (certificate): u = 0.1 um (the certificate's standard uncertainty)"));
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json& d = j["parameters"]["d_prime"];
+  const double std_mm = d["std"].get<double>(), u_mm = d["u"].get<double>();
+  EXPECT_GT(u_mm, 0.1e-3);  // R0's 0.1 um, taken one for one, beside a Type A std of 0.007 um
+  EXPECT_LT(std_mm, 0.01e-3);
+  EXPECT_DOUBLE_EQ(d["U"].get<double>(), 2.0 * u_mm);
+  ASSERT_EQ(d["budget"].size(), 4u);
+  double sum2 = 0.0;
+  for (const auto& item : d["budget"]) sum2 += std::pow(item["u_contribution"].get<double>(), 2);
+  EXPECT_NEAR(std::sqrt(sum2), u_mm, 1e-12);
+  EXPECT_EQ(d["budget"][0]["type"], "A");
+  EXPECT_EQ(d["budget"][1]["input"], "R0 (certificate)");
+  EXPECT_DOUBLE_EQ(d["budget"][1]["u_input"].get<double>(), 0.1);
+  EXPECT_DOUBLE_EQ(d["budget"][3]["u_input"].get<double>(), 1e-5);
+  // The calibration file's covariance is the combined one: d' variance u^2, not std^2.
+  const CalibrationFile cal = ReadCalibrationFile(o.output_path);
+  ASSERT_TRUE(cal.covariance.has_value());
+  EXPECT_NEAR(std::sqrt((*cal.covariance)(6, 6)), u_mm, 1e-9);
+}
+
+TEST_F(CalibrateCmd, CoverageProbabilityGivesKFromTheDegreesOfFreedom) {
+  CalibrateOptions o;
+  o.points_path = SPH_SOURCE_DIR "/data/example/points.txt";
+  o.no_extend = true;
+  o.coverage = 0.99;
+  o.json_path = dir_ + "/report.json";
+  ASSERT_EQ(Calibrate(o).code, kExitOk);
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json& alpha = j["parameters"]["alpha"];
+  EXPECT_NEAR(alpha["k"].get<double>(), 2.594, 0.002);  // t_0.995 for 278 degrees of freedom
+  EXPECT_DOUBLE_EQ(j["coverage"]["probability"].get<double>(), 0.99);
 }
 
 TEST(CalibrateCli, ParsesOptions) {
