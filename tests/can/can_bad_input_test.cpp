@@ -4,7 +4,6 @@
 // apart from the outputs a successful case makes. Then sph_cansim under SIGINT and SIGTERM.
 #include <signal.h>
 #include <sys/stat.h>
-#include <sys/sysmacros.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -64,8 +63,7 @@ class CanMatrix : public ::testing::TestWithParam<CanCase> {
     std::ofstream(base_ + "/a.conf") << "# a configuration\nmode = \"points\"\nsync-period-ms = 10\n";
     std::ofstream(base_ + "/a.txt") << "0 45\n90 45\n";
     std::ofstream(base_ + "/notes.txt") << kNotes;
-    nodes_ = ::mknod((base_ + "/full").c_str(), S_IFCHR | 0666, makedev(1, 7)) == 0;
-    if (nodes_) ::unlink((base_ + "/full").c_str());
+    nodes_ = MakeDeviceNodes(base_);
   }
 
   std::string Folder(const CanCase& c) {
@@ -74,11 +72,7 @@ class CanMatrix : public ::testing::TestWithParam<CanCase> {
       std::ofstream(dir + "/" + f, std::ios::binary) << ReadWholeFile(base_ + "/" + f);
     }
     ::mkdir((dir + "/sub").c_str(), 0755);
-    if (nodes_) {
-      ::mknod((dir + "/full").c_str(), S_IFCHR | 0666, makedev(1, 7));
-      ::mknod((dir + "/null").c_str(), S_IFCHR | 0666, makedev(1, 3));
-      ::mknod((dir + "/disk").c_str(), S_IFBLK | 0600, makedev(7, 0));
-    }
+    if (nodes_) MakeDeviceNodes(dir);
     for (const auto& [name, text] : c.files) std::ofstream(dir + "/" + name, std::ios::binary) << text;
     return dir;
   }
