@@ -191,16 +191,19 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
   }
   // Planned frames, sent at their times; a synchronous PDO remembers its SYNC, because it must
   // not go out once its synchronous window has closed (CiA 301, object 1007h): when the next
-  // SYNC came first, or 0.9 periods after its own. A real device drops it then; a simulator
+  // SYNC came first, or half a period after its own. A real device drops it then; a simulator
   // slowed down (an emulated machine) would otherwise answer one SYNC after the next.
   struct Planned {
     can::CanFrame frame;
     std::int64_t sync_ns = 0;
   };
   std::vector<Planned> pending;
-  std::vector<can::CanFrame> out;
+  std::vector<can::CanFrame> out, arrived;
   std::uint64_t sent = 0, failed = 0, late = 0;
   const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(c.sync_period_s * 1e9));
+  // The synchronous window (1007h): half a period, so that a SYNC of a producer that is late by
+  // less than that, and the early one after it, still find each PDO in its own period.
+  const std::int64_t window_ns = period_ns / 2;
   const std::int64_t start_ns = static_cast<std::int64_t>(std::llround(c.start_time_s * 1e9));
   std::int64_t next_sync = external ? std::numeric_limits<std::int64_t>::max() : start_ns;
   std::int64_t last_sync = 0;
@@ -235,11 +238,21 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
     if (now >= end_ns || (sim.finished() && pending.empty())) break;
     std::stable_sort(pending.begin(), pending.end(), by_time);
     std::size_t k = 0;
+    arrived.clear();
     for (; k < pending.size() && pending[k].frame.t_ns <= now; ++k) {
       const Planned& p = pending[k];
-      if (p.sync_ns != 0 && (p.sync_ns < last_sync || now - p.sync_ns > period_ns * 9 / 10)) {
-        ++late;
-        continue;
+      if (p.sync_ns != 0) {
+        // Just before a synchronous PDO: a SYNC queued meanwhile closes its window.
+        for (int i = 0; i < 64; ++i) {
+          const can::RxResult r = sock->Receive();
+          if (r.status != can::RxStatus::kFrame) break;
+          arrived.push_back(r.frame);
+          if (can::DecodeSync(r.frame, c.devices.sync_cob_id)) last_sync = std::max(last_sync, r.frame.t_ns);
+        }
+        if (p.sync_ns < last_sync || RealtimeNs() - p.sync_ns > window_ns) {
+          ++late;
+          continue;
+        }
       }
       if (sock->Send(p.frame) == can::TxStatus::kOk) {
         ++sent;
@@ -248,6 +261,7 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
       }
     }
     pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(k));
+    for (const can::CanFrame& f : arrived) deliver(f);
     if (!external && now >= next_sync && !sim.finished()) {
       can::CanFrame sync = can::EncodeSync(
           c.devices.sync_counter_max != 0
