@@ -54,32 +54,6 @@ CLI::Validator InRange(const ValidRange& range);
 /// it, or throws sph::Error "<what>: must be ..., got <text>".
 double CheckedValue(double value, const ValidRange& range, const std::string& what, const std::string& text);
 
-/// CLI11 checks for numbers with plain messages ("must be positive"); CLI11 2.1's PositiveNumber
-/// and NonNegativeNumber are ranges that print their 300-digit upper bound. Infinity is refused
-/// too: a value written on into a file's header would make a file the readers refuse.
-inline CLI::Validator Positive() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        return end != text.c_str() && *end == '\0' && v > 0.0 && std::isfinite(v)
-                   ? ""
-                   : "must be a positive number, got " + text;
-      },
-      "POSITIVE");
-}
-inline CLI::Validator NonNegative() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        return end != text.c_str() && *end == '\0' && v >= 0.0 && std::isfinite(v)
-                   ? ""
-                   : "must be a finite number >= 0, got " + text;
-      },
-      "NONNEGATIVE");
-}
-
 /// Ranges shared by several apps.
 namespace ranges {
 inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};

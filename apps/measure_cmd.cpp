@@ -415,7 +415,7 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
                  "Warn when the coverage determines radius or centre this many times worse than points over the "
                  "whole sphere")
       ->capture_default_str()
-      ->check(Positive());
+      ->check(InRange({0.0, 1e6, "", true}));
   app.add_flag("-q,--quiet", o.quiet, "No text report on stdout (warnings still go to stderr)");
 }
 
