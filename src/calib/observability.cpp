@@ -28,9 +28,13 @@ double ObservabilityReport::StdAsDisplacementUm(int i) const {
   return std(i) * arm * kUmPerMm;
 }
 
-NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian) {
-  const Eigen::Index m = jacobian.rows();
-  const Eigen::Index n = jacobian.cols();
+namespace {
+
+// NormalInverse of a Jacobian with `rows` rows from the SVD of its column-equilibrated form A D,
+// where A is the Jacobian or its triangular factor (same singular values and V).
+NormalInverse FromEquilibrated(const Eigen::MatrixXd& a, Eigen::Index rows) {
+  const Eigen::Index m = rows;
+  const Eigen::Index n = a.cols();
   const double nan = std::numeric_limits<double>::quiet_NaN();
   NormalInverse out;
   out.inverse = Eigen::MatrixXd::Constant(n, n, nan);
@@ -38,11 +42,11 @@ NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian) {
   out.condition_number = std::numeric_limits<double>::infinity();
   out.scale = Eigen::VectorXd::Zero(n);
   for (Eigen::Index j = 0; j < n; ++j) {
-    const double norm = jacobian.col(j).norm();
+    const double norm = a.col(j).norm();
     out.scale(j) = norm > 0.0 ? 1.0 / norm : 0.0;
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::ColPivHouseholderQRPreconditioner> svd(
-      jacobian * out.scale.asDiagonal(), Eigen::ComputeThinV);
+  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::ColPivHouseholderQRPreconditioner> svd(a * out.scale.asDiagonal(),
+                                                                                        Eigen::ComputeThinV);
   out.singular_values = svd.singularValues();
   out.v = svd.matrixV();
   const Eigen::VectorXd& sv = out.singular_values;
@@ -73,11 +77,21 @@ NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian) {
   return out;
 }
 
-ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
-                               std::vector<ParameterDescription> params, double max_std_um) {
+}  // namespace
+
+NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian) {
+  return FromEquilibrated(jacobian, jacobian.rows());
+}
+
+NormalInverse InvertNormalFactor(const Eigen::MatrixXd& r, Eigen::Index rows) { return FromEquilibrated(r, rows); }
+
+namespace {
+
+// The report from the rows of J, its residual sum of squares and a way to get (J^T J)^-1.
+template <typename Invert>
+ObservabilityReport Analyse(const Invert& invert, Eigen::Index m, Eigen::Index n, double rss,
+                            std::vector<ParameterDescription> params, double max_std_um) {
   ObservabilityReport rep;
-  const Eigen::Index m = jacobian.rows();
-  const Eigen::Index n = jacobian.cols();
   rep.parameters = std::move(params);
   rep.std = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
   rep.covariance = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
@@ -87,9 +101,9 @@ ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::Vec
   rep.condition_number = std::numeric_limits<double>::infinity();
   if (m <= n || n == 0) return rep;
 
-  rep.residual_sigma_mm = std::sqrt(residuals.squaredNorm() / static_cast<double>(m - n));
+  rep.residual_sigma_mm = std::sqrt(rss / static_cast<double>(m - n));
 
-  const NormalInverse inv = InvertNormalMatrix(jacobian);
+  const NormalInverse inv = invert();
   rep.condition_number = inv.condition_number;
   const double s2 = rep.residual_sigma_mm * rep.residual_sigma_mm;
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -141,6 +155,19 @@ ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::Vec
     rep.weak.push_back(std::move(w));
   }
   return rep;
+}
+
+}  // namespace
+
+ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
+                               std::vector<ParameterDescription> params, double max_std_um) {
+  return Analyse([&] { return InvertNormalMatrix(jacobian); }, jacobian.rows(), jacobian.cols(),
+                 residuals.squaredNorm(), std::move(params), max_std_um);
+}
+
+ObservabilityReport AnalyseFactor(const Eigen::MatrixXd& r, Eigen::Index rows, double rss,
+                                  std::vector<ParameterDescription> params, double max_std_um) {
+  return Analyse([&] { return InvertNormalFactor(r, rows); }, rows, r.cols(), rss, std::move(params), max_std_um);
 }
 
 }  // namespace sph
