@@ -40,16 +40,6 @@ std::vector<Eigen::Vector3d> CentersFor(const internal::ReadingTable& table, con
 
 }  // namespace
 
-Eigen::MatrixXd JacobianAt(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
-  const internal::ReadingTable table(points);
-  internal::RowsOfSetup rows = internal::AllRows(table);
-  const std::vector<Eigen::Vector3d> centers =
-      CentersFor(table, rows, fit.calibration.setup_ids, fit.calibration.centers_mm, points.source);
-  const internal::SphereFitProblem problem(table, std::move(rows), fit.model, options.probe_offset_mm,
-                                           options.sphere_radius_mm);
-  return problem.DenseJacobian(problem.Pack(fit.calibration.geometry, centers, fit.values).data());
-}
-
 EffectFitStart EffectFitStart::From(const CalibrationResult& calibration) {
   EffectFitStart s;
   s.geometry = calibration.geometry;
@@ -124,11 +114,6 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   }
   SetResidualStatistics(result);
   if (!options.analyse) return fit;
-  fit.jacobian = problem.DenseJacobian(x.data());
-  fit.structure_jacobian = fit.jacobian;
-  if (model.Find(Effect::kProbeGain) >= 0 || model.Find(Effect::kProbeNonlinearity) >= 0) {
-    fit.structure_jacobian = problem.DenseJacobian(x.data(), all.data());
-  }
 
   std::vector<ParameterDescription> desc = BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
   for (const EffectTerm& term : model.terms) {
@@ -142,7 +127,61 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   return fit;
 }
 
+namespace {
+
+// The problem of `fit`'s model over the samples of `table` not in `left_out`, and its parameters.
+struct ProblemAt {
+  SphereFitProblem problem;
+  Eigen::VectorXd x;
+  ProblemAt(const ReadingTable& table, const std::vector<bool>* left_out, const CalibrationOptions& options,
+            const EffectFit& fit, const std::string& source)
+      : problem(table, AllRows(table, left_out), fit.model, options.probe_offset_mm, options.sphere_radius_mm) {
+    RowsOfSetup rows = AllRows(table, left_out);
+    x = problem.Pack(fit.calibration.geometry,
+                     CentersFor(table, rows, fit.calibration.setup_ids, fit.calibration.centers_mm, source),
+                     fit.values);
+  }
+};
+
+}  // namespace
+
+StructureJacobian::StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit)
+    : problem_(table, AllRows(table), fit.model, options.probe_offset_mm, options.sphere_radius_mm) {
+  x_ = problem_.Pack(fit.calibration.geometry,
+                     CentersFor(table, AllRows(table), fit.calibration.setup_ids, fit.calibration.centers_mm, ""),
+                     fit.values);
+  if (fit.model.Find(Effect::kProbeGain) >= 0 || fit.model.Find(Effect::kProbeNonlinearity) >= 0) {
+    offset_ = fit.calibration.residuals_mm;  // table-indexed: the fit covers every sample
+  }
+}
+
+void StructureJacobian::ForEach(const BlockFn& fn) const {
+  const auto n = static_cast<int>(problem_.NumParams());
+  problem_.ForEachGlobalBlock(
+      x_.data(), offset_.empty() ? nullptr : offset_.data(),
+      [&](const std::uint32_t* rows, int count, double* jacobian) { fn(rows, count, jacobian, n); });
+}
+
+NormalInverse NormalInverseAt(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit) {
+  const ProblemAt at(table, nullptr, options, fit, "");
+  return InvertNormalFactor(at.problem.FactorJacobian(at.x.data()).r(), static_cast<Eigen::Index>(table.size()));
+}
+
+std::vector<double> ResidualsAt(const ReadingTable& table, const std::vector<bool>* left_out,
+                                const CalibrationOptions& options, const EffectFit& fit, const std::string& source) {
+  const ProblemAt at(table, left_out, options, fit, source);
+  std::vector<double> out(table.size(), 0.0);
+  at.problem.Residuals(at.x.data(), out.data());
+  return out;
+}
+
 }  // namespace internal
+
+Eigen::MatrixXd JacobianAt(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
+  const internal::ReadingTable table(points);
+  const internal::ProblemAt at(table, nullptr, options, fit, points.source);
+  return at.problem.DenseJacobian(at.x.data());
+}
 
 EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
                      const EffectFitStart& start) {

@@ -463,18 +463,26 @@ void SphereFitProblem::Residuals(const double* x, double* out) const {
 }
 
 RowQr SphereFitProblem::FactorJacobian(const double* x, const double* r_offset) const {
-  Scratch& s = *scratch_;
   RowQr qr(num_params_);
-  s.global.assign(static_cast<std::size_t>(num_params_ * kRows), 0.0);
+  ForEachGlobalBlock(x, r_offset,
+                     [&](const std::uint32_t*, int count, double* rows) { qr.AddRows(rows, num_params_, count); });
+  return qr;
+}
+
+void SphereFitProblem::ForEachGlobalBlock(
+    const double* x, const double* r_offset,
+    const std::function<void(const std::uint32_t* rows, int count, double* jacobian)>& fn) const {
+  Scratch& s = *scratch_;
+  const auto n = static_cast<std::size_t>(num_params_);
+  s.global.assign(n * kRows, 0.0);
   ForEachBlock(x, r_offset, true, [&](const RowBlock& block) {
     std::fill(s.global.begin(), s.global.end(), 0.0);
     for (int c = 0; c < block.num_cols; ++c) {
-      std::copy(block.cols + c * kRows, block.cols + c * kRows + block.count,
-                s.global.data() + GlobalColumn(block.setup, c) * kRows);
+      const auto col = static_cast<std::size_t>(GlobalColumn(block.setup, c));
+      for (int i = 0; i < block.count; ++i) s.global[static_cast<std::size_t>(i) * n + col] = block.cols[c * kRows + i];
     }
-    qr.AddRows(s.global.data(), kRows, block.count);
+    fn(block.rows, block.count, s.global.data());
   });
-  return qr;
 }
 
 Eigen::MatrixXd SphereFitProblem::DenseJacobian(const double* x, const double* r_offset) const {

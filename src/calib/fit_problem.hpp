@@ -111,6 +111,11 @@ class SphereFitProblem {
   /// The triangular factor of the Jacobian at x (readings r + r_offset when given), columns as x.
   RowQr FactorJacobian(const double* x, const double* r_offset = nullptr) const;
 
+  /// ForEachBlock() with the Jacobian's rows in the columns of x: fn(rows, count, jacobian) with
+  /// the table row of each and the rows one after the other (NumParams() values each; writable).
+  void ForEachGlobalBlock(const double* x, const double* r_offset,
+                          const std::function<void(const std::uint32_t* rows, int count, double* jacobian)>& fn) const;
+
   /// The Jacobian at x (readings r + r_offset when given), one row per table row of the problem in
   /// table order (rows not in the problem left out), columns as x.
   Eigen::MatrixXd DenseJacobian(const double* x, const double* r_offset = nullptr) const;

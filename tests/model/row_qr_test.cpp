@@ -26,8 +26,9 @@ Eigen::MatrixXd RandomMatrix(Eigen::Index rows, Eigen::Index cols, unsigned seed
 RowQr FactorInBlocks(const Eigen::MatrixXd& a, Eigen::Index block) {
   RowQr qr(a.cols());
   for (Eigen::Index first = 0; first < a.rows(); first += block) {
-    Eigen::MatrixXd rows = a.middleRows(first, std::min(block, a.rows() - first));
-    qr.AddRows(rows.data(), rows.rows(), rows.rows());
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows =
+        a.middleRows(first, std::min(block, a.rows() - first));
+    qr.AddRows(rows.data(), rows.cols(), rows.rows());
   }
   return qr;
 }

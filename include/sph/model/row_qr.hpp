@@ -30,27 +30,37 @@ class RowQr {
     rows_ = 0;
   }
 
-  /// Folds `count` rows into R. `block` is column-major with leading dimension `ld` >= count (row i
-  /// of column j at block[j * ld + i]); it is overwritten.
-  void AddRows(double* block, Eigen::Index ld, Eigen::Index count) {
+  /// Folds `count` rows into R. `block` holds them row after row (row i, column j at
+  /// block[i * stride + j], stride >= cols); it is overwritten.
+  void AddRows(double* block, Eigen::Index stride, Eigen::Index count) {
     const Eigen::Index n = r_.cols();
+    w_.resize(n);
+    double* w = w_.data();
     for (Eigen::Index j = 0; j < n; ++j) {
-      double* x = block + j * ld;
       double sigma = 0.0;
-      for (Eigen::Index i = 0; i < count; ++i) sigma += x[i] * x[i];
+      for (Eigen::Index i = 0; i < count; ++i) sigma += block[i * stride + j] * block[i * stride + j];
       if (!(sigma > 0.0)) continue;  // the column is zero below R: nothing to annihilate
       const double x0 = r_(j, j);
       const double alpha = -std::copysign(std::sqrt(x0 * x0 + sigma), x0);
       const double v0 = x0 - alpha;  // v = [v0; x], H = I - beta v v^T, H [x0; x] = [alpha; 0]
       const double beta = 2.0 / (v0 * v0 + sigma);
       r_(j, j) = alpha;
+      // w = v^T [R(j, l); block(:, l)] for the columns l > j, then each column minus beta w_l v. The
+      // loops run along the rows of the block, so that they vectorise.
+      for (Eigen::Index l = j + 1; l < n; ++l) w[l] = v0 * r_(j, l);
+      for (Eigen::Index i = 0; i < count; ++i) {
+        const double xi = block[i * stride + j];
+        const double* row = block + i * stride;
+        for (Eigen::Index l = j + 1; l < n; ++l) w[l] += xi * row[l];
+      }
       for (Eigen::Index l = j + 1; l < n; ++l) {
-        double* y = block + l * ld;
-        double w = v0 * r_(j, l);
-        for (Eigen::Index i = 0; i < count; ++i) w += x[i] * y[i];
-        const double tau = beta * w;
-        r_(j, l) -= tau * v0;
-        for (Eigen::Index i = 0; i < count; ++i) y[i] -= tau * x[i];
+        w[l] *= beta;
+        r_(j, l) -= w[l] * v0;
+      }
+      for (Eigen::Index i = 0; i < count; ++i) {
+        const double xi = block[i * stride + j];
+        double* row = block + i * stride;
+        for (Eigen::Index l = j + 1; l < n; ++l) row[l] -= w[l] * xi;
       }
     }
     rows_ += count;
@@ -58,8 +68,8 @@ class RowQr {
 
   /// Folds another factor of the same columns into this one (the QR of [R_this; R_other]).
   void Merge(const RowQr& other) {
-    Eigen::MatrixXd block = other.r_;
-    AddRows(block.data(), block.rows(), block.rows());
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block = other.r_;
+    AddRows(block.data(), block.cols(), block.rows());
     rows_ += other.rows_ - other.r_.rows();
   }
 
@@ -70,6 +80,7 @@ class RowQr {
 
  private:
   Eigen::MatrixXd r_;
+  Eigen::VectorXd w_;
   Eigen::Index rows_ = 0;
 };
 

@@ -53,14 +53,14 @@ inline Sphere FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points) {
   mean /= static_cast<double>(n);
   constexpr Eigen::Index kBlock = 64;
   RowQr factor(5);  // columns 2x, 2y, 2z, 1 and the right-hand side |p|^2
-  Eigen::Matrix<double, kBlock, 5> block;
+  Eigen::Matrix<double, kBlock, 5, Eigen::RowMajor> block;
   for (Eigen::Index first = 0; first < n; first += kBlock) {
     const Eigen::Index count = std::min(kBlock, n - first);
     for (Eigen::Index i = 0; i < count; ++i) {
       const Eigen::Vector3d q = points[static_cast<std::size_t>(first + i)] - mean;
       block.row(i) << 2.0 * q.x(), 2.0 * q.y(), 2.0 * q.z(), 1.0, q.squaredNorm();
     }
-    factor.AddRows(block.data(), kBlock, count);
+    factor.AddRows(block.data(), 5, count);
   }
   // [A b] = Q R: the least-squares solution of A x = b is that of R_A x = R_b.
   const Eigen::ColPivHouseholderQR<Eigen::Matrix4d> qr(factor.r().topLeftCorner<4, 4>());
