@@ -107,8 +107,31 @@ bool CalibrationResult::Usable() const { return converged && (analysis.Empty() |
 
 namespace internal {
 
+StartPoints::StartPoints(const ReadingTable& table, const CalibrationOptions& options)
+    : table_(table),
+      g_(options.initial_geometry),
+      trig_(ErrorTrigOf(options.initial_geometry.data())),
+      probe_offset_mm_(options.probe_offset_mm) {}
+
+Eigen::Vector3d StartPoints::operator()(std::size_t i) const {
+  return ScmsPoint(g_.data(), trig_, SinCos<double>{table_.sin_theta[i], table_.cos_theta[i]},
+                   SinCos<double>{table_.sin_phi[i], table_.cos_phi[i]}, table_.r_mm[i], probe_offset_mm_);
+}
+
+std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOptions& options,
+                                 const std::vector<bool>* left_out) {
+  const StartPoints point(table, options);
+  std::vector<Sphere> spheres;
+  for (const std::vector<std::uint32_t>& rows : AllRows(table, left_out)) {
+    spheres.push_back(FitSphereAlgebraic(static_cast<Eigen::Index>(rows.size()),
+                                         [&](Eigen::Index i) { return point(rows[static_cast<std::size_t>(i)]); }));
+  }
+  return spheres;
+}
+
 CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
-                                const CalibrationOptions& options, LmWorkspace* workspace) {
+                                const CalibrationOptions& options, LmWorkspace* workspace,
+                                const std::vector<Sphere>* start_spheres) {
   const std::string& src = points.source;
   if (!(options.sphere_radius_mm > 0.0)) throw Error(src + ": the sphere radius must be positive");
   if (!(options.probe_offset_mm > 0.0)) throw Error(src + ": the probe offset must be positive");
@@ -130,19 +153,12 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
   }
 
   // Initial values: the errors as given (zero by default), each centre from an algebraic sphere
-  // fit of its setup's points computed with those errors.
+  // fit of its setup's points computed with those errors (given when the caller has them).
   result.geometry = options.initial_geometry;
-  const ScmsErrorTrig<double> start_trig = ErrorTrigOf(result.geometry.data());
-  for (const std::vector<std::uint32_t>& of_setup : rows) {
-    if (of_setup.empty()) continue;
-    std::vector<Eigen::Vector3d> nominal;
-    nominal.reserve(of_setup.size());
-    for (const std::uint32_t i : of_setup) {
-      nominal.push_back(
-          ScmsPoint(result.geometry.data(), start_trig, SinCos<double>{table.sin_theta[i], table.cos_theta[i]},
-                    SinCos<double>{table.sin_phi[i], table.cos_phi[i]}, table.r_mm[i], options.probe_offset_mm));
-    }
-    const Sphere fit = FitSphereAlgebraic(nominal);
+  const std::vector<Sphere> spheres = start_spheres ? *start_spheres : StartSpheres(table, options, left_out);
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    if (rows[k].empty()) continue;
+    const Sphere& fit = spheres[k];
     if (!fit.ok) {
       throw Error(src + ": the points of setup " + std::to_string(result.setup_ids[result.centers_mm.size()]) +
                   " do not determine a sphere (fewer than four, or all on one plane or line)");
@@ -156,8 +172,8 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
                                  options.sphere_radius_mm);
   Eigen::VectorXd x = problem.Pack(result.geometry, result.centers_mm, {});
   LmWorkspace local;
-  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(options.max_iterations),
-                                                    workspace ? *workspace : local);
+  LmWorkspace& lm = workspace ? *workspace : local;
+  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(options.max_iterations), lm);
   problem.Unpack(x, &result.geometry, &result.centers_mm, nullptr);
   result.converged = summary.converged;
   result.iterations = summary.iterations;
@@ -179,10 +195,9 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
     rss += all[i] * all[i];
   }
   SetResidualStatistics(result);
-  const RowQr factor = problem.FactorJacobian(x.data());
   std::vector<ParameterDescription> desc = BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
-  result.analysis =
-      AnalyseFactor(factor.r(), static_cast<Eigen::Index>(n_samples), rss, std::move(desc), options.max_std_um);
+  result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples), rss,
+                               std::move(desc), options.max_std_um);
   ExplainUndetermined(points, left_out, options, result);
   return result;
 }
@@ -271,21 +286,14 @@ bool MarkOutliers(const std::vector<double>& residuals, double k, std::vector<bo
 // fit of the points not out. Gross errors stand out here, before least squares can spread them
 // over the seven errors.
 std::vector<double> StartResiduals(const internal::ReadingTable& table, const CalibrationOptions& options,
-                                   const std::vector<bool>& out) {
-  const ScmsErrorTrig<double> trig = ErrorTrigOf(options.initial_geometry.data());
-  std::vector<Eigen::Vector3d> p(table.size());
-  std::vector<std::vector<Eigen::Vector3d>> kept(table.setup_ids.size());
-  for (std::size_t i = 0; i < table.size(); ++i) {
-    p[i] = ScmsPoint(options.initial_geometry.data(), trig, SinCos<double>{table.sin_theta[i], table.cos_theta[i]},
-                     SinCos<double>{table.sin_phi[i], table.cos_phi[i]}, table.r_mm[i], options.probe_offset_mm);
-    if (!out[i]) kept[static_cast<std::size_t>(table.setup[i])].push_back(p[i]);
-  }
-  std::vector<Sphere> spheres;
-  for (const auto& pts : kept) spheres.push_back(FitSphereAlgebraic(pts));
+                                   const std::vector<bool>& out, std::vector<Sphere>* spheres_out) {
+  const internal::StartPoints point(table, options);
+  std::vector<Sphere>& spheres = *spheres_out;
+  spheres = internal::StartSpheres(table, options, &out);
   std::vector<double> e(table.size(), 0.0);
   for (std::size_t i = 0; i < table.size(); ++i) {
     const Sphere& sphere = spheres[static_cast<std::size_t>(table.setup[i])];
-    if (sphere.ok) e[i] = (p[i] - sphere.center).norm() - sphere.radius;
+    if (sphere.ok) e[i] = (point(i) - sphere.center).norm() - sphere.radius;
   }
   return e;
 }
@@ -308,11 +316,14 @@ CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& t
   // a few gross errors, as a least-squares fit does. Marked first at the start values, so that the
   // first fit is not pulled away by them; then judged again under each fit.
   std::vector<bool> out(table.size(), false);
-  for (int round = 0; round < 5 && MarkOutliers(StartResiduals(table, options, out), options.outlier_sigma, out);
-       ++round) {
+  std::vector<Sphere> spheres;  // the start spheres of the readings not out, when `out` is still theirs
+  bool spheres_of_out = false;
+  for (int round = 0; round < 5 && !spheres_of_out; ++round) {
+    spheres_of_out = !MarkOutliers(StartResiduals(table, options, out, &spheres), options.outlier_sigma, out);
   }
   auto fit_kept = [&] {
-    CalibrationResult r = CalibrateRows(points, table, &out, options, workspace);
+    CalibrationResult r = CalibrateRows(points, table, &out, options, workspace, spheres_of_out ? &spheres : nullptr);
+    spheres_of_out = false;
     for (std::size_t i = 0; i < out.size(); ++i) {
       if (out[i]) r.outliers.push_back({i, 0.0});
     }

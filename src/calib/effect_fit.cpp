@@ -96,8 +96,8 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   const SphereFitProblem problem(table, std::move(rows), model, options.probe_offset_mm, options.sphere_radius_mm);
   Eigen::VectorXd x = problem.Pack(start.geometry, start.centers_mm, values);
   LmWorkspace local;
-  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(options.max_iterations),
-                                                    workspace ? *workspace : local);
+  LmWorkspace& lm = workspace ? *workspace : local;
+  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(options.max_iterations), lm);
   problem.Unpack(x, &result.geometry, &result.centers_mm, &fit.values);
   result.converged = summary.converged;
   result.iterations = summary.iterations;
@@ -121,9 +121,8 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
       desc.push_back({term.ParamName(i), term.info().quantity, options.sphere_radius_mm});
     }
   }
-  const RowQr factor = problem.FactorJacobian(x.data());
-  result.analysis =
-      AnalyseFactor(factor.r(), static_cast<Eigen::Index>(n_samples), fit.rss_mm2, std::move(desc), options.max_std_um);
+  result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples),
+                               fit.rss_mm2, std::move(desc), options.max_std_um);
   return fit;
 }
 
@@ -164,7 +163,9 @@ void StructureJacobian::ForEach(const BlockFn& fn) const {
 
 NormalInverse NormalInverseAt(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit) {
   const ProblemAt at(table, nullptr, options, fit, "");
-  return InvertNormalFactor(at.problem.FactorJacobian(at.x.data()).r(), static_cast<Eigen::Index>(table.size()));
+  LmWorkspace lm;
+  at.problem.Evaluate(at.x.data(), &lm.at_x);
+  return NormalInverseAtSolution(at.problem, at.x, lm);
 }
 
 std::vector<double> ResidualsAt(const ReadingTable& table, const std::vector<bool>* left_out,

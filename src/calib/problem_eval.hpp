@@ -4,13 +4,16 @@
 #define SPH_SRC_CALIB_PROBLEM_EVAL_HPP_
 
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "fit_problem.hpp"
 #include "levenberg_marquardt.hpp"
 #include "sph/calib/calibrator.hpp"
+#include "sph/calib/observability.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::internal {
@@ -24,6 +27,17 @@ inline LmOptions CalibrationSolverOptions(int max_iterations) {
   o.gradient_tolerance = 1e-16;
   o.parameter_tolerance = 1e-12;
   return o;
+}
+
+/// (J^T J)^-1 at the solution x of a Levenberg-Marquardt run (whose workspace holds J^T J there):
+/// from the normal equations when J is well conditioned, else from the Jacobian's triangular
+/// factor (another pass over the rows).
+inline NormalInverse NormalInverseAtSolution(const SphereFitProblem& problem, const Eigen::VectorXd& x,
+                                             const LmWorkspace& lm) {
+  const auto rows = static_cast<Eigen::Index>(problem.NumRows());
+  std::optional<NormalInverse> inverse = InvertNormalEquations(lm.at_x.jtj, rows);
+  if (inverse) return *inverse;
+  return InvertNormalFactor(problem.FactorJacobian(x.data()).r(), rows);
 }
 
 /// The descriptions of the seven errors and of x, y, z of each setup's centre ("center_x@1" with

@@ -10,6 +10,7 @@
 #ifndef SPH_CALIB_OBSERVABILITY_HPP_
 #define SPH_CALIB_OBSERVABILITY_HPP_
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -74,6 +75,16 @@ NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian);
 /// rows x columns is needed (sph/model/row_qr.hpp accumulates R from blocks of rows).
 NormalInverse InvertNormalFactor(const Eigen::MatrixXd& r, Eigen::Index rows);
 
+/// The ratio of largest to smallest eigenvalue of the equilibrated normal matrix below which
+/// InvertNormalEquations() answers: the square of a condition number of 1e4.
+inline constexpr double kMaxNormalCondition = 1e8;
+
+/// The same from the normal matrix J^T J (full, symmetric) when J is well conditioned: the
+/// eigenvalues of D J^T J D are the squares of the singular values of J D and its eigenvectors are
+/// V, with relative errors of about eps * cond(J D)^2 <= 1e-8 when cond(J D)^2 < kMaxNormalCondition
+/// (then nothing is near the null space either). Empty otherwise: use the factor.
+std::optional<NormalInverse> InvertNormalEquations(const Eigen::MatrixXd& jtj, Eigen::Index rows);
+
 /// Analyses a fit. `jacobian` is m x n with m > n, `residuals` has m entries (any unit, the same
 /// as the Jacobian's rows), `params` describes the n columns.
 ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
@@ -83,6 +94,10 @@ ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::Vec
 /// of rows and the residuals' sum of squares.
 ObservabilityReport AnalyseFactor(const Eigen::MatrixXd& r, Eigen::Index rows, double rss,
                                   std::vector<ParameterDescription> params, double max_std_um);
+
+/// AnalyseFit() from the inverse of the normal matrix as any of the functions above gives it.
+ObservabilityReport AnalyseFit(const NormalInverse& inverse, Eigen::Index rows, double rss,
+                               std::vector<ParameterDescription> params, double max_std_um);
 
 }  // namespace sph
 

@@ -44,12 +44,13 @@ struct Sphere {
 /// with column-pivoting QR, after moving the origin to the centroid for conditioning;
 /// radius = sqrt(k + |c|^2). The rows are folded into the QR's triangular factor in blocks
 /// (RowQr), so no n x 4 matrix is made. Units are those of the points.
-inline Sphere FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points) {
+/// `point(i)` gives point i of n (it is called twice per point).
+template <typename PointAt>
+Sphere FitSphereAlgebraic(Eigen::Index n, const PointAt& point) {
   Sphere s;
-  const Eigen::Index n = static_cast<Eigen::Index>(points.size());
   if (n < 4) return s;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& p : points) mean += p;
+  for (Eigen::Index i = 0; i < n; ++i) mean += point(i);
   mean /= static_cast<double>(n);
   constexpr Eigen::Index kBlock = 64;
   RowQr factor(5);  // columns 2x, 2y, 2z, 1 and the right-hand side |p|^2
@@ -57,7 +58,7 @@ inline Sphere FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points) {
   for (Eigen::Index first = 0; first < n; first += kBlock) {
     const Eigen::Index count = std::min(kBlock, n - first);
     for (Eigen::Index i = 0; i < count; ++i) {
-      const Eigen::Vector3d q = points[static_cast<std::size_t>(first + i)] - mean;
+      const Eigen::Vector3d q = point(first + i) - mean;
       block.row(i) << 2.0 * q.x(), 2.0 * q.y(), 2.0 * q.z(), 1.0, q.squaredNorm();
     }
     factor.AddRows(block.data(), 5, count);
@@ -72,6 +73,12 @@ inline Sphere FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points) {
   s.radius = std::sqrt(r2);
   s.ok = true;
   return s;
+}
+
+/// FitSphereAlgebraic() of a vector of points.
+inline Sphere FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points) {
+  return FitSphereAlgebraic(static_cast<Eigen::Index>(points.size()),
+                            [&](Eigen::Index i) { return points[static_cast<std::size_t>(i)]; });
 }
 
 /// Settings of FitSphereLeastSquares().
