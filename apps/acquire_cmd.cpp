@@ -25,15 +25,6 @@ can::LogLevel ParseLevel(const std::string& text, int verbose) {
   return static_cast<can::LogLevel>(level > 3 ? 3 : level);
 }
 
-std::string UtcNow() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
 }  // namespace
 
 SignalFlags& ProcessSignals() { return g_signals; }
@@ -54,8 +45,10 @@ void Logger::operator()(can::LogLevel level, const std::string& text) const {
 }
 
 void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
-  app.description("Acquire SCMS samples from CANopen encoders and a probe over SocketCAN (or replay a candump log) "
-                  "into an sph-points 1 file, appending record by record.");
+  app.description(
+      "Acquire SCMS samples from CANopen encoders and a probe over SocketCAN (or replay a candump log) "
+      "into an sph-points 1 file, appending record by record. As CANopen master it starts the devices "
+      "(NMT), identifies and checks them (SDO) and restarts a node that reboots.");
   app.option_defaults()->always_capture_default();
   app.set_config("--config", "", "Read options from this file (TOML/INI, 'name = value'; see data/sph_acquired.conf)");
   auto* iface = app.add_option("-i,--iface", o.iface, "CAN interface to acquire from (live)");
@@ -104,6 +97,33 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
   app.add_option("--log-level", o.log_level, "error, warning, info or debug")
       ->check(CLI::IsMember({"error", "warning", "info", "debug"}));
   app.add_flag("-v,--verbose", o.verbose, "One log level more (repeatable)");
+  const std::string m = "CANopen master";
+  // Conflicts are found by MakeMasterConfig: CLI11 counts a flag set false in a config file as given.
+  app.add_flag("--no-nmt", o.no_nmt, "Send no NMT command: another master starts the devices")->group(m);
+  app.add_flag("--nmt-broadcast", o.nmt_broadcast, "Start all nodes with one NMT command to node 0")->group(m);
+  app.add_flag("--nmt-reset-comm", o.nmt_reset_comm,
+               "First NMT Reset communication, then wait for each node's boot-up message")
+      ->group(m);
+  app.add_flag("--nmt-stop-at-exit", o.nmt_stop_at_exit, "At the end, NMT Stop remote node")->group(m);
+  app.add_flag("--nmt-preop-at-exit", o.nmt_preop_at_exit, "At the end, NMT Enter pre-operational")->group(m);
+  app.add_flag("--no-sdo", o.no_sdo, "Do not identify or check the devices over SDO (no identity in the header)")
+      ->group(m);
+  app.add_flag("--trust-config", o.trust_config,
+               "Acquire even when a device's resolution or TPDO settings differ from the configuration (warnings)")
+      ->group(m);
+  app.add_flag("--configure-pdo", o.configure_pdo,
+               "Write each TPDO's COB-ID, transmission type 1 and mapping (pre-operational), verify by reading back")
+      ->group(m);
+  app.add_option("--sdo-timeout-ms", o.sdo_timeout_ms, "An SDO answer later than this fails the transfer [ms]")
+      ->check(CLI::Range(1.0, 60000.0))
+      ->group(m);
+  app.add_option("--boot-timeout-s", o.boot_timeout_s, "Wait this long for boot-ups after Reset communication [s]")
+      ->check(CLI::Range(0.01, 600.0))
+      ->group(m);
+  app.add_option("--probe-pdo-object", o.probe_pdo_object,
+                 "Probe: the object (INDEX:SUB, e.g. 0x2000:00) its TPDO maps at --probe-offset-byte; checked, and "
+                 "written with --configure-pdo")
+      ->group(m);
   AddDeviceOptions(app, o.devices);
 }
 
@@ -121,22 +141,52 @@ can::PipelineConfig MakePipelineConfig(const AcquireOptions& o) {
   return c;
 }
 
-void AcquireContext::LogFrame(const can::CanFrame& frame) {
-  if (frame_log == nullptr) return;
-  try {
-    frame_log->Write(frame);
-  } catch (const Error& e) {
-    throw OutputError(e.what());
+can::MasterConfig MakeMasterConfig(const AcquireOptions& o, const can::PipelineConfig& pc) {
+  if (o.no_nmt) {
+    for (const auto& [set, name] : {std::pair{o.nmt_broadcast, "--nmt-broadcast"},
+                                    {o.nmt_reset_comm, "--nmt-reset-comm"},
+                                    {o.nmt_stop_at_exit, "--nmt-stop-at-exit"},
+                                    {o.nmt_preop_at_exit, "--nmt-preop-at-exit"},
+                                    {o.configure_pdo, "--configure-pdo"}}) {
+      if (set) throw Error(std::string("--no-nmt: ") + name + " needs NMT");
+    }
   }
-}
-
-void AcquireContext::FlushOutputs() {
-  try {
-    if (frame_log != nullptr) frame_log->Flush();
-    points.SyncIfDue();
-  } catch (const Error& e) {
-    throw OutputError(e.what());
+  if (o.nmt_stop_at_exit && o.nmt_preop_at_exit) {
+    throw Error("--nmt-stop-at-exit and --nmt-preop-at-exit: give one of them");
   }
+  if (o.configure_pdo && o.no_sdo) throw Error("--configure-pdo: writing the TPDO settings needs SDO (no --no-sdo)");
+  can::MasterConfig m;
+  m.nodes = can::MasterNodesFor(pc);
+  for (can::MasterNode& n : m.nodes) {
+    for (can::MasterDevice& d : n.devices) {
+      d.cpr_name = "--" + d.role + "-counts-per-rev";
+      d.cob_name = "--" + d.role + "-cob-id";
+      d.layout_name = "--" + d.role + "-offset-byte/--" + d.role + "-width-bytes";
+      if (d.role == "probe" && !o.probe_pdo_object.empty()) {
+        const std::string& t = o.probe_pdo_object;
+        const auto colon = t.find(':');
+        char* end1 = nullptr;
+        char* end2 = nullptr;
+        const unsigned long index = std::strtoul(t.c_str(), &end1, 16);
+        const unsigned long sub = colon == std::string::npos ? 256 : std::strtoul(t.c_str() + colon + 1, &end2, 16);
+        if (colon == std::string::npos || end1 != t.c_str() + colon || *end2 != '\0' || index == 0 || index > 0xFFFF ||
+            sub > 0xFF) {
+          throw Error("--probe-pdo-object '" + t + "': expected INDEX:SUB in hex, e.g. 0x2000:00");
+        }
+        d.mapped_object = can::ObjectAddress{static_cast<std::uint16_t>(index), static_cast<std::uint8_t>(sub)};
+      }
+    }
+  }
+  m.nmt = !o.no_nmt;
+  m.nmt_broadcast = o.nmt_broadcast;
+  m.reset_communication = o.nmt_reset_comm;
+  m.sdo = !o.no_sdo;
+  m.trust_config = o.trust_config;
+  m.configure_pdo = o.configure_pdo;
+  m.sdo_timeout_ns = static_cast<std::int64_t>(o.sdo_timeout_ms * 1e6);
+  m.boot_timeout_ns = static_cast<std::int64_t>(o.boot_timeout_s * 1e9);
+  m.Validate();
+  return m;
 }
 
 int RunAcquire(const AcquireOptions& o, std::ostream& err) {
@@ -146,8 +196,10 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
     return kExitBadInput;
   }
   can::PipelineConfig config;
+  can::MasterConfig master;
   try {
     config = MakePipelineConfig(o);
+    master = MakeMasterConfig(o, config);
   } catch (const std::exception& e) {
     log(can::LogLevel::kError, e.what());
     return kExitBadInput;
@@ -160,91 +212,33 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
       return kExitBadInput;
     }
   }
-  std::unique_ptr<PointsWriter> points;
-  std::unique_ptr<can::CandumpWriter> frame_log;
-  // Files this run creates; removed again when the outputs cannot all be opened, so that a
-  // failed start leaves no header-only file behind.
-  const bool points_existed = ::access(o.output_path.c_str(), F_OK) == 0;
-  const bool log_existed = o.can_log_path.empty() || ::access(o.can_log_path.c_str(), F_OK) == 0;
-  try {
-    PointsHeader header;
-    header.sphere_radius_mm = o.sphere_radius_mm;
-    header.probe_offset_mm = o.probe_offset_mm;
-    header.metadata = {{"generator", "sph_acquired " SPH_VERSION},
-                       {"source", o.iface.empty() ? "replay of " + o.replay_path : "CAN interface " + o.iface},
-                       {"mode", o.mode},
-                       {"started", UtcNow()}};
-    PointsWriterOptions wo;
-    wo.has_time = true;
-    wo.has_setup = true;
-    wo.fsync_interval_s = o.fsync_interval_s;
-    points = std::make_unique<PointsWriter>(o.output_path, header, wo);
-    if (points->truncated_bytes() > 0) {
-      log(can::LogLevel::kWarning, o.output_path + ": cut off an incomplete last line of " +
-                                       std::to_string(points->truncated_bytes()) + " bytes left by an earlier run");
-    }
-    if (points->resumed()) {
-      points->WriteComment("resumed by sph_acquired " SPH_VERSION " at " + UtcNow() + " (" + o.mode + " mode)");
-      log(can::LogLevel::kInfo, o.output_path + ": continuing the existing file");
-    }
-    if (!o.can_log_path.empty()) {
-      frame_log = std::make_unique<can::CandumpWriter>(o.can_log_path, o.iface.empty() ? "can0" : o.iface,
-                                                      o.fsync_interval_s);
-    }
-  } catch (const std::exception& e) {
-    log(can::LogLevel::kError, e.what());
-    try {
-      if (points) points->Close();
-    } catch (const std::exception&) {  // the first error is the one to report
-    }
-    if (points && !points_existed) std::remove(o.output_path.c_str());
-    if (frame_log == nullptr && !log_existed) std::remove(o.can_log_path.c_str());
-    return kExitOutputError;
-  }
-
-  can::AcquisitionPipeline::Callbacks cb;
-  cb.sample = [&](const Sample& s) {
-    try {
-      points->Write(s);
-    } catch (const Error& e) {
-      throw OutputError(e.what());
-    }
-  };
-  cb.note = [&](const std::string& text) {
-    try {
-      points->WriteComment(text);
-    } catch (const Error& e) {
-      throw OutputError(e.what());
-    }
-  };
-  cb.log = [&](can::LogLevel level, const std::string& text) { log(level, text); };
-  can::AcquisitionPipeline pipeline(config, cb);
-  AcquireContext ctx{o, log, pipeline, *points, frame_log.get(), ProcessSignals(), {}};
+  AcquireContext ctx{o, log, config, master, ProcessSignals(), nullptr, {}};
   ctx.print_summary = [&] {
-    err << "sph_acquired: summary: " << can::FormatCounts(pipeline.counts(), config.mode) << "\n"
-        << "sph_acquired: summary: " << o.output_path << ": " << points->samples_written() << " rows written"
-        << (frame_log ? ", frame log " + std::to_string(frame_log->frames_written()) + " frames" : std::string())
-        << "\n" << std::flush;
+    if (!ctx.session) return;
+    err << "sph_acquired: summary: " << ctx.session->Summary() << "\n";
+    const std::string out = ctx.session->OutputSummary();
+    if (!out.empty()) err << "sph_acquired: summary: " << out << "\n";
+    err << std::flush;
   };
-
   int code = kExitOk;
   try {
     code = o.iface.empty() ? RunReplay(ctx) : RunLive(ctx);
-    pipeline.Finish(ctx.signals.stop != 0);
-    if (frame_log) frame_log->Close();
-    points->Close();
+    if (ctx.session && ctx.session->state() == AcquireSession::State::kOutputFailed) return kExitOutputError;
+    if (ctx.session && ctx.session->state() == AcquireSession::State::kStartRefused) return kExitDeviceError;
+    if (ctx.session) ctx.session->Finish();
   } catch (const OutputError& e) {
     log(can::LogLevel::kError, std::string(e.what()) + " (everything written before is intact)");
-    try {
-      points->Close();
-    } catch (const std::exception&) {  // already reported the first error
-    }
+    if (ctx.session) ctx.session->Abandon();
     ctx.print_summary();
     return kExitOutputError;
   }
   ctx.print_summary();
   if (code != kExitOk) return code;
-  const std::uint64_t lost = pipeline.counts().Losses();
+  if (ctx.session && ctx.session->state() == AcquireSession::State::kStarting) {
+    log(can::LogLevel::kWarning, "stopped before the devices were started: no points file was made");
+    return kExitOk;
+  }
+  const std::uint64_t lost = ctx.session ? ctx.session->Losses() : 0;
   if (lost > 0) {
     log(can::LogLevel::kWarning, "samples were lost: " + std::to_string(lost) + " (see the summary)");
     return kExitSamplesLost;

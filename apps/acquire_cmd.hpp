@@ -4,19 +4,20 @@
 // 1 stopped cleanly but samples were lost (incomplete cycles, missed SYNC, kernel drops: see the
 // summary); 2 bad input or usage; 3 output error (points file or frame log: e.g. a full disk;
 // everything written before is intact); 4 CAN interface error at start (no such interface, no
-// CAN support in the kernel).
+// CAN support in the kernel); 5 the start was refused: a device did not answer or does not match
+// the configuration (the message names node, object and both values), no output is made.
 #ifndef SPH_APPS_ACQUIRE_CMD_HPP_
 #define SPH_APPS_ACQUIRE_CMD_HPP_
 
+#include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdint>
 #include <optional>
 #include <ostream>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "can_options.hpp"
+#include "sph/can/master.hpp"
 #include "sph/can/pipeline.hpp"
 
 namespace sph::apps {
@@ -25,6 +26,7 @@ enum AcquireExit : int {
   kExitSamplesLost = 1,
   kExitOutputError = 3,
   kExitInterfaceError = 4,
+  kExitDeviceError = 5,
 };
 
 struct AcquireOptions {
@@ -49,6 +51,18 @@ struct AcquireOptions {
   int rcvbuf_bytes = 0;
   std::string log_level = "info";
   int verbose = 0;
+  // the CANopen master
+  bool no_nmt = false;             ///< leave NMT to another master
+  bool nmt_broadcast = false;      ///< one Start to all nodes (node 0)
+  bool nmt_reset_comm = false;     ///< Reset communication first
+  bool nmt_stop_at_exit = false;   ///< Stop remote node at the end
+  bool nmt_preop_at_exit = false;  ///< Enter pre-operational at the end
+  bool no_sdo = false;             ///< no identification, no checks
+  bool trust_config = false;       ///< mismatches are warnings
+  bool configure_pdo = false;      ///< write the TPDO settings, verify by reading back
+  double sdo_timeout_ms = 500.0;
+  double boot_timeout_s = 5.0;
+  std::string probe_pdo_object;  ///< "0x2000:00": checked in the probe's mapping
   DeviceOptions devices;
 };
 
@@ -71,6 +85,9 @@ int RunAcquire(const AcquireOptions& options, std::ostream& err);
 // ---- for the run functions and their tests
 /// The pipeline configuration the options describe; throws sph::Error.
 can::PipelineConfig MakePipelineConfig(const AcquireOptions& options);
+/// The master's configuration (nodes from `pipeline`, option names in its messages); throws
+/// sph::Error.
+can::MasterConfig MakeMasterConfig(const AcquireOptions& options, const can::PipelineConfig& pipeline);
 
 /// Writes "sph_acquired: <level>: <text>" lines at or below a level.
 class Logger {

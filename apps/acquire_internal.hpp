@@ -3,9 +3,11 @@
 #define SPH_APPS_ACQUIRE_INTERNAL_HPP_
 
 #include <functional>
+#include <memory>
 #include <ostream>
 
 #include "acquire_cmd.hpp"
+#include "acquire_session.hpp"
 #include "sph/can/candump_log.hpp"
 #include "sph/can/pipeline.hpp"
 #include "sph/core/error.hpp"
@@ -13,28 +15,20 @@
 
 namespace sph::apps {
 
-/// A failed write of the points file or the frame log (exit code 3).
-class OutputError : public Error {
- public:
-  using Error::Error;
-};
-
 struct AcquireContext {
   const AcquireOptions& options;
   const Logger& log;
-  can::AcquisitionPipeline& pipeline;
-  PointsWriter& points;
-  can::CandumpWriter* frame_log;  ///< nullptr: none
+  const can::PipelineConfig& pipeline_config;
+  const can::MasterConfig& master_config;
   SignalFlags& signals;
+  /// The session of the run; RunLive and RunReplay make it (the replay adapts the master's
+  /// configuration to what the log holds).
+  std::unique_ptr<AcquireSession> session;
   std::function<void()> print_summary;
-
-  /// Frame log append; throws OutputError.
-  void LogFrame(const can::CanFrame& frame);
-  /// Flushes the frame log, syncs both files when due; throws OutputError.
-  void FlushOutputs();
 };
 
-/// Live acquisition from a SocketCAN interface. Returns kExitOk or kExitInterfaceError.
+/// Live acquisition from a SocketCAN interface. Returns kExitOk, kExitInterfaceError or
+/// kExitBadInput; the session's state tells a refused start or an output error.
 int RunLive(AcquireContext& context);
 /// Replay of a candump log. Returns kExitOk or kExitBadInput (unreadable log).
 int RunReplay(AcquireContext& context);

@@ -1,7 +1,11 @@
-// sph_acquired --iface: the SocketCAN poll loop. One ppoll() waits for frames, the SYNC timer
-// and signals (blocked outside ppoll, so a signal between the flag check and the wait is not
-// lost). A lost interface (ENETDOWN, ENODEV) closes the socket; the loop checks every
-// --reopen-interval-s whether the interface is up again and reopens it.
+// sph_acquired --iface: the SocketCAN poll loop. One ppoll() waits for frames, the SYNC timer,
+// the master's next timeout and signals (blocked outside ppoll, so a signal between the flag
+// check and the wait is not lost). The socket echoes the daemon's own frames (NMT, SDO, SYNC),
+// so the frame log holds them and the replay sees what the master saw. Time-outs are handled
+// after the received frames are read, as the replay, which knows only frame times, does. The
+// SYNC timer starts when the devices are started. A lost interface (ENETDOWN, ENODEV) closes the
+// socket; the loop checks every --reopen-interval-s whether the interface is up again and
+// reopens it.
 #include <poll.h>
 #include <signal.h>
 #include <sys/timerfd.h>
@@ -12,6 +16,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <optional>
 
 #include "acquire_internal.hpp"
@@ -40,7 +45,8 @@ timespec ToTimespec(double s) {
   return ts;
 }
 
-// The frames the daemon wants: SYNC, the three PDOs, heartbeats and EMCY of the nodes.
+// The frames the daemon wants: SYNC, the three PDOs, heartbeats and EMCY of the nodes, the SDO
+// answers, and its own NMT and SDO requests (echoed).
 can::CanSocketOptions SocketOptions(const AcquireOptions& o, const can::PipelineConfig& c) {
   can::CanSocketOptions s;
   s.iface = o.iface;
@@ -54,9 +60,12 @@ can::CanSocketOptions SocketOptions(const AcquireOptions& o, const can::Pipeline
     if (node == 0) continue;
     s.filters.emplace_back(can::kHeartbeatBase + static_cast<std::uint32_t>(node), sff);
     s.filters.emplace_back(can::kEmcyBase + static_cast<std::uint32_t>(node), sff);
+    s.filters.emplace_back(can::kSdoResponseBase + static_cast<std::uint32_t>(node), sff);
+    s.filters.emplace_back(can::kSdoRequestBase + static_cast<std::uint32_t>(node), sff);
   }
+  s.filters.emplace_back(can::kNmtCobId, sff);
   s.error_mask = can::kDefaultErrorMask;
-  s.receive_own = o.sync_mode == "produce";  // our SYNC comes back with its kernel time
+  s.receive_own = true;  // our SYNC comes back with its kernel time, our NMT and SDO into the log
   s.rcvbuf_bytes = o.rcvbuf_bytes;
   return s;
 }
@@ -93,7 +102,7 @@ class SyncTimer {
 
 int RunLive(AcquireContext& ctx) {
   const AcquireOptions& o = ctx.options;
-  const can::PipelineConfig& config = ctx.pipeline.config();
+  const can::PipelineConfig& config = ctx.pipeline_config;
   const can::CanSocketOptions sopts = SocketOptions(o, config);
   const bool produce = o.sync_mode == "produce";
   if (produce && !(config.sync_period_s > 0.0)) {
@@ -107,10 +116,19 @@ int RunLive(AcquireContext& ctx) {
     ctx.log(can::LogLevel::kError, e.what());
     return kExitInterfaceError;
   }
-  ctx.log(can::LogLevel::kInfo, o.iface + ": acquiring (" + o.mode + " mode, SYNC " +
-                                    (produce ? "produced every " + std::to_string(o.devices.sync_period_ms) + " ms"
-                                             : std::string("from an external producer")) +
-                                    ", timestamps: " + can::ToString(sock->timestamp_mode()) + ")");
+  ctx.session = std::make_unique<AcquireSession>(o, config, ctx.master_config, ctx.log, "CAN interface " + o.iface);
+  AcquireSession& session = *ctx.session;
+  session.set_send([&](const can::CanFrame& f) {
+    if (sock) sock->Send(f);
+  });
+  ctx.log(can::LogLevel::kInfo,
+          o.iface + ": " +
+              (ctx.master_config.nmt || ctx.master_config.sdo ? std::string("starting the devices")
+                                                              : std::string("listening")) +
+              " (SYNC " +
+              (produce ? "produced every " + std::to_string(o.devices.sync_period_ms) + " ms"
+                       : std::string("from an external producer")) +
+              ", timestamps: " + can::ToString(sock->timestamp_mode()) + ")");
   // Signals are delivered only inside ppoll (see the file comment).
   sigset_t blocked, wait_mask;
   sigemptyset(&blocked);
@@ -123,14 +141,19 @@ int RunLive(AcquireContext& ctx) {
   sigdelset(&wait_mask, SIGUSR1);
 
   std::optional<SyncTimer> timer;
-  if (produce) timer.emplace(config.sync_period_s);
   std::uint8_t counter = 0;
   std::uint64_t syncs_sent = 0, sync_overruns = 0, tx_busy = 0;
   const double t_start = MonotonicS();
   double down_since = 0.0, next_reopen = 0.0;
   int result = kExitOk;
+  session.Begin(RealtimeNs());
 
   while (!ctx.signals.stop) {
+    if (session.state() == AcquireSession::State::kStartRefused ||
+        session.state() == AcquireSession::State::kOutputFailed) {
+      break;
+    }
+    if (produce && session.acquiring() && !timer) timer.emplace(config.sync_period_s);
     if (ctx.signals.summary) {
       ctx.signals.summary = 0;
       ctx.print_summary();
@@ -149,7 +172,7 @@ int RunLive(AcquireContext& ctx) {
             char buf[64];
             std::snprintf(buf, sizeof buf, "%.2f", now - down_since);
             ctx.log(can::LogLevel::kWarning, o.iface + ": up again after " + std::string(buf) + " s; socket reopened");
-            ctx.pipeline.OnLinkEvent("interface " + o.iface + " up again, acquisition resumed", RealtimeNs());
+            session.OnLinkEvent("interface " + o.iface + " up again, acquisition resumed", RealtimeNs());
             if (timer) timer->Expirations();  // no burst of SYNCs for the time we were down
             continue;
           } catch (const std::exception& e) {
@@ -160,13 +183,19 @@ int RunLive(AcquireContext& ctx) {
       const timespec wait = ToTimespec(std::max(0.0, std::min(next_reopen - now, 0.2)));
       ::ppoll(nullptr, 0, &wait, &wait_mask);
       if (timer) timer->Expirations();
-      ctx.pipeline.OnTime(RealtimeNs());
-      ctx.FlushOutputs();
+      session.OnTime(RealtimeNs());
+      session.FlushOutputs();
       continue;
     }
 
+    // Wait at most until the master's next timeout.
+    double wait_s = 0.2;
+    const std::int64_t deadline = session.NextDeadline();
+    if (deadline != std::numeric_limits<std::int64_t>::max()) {
+      wait_s = std::max(0.0, std::min(wait_s, static_cast<double>(deadline - RealtimeNs()) * 1e-9 + 1e-4));
+    }
     pollfd fds[2] = {{sock->fd(), POLLIN, 0}, {timer ? timer->fd() : -1, POLLIN, 0}};
-    const timespec wait = ToTimespec(0.2);
+    const timespec wait = ToTimespec(wait_s);
     const int rc = ::ppoll(fds, timer ? 2 : 1, &wait, &wait_mask);
     if (rc < 0 && errno != EINTR) {
       ctx.log(can::LogLevel::kError, std::string("ppoll: ") + std::strerror(errno));
@@ -196,41 +225,45 @@ int RunLive(AcquireContext& ctx) {
         }
       }
     }
-    if (rc > 0 && (fds[0].revents & (POLLIN | POLLERR))) {
-      for (int i = 0; i < 256 && !went_down; ++i) {  // drain, bounded so the timer is served
-        const can::RxResult r = sock->Receive();
-        if (r.new_drops > 0) ctx.pipeline.OnRxOverflow(r.new_drops, RealtimeNs());
-        if (r.status == can::RxStatus::kNone) {  // queue empty: drops that no frame followed
-          ctx.pipeline.OnRxOverflow(sock->TakeDrops(), RealtimeNs());
-          break;
-        }
-        if (r.status == can::RxStatus::kDown) {
-          went_down = true;
-          down_errno = r.error;
-        } else if (r.status == can::RxStatus::kMalformed) {
-          ctx.pipeline.OnMalformedInput(o.iface + ": a read of unexpected size");
-        } else {
-          ctx.LogFrame(r.frame);
-          ctx.pipeline.OnFrame(r.frame);
-        }
+    // Read every frame queued (bounded, so the timer is served) before the timeouts.
+    for (int i = 0; i < 256 && !went_down; ++i) {
+      const can::RxResult r = sock->Receive();
+      if (r.new_drops > 0) session.OnRxOverflow(r.new_drops, RealtimeNs());
+      if (r.status == can::RxStatus::kNone) {  // queue empty: drops that no frame followed
+        session.OnRxOverflow(sock->TakeDrops(), RealtimeNs());
+        break;
+      }
+      if (r.status == can::RxStatus::kDown) {
+        went_down = true;
+        down_errno = r.error;
+      } else if (r.status == can::RxStatus::kMalformed) {
+        session.OnMalformedInput(o.iface + ": a read of unexpected size");
+      } else {
+        session.OnFrame(r.frame);
       }
     }
     if (went_down) {
-      ctx.pipeline.OnRxOverflow(sock->TakeDrops(), RealtimeNs());
+      session.OnRxOverflow(sock->TakeDrops(), RealtimeNs());
       ctx.log(can::LogLevel::kWarning, o.iface + ": " + std::strerror(down_errno) +
                                            ": waiting for the interface to come back");
-      ctx.pipeline.OnLinkEvent("interface " + o.iface + " lost (" + std::strerror(down_errno) + ")", RealtimeNs());
+      session.OnLinkEvent("interface " + o.iface + " lost (" + std::strerror(down_errno) + ")", RealtimeNs());
       sock.reset();
       down_since = MonotonicS();
       next_reopen = down_since + o.reopen_interval_s;
     }
-    ctx.pipeline.OnTime(RealtimeNs());
-    ctx.FlushOutputs();
+    session.OnTime(RealtimeNs());
+    session.FlushOutputs();
   }
-  if (sock) ctx.pipeline.OnRxOverflow(sock->TakeDrops(), RealtimeNs());  // drops after the last frame read
+  if (sock) session.OnRxOverflow(sock->TakeDrops(), RealtimeNs());  // drops after the last frame read
   if (ctx.signals.stop) ctx.log(can::LogLevel::kInfo, "stop requested: flushing and closing");
+  if (sock && (o.nmt_stop_at_exit || o.nmt_preop_at_exit)) {
+    const auto command = o.nmt_stop_at_exit ? can::NmtCommand::kStop : can::NmtCommand::kEnterPreOperational;
+    for (const can::CanFrame& f : session.master().CommandAll(command)) sock->Send(f);
+    ctx.log(can::LogLevel::kInfo, "NMT " + can::NmtCommandName(static_cast<std::uint8_t>(command)) + " sent");
+  }
+  session.set_send(nullptr);  // the socket goes with this function; the session lives on
   pthread_sigmask(SIG_UNBLOCK, &blocked, nullptr);
-  if (produce) {
+  if (produce && timer) {
     ctx.log(can::LogLevel::kInfo, "SYNC sent " + std::to_string(syncs_sent) + ", timer overruns " +
                                       std::to_string(sync_overruns) + ", TX queue full " + std::to_string(tx_busy));
   }

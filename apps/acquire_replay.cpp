@@ -1,11 +1,18 @@
-// sph_acquired --replay: the pipeline offline, from a candump log.
+// sph_acquired --replay: the master and the pipeline offline, from a candump log. The master
+// runs as it did live, its frames going nowhere: the log holds what it sent, and its answers
+// drive it. A log without the master's NMT commands or SDO requests (recorded while another
+// master ran the bus, or made by sph_cansim -o) is replayed as with --no-nmt or --no-sdo.
 #include <time.h>
 
 #include <cerrno>
+#include <limits>
+#include <optional>
 
 #include "acquire_internal.hpp"
 #include "app_common.hpp"
 #include "sph/can/candump_log.hpp"
+#include "sph/can/canopen.hpp"
+#include "sph/can/sdo.hpp"
 
 namespace sph::apps {
 namespace {
@@ -45,19 +52,69 @@ std::string CheckReplayLog(const std::string& path) {
   }
 }
 
+// Whether the log holds NMT commands, and SDO requests to the configured nodes; when the first
+// of them came.
+struct MasterTraffic {
+  bool nmt = false;
+  bool sdo = false;
+  std::optional<std::int64_t> first_ns;
+};
+MasterTraffic ScanForMaster(const std::string& path, const can::MasterConfig& master) {
+  MasterTraffic t;
+  can::CandumpReader reader(path);
+  for (;;) {
+    const can::CandumpReader::Result r = reader.Next();
+    if (r.status == can::CandumpReader::Status::kEnd) break;
+    if (r.status != can::CandumpReader::Status::kFrame || r.frame.IsExtended() || r.frame.IsRemote()) continue;
+    bool ours = false;
+    if (r.frame.id == can::kNmtCobId && can::DecodeNmt(r.frame)) ours = t.nmt = true;
+    for (const can::MasterNode& n : master.nodes) {
+      if (r.frame.id == can::kSdoRequestBase + static_cast<std::uint32_t>(n.node_id)) ours = t.sdo = true;
+    }
+    if (ours && !t.first_ns) t.first_ns = r.frame.t_ns;
+    if (t.nmt && t.sdo) break;
+  }
+  return t;
+}
+
 int RunReplay(AcquireContext& ctx) {
   std::unique_ptr<can::CandumpReader> reader;
+  can::MasterConfig master = ctx.master_config;
+  MasterTraffic traffic;
   try {
+    traffic = ScanForMaster(ctx.options.replay_path, master);
+    if (master.nmt && !traffic.nmt) {
+      ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no NMT command in it: replayed as with --no-nmt");
+      master.nmt = false;
+      master.configure_pdo = false;
+      master.reset_communication = false;
+    }
+    if (master.sdo && !traffic.sdo) {
+      ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no SDO request in it: replayed as with --no-sdo");
+      master.sdo = false;
+      master.configure_pdo = false;
+    }
     reader = std::make_unique<can::CandumpReader>(ctx.options.replay_path);
   } catch (const std::exception& e) {
     ctx.log(can::LogLevel::kError, e.what());
     return kExitBadInput;
   }
-  ctx.log(can::LogLevel::kInfo, "replaying " + ctx.options.replay_path);
+  ctx.session = std::make_unique<AcquireSession>(ctx.options, ctx.pipeline_config, master, ctx.log,
+                                                 "replay of " + ctx.options.replay_path);
+  AcquireSession& session = *ctx.session;
   const double speed = ctx.options.replay_speed;
-  std::int64_t first_frame_ns = 0, start_mono_ns = 0;
-  std::uint64_t n = 0;
+  std::int64_t first_frame_ns = 0, start_mono_ns = 0, last_ns = 0;
+  std::uint64_t n = 0, before = 0;
+  // The daemon that recorded the log began just before its first request; a log that another
+  // program (candump) began earlier holds frames the daemon never saw: they are left out.
+  const bool uses_master = master.nmt || master.sdo;
+  const std::int64_t begin_ns =
+      uses_master && traffic.first_ns ? *traffic.first_ns - 10000000 : std::numeric_limits<std::int64_t>::min();
   for (;;) {
+    if (session.state() == AcquireSession::State::kStartRefused ||
+        session.state() == AcquireSession::State::kOutputFailed) {
+      return kExitOk;
+    }
     if (ctx.signals.stop) {
       ctx.log(can::LogLevel::kInfo, "stop requested: ending the replay");
       break;
@@ -75,8 +132,19 @@ int RunReplay(AcquireContext& ctx) {
     }
     if (r.status == can::CandumpReader::Status::kEnd) break;
     if (r.status == can::CandumpReader::Status::kMalformed) {
-      ctx.pipeline.OnMalformedInput(r.error);
+      session.OnMalformedInput(r.error);
       continue;
+    }
+    if (r.frame.t_ns < begin_ns) {
+      ++before;
+      continue;
+    }
+    if (n == 0) {
+      if (before > 0) {
+        ctx.log(can::LogLevel::kInfo, ctx.options.replay_path + ": " + std::to_string(before) +
+                                          " frames before the daemon's first request are left out");
+      }
+      session.Begin(r.frame.t_ns);
     }
     if (speed > 0.0) {
       if (n == 0) {
@@ -85,16 +153,21 @@ int RunReplay(AcquireContext& ctx) {
       } else {
         const auto due = start_mono_ns + static_cast<std::int64_t>(static_cast<double>(r.frame.t_ns - first_frame_ns) / speed);
         if (due > MonotonicNs()) {
-          ctx.FlushOutputs();  // idle anyway: make what we have visible
+          session.FlushOutputs();  // idle anyway: make what we have visible
           SleepUntil(due);
         }
       }
     }
-    ctx.LogFrame(r.frame);
-    ctx.pipeline.OnFrame(r.frame);
-    if ((++n & 0xFFF) == 0) ctx.FlushOutputs();
+    session.OnTime(r.frame.t_ns);
+    session.OnFrame(r.frame);
+    last_ns = r.frame.t_ns;
+    if ((++n & 0xFFF) == 0) session.FlushOutputs();
   }
-  ctx.FlushOutputs();
+  // A start the log ends in the middle of: its timeouts run out.
+  if (session.state() == AcquireSession::State::kStarting && !ctx.signals.stop) {
+    session.OnTime(last_ns + 3600LL * 1000000000LL);
+  }
+  if (session.state() == AcquireSession::State::kAcquiring) session.FlushOutputs();
   return kExitOk;
 }
 

@@ -5,19 +5,22 @@
 #include <sstream>
 
 #include "sph/core/error.hpp"
+#include "sph/core/text_input.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::apps {
 namespace {
 
+using internal::Format;
+using internal::Quoted;
+
 std::vector<AnglePair> ReadAngles(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open for reading");
+  std::ifstream in = OpenInputFile(path);
+  TextLines lines(in, path, "a file of angles");
   std::vector<AnglePair> out;
   std::string line;
-  long n = 0;
-  while (std::getline(in, line)) {
-    ++n;
+  while (lines.Next(line)) {
     const auto hash = line.find('#');
     if (hash != std::string::npos) line.resize(hash);
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
@@ -25,7 +28,10 @@ std::vector<AnglePair> ReadAngles(const std::string& path) {
     AnglePair a;
     std::string extra;
     if (!(ls >> a.theta_deg >> a.phi_deg) || (ls >> extra) || !std::isfinite(a.theta_deg) || !std::isfinite(a.phi_deg)) {
-      throw Error(path + ":" + std::to_string(n) + ": expected 'theta_deg phi_deg'");
+      throw Error(lines.Where() + "expected 'theta_deg phi_deg'");
+    }
+    if (static_cast<long>(out.size()) == kMaxGridPoints) {
+      throw Error(lines.Where() + "more than " + std::to_string(kMaxGridPoints) + " pattern points");
     }
     out.push_back(a);
   }
@@ -35,18 +41,47 @@ std::vector<AnglePair> ReadAngles(const std::string& path) {
 
 }  // namespace
 
+bool ValidRange::Contains(double v) const {
+  return std::isfinite(v) && (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
+}
+
+std::string ValidRange::Text() const {
+  return Format("%g %s x %s %g", lo, lo_open ? "<" : "<=", hi_open ? "<" : "<=", hi) + (*unit ? " " : "") + unit;
+}
+
+std::string ValidRange::Refusal(const std::string& text) const {
+  return Format("must be %s %g and %s %g", lo_open ? ">" : ">=", lo, hi_open ? "<" : "<=", hi) + (*unit ? " " : "") +
+         unit + ", got " + (text.size() > 40 ? Quoted(text) : text);
+}
+
+CLI::Validator InRange(const ValidRange& range) {
+  return CLI::Validator(
+      [range](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        return end != text.c_str() && *end == '\0' && range.Contains(v) ? "" : range.Refusal(text);
+      },
+      range.Text());
+}
+
+double CheckedValue(double value, const ValidRange& range, const std::string& what, const std::string& text) {
+  if (!range.Contains(value)) throw Error(what + ": " + range.Refusal(text));
+  return value;
+}
+
 Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what) {
   std::vector<std::string> parts;
   std::stringstream ss(text);
   for (std::string part; std::getline(ss, part, ',');) parts.push_back(part);
-  if (parts.size() != 3 || text.back() == ',') throw Error(what + " '" + text + "': expected x,y,z in mm");
+  if (parts.size() != 3 || text.back() == ',') throw Error(what + " " + Quoted(text) + ": expected x,y,z in mm");
   Eigen::Vector3d c;
   for (int i = 0; i < 3; ++i) {
     const std::string& part = parts[static_cast<std::size_t>(i)];
     const auto [ptr, ec] = std::from_chars(part.data(), part.data() + part.size(), c(i));
     if (part.empty() || ec != std::errc() || ptr != part.data() + part.size()) {
-      throw Error(what + " '" + text + "': '" + part + "' is not a number");
+      throw Error(what + " " + Quoted(text) + ": " + Quoted(part) + " is not a number");
     }
+    CheckedValue(c(i), ranges::kCenterMm, what + " " + Quoted(text), part);
   }
   return c;
 }
@@ -58,23 +93,25 @@ void AddMachineOptions(CLI::App& app, MachineOptions& o, const std::string& grou
     if (!group.empty()) opt->group(group);
     return opt;
   };
-  add("--alpha-deg", o.alpha_deg, "True alpha [deg]");
-  add("--a-mm", o.a_mm, "True a [mm]");
-  add("--beta-deg", o.beta_deg, "True beta [deg]");
-  add("--b-mm", o.b_mm, "True b [mm]");
-  add("--epsilon-deg", o.epsilon_deg, "True epsilon [deg]");
-  add("--c-mm", o.c_mm, "True c [mm]");
-  add("--d-prime-mm", o.d_prime_mm, "True d' [mm]");
-  add("--sphere-radius-mm", o.sphere_radius_mm, "Sphere radius R0 [mm]")->check(Positive());
-  add("--probe-offset-mm", o.probe_offset_mm, "Nominal probe zero distance d [mm]")->check(Positive());
-  add("--theta-steps", o.theta_steps, "Grid: theta positions per ring")->check(CLI::Range(1, 1000000));
+  using namespace ranges;
+  add("--alpha-deg", o.alpha_deg, "True alpha [deg]")->check(InRange(ErrorRange(kAlpha)));
+  add("--a-mm", o.a_mm, "True a [mm]")->check(InRange(ErrorRange(kA)));
+  add("--beta-deg", o.beta_deg, "True beta [deg]")->check(InRange(ErrorRange(kBeta)));
+  add("--b-mm", o.b_mm, "True b [mm]")->check(InRange(ErrorRange(kB)));
+  add("--epsilon-deg", o.epsilon_deg, "True epsilon [deg]")->check(InRange(ErrorRange(kEpsilon)));
+  add("--c-mm", o.c_mm, "True c [mm]")->check(InRange(ErrorRange(kC)));
+  add("--d-prime-mm", o.d_prime_mm, "True d' [mm]; |d'| < d")->check(InRange(ErrorRange(kDPrime)));
+  add("--sphere-radius-mm", o.sphere_radius_mm, "Sphere radius R0 [mm]")->check(InRange(kSphereRadiusMm));
+  add("--probe-offset-mm", o.probe_offset_mm, "Nominal probe zero distance d [mm]")->check(InRange(kProbeOffsetMm));
+  add("--theta-steps", o.theta_steps, "Grid: theta positions per ring (at most 10 million grid points)")
+      ->check(CLI::Range(1, 1000000));
   add("--phi-steps", o.phi_steps, "Grid: phi rings")->check(CLI::Range(1, 1000000));
   add("--angles", o.angles_path, "Explicit pattern instead of the grid: file of 'theta_deg phi_deg' lines");
-  add("--noise-r-um", o.noise_r_um, "Sigma of the noise on r [um]")->check(NonNegative());
+  add("--noise-r-um", o.noise_r_um, "Sigma of the noise on r [um]")->check(InRange(kNoiseUm));
   add("--noise-theta-arcsec", o.noise_theta_arcsec, "Sigma of the noise on the theta reading [arcsec]")
-      ->check(NonNegative());
+      ->check(InRange(kNoiseArcsec));
   add("--noise-phi-arcsec", o.noise_phi_arcsec, "Sigma of the noise on the phi reading [arcsec]")
-      ->check(NonNegative());
+      ->check(InRange(kNoiseArcsec));
 }
 
 SimulationSpec ToSimulationSpec(const MachineOptions& o) {
@@ -83,6 +120,17 @@ SimulationSpec ToSimulationSpec(const MachineOptions& o) {
                 o.c_mm, o.d_prime_mm};
   spec.sphere_radius_mm = o.sphere_radius_mm;
   spec.probe_offset_mm = o.probe_offset_mm;
+  if (!(std::abs(o.d_prime_mm) < o.probe_offset_mm)) {
+    throw Error("--d-prime-mm " + Format("%g", o.d_prime_mm) +
+                ": the error of the probe zero distance must be "
+                "smaller than the distance itself (--probe-offset-mm " +
+                Format("%g", o.probe_offset_mm) + ")");
+  }
+  if (o.angles_path.empty() && static_cast<long>(o.theta_steps) * o.phi_steps > kMaxGridPoints) {
+    throw Error("--theta-steps " + std::to_string(o.theta_steps) + " x --phi-steps " + std::to_string(o.phi_steps) +
+                " is a grid of " + std::to_string(static_cast<long>(o.theta_steps) * o.phi_steps) +
+                " points; at most " + std::to_string(kMaxGridPoints) + " are simulated");
+  }
   spec.pattern = o.angles_path.empty() ? GridPattern(o.theta_steps, o.phi_steps) : ReadAngles(o.angles_path);
   spec.noise_r_um = o.noise_r_um;
   spec.noise_theta_arcsec = o.noise_theta_arcsec;

@@ -14,7 +14,11 @@
 
 #include <CLI/CLI.hpp>
 
+#include "sph/core/cleanup.hpp"
+#include "sph/core/output_files.hpp"
+#include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/model/scms_model.hpp"
 
 namespace sph::apps {
 
@@ -24,6 +28,31 @@ enum ExitCode : int {
   kExitNotUsable = 1, ///< sph_calibrate: solved, but not usable (no convergence, undetermined parameters)
   kExitBadInput = 2,  ///< bad input or usage
 };
+
+/// The valid values of a numeric option: finite, between `lo` and `hi` (excluded where open), in
+/// `unit`. Every numeric option of the apps has one; --help shows it ("0 < x <= 1000 mm").
+struct ValidRange {
+  double lo;
+  double hi;
+  const char* unit;  ///< "mm", "deg", "s", ...; "" for a pure number
+  bool lo_open = false;
+  bool hi_open = false;
+
+  bool Contains(double v) const;
+  /// "0 < x <= 1000 mm"
+  std::string Text() const;
+  /// "must be > 0 and <= 1000 mm, got 1e308"
+  std::string Refusal(const std::string& text) const;
+};
+
+/// A CLI11 check for a numeric option in `range`. CLI11 prefixes the option's name:
+/// "--sphere-radius-mm: must be > 0 and <= 1000 mm, got 1e308". (CLI11 2.1's own PositiveNumber
+/// and Range print their 300-digit bounds and let infinity through.)
+CLI::Validator InRange(const ValidRange& range);
+
+/// Checks a number the app parsed itself (a part of "x,y,z", the value of "id.param=v"): returns
+/// it, or throws sph::Error "<what>: must be ..., got <text>".
+double CheckedValue(double value, const ValidRange& range, const std::string& what, const std::string& text);
 
 /// CLI11 checks for numbers with plain messages ("must be positive"); CLI11 2.1's PositiveNumber
 /// and NonNegativeNumber are ranges that print their 300-digit upper bound. Infinity is refused
@@ -50,6 +79,32 @@ inline CLI::Validator NonNegative() {
       },
       "NONNEGATIVE");
 }
+
+/// Ranges shared by several apps.
+namespace ranges {
+inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};
+inline constexpr ValidRange kProbeOffsetMm{0.0, kMaxProbeOffsetMm, "mm", true};
+/// The seven errors: kScmsParamInfo's bounds, in deg or mm (and |d'| < d).
+constexpr ValidRange ErrorRange(int p) {
+  return {-kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report,
+          kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report,
+          kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle ? "deg" : "mm"};
+}
+inline constexpr ValidRange kNoiseUm{0.0, 1000.0, "um"};
+inline constexpr ValidRange kNoiseArcsec{0.0, 3600.0, "arcsec"};
+inline constexpr ValidRange kCenterMm{-1000.0, 1000.0, "mm"};  ///< each coordinate of a centre
+inline constexpr ValidRange kEffectArcsec{-kMaxEffectArcsec, kMaxEffectArcsec, "arcsec"};
+inline constexpr ValidRange kEffectUm{-kMaxEffectUm, kMaxEffectUm, "um"};
+inline constexpr ValidRange kStdUm{0.0, 1e6, "um", true};
+/// The sphere on its mount and its form (sph_simulate).
+inline constexpr ValidRange kMountRotationDeg{-360.0, 360.0, "deg"};  ///< each component of a rotation vector
+inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
+inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
+inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
+}  // namespace ranges
+
+/// The most grid points (theta steps times phi rings) a simulation makes: 10 million.
+inline constexpr long kMaxGridPoints = 10000000;
 
 /// The simulated machine and measurement shared by sph_simulate and sph_montecarlo: the true
 /// errors, the sphere, the pattern and the noise (defaults: the paper's study).
@@ -86,24 +141,34 @@ inline int ExitForParseError(const CLI::App& app, const CLI::ParseError& e) {
 
 /// The whole main() of an app: set up the options, parse, run. --help and --version exit 0, a parse
 /// error exits kExitBadInput, and an exception escaping `run` is printed as "<name>: error: <what>"
-/// on stderr with kExitBadInput. `run` takes the parsed options and returns the exit code.
+/// on stderr with kExitBadInput. `run` takes the parsed options and returns the exit code. A
+/// signal that ends the program removes the temporary files of its unfinished outputs
+/// (sph/core/cleanup.hpp), and a failed write to standard output (a full disk, a closed pipe)
+/// is an error: "<name>: error: cannot write to standard output: No space left on device".
 template <typename Options, typename Setup, typename Run>
 int AppMain(int argc, char** argv, const char* name, Setup setup, Run run) {
+  RemoveTempFilesOnSignals();
+  const StandardOutput standard_output;
   CLI::App app;
   Options options;
   setup(app, options);
   app.set_version_flag("--version", std::string(name) + " " SPH_VERSION);
+  int code = kExitOk;
   try {
     app.parse(argc, argv);
+    code = run(options);
   } catch (const CLI::ParseError& e) {
-    return ExitForParseError(app, e);
-  }
-  try {
-    return run(options);
+    code = ExitForParseError(app, e);
   } catch (const std::exception& e) {
     std::cerr << name << ": error: " << e.what() << "\n";
-    return kExitBadInput;
+    code = kExitBadInput;
   }
+  const std::string failed = FlushStandardOutput();
+  if (!failed.empty()) {
+    std::cerr << name << ": error: cannot write to standard output: " << failed << "\n";
+    return code == kExitOk || code == kExitNotUsable ? kExitBadInput : code;
+  }
+  return code;
 }
 
 }  // namespace sph::apps

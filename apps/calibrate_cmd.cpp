@@ -1,5 +1,7 @@
 #include "calibrate_cmd.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <optional>
 
@@ -10,9 +12,9 @@
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/report.hpp"
 #include "sph/calib/trace.hpp"
-#include "sph/core/atomic_file.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
 
 namespace sph::apps {
@@ -23,10 +25,10 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("points", o.points_path, "Points file (sph-points 1)")->required();
   app.add_option("--sphere-radius-mm", o.sphere_radius_mm,
                  "Reference sphere radius R0 [mm] (overrides the file's sphere_radius_mm)")
-      ->check(Positive());
+      ->check(InRange(ranges::kSphereRadiusMm));
   app.add_option("--probe-offset-mm", o.probe_offset_mm,
                  "Nominal probe zero distance d [mm] (overrides the file's probe_offset_mm)")
-      ->check(Positive());
+      ->check(InRange(ranges::kProbeOffsetMm));
   app.add_option("--json", o.json_path, "Write the report as JSON to this file ('-' for stdout)");
   app.add_option("-o,--output", o.output_path,
                  "Write the calibration file (JSON) that compensation loads; written only when usable");
@@ -34,7 +36,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "A parameter whose standard uncertainty, as a displacement of the probed point (angles times "
                  "R0), exceeds this is undetermined [um]")
       ->capture_default_str()
-      ->check(Positive());
+      ->check(InRange(ranges::kStdUm));
   app.add_option("--max-iterations", o.max_iterations, "Levenberg-Marquardt iteration limit")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
@@ -69,7 +71,18 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
 
 int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err) {
   const std::string prog = "sph_calibrate";
+  const bool plot_dir_existed = o.plot_dir.empty() || ::access(o.plot_dir.c_str(), F_OK) == 0;
   try {
+    const bool text = !o.quiet && o.json_path != "-";
+    RunPaths paths;
+    paths.Input("points", o.points_path)
+        .Input("--validate", o.validate_path)
+        .Output("the text report (-q leaves it out)", text ? "-" : "")
+        .Output("--json", o.json_path)
+        .Output("--output", o.output_path);
+    if (!o.plot_dir.empty()) {
+      for (const std::string& f : kTracePlotFiles) paths.Output("--plot-dir", o.plot_dir + "/" + f);
+    }
     const PointsData points = ReadPointsFile(o.points_path);
     CalibrationOptions copts;
     const auto radius = o.sphere_radius_mm ? o.sphere_radius_mm : points.header.sphere_radius_mm;
@@ -108,7 +121,6 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
         trace = FitFixedEffects(points, copts, base, fixed, topts);
       }
       if (!o.validate_path.empty()) validation = Validate(o.validate_path, *offset, *trace);
-      if (!o.plot_dir.empty()) PlotTrace(o.plot_dir, points, copts, *trace);
     }
     // The calibration reported: the seven errors of the final model.
     const bool extended = trace && !trace->after.fit.model.Empty();
@@ -121,18 +133,12 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     ctx.probe_offset_mm = *offset;
     ctx.max_std_um = o.max_std_um;
     ctx.metadata = points.header.metadata;
-    if (!o.quiet && o.json_path != "-") {
-      WriteTextReport(out, result, ctx);
-      if (trace) WriteTraceText(out, *trace, validation ? &*validation : nullptr);
-    }
-    if (o.quiet) {
-      for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";
-    }
+    OutputFiles files(out);
     if (!o.json_path.empty()) {
       nlohmann::json report = nlohmann::json::parse(JsonReport(result, ctx));
       if (trace) AddTraceJson(report, *trace, validation ? &*validation : nullptr);
       const std::string json = report.dump(2) + "\n";
-      WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << json; });
+      files.Stage(o.json_path, [&](std::ostream& f) { f << json; });
     }
     if (!o.output_path.empty()) {
       if (result.Usable()) {
@@ -141,13 +147,23 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
           err << prog << ": note: " << o.output_path
               << " leaves out probe_drift: a drift belongs to the run it was measured in\n";
         }
-        WriteCalibrationFile(o.output_path, file);
+        files.Stage(o.output_path, [&](std::ostream& f) { WriteCalibration(f, file); });
       } else {
         err << prog << ": not writing " << o.output_path << ": the calibration is not usable\n";
       }
     }
+    if (trace && !o.plot_dir.empty()) PlotTrace(o.plot_dir, points, copts, *trace, files);
+    if (text) {
+      WriteTextReport(out, result, ctx);
+      if (trace) WriteTraceText(out, *trace, validation ? &*validation : nullptr);
+    }
+    if (o.quiet) {
+      for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";
+    }
+    files.Commit();
     return result.Usable() ? kExitOk : kExitNotUsable;
   } catch (const std::exception& e) {
+    if (!plot_dir_existed) ::rmdir(o.plot_dir.c_str());  // the folder made for the plots, if left empty
     err << prog << ": error: " << e.what() << "\n";
     return kExitBadInput;
   }

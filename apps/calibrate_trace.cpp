@@ -5,8 +5,10 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <utility>
 
+#include "gnuplot.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/sphere_fit.hpp"
@@ -267,58 +269,60 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
 }
 
 void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
-               const TraceResult& r) {
-  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
-    throw Error("--plot-dir needs gnuplot (Debian: apt-get install gnuplot-nox)");
-  }
+               const TraceResult& r, OutputFiles& files) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+  const std::string folder = dir + "/";
   // Every reading under each model (outliers too: they show at the end of the colour scale).
   const std::vector<double> before = EffectResiduals(points, options, r.before.fit);
   const std::vector<double> after = EffectResiduals(points, options, r.after.fit);
-  const std::string data_path = dir + "/residuals.dat";
-  {
-    std::ofstream f(data_path);
+  files.Stage(folder + "residuals.dat", [&](std::ostream& f) {
     f << "# theta_deg phi_deg t_s residual_before_um residual_after_um\n";
     for (std::size_t i = 0; i < points.samples.size(); ++i) {
       const Sample& s = points.samples[i];
       f << Format("%.6f %.6f %.6f %.6f %.6f\n", s.theta_deg, s.phi_deg, s.t_s, before[i] * kUmPerMm, after[i] * kUmPerMm);
     }
-    if (!f) throw Error(data_path + ": cannot write");
-  }
+  });
   // The colour scale of the readings the seven-error fit used (at least 1 nm).
   double lim = 1e-3;
   for (double e : r.before.fit.calibration.residuals_mm) lim = std::max(lim, std::abs(e) * kUmPerMm);
   std::string added;
   for (Effect e : r.added) added += (added.empty() ? " + " : ", ") + std::string(InfoOf(e).id);
-  const std::string script_path = dir + "/residuals.gp";
-  {
-    std::ofstream f(script_path);
-    f << "# Residual plots of sph_calibrate; rerun with: gnuplot residuals.gp (in this folder)\n"
-      << "set terminal pngcairo size 1400,560 noenhanced font ',11'\n"
-      << "set output 'residual_map.png'\n"
-      << "set multiplot layout 1,2 title 'Residual |p - O| - R0 [um] over theta and phi'\n"
-      << "set xlabel 'theta [deg]'\nset ylabel 'phi [deg]'\nset xrange [0:360]\nset yrange [180:0]\n"
-      << "set palette defined (-1 'blue', 0 'white', 1 'red')\n"
-      << Format("set cbrange [%.6f:%.6f]\n", -lim, lim) << "set cblabel 'um'\n"
-      << Format("set title 'before: seven errors, rms %.4f um'\n", r.before.fit.calibration.rms_um)
-      << "plot 'residuals.dat' using 1:2:4 with points pt 5 ps 2.2 lc palette notitle\n"
-      << Format("set title 'after: seven errors%s, rms %.4f um'\n", added.c_str(), r.after.fit.calibration.rms_um)
-      << "plot 'residuals.dat' using 1:2:5 with points pt 5 ps 2.2 lc palette notitle\n"
-      << "unset multiplot\n"
-      << "set output 'residual_time.png'\nset size 1,1\nset autoscale\nset yrange [*:*]\n"
-      << "set title 'Residual against acquisition time'\nset xlabel 't [s]'\nset ylabel 'residual [um]'\n"
-      << "set key top left\n"
-      << "plot 'residuals.dat' using 3:4 with points pt 7 ps 0.6 lc rgb '#c03030' title 'before', "
-         "'residuals.dat' using 3:5 with points pt 7 ps 0.6 lc rgb '#3050c0' title 'after'\n";
-    if (!f) throw Error(script_path + ": cannot write");
-  }
-  std::string quoted = "'";  // the folder for the shell, in single quotes
-  for (const char c : dir) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  quoted += "'";
-  const std::string cmd = "cd " + quoted + " && gnuplot residuals.gp 2>&1";
-  if (std::system(cmd.c_str()) != 0) throw Error(script_path + ": gnuplot failed");
+  std::ostringstream script;
+  script << "# Residual plots of sph_calibrate; rerun with: gnuplot residuals.gp (in this folder)\n"
+         << "if (!exists(\"data\")) data = 'residuals.dat'\n"
+         << "if (!exists(\"map_png\")) map_png = 'residual_map.png'\n"
+         << "if (!exists(\"time_png\")) time_png = 'residual_time.png'\n"
+         << "set terminal pngcairo size 1400,560 noenhanced font ',11'\n"
+         << "set output map_png\n"
+         << "set multiplot layout 1,2 title 'Residual |p - O| - R0 [um] over theta and phi'\n"
+         << "set xlabel 'theta [deg]'\nset ylabel 'phi [deg]'\nset xrange [0:360]\nset yrange [180:0]\n"
+         << "set palette defined (-1 'blue', 0 'white', 1 'red')\n"
+         << Format("set cbrange [%.6f:%.6f]\n", -lim, lim) << "set cblabel 'um'\n"
+         << Format("set title 'before: seven errors, rms %.4f um'\n", r.before.fit.calibration.rms_um)
+         << "plot data using 1:2:4 with points pt 5 ps 2.2 lc palette notitle\n"
+         << "set title "
+         << GnuplotQuoted(Format("after: seven errors%s, rms %.4f um", added.c_str(), r.after.fit.calibration.rms_um))
+         << "\n"
+         << "plot data using 1:2:5 with points pt 5 ps 2.2 lc palette notitle\n"
+         << "unset multiplot\n"
+         << "set output time_png\nset size 1,1\nset autoscale\nset yrange [*:*]\n"
+         << "set title 'Residual against acquisition time'\nset xlabel 't [s]'\nset ylabel 'residual [um]'\n"
+         << "set key top left\n"
+         << "plot data using 3:4 with points pt 7 ps 0.6 lc rgb '#c03030' title 'before', "
+            "data using 3:5 with points pt 7 ps 0.6 lc rgb '#3050c0' title 'after'\n";
+  files.Stage(folder + "residuals.gp", [&](std::ostream& f) { f << script.str(); });
+  // gnuplot reads the staged data and draws into the staged images, by their names in the folder.
+  const auto name_in_folder = [](const std::string& path) { return path.substr(path.find_last_of('/') + 1); };
+  GnuplotRun run;
+  run.folder = dir;
+  run.script = script.str();
+  run.description = "the residual plots";
+  run.variables = {{"data", name_in_folder(files.StagedName(folder + "residuals.dat"))},
+                   {"map_png", name_in_folder(files.StageProduced(folder + "residual_map.png"))},
+                   {"time_png", name_in_folder(files.StageProduced(folder + "residual_time.png"))}};
+  RunGnuplot(run, "--plot-dir " + dir);
 }
 
 }  // namespace sph::apps

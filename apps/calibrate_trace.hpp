@@ -11,6 +11,7 @@
 
 #include "sph/calib/trace.hpp"
 #include "sph/core/calibration_file.hpp"
+#include "sph/core/output_files.hpp"
 
 namespace sph::apps {
 
@@ -49,11 +50,15 @@ void WriteTraceText(std::ostream& out, const TraceResult& trace, const Validatio
 /// ambiguous, unexplained and validation.
 void AddTraceJson(nlohmann::json& report, const TraceResult& trace, const Validation* validation);
 
-/// Writes residual_map.png (over theta and phi, before and after) and residual_time.png
-/// (against t) with their gnuplot scripts and data into `dir`.
+/// The files PlotTrace() writes into its folder.
+inline const std::vector<std::string> kTracePlotFiles = {"residual_map.png", "residual_time.png", "residuals.dat",
+                                                         "residuals.gp"};
+
+/// Stages residual_map.png (over theta and phi, before and after) and residual_time.png (against
+/// t), drawn now, with their gnuplot script and data, in `dir` (created when missing).
 /// `points`: every reading of the calibration (outliers too).
 void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
-               const TraceResult& trace);
+               const TraceResult& trace, OutputFiles& files);
 
 }  // namespace sph::apps
 

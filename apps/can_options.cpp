@@ -9,8 +9,9 @@ namespace {
 void AddEncoder(CLI::App& app, const std::string& name, EncoderOptions& e) {
   const std::string g = "Devices";
   const std::string axis = name == "theta" ? "Theta" : "Phi";
-  app.add_option("--" + name + "-node", e.node, axis + " encoder: CANopen node id (heartbeat, EMCY); 0: none")
-      ->check(CLI::Range(0, 127))->group(g);
+  app.add_option("--" + name + "-node", e.node, axis + " encoder: CANopen node id (NMT, SDO, heartbeat, EMCY); 0: none")
+      ->check(CLI::Range(0, 127))
+      ->group(g);
   app.add_option("--" + name + "-cob-id", e.cob_id, axis + " encoder: TPDO COB-ID carrying the position (0x6004)")
       ->check(CLI::Range(1, 0x7FF))->group(g);
   app.add_option("--" + name + "-offset-byte", e.offset_byte, axis + " encoder: first byte of the position in the PDO")
@@ -24,6 +25,16 @@ void AddEncoder(CLI::App& app, const std::string& name, EncoderOptions& e) {
   app.add_option("--" + name + "-zero-counts", e.zero_counts, axis + " encoder: raw value at angle 0 [counts]")->group(g);
   app.add_flag("--" + name + "-multi-turn", e.multi_turn,
                axis + " encoder: multi-turn (angles beyond 360 deg) instead of single-turn [0, 360)")->group(g);
+  app.add_option("--" + name + "-tpdo", e.tpdo,
+                 axis +
+                     " encoder: number of the TPDO carrying the position (objects 1800h/1A00h + n - 1); 0: from "
+                     "the COB-ID (TPDO1..4 of the predefined connection set), else 1")
+      ->check(CLI::Range(0, 512))
+      ->group(g);
+  app.add_option("--" + name + "-sync-counter-byte", e.sync_counter_byte,
+                 axis + " encoder: PDO byte holding the counter of the SYNC it answers (the device maps it); -1: none")
+      ->check(CLI::Range(-1, 7))
+      ->group(g);
 }
 
 can::EncoderConfig ToEncoder(const EncoderOptions& e) {
@@ -34,6 +45,7 @@ can::EncoderConfig ToEncoder(const EncoderOptions& e) {
   c.direction = e.direction;
   c.zero_offset_counts = e.zero_counts;
   c.multi_turn = e.multi_turn;
+  c.tpdo = e.tpdo;
   return c;
 }
 
@@ -43,8 +55,10 @@ void AddDeviceOptions(CLI::App& app, DeviceOptions& o) {
   AddEncoder(app, "theta", o.theta);
   AddEncoder(app, "phi", o.phi);
   const std::string g = "Devices";
-  app.add_option("--probe-node", o.probe_node, "Probe: CANopen node id (heartbeat, EMCY); 0: a sensor with its own frames")
-      ->check(CLI::Range(0, 127))->group(g);
+  app.add_option("--probe-node", o.probe_node,
+                 "Probe: CANopen node id (NMT, SDO, heartbeat, EMCY); 0: a sensor with its own frames")
+      ->check(CLI::Range(0, 127))
+      ->group(g);
   app.add_option("--probe-cob-id", o.probe_cob_id, "Probe: CAN id of the frame carrying the reading")->group(g);
   app.add_flag("--probe-extended-id", o.probe_extended_id, "Probe: the id is a 29-bit (extended) id")->group(g);
   app.add_option("--probe-offset-byte", o.probe_offset_byte, "Probe: first byte of the reading")
@@ -68,6 +82,13 @@ void AddDeviceOptions(CLI::App& app, DeviceOptions& o) {
       ->check(CLI::Range(-1, 7))->group(g);
   app.add_option("--probe-status-error-mask", o.probe_status_error_mask, "Probe: status bits that mean an error")
       ->check(CLI::Range(1, 255))->group(g);
+  app.add_option("--probe-tpdo", o.probe_tpdo, "Probe: number of the TPDO carrying the reading; 0: from the COB-ID")
+      ->check(CLI::Range(0, 512))
+      ->group(g);
+  app.add_option("--probe-sync-counter-byte", o.probe_sync_counter_byte,
+                 "Probe: PDO byte holding the counter of the SYNC it answers; -1: none")
+      ->check(CLI::Range(-1, 7))
+      ->group(g);
   app.add_option("--sync-cob-id", o.sync_cob_id, "SYNC COB-ID")->check(CLI::Range(1, 0x7FF))->group(g);
   app.add_option("--sync-counter-max", o.sync_counter_max,
                  "SYNC counter overflow value (2..240; the SYNC carries a counter byte); 0: no counter")
@@ -97,6 +118,8 @@ void ApplyDeviceOptions(const DeviceOptions& o, can::PipelineConfig& c) {
   c.probe.error_raw = o.probe_error_raw;
   c.probe.status_offset_byte = o.probe_status_byte;
   c.probe.status_error_mask = static_cast<std::uint8_t>(o.probe_status_error_mask);
+  c.probe.tpdo = o.probe_tpdo;
+  c.sync_counter_byte = {o.theta.sync_counter_byte, o.phi.sync_counter_byte, o.probe_sync_counter_byte};
   c.sync_cob_id = o.sync_cob_id;
   if (o.sync_counter_max == 1) throw Error("--sync-counter-max: 1 is not allowed (0 or 2..240)");
   c.sync_counter_max = static_cast<std::uint8_t>(o.sync_counter_max);

@@ -22,6 +22,8 @@ struct EncoderOptions {
   int direction = 1;
   std::int64_t zero_counts = 0;
   bool multi_turn = false;
+  int tpdo = 0;                ///< 0: from the COB-ID (predefined connection set)
+  int sync_counter_byte = -1;  ///< the PDO byte with the SYNC counter; -1: none
 };
 
 struct DeviceOptions {
@@ -43,6 +45,8 @@ struct DeviceOptions {
   std::vector<std::int64_t> probe_error_raw;
   int probe_status_byte = -1;
   int probe_status_error_mask = 0xFF;
+  int probe_tpdo = 0;
+  int probe_sync_counter_byte = -1;
   std::uint32_t sync_cob_id = 0x80;
   int sync_counter_max = 0;
   double sync_period_ms = 1.0;

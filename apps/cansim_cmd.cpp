@@ -2,17 +2,22 @@
 
 #include <time.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <optional>
 #include <sstream>
 
 #include "acquire_cmd.hpp"
 #include "app_common.hpp"
 #include "sph/can/candump_log.hpp"
+#include "sph/can/sdo.hpp"
 #include "sph/can/socket.hpp"
 #include "sph/core/error.hpp"
 #include "sph/model/units.hpp"
@@ -41,34 +46,64 @@ int ToDevice(const std::string& s, const std::string& what) {
   throw Error(what + ": device '" + s + "' is not theta, phi or probe");
 }
 
-std::int64_t MonotonicNs() {
+std::int64_t RealtimeNs() {
   timespec ts{};
-  ::clock_gettime(CLOCK_MONOTONIC, &ts);
+  ::clock_gettime(CLOCK_REALTIME, &ts);
   return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
 }
 
-void SleepUntilMono(std::int64_t ns) {
-  timespec ts{static_cast<time_t>(ns / 1000000000), static_cast<long>(ns % 1000000000)};
-  while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-    if (ProcessSignals().stop) return;
-  }
-}
-
 void PrintInjected(const can::SimInjected& in, std::ostream& err) {
-  err << "sph_cansim: cycles " << in.cycles << ", SYNC dropped " << in.syncs_dropped << ", PDOs dropped theta/phi/probe "
-      << in.dropped[0] << "/" << in.dropped[1] << "/" << in.dropped[2] << ", shortened " << in.shortened[0] << "/"
-      << in.shortened[1] << "/" << in.shortened[2] << ", silent cycles " << in.silent_cycles[0] << "/"
-      << in.silent_cycles[1] << "/" << in.silent_cycles[2] << ", probe out of range " << in.probe_out_of_range
-      << ", error frames " << in.error_frames << " (bus-off " << in.bus_off << "), EMCY " << in.emergencies
-      << ", heartbeats " << in.heartbeats << "\n";
+  err << "sph_cansim: cycles " << in.cycles << ", SYNC dropped " << in.syncs_dropped << ", PDOs sent theta/phi/probe "
+      << in.pdos[0] << "/" << in.pdos[1] << "/" << in.pdos[2] << ", dropped " << in.dropped[0] << "/" << in.dropped[1]
+      << "/" << in.dropped[2] << ", shortened " << in.shortened[0] << "/" << in.shortened[1] << "/" << in.shortened[2]
+      << ", silent cycles " << in.silent_cycles[0] << "/" << in.silent_cycles[1] << "/" << in.silent_cycles[2]
+      << ", probe out of range " << in.probe_out_of_range << ", error frames " << in.error_frames << " (bus-off "
+      << in.bus_off << "), EMCY " << in.emergencies << ", heartbeats " << in.heartbeats << ", reboots " << in.reboots
+      << ", boot-ups " << in.boot_ups << ", NMT commands " << in.nmt_commands << ", SDO requests " << in.sdo_requests
+      << " (aborted " << in.sdo_aborts << ")\n";
 }
 
-// Plays onto a CAN interface in real time.
-int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, std::ostream& err) {
+// One line per SYNC the devices answered: its time, its counter (- without), and per device the
+// value the daemon decodes from the PDO sent (- when none or not a valid one).
+bool WriteRecord(const std::string& path, const std::vector<can::SimCycleRecord>& records, std::ostream& err) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << "# sph_cansim record: sync_t_s counter theta_deg phi_deg r_mm\n";
+  char buf[160];
+  for (const can::SimCycleRecord& r : records) {
+    std::snprintf(buf, sizeof buf, "%.6f %s", static_cast<double>(r.sync_ns) * 1e-9,
+                  r.counter ? std::to_string(*r.counter).c_str() : "-");
+    out << buf;
+    for (int d = 0; d < can::kNumDevices; ++d) {
+      if (r.sent[static_cast<std::size_t>(d)]) {
+        std::snprintf(buf, sizeof buf, " %.10f", r.value[static_cast<std::size_t>(d)]);
+        out << buf;
+      } else {
+        out << " -";
+      }
+    }
+    out << "\n";
+  }
+  out.flush();
+  if (!out) {
+    err << "sph_cansim: error: " << path << ": cannot write the record\n";
+    return false;
+  }
+  return true;
+}
+
+// Plays the devices on a CAN interface in real time: they answer SYNC, NMT and SDO frames from
+// the bus and send heartbeats and boot-ups on their own; with the internal SYNC source the
+// simulator is also the SYNC producer.
+int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::DeviceSimConfig& c, std::ostream& err) {
   can::CanSocketOptions so;
   so.iface = o.iface;
   const bool external = o.sync_source == "external";
-  so.filters.emplace_back(o.devices.sync_cob_id, can::kEffFlag | can::kRtrFlag | can::kSffMask);
+  const std::uint32_t sff = can::kEffFlag | can::kRtrFlag | can::kSffMask;
+  so.filters.emplace_back(o.devices.sync_cob_id, sff);
+  so.filters.emplace_back(can::kNmtCobId, sff);
+  for (const int node : {c.devices.theta.node_id, c.devices.phi.node_id, c.devices.probe.node_id}) {
+    if (node != 0) so.filters.emplace_back(can::kSdoRequestBase + static_cast<std::uint32_t>(node), sff);
+  }
   so.error_mask = 0;
   std::optional<can::CanSocket> sock;
   try {
@@ -77,30 +112,88 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, std::ostream& er
     err << "sph_cansim: error: " << e.what() << "\n";
     return kExitInterfaceError;
   }
-  std::vector<can::CanFrame> frames;
-  std::uint64_t sent = 0, failed = 0;
-  const std::int64_t mono0 = MonotonicNs();
-  auto send_all = [&](std::int64_t sim_base_ns, std::int64_t mono_base_ns) {
-    for (const can::CanFrame& f : frames) {
-      SleepUntilMono(mono_base_ns + (f.t_ns - sim_base_ns));
-      if (ProcessSignals().stop) return;
-      if (sock->Send(f) == can::TxStatus::kOk) ++sent;
-      else ++failed;
+  // Planned frames, sent at their times; a synchronous PDO remembers its SYNC, because it must
+  // not go out once its synchronous window has closed (CiA 301, object 1007h): when the next
+  // SYNC came first, or 0.9 periods after its own. A real device drops it then; a simulator
+  // slowed down (an emulated machine) would otherwise answer one SYNC after the next.
+  struct Planned {
+    can::CanFrame frame;
+    std::int64_t sync_ns = 0;
+  };
+  std::vector<Planned> pending;
+  std::vector<can::CanFrame> out;
+  std::uint64_t sent = 0, failed = 0, late = 0;
+  const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(c.sync_period_s * 1e9));
+  const std::int64_t start_ns = static_cast<std::int64_t>(std::llround(c.start_time_s * 1e9));
+  std::int64_t next_sync = external ? std::numeric_limits<std::int64_t>::max() : start_ns;
+  std::int64_t last_sync = 0;
+  std::uint8_t counter = 0;
+  const std::int64_t end_ns = o.duration_s > 0.0 ? start_ns + static_cast<std::int64_t>(o.duration_s * 1e9)
+                                                 : std::numeric_limits<std::int64_t>::max();
+  const std::uint32_t pdo_ids[] = {c.devices.theta.field.can_id, c.devices.phi.field.can_id,
+                                   c.devices.probe.field.can_id};
+  // The devices take `frame` (received, or the simulator's own SYNC); their answers are planned.
+  auto deliver = [&](const can::CanFrame& frame) {
+    out.clear();
+    sim.AdvanceTo(frame.t_ns, out);
+    const bool sync = can::DecodeSync(frame, c.devices.sync_cob_id).has_value();
+    if (sync) last_sync = frame.t_ns;
+    const std::size_t before = out.size();
+    sim.OnFrame(frame, out);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      const bool pdo =
+          i >= before && sync && std::find(std::begin(pdo_ids), std::end(pdo_ids), out[i].id) != std::end(pdo_ids);
+      pending.push_back({out[i], pdo ? frame.t_ns : 0});
     }
   };
-  const auto start_ns = static_cast<std::int64_t>(std::llround(o.start_time_s * 1e9));
+  auto by_time = [](const Planned& a, const Planned& b) { return a.frame.t_ns < b.frame.t_ns; };
   while (!ProcessSignals().stop) {
-    frames.clear();
-    if (!external) {
-      if (!sim.NextCycle(frames)) break;
-      send_all(start_ns, mono0);
-    } else {
-      const can::RxResult r = sock->Receive(200);
-      if (r.status != can::RxStatus::kFrame || !can::DecodeSync(r.frame, o.devices.sync_cob_id)) continue;
-      const std::int64_t mono_now = MonotonicNs();
-      if (!sim.AnswerSync(r.frame.t_ns, frames)) break;
-      send_all(r.frame.t_ns, mono_now);
+    // Take every frame queued first: a SYNC waiting in the queue closes the window before.
+    for (int i = 0; i < 64; ++i) {
+      const can::RxResult r = sock->Receive();
+      if (r.status != can::RxStatus::kFrame) break;
+      deliver(r.frame);
     }
+    const std::int64_t now = RealtimeNs();
+    if (now >= end_ns || (sim.finished() && pending.empty())) break;
+    std::stable_sort(pending.begin(), pending.end(), by_time);
+    std::size_t k = 0;
+    for (; k < pending.size() && pending[k].frame.t_ns <= now; ++k) {
+      const Planned& p = pending[k];
+      if (p.sync_ns != 0 && (p.sync_ns < last_sync || now - p.sync_ns > period_ns * 9 / 10)) {
+        ++late;
+        continue;
+      }
+      if (sock->Send(p.frame) == can::TxStatus::kOk) {
+        ++sent;
+      } else {
+        ++failed;
+      }
+    }
+    pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(k));
+    if (!external && now >= next_sync && !sim.finished()) {
+      can::CanFrame sync = can::EncodeSync(
+          c.devices.sync_counter_max != 0
+              ? std::optional<std::uint8_t>(counter = can::NextSyncCounter(counter, c.devices.sync_counter_max))
+              : std::nullopt,
+          c.devices.sync_cob_id);
+      sync.t_ns = next_sync;
+      pending.push_back({sync, 0});
+      deliver(sync);
+      next_sync += period_ns;
+      continue;
+    }
+    out.clear();
+    sim.AdvanceTo(now, out);
+    for (const can::CanFrame& f : out) pending.push_back({f, 0});
+    std::int64_t wake = std::min({sim.NextEventNs(), next_sync, end_ns});
+    for (const Planned& p : pending) wake = std::min(wake, p.frame.t_ns);
+    const std::int64_t wait_ns = std::max<std::int64_t>(0, std::min<std::int64_t>(wake - now, 200000000));
+    const can::RxResult r = sock->Receive(static_cast<int>((wait_ns + 999999) / 1000000));
+    if (r.status == can::RxStatus::kFrame) deliver(r.frame);
+  }
+  if (late > 0) {
+    err << "sph_cansim: " << late << " PDOs not sent: their synchronous window had closed (the simulator was late)\n";
   }
   err << "sph_cansim: " << o.iface << ": sent " << sent << " frames, " << failed << " failed\n";
   return kExitOk;
@@ -146,6 +239,25 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
       ->group(f);
   app.add_option("--silence", o.silences, "device:from_s:to_s: the device sends nothing then (repeatable)")->group(f);
   app.add_option("--emcy", o.emergencies, "device:at_s:code: an EMCY frame, code in hex (repeatable)")->group(f);
+  app.add_option("--fault", o.faults,
+                 "reboot:NODE@T: node NODE (a node id, or theta, phi, probe) reboots T s after the start: silent, "
+                 "boot-up message, pre-operational until an NMT master starts it (repeatable)")
+      ->group(f);
+  const std::string n = "CANopen nodes";
+  app.add_flag("--boot-operational", o.boot_operational,
+               "Live: the devices start operational, as if another master had started them (log mode always does)")
+      ->group(n);
+  app.add_option("--boot-s", o.boot_s, "Power-on or reset to the boot-up message [s]")->check(NonNegative())->group(n);
+  app.add_option("--transmission-type", o.transmission_type,
+                 "The TPDOs' transmission type after a boot (1: every SYNC; 254: event-driven)")
+      ->check(CLI::Range(0, 255))
+      ->group(n);
+  app.add_option("--record", o.record_path,
+                 "Write what the devices sent for each SYNC: sync_t_s counter theta_deg phi_deg r_mm (- for none)")
+      ->group(n);
+  app.add_option("--duration-s", o.duration_s, "Live: stop after this long [s]; 0: at the pattern's end")
+      ->check(NonNegative())
+      ->group(n);
   AddDeviceOptions(app, o.devices);
 }
 
@@ -181,6 +293,32 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
     if (p[2].empty() || *end != '\0' || code > 0xFFFF) throw Error("--emcy '" + s + "': code must be 16-bit hex");
     f.emergencies.push_back({ToDevice(p[0], "--emcy"), ToDouble(p[1], "--emcy"), static_cast<std::uint16_t>(code)});
   }
+  for (const std::string& s : o.faults) {
+    const auto at = s.find('@');
+    if (s.rfind("reboot:", 0) != 0 || at == std::string::npos) {
+      throw Error("--fault '" + s + "': expected reboot:NODE@T (NODE a node id or theta, phi, probe; T in s)");
+    }
+    const std::string node = s.substr(7, at - 7);
+    int id = 0;
+    if (node == "theta" || node == "phi" || node == "probe") {
+      const int d = ToDevice(node, "--fault");
+      id = d == can::kTheta ? c.devices.theta.node_id
+           : d == can::kPhi ? c.devices.phi.node_id
+                            : c.devices.probe.node_id;
+    } else {
+      char* end = nullptr;
+      const long v = std::strtol(node.c_str(), &end, 10);
+      if (node.empty() || *end != '\0' || v < 1 || v > 127) throw Error("--fault '" + s + "': node must be 1..127");
+      id = static_cast<int>(v);
+    }
+    const double t = ToDouble(s.substr(at + 1), "--fault '" + s + "'");
+    if (!(t >= 0.0) || !std::isfinite(t)) throw Error("--fault '" + s + "': the time must be a finite number >= 0");
+    f.reboots.push_back({id, t});
+  }
+  c.boot_s = o.boot_s;
+  c.transmission_type = o.transmission_type;
+  c.start_operational = o.iface.empty() || o.boot_operational;
+  c.Validate();
   return c;
 }
 
@@ -194,16 +332,20 @@ int RunCansim(const CansimOptions& o, std::ostream& err) {
     return kExitBadInput;
   }
   std::optional<can::DeviceSimulator> sim;
+  can::DeviceSimConfig config;
   try {
-    sim.emplace(MakeDeviceSimConfig(o));
+    config = MakeDeviceSimConfig(o);
+    if (!o.iface.empty()) config.start_time_s = static_cast<double>(RealtimeNs()) * 1e-9;  // power-on now
+    sim.emplace(config);
   } catch (const std::exception& e) {
     err << "sph_cansim: error: " << e.what() << "\n";
     return kExitBadInput;
   }
+  sim->set_recording(!o.record_path.empty());
   err << "sph_cansim: " << sim->total_cycles() << " SYNC cycles, " << sim->duration_s() << " s\n";
   int code = kExitOk;
   if (!o.iface.empty()) {
-    code = PlayLive(o, *sim, err);
+    code = PlayLive(o, *sim, config, err);
   } else {
     std::ofstream file;
     if (o.output_path != "-") {
@@ -231,6 +373,9 @@ int RunCansim(const CansimOptions& o, std::ostream& err) {
     }
   }
   PrintInjected(sim->injected(), err);
+  if (!o.record_path.empty() && !WriteRecord(o.record_path, sim->records(), err) && code == kExitOk) {
+    code = kExitOutputError;
+  }
   return code;
 }
 

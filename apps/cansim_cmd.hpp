@@ -37,6 +37,13 @@ struct CansimOptions {
   std::vector<double> bus_off_at_s;
   std::vector<std::string> silences;     ///< "device:from_s:to_s"
   std::vector<std::string> emergencies;  ///< "device:at_s:code"
+  std::vector<std::string> faults;       ///< "reboot:NODE@T"
+  // the devices as CANopen nodes
+  bool boot_operational = false;  ///< live: start operational (another master started them)
+  double boot_s = 0.05;
+  int transmission_type = 1;
+  std::string record_path;  ///< what was sent for each SYNC
+  double duration_s = 0.0;  ///< live: stop after this long; 0: at the pattern's end
   DeviceOptions devices;
 };
 
@@ -47,6 +54,8 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& options);
 
 /// Writes the log or plays onto the interface; a summary of what was sent (and the faults
 /// injected) goes to `err`. Returns kExitOk, kExitBadInput, or kExitOutputError/kExitInterfaceError.
+/// Log mode has no master: its devices are operational from the start. Live, they boot
+/// pre-operational and wait for NMT Start (unless boot_operational).
 int RunCansim(const CansimOptions& options, std::ostream& err);
 
 }  // namespace sph::apps

@@ -1,7 +1,5 @@
 #include "measure_cmd.hpp"
 
-#include <sys/wait.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -13,12 +11,14 @@
 #include <nlohmann/json.hpp>
 
 #include "app_common.hpp"
-#include "sph/core/atomic_file.hpp"
+#include "gnuplot.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/sphere_measurement.hpp"
 #include "sph/core/xyz_file.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/units.hpp"
 
@@ -26,6 +26,8 @@ namespace sph::apps {
 namespace {
 
 using nlohmann::json;
+
+using internal::Format;
 
 const char* const kProgram = "sph_measure";
 
@@ -40,14 +42,8 @@ struct Input {
   std::vector<std::string> warnings;  ///< readings that parse but look wrong (PlausibilityWarnings)
 };
 
-std::string Printf(const char* fmt, double a) {
-  char buf[96];
-  std::snprintf(buf, sizeof buf, fmt, a);
-  return buf;
-}
-
 std::string Vec3Text(const Eigen::Vector3d& v, const char* fmt, double scale = 1.0) {
-  return Printf(fmt, v.x() * scale) + " " + Printf(fmt, v.y() * scale) + " " + Printf(fmt, v.z() * scale);
+  return Format(fmt, v.x() * scale) + " " + Format(fmt, v.y() * scale) + " " + Format(fmt, v.z() * scale);
 }
 
 json Vec3Json(const Eigen::Vector3d& v, double scale = 1.0) {
@@ -76,8 +72,8 @@ Input ReadInput(const MeasureOptions& o) {
   const Calibration cal = LoadCalibration(o.calibration_path);
   const auto d = data.header.probe_offset_mm;
   if (d && std::abs(*d - cal.probe_offset_mm) > 1e-9 * cal.probe_offset_mm) {
-    throw Error(o.points_path + ": probe_offset_mm " + Printf("%.9g", *d) + " differs from the calibration's " +
-                Printf("%.9g", cal.probe_offset_mm) + " (" + o.calibration_path +
+    throw Error(o.points_path + ": probe_offset_mm " + Format("%.9g", *d) + " differs from the calibration's " +
+                Format("%.9g", cal.probe_offset_mm) + " (" + o.calibration_path +
                 "): the calibration belongs to another probe set-up");
   }
   const std::vector<int> ids = data.SetupIds();
@@ -108,38 +104,11 @@ Input ReadInput(const MeasureOptions& o) {
 
 // --- form-error map -------------------------------------------------------------------------------
 
-/// Quotes a string for gnuplot: single quotes, a quote doubled.
-std::string GnuplotQuoted(const std::string& s) {
-  std::string q = "'";
-  for (const char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
-  return q + "'";
-}
-
-/// Quotes a string for gnuplot in double quotes, where \n is a line break.
-std::string GnuplotDoubleQuoted(const std::string& s) {
-  std::string q = "\"";
-  for (const char c : s) {
-    if (c == '\n') {
-      q += "\\n";
-    } else {
-      if (c == '"' || c == '\\') q += '\\';
-      q += c;
-    }
-  }
-  return q + "\"";
-}
-
-/// Quotes a string for the POSIX shell.
-std::string ShellQuoted(const std::string& s) {
-  std::string q = "'";
-  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
 /// A gnuplot script (data inline) that draws the radial residuals about the least-squares sphere
 /// over the sphere: azimuth about a pole against the angle from it, colour = residual [um]. The
 /// pole is the z axis (for an SCMS the Theta axis, so the map is the machine's theta/phi) unless
-/// the points form a cap, which is then centred at the top of the map.
+/// the points form a cap, which is then centred at the top of the map. It draws to the variable
+/// `png` when that is set (gnuplot -e), else to `png_path`.
 std::string FormMapScript(const std::vector<Eigen::Vector3d>& points, const SphereEvaluation& ev,
                           const std::string& name, const std::string& png_path) {
   const bool cap = ev.coverage.cap_half_angle_deg <= 135.0;
@@ -157,9 +126,7 @@ std::string FormMapScript(const std::vector<Eigen::Vector3d>& points, const Sphe
     const double res_um = ev.residuals_mm[i] * kUmPerMm;
     max_abs_um = std::max(max_abs_um, std::abs(res_um));
     max_polar_deg = std::max(max_polar_deg, polar);
-    char line[96];
-    std::snprintf(line, sizeof line, "%.4f %.4f %.6g\n", azimuth, polar, res_um);
-    data << line;
+    data << Format("%.4f %.4f %.6g\n", azimuth, polar, res_um);
   }
   if (!(max_abs_um > 0.0)) max_abs_um = 1e-6;
   const double y_max = std::min(180.0, 15.0 * std::ceil(max_polar_deg / 15.0 + 1e-9));
@@ -174,79 +141,45 @@ std::string FormMapScript(const std::vector<Eigen::Vector3d>& points, const Sphe
     << "} else {\n"
     << "  set terminal png size 1200,680\n"
     << "}\n"
-    << "set output " << GnuplotQuoted(png_path) << "\n";
-  char buf[512];
-  std::snprintf(buf, sizeof buf,
-                "Form error of %s (%d points): radial residual about the least-squares sphere, R = %.6f mm\n"
-                "sphericity: least squares %.4f µm, minimum zone %.4f µm",
-                name.c_str(), ev.n_points, ev.ls.sphere.radius, ev.sphericity_ls_mm * kUmPerMm, ev.mz.width * kUmPerMm);
-  s << "set title " << GnuplotDoubleQuoted(buf) << " noenhanced\n";
+    << "if (!exists(\"png\")) png = " << GnuplotQuoted(png_path) << "\n"
+    << "set output png\n";
+  const std::string title = Format(
+      "Form error of %s (%d points): radial residual about the least-squares sphere, R = %.6f mm\n"
+      "sphericity: least squares %.4f µm, minimum zone %.4f µm",
+      name.c_str(), ev.n_points, ev.ls.sphere.radius, ev.sphericity_ls_mm * kUmPerMm, ev.mz.width * kUmPerMm);
+  s << "set title " << GnuplotDoubleQuoted(title) << " noenhanced\n";
   s << "set xlabel "
     << GnuplotQuoted(cap ? "azimuth about the cap's centre [deg]" : "azimuth about the z (Θ) axis [deg]") << "\n";
   s << "set ylabel " << GnuplotQuoted(cap ? "angle from the cap's centre [deg]" : "polar angle from +z [deg]") << "\n";
   s << "set cblabel 'radial residual [µm]'\n"
     << "set xrange [0:360]\nset xtics 0,45,360\n";
-  std::snprintf(buf, sizeof buf, "set yrange [%g:0]\nset ytics 0,15,%g\n", y_max, y_max);
-  s << buf;
-  std::snprintf(buf, sizeof buf, "set cbrange [%.6g:%.6g]\n", -max_abs_um, max_abs_um);
-  s << buf << "set palette defined (0 '#2166ac', 0.25 '#67a9cf', 0.5 '#f7f7f7', 0.75 '#ef8a62', 1 '#b2182b')\n"
+  s << Format("set yrange [%g:0]\nset ytics 0,15,%g\n", y_max, y_max);
+  s << Format("set cbrange [%.6g:%.6g]\n", -max_abs_um, max_abs_um)
+    << "set palette defined (0 '#2166ac', 0.25 '#67a9cf', 0.5 '#f7f7f7', 0.75 '#ef8a62', 1 '#b2182b')\n"
     << "set object 1 rectangle from graph 0,0 to graph 1,1 behind fillcolor rgb '#d9d9d9' fillstyle solid noborder\n"
     << "set grid front lc rgb '#ffffff'\nunset key\n"
     << "$residuals << EOD\n"
     << data.str() << "EOD\n";
-  std::snprintf(buf, sizeof buf, "plot $residuals using 1:2:3 with points pt 5 ps %.2f lc palette\n", point_size);
-  s << buf;
+  s << Format("plot $residuals using 1:2:3 with points pt 5 ps %.2f lc palette\n", point_size);
   return s.str();
 }
 
-/// Runs gnuplot on `script_path`; the image goes to png_path.tmp and is renamed on success.
-void RunGnuplot(const MeasureOptions& o, const std::string& script_path, const std::string& png_tmp) {
-  const std::string cmd = ShellQuoted(o.gnuplot) + " " + ShellQuoted(script_path) + " 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (!pipe) throw Error(o.plot_path + ": cannot run " + o.gnuplot);
-  std::string output;
-  std::array<char, 512> buf{};
-  while (std::fgets(buf.data(), static_cast<int>(buf.size()), pipe)) output += buf.data();
-  const int status = ::pclose(pipe);
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  if (code == 127) {
-    std::remove(png_tmp.c_str());
-    throw Error(o.plot_path + ": cannot draw the form-error map: the program '" + o.gnuplot +
-                "' was not found; install gnuplot (Debian: apt-get install gnuplot-nox), or write the script with "
-                "--plot-script and run gnuplot on it elsewhere");
-  }
-  if (code != 0) {
-    std::remove(png_tmp.c_str());
-    throw Error(o.plot_path + ": gnuplot failed (exit " + std::to_string(code) + "): " + output);
-  }
-  if (std::rename(png_tmp.c_str(), o.plot_path.c_str()) != 0) {
-    std::remove(png_tmp.c_str());
-    throw Error(o.plot_path + ": cannot write (gnuplot produced no image)");
-  }
-}
-
-void DrawFormMap(const MeasureOptions& o, const std::vector<Eigen::Vector3d>& points, const SphereEvaluation& ev) {
+/// Stages the form-error map: the script (--plot-script) and the image (--plot), drawn now.
+void DrawFormMap(const MeasureOptions& o, const std::vector<Eigen::Vector3d>& points, const SphereEvaluation& ev,
+                 OutputFiles& files) {
   const std::string name = o.points_path.substr(o.points_path.find_last_of('/') + 1);
-  if (!o.plot_script_path.empty()) {
-    const std::string png = o.plot_path.empty() ? "form_map.png" : o.plot_path;
-    const std::string script = FormMapScript(points, ev, name, png);
-    WriteFileAtomically(o.plot_script_path, [&](std::ostream& f) { f << script; });
-  }
+  const std::string script = FormMapScript(points, ev, name, o.plot_path.empty() ? "form_map.png" : o.plot_path);
+  if (!o.plot_script_path.empty()) files.Stage(o.plot_script_path, [&](std::ostream& f) { f << script; });
   if (o.plot_path.empty()) return;
-  const std::string png_tmp = o.plot_path + ".tmp";
-  const std::string script_path = o.plot_path + ".gp.tmp";
-  {
-    std::ofstream f(script_path, std::ios::binary);
-    f << FormMapScript(points, ev, name, png_tmp);
-    if (!f.flush()) throw Error(script_path + ": cannot write");
-  }
-  try {
-    RunGnuplot(o, script_path, png_tmp);
-  } catch (...) {
-    std::remove(script_path.c_str());
-    throw;
-  }
-  std::remove(script_path.c_str());
+  const std::string png_tmp = files.StageProduced(o.plot_path);
+  const std::size_t slash = png_tmp.find_last_of('/');
+  GnuplotRun run;
+  run.program = o.gnuplot;
+  run.folder = slash == std::string::npos ? "." : png_tmp.substr(0, slash == 0 ? 1 : slash);
+  run.script = script;
+  run.variables = {{"png", png_tmp.substr(slash + 1)}};
+  run.description = "the form-error map";
+  RunGnuplot(run, o.plot_path);
 }
 
 // --- reports ------------------------------------------------------------------------------------
@@ -254,64 +187,49 @@ void DrawFormMap(const MeasureOptions& o, const std::vector<Eigen::Vector3d>& po
 void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, const SphereEvaluation& ev,
                const std::optional<CalibrationUncertainty>& u, const std::string& uncertainty_note) {
   const double r = ev.ls.sphere.radius;
-  char line[256];
   out << kProgram << " " SPH_VERSION ": " << o.points_path << "\n  " << in.description << "\n\n";
   out << "least-squares sphere\n";
   out << "  center_mm          " << Vec3Text(ev.ls.sphere.center, "%.9f") << "\n";
-  std::snprintf(line, sizeof line, "  radius_mm          %.9f   (diameter_mm %.9f)\n", r, 2.0 * r);
-  out << line;
+  out << Format("  radius_mm          %.9f   (diameter_mm %.9f)\n", r, 2.0 * r);
   if (in.header_radius_mm) {
-    std::snprintf(line, sizeof line, "  radius_deviation_um %.4f   (from the file's sphere_radius_mm %.9g)\n",
+    out << Format("  radius_deviation_um %.4f   (from the file's sphere_radius_mm %.9g)\n",
                   (r - *in.header_radius_mm) * kUmPerMm, *in.header_radius_mm);
-    out << line;
   }
-  std::snprintf(line, sizeof line, "  rms_um             %.4f\n", ev.ls.rms * kUmPerMm);
-  out << line;
-  std::snprintf(line, sizeof line, "  sphericity_ls_um   %.4f   (peak to valley of the radial residuals)\n",
-                ev.sphericity_ls_mm * kUmPerMm);
-  out << line << "\nminimum-zone sphere\n";
-  std::snprintf(line, sizeof line, "  sphericity_mz_um   %.4f   (radial separation of the two enclosing spheres)\n",
+  out << Format("  rms_um             %.4f\n", ev.ls.rms * kUmPerMm);
+  out << Format("  sphericity_ls_um   %.4f   (peak to valley of the radial residuals)\n",
+                ev.sphericity_ls_mm * kUmPerMm)
+      << "\nminimum-zone sphere\n";
+  out << Format("  sphericity_mz_um   %.4f   (radial separation of the two enclosing spheres)\n",
                 ev.mz.width * kUmPerMm);
-  out << line;
   out << "  mz_center_mm       " << Vec3Text(ev.mz.center, "%.9f") << "\n";
-  std::snprintf(line, sizeof line, "  mz_radii_mm        %.9f %.9f   (inner, outer)\n", ev.mz.inner_radius,
-                ev.mz.outer_radius);
-  out << line << "\ncoverage\n";
-  std::snprintf(line, sizeof line, "  cap_half_angle_deg %.1f   (90: a hemisphere, near 180: the whole sphere)\n",
+  out << Format("  mz_radii_mm        %.9f %.9f   (inner, outer)\n", ev.mz.inner_radius, ev.mz.outer_radius)
+      << "\ncoverage\n";
+  out << Format("  cap_half_angle_deg %.1f   (90: a hemisphere, near 180: the whole sphere)\n",
                 ev.coverage.cap_half_angle_deg);
-  out << line;
-  std::snprintf(line, sizeof line,
-                "  radius_dilution    %.3g   center_dilution %.3g   (1: points over the whole sphere; limit %g)\n",
+  out << Format("  radius_dilution    %.3g   center_dilution %.3g   (1: points over the whole sphere; limit %g)\n",
                 ev.radius_dilution, ev.center_dilution, o.max_dilution);
-  out << line;
-  std::snprintf(line, sizeof line,
-                "  radius_fit_std_um  %.4f   (from the scatter of the points, form counted as noise)\n",
+  out << Format("  radius_fit_std_um  %.4f   (from the scatter of the points, form counted as noise)\n",
                 ev.radius_fit_std_mm * kUmPerMm);
-  out << line;
   out << "  center_fit_std_um  " << Vec3Text(ev.center_fit_std_mm, "%.4f", kUmPerMm) << "\n\n";
   if (u) {
     out << "uncertainty from the calibration's covariance (sampling: " << u->samples << " draws, seed " << u->seed
         << ")\n";
-    std::snprintf(line, sizeof line, "  radius_std_um            %.4f\n", u->radius_std_mm * kUmPerMm);
-    out << line;
+    out << Format("  radius_std_um            %.4f\n", u->radius_std_mm * kUmPerMm);
     out << "  center_std_um            " << Vec3Text(u->center_std_mm, "%.4f", kUmPerMm) << "\n";
-    std::snprintf(line, sizeof line, "  sphericity_ls_std_um     %.4f\n  sphericity_mz_std_um     %.4f\n",
+    out << Format("  sphericity_ls_std_um     %.4f\n  sphericity_mz_std_um     %.4f\n",
                   u->sphericity_ls_std_mm * kUmPerMm, u->sphericity_mz_std_mm * kUmPerMm);
-    out << line;
-    std::snprintf(line, sizeof line,
-                  "  calibration_form_p95_um  %.4f   (form error the calibration's uncertainty alone produces in 95 %% "
-                  "of draws)\n",
-                  u->calibration_form_p95_mm * kUmPerMm);
-    out << line;
-    std::snprintf(
-        line, sizeof line,
-        u->form_exceeds_calibration
-            ? "  the form error (sphericity_ls %.4f um) exceeds it: it is in the measurement (the part or the "
-              "probe), not an artefact of the calibration\n"
-            : "  the form error (sphericity_ls %.4f um) is within it: it may be an artefact of the "
-              "calibration's uncertainty\n",
-        ev.sphericity_ls_mm * kUmPerMm);
-    out << line << "\n";
+    out << Format(
+        "  calibration_form_p95_um  %.4f   (form error the calibration's uncertainty alone produces in 95 %% "
+        "of draws)\n",
+        u->calibration_form_p95_mm * kUmPerMm);
+    out << Format(
+               u->form_exceeds_calibration
+                   ? "  the form error (sphericity_ls %.4f um) exceeds it: it is in the measurement (the part or the "
+                     "probe), not an artefact of the calibration\n"
+                   : "  the form error (sphericity_ls %.4f um) is within it: it may be an artefact of the "
+                     "calibration's uncertainty\n",
+               ev.sphericity_ls_mm * kUmPerMm)
+        << "\n";
   } else {
     out << "uncertainty from the calibration: " << uncertainty_note << "\n\n";
   }
@@ -408,6 +326,15 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
 int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
   try {
     if (o.uncertainty_samples == 1) throw Error("--uncertainty-samples: 1 draw gives no spread; use 0 or at least 2");
+    const bool text = !o.quiet && o.json_path != "-";
+    RunPaths()
+        .Input("points", o.points_path)
+        .Input("--calibration", o.calibration_path)
+        .Output("the text report (-q leaves it out)", text ? "-" : "")
+        .Output("--json", o.json_path)
+        .Output("--output", o.output_path)
+        .Output("--plot", o.plot_path)
+        .Output("--plot-script", o.plot_script_path);
     const Input in = ReadInput(o);
     for (const std::string& w : in.warnings) err << kProgram << ": warning: " << w << "\n";
     SphereEvaluationOptions eopts;
@@ -429,25 +356,24 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
       u = PropagateCalibrationUncertainty(in.readings, *in.calibration, ev, uopts);
     }
 
-    const bool text = !o.quiet && o.json_path != "-";
+    OutputFiles files(out);
+    if (!o.json_path.empty()) {
+      const std::string report = JsonReport(o, in, ev, u, note);
+      files.Stage(o.json_path, [&](std::ostream& f) { f << report; });
+    }
+    if (!o.output_path.empty()) {
+      files.Stage(o.output_path, [&](std::ostream& f) {
+        WriteXyz(f, in.points_mm,
+                 {std::string(kProgram) + " " SPH_VERSION ": " + o.points_path + ", " + in.description,
+                  "columns: x_mm y_mm z_mm"});
+      });
+    }
+    if (!o.plot_path.empty() || !o.plot_script_path.empty()) DrawFormMap(o, in.points_mm, ev, files);
     if (text) WriteText(out, o, in, ev, u, note);
     if (!text) {
       for (const auto& w : ev.warnings) err << kProgram << ": warning: " << w << "\n";
     }
-    if (!o.json_path.empty()) {
-      const std::string report = JsonReport(o, in, ev, u, note);
-      if (o.json_path == "-") {
-        out << report;
-      } else {
-        WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << report; });
-      }
-    }
-    if (!o.output_path.empty()) {
-      WriteXyzFile(o.output_path, in.points_mm,
-                   {std::string(kProgram) + " " SPH_VERSION ": " + o.points_path + ", " + in.description,
-                    "columns: x_mm y_mm z_mm"});
-    }
-    if (!o.plot_path.empty() || !o.plot_script_path.empty()) DrawFormMap(o, in.points_mm, ev);
+    files.Commit();
     return kExitOk;
   } catch (const std::exception& e) {
     err << kProgram << ": error: " << e.what() << "\n";

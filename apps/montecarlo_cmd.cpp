@@ -11,11 +11,12 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "gnuplot.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"
 #include "sph/calib/montecarlo.hpp"
-#include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
@@ -57,6 +58,14 @@ MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
     if (!(e >= 0.0) || !(e < o.machine.sphere_radius_mm)) {
       throw Error("--eccentricities-mm: " + Format("%g", e) + " is not in [0, R0)");
     }
+  }
+  const auto& es = spec.eccentricities_mm;
+  if (o.table3 && !o.plan && std::find(es.begin(), es.end(), o.table3_calibration_e_mm) == es.end()) {
+    std::string list;
+    for (double e : es) list += (list.empty() ? "" : ", ") + Format("%g", e);
+    throw Error("--table3-calibration-e-mm " + Format("%g", o.table3_calibration_e_mm) +
+                ": Table 3 uses the study's calibrations at one of the eccentricities studied (--eccentricities-mm " +
+                list + "); choose one of them, add it to the study, or leave Table 3 out (--no-table3)");
   }
   return spec;
 }
@@ -134,8 +143,8 @@ json StudyJson(const MonteCarloResult& r) {
   return rows;
 }
 
-void WriteCsv(const std::string& path, const MonteCarloResult& r) {
-  WriteFileAtomically(path, [&](std::ostream& f) {
+void WriteCsv(const std::string& path, const MonteCarloResult& r, OutputFiles& files) {
+  files.Stage(path, [&](std::ostream& f) {
     f << "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials\n";
     for (const auto& row : r.rows) {
       for (int p = 0; p < kNumScmsParams; ++p) {
@@ -182,23 +191,22 @@ json Table3(std::ostream& out, const MonteCarloSpec& spec, const MonteCarloResul
   return {{"calibration_eccentricity_mm", o.table3_calibration_e_mm}, {"rows", j}};
 }
 
-// Figure 4: std against eccentricity with the Cramer-Rao curve, and the spread of the estimates.
-void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloResult& r, std::ostream& err) {
-  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
-    throw Error("--plot-dir needs gnuplot (Debian: apt-get install gnuplot-nox)");
-  }
+// Figure 4: std against eccentricity with the Cramer-Rao curve, and the spread of the estimates:
+// the data, the script and the three images, staged in `dir` (created when missing).
+void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloResult& r, OutputFiles& files) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+  const std::string folder = dir + "/";
   const double e_min = r.rows.front().eccentricity_mm, e_max = r.rows.back().eccentricity_mm;
-  WriteFileAtomically(dir + "/fig4_std.dat", [&](std::ostream& f) {
+  files.Stage(folder + "fig4_std.dat", [&](std::ostream& f) {
     f << "# eccentricity_mm b_um c_um beta_urad epsilon_urad (Monte Carlo std)\n";
     for (const auto& row : r.rows) {
       f << row.eccentricity_mm << " " << row.params[kB].std * kUmPerMm << " " << row.params[kC].std * kUmPerMm << " "
         << row.params[kBeta].std * kUradPerRad << " " << row.params[kEpsilon].std * kUradPerRad << "\n";
     }
   });
-  WriteFileAtomically(dir + "/fig4_crlb.dat", [&](std::ostream& f) {
+  files.Stage(folder + "fig4_crlb.dat", [&](std::ostream& f) {
     f << "# eccentricity_mm b_um c_um beta_urad epsilon_urad (Cramer-Rao std)\n";
     const double lo = std::max(0.8 * std::min(e_min, e_max), 0.05), hi = 1.1 * std::max(e_min, e_max);
     for (int i = 0; i <= 60; ++i) {
@@ -210,7 +218,7 @@ void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloRe
         << u.std(kEpsilon) * kUradPerRad << "\n";
     }
   });
-  WriteFileAtomically(dir + "/fig4_spread.dat", [&](std::ostream& f) {
+  files.Stage(folder + "fig4_spread.dat", [&](std::ostream& f) {
     f << "# eccentricity_mm b_error_um c_error_um (estimate minus truth, every converged trial)\n";
     for (const auto& row : r.rows) {
       for (const auto& g : row.estimates) {
@@ -220,45 +228,61 @@ void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloRe
     }
   });
   const std::string title = Format("%d trials per point, sigma_r %g um", spec.trials, spec.base.noise_r_um);
-  WriteFileAtomically(dir + "/fig4.gp", [&](std::ostream& f) {
-    f << "# Figure 4 of the study; rerun with: gnuplot fig4.gp (in this folder)\n"
-      << "set terminal pngcairo size 900,600 font ',11'\n"
-      << "set grid\nset logscale xy\nset key top right\nset xlabel 'eccentricity of the sphere [mm]'\n"
-      << "set xrange [" << 0.7 * std::min(e_min, e_max) << ":" << 1.4 * std::max(e_min, e_max) << "]\n"
-      << "set xtics (" <<
-        [&] {
-          std::string t;
-          for (const auto& row : r.rows) t += (t.empty() ? "" : ", ") + Format("%g", row.eccentricity_mm);
-          return t;
-        }()
-      << ")\n"
-      << "set output 'fig4_b_c_std.png'\n"
-      << "set title 'Standard deviation of b and c (" << title << ")'\n"
-      << "set ylabel 'standard deviation [um]'\n"
-      << "plot 'fig4_crlb.dat' u 1:2 w l lw 2 lc rgb '#1f77b4' t 'b, Cramer-Rao', "
-         "'fig4_std.dat' u 1:2 w p pt 7 ps 1.5 lc rgb '#1f77b4' t 'b, Monte Carlo', "
-         "'fig4_crlb.dat' u 1:3 w l lw 2 lc rgb '#d62728' t 'c, Cramer-Rao', "
-         "'fig4_std.dat' u 1:3 w p pt 5 ps 1.5 lc rgb '#d62728' t 'c, Monte Carlo'\n"
-      << "set output 'fig4_beta_epsilon_std.png'\n"
-      << "set title 'Standard deviation of beta and epsilon (" << title << ")'\n"
-      << "set ylabel 'standard deviation [urad]'\n"
-      << "plot 'fig4_crlb.dat' u 1:4 w l lw 2 lc rgb '#1f77b4' t 'beta, Cramer-Rao', "
-         "'fig4_std.dat' u 1:4 w p pt 7 ps 1.5 lc rgb '#1f77b4' t 'beta, Monte Carlo', "
-         "'fig4_crlb.dat' u 1:5 w l lw 2 lc rgb '#d62728' t 'epsilon, Cramer-Rao', "
-         "'fig4_std.dat' u 1:5 w p pt 5 ps 1.5 lc rgb '#d62728' t 'epsilon, Monte Carlo'\n"
-      << "unset logscale\nset logscale x\nset key top right\n"
-      << "set output 'fig4_spread.png'\n"
-      << "set title 'Spread of the estimates of b and c (every trial)'\n"
-      << "set ylabel 'estimate - truth [um]'\n"
-      << "plot 'fig4_spread.dat' u ($1*0.97):2 w p pt 7 ps 0.3 lc rgb '#801f77b4' t 'b', "
-         "'fig4_spread.dat' u ($1*1.03):3 w p pt 7 ps 0.3 lc rgb '#80d62728' t 'c'\n";
-  });
-  const std::string cmd = "cd '" + dir + "' && gnuplot fig4.gp";
-  if (std::system(cmd.c_str()) != 0) throw Error(dir + "/fig4.gp: gnuplot failed");
-  err << "sph_montecarlo: wrote " << dir << "/fig4_b_c_std.png, fig4_beta_epsilon_std.png, fig4_spread.png\n";
+  std::string xtics;
+  for (const auto& row : r.rows) xtics += (xtics.empty() ? "" : ", ") + Format("%g", row.eccentricity_mm);
+  std::ostringstream script;
+  script << "# Figure 4 of the study; rerun with: gnuplot fig4.gp (in this folder)\n";
+  for (const char* name : {"std", "crlb", "spread"}) {
+    script << "if (!exists(\"" << name << "_dat\")) " << name << "_dat = 'fig4_" << name << ".dat'\n";
+  }
+  for (const char* name : {"b_c_std", "beta_epsilon_std", "spread"}) {
+    script << "if (!exists(\"" << name << "_png\")) " << name << "_png = 'fig4_" << name << ".png'\n";
+  }
+  script << "set terminal pngcairo size 900,600 font ',11'\n"
+         << "set grid\nset logscale xy\nset key top right\nset xlabel 'eccentricity of the sphere [mm]'\n"
+         << "set xrange [" << 0.7 * std::min(e_min, e_max) << ":" << 1.4 * std::max(e_min, e_max) << "]\n"
+         << "set xtics (" << xtics << ")\n"
+         << "set output b_c_std_png\n"
+         << "set title 'Standard deviation of b and c (" << title << ")'\n"
+         << "set ylabel 'standard deviation [um]'\n"
+         << "plot crlb_dat u 1:2 w l lw 2 lc rgb '#1f77b4' t 'b, Cramer-Rao', "
+            "std_dat u 1:2 w p pt 7 ps 1.5 lc rgb '#1f77b4' t 'b, Monte Carlo', "
+            "crlb_dat u 1:3 w l lw 2 lc rgb '#d62728' t 'c, Cramer-Rao', "
+            "std_dat u 1:3 w p pt 5 ps 1.5 lc rgb '#d62728' t 'c, Monte Carlo'\n"
+         << "set output beta_epsilon_std_png\n"
+         << "set title 'Standard deviation of beta and epsilon (" << title << ")'\n"
+         << "set ylabel 'standard deviation [urad]'\n"
+         << "plot crlb_dat u 1:4 w l lw 2 lc rgb '#1f77b4' t 'beta, Cramer-Rao', "
+            "std_dat u 1:4 w p pt 7 ps 1.5 lc rgb '#1f77b4' t 'beta, Monte Carlo', "
+            "crlb_dat u 1:5 w l lw 2 lc rgb '#d62728' t 'epsilon, Cramer-Rao', "
+            "std_dat u 1:5 w p pt 5 ps 1.5 lc rgb '#d62728' t 'epsilon, Monte Carlo'\n"
+         << "unset logscale\nset logscale x\nset key top right\n"
+         << "set output spread_png\n"
+         << "set title 'Spread of the estimates of b and c (every trial)'\n"
+         << "set ylabel 'estimate - truth [um]'\n"
+         << "plot spread_dat u ($1*0.97):2 w p pt 7 ps 0.3 lc rgb '#801f77b4' t 'b', "
+            "spread_dat u ($1*1.03):3 w p pt 7 ps 0.3 lc rgb '#80d62728' t 'c'\n";
+  files.Stage(folder + "fig4.gp", [&](std::ostream& f) { f << script.str(); });
+  const auto name_in_folder = [](const std::string& path) { return path.substr(path.find_last_of('/') + 1); };
+  GnuplotRun run;
+  run.folder = dir;
+  run.script = script.str();
+  run.description = "Figure 4";
+  for (const char* name : {"std", "crlb", "spread"}) {
+    run.variables.emplace_back(std::string(name) + "_dat",
+                               name_in_folder(files.StagedName(folder + "fig4_" + name + ".dat")));
+  }
+  for (const char* name : {"b_c_std", "beta_epsilon_std", "spread"}) {
+    run.variables.emplace_back(std::string(name) + "_png",
+                               name_in_folder(files.StageProduced(folder + "fig4_" + name + ".png")));
+  }
+  RunGnuplot(run, "--plot-dir " + dir);
 }
 
-int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream& out) {
+int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream& report, OutputFiles& files) {
+  // The table goes to the report, unless the JSON takes standard output.
+  std::ostringstream discarded;
+  std::ostream& out = o.json_path == "-" ? discarded : report;
   out << "Predicted standard deviations (linearised at the truth, no simulation): "
       << (o.machine.angles_path.empty()
               ? Format("%d", o.machine.theta_steps) + " x " + Format("%d", o.machine.phi_steps) + " grid"
@@ -311,7 +335,8 @@ int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream
       j["grids"] = grids;
     }
   }
-  if (!o.json_path.empty()) WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
+  if (!o.json_path.empty()) files.Stage(o.json_path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
+  files.Commit();
   return kExitOk;
 }
 
@@ -324,7 +349,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   AddMachineOptions(app, o.machine);
   app.add_option("--trials", o.trials, "Calibrations per eccentricity")
       ->capture_default_str()
-      ->check(CLI::Range(2, 100000000));
+      ->check(CLI::Range(2, 1000000));
   app.add_option("--eccentricities-mm", o.eccentricities_mm, "Eccentricities of the sphere [mm]")
       ->capture_default_str()
       ->delimiter(',');
@@ -347,14 +372,26 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   app.add_flag("--plan", o.plan, "Predict the standard deviations from the linearised model, without simulating");
   app.add_option("--target-std-um", o.target_std_um,
                  "With --plan: find the smallest eccentricity (and per grid) meeting this std as a displacement [um]")
-      ->check(Positive());
+      ->check(InRange(ranges::kStdUm));
   app.add_flag("!--no-progress", o.progress, "No progress bar");
 }
 
 int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream& err) {
   try {
+    RunPaths paths;
+    paths.Input("--angles", o.machine.angles_path)
+        .Output("the text report", o.json_path != "-" ? "-" : "")
+        .Output("--json", o.json_path)
+        .Output("--csv", o.csv_path);
+    if (!o.plot_dir.empty()) {
+      for (const char* f : {"fig4_std.dat", "fig4_crlb.dat", "fig4_spread.dat", "fig4.gp", "fig4_b_c_std.png",
+                            "fig4_beta_epsilon_std.png", "fig4_spread.png"}) {
+        paths.Output("--plot-dir", o.plot_dir + "/" + f);
+      }
+    }
     const MonteCarloSpec spec = ToSpec(o);
-    if (o.plan) return RunPlan(o, spec, out);
+    OutputFiles files(out);
+    if (o.plan) return RunPlan(o, spec, out, files);
     if (o.target_std_um) throw Error("--target-std-um goes with --plan");
     ProgressBar bar(err, o.progress);
     const auto t0 = std::chrono::steady_clock::now();
@@ -381,9 +418,14 @@ int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream
       out << "\n"
           << o.trials * static_cast<int>(r.rows.size()) << " calibrations in " << Format("%.2f", wall_s) << " s\n"
           << std::flush;
-    if (!o.json_path.empty()) WriteFileAtomically(o.json_path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
-    if (!o.csv_path.empty()) WriteCsv(o.csv_path, r);
-    if (!o.plot_dir.empty()) Plot(o.plot_dir, spec, r, err);
+    if (!o.json_path.empty()) files.Stage(o.json_path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
+    if (!o.csv_path.empty()) WriteCsv(o.csv_path, r, files);
+    if (!o.plot_dir.empty()) Plot(o.plot_dir, spec, r, files);
+    files.Commit();
+    if (!o.plot_dir.empty()) {
+      err << "sph_montecarlo: wrote " << o.plot_dir
+          << "/fig4_b_c_std.png, fig4_beta_epsilon_std.png, fig4_spread.png\n";
+    }
     return kExitOk;
   } catch (const std::exception& e) {
     err << "sph_montecarlo: error: " << e.what() << "\n";

@@ -3,17 +3,173 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-
+#include <map>
+#include <set>
+#include <sstream>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
 #include "app_common.hpp"
-#include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/core/text_input.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::apps {
+
+using internal::Format;
+using internal::Quoted;
+
+namespace {
+
+struct Field {
+  const char* name;
+  ValidRange range;
+};
+
+// "v1,v2,..." as the numbers `fields`, each in its range; `what` ("--form-flat-um '0.1,0,0,1'")
+// names the option and its value in messages, `expected` the layout ("depth_um,nx,ny,nz").
+std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,
+                                const std::vector<Field>& fields) {
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  for (std::string part; std::getline(ss, part, ',');) parts.push_back(part);
+  if (parts.size() != fields.size() || text.empty() || text.back() == ',') throw Error(what + ": expected " + expected);
+  std::vector<double> values;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const double v = ParseNumber(parts[i], fields[i].name, what + ": ");
+    values.push_back(CheckedValue(v, fields[i].range, what + ": " + fields[i].name, parts[i]));
+  }
+  return values;
+}
+
+// A direction of three parsed values, refused when it has no length.
+Eigen::Vector3d Direction(const std::vector<double>& v, std::size_t first, const std::string& what) {
+  const Eigen::Vector3d d(v[first], v[first + 1], v[first + 2]);
+  if (!(d.norm() > 0.0)) throw Error(what + ": the direction nx,ny,nz has no length");
+  return d;
+}
+
+// A setup id of an option's value; `what` names the option and its value.
+int ParseSetup(const std::string& text, const std::string& what, int n_setups) {
+  const int setup = ParseInteger(text, "setup", what + ": ");
+  if (setup < 0 || setup >= n_setups) {
+    throw Error(what + ": setup " + std::to_string(setup) + " does not exist (the setups are 0 to " +
+                std::to_string(n_setups - 1) + ", one per --center-mm)");
+  }
+  return setup;
+}
+
+// "SETUP:rest" into its setup id and the rest; `expected` is the layout for the message.
+std::pair<int, std::string> SplitSetup(const std::string& text, const std::string& what, const std::string& expected,
+                                       int n_setups) {
+  const auto colon = text.find(':');
+  if (colon == std::string::npos) throw Error(what + ": expected " + expected);
+  return {ParseSetup(text.substr(0, colon), what, n_setups), text.substr(colon + 1)};
+}
+
+// The sphere on its mount, its form and the scan orders of the options, into `spec`.
+void AddSphereOptions(const SimulateOptions& o, SimulationSpec& spec) {
+  const int n = static_cast<int>(spec.centers_mm.size());
+  const std::vector<Field> rotation{
+      {"rx", ranges::kMountRotationDeg}, {"ry", ranges::kMountRotationDeg}, {"rz", ranges::kMountRotationDeg}};
+  for (const std::string& text : o.mount_rotations_deg) {
+    const std::string what = "--mount-rotation-deg " + Quoted(text);
+    const std::string expected = "SETUP:rx,ry,rz (a setup id and a rotation vector in deg, axis times angle)";
+    const auto [setup, rest] = SplitSetup(text, what, expected, n);
+    const std::vector<double> v = ParseFields(rest, what, expected, rotation);
+    if (!spec.mount_rotations_deg.emplace(setup, Eigen::Vector3d(v[0], v[1], v[2])).second) {
+      throw Error(what + ": setup " + std::to_string(setup) + " is given twice");
+    }
+  }
+  for (const std::string& text : o.mount_unknown) {
+    const std::string what = "--mount-unknown " + Quoted(text);
+    if (!spec.mount_unknown.insert(ParseSetup(text, what, n)).second) throw Error(what + ": the setup is given twice");
+  }
+  for (const std::string& text : o.form_flats_um) {
+    const std::string what = "--form-flat-um " + Quoted(text);
+    const std::vector<double> v = ParseFields(text, what, "depth_um,nx,ny,nz",
+                                              {{"depth_um", ranges::kFormDepthUm},
+                                               {"nx", ranges::kDirection},
+                                               {"ny", ranges::kDirection},
+                                               {"nz", ranges::kDirection}});
+    if (!(v[0] * kMmPerUm < spec.sphere_radius_mm)) {
+      throw Error(what + ": the depth must be smaller than the sphere's radius");
+    }
+    spec.effects.flats.push_back({v[0], Direction(v, 1, what)});
+  }
+  for (const std::string& text : o.form_bumps_um) {
+    const std::string what = "--form-bump-um " + Quoted(text);
+    const std::vector<double> v = ParseFields(text, what, "height_um,width_deg,nx,ny,nz",
+                                              {{"height_um", ranges::kEffectUm},
+                                               {"width_deg", ranges::kFormWidthDeg},
+                                               {"nx", ranges::kDirection},
+                                               {"ny", ranges::kDirection},
+                                               {"nz", ranges::kDirection}});
+    spec.effects.bumps.push_back({v[0], v[1], Direction(v, 2, what)});
+  }
+  bool order_for_all = false;
+  for (const std::string& text : o.scan_orders) {
+    const std::string what = "--scan-order " + Quoted(text);
+    const auto colon = text.find(':');
+    const std::string name = colon == std::string::npos ? text : text.substr(colon + 1);
+    ScanOrder order;
+    if (!ScanOrderFromName(name, &order)) {
+      throw Error(what + ": unknown order " + Quoted(name) + " (known: " + ScanOrderNames() + ")");
+    }
+    if (colon == std::string::npos) {
+      if (order_for_all) throw Error(what + ": an order for every setup is given twice");
+      order_for_all = true;
+      spec.scan_order = order;
+    } else if (!spec.scan_orders.emplace(ParseSetup(text.substr(0, colon), what, n), order).second) {
+      throw Error(what + ": the setup is given twice");
+    }
+  }
+}
+
+nlohmann::json Vector(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+// The truth's form: what the options gave, on the body frame, and its size.
+nlohmann::json FormTruth(const SimulationSpec& spec) {
+  const SimulatedEffects& e = spec.effects;
+  nlohmann::json terms = nlohmann::json::array();
+  std::map<std::pair<int, int>, double> sum;  // a term given twice adds up
+  for (const FormComponent& f : e.form) {
+    terms.push_back({{"l", f.l}, {"m", f.m}, {"amplitude_um", f.amplitude_um}});
+    sum[{f.l, f.m}] += f.amplitude_um;
+  }
+  double ms = 0.0;
+  for (const auto& [lm, a] : sum) {
+    if (lm.first >= 2) ms += a * a / (2.0 * lm.first + 1.0);
+  }
+  nlohmann::json flats = nlohmann::json::array(), bumps = nlohmann::json::array();
+  for (const FormFlat& f : e.flats) {
+    flats.push_back({{"depth_um", f.depth_um}, {"normal_body", Vector(f.normal_body.normalized())}});
+  }
+  for (const FormBump& b : e.bumps) {
+    bumps.push_back(
+        {{"height_um", b.height_um}, {"width_deg", b.width_deg}, {"center_body", Vector(b.center_body.normalized())}});
+  }
+  nlohmann::json form = {
+      {"frame", "body: p_theta = R(mount_rotation_deg) p_body about the sphere's centre"},
+      {"harmonics",
+       {{"normalisation",
+         "Schmidt semi-normalised real spherical harmonics of the body direction: |S_lm| <= 1, mean square "
+         "1/(2l+1) over the sphere, cos(m lon) for m >= 0, sin(|m| lon) for m < 0, no Condon-Shortley phase"},
+        {"terms", terms},
+        {"rms_um", std::sqrt(ms)}}},
+      {"flats", flats},
+      {"bumps", bumps}};
+  const FormSize size = FormSizeOf(e, spec.sphere_radius_mm);
+  form["rms_um"] = size.rms_um;  // all of the form without its degree 0 and 1 parts
+  form["pv_um"] = size.pv_um;
+  return form;
+}
+
+}  // namespace
 
 void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& effects) {
   const std::string opt = unit == Quantity::kAngle ? "--effect-arcsec" : "--effect-um";
@@ -31,9 +187,9 @@ void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& ef
   char* end = nullptr;
   const std::string value_text = text.substr(eq + 1);
   const double value = std::strtod(value_text.c_str(), &end);
-  if (value_text.empty() || *end != '\0' || !std::isfinite(value)) {
-    throw Error(opt + " " + text + ": '" + value_text + "' is not a number");
-  }
+  if (value_text.empty() || *end != '\0') throw Error(opt + " " + text + ": '" + value_text + "' is not a number");
+  CheckedValue(value, unit == Quantity::kAngle ? ranges::kEffectArcsec : ranges::kEffectUm, opt + " " + text,
+               value_text);
   EffectComponent comp;
   if (!FindComponent(e, text.substr(0, eq), &comp)) throw Error(opt + " " + text + ": " + id + " has no parameter '" + param + "'");
   int t = effects.model.Find(e);
@@ -62,27 +218,56 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
   AddMachineOptions(app, o.machine);
   app.add_option("--center-mm", o.centers_mm, "Sphere centre x,y,z [mm]; repeat for several setups");
   app.add_option("--seed", o.seed, "Random seed");
-  app.add_option("--sample-period-s", o.sample_period_s, "Time between samples [s]")->check(NonNegative());
+  app.add_option("--sample-period-s", o.sample_period_s, "Time between samples [s]")
+      ->check(InRange({0.0, 86400.0, "s"}));
   app.add_option("--effect-arcsec", o.effects_arcsec,
                  "An angle effect's parameter, id.param=value [arcsec], e.g. theta_encoder.c2=10; repeatable")
       ->group("Effects (not declared in the points file)");
   app.add_option("--effect-um", o.effects_um,
                  "A length effect's parameter, id.param=value [um], e.g. probe_drift.t1=0.5; repeatable")
       ->group("Effects (not declared in the points file)");
-  app.add_option("--form-um", o.form_um,
-                 "Form error of the sphere: l,m,amplitude [um] of a Schmidt semi-normalised real spherical harmonic; "
-                 "repeatable")
-      ->group("Effects (not declared in the points file)");
+  const std::string sphere = "The sphere on its mount and its form";
+  app.add_option("--mount-rotation-deg", o.mount_rotations_deg,
+                 "SETUP:rx,ry,rz: the rotation vector (axis times angle) [deg] that takes the sphere's body frame into "
+                 "the frame turning with Theta, in that setup (each " +
+                     ranges::kMountRotationDeg.Text() + "); written into the file's header; repeatable")
+      ->group(sphere);
+  app.add_option("--mount-unknown", o.mount_unknown,
+                 "SETUP: the header says 'unknown' for that setup's rotation (simulated as given); repeatable")
+      ->group(sphere);
+  app.add_option(
+         "--form-um", o.form_um,
+         "Form error on the body frame: l,m,amplitude [um] of a Schmidt semi-normalised real spherical harmonic "
+         "(|S_lm| <= 1, mean square 1/(2l+1); amplitude " +
+             ranges::kEffectUm.Text() + "); repeatable")
+      ->group(sphere);
+  app.add_option("--form-flat-um", o.form_flats_um,
+                 "A flat: depth,nx,ny,nz, the sphere cut by a plane at R0 - depth along the body direction n (depth " +
+                     ranges::kFormDepthUm.Text() + "); repeatable")
+      ->group(sphere);
+  app.add_option("--form-bump-um", o.form_bumps_um,
+                 "A Gaussian bump: height,width_deg,nx,ny,nz, of that height (" + ranges::kEffectUm.Text() +
+                     ", negative: a dent) and angular standard deviation (" + ranges::kFormWidthDeg.Text() +
+                     ") about the body direction n; repeatable")
+      ->group(sphere);
+  app.add_option("--scan-order", o.scan_orders,
+                 std::string("ORDER or SETUP:ORDER: the time order of the pattern (") + ScanOrderNames() +
+                     "; default rings: phi ring by ring, theta within); repeatable")
+      ->group(sphere);
   app.add_option("--outlier-fraction", o.outlier_fraction, "Share of readings with a gross error in r")
       ->check(CLI::Range(0.0, 1.0))
       ->group("Effects (not declared in the points file)");
   app.add_option("--outlier-um", o.outlier_um, "Size of the gross error (random sign) [um]")
-      ->check(NonNegative())
+      ->check(InRange({0.0, 1e6, "um"}))
       ->group("Effects (not declared in the points file)");
 }
 
 int RunSimulate(const SimulateOptions& o, std::ostream& err) {
   try {
+    RunPaths()
+        .Input("--angles", o.machine.angles_path)
+        .Output("--output", o.output_path)
+        .Output("--truth", o.truth_path);
     SimulationSpec spec = ToSimulationSpec(o.machine);
     spec.centers_mm.clear();
     for (const auto& c : o.centers_mm) spec.centers_mm.push_back(ParseVector3(c, "--center-mm"));
@@ -94,11 +279,13 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
       FormComponent c;
       char tail = 0;
       if (std::sscanf(f.c_str(), "%d,%d,%lf%c", &c.l, &c.m, &c.amplitude_um, &tail) != 3 || c.l < 0 || c.l > 20 ||
-          std::abs(c.m) > c.l || !std::isfinite(c.amplitude_um)) {
+          std::abs(c.m) > c.l) {
         throw Error("--form-um " + f + ": expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l");
       }
+      CheckedValue(c.amplitude_um, ranges::kEffectUm, "--form-um " + f, Format("%g", c.amplitude_um));
       spec.effects.form.push_back(c);
     }
+    AddSphereOptions(o, spec);
     spec.effects.outlier_fraction = o.outlier_fraction;
     spec.effects.outlier_um = o.outlier_um;
     EffectReference reference;
@@ -106,6 +293,7 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
     data.header.metadata.emplace_back("generator", "sph_simulate " SPH_VERSION);
     data.header.metadata.emplace_back("seed", std::to_string(o.seed));
 
+    OutputFiles files;
     if (!o.truth_path.empty()) {
       nlohmann::json t;
       t["format"] = "sph-truth";
@@ -117,9 +305,24 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
                                {"unit", info.quantity == Quantity::kAngle ? "deg" : "mm"}};
       }
       t["geometry"] = geometry;
-      nlohmann::json centers = nlohmann::json::array();
-      for (const auto& c : spec.centers_mm) centers.push_back({c.x(), c.y(), c.z()});
+      nlohmann::json centers = nlohmann::json::array(), setups = nlohmann::json::array();
+      for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
+        const int id = static_cast<int>(k);
+        centers.push_back(Vector(spec.centers_mm[k]));
+        const auto rotation = spec.mount_rotations_deg.find(id);
+        const auto order = spec.scan_orders.find(id);
+        setups.push_back(
+            {{"setup", id},
+             {"center_mm", Vector(spec.centers_mm[k])},
+             {"mount_rotation_deg",
+              Vector(rotation == spec.mount_rotations_deg.end() ? Eigen::Vector3d::Zero() : rotation->second)},
+             {"header", spec.mount_unknown.count(id)                 ? "unknown"
+                        : rotation != spec.mount_rotations_deg.end() ? "rotation"
+                                                                     : "none"},
+             {"scan_order", ScanOrderName(order == spec.scan_orders.end() ? spec.scan_order : order->second)}});
+      }
       t["centers_mm"] = centers;
+      t["setups"] = setups;
       t["sphere_radius_mm"] = o.machine.sphere_radius_mm;
       t["probe_offset_mm"] = o.machine.probe_offset_mm;
       t["noise"] = {{"r_um", o.machine.noise_r_um},
@@ -142,14 +345,13 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
                                {"r_half_range_mm", reference.r_half_range_mm},
                                {"t_start_s", reference.t_start_s},
                                {"t_span_s", reference.t_span_s}};
-      nlohmann::json form = nlohmann::json::array();
-      for (const FormComponent& f : spec.effects.form) form.push_back({{"l", f.l}, {"m", f.m}, {"amplitude_um", f.amplitude_um}});
-      t["form_um"] = form;
+      t["form"] = FormTruth(spec);
       t["outliers"] = {{"fraction", o.outlier_fraction}, {"size_um", o.outlier_um}};
       t["n_points"] = data.samples.size();
-      WriteFileAtomically(o.truth_path, [&](std::ostream& f) { f << t.dump(2) << "\n"; });
+      files.Stage(o.truth_path, [&](std::ostream& f) { f << t.dump(2) << "\n"; });
     }
-    WritePointsFile(o.output_path, data);
+    files.Stage(o.output_path, [&](std::ostream& f) { WritePoints(f, data); });
+    files.Commit();
     return kExitOk;
   } catch (const std::exception& e) {
     err << "sph_simulate: error: " << e.what() << "\n";

@@ -1,5 +1,6 @@
 # Install rules: one export set per component, so that find_package(sph COMPONENTS model)
-# needs Eigen only, COMPONENTS core adds nothing else, and COMPONENTS calib needs Ceres.
+# needs Eigen only, COMPONENTS core adds nothing else, COMPONENTS can (Linux) neither, and
+# COMPONENTS calib needs Ceres.
 include(CMakePackageConfigHelpers)
 
 set(SPH_INSTALL_CMAKEDIR "${CMAKE_INSTALL_LIBDIR}/cmake/sph" CACHE STRING "Where sphConfig.cmake is installed")
@@ -12,6 +13,13 @@ install(DIRECTORY include/sph/core DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph"
 install(TARGETS sph_core EXPORT sph-core-targets ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}"
         LIBRARY DESTINATION "${CMAKE_INSTALL_LIBDIR}")
 install(EXPORT sph-core-targets NAMESPACE sph:: DESTINATION "${SPH_INSTALL_CMAKEDIR}" COMPONENT core)
+
+if(TARGET sph_can)
+  install(DIRECTORY include/sph/can DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph" COMPONENT can)
+  install(TARGETS sph_can EXPORT sph-can-targets ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}"
+          LIBRARY DESTINATION "${CMAKE_INSTALL_LIBDIR}")
+  install(EXPORT sph-can-targets NAMESPACE sph:: DESTINATION "${SPH_INSTALL_CMAKEDIR}" COMPONENT can)
+endif()
 
 if(SPH_BUILD_CALIBRATION)
   install(DIRECTORY include/sph/ceres include/sph/calib DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph" COMPONENT calib)

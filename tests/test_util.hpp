@@ -2,7 +2,11 @@
 #ifndef SPH_TESTS_TEST_UTIL_HPP_
 #define SPH_TESTS_TEST_UTIL_HPP_
 
+#include <dirent.h>
 #include <unistd.h>
+
+#include <algorithm>
+#include <vector>
 
 #include <cmath>
 #include <cstdlib>
@@ -39,6 +43,20 @@ inline std::string ReadWholeFile(const std::string& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// The names in a folder (without "." and ".."), sorted.
+inline std::vector<std::string> ListFolder(const std::string& dir) {
+  std::vector<std::string> names;
+  if (DIR* d = opendir(dir.c_str())) {
+    while (dirent* e = readdir(d)) {
+      const std::string n = e->d_name;
+      if (n != "." && n != "..") names.push_back(n);
+    }
+    closedir(d);
+  }
+  std::sort(names.begin(), names.end());
+  return names;
 }
 
 /// A fresh empty directory under the test's temporary directory.

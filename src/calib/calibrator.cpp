@@ -240,7 +240,9 @@ std::string DescribeOutliers(const PointsData& points, const std::vector<Outlier
   for (const Outlier& o : outliers) {
     if (rows.size() >= 400) return rows + "; ...";
     const Sample& s = points.samples[o.sample];
-    rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(o.sample + 1) + " (theta " +
+    const std::string line =
+        o.sample < points.sample_lines.size() ? "line " + std::to_string(points.sample_lines[o.sample]) + ", " : "";
+    rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(o.sample + 1) + " (" + line + "theta " +
             Format("%g", s.theta_deg) + " deg, phi " + Format("%g", s.phi_deg) + " deg, residual " +
             Format("%+.3g", o.residual_um) + " um)";
   }
@@ -250,6 +252,7 @@ std::string DescribeOutliers(const PointsData& points, const std::vector<Outlier
 PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& result) {
   PointsData kept = points;
   kept.samples.clear();
+  kept.sample_lines.clear();
   std::size_t next = 0;
   for (std::size_t i = 0; i < points.samples.size(); ++i) {
     if (next < result.outliers.size() && result.outliers[next].sample == i) {
@@ -257,6 +260,7 @@ PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& re
       continue;
     }
     kept.samples.push_back(points.samples[i]);
+    if (i < points.sample_lines.size()) kept.sample_lines.push_back(points.sample_lines[i]);
   }
   return kept;
 }

@@ -1,4 +1,4 @@
-// SYNC, heartbeat and EMCY frames (CiA 301).
+// NMT, SYNC, heartbeat and EMCY frames (CiA 301).
 #include <cstdio>
 
 #include "sph/can/canopen.hpp"
@@ -50,6 +50,41 @@ std::string NmtStateName(std::uint8_t state) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "unknown state 0x%02X", state);
   return buf;
+}
+
+std::string NmtCommandName(std::uint8_t command) {
+  switch (static_cast<NmtCommand>(command)) {
+    case NmtCommand::kStart:
+      return "Start remote node";
+    case NmtCommand::kStop:
+      return "Stop remote node";
+    case NmtCommand::kEnterPreOperational:
+      return "Enter pre-operational";
+    case NmtCommand::kResetNode:
+      return "Reset node";
+    case NmtCommand::kResetCommunication:
+      return "Reset communication";
+  }
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "unknown NMT command 0x%02X", command);
+  return buf;
+}
+
+CanFrame EncodeNmt(NmtCommand command, int node_id) {
+  return MakeFrame(kNmtCobId, {static_cast<std::uint8_t>(command), static_cast<std::uint8_t>(node_id)});
+}
+
+std::optional<NmtMessage> DecodeNmt(const CanFrame& frame, std::string* error) {
+  auto fail = [&](const std::string& why) -> std::optional<NmtMessage> {
+    if (error != nullptr) *error = why;
+    return std::nullopt;
+  };
+  if (frame.id != kNmtCobId) return fail("not the NMT id 0x000");
+  if (frame.len != 2) return fail(std::to_string(frame.len) + " data bytes, an NMT command has 2");
+  const std::uint8_t cs = frame.data[0];
+  if (NmtCommandName(cs).rfind("unknown", 0) == 0) return fail(NmtCommandName(cs));
+  if (frame.data[1] > 127) return fail("node id " + std::to_string(frame.data[1]) + " is not 0..127");
+  return NmtMessage{cs, frame.data[1]};
 }
 
 CanFrame EncodeSync(std::optional<std::uint8_t> counter, std::uint32_t cob_id) {

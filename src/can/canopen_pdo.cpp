@@ -38,6 +38,19 @@ const char* ToString(DecodeStatus status) {
   return "?";
 }
 
+int PredefinedTpdo(std::uint32_t cob_id, int node_id) {
+  for (int k = 1; k <= 4; ++k) {
+    if (cob_id == 0x080U + 0x100U * static_cast<std::uint32_t>(k) + static_cast<std::uint32_t>(node_id)) return k;
+  }
+  return 0;
+}
+
+int TpdoNumber(int tpdo, std::uint32_t cob_id, int node_id) {
+  if (tpdo > 0) return tpdo;
+  const int k = node_id == 0 ? 0 : PredefinedTpdo(cob_id, node_id);
+  return k == 0 ? 1 : k;
+}
+
 void ValidateLayout(const FieldLayout& l, const std::string& what) {
   if (l.width_bytes < 1 || l.width_bytes > 8) {
     throw Error(what + ": width must be 1..8 bytes, got " + std::to_string(l.width_bytes));
@@ -87,6 +100,7 @@ void ValidateEncoder(const EncoderConfig& c, const std::string& what) {
   }
   if (c.direction != 1 && c.direction != -1) throw Error(what + ": direction must be 1 or -1");
   if (c.node_id < 0 || c.node_id > 127) throw Error(what + ": node id must be 0..127");
+  if (c.tpdo < 0 || c.tpdo > 512) throw Error(what + ": TPDO number must be 1..512 (0: from the COB-ID)");
 }
 
 DecodedValue DecodePosition(const EncoderConfig& c, const CanFrame& frame) {
@@ -141,6 +155,7 @@ void ValidateProbe(const ProbeConfig& c, const std::string& what) {
   if (!std::isfinite(c.offset_mm)) throw Error(what + ": the offset must be finite");
   if (c.status_offset_byte >= kMaxDataBytes) throw Error(what + ": the status byte must be 0..7 (or -1 for none)");
   if (c.node_id < 0 || c.node_id > 127) throw Error(what + ": node id must be 0..127");
+  if (c.tpdo < 0 || c.tpdo > 512) throw Error(what + ": TPDO number must be 1..512 (0: from the COB-ID)");
 }
 
 DecodedValue DecodeProbe(const ProbeConfig& c, const CanFrame& frame) {

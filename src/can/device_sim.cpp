@@ -2,20 +2,109 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <set>
 
 #include "sph/can/error_frame.hpp"
+#include "sph/can/sdo_server.hpp"
 #include "sph/core/error.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::can {
 namespace {
 
+constexpr std::int64_t kNever = std::numeric_limits<std::int64_t>::max();
+
 std::int64_t ToNs(double s) { return static_cast<std::int64_t>(std::llround(s * 1e9)); }
+
+// The simulated devices' identity (1018h): a vendor-id of no real vendor.
+constexpr std::uint32_t kVendorId = 0x00535048;  // "SPH"
+constexpr std::uint32_t kRevision = 0x00010000;
+
+bool IsDummy(std::uint16_t index) { return index >= 0x0002 && index <= 0x0007; }
+int DummyBits(std::uint16_t index) {
+  switch (index) {
+    case 0x0002:
+    case 0x0005:
+      return 8;
+    case 0x0003:
+    case 0x0006:
+      return 16;
+    default:
+      return 32;
+  }
+}
+
+std::uint32_t MapEntry(ObjectAddress o, int bits) {
+  return (static_cast<std::uint32_t>(o.index) << 16) | (static_cast<std::uint32_t>(o.subindex) << 8) |
+         static_cast<std::uint32_t>(bits);
+}
 
 }  // namespace
 
+struct DeviceSimulator::Node {
+  enum class St { kOff, kPreOp, kOperational, kStopped };
+  int node_id = 0;  ///< 0: a sensor with its own frames, always sending
+  int device = kProbe;
+  int tpdo = 1;
+  St st = St::kOff;
+  std::int64_t boot_at = kNever;
+  bool hb_on_grid = false;  ///< log mode: heartbeats on the internal SYNC grid
+  std::int64_t hb_base = 0;
+  std::uint64_t hb_index = 0;
+  std::int64_t next_heartbeat = kNever;
+  std::int64_t next_event_pdo = kNever;
+  std::vector<std::int64_t> reboot_at;
+  std::size_t next_reboot = 0;
+  ObjectDictionary od;
+  std::unique_ptr<SdoServer> server;
+  std::uint64_t syncs_seen = 0;
+  std::int64_t raw = 0;  ///< the latest reading [counts]
+  std::optional<std::int64_t> last_sent_raw;
+
+  std::uint16_t Comm() const { return static_cast<std::uint16_t>(0x1800 + tpdo - 1); }
+  std::uint16_t Map() const { return static_cast<std::uint16_t>(0x1A00 + tpdo - 1); }
+  std::uint8_t StateByte() const {
+    switch (st) {
+      case St::kOff:
+        return static_cast<std::uint8_t>(NmtState::kBootUp);
+      case St::kPreOp:
+        return static_cast<std::uint8_t>(NmtState::kPreOperational);
+      case St::kOperational:
+        return static_cast<std::uint8_t>(NmtState::kOperational);
+      case St::kStopped:
+        return static_cast<std::uint8_t>(NmtState::kStopped);
+    }
+    return 0;
+  }
+};
+
+void DeviceSimConfig::Validate() const {
+  const int nodes[] = {devices.theta.node_id, devices.phi.node_id, devices.probe.node_id};
+  std::set<int> seen;
+  for (int d = 0; d < kNumDevices; ++d) {
+    if (nodes[d] != 0 && !seen.insert(nodes[d]).second) {
+      throw Error("device simulator: " + std::string(DeviceName(d)) + " shares node " + std::to_string(nodes[d]) +
+                  " with another device: the simulated devices need a node each");
+    }
+  }
+  for (const RebootEvent& r : faults.reboots) {
+    if (r.node_id == 0 || seen.count(r.node_id) == 0) {
+      throw Error("device simulator: reboot of node " + std::to_string(r.node_id) + ", which no device is");
+    }
+  }
+  if (!(transmission_type >= 0 && transmission_type <= 240) &&
+      !(transmission_type >= 252 && transmission_type <= 255)) {
+    throw Error("device simulator: transmission type must be 0..240 or 252..255");
+  }
+  if (boot_s < 0.0 || sdo_latency_s < 0.0 || heartbeat_period_s < 0.0) {
+    throw Error("device simulator: boot, SDO and heartbeat times must not be negative");
+  }
+}
+
 DeviceSimulator::DeviceSimulator(const DeviceSimConfig& config) : config_(config), rng_(config.spec.seed) {
   config_.devices.Validate();
+  config_.Validate();
   if (config_.spec.pattern.empty()) throw Error("device simulator: the pattern is empty");
   if (config_.spec.centers_mm.empty()) throw Error("device simulator: no sphere centre");
   if (!(config_.sync_period_s > 0.0)) throw Error("device simulator: the SYNC period must be positive");
@@ -25,12 +114,53 @@ DeviceSimulator::DeviceSimulator(const DeviceSimConfig& config) : config_(config
   total_cycles_ = static_cast<std::uint64_t>(std::floor(duration_s() / config_.sync_period_s + 1e-9));
   bus_off_done_.assign(config_.faults.bus_off_at_s.size(), false);
   emcy_done_.assign(config_.faults.emergencies.size(), false);
-  next_error_frame_s_ = config_.faults.error_frame_period_s;
+  start_ns_ = ToNs(config_.start_time_s);
+  next_error_frame_ns_ =
+      config_.faults.error_frame_period_s > 0.0 ? GridNs(config_.faults.error_frame_period_s, 700.0) : kNever;
+  const int ids[] = {config_.devices.theta.node_id, config_.devices.phi.node_id, config_.devices.probe.node_id};
+  for (int d = 0; d < kNumDevices; ++d) {
+    auto n = std::make_unique<Node>();
+    n->node_id = ids[d];
+    n->device = d;
+    const PipelineConfig& dc = config_.devices;
+    const std::uint32_t cob = d == kTheta ? dc.theta.field.can_id
+                              : d == kPhi ? dc.phi.field.can_id
+                                          : dc.probe.field.can_id;
+    n->tpdo = TpdoNumber(d == kTheta ? dc.theta.tpdo : d == kPhi ? dc.phi.tpdo : dc.probe.tpdo, cob, n->node_id);
+    for (const RebootEvent& r : config_.faults.reboots) {
+      if (r.node_id == n->node_id) n->reboot_at.push_back(start_ns_ + ToNs(r.at_s));
+    }
+    std::sort(n->reboot_at.begin(), n->reboot_at.end());
+    nodes_.push_back(std::move(n));
+  }
+  for (auto& n : nodes_) {
+    if (n->node_id == 0 || config_.start_operational) {
+      Boot(*n, start_ns_);
+      n->st = Node::St::kOperational;
+      n->hb_on_grid = true;
+      n->hb_index = 0;
+      n->next_heartbeat =
+          n->node_id != 0 && config_.heartbeat_period_s > 0.0 ? GridNs(0.0, 600.0 + 20.0 * n->device) : kNever;
+    } else {
+      n->boot_at = start_ns_ + ToNs(config_.boot_s);  // power-on
+    }
+  }
 }
+
+DeviceSimulator::~DeviceSimulator() = default;
 
 double DeviceSimulator::duration_s() const {
   const auto n = static_cast<double>(config_.spec.pattern.size());
   return n * config_.stop_s + (n - 1.0) * config_.move_s;
+}
+
+double DeviceSimulator::RelS(std::int64_t t_ns) const { return static_cast<double>(t_ns - start_ns_) * 1e-9; }
+
+// The time `offset_us` after the first internal SYNC at or after `at_s`.
+std::int64_t DeviceSimulator::GridNs(double at_s, double offset_us) const {
+  const double T = config_.sync_period_s;
+  const double k = std::max(0.0, std::ceil(at_s / T - 1e-9));
+  return ToNs(config_.start_time_s + k * T) + std::min<std::int64_t>(ToNs(offset_us * 1e-6), ToNs(T) * 9 / 10);
 }
 
 AnglePair DeviceSimulator::AxesAt(double t_s) const {
@@ -56,56 +186,202 @@ bool DeviceSimulator::Silent(int device, double t_rel_s) const {
   return false;
 }
 
+std::uint8_t DeviceSimulator::NodeState(int node_id) const {
+  for (const auto& n : nodes_) {
+    if (n->node_id == node_id) return n->StateByte();
+  }
+  return 0xFF;
+}
+
+// A node (re)starts: the object dictionary at its defaults, pre-operational.
+void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
+  using A = ObjectDictionary::Access;
+  ObjectDictionary& od = n.od;
+  od = ObjectDictionary{};
+  const int d = n.device;
+  const bool encoder = d != kProbe;
+  const FieldLayout& field = d == kTheta ? config_.devices.theta.field
+                             : d == kPhi ? config_.devices.phi.field
+                                         : config_.devices.probe.field;
+  od.SetUnsigned({0x1000, 0}, encoder ? 0x00010196 : 0x00000000, 4);  // CiA 406 (0x196), single-turn
+  od.SetUnsigned({0x1001, 0}, 0, 1);
+  const std::string name = std::string("sph_cansim ") + DeviceName(d) + (encoder ? " encoder" : "");
+  od.Set({0x1008, 0}, std::vector<std::uint8_t>(name.begin(), name.end()));
+  od.SetUnsigned({0x1017, 0}, static_cast<std::uint64_t>(std::llround(config_.heartbeat_period_s * 1000.0)), 2);
+  od.SetUnsigned({0x1018, 0}, 4, 1);
+  od.SetUnsigned({0x1018, 1}, kVendorId, 4);
+  od.SetUnsigned({0x1018, 2}, encoder ? 0x00004060U + static_cast<std::uint32_t>(d) : 0x00002000U, 4);
+  od.SetUnsigned({0x1018, 3}, kRevision, 4);
+  od.SetUnsigned({0x1018, 4}, 0x00010000U + static_cast<std::uint32_t>(n.node_id), 4);
+  const std::uint32_t id = field.can_id & kEffMask;
+  const std::uint32_t cob = (field.can_id & kEffFlag) ? (id | 0x20000000U) : id;
+  od.SetUnsigned({n.Comm(), 0}, 5, 1);
+  od.SetUnsigned({n.Comm(), 1}, cob, 4, A::kReadWrite);
+  od.SetUnsigned({n.Comm(), 2}, static_cast<std::uint64_t>(config_.transmission_type), 1, A::kReadWrite);
+  od.SetUnsigned({n.Comm(), 3}, 0, 2, A::kReadWrite);
+  od.SetUnsigned({n.Comm(), 5}, config_.event_timer_ms, 2, A::kReadWrite);
+  // The value object, sized as configured.
+  const ObjectAddress value_obj = encoder ? ObjectAddress{0x6004, 0} : ObjectAddress{0x2000, 0};
+  od.SetUnsigned(value_obj, 0, field.width_bytes, A::kReadOnly, true);
+  od.SetUnsigned({0x2001, 0}, 0, 1, A::kReadOnly, true);
+  od.SetUnsigned({0x2010, 0}, 0, 1, A::kReadOnly, true);
+  if (encoder) {
+    const EncoderConfig& e = d == kTheta ? config_.devices.theta : config_.devices.phi;
+    od.SetUnsigned({0x6000, 0}, 0, 2, A::kReadWrite);
+    od.SetUnsigned({0x6001, 0}, e.counts_per_rev, 4);
+    const std::uint64_t total =
+        e.multi_turn ? std::min<std::uint64_t>(e.counts_per_rev * 4096, 0xFFFFFFFFU) : e.counts_per_rev;
+    od.SetUnsigned({0x6002, 0}, total, 4);
+  }
+  // The default mapping: the value at its byte, the probe's status byte, the SYNC counter byte,
+  // dummies (UNSIGNED8) before them.
+  std::vector<std::uint32_t> entries;
+  const int status = d == kProbe ? config_.devices.probe.status_offset_byte : -1;
+  const int counter = config_.devices.sync_counter_byte[static_cast<std::size_t>(d)];
+  const int end = std::max({field.offset_byte + field.width_bytes, status + 1, counter + 1});
+  for (int b = 0; b < end;) {
+    if (b == field.offset_byte) {
+      entries.push_back(MapEntry(value_obj, 8 * field.width_bytes));
+      b += field.width_bytes;
+    } else if (b == status) {
+      entries.push_back(MapEntry({0x2001, 0}, 8));
+      ++b;
+    } else if (b == counter) {
+      entries.push_back(MapEntry({0x2010, 0}, 8));
+      ++b;
+    } else {
+      entries.push_back(MapEntry({0x0005, 0}, 8));
+      ++b;
+    }
+  }
+  od.SetUnsigned({n.Map(), 0}, entries.size(), 1, A::kReadWrite);
+  for (std::size_t i = 0; i < 8; ++i) {
+    od.SetUnsigned({n.Map(), static_cast<std::uint8_t>(i + 1)}, i < entries.size() ? entries[i] : 0, 4, A::kReadWrite);
+  }
+  n.server = std::make_unique<SdoServer>(n.node_id, &n.od, [&n](ObjectAddress o, const std::vector<std::uint8_t>& v) {
+    const bool comm = o.index == n.Comm(), map = o.index == n.Map();
+    if (!comm && !map) return std::uint32_t{0};
+    if (n.st == Node::St::kOperational) return kAbortDeviceState;
+    const std::uint64_t value = LittleEndianValue(v);
+    if (comm && o.subindex == 1) {
+      const std::uint64_t old = n.od.Unsigned(o);
+      const bool old_valid = (old & 0x80000000U) == 0, new_valid = (value & 0x80000000U) == 0;
+      if (old_valid && new_valid && (old & 0x3FFFFFFFU) != (value & 0x3FFFFFFFU)) return kAbortInvalidValue;
+    } else if (comm && o.subindex == 2) {
+      if (value >= 241 && value <= 251) return kAbortInvalidValue;
+    } else if (map && o.subindex == 0) {
+      if (value > 8) return kAbortPdoLength;
+      int bits = 0;
+      for (std::uint64_t sub = 1; sub <= value; ++sub)
+        bits += static_cast<int>(n.od.Unsigned({o.index, static_cast<std::uint8_t>(sub)}) & 0xFF);
+      if (bits > 64) return kAbortPdoLength;
+    } else if (map) {
+      if (n.od.Unsigned({o.index, 0}) != 0) return kAbortUnsupportedAccess;
+      const ObjectAddress target{static_cast<std::uint16_t>(value >> 16),
+                                 static_cast<std::uint8_t>((value >> 8) & 0xFF)};
+      const int bits = static_cast<int>(value & 0xFF);
+      if (IsDummy(target.index)) return bits == DummyBits(target.index) ? std::uint32_t{0} : kAbortNotMappable;
+      const ObjectDictionary::Entry* e = n.od.Find(target);
+      if (e == nullptr) return kAbortNoObject;
+      if (!e->mappable || static_cast<int>(8 * e->value.size()) != bits) return kAbortNotMappable;
+    }
+    return std::uint32_t{0};
+  });
+  n.st = Node::St::kPreOp;
+  n.boot_at = kNever;
+  n.syncs_seen = 0;
+  n.last_sent_raw.reset();
+  n.hb_on_grid = false;
+  n.hb_base = t_ns;
+  n.hb_index = 1;
+  n.next_heartbeat =
+      n.node_id != 0 && config_.heartbeat_period_s > 0.0 ? t_ns + ToNs(config_.heartbeat_period_s) : kNever;
+  n.next_event_pdo = kNever;
+}
+
 bool DeviceSimulator::NextCycle(std::vector<CanFrame>& frames) {
-  if (cycle_ >= total_cycles_) return false;
-  const double t_rel = static_cast<double>(cycle_) * config_.sync_period_s;
-  AppendCycle(ToNs(config_.start_time_s + t_rel), t_rel, true, frames);
+  if (finished()) return false;
+  const std::size_t first = frames.size();
+  const double t_rel = static_cast<double>(internal_syncs_) * config_.sync_period_s;
+  const std::int64_t t_ns = ToNs(config_.start_time_s + t_rel);
+  AdvanceTo(t_ns, frames);
+  ++internal_syncs_;
+  std::optional<std::uint8_t> counter;
+  if (config_.devices.sync_counter_max != 0) {
+    sync_counter_ = NextSyncCounter(sync_counter_, config_.devices.sync_counter_max);
+    counter = sync_counter_;
+  }
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  if (config_.faults.sync_drop_probability > 0.0 && uniform(rng_) < config_.faults.sync_drop_probability) {
+    ++injected_.syncs_dropped;
+  } else {
+    CanFrame sync = EncodeSync(counter, config_.devices.sync_cob_id);
+    sync.t_ns = t_ns;
+    frames.push_back(sync);
+  }
+  OnSync(t_ns, counter, frames);
+  AdvanceTo(t_ns + ToNs(config_.sync_period_s), frames);
+  std::stable_sort(frames.begin() + static_cast<std::ptrdiff_t>(first), frames.end(),
+                   [](const CanFrame& a, const CanFrame& b) { return a.t_ns < b.t_ns; });
   return true;
 }
 
-bool DeviceSimulator::AnswerSync(std::int64_t t_ns, std::vector<CanFrame>& frames) {
-  if (cycle_ >= total_cycles_) return false;
-  const double t_rel = static_cast<double>(cycle_) * config_.sync_period_s;
-  AppendCycle(t_ns, t_rel, false, frames);
-  return true;
-}
-
-void DeviceSimulator::AppendCycle(std::int64_t t_ns, double t_rel, bool with_sync, std::vector<CanFrame>& frames) {
+void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> counter, std::vector<CanFrame>& out) {
+  if (finished()) return;
   const SimFaults& f = config_.faults;
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> gauss(0.0, 1.0);
-  const std::size_t first = frames.size();
+  const std::size_t first = out.size();
   const auto period_ns = ToNs(config_.sync_period_s);
   auto at = [&](double offset_us) {  // a time inside this cycle
     return t_ns + std::min<std::int64_t>(ToNs(offset_us * 1e-6), period_ns * 9 / 10);
   };
   ++injected_.cycles;
-  if (with_sync) {
-    std::optional<std::uint8_t> counter;
-    if (config_.devices.sync_counter_max != 0) {
-      sync_counter_ = NextSyncCounter(sync_counter_, config_.devices.sync_counter_max);
-      counter = sync_counter_;
-    }
-    if (f.sync_drop_probability > 0.0 && uniform(rng_) < f.sync_drop_probability) {
-      ++injected_.syncs_dropped;
-    } else {
-      CanFrame sync = EncodeSync(counter, config_.devices.sync_cob_id);
-      sync.t_ns = t_ns;
-      frames.push_back(sync);
-    }
+  if (!moving_) {
+    moving_ = std::all_of(nodes_.begin(), nodes_.end(), [](const auto& n) { return n->st == Node::St::kOperational; });
   }
+  // The fault times count from the start; the pattern from its own start.
+  const double t_rel = RelS(t_ns);
+  const double t_pattern = moving_ ? static_cast<double>(cycle_) * config_.sync_period_s : 0.0;
   // Draw every random number in a fixed order, whatever faults are on, so a seed gives the same
   // readings with and without faults.
-  const AnglePair axes = AxesAt(t_rel);
+  const AnglePair axes = AxesAt(t_pattern);
   const double n_theta = gauss(rng_), n_phi = gauss(rng_), n_r = gauss(rng_);
   const double theta_deg = axes.theta_deg + config_.spec.noise_theta_arcsec / 3600.0 * n_theta;
   const double phi_deg = axes.phi_deg + config_.spec.noise_phi_arcsec / 3600.0 * n_phi;
-  const auto r = ProbeReading(config_.spec.truth, axes.theta_deg * kRadPerDeg, axes.phi_deg * kRadPerDeg,
-                              config_.spec.probe_offset_mm, config_.spec.centers_mm.front(),
-                              config_.spec.sphere_radius_mm);
+  const auto r =
+      ProbeReading(config_.spec.truth, axes.theta_deg * kRadPerDeg, axes.phi_deg * kRadPerDeg,
+                   config_.spec.probe_offset_mm, config_.spec.centers_mm.front(), config_.spec.sphere_radius_mm);
+  SimCycleRecord rec;
+  rec.sync_ns = t_ns;
+  rec.counter = counter;
   for (int dev = 0; dev < kNumDevices; ++dev) {
     const double u_drop = uniform(rng_), u_short = uniform(rng_), u_range = uniform(rng_), u_jit = uniform(rng_);
     const auto d = static_cast<std::size_t>(dev);
+    Node& n = *nodes_[d];
+    bool out_of_range = false;
+    if (dev == kProbe) {
+      const ProbeConfig& p = config_.devices.probe;
+      out_of_range = !r || (f.probe_out_of_range_probability > 0.0 && u_range < f.probe_out_of_range_probability);
+      n.raw = out_of_range ? p.over_range_raw.value_or(0x7FFFFFFF)
+                           : EncodeProbeRaw(p, *r + config_.spec.noise_r_um * kMmPerUm * n_r);
+    } else {
+      const EncoderConfig& e = dev == kTheta ? config_.devices.theta : config_.devices.phi;
+      n.raw = EncodePositionRaw(e, dev == kTheta ? theta_deg : phi_deg);
+    }
+    if (auto* e = n.od.Find(dev == kProbe ? ObjectAddress{0x2000, 0} : ObjectAddress{0x6004, 0})) {
+      e->value = LittleEndianBytes(static_cast<std::uint64_t>(n.raw), static_cast<int>(e->value.size()));
+    }
+    if (auto* e = n.od.Find({0x2010, 0})) e->value = {counter.value_or(0)};
+    if (n.st != Node::St::kOperational) continue;
+    const std::uint64_t tt = n.od.Unsigned({n.Comm(), 2});
+    const std::uint64_t cob = n.od.Unsigned({n.Comm(), 1});
+    if (tt > 240 || (cob & 0x80000000U) != 0) continue;  // not synchronous, or the PDO is not valid
+    if (tt >= 1) {
+      if (n.syncs_seen++ % tt != 0) continue;
+    } else if (n.last_sent_raw && *n.last_sent_raw == n.raw) {
+      continue;  // acyclic: only a changed value
+    }
     if (Silent(dev, t_rel)) {
       ++injected_.silent_cycles[d];
       continue;
@@ -114,78 +390,212 @@ void DeviceSimulator::AppendCycle(std::int64_t t_ns, double t_rel, bool with_syn
       ++injected_.dropped[d];
       continue;
     }
+    // The PDO as its mapping lays it out.
     CanFrame pdo;
-    if (dev == kProbe) {
-      const ProbeConfig& p = config_.devices.probe;
-      pdo.id = p.field.can_id;
-      std::int64_t raw = 0;
-      if (!r || (f.probe_out_of_range_probability > 0.0 && u_range < f.probe_out_of_range_probability)) {
-        raw = p.over_range_raw.value_or(0x7FFFFFFF);
-        ++injected_.probe_out_of_range;
-      } else {
-        raw = EncodeProbeRaw(p, *r + config_.spec.noise_r_um * kMmPerUm * n_r);
+    pdo.id = (cob & 0x20000000U) ? ((cob & kEffMask) | kEffFlag) : (cob & kSffMask);
+    int bit = 0;
+    const std::uint64_t count = n.od.Unsigned({n.Map(), 0});
+    for (std::uint64_t sub = 1; sub <= count && bit < 64; ++sub) {
+      const std::uint64_t e = n.od.Unsigned({n.Map(), static_cast<std::uint8_t>(sub)});
+      const ObjectAddress o{static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>((e >> 8) & 0xFF)};
+      const int bytes = static_cast<int>(e & 0xFF) / 8;
+      if (bytes < 1 || bit / 8 + bytes > kMaxDataBytes) break;
+      FieldLayout l{pdo.id, bit / 8, bytes, false, false};
+      std::int64_t v = 0;
+      if (o == ObjectAddress{0x2000, 0}) {
+        l.is_signed = config_.devices.probe.field.is_signed;
+        l.big_endian = config_.devices.probe.field.big_endian;
+        v = n.raw;
+      } else if (o == ObjectAddress{0x6004, 0}) {
+        v = n.raw;
+      } else if (!IsDummy(o.index)) {
+        v = static_cast<std::int64_t>(n.od.Unsigned(o));
       }
-      InsertField(pdo, p.field, raw);
-    } else {
-      const EncoderConfig& e = dev == kTheta ? config_.devices.theta : config_.devices.phi;
-      pdo.id = e.field.can_id;
-      InsertField(pdo, e.field, EncodePositionRaw(e, dev == kTheta ? theta_deg : phi_deg));
+      InsertField(pdo, l, v);
+      bit += 8 * bytes;
     }
-    if (f.short_probability > 0.0 && u_short < f.short_probability) {
+    if (dev == kProbe && out_of_range) ++injected_.probe_out_of_range;
+    if (f.short_probability > 0.0 && u_short < f.short_probability && pdo.len > 0) {
       pdo.len = static_cast<std::uint8_t>(pdo.len - 1);
       ++injected_.shortened[d];
     }
     pdo.t_ns = at(100.0 + 130.0 * dev + f.jitter_us * u_jit);
-    frames.push_back(pdo);
+    n.last_sent_raw = n.raw;
+    ++injected_.pdos[d];
+    const DecodedValue dv = dev == kProbe
+                                ? DecodeProbe(config_.devices.probe, pdo)
+                                : DecodePosition(dev == kTheta ? config_.devices.theta : config_.devices.phi, pdo);
+    rec.sent[d] = dv.status == DecodeStatus::kOk;
+    rec.value[d] = dv.value;
+    out.push_back(pdo);
   }
-  // Heartbeats, error frames and EMCY at the end of the cycle.
-  if (config_.heartbeat_period_s > 0.0 && t_rel >= next_heartbeat_s_) {
-    next_heartbeat_s_ += config_.heartbeat_period_s;
-    const int nodes[] = {config_.devices.theta.node_id, config_.devices.phi.node_id, config_.devices.probe.node_id};
-    for (int dev = 0; dev < kNumDevices; ++dev) {
-      if (nodes[dev] == 0 || Silent(dev, t_rel)) continue;
-      CanFrame hb = EncodeHeartbeat(nodes[dev], NmtState::kOperational);
-      hb.t_ns = at(600.0 + 20.0 * dev);
-      frames.push_back(hb);
-      ++injected_.heartbeats;
+  if (recording_) records_.push_back(rec);
+  if (moving_) ++cycle_;
+  std::stable_sort(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
+                   [](const CanFrame& a, const CanFrame& b) { return a.t_ns < b.t_ns; });
+}
+
+void DeviceSimulator::OnFrame(const CanFrame& frame, std::vector<CanFrame>& out) {
+  if (frame.IsError() || frame.IsRemote()) return;
+  const std::int64_t t = frame.t_ns;
+  if (frame.id == config_.devices.sync_cob_id) {
+    if (const auto sync = DecodeSync(frame, config_.devices.sync_cob_id)) OnSync(t, sync->counter, out);
+    return;
+  }
+  if (frame.id == kNmtCobId) {
+    const auto nmt = DecodeNmt(frame);
+    if (!nmt) return;
+    ++injected_.nmt_commands;
+    for (auto& np : nodes_) {
+      Node& n = *np;
+      if (n.node_id == 0 || (nmt->node_id != 0 && nmt->node_id != n.node_id) || n.st == Node::St::kOff) continue;
+      switch (static_cast<NmtCommand>(nmt->command)) {
+        case NmtCommand::kStart:
+          if (n.st != Node::St::kOperational) n.syncs_seen = 0;
+          n.st = Node::St::kOperational;
+          if (const std::uint64_t timer_ms = n.od.Unsigned({n.Comm(), 5}); timer_ms > 0) {
+            n.next_event_pdo = t + static_cast<std::int64_t>(timer_ms) * 1000000;
+          } else {
+            n.next_event_pdo = kNever;
+          }
+          break;
+        case NmtCommand::kStop:
+          n.st = Node::St::kStopped;
+          break;
+        case NmtCommand::kEnterPreOperational:
+          n.st = Node::St::kPreOp;
+          break;
+        case NmtCommand::kResetNode:
+        case NmtCommand::kResetCommunication:
+          n.st = Node::St::kOff;
+          n.boot_at = t + ToNs(config_.boot_s);
+          n.next_heartbeat = kNever;
+          n.server->Reset();
+          break;
+      }
+    }
+    return;
+  }
+  for (auto& np : nodes_) {
+    Node& n = *np;
+    if (n.node_id == 0 || frame.id != kSdoRequestBase + static_cast<std::uint32_t>(n.node_id)) continue;
+    if (n.st != Node::St::kPreOp && n.st != Node::St::kOperational) return;  // no SDO when stopped or off
+    if (auto answer = n.server->OnRequest(frame)) {
+      ++injected_.sdo_requests;
+      if ((answer->data[0] >> 5) == 4) ++injected_.sdo_aborts;
+      answer->t_ns = t + ToNs(config_.sdo_latency_s);
+      out.push_back(*answer);
+    }
+    return;
+  }
+}
+
+std::int64_t DeviceSimulator::NextEventNs() const {
+  std::int64_t next = next_error_frame_ns_;
+  for (std::size_t i = 0; i < config_.faults.bus_off_at_s.size(); ++i) {
+    if (!bus_off_done_[i]) next = std::min(next, GridNs(config_.faults.bus_off_at_s[i], 710.0));
+  }
+  for (std::size_t i = 0; i < config_.faults.emergencies.size(); ++i) {
+    if (!emcy_done_[i]) next = std::min(next, GridNs(config_.faults.emergencies[i].at_s, 720.0));
+  }
+  for (const auto& n : nodes_) {
+    if (n->st == Node::St::kOff) next = std::min(next, n->boot_at);
+    if (n->st != Node::St::kOff) next = std::min(next, n->next_heartbeat);
+    if (n->next_reboot < n->reboot_at.size()) next = std::min(next, n->reboot_at[n->next_reboot]);
+    if (n->st == Node::St::kOperational && n->od.Unsigned({n->Comm(), 2}) >= 254) {
+      next = std::min(next, n->next_event_pdo);
     }
   }
-  if (f.error_frame_period_s > 0.0 && t_rel >= next_error_frame_s_) {
-    next_error_frame_s_ += f.error_frame_period_s;
-    CanFrame e = MakeErrorFrame(kErrController, {0, 0x04});  // RX error warning
-    e.t_ns = at(700.0);
-    frames.push_back(e);
-    ++injected_.error_frames;
-  }
-  for (std::size_t i = 0; i < f.bus_off_at_s.size(); ++i) {
-    if (!bus_off_done_[i] && t_rel >= f.bus_off_at_s[i]) {
+  return next;
+}
+
+void DeviceSimulator::AdvanceTo(std::int64_t t_end, std::vector<CanFrame>& out) {
+  for (;;) {
+    const std::int64_t t = NextEventNs();
+    if (t >= t_end) return;
+    // Bus events first, then the nodes, each in a fixed order.
+    if (t == next_error_frame_ns_) {
+      CanFrame e = MakeErrorFrame(kErrController, {0, 0x04});  // RX error warning
+      e.t_ns = t;
+      out.push_back(e);
+      ++injected_.error_frames;
+      ++error_frame_index_;
+      next_error_frame_ns_ =
+          GridNs(static_cast<double>(error_frame_index_) * config_.faults.error_frame_period_s, 700.0);
+      continue;
+    }
+    bool done = false;
+    for (std::size_t i = 0; i < config_.faults.bus_off_at_s.size() && !done; ++i) {
+      if (bus_off_done_[i] || GridNs(config_.faults.bus_off_at_s[i], 710.0) != t) continue;
       bus_off_done_[i] = true;
       CanFrame e = MakeErrorFrame(kErrBusOff);
-      e.t_ns = at(710.0);
-      frames.push_back(e);
+      e.t_ns = t;
+      out.push_back(e);
       ++injected_.error_frames;
       ++injected_.bus_off;
+      done = true;
     }
-  }
-  for (std::size_t i = 0; i < f.emergencies.size(); ++i) {
-    if (!emcy_done_[i] && t_rel >= f.emergencies[i].at_s) {
+    for (std::size_t i = 0; i < config_.faults.emergencies.size() && !done; ++i) {
+      if (emcy_done_[i] || GridNs(config_.faults.emergencies[i].at_s, 720.0) != t) continue;
       emcy_done_[i] = true;
-      const int dev = f.emergencies[i].device;
-      const int node = dev == kTheta ? config_.devices.theta.node_id
-                                     : dev == kPhi ? config_.devices.phi.node_id : config_.devices.probe.node_id;
+      const Node& n = *nodes_[static_cast<std::size_t>(config_.faults.emergencies[i].device)];
       Emergency em;
-      em.node_id = node;
-      em.error_code = f.emergencies[i].code;
+      em.node_id = n.node_id;
+      em.error_code = config_.faults.emergencies[i].code;
       em.error_register = 0x01;
       CanFrame e = EncodeEmergency(em);
-      e.t_ns = at(720.0);
-      frames.push_back(e);
+      e.t_ns = t;
+      out.push_back(e);
       ++injected_.emergencies;
+      done = true;
     }
+    for (auto& np : nodes_) {
+      if (done) break;
+      Node& n = *np;
+      if (n.next_reboot < n.reboot_at.size() && n.reboot_at[n.next_reboot] == t) {
+        ++n.next_reboot;
+        ++injected_.reboots;
+        n.st = Node::St::kOff;
+        n.boot_at = t + ToNs(config_.boot_s);
+        n.next_heartbeat = kNever;
+        if (n.server) n.server->Reset();
+        done = true;
+      } else if (n.st == Node::St::kOff && n.boot_at == t) {
+        Boot(n, t);
+        CanFrame b = EncodeHeartbeat(n.node_id, NmtState::kBootUp);
+        b.t_ns = t;
+        out.push_back(b);
+        ++injected_.boot_ups;
+        done = true;
+      } else if (n.st != Node::St::kOff && n.next_heartbeat == t) {
+        if (!Silent(n.device, RelS(t))) {
+          CanFrame hb = MakeFrame(kHeartbeatBase + static_cast<std::uint32_t>(n.node_id), {n.StateByte()});
+          hb.t_ns = t;
+          out.push_back(hb);
+          ++injected_.heartbeats;
+        }
+        ++n.hb_index;
+        const double p = config_.heartbeat_period_s;
+        n.next_heartbeat = n.hb_on_grid ? GridNs(static_cast<double>(n.hb_index) * p, 600.0 + 20.0 * n.device)
+                                        : n.hb_base + ToNs(static_cast<double>(n.hb_index) * p);
+        done = true;
+      } else if (n.st == Node::St::kOperational && n.od.Unsigned({n.Comm(), 2}) >= 254 && n.next_event_pdo == t) {
+        const std::uint64_t timer_ms = n.od.Unsigned({n.Comm(), 5});
+        n.next_event_pdo = timer_ms == 0 ? kNever : t + static_cast<std::int64_t>(timer_ms) * 1000000;
+        CanFrame pdo;
+        const FieldLayout& l = n.device == kTheta ? config_.devices.theta.field
+                               : n.device == kPhi ? config_.devices.phi.field
+                                                  : config_.devices.probe.field;
+        pdo.id = l.can_id;
+        InsertField(pdo, l, n.raw);
+        pdo.t_ns = t;
+        out.push_back(pdo);
+        ++injected_.pdos[static_cast<std::size_t>(n.device)];
+        done = true;
+      }
+    }
+    if (!done) return;  // cannot happen: NextEventNs() named an event
   }
-  std::stable_sort(frames.begin() + static_cast<std::ptrdiff_t>(first), frames.end(),
-                   [](const CanFrame& a, const CanFrame& b) { return a.t_ns < b.t_ns; });
-  ++cycle_;
 }
 
 }  // namespace sph::can

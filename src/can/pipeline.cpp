@@ -1,6 +1,7 @@
 // SYNC cycles, PDO decoding, incomplete-cycle accounting, stream and points mode.
 #include "sph/can/pipeline.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <set>
@@ -58,12 +59,28 @@ void PipelineConfig::Validate() const {
   }
   if (sync_counter_max == 1 || sync_counter_max > 240) throw Error("the SYNC counter overflow value must be 2..240 (0: none)");
   if (sync_period_s < 0.0 || heartbeat_timeout_s < 0.0) throw Error("periods and timeouts must not be negative");
+  const FieldLayout* fields[] = {&theta.field, &phi.field, &probe.field};
+  for (int i = 0; i < kNumDevices; ++i) {
+    const int b = sync_counter_byte[static_cast<std::size_t>(i)];
+    if (b < 0) continue;
+    const FieldLayout& f = *fields[i];
+    if (b > 7 || (b >= f.offset_byte && b < f.offset_byte + f.width_bytes) ||
+        (i == kProbe && b == probe.status_offset_byte)) {
+      throw Error(std::string(DeviceName(i)) + ": the SYNC counter byte " + std::to_string(b) +
+                  " must be 0..7 and outside the value");
+    }
+    if (sync_counter_max == 0) {
+      throw Error(std::string(DeviceName(i)) + ": a SYNC counter in the PDO needs a SYNC with a counter");
+    }
+  }
   if (standstill.tolerance_deg <= 0.0 || standstill.dwell_s < 0.0 || standstill.average_s < 0.0) {
     throw Error("standstill: the tolerance must be positive, dwell and averaging times not negative");
   }
 }
 
-std::uint64_t PipelineCounts::Losses() const { return incomplete_cycles + missed_syncs + rx_overflow_drops; }
+std::uint64_t PipelineCounts::Losses() const {
+  return incomplete_cycles + (missed_syncs - recovered) + rx_overflow_drops;
+}
 
 AcquisitionPipeline::AcquisitionPipeline(const PipelineConfig& config, Callbacks callbacks)
     : config_(config), cb_(std::move(callbacks)) {
@@ -130,55 +147,63 @@ void AcquisitionPipeline::OnFrame(const CanFrame& frame) {
   CheckHeartbeats(frame.t_ns);
 }
 
-void AcquisitionPipeline::OnSync(const CanFrame& frame, const SyncInfo& sync) {
-  ++counts_.sync_frames;
-  CloseCycle();
-  std::uint64_t missed = 0;
-  if (have_sync_) {
-    if (config_.sync_counter_max != 0 && sync.counter && last_counter_) {
-      missed = static_cast<std::uint64_t>(MissedSyncs(*last_counter_, *sync.counter, config_.sync_counter_max));
-    } else if (config_.sync_period_s > 0.0) {
-      const double gap = static_cast<double>(frame.t_ns - last_sync_ns_) * 1e-9 / config_.sync_period_s;
-      if (gap > 1.5) missed = static_cast<std::uint64_t>(std::llround(gap)) - 1;
+std::uint64_t AcquisitionPipeline::MissedBefore(const CanFrame& frame, const SyncInfo& sync) {
+  if (!have_sync_) return 0;
+  std::optional<std::uint64_t> by_counter, by_time;
+  if (config_.sync_counter_max != 0 && sync.counter && last_counter_) {
+    by_counter = static_cast<std::uint64_t>(MissedSyncs(*last_counter_, *sync.counter, config_.sync_counter_max));
+  }
+  // The period: configured, else as observed between SYNCs that followed each other.
+  const double period_s =
+      config_.sync_period_s > 0.0 ? config_.sync_period_s : static_cast<double>(observed_period_ns_) * 1e-9;
+  const std::int64_t interval_ns = frame.t_ns - last_sync_ns_;
+  if (period_s > 0.0) {
+    const double gap = static_cast<double>(interval_ns) * 1e-9 / period_s;
+    by_time = gap > 1.5 ? static_cast<std::uint64_t>(std::llround(gap)) - 1 : 0;
+  }
+  std::uint64_t missed = by_counter ? *by_counter : by_time.value_or(0);
+  if (by_counter && by_time) {  // the counter's residue, the time's magnitude
+    const double m = config_.sync_counter_max;
+    const double turns = std::round((static_cast<double>(*by_time) - static_cast<double>(*by_counter)) / m);
+    missed = *by_counter + (turns > 0.0 ? static_cast<std::uint64_t>(turns) * config_.sync_counter_max : 0);
+    // More SYNCs missed than fit in the time: the producer restarted its counter (as after an
+    // NMT reset). A paused producer, whose counter did not move, is the other way round.
+    if (missed > *by_time + 1) {
+      ++counts_.counter_jumps;
+      LogLimited(counts_.counter_jumps, LogLevel::kWarning,
+                 "the SYNC counter went from " + std::to_string(*last_counter_) + " to " +
+                     std::to_string(*sync.counter) + " in " + TimeText(interval_ns) +
+                     " s: a restarted counter, not missed SYNCs");
+      missed = *by_time;
     }
   }
-  if (missed > 0) {
-    FlushIncomplete();
-    counts_.missed_syncs += missed;
-    const std::string text = std::to_string(missed) + " SYNC cycle" + (missed == 1 ? "" : "s") +
-                             " missing (never received) between t_s " + TimeText(last_sync_ns_) + " and " +
-                             TimeText(frame.t_ns);
-    Note(text);
-    Log(LogLevel::kWarning, text);
-  }
+  if (missed == 0 && interval_ns > 0) observed_period_ns_ = interval_ns;
+  return missed;
+}
+
+void AcquisitionPipeline::OnSync(const CanFrame& frame, const SyncInfo& sync) {
+  ++counts_.sync_frames;
+  Resolve(MissedBefore(frame, sync), frame.t_ns);
   have_sync_ = true;
   last_sync_ns_ = frame.t_ns;
   last_counter_ = sync.counter;
-  cycle_ = Cycle{};
-  cycle_.open = true;
-  cycle_.t_ns = frame.t_ns;
+  window_.open = true;
+  window_.t_ns = frame.t_ns;
+  window_.counter = sync.counter;
+  window_.tainted = false;
+  for (auto& list : window_.pdos) list.clear();
 }
 
 void AcquisitionPipeline::OnPdo(int device, const CanFrame& frame) {
-  if (!cycle_.open) {
+  if (!window_.open) {
     ++counts_.outside_cycle;
     LogLimited(counts_.outside_cycle, LogLevel::kDebug,
                std::string(DeviceName(device)) + " PDO before the first SYNC at " + TimeText(frame.t_ns));
     return;
   }
   const auto d = static_cast<std::size_t>(device);
-  if (cycle_.seen[d]) {
-    ++counts_.duplicates;
-    LogLimited(counts_.duplicates, LogLevel::kWarning,
-               std::string("second ") + DeviceName(device) + " PDO in the SYNC cycle of t_s " + TimeText(cycle_.t_ns) +
-                   " (the first one is kept)");
-    return;
-  }
-  cycle_.seen[d] = true;
   const DecodedValue v = device == kProbe ? DecodeProbe(config_.probe, frame)
                                           : DecodePosition(device == kTheta ? config_.theta : config_.phi, frame);
-  cycle_.status[d] = v.status;
-  cycle_.value[d] = v.value;
   if (v.status == DecodeStatus::kShort) {
     ++counts_.malformed[d];
     LogLimited(counts_.malformed[d], LogLevel::kWarning,
@@ -190,22 +215,180 @@ void AcquisitionPipeline::OnPdo(int device, const CanFrame& frame) {
                std::string(DeviceName(device)) + " reports " + ToString(v.status) + " at " + TimeText(frame.t_ns) +
                    " (raw " + std::to_string(v.raw) + ")");
   }
-  if (!cycle_.emitted && cycle_.seen[kTheta] && cycle_.seen[kPhi] && cycle_.seen[kProbe] &&
-      cycle_.status[kTheta] == DecodeStatus::kOk && cycle_.status[kPhi] == DecodeStatus::kOk &&
-      cycle_.status[kProbe] == DecodeStatus::kOk) {
-    EmitSample();
+  Arrival a{v.status, v.value, frame.t_ns, -1};
+  const int counter_byte = config_.sync_counter_byte[d];
+  if (counter_byte >= 0 && frame.len > counter_byte) a.counter = frame.data[static_cast<std::size_t>(counter_byte)];
+  if (window_.pdos[d].size() >= kMaxPdosPerWindow) {
+    ++counts_.unplaced;
+    return;
+  }
+  window_.pdos[d].push_back(a);
+}
+
+std::string AcquisitionPipeline::Reason(const std::array<Slot, kNumDevices>& slots) const {
+  std::string reason;
+  for (int d = 0; d < kNumDevices; ++d) {
+    const Slot& s = slots[static_cast<std::size_t>(d)];
+    std::string why;
+    if (s.count == 0) {
+      why = gaps_[static_cast<std::size_t>(d)].open ? "no frame (rebooted)" : "no frame";
+    } else if (s.lost) {
+      why = "frames lost before it";
+    } else if (s.count > 1) {
+      why = std::to_string(s.count) + " PDOs";
+    } else if (const DecodeStatus st =
+                   window_.pdos[static_cast<std::size_t>(d)][static_cast<std::size_t>(s.index)].status;
+               st != DecodeStatus::kOk) {
+      why = ToString(st);
+    }
+    if (!why.empty()) reason += (reason.empty() ? "" : ", ") + std::string(DeviceName(d)) + " " + why;
+  }
+  return reason;
+}
+
+void AcquisitionPipeline::CloseGaps(const std::array<Slot, kNumDevices>& slots, std::int64_t t_ns) {
+  for (int d = 0; d < kNumDevices; ++d) {
+    const auto di = static_cast<std::size_t>(d);
+    Gap& g = gaps_[di];
+    if (!g.open) continue;
+    const Slot& s = slots[di];
+    // Only a PDO sent after the boot-up ends the gap (one from before it may share the window).
+    if (s.count == 0 || window_.pdos[di][static_cast<std::size_t>(s.index)].t_ns < g.start_ns) {
+      if (s.count == 0) ++g.missing_cycles;
+      continue;
+    }
+    g.open = false;
+    FlushIncomplete();
+    const EncoderConfig* e = d == kTheta ? &config_.theta : d == kPhi ? &config_.phi : nullptr;
+    const int node = e != nullptr ? e->node_id : config_.probe.node_id;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.3f", static_cast<double>(t_ns - g.start_ns) * 1e-9);
+    const std::uint64_t cycles = g.missing_cycles;
+    const std::string text = "gap end t_s " + TimeText(t_ns) + ": " + DeviceName(d) + " (node " + std::to_string(node) +
+                             ") sends again, " + buf + " s after its reboot (" + std::to_string(cycles) +
+                             " SYNC cycle" + (cycles == 1 ? "" : "s") + " without it)";
+    Note(text);
+    Log(LogLevel::kInfo, text);
   }
 }
 
-void AcquisitionPipeline::EmitSample() {
-  cycle_.emitted = true;
+void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bool last) {
+  if (!window_.open) return;
+  window_.open = false;
+  ++counts_.cycles;
+  const std::uint64_t spans = std::min<std::uint64_t>(missed, kMaxRecovered) + 1;
+  const double period = static_cast<double>(next_ns - window_.t_ns) / static_cast<double>(missed + 1);
+  const bool placeable = config_.sync_period_s > 0.0 || (config_.sync_counter_max != 0 && window_.counter);
+  std::vector<std::array<Slot, kNumDevices>>& cycles = scratch_;  // reused: no allocation per SYNC
+  cycles.assign(static_cast<std::size_t>(spans), std::array<Slot, kNumDevices>{});
+  for (int d = 0; d < kNumDevices; ++d) {
+    const auto di = static_cast<std::size_t>(d);
+    const auto& list = window_.pdos[di];
+    for (std::size_t j = 0; j < list.size(); ++j) {
+      const Arrival& a = list[j];
+      std::uint64_t k = 0;
+      if (config_.sync_counter_byte[di] >= 0 && a.counter >= 0 && window_.counter && config_.sync_counter_max != 0) {
+        const int m = config_.sync_counter_max;
+        k = static_cast<std::uint64_t>(((a.counter - static_cast<int>(*window_.counter)) % m + m) % m);
+        if (k > missed) {
+          ++counts_.unplaced;
+          LogLimited(counts_.unplaced, LogLevel::kWarning,
+                     std::string(DeviceName(d)) + " PDO at " + TimeText(a.t_ns) + " answers SYNC counter " +
+                         std::to_string(a.counter) + ", not one of the window of counter " +
+                         std::to_string(*window_.counter) + " (not used)");
+          continue;
+        }
+      } else if (missed > 0) {
+        if (!(period > 0.0)) {  // the SYNCs' times do not advance (a log's): no period to place it in
+          ++counts_.unplaced;
+          continue;
+        }
+        const double x = std::floor(static_cast<double>(a.t_ns - window_.t_ns) / period);
+        k = x <= 0.0 ? 0 : static_cast<std::uint64_t>(std::min(x, static_cast<double>(missed)));
+      }
+      if (k >= spans) continue;
+      Slot& s = cycles[static_cast<std::size_t>(k)][di];
+      if (s.count == 0) s.index = static_cast<int>(j);
+      ++s.count;
+      if (window_.tainted && !placeable) s.lost = true;
+    }
+  }
+  for (std::size_t k = 0; k < cycles.size(); ++k) {
+    for (int d = 0; d < kNumDevices; ++d) {
+      const Slot& s = cycles[k][static_cast<std::size_t>(d)];
+      if (s.count < 2) continue;
+      counts_.duplicates += static_cast<std::uint64_t>(s.count - 1);
+      LogLimited(counts_.duplicates, LogLevel::kWarning,
+                 std::to_string(s.count) + " " + DeviceName(d) + " PDOs in the SYNC cycle of t_s " +
+                     TimeText(window_.t_ns) + ": none is used (one may answer a SYNC that never arrived)");
+    }
+  }
+  // The cycle of the SYNC received.
+  CloseGaps(cycles[0], window_.t_ns);
+  const std::string why = Reason(cycles[0]);
+  if (why.empty()) {
+    EmitCycle(cycles[0], window_.t_ns);
+  } else if (last) {
+    ++counts_.cut_by_stop;
+    FlushIncomplete();
+    Note("the SYNC cycle of t_s " + TimeText(window_.t_ns) +
+         " was cut by the end of the acquisition (no sample "
+         "written)");
+  } else {
+    ++counts_.incomplete_cycles;
+    for (int d = 0; d < kNumDevices; ++d) {
+      if (cycles[0][static_cast<std::size_t>(d)].count == 0) ++counts_.missing[static_cast<std::size_t>(d)];
+    }
+    NoteIncomplete(why, window_.t_ns);
+  }
+  if (missed == 0) return;
+  // The cycles of the SYNCs that never arrived.
+  counts_.missed_syncs += missed;
+  std::uint64_t recovered = 0, with_pdos = 0;
+  std::string first_reason;
+  for (std::size_t k = 1; k < cycles.size(); ++k) {
+    const std::string r = Reason(cycles[k]);
+    if (r.empty()) {
+      ++recovered;
+      continue;
+    }
+    bool any = false;
+    for (const Slot& s : cycles[k]) any |= s.count > 0;
+    if (any) {
+      ++with_pdos;
+      if (first_reason.empty()) first_reason = r;
+    }
+  }
+  FlushIncomplete();
+  std::string text = std::to_string(missed) + " SYNC cycle" + (missed == 1 ? "" : "s") +
+                     " missing (never received) between t_s " + TimeText(window_.t_ns) + " and " + TimeText(next_ns);
+  if (recovered > 0) text += "; " + std::to_string(recovered) + " recovered from their PDOs (t_s interpolated)";
+  if (with_pdos > 0) {
+    text += "; " + std::to_string(with_pdos) + " with PDOs but no sample: " + first_reason;
+  }
+  Note(text);
+  Log(LogLevel::kWarning, text);
+  counts_.recovered += recovered;
+  for (std::size_t k = 1; k < cycles.size(); ++k) {
+    const auto t = window_.t_ns + static_cast<std::int64_t>(std::llround(period * static_cast<double>(k)));
+    CloseGaps(cycles[k], t);
+    if (Reason(cycles[k]).empty()) EmitCycle(cycles[k], t);
+  }
+}
+
+void AcquisitionPipeline::EmitCycle(const std::array<Slot, kNumDevices>& slots, std::int64_t t_ns) {
   ++counts_.samples;
   FlushIncomplete();
+  std::array<double, kNumDevices> v{};
+  for (int d = 0; d < kNumDevices; ++d) {
+    const auto di = static_cast<std::size_t>(d);
+    v[di] = window_.pdos[di][static_cast<std::size_t>(slots[di].index)].value;
+  }
   Sample s;
-  s.theta_deg = cycle_.value[kTheta];
-  s.phi_deg = cycle_.value[kPhi];
-  s.r_mm = cycle_.value[kProbe];
-  s.t_s = static_cast<double>(cycle_.t_ns) * 1e-9;
+  s.theta_deg = v[kTheta];
+  s.phi_deg = v[kPhi];
+  s.r_mm = v[kProbe];
+  s.t_s = static_cast<double>(t_ns) * 1e-9;
   s.setup = config_.setup;
   if (!stops_) {
     if (cb_.sample) cb_.sample(s);
@@ -223,27 +406,6 @@ void AcquisitionPipeline::EmitPoint(const StopPoint& p) {
                 "scatter of the point above: n %d, sd theta %.3f arcsec, sd phi %.3f arcsec, sd r %.4f um, over %.3f s",
                 p.n, p.sd_theta_deg * 3600.0, p.sd_phi_deg * 3600.0, p.sd_r_mm * 1000.0, p.duration_s);
   Note(buf);
-}
-
-void AcquisitionPipeline::CloseCycle() {
-  if (!cycle_.open) return;
-  cycle_.open = false;
-  ++counts_.cycles;
-  if (cycle_.emitted) return;
-  ++counts_.incomplete_cycles;
-  std::string reason;
-  for (int d = 0; d < kNumDevices; ++d) {
-    const auto i = static_cast<std::size_t>(d);
-    std::string why;
-    if (!cycle_.seen[i]) {
-      ++counts_.missing[i];
-      why = "no frame";
-    } else if (cycle_.status[i] != DecodeStatus::kOk) {
-      why = ToString(cycle_.status[i]);
-    }
-    if (!why.empty()) reason += (reason.empty() ? "" : ", ") + std::string(DeviceName(d)) + " " + why;
-  }
-  NoteIncomplete(reason, cycle_.t_ns);
 }
 
 void AcquisitionPipeline::NoteIncomplete(const std::string& reason, std::int64_t t_ns) {
@@ -269,6 +431,7 @@ void AcquisitionPipeline::FlushIncomplete() {
 void AcquisitionPipeline::OnRxOverflow(std::uint64_t drops, std::int64_t now_ns) {
   if (drops == 0) return;
   counts_.rx_overflow_drops += drops;
+  window_.tainted = true;  // the drops were among the frames since the last one read
   const std::string text = "the kernel dropped " + std::to_string(drops) +
                            " received frames (socket receive queue overflow) before t_s " + TimeText(now_ns);
   Note(text);
@@ -281,20 +444,14 @@ void AcquisitionPipeline::OnMalformedInput(const std::string& what) {
 }
 
 void AcquisitionPipeline::OnLinkEvent(const std::string& what, std::int64_t now_ns) {
-  CloseCycle();
+  Resolve(0, now_ns, false);
   FlushIncomplete();
   have_sync_ = false;  // the gap while the link was down is noted here, not as missed SYNCs
   Note(what + " at t_s " + TimeText(now_ns));
 }
 
-void AcquisitionPipeline::Finish(bool stopped) {
-  if (stopped && cycle_.open && !cycle_.emitted) {
-    cycle_.open = false;
-    ++counts_.cut_by_stop;
-    FlushIncomplete();
-    Note("the SYNC cycle of t_s " + TimeText(cycle_.t_ns) + " was cut by the stop (no sample written)");
-  }
-  CloseCycle();
+void AcquisitionPipeline::Finish() {
+  Resolve(0, window_.t_ns, true);
   FlushIncomplete();
   if (stops_) {
     if (const auto p = stops_->Finish()) EmitPoint(*p);

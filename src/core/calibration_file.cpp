@@ -2,16 +2,22 @@
 
 #include <cmath>
 #include <fstream>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
 
 #include <nlohmann/json.hpp>
 
-#include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
+#include "sph/core/text_input.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
 
+using internal::Format;
 using nlohmann::json;
 
 const char* UnitOf(int p) { return kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle ? "deg" : "mm"; }
@@ -65,7 +71,11 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
         throw Error(path + ": field '" + pw + "unit' must be \"" + EffectUnit(term) + "\"");
       }
       const double v = Number(params[i], "value", pw, path);
-      if (!std::isfinite(v)) throw Error(path + ": field '" + pw + "value' must be finite");
+      const double max_abs = term.info().quantity == Quantity::kAngle ? kMaxEffectArcsec : kMaxEffectUm;
+      if (!(std::abs(v) <= max_abs)) {
+        throw Error(path + ": field '" + pw + "value' is " + Format("%g", v) + " " + EffectUnit(term) +
+                    ": an effect of the machine lies within " + Format("%g", max_abs) + " " + EffectUnit(term));
+      }
       values.push_back(v * EffectScale(term));
     }
     cal.effects.terms.push_back(term);
@@ -85,9 +95,43 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
   }
 }
 
+// A covariance matrix must be one: symmetric, with variances >= 0, positive semi-definite (to
+// rounding). Else the draws of sph_measure's uncertainty would be nonsense, or NaN.
+void CheckCovariance(const ScmsCovariance& c, const std::string& path) {
+  for (int p = 0; p < kNumScmsParams; ++p) {
+    if (!(c(p, p) >= 0.0) || !std::isfinite(c(p, p))) {
+      throw Error(path + ": covariance.matrix: the variance of " + kScmsParamInfo[static_cast<std::size_t>(p)].name +
+                  " is " + Format("%g", ToReportUnits(p, ToReportUnits(p, c(p, p)))) +
+                  ": a variance is finite and >= 0");
+    }
+  }
+  for (int p = 0; p < kNumScmsParams; ++p) {
+    for (int q = p + 1; q < kNumScmsParams; ++q) {
+      const double scale = std::sqrt(c(p, p) * c(q, q));
+      if (!std::isfinite(c(p, q)) || std::abs(c(p, q) - c(q, p)) > 1e-9 * scale + 1e-300) {
+        throw Error(path + ": covariance.matrix is not symmetric: the entries of " +
+                    kScmsParamInfo[static_cast<std::size_t>(p)].name + " and " +
+                    kScmsParamInfo[static_cast<std::size_t>(q)].name + " differ");
+      }
+    }
+  }
+  // Positive semi-definite, judged on the correlation matrix so that units do not matter.
+  const Eigen::VectorXd s = c.diagonal().cwiseSqrt().cwiseMax(1e-300);
+  const Eigen::MatrixXd corr = s.cwiseInverse().asDiagonal() * c * s.cwiseInverse().asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(corr);
+  if (eig.eigenvalues().minCoeff() < -1e-8) {
+    throw Error(path + ": covariance.matrix is not positive semi-definite (its correlation matrix has the eigenvalue " +
+                Format("%.3g", eig.eigenvalues().minCoeff()) + "): it is not the covariance of any estimate");
+  }
+}
+
 }  // namespace
 
 void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal) {
+  WriteFileAtomically(path, [&](std::ostream& out) { WriteCalibration(out, cal); });
+}
+
+void WriteCalibration(std::ostream& out, const CalibrationFile& cal) {
   json j;
   j["format"] = "sph-calibration";
   j["format_version"] = kCalibrationFormatVersion;
@@ -133,19 +177,21 @@ void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal) {
   json source = json::object();
   for (const auto& [k, v] : cal.source) source[k] = v;
   j["source"] = source;
-  WriteFileAtomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+  out << j.dump(2) << "\n";
 }
 
 CalibrationFile ReadCalibrationFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open for reading");
+  std::ifstream in = OpenInputFile(path);
   return ParseCalibration(in, path);
 }
 
 CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw Error(path + ": read error");
   json j;
   try {
-    in >> j;
+    j = json::parse(text.str());  // the whole text: one JSON value and nothing after it
   } catch (const json::exception& e) {
     throw Error(path + ": not valid JSON: " + e.what());
   }
@@ -169,7 +215,15 @@ CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
     const std::string where = std::string("geometry.") + name + ".";
     const json& unit = Field(entry, "unit", where, path);
     if (unit != UnitOf(p)) throw Error(path + ": field '" + where + "unit' must be \"" + UnitOf(p) + "\"");
-    cal.geometry[static_cast<std::size_t>(p)] = FromReportUnits(p, Number(entry, "value", where, path));
+    const double value = Number(entry, "value", where, path);
+    const double max_abs = p == kDPrime ? std::min(kScmsParamInfo[kDPrime].max_abs_report, cal.probe_offset_mm)
+                                        : kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report;
+    if (!(std::abs(value) < max_abs || (p != kDPrime && std::abs(value) == max_abs))) {
+      throw Error(path + ": field '" + where + "value' is " + Format("%g", value) + " " + UnitOf(p) +
+                  ": a geometric error of the machine lies within " + Format("%g", max_abs) + " " + UnitOf(p) +
+                  (p == kDPrime ? " (and below probe_offset_mm)" : "") + " in size");
+    }
+    cal.geometry[static_cast<std::size_t>(p)] = FromReportUnits(p, value);
   }
   if (j.contains("covariance")) {
     // The matrix is only meaningful in the order and units it names: they must be the writer's.
@@ -194,6 +248,7 @@ CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
         c(p, q) = FromReportUnits(q, FromReportUnits(p, v.get<double>()));
       }
     }
+    CheckCovariance(c, path);
     cal.covariance = c;
   }
   ParseEffects(j, path, cal);

@@ -16,12 +16,16 @@
 #include <sstream>
 #include <tuple>
 
-#include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
 #include "sph/core/points_writer.hpp"
+#include "sph/core/text_input.hpp"
+#include "sph/internal/format.hpp"
 
 namespace sph {
 namespace {
+
+using internal::Quoted;
 
 enum Column : int { kTheta = 0, kPhi, kR, kTime, kSetup, kNumColumns };
 constexpr std::array<const char*, kNumColumns> kColumnNames{"theta_deg", "phi_deg", "r_mm", "t_s", "setup"};
@@ -46,45 +50,54 @@ std::vector<std::string> SplitWhitespace(const std::string& s) {
   return out;
 }
 
-bool IsKey(const std::string& s) {
-  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
-  });
-}
-
+// Throws "<source>:<line>: <what>".
 class LineError {
  public:
-  LineError(const std::string& source, long line) : prefix_(source + ":" + std::to_string(line) + ": ") {}
-  [[noreturn]] void operator()(const std::string& what) const { throw Error(prefix_ + what); }
+  explicit LineError(std::string where) : where_(std::move(where)) {}
+  [[noreturn]] void operator()(const std::string& what) const { throw Error(where_ + what); }
+  const std::string& where() const { return where_; }
 
  private:
-  std::string prefix_;
+  std::string where_;
 };
 
-// Parses a whole token as a finite double; the error names the column.
-double ParseDouble(const std::string& token, const std::string& what, const LineError& fail) {
-  double v = 0.0;
-  const char* first = token.data();
-  const char* last = token.data() + token.size();
-  if (first != last && *first == '+') ++first;  // from_chars rejects a leading '+'
-  const auto [ptr, ec] = std::from_chars(first, last, v);
-  if (ec == std::errc::result_out_of_range) fail(what + ": '" + token + "' is out of the range of a double");
-  if (ec != std::errc() || ptr != last) fail(what + ": '" + token + "' is not a number");
-  if (!std::isfinite(v)) fail(what + ": '" + token + "' is not a finite number");
-  return v;
-}
-
-int ParseInt(const std::string& token, const std::string& what, const LineError& fail) {
-  int v = 0;
-  const char* first = token.data();
-  const char* last = token.data() + token.size();
-  if (first != last && *first == '+') ++first;
-  const auto [ptr, ec] = std::from_chars(first, last, v);
-  if (ec != std::errc() || ptr != last) fail(what + ": '" + token + "' is not an integer");
-  return v;
-}
-
 }  // namespace
+
+bool IsHeaderKey(std::string_view key) {
+  const auto is_name_char = [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  };
+  const auto at = key.find('@');
+  const std::string_view name = key.substr(0, at);
+  if (name.empty() || !std::all_of(name.begin(), name.end(), is_name_char)) return false;
+  if (at == std::string_view::npos) return true;
+  const std::string_view setup = key.substr(at + 1);
+  return !setup.empty() && setup.find_first_of(" \t\r") == std::string_view::npos;
+}
+
+std::string MountRotationKey(int setup) { return std::string(kMountRotationKey) + "@" + std::to_string(setup); }
+
+std::string MountRotationValue(const MountRotation& rotation) {
+  if (!rotation.known()) return "unknown";
+  const Eigen::Vector3d& v = *rotation.rotation_deg;
+  return internal::Shortest(v.x()) + " " + internal::Shortest(v.y()) + " " + internal::Shortest(v.z());
+}
+
+MountRotation ParseMountRotation(const std::string& value, const std::string& key, const std::string& where) {
+  const std::vector<std::string> words = SplitWhitespace(value);
+  if (words.size() == 1 && words[0] == "unknown") return MountRotation::Unknown();
+  if (words.size() != 3) {
+    throw Error(where + key +
+                ": expected 'rx ry rz' (a rotation vector in deg, axis times angle) or 'unknown', found " +
+                std::to_string(words.size()) + (words.size() == 1 ? " value" : " values"));
+  }
+  Eigen::Vector3d v;
+  constexpr std::array<const char*, 3> kNames{"rx", "ry", "rz"};
+  for (int i = 0; i < 3; ++i) {
+    v(i) = ParseNumber(words[static_cast<std::size_t>(i)], key + " " + kNames[static_cast<std::size_t>(i)], where);
+  }
+  return MountRotation::Known(v);
+}
 
 std::vector<int> PointsData::SetupIds() const {
   std::set<int> ids;
@@ -92,9 +105,13 @@ std::vector<int> PointsData::SetupIds() const {
   return {ids.begin(), ids.end()};
 }
 
+std::string PointsData::WhereIs(std::size_t i) const {
+  if (i < sample_lines.size()) return source + ":" + std::to_string(sample_lines[i]);
+  return source + ": sample " + std::to_string(i + 1);
+}
+
 PointsData ReadPointsFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open for reading: " + std::strerror(errno));
+  std::ifstream in = OpenInputFile(path);
   return ParsePoints(in, path);
 }
 
@@ -102,6 +119,7 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
   PointsData data;
   data.source = source;
   std::set<std::string> seen_keys;
+  std::map<int, long> mount_lines;  // the header line of each setup's mount rotation
   std::vector<long> key_lines;
   std::array<int, kNumColumns> index{};  // file column index of each known column, -1 if absent
   index.fill(-1);
@@ -111,13 +129,14 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
   std::string line;
   long line_no = 0;
 
+  // Checks the columns (those of the columns line, at its own line, or the default ones).
   auto fix_columns = [&](const LineError& fail) {
     if (data.header.columns.empty()) data.header.columns = {"theta_deg", "phi_deg", "r_mm"};
     for (std::size_t i = 0; i < data.header.columns.size(); ++i) {
       const std::string& name = data.header.columns[i];
       const auto it = std::find(kColumnNames.begin(), kColumnNames.end(), name);
       if (it == kColumnNames.end()) {
-        fail("unknown column name '" + name + "' (known: theta_deg phi_deg r_mm t_s setup)");
+        fail("unknown column name " + Quoted(name) + " (known: theta_deg phi_deg r_mm t_s setup)");
       }
       const auto k = static_cast<std::size_t>(it - kColumnNames.begin());
       if (index[k] >= 0) fail("column '" + name + "' is named twice");
@@ -134,10 +153,10 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
     columns_fixed = true;
   };
 
-  while (std::getline(in, line)) {
-    ++line_no;
-    const LineError fail(source, line_no);
-    if (line.find('\0') != std::string::npos) fail("binary data (NUL byte): this is not a points file");
+  TextLines lines(in, source, "a points file");
+  while (lines.Next(line)) {
+    line_no = lines.line_no();
+    const LineError fail(lines.Where());
     const std::string text = Trim(line);
     if (text.empty()) continue;
     if (text[0] == '#') {
@@ -145,9 +164,9 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
       const std::string body = Trim(text.substr(1));
       if (body.rfind("sph-points", 0) == 0) {
         const auto words = SplitWhitespace(body);
-        if (words.size() != 2 || words[0] != "sph-points") fail("malformed format line '" + text + "'");
+        if (words.size() != 2 || words[0] != "sph-points") fail("malformed format line " + Quoted(text));
         if (words[1] != std::to_string(kPointsFormatVersion)) {
-          fail("format 'sph-points " + words[1] + "' is not supported (this program reads sph-points " +
+          fail("format " + Quoted("sph-points " + words[1]) + " is not supported (this program reads sph-points " +
                std::to_string(kPointsFormatVersion) + ")");
         }
         continue;
@@ -155,16 +174,33 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
       const auto colon = body.find(':');
       if (colon == std::string::npos) continue;  // a plain comment
       const std::string key = Trim(body.substr(0, colon));
-      if (!IsKey(key)) continue;  // prose that happens to contain a colon
+      if (!IsHeaderKey(key)) continue;  // prose that happens to contain a colon
       const std::string value = Trim(body.substr(colon + 1));
-      if (!seen_keys.insert(key).second) fail("header key '" + key + "' is given twice");
-      if (key == kRadiusKey || key == kProbeOffsetKey) {
-        const double v = ParseDouble(value, key, fail);
-        if (!(v > 0.0)) fail(key + " must be positive, got " + value);
+      if (!seen_keys.insert(key).second) fail("header key " + Quoted(key) + " is given twice");
+      const auto at = key.find('@');
+      const std::string name = key.substr(0, at);
+      if (name == kMountRotationKey) {
+        if (at == std::string::npos) {
+          fail(std::string(kMountRotationKey) + " belongs to one setup: write '" + kMountRotationKey +
+               "@<setup>: rx ry rz'");
+        }
+        const int setup = ParseInteger(key.substr(at + 1), key + ": setup id", fail.where());
+        const auto [it, inserted] = mount_lines.emplace(setup, line_no);
+        if (!inserted) {
+          fail("the mount rotation of setup " + std::to_string(setup) + " is given twice (first at line " +
+               std::to_string(it->second) + ")");
+        }
+        data.header.mount_rotations[setup] = ParseMountRotation(value, key, fail.where());
+      } else if (key == kRadiusKey || key == kProbeOffsetKey) {
+        const double v = ParseNumber(value, key, fail.where());
+        const double max = key == kRadiusKey ? kMaxSphereRadiusMm : kMaxProbeOffsetMm;
+        if (!(v > 0.0)) fail(key + " must be positive, got " + Quoted(value));
+        if (v > max) fail(key + " must be at most " + internal::Format("%g", max) + " mm, got " + Quoted(value));
         (key == kRadiusKey ? data.header.sphere_radius_mm : data.header.probe_offset_mm) = v;
       } else if (key == kColumnsKey) {
         data.header.columns = SplitWhitespace(value);
         if (data.header.columns.empty()) fail("the columns line names no columns");
+        fix_columns(fail);
       } else {
         data.header.metadata.emplace_back(key, value);
       }
@@ -184,15 +220,30 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
     Sample s;
     auto col = [&](int k) { return tokens[static_cast<std::size_t>(index[static_cast<std::size_t>(k)])]; };
     auto name = [&](int k) { return std::string("column ") + kColumnNames[static_cast<std::size_t>(k)]; };
-    s.theta_deg = ParseDouble(col(kTheta), name(kTheta), fail);
-    s.phi_deg = ParseDouble(col(kPhi), name(kPhi), fail);
-    s.r_mm = ParseDouble(col(kR), name(kR), fail);
-    s.t_s = data.has_time ? ParseDouble(col(kTime), name(kTime), fail) : static_cast<double>(data.samples.size());
-    s.setup = data.has_setup ? ParseInt(col(kSetup), name(kSetup), fail) : 0;
+    s.theta_deg = ParseNumber(col(kTheta), name(kTheta), fail.where());
+    s.phi_deg = ParseNumber(col(kPhi), name(kPhi), fail.where());
+    s.r_mm = ParseNumber(col(kR), name(kR), fail.where());
+    s.t_s =
+        data.has_time ? ParseNumber(col(kTime), name(kTime), fail.where()) : static_cast<double>(data.samples.size());
+    s.setup = data.has_setup ? ParseInteger(col(kSetup), name(kSetup), fail.where()) : 0;
     data.samples.push_back(s);
+    data.sample_lines.push_back(line_no);
   }
-  if (in.bad()) throw Error(source + ": read error");
   if (data.samples.empty()) throw Error(source + ": no samples (the file has " + std::to_string(line_no) + " lines, none of them a sample)");
+  // A mount rotation of a setup that has no samples: a typo in the setup id, or a setup whose rows went missing.
+  if (!mount_lines.empty()) {
+    const std::vector<int> ids = data.SetupIds();
+    for (const auto& [setup, header_line] : mount_lines) {
+      if (std::binary_search(ids.begin(), ids.end(), setup)) continue;
+      std::string have;
+      for (int id : ids) have += (have.empty() ? "" : " ") + std::to_string(id);
+      throw Error(source + ":" + std::to_string(header_line) + ": " + MountRotationKey(setup) + ": setup " +
+                  std::to_string(setup) + " has no samples (" +
+                  (data.has_setup ? "the file's setups: " + have
+                                  : std::string("the file has no setup column: all its samples are setup 0")) +
+                  ")");
+    }
+  }
   return data;
 }
 
@@ -236,6 +287,30 @@ std::vector<std::string> PlausibilityWarnings(const PointsData& data) {
     ++repeats;
     first = std::min<std::size_t>(first, order[j]);
   }
+  // Readings no point of the sphere can give: farther from the median reading than its diameter.
+  if (data.header.sphere_radius_mm && !data.samples.empty()) {
+    std::vector<double> r;
+    r.reserve(data.samples.size());
+    for (const Sample& s : data.samples) r.push_back(s.r_mm);
+    std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+    const double median = r[r.size() / 2];
+    const double limit = 2.0 * *data.header.sphere_radius_mm;
+    std::vector<std::size_t> far;
+    for (std::size_t i = 0; i < data.samples.size(); ++i) {
+      if (std::abs(data.samples[i].r_mm - median) > limit) far.push_back(i);
+    }
+    if (!far.empty()) {
+      std::string list;
+      for (std::size_t k = 0; k < far.size() && k < 3; ++k) {
+        list += (k > 0 ? "; " : "") + data.WhereIs(far[k]) + ": r_mm " +
+                internal::Format("%.10g", data.samples[far[k]].r_mm);
+      }
+      if (far.size() > 3) list += "; and " + std::to_string(far.size() - 3) + " more";
+      out.push_back(std::to_string(far.size()) + " probe reading(s) lie farther from the median reading (" +
+                    internal::Format("%.6g", median) + " mm) than the sphere's diameter (" +
+                    internal::Format("%g", limit) + " mm): gross errors, which a fit leaves out: " + list);
+    }
+  }
   if (repeats > 0) {
     out.push_back(data.source + ": " + std::to_string(repeats) + " sample(s) repeat an earlier one exactly (the first: " +
                   "sample " + std::to_string(first + 1) + "); a repeated reading counts twice in a fit");
@@ -253,6 +328,9 @@ void WritePoints(std::ostream& out, const PointsData& data) {
   if (data.header.probe_offset_mm) {
     std::snprintf(buf, sizeof buf, "%.17g", *data.header.probe_offset_mm);
     out << "# " << kProbeOffsetKey << ": " << buf << "\n";
+  }
+  for (const auto& [setup, rotation] : data.header.mount_rotations) {
+    out << "# " << MountRotationKey(setup) << ": " << MountRotationValue(rotation) << "\n";
   }
   for (const auto& [key, value] : data.header.metadata) out << "# " << key << ": " << value << "\n";
   out << "# " << kColumnsKey << ": theta_deg phi_deg r_mm" << (data.has_time ? " t_s" : "")

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
 
 namespace sph {
 namespace {
@@ -19,17 +20,11 @@ std::string Trim(std::string_view s) {
   return std::string(s.substr(first, last - first + 1));
 }
 
-bool IsKey(const std::string& s) {
-  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
-  });
-}
-
 // Whether "# <body>" would be read as a header field (or the format line).
 bool LooksLikeHeaderField(const std::string& body) {
   if (body.rfind("sph-points", 0) == 0) return true;
   const auto colon = body.find(':');
-  return colon != std::string::npos && IsKey(Trim(body.substr(0, colon)));
+  return colon != std::string::npos && IsHeaderKey(Trim(body.substr(0, colon)));
 }
 
 std::string OneLine(std::string_view text) {
@@ -50,16 +45,6 @@ void AppendFixed(std::string& out, double v, int decimals) {
   out.append(buf, static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof buf) - 1)));
 }
 
-// The shortest text that reads back as `v` (12.7, not 12.699999999999999).
-std::string Number(double v) {
-  char buf[40];
-  for (int precision = 15; precision <= 17; ++precision) {
-    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-
 // The "key: value" header fields of an existing file (up to its first sample).
 std::map<std::string, std::string> ReadHeaderFields(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -74,7 +59,7 @@ std::map<std::string, std::string> ReadHeaderFields(const std::string& path) {
     const auto colon = body.find(':');
     if (colon == std::string::npos) continue;
     const std::string key = Trim(body.substr(0, colon));
-    if (IsKey(key)) fields.emplace(key, Trim(body.substr(colon + 1)));
+    if (IsHeaderKey(key)) fields.emplace(key, Trim(body.substr(colon + 1)));
   }
   return fields;
 }
@@ -86,7 +71,7 @@ void CheckSameNumber(const std::string& path, const std::map<std::string, std::s
   char* end = nullptr;
   const double theirs = std::strtod(it->second.c_str(), &end);
   if (end == it->second.c_str() || theirs != *ours) {
-    throw Error(path + ": has " + key + " " + it->second + " but this run writes " + Number(*ours) +
+    throw Error(path + ": has " + key + " " + it->second + " but this run writes " + internal::Shortest(*ours) +
                 ": use another file");
   }
 }
@@ -105,15 +90,32 @@ PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, 
     }
     CheckSameNumber(path, fields, kRadiusKey, header.sphere_radius_mm);
     CheckSameNumber(path, fields, kProbeOffsetKey, header.probe_offset_mm);
+    for (const auto& [setup, ours] : header.mount_rotations) {
+      const std::string key = MountRotationKey(setup);
+      const auto field = fields.find(key);
+      if (field == fields.end()) continue;
+      if (ParseMountRotation(field->second, key, path + ": ") != ours) {
+        throw Error(path + ": has " + key + " " + field->second + " but this run writes " + MountRotationValue(ours) +
+                    ": use another file");
+      }
+    }
     resumed_ = true;
     return;
   }
   std::string head = "# sph-points " + std::to_string(kPointsFormatVersion) + "\n";
-  if (header.sphere_radius_mm) head += std::string("# ") + kRadiusKey + ": " + Number(*header.sphere_radius_mm) + "\n";
-  if (header.probe_offset_mm) head += std::string("# ") + kProbeOffsetKey + ": " + Number(*header.probe_offset_mm) + "\n";
+  if (header.sphere_radius_mm) {
+    head += std::string("# ") + kRadiusKey + ": " + internal::Shortest(*header.sphere_radius_mm) + "\n";
+  }
+  if (header.probe_offset_mm) {
+    head += std::string("# ") + kProbeOffsetKey + ": " + internal::Shortest(*header.probe_offset_mm) + "\n";
+  }
+  for (const auto& [setup, rotation] : header.mount_rotations) {
+    head += "# " + MountRotationKey(setup) + ": " + MountRotationValue(rotation) + "\n";
+  }
   for (const auto& [key, value] : header.metadata) {
-    if (!IsKey(key)) throw Error(path + ": '" + key + "' is not a valid header key");
-    if (key == kRadiusKey || key == kProbeOffsetKey || key == kColumnsKey) continue;
+    if (!IsHeaderKey(key)) throw Error(path + ": '" + key + "' is not a valid header key");
+    const std::string name = key.substr(0, key.find('@'));
+    if (name == kRadiusKey || name == kProbeOffsetKey || name == kColumnsKey || name == kMountRotationKey) continue;
     head += "# " + key + ": " + OneLine(value) + "\n";
   }
   head += std::string("# ") + kColumnsKey + ": " + columns + "\n";

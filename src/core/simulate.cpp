@@ -1,15 +1,19 @@
 #include "sph/core/simulate.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
+#include <map>
 #include <random>
 #include <string>
+#include <utility>
 
+#include <Eigen/Dense>
 #include <Eigen/Geometry>
 
 #include "sph/core/error.hpp"
-#include "sph/model/spherical_harmonics.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
@@ -63,14 +67,6 @@ double EffectValue(const SimulatedEffects& e, Effect which, int axis, double x) 
   return sum;
 }
 
-// Form error [mm] of the sphere's surface in the direction u (unit, sphere frame).
-double FormError(const std::vector<FormComponent>& form, const Eigen::Vector3d& u) {
-  double sum = 0.0;
-  const double lon = std::atan2(u.y(), u.x());
-  for (const FormComponent& f : form) sum += f.amplitude_um * kMmPerUm * SchmidtHarmonic(f.l, f.m, lon, u.z());
-  return sum;
-}
-
 // First intersection of the ray origin + s dir (unit) with the sphere |p - O| = radius.
 std::optional<double> RaySphere(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, const Eigen::Vector3d& center,
                                 double radius) {
@@ -82,11 +78,293 @@ std::optional<double> RaySphere(const Eigen::Vector3d& origin, const Eigen::Vect
   return -half_b - std::sqrt(disc);
 }
 
+// How far the surface can lie inside and outside the sphere of radius R0 [um]: |S_lm| <= 1 and a
+// bump is at most its height; a flat's radius is at least R0 - depth.
+std::pair<double, double> FormBounds(const SimulatedEffects& e) {
+  double h = 0.0, depth = 0.0;
+  for (const FormComponent& f : e.form) h += std::abs(f.amplitude_um);
+  for (const FormBump& b : e.bumps) h += std::abs(b.height_um);
+  for (const FormFlat& f : e.flats) depth = std::max(depth, f.depth_um);
+  return {std::max(h, depth), h};
+}
+
+// The first hit of the ray origin + s dir (unit) with the surface of `e` turned by `body_to_theta`
+// about `center`: the root of g(s) = |x - O| - rho(R^T (x - O) / |x - O|) between the entries into
+// the spheres that bound the surface (TrueProbeDistance() in the header).
+std::optional<double> RaySurface(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
+                                 const Eigen::Vector3d& center, double sphere_radius_mm, const SimulatedEffects& e,
+                                 const Eigen::Matrix3d& body_to_theta) {
+  const auto [inside_um, outside_um] = FormBounds(e);
+  constexpr double kMarginMm = 1e-6;  // keeps rounding inside the bracket
+  const double r_lo = sphere_radius_mm - inside_um * kMmPerUm - kMarginMm;
+  const double r_hi = sphere_radius_mm + outside_um * kMmPerUm + kMarginMm;
+  const Eigen::Matrix3d theta_to_body = body_to_theta.transpose();
+  const auto g = [&](double s) {
+    const Eigen::Vector3d x = origin + s * dir - center;
+    const double n = x.norm();
+    return n - SurfaceRadius(e, sphere_radius_mm, theta_to_body * (x / n));
+  };
+  const std::optional<double> outer = RaySphere(origin, dir, center, r_hi);
+  if (!outer) return std::nullopt;
+  double a = *outer, fa = g(a);
+  if (fa <= 0.0) return a;
+  const std::optional<double> inner = RaySphere(origin, dir, center, r_lo);
+  double b = inner ? *inner : -dir.dot(origin - center);  // else the point of the ray closest to O
+  double fb = g(b);
+  if (fb > 0.0) return std::nullopt;  // the ray passes the surface by
+  if (fb == 0.0) return b;
+  constexpr double kToleranceMm = 1e-14;
+  int side = 0;         // which end moved last: +1 a, -1 b
+  bool bisect = false;  // the last step shrank the bracket by less than half
+  for (int it = 0; it < 400 && b - a > kToleranceMm; ++it) {
+    const double width = b - a;
+    double c = bisect ? 0.5 * (a + b) : (a * fb - b * fa) / (fb - fa);
+    if (!(c > a && c < b)) c = 0.5 * (a + b);
+    if (!(c > a && c < b)) break;  // a and b are neighbouring doubles
+    const double fc = g(c);
+    if (fc == 0.0) return c;
+    if (fc > 0.0) {
+      a = c;
+      fa = fc;
+      if (side == 1) fb *= 0.5;  // Illinois: the end that stays gets half its weight
+      side = 1;
+    } else {
+      b = c;
+      fb = fc;
+      if (side == -1) fa *= 0.5;
+      side = -1;
+    }
+    bisect = b - a > 0.5 * width;
+  }
+  return 0.5 * (a + b);
+}
+
+// A seed for the shuffled scan order of setup k, its own stream (the noise stays the same).
+std::uint64_t ScanSeed(std::uint64_t seed, std::size_t k) {
+  std::uint64_t z = seed ^ 0x7363616e6f726465ULL;  // "scanorde"
+  z += 0x9E3779B97F4A7C15ULL * (static_cast<std::uint64_t>(k) + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;  // SplitMix64's finaliser
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+
+bool IsDirection(const Eigen::Vector3d& v) { return v.allFinite() && v.norm() > 0.0; }
+
+// Throws when the form cannot be a sphere's surface.
+void CheckForm(const SimulatedEffects& e, double sphere_radius_mm) {
+  for (const FormComponent& f : e.form) {
+    if (f.l < 0 || std::abs(f.m) > f.l || !std::isfinite(f.amplitude_um)) {
+      throw Error(internal::Format("simulation: form harmonic l %d, m %d, %g um: needs 0 <= |m| <= l", f.l, f.m,
+                                   f.amplitude_um));
+    }
+  }
+  for (const FormFlat& f : e.flats) {
+    if (!(f.depth_um > 0.0) || !(f.depth_um * kMmPerUm < sphere_radius_mm) || !IsDirection(f.normal_body)) {
+      throw Error(
+          internal::Format("simulation: a flat needs a depth between 0 and the radius (%g um) and a normal "
+                           "direction, got depth %g um",
+                           sphere_radius_mm * kUmPerMm, f.depth_um));
+    }
+  }
+  for (const FormBump& b : e.bumps) {
+    if (!std::isfinite(b.height_um) || !(b.width_deg > 0.0) || !std::isfinite(b.width_deg) ||
+        !IsDirection(b.center_body)) {
+      throw Error(
+          internal::Format("simulation: a bump needs a finite height, a width > 0 and a centre direction, "
+                           "got height %g um, width %g deg",
+                           b.height_um, b.width_deg));
+    }
+  }
+  const double inside_um = FormBounds(e).first;
+  if (!(inside_um * kMmPerUm < sphere_radius_mm)) {
+    throw Error(
+        internal::Format("simulation: the form error (up to %g um into the sphere) must be smaller than the "
+                         "sphere's radius (%g mm)",
+                         inside_um, sphere_radius_mm));
+  }
+}
+
 }  // namespace
+
+const char* ScanOrderName(ScanOrder order) {
+  switch (order) {
+    case ScanOrder::kRings:
+      return "rings";
+    case ScanOrder::kReversed:
+      return "reversed";
+    case ScanOrder::kSerpentine:
+      return "serpentine";
+    case ScanOrder::kColumns:
+      return "columns";
+    case ScanOrder::kShuffled:
+      return "shuffled";
+  }
+  return "?";
+}
+
+const char* ScanOrderNames() { return "rings reversed serpentine columns shuffled"; }
+
+bool ScanOrderFromName(std::string_view name, ScanOrder* order) {
+  for (ScanOrder o :
+       {ScanOrder::kRings, ScanOrder::kReversed, ScanOrder::kSerpentine, ScanOrder::kColumns, ScanOrder::kShuffled}) {
+    if (name == ScanOrderName(o)) {
+      *order = o;
+      return true;
+    }
+  }
+  return false;
+}
+
+std::vector<AnglePair> InScanOrder(const std::vector<AnglePair>& pattern, ScanOrder order, std::uint64_t seed) {
+  std::vector<AnglePair> out;
+  out.reserve(pattern.size());
+  switch (order) {
+    case ScanOrder::kRings:
+      out = pattern;
+      break;
+    case ScanOrder::kReversed:
+      out.assign(pattern.rbegin(), pattern.rend());
+      break;
+    case ScanOrder::kSerpentine: {
+      bool backwards = false;
+      for (std::size_t i = 0; i < pattern.size();) {
+        std::size_t j = i;
+        while (j < pattern.size() && pattern[j].phi_deg == pattern[i].phi_deg) ++j;
+        if (backwards) {
+          out.insert(out.end(), pattern.rbegin() + static_cast<std::ptrdiff_t>(pattern.size() - j),
+                     pattern.rbegin() + static_cast<std::ptrdiff_t>(pattern.size() - i));
+        } else {
+          out.insert(out.end(), pattern.begin() + static_cast<std::ptrdiff_t>(i),
+                     pattern.begin() + static_cast<std::ptrdiff_t>(j));
+        }
+        backwards = !backwards;
+        i = j;
+      }
+      break;
+    }
+    case ScanOrder::kColumns: {
+      std::map<double, std::size_t> column_of;  // theta -> its column, numbered in order of appearance
+      std::vector<std::vector<AnglePair>> columns;
+      for (const AnglePair& a : pattern) {
+        const auto [it, added] = column_of.emplace(a.theta_deg, columns.size());
+        if (added) columns.emplace_back();
+        columns[it->second].push_back(a);
+      }
+      for (const auto& c : columns) out.insert(out.end(), c.begin(), c.end());
+      break;
+    }
+    case ScanOrder::kShuffled: {
+      out = pattern;
+      std::mt19937_64 rng(seed);
+      for (std::size_t i = out.size(); i > 1; --i) {
+        const std::size_t j = static_cast<std::size_t>(rng() % i);  // bias below 1e-13 for any pattern size
+        std::swap(out[i - 1], out[j]);
+      }
+      break;
+    }
+  }
+  return out;
+}
+
+double FormHarmonic(int l, int m, const Eigen::Vector3d& u) {
+  const Eigen::Vector3d v = u.normalized();
+  const int am = std::abs(m);
+  // sin^|m|(polar) * (cos, sin)(|m| lon) = (Re, Im) of (x + iy)^|m|
+  double re = 1.0, im = 0.0;
+  for (int k = 0; k < am; ++k) {
+    const double next_re = re * v.x() - im * v.y();
+    im = re * v.y() + im * v.x();
+    re = next_re;
+  }
+  // Q_l^m = P~_l^m / sin^m, with P~ the Schmidt semi-normalised Legendre functions:
+  // P~_1^1 = s, P~_m^m = sqrt((2m - 1) / 2m) s P~_(m-1)^(m-1) (m >= 2), P~_(m+1)^m = sqrt(2m + 1) z P~_m^m,
+  // P~_l^m = ((2l - 1) z P~_(l-1)^m - sqrt((l - 1)^2 - m^2) P~_(l-2)^m) / sqrt(l^2 - m^2).
+  double q_mm = 1.0;
+  for (int k = 2; k <= am; ++k) q_mm *= std::sqrt((2.0 * k - 1.0) / (2.0 * k));
+  double q = q_mm;
+  if (l > am) {
+    double prev = q_mm;
+    q = std::sqrt(2.0 * am + 1.0) * v.z() * q_mm;
+    for (int ll = am + 2; ll <= l; ++ll) {
+      const double next = ((2.0 * ll - 1.0) * v.z() * q - std::sqrt((ll - 1.0) * (ll - 1.0) - 1.0 * am * am) * prev) /
+                          std::sqrt(1.0 * ll * ll - 1.0 * am * am);
+      prev = q;
+      q = next;
+    }
+  }
+  return q * (m >= 0 ? re : im);
+}
+
+double SurfaceRadius(const SimulatedEffects& e, double sphere_radius_mm, const Eigen::Vector3d& u) {
+  double h_um = 0.0;
+  for (const FormComponent& f : e.form) h_um += f.amplitude_um * FormHarmonic(f.l, f.m, u);
+  for (const FormBump& b : e.bumps) {
+    const Eigen::Vector3d c = b.center_body.normalized();
+    const double angle = std::atan2(u.cross(c).norm(), u.dot(c));
+    const double w = b.width_deg * kRadPerDeg;
+    h_um += b.height_um * std::exp(-angle * angle / (2.0 * w * w));
+  }
+  double rho = sphere_radius_mm + h_um * kMmPerUm;
+  for (const FormFlat& f : e.flats) {
+    const double cos_n = u.dot(f.normal_body.normalized());
+    if (cos_n > 0.0) rho = std::min(rho, (sphere_radius_mm - f.depth_um * kMmPerUm) / cos_n);
+  }
+  return rho;
+}
+
+FormSize FormSizeOf(const SimulatedEffects& e, double sphere_radius_mm) {
+  constexpr int kBands = 360, kLongitudes = 720;
+  std::vector<double> f;
+  std::vector<Eigen::Vector3d> dirs;
+  f.reserve(kBands * kLongitudes);
+  dirs.reserve(kBands * kLongitudes);
+  Eigen::Matrix4d normal = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+  for (int j = 0; j < kBands; ++j) {
+    const double z = -1.0 + 2.0 * (j + 0.5) / kBands, s = std::sqrt(1.0 - z * z);
+    for (int i = 0; i < kLongitudes; ++i) {
+      const double lon = 2.0 * kPi * (i + 0.5) / kLongitudes;
+      const Eigen::Vector3d u(s * std::cos(lon), s * std::sin(lon), z);
+      const double v_um = (SurfaceRadius(e, sphere_radius_mm, u) - sphere_radius_mm) * kUmPerMm;
+      const Eigen::Vector4d basis(1.0, u.x(), u.y(), u.z());
+      normal += basis * basis.transpose();
+      rhs += basis * v_um;
+      f.push_back(v_um);
+      dirs.push_back(u);
+    }
+  }
+  const Eigen::Vector4d low = normal.ldlt().solve(rhs);  // the degree 0 and 1 parts
+  const auto deviation = [&](double v_um, const Eigen::Vector3d& u) { return v_um - low(0) - low.tail<3>().dot(u); };
+  double sum2 = 0.0, lo = 0.0, hi = 0.0;
+  for (std::size_t k = 0; k < f.size(); ++k) {
+    const double r = deviation(f[k], dirs[k]);
+    sum2 += r * r;
+    lo = k == 0 ? r : std::min(lo, r);
+    hi = k == 0 ? r : std::max(hi, r);
+  }
+  // A flat or a bump may be narrower than the grid: their centres (and opposites) count for the peak-to-valley.
+  std::vector<Eigen::Vector3d> extremes;
+  for (const FormFlat& flat : e.flats) extremes.push_back(flat.normal_body.normalized());
+  for (const FormBump& b : e.bumps) extremes.push_back(b.center_body.normalized());
+  for (const Eigen::Vector3d& u : extremes) {
+    for (const Eigen::Vector3d& v : {u, Eigen::Vector3d(-u)}) {
+      const double r = deviation((SurfaceRadius(e, sphere_radius_mm, v) - sphere_radius_mm) * kUmPerMm, v);
+      lo = std::min(lo, r);
+      hi = std::max(hi, r);
+    }
+  }
+  return {std::sqrt(sum2 / static_cast<double>(f.size())), hi - lo};
+}
+
+Eigen::Matrix3d RotationOfVectorDeg(const Eigen::Vector3d& rotation_deg) {
+  const double angle_deg = rotation_deg.norm();
+  if (!(angle_deg > 0.0)) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle_deg * kRadPerDeg, rotation_deg / angle_deg).toRotationMatrix();
+}
 
 std::optional<double> TrueProbeDistance(const ScmsGeometry& g, const SimulatedEffects& e, double theta_rad,
                                         double phi_rad, double probe_offset_mm, const Eigen::Vector3d& center_mm,
-                                        double sphere_radius_mm) {
+                                        double sphere_radius_mm, const Eigen::Matrix3d& body_to_theta) {
   using Eigen::AngleAxisd;
   using Eigen::Translation3d;
   using Eigen::Vector3d;
@@ -108,18 +386,8 @@ std::optional<double> TrueProbeDistance(const ScmsGeometry& g, const SimulatedEf
   const double zero_z = -(probe_offset_mm + g[kDPrime]);
   const Vector3d origin = T_sphere_probe * Vector3d(0.0, 0.0, zero_z);  // probe zero point
   const Vector3d dir = T_sphere_probe.linear() * Vector3d::UnitZ();      // unit: rotations only
-  std::optional<double> s = RaySphere(origin, dir, center_mm, sphere_radius_mm);
-  // A form error: intersect with the sphere whose radius is the surface radius in the direction
-  // of the last hit, until the hit stops moving (the form error is smooth and tiny against R0).
-  for (int it = 0; s && !e.form.empty() && it < 20; ++it) {
-    const Vector3d u = (origin + *s * dir - center_mm).normalized();
-    const std::optional<double> next = RaySphere(origin, dir, center_mm, sphere_radius_mm + FormError(e.form, u));
-    if (!next) return std::nullopt;
-    const bool settled = std::abs(*next - *s) < 1e-15;
-    s = next;
-    if (settled) break;
-  }
-  return s;
+  if (!e.HasForm()) return RaySphere(origin, dir, center_mm, sphere_radius_mm);
+  return RaySurface(origin, dir, center_mm, sphere_radius_mm, e, body_to_theta);
 }
 
 std::optional<double> ProbeReading(const ScmsGeometry& g, double theta_rad, double phi_rad, double probe_offset_mm,
@@ -159,6 +427,22 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
                   std::to_string(spec.effects.model.terms[i].size()) + " values");
     }
   }
+  CheckForm(spec.effects, spec.sphere_radius_mm);
+  const int n_setups = static_cast<int>(spec.centers_mm.size());
+  const auto check_setup = [&](int setup, const char* what) {
+    if (setup < 0 || setup >= n_setups) {
+      throw Error("simulation: " + std::string(what) + " is given for setup " + std::to_string(setup) + ", but the " +
+                  std::to_string(n_setups) + " setup(s) are 0 to " + std::to_string(n_setups - 1));
+    }
+  };
+  for (const auto& [setup, rotation] : spec.mount_rotations_deg) {
+    check_setup(setup, "a mount rotation");
+    if (!rotation.allFinite())
+      throw Error("simulation: the mount rotation of setup " + std::to_string(setup) + " is not finite");
+  }
+  for (int setup : spec.mount_unknown) check_setup(setup, "an unknown mount rotation");
+  for (const auto& entry : spec.scan_orders) check_setup(entry.first, "a scan order");
+
   PointsData data;
   data.source = "simulation";
   data.header.sphere_radius_mm = spec.sphere_radius_mm;
@@ -167,9 +451,22 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
   data.has_setup = spec.centers_mm.size() > 1;
   data.samples.reserve(spec.centers_mm.size() * spec.pattern.size());
   for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
-    for (const AnglePair& a : spec.pattern) {
+    const int setup = static_cast<int>(k);
+    const auto rotation = spec.mount_rotations_deg.find(setup);
+    const Eigen::Matrix3d body_to_theta = rotation == spec.mount_rotations_deg.end()
+                                              ? Eigen::Matrix3d::Identity()
+                                              : RotationOfVectorDeg(rotation->second);
+    if (spec.mount_unknown.count(setup)) {
+      data.header.mount_rotations[setup] = MountRotation::Unknown();
+    } else if (rotation != spec.mount_rotations_deg.end()) {
+      data.header.mount_rotations[setup] = MountRotation::Known(rotation->second);
+    }
+    const auto order = spec.scan_orders.find(setup);
+    const std::vector<AnglePair> scan = InScanOrder(
+        spec.pattern, order == spec.scan_orders.end() ? spec.scan_order : order->second, ScanSeed(spec.seed, k));
+    for (const AnglePair& a : scan) {
       const auto r = TrueProbeDistance(spec.truth, spec.effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg,
-                                       spec.probe_offset_mm, spec.centers_mm[k], spec.sphere_radius_mm);
+                                       spec.probe_offset_mm, spec.centers_mm[k], spec.sphere_radius_mm, body_to_theta);
       if (!r) {
         throw Error("simulation: the probe ray misses the sphere at theta " + std::to_string(a.theta_deg) +
                     " deg, phi " + std::to_string(a.phi_deg) + " deg (setup " + std::to_string(k) + ")");

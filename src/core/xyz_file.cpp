@@ -9,40 +9,39 @@
 #include <istream>
 #include <ostream>
 
-#include "sph/core/atomic_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
+#include "sph/core/text_input.hpp"
 
 namespace sph {
 namespace {
 
-bool IsSeparator(char c) { return c == ' ' || c == '\t' || c == '\r' || c == ','; }
+bool IsBlank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
 
-std::vector<std::string> SplitFields(const std::string& s) {
+// The fields of a line separated by blanks or by commas (with blanks around them). Two commas
+// with nothing between them are an empty field: "1,2,,3" is refused, not read as "1 2 3".
+std::vector<std::string> SplitFields(const std::string& s, const std::string& where) {
   std::vector<std::string> out;
   std::size_t i = 0;
+  bool after_comma = false;
   while (i < s.size()) {
-    while (i < s.size() && IsSeparator(s[i])) ++i;
+    while (i < s.size() && IsBlank(s[i])) ++i;
+    if (i < s.size() && s[i] == ',') {
+      if (after_comma || out.empty()) throw Error(where + "an empty field between commas");
+      after_comma = true;
+      ++i;
+      continue;
+    }
     std::size_t j = i;
-    while (j < s.size() && !IsSeparator(s[j])) ++j;
-    if (j > i) out.push_back(s.substr(i, j - i));
+    while (j < s.size() && !IsBlank(s[j]) && s[j] != ',') ++j;
+    if (j > i) {
+      out.push_back(s.substr(i, j - i));
+      after_comma = false;
+    }
     i = j;
   }
+  if (after_comma) throw Error(where + "the line ends with a comma");
   return out;
-}
-
-std::string Where(const std::string& source, long line) { return source + ":" + std::to_string(line) + ": "; }
-
-double ParseCoordinate(const std::string& token, const char* axis, const std::string& where) {
-  double v = 0.0;
-  const char* first = token.data();
-  const char* last = token.data() + token.size();
-  if (first != last && *first == '+') ++first;  // from_chars rejects a leading '+'
-  const auto [ptr, ec] = std::from_chars(first, last, v);
-  if (ec == std::errc::result_out_of_range)
-    throw Error(where + axis + ": '" + token + "' is out of the range of a double");
-  if (ec != std::errc() || ptr != last) throw Error(where + axis + ": '" + token + "' is not a number");
-  if (!std::isfinite(v)) throw Error(where + axis + ": '" + token + "' is not a finite number");
-  return v;
 }
 
 // A whole token that is a non-negative integer (the NIST point-count line).
@@ -54,8 +53,7 @@ bool ParseCount(const std::string& token, long* count) {
 }  // namespace
 
 std::vector<Eigen::Vector3d> ReadXyzFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open for reading: " + std::strerror(errno));
+  std::ifstream in = OpenInputFile(path);
   return ParseXyz(in, path);
 }
 
@@ -65,14 +63,13 @@ std::vector<Eigen::Vector3d> ParseXyz(std::istream& in, const std::string& sourc
   long count_line = 0;
   bool first_data_line = true;
   std::string line;
-  long line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    const std::string where = Where(source, line_no);
-    if (line.find('\0') != std::string::npos)
-      throw Error(where + "binary data (NUL byte): this is not a text file of points");
-    const auto fields = SplitFields(line);
-    if (fields.empty() || fields[0][0] == '#') continue;
+  TextLines lines(in, source, "a text file of points");
+  while (lines.Next(line)) {
+    const long line_no = lines.line_no();
+    const std::string where = lines.Where();
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    const auto fields = SplitFields(line, where);
     if (first_data_line) {
       first_data_line = false;
       if (fields.size() == 1 && ParseCount(fields[0], &announced)) {
@@ -83,12 +80,11 @@ std::vector<Eigen::Vector3d> ParseXyz(std::istream& in, const std::string& sourc
     if (fields.size() != 3) {
       throw Error(where + "expected 3 numbers (x y z), found " + std::to_string(fields.size()) + " fields");
     }
-    points.emplace_back(ParseCoordinate(fields[0], "x", where), ParseCoordinate(fields[1], "y", where),
-                        ParseCoordinate(fields[2], "z", where));
+    points.emplace_back(ParseNumber(fields[0], "x", where), ParseNumber(fields[1], "y", where),
+                        ParseNumber(fields[2], "z", where));
   }
-  if (in.bad()) throw Error(source + ": read error");
   if (announced >= 0 && static_cast<long>(points.size()) != announced) {
-    throw Error(Where(source, count_line) + "the count line announces " + std::to_string(announced) +
+    throw Error(lines.Where(count_line) + "the count line announces " + std::to_string(announced) +
                 " points, but the file holds " + std::to_string(points.size()));
   }
   if (points.empty()) throw Error(source + ": no points (expected lines 'x y z')");

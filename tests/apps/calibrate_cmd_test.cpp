@@ -153,7 +153,7 @@ TEST_F(CalibrateCmd, BadInputCasesExitTwoWithTheirMessage) {
   ExpectBadInput(h + "1 2 abc\n", ":4: column r_mm: 'abc' is not a number");
   ExpectBadInput(h + "1 2 nan\n", ":4: column r_mm: 'nan' is not a finite number");
   ExpectBadInput(h + "1 inf 3\n", ":4: column phi_deg: 'inf' is not a finite number");
-  ExpectBadInput(h + "# columns: theta_deg phi_deg r_mm temp_c\n1 2 3 4\n", ":5: unknown column name 'temp_c'");
+  ExpectBadInput(h + "# columns: theta_deg phi_deg r_mm temp_c\n1 2 3 4\n", ":4: unknown column name 'temp_c'");
   ExpectBadInput(h + "# probe_offset_mm: 26\n1 2 3\n", ":4: header key 'probe_offset_mm' is given twice");
   ExpectBadInput("# sphere_radius_mm: 0\n1 2 3\n", ":1: sphere_radius_mm must be positive");
   ExpectBadInput(h, ": no samples");

@@ -7,6 +7,8 @@
 #include <iterator>
 #include <sstream>
 
+#include <sys/stat.h>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -323,7 +325,8 @@ TEST_F(MeasureCmd, BrokenFilesGiveOneMessageAndExitTwo) {
   o.points_path = WriteFile("binary.txt", std::string("\x7f" "ELF\x02\x01\x01\0\0\0\0\0\0\0\0\0\x03\0>\0", 20));
   expect_one_error(o, o.points_path + ":1: binary data (NUL byte): this is not a points file");
   o.points_path = WriteFile("garbage.txt", "\xde\xad\xbe\xef 7.5 4.9\n");
-  expect_one_error(o, o.points_path + ":1: column theta_deg: '\xde\xad\xbe\xef' is not a number");
+  // Bytes that are not printable ASCII are shown as \xHH, so the message stays readable.
+  expect_one_error(o, o.points_path + ":1: column theta_deg: '\\xDE\\xAD\\xBE\\xEF' is not a number");
   o.points_path = WriteFile("nan.txt", "# sph-points 1\n0 7.5 4.9\n15 7.5 nan\n");
   expect_one_error(o, o.points_path + ":3: column r_mm: 'nan' is not a finite number");
   o.points_path = WriteFile("inf.txt", "0 -inf 4.9\n");
@@ -375,7 +378,8 @@ TEST_F(MeasureCmd, AnUnwritableOutputLeavesNoFileBehind) {
       (target == "json" ? bad.json_path : bad.output_path) = path;
       const RunOutput r = Measure(bad);
       EXPECT_EQ(r.code, kExitBadInput) << target << " " << path;
-      EXPECT_THAT(r.err, HasSubstr("sph_measure: error: " + path + ": cannot "));
+      EXPECT_THAT(r.err, HasSubstr("sph_measure: error: " + path +
+                                   (path == busy ? ": is a directory; give the name of a file" : ": cannot ")));
       EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
       EXPECT_EQ(entries(), before) << "left behind by --" << target << " " << path;
       EXPECT_TRUE(Exists(busy + "/inside"));
@@ -392,7 +396,9 @@ TEST_F(MeasureCmd, DrawsTheFormErrorMap) {
   o.calibration_path = Calibration();
   o.uncertainty_samples = 0;
   o.quiet = true;
-  o.plot_path = dir_ + "/form map.png";  // a space, to test the quoting
+  // A folder whose name holds a space and a quote, to test the quoting.
+  ASSERT_EQ(::mkdir((dir_ + "/plots 'A'").c_str(), 0755), 0);
+  o.plot_path = dir_ + "/plots 'A'/form map.png";
   o.plot_script_path = dir_ + "/form.gp";
   const RunOutput r = Measure(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
@@ -400,12 +406,13 @@ TEST_F(MeasureCmd, DrawsTheFormErrorMap) {
   std::string head(8, '\0');
   png.read(head.data(), 8);
   EXPECT_EQ(head, std::string("\x89PNG\r\n\x1a\n", 8));
-  EXPECT_FALSE(Exists(o.plot_path + ".tmp"));
-  EXPECT_FALSE(Exists(o.plot_path + ".gp.tmp"));
+  EXPECT_EQ(sph::testing::ListFolder(dir_ + "/plots 'A'"),
+            std::vector<std::string>{"form map.png"});  // no temporary file left
   std::ifstream script(o.plot_script_path);
   const std::string text((std::istreambuf_iterator<char>(script)), std::istreambuf_iterator<char>());
   EXPECT_THAT(text, HasSubstr("$residuals << EOD"));
-  EXPECT_THAT(text, HasSubstr("set output '" + o.plot_path + "'"));
+  // Run alone, the script draws to the image's path (the quote doubled for gnuplot).
+  EXPECT_THAT(text, HasSubstr("if (!exists(\"png\")) png = '" + dir_ + "/plots ''A''/form map.png'\nset output png\n"));
   const auto begin = text.find("$residuals << EOD\n"), end = text.find("\nEOD\n");
   ASSERT_NE(begin, std::string::npos);
   ASSERT_NE(end, std::string::npos);

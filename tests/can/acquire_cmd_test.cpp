@@ -181,7 +181,12 @@ TEST(Acquire, TheExampleConfigParsesAndSetsEveryDevice) {
   EXPECT_EQ(o.devices.probe_scale_nm_per_count, 1.0);
   EXPECT_EQ(o.devices.sync_counter_max, 0);
   EXPECT_DOUBLE_EQ(o.fsync_interval_s, 1.0);
+  EXPECT_FALSE(o.no_nmt);
+  EXPECT_FALSE(o.no_sdo);
+  EXPECT_DOUBLE_EQ(o.sdo_timeout_ms, 500.0);
+  EXPECT_EQ(o.devices.theta.sync_counter_byte, -1);
   EXPECT_NO_THROW(MakePipelineConfig(o));
+  EXPECT_NO_THROW(MakeMasterConfig(o, MakePipelineConfig(o)));
 }
 
 TEST(Acquire, HexIdsOnTheCommandLine) {
@@ -432,6 +437,11 @@ TEST(CansimCmd, BadOptionsAndUnwritableLogsFailAndLeaveNothing) {
       {[](CansimOptions& o) { o.emergencies = {"theta:1:xyz"}; }, kExitBadInput,
        "--emcy 'theta:1:xyz': code must be 16-bit hex"},
       {[](CansimOptions& o) { o.center_mm = "1,2"; }, kExitBadInput, "--center-mm"},
+      {[](CansimOptions& o) { o.faults = {"reboot:1"}; }, kExitBadInput,
+       "--fault 'reboot:1': expected reboot:NODE@T (NODE a node id or theta, phi, probe; T in s)"},
+      {[](CansimOptions& o) { o.faults = {"reboot:9@1"}; }, kExitBadInput,
+       "device simulator: reboot of node 9, which no device is"},
+      {[](CansimOptions& o) { o.faults = {"reboot:theta@-1"}; }, kExitBadInput, "the time must be a finite number"},
       {[](CansimOptions& o) { o.output_path += "/no/such/dir/sim.log"; }, kExitOutputError, "sim.log"},
   };
   for (const auto& [edit, exit, message] : cases) {

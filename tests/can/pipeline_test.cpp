@@ -94,15 +94,23 @@ TEST(Pipeline, IncompleteCyclesAreCountedAndNotedNeverFilled) {
                            "written): theta no frame");
 }
 
-TEST(Pipeline, LastCycleIncompleteAtFinish) {
+// The last cycle's PDOs may have come after the end (a stop, the end of a log): it is noted as
+// cut, not lost, so that a stopped live run and the replay of its log end alike.
+TEST(Pipeline, AnUnfinishedLastCycleIsCutByTheEndNotLost) {
   const PipelineConfig c = SmallConfig();
   Sink sink;
   AcquisitionPipeline p(c, sink.Callbacks());
   Cycle(p, c, 0);
   Cycle(p, c, 1, kPhi);
   p.Finish();
-  EXPECT_EQ(p.counts().incomplete_cycles, 1U);
-  EXPECT_EQ(sink.notes.size(), 1U);
+  EXPECT_EQ(p.counts().incomplete_cycles, 0U);
+  EXPECT_EQ(p.counts().cut_by_stop, 1U);
+  EXPECT_EQ(p.counts().Losses(), 0U);
+  EXPECT_EQ(sink.samples.size(), 1U);
+  ASSERT_EQ(sink.notes.size(), 1U);
+  EXPECT_EQ(sink.notes[0],
+            "the SYNC cycle of t_s 1700000000.001000 was cut by the end of the acquisition (no sample "
+            "written)");
 }
 
 TEST(Pipeline, MalformedAndFlaggedValuesMakeTheCycleIncomplete) {
@@ -118,8 +126,10 @@ TEST(Pipeline, MalformedAndFlaggedValuesMakeTheCycleIncomplete) {
   p.OnFrame(Pdo(c, kTheta, 5000, t + kMs + 1));  // 5000 >= 3600 counts: out of range
   p.OnFrame(Pdo(c, kPhi, 1, t + kMs + 2));
   p.OnFrame(Pdo(c, kProbe, 0x7FFFFFFF, t + kMs + 3));  // over range
+  Cycle(p, c, 2);
   p.Finish();
-  EXPECT_TRUE(sink.samples.empty());
+  ASSERT_EQ(sink.samples.size(), 1U);
+  EXPECT_DOUBLE_EQ(sink.samples[0].theta_deg, 0.2);
   EXPECT_EQ(p.counts().malformed[kPhi], 1U);
   EXPECT_EQ(p.counts().flagged[kTheta], 1U);
   EXPECT_EQ(p.counts().flagged[kProbe], 1U);
@@ -129,18 +139,24 @@ TEST(Pipeline, MalformedAndFlaggedValuesMakeTheCycleIncomplete) {
   EXPECT_NE(sink.notes[1].find("theta out of range, probe out of range"), std::string::npos) << sink.notes[1];
 }
 
-TEST(Pipeline, DuplicatesAndPdosBeforeTheFirstSync) {
+// Two PDOs of one device in one SYNC period: one of them may answer a SYNC that never arrived
+// (or come late from the previous one), so neither is paired with this SYNC.
+TEST(Pipeline, TwoPdosOfADeviceInOneCycleAreNeitherUsedAndPdosBeforeTheFirstSync) {
   const PipelineConfig c = SmallConfig();
   Sink sink;
   AcquisitionPipeline p(c, sink.Callbacks());
   p.OnFrame(Pdo(c, kProbe, 1, kT0 - 10));
   Cycle(p, c, 0);
   p.OnFrame(Pdo(c, kProbe, 99, kT0 + 900000));
+  Cycle(p, c, 1);
   p.Finish();
   EXPECT_EQ(p.counts().outside_cycle, 1U);
   EXPECT_EQ(p.counts().duplicates, 1U);
+  EXPECT_EQ(p.counts().incomplete_cycles, 1U);
   ASSERT_EQ(sink.samples.size(), 1U);
-  EXPECT_DOUBLE_EQ(sink.samples[0].r_mm, 5.0);
+  EXPECT_DOUBLE_EQ(sink.samples[0].r_mm, 5.000001);
+  ASSERT_EQ(sink.notes.size(), 1U);
+  EXPECT_NE(sink.notes[0].find("probe 2 PDOs"), std::string::npos) << sink.notes[0];
 }
 
 TEST(Pipeline, MissedSyncsByCounter) {
@@ -154,7 +170,8 @@ TEST(Pipeline, MissedSyncsByCounter) {
   p.OnFrame(Sync(kT0 + 5 * kMs, 4));  // 2 and 3 missing
   p.Finish();
   EXPECT_EQ(p.counts().missed_syncs, 2U);
-  EXPECT_EQ(p.counts().incomplete_cycles, 4U);  // no PDOs at all here
+  EXPECT_EQ(p.counts().incomplete_cycles, 3U);  // no PDOs at all here; the last one is cut by the end
+  EXPECT_EQ(p.counts().cut_by_stop, 1U);
 }
 
 TEST(Pipeline, MissedSyncsByTimeGap) {
@@ -275,7 +292,9 @@ TEST(PipelineWithSimulator, EveryInjectedFaultIsCounted) {
   const SimInjected& in = sim.injected();
   const PipelineCounts& n = p.counts();
   EXPECT_EQ(n.missed_syncs, in.syncs_dropped);
-  EXPECT_EQ(n.samples + n.incomplete_cycles + n.missed_syncs, in.cycles);
+  // Every cycle is a sample, an incomplete cycle, a missed SYNC without a sample, or the last one.
+  EXPECT_EQ(n.samples + n.incomplete_cycles + (n.missed_syncs - n.recovered) + n.cut_by_stop, in.cycles);
+  EXPECT_GT(n.recovered, 0U);  // dropped SYNCs whose PDOs all came: samples, timed by interpolation
   for (int d = 0; d < kNumDevices; ++d) {
     const auto i = static_cast<std::size_t>(d);
     EXPECT_EQ(n.malformed[i], in.shortened[i]) << DeviceName(d);

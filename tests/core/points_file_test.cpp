@@ -117,7 +117,8 @@ TEST(PointsFile, ErrorsNameFileLineAndProblem) {
   EXPECT_THAT(ErrorOf("1 2 x5\n"), HasSubstr("pts.txt:1: column r_mm: 'x5' is not a number"));
   EXPECT_THAT(ErrorOf("1 2 3\n1 nan 3\n"), HasSubstr("pts.txt:2: column phi_deg: 'nan' is not a finite number"));
   EXPECT_THAT(ErrorOf("inf 2 3\n"), HasSubstr("pts.txt:1: column theta_deg: 'inf' is not a finite number"));
-  EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm time\n1 2 3 4\n"),
+  // A bad columns line is named at its own line, not at the first sample.
+  EXPECT_THAT(ErrorOf("# sph-points 1\n# columns: theta_deg phi_deg r_mm time\n1 2 3 4\n"),
               HasSubstr("pts.txt:2: unknown column name 'time'"));
   EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm r_mm\n1 2 3 4\n"), HasSubstr("column 'r_mm' is named twice"));
   EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg\n1 2\n"), HasSubstr("required column 'r_mm' is missing"));
@@ -132,6 +133,47 @@ TEST(PointsFile, ErrorsNameFileLineAndProblem) {
   EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm setup\n1 2 3 1.5\n"),
               HasSubstr("column setup: '1.5' is not an integer"));
   EXPECT_THAT(ErrorOf(std::string("1 2 3\n\0\x01\x02 4\n", 13)), HasSubstr("pts.txt:2: binary data"));
+  EXPECT_THAT(ErrorOf("# columns: theta_deg phi_deg r_mm setup\n1 2 3 99999999999\n"),
+              HasSubstr("pts.txt:2: column setup: '99999999999' is out of the range of an integer (-2147483648 to "
+                        "2147483647)"));
+  EXPECT_THAT(ErrorOf("1 2 3\n1 2 1e999\n"),
+              HasSubstr("pts.txt:2: column r_mm: '1e999' is out of the range of a double"));
+}
+
+TEST(PointsFile, ALongFieldIsCutInTheMessage) {
+  const std::string field(1 << 20, '7');
+  const std::string message = ErrorOf("1 2 3x" + field + "\n");
+  EXPECT_THAT(message, HasSubstr("pts.txt:1: column r_mm: '3x" + field.substr(0, 38) +
+                                 "...' (1048578 characters) is "
+                                 "not a number"));
+  EXPECT_LT(message.size(), 200u);
+}
+
+TEST(PointsFile, AUtf8ByteOrderMarkIsSkipped) {
+  const PointsData d = Parse("\xEF\xBB\xBF# sph-points 1\n# sphere_radius_mm: 20\n1 2 3\n");
+  EXPECT_EQ(d.header.sphere_radius_mm, 20.0);
+  ASSERT_EQ(d.samples.size(), 1u);
+  EXPECT_EQ(d.sample_lines, std::vector<long>{3});
+}
+
+TEST(PointsFile, ADirectoryIsNamedAsOne) {
+  const std::string dir = sph::testing::MakeTempDir("points_dir");
+  try {
+    ReadPointsFile(dir);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr(dir + ": is a directory, not a file"));
+  }
+}
+
+TEST(PointsFile, AnAbsurdReadingIsNamedByItsLine) {
+  std::string text = std::string(kHeader) + "# columns: theta_deg phi_deg r_mm\n";
+  for (int i = 0; i < 20; ++i) text += std::to_string(15 * i) + " 45 " + (i == 7 ? "1e10" : "4.9") + "\n";
+  const std::vector<std::string> w = PlausibilityWarnings(Parse(text));
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_THAT(w[0], HasSubstr("1 probe reading(s) lie farther from the median reading (4.9 mm) than the sphere's "
+                              "diameter (40 mm)"));
+  EXPECT_THAT(w[0], HasSubstr("pts.txt:12: r_mm 1e+10"));
 }
 
 TEST(PointsFile, MissingFileIsAnError) {
@@ -159,6 +201,87 @@ TEST(PlausibilityWarnings, RadiansInADegreeColumnAndRepeatedRows) {
   const std::vector<std::string> d = PlausibilityWarnings(ParsePoints(in, "deg.txt"));
   ASSERT_EQ(d.size(), 1u);
   EXPECT_THAT(d[0], HasSubstr("deg.txt: 1 sample(s) repeat an earlier one exactly (the first: sample 25)"));
+}
+
+// ---- mount rotations: "# mount_rotation_deg@<setup>: rx ry rz" or "unknown" -------------------------
+
+constexpr const char* kTwoSetups = "# columns: theta_deg phi_deg r_mm setup\n0 7.5 5.1 0\n15 7.5 5.2 1\n";
+
+TEST(PointsFile, ReadsMountRotationsPerSetup) {
+  const PointsData d = Parse(std::string(kHeader) +
+                             "# mount_rotation_deg@1: 0 0 90\n# mount_rotation_deg@-2: unknown\n"
+                             "# mount_rotation_deg@+0:  0.5\t-1e-3 +180 \n# operator@1: B. Jones\n"
+                             "# columns: theta_deg phi_deg r_mm setup\n0 7.5 5.1 0\n15 7.5 5.2 1\n30 7.5 5.3 -2\n");
+  ASSERT_EQ(d.header.mount_rotations.size(), 3u);
+  EXPECT_EQ(d.header.mount_rotations.at(1), MountRotation::Known(Eigen::Vector3d(0, 0, 90)));
+  EXPECT_EQ(d.header.mount_rotations.at(0), MountRotation::Known(Eigen::Vector3d(0.5, -1e-3, 180)));
+  EXPECT_FALSE(d.header.mount_rotations.at(-2).known());
+  // Other per-setup keys are kept as metadata, as any other key.
+  ASSERT_EQ(d.header.metadata.size(), 1u);
+  EXPECT_EQ(d.header.metadata[0], (std::pair<std::string, std::string>("operator@1", "B. Jones")));
+  // Without the key a setup holds the sphere in the reference orientation: no entry.
+  EXPECT_TRUE(Parse(kTwoSetups).header.mount_rotations.empty());
+  // A file without a setup column has setup 0.
+  EXPECT_TRUE(Parse("# mount_rotation_deg@0: 1 2 3\n1 2 3\n").header.mount_rotations.at(0).known());
+  // Prose with a colon is still prose.
+  EXPECT_TRUE(Parse("# see mount_rotation_deg@1 below: nothing\n1 2 3\n").header.mount_rotations.empty());
+}
+
+TEST(PointsFile, BadMountRotationsAreNamedByFileLineAndProblem) {
+  const std::string h = kHeader;  // 3 lines
+  const auto with = [&](const std::string& field) { return h + "# " + field + "\n" + kTwoSetups; };
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1: 0 x 90")),
+              HasSubstr("pts.txt:4: mount_rotation_deg@1 ry: 'x' is not a number"));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1: 0 0 nan")),
+              HasSubstr("pts.txt:4: mount_rotation_deg@1 rz: 'nan' is not a finite number"));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1: 0 90")),
+              HasSubstr("pts.txt:4: mount_rotation_deg@1: expected 'rx ry rz' (a rotation vector in deg, axis times "
+                        "angle) or 'unknown', found 2 values"));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1: 0,0,90")), HasSubstr("pts.txt:4: mount_rotation_deg@1: expected "));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1: 0 0 90 1")), HasSubstr("found 4 values"));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1:")), HasSubstr("found 0 values"));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1: Unknown")), HasSubstr("found 1 value"));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@x: 0 0 90")),
+              HasSubstr("pts.txt:4: mount_rotation_deg@x: setup id: 'x' is not an integer"));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1.5: 0 0 90")),
+              HasSubstr("pts.txt:4: mount_rotation_deg@1.5: setup id: '1.5' is not an integer"));
+  EXPECT_THAT(
+      ErrorOf(with("mount_rotation_deg: 0 0 90")),
+      HasSubstr("pts.txt:4: mount_rotation_deg belongs to one setup: write 'mount_rotation_deg@<setup>: rx ry rz'"));
+  EXPECT_THAT(ErrorOf(h + "# mount_rotation_deg@1: 0 0 90\n# mount_rotation_deg@1: 0 0 90\n" + kTwoSetups),
+              HasSubstr("pts.txt:5: header key 'mount_rotation_deg@1' is given twice"));
+  EXPECT_THAT(ErrorOf(h + "# mount_rotation_deg@1: 0 0 90\n# mount_rotation_deg@01: unknown\n" + kTwoSetups),
+              HasSubstr("pts.txt:5: the mount rotation of setup 1 is given twice (first at line 4)"));
+  // A setup without samples is found after reading, and named at its header line.
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@5: 0 0 90")),
+              HasSubstr("pts.txt:4: mount_rotation_deg@5: setup 5 has no samples (the file's setups: 0 1)"));
+  EXPECT_THAT(ErrorOf("# mount_rotation_deg@1: unknown\n1 2 3\n"),
+              HasSubstr("pts.txt:1: mount_rotation_deg@1: setup 1 has no samples (the file has no setup column: all "
+                        "its samples are setup 0)"));
+}
+
+TEST(PointsFile, MountRotationsRoundTripExactly) {
+  PointsData d;
+  d.has_setup = true;
+  d.samples = {{1, 2, 3, 0, 0}, {1, 2, 3, 1, 1}, {1, 2, 3, 2, 7}};
+  d.header.mount_rotations = {{0, MountRotation::Known(Eigen::Vector3d(0.1, 1.0 / 3.0, -1e-300))},
+                              {1, MountRotation::Unknown()},
+                              {7, MountRotation::Known(Eigen::Vector3d(0, -0.0, 359.99999999999994))}};
+  std::ostringstream out;
+  WritePoints(out, d);
+  EXPECT_THAT(out.str(),
+              HasSubstr("# mount_rotation_deg@0: 0.1 0.3333333333333333 -1e-300\n"
+                        "# mount_rotation_deg@1: unknown\n# mount_rotation_deg@7: 0 -0 359.99999999999994\n"));
+  const PointsData back = Parse(out.str());
+  EXPECT_EQ(back.header.mount_rotations, d.header.mount_rotations);
+}
+
+TEST(IsHeaderKey, NamesAndPerSetupNames) {
+  for (const char* key : {"sphere_radius_mm", "operator", "x-y", "mount_rotation_deg@1", "a@x", "a@-1"}) {
+    EXPECT_TRUE(IsHeaderKey(key)) << key;
+  }
+  for (const char* key : {"", "@1", "a b", "a@", "a@1 2", "a.b", "mount rotation@1"})
+    EXPECT_FALSE(IsHeaderKey(key)) << key;
 }
 
 }  // namespace

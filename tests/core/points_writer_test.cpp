@@ -114,6 +114,31 @@ TEST(PointsWriter, RefusesToContinueAFileOfAnotherShape) {
   }
 }
 
+TEST(PointsWriter, WritesTheMountRotationsAndContinuesOnlyAFileOfTheSame) {
+  const std::string path = sph::testing::MakeTempDir("pw_mount") + "/p.txt";
+  PointsHeader h = Header();
+  h.mount_rotations = {{1, MountRotation::Known(Eigen::Vector3d(0, 0, 90))}, {2, MountRotation::Unknown()}};
+  {
+    PointsWriter w(path, h, WithSetup());
+    w.Write({1.0, 2.0, 3.0, 4.0, 1});
+    w.Write({1.0, 2.0, 3.0, 5.0, 2});
+  }
+  EXPECT_EQ(ReadPointsFile(path).header.mount_rotations, h.mount_rotations);
+  { PointsWriter again(path, h, WithSetup()); }  // the same rotations: continued
+  PointsHeader turned = h;
+  turned.mount_rotations[1] = MountRotation::Known(Eigen::Vector3d(0, 0, 45));
+  try {
+    PointsWriter w(path, turned, WithSetup());
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              path + ": has mount_rotation_deg@1 0 0 90 but this run writes 0 0 45: use another file");
+  }
+  PointsHeader known = h;
+  known.mount_rotations[2] = MountRotation::Known(Eigen::Vector3d(1, 0, 0));
+  EXPECT_THROW(PointsWriter(path, known, WithSetup()), Error);
+}
+
 TEST(PointsWriter, AnIncompleteLastLineIsCutOff) {
   const std::string path = sph::testing::MakeTempDir("pw_tail") + "/p.txt";
   { PointsWriter w(path, Header(), WithSetup()); w.Write({1.0, 2.0, 3.0, 4.0, 0}); }

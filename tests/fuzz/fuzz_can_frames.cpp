@@ -89,6 +89,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   c.mode = (s & 2) ? Mode::kPoints : Mode::kStream;
   c.sync_period_s = (s & 4) ? 0.001 * (1 + (s >> 3)) : 0.0;
   c.heartbeat_timeout_s = (s & 8) ? 0.5 : 0.0;
+  if ((s & 0x80) && c.sync_counter_max != 0) c.sync_counter_byte = {7, 7, 7};  // PDOs carry the counter
 
   for (std::uint8_t m : {in.Next(), in.Next()}) (void)MissedSyncs(m, static_cast<std::uint8_t>(m * 7), 240);
 
@@ -127,6 +128,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return 0;  // a configuration the pipeline refuses
   }
   if (c.mode == Mode::kStream && counts.samples != samples) std::abort();
-  if (counts.samples > counts.cycles) std::abort();
+  // Every sample is a SYNC cycle received or one recovered of a SYNC that never arrived.
+  if (counts.samples > counts.cycles + counts.recovered || counts.recovered > counts.missed_syncs) std::abort();
   return 0;
 }

@@ -1,5 +1,5 @@
 // libFuzzer target: sph::ParsePoints on arbitrary bytes. A file it accepts must be written back by
-// WritePoints and read again to the same samples and header.
+// WritePoints and read again to the same samples and header (mount rotations exactly).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -32,7 +32,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (again.samples.size() != parsed.samples.size() || again.has_time != parsed.has_time ||
       again.has_setup != parsed.has_setup || again.header.sphere_radius_mm != parsed.header.sphere_radius_mm ||
       again.header.probe_offset_mm != parsed.header.probe_offset_mm ||
-      again.header.metadata != parsed.header.metadata) {
+      again.header.metadata != parsed.header.metadata ||
+      again.header.mount_rotations != parsed.header.mount_rotations) {
     std::abort();
   }
   for (std::size_t i = 0; i < parsed.samples.size(); ++i) {

@@ -12,7 +12,7 @@ cd "$(dirname "$0")/../.."
 secs=25
 if [[ ${1:-} == -t ]]; then secs=$2; shift 2; fi
 targets=("$@")
-[[ ${#targets[@]} -gt 0 ]] || targets=(fuzz_points fuzz_xyz fuzz_calibration fuzz_candump fuzz_can_frames fuzz_acquired_config)
+[[ ${#targets[@]} -gt 0 ]] || targets=(fuzz_points fuzz_xyz fuzz_calibration fuzz_candump fuzz_can_frames fuzz_sdo_nmt fuzz_acquired_config)
 build=build-fuzz
 passed=0 failed=0
 for t in "${targets[@]}"; do

@@ -3,6 +3,7 @@
 #include "sph/model/compensation.hpp"
 #include "sph/model/dh.hpp"
 #include "sph/model/effects.hpp"
+#include "sph/model/form_model.hpp"
 #include "sph/model/scms_model.hpp"
 #include "sph/model/sphere_fit.hpp"
 #include "sph/model/sphere_form.hpp"

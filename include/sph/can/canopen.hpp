@@ -3,12 +3,18 @@
 //
 // Frames (CiA 301 predefined connection set, node id n = 1..127):
 //
-//   SYNC       0x080      0 bytes, or 1 byte counter 1..max (max 2..240), counting up and wrapping to 1
+//   NMT        0x000      2 bytes: [0] command specifier, [1] node id (0: all nodes); §7.2.8.3.1:
+//                         0x01 start remote node, 0x02 stop remote node, 0x80 enter
+//                         pre-operational, 0x81 reset node, 0x82 reset communication
+//   SYNC       0x080      0 bytes, or 1 byte counter 1..max (max 2..240, object 1019h), counting up
+//                         and wrapping to 1; §7.2.5
 //   EMCY       0x080 + n  8 bytes: [0..1] error code (u16, little endian), [2] error register (0x1001),
 //                         [3..7] manufacturer specific. Error code 0x0000 means "error reset / no error".
 //   TPDO1      0x180 + n  position value 0x6004 of a CiA 406 encoder (u32 LE), or the probe value
 //   Heartbeat  0x700 + n  1 byte NMT state: 0x00 boot-up, 0x04 stopped, 0x05 operational,
-//                         0x7F pre-operational
+//                         0x7F pre-operational (§7.2.8.3.2.2; the boot-up message, §7.2.8.3.3, is
+//                         the same frame with 0x00: the node has just (re)started and is now
+//                         pre-operational, sending no PDO until an NMT master starts it)
 //
 // A value inside a PDO is a FieldLayout: `width_bytes` bytes from `offset_byte`, little endian
 // (CANopen) unless `big_endian`, unsigned unless `is_signed` (two's complement).
@@ -24,6 +30,7 @@
 
 namespace sph::can {
 
+inline constexpr std::uint32_t kNmtCobId = 0x000;
 inline constexpr std::uint32_t kSyncCobId = 0x080;
 inline constexpr std::uint32_t kEmcyBase = 0x080;
 inline constexpr std::uint32_t kTpdo1Base = 0x180;
@@ -39,6 +46,27 @@ enum class NmtState : std::uint8_t {
 
 /// "operational", "pre-operational", ..., or "unknown state 0x12".
 std::string NmtStateName(std::uint8_t state);
+
+/// NMT node control command specifiers (CiA 301 §7.2.8.3.1).
+enum class NmtCommand : std::uint8_t {
+  kStart = 0x01,
+  kStop = 0x02,
+  kEnterPreOperational = 0x80,
+  kResetNode = 0x81,
+  kResetCommunication = 0x82,
+};
+/// "Start remote node", ..., or "unknown NMT command 0x12".
+std::string NmtCommandName(std::uint8_t command);
+
+struct NmtMessage {
+  std::uint8_t command = 0;  ///< NmtCommand value
+  int node_id = 0;           ///< 0: all nodes
+};
+/// The NMT command `command` to node `node_id` (0: all nodes).
+CanFrame EncodeNmt(NmtCommand command, int node_id);
+/// An NMT frame (id 0x000, 2 data bytes, a known command, node 0..127), else nothing with the
+/// reason in `error`.
+std::optional<NmtMessage> DecodeNmt(const CanFrame& frame, std::string* error = nullptr);
 
 // ---------------------------------------------------------------------------------------- SYNC
 /// A SYNC frame; with a counter (1..240) it carries one data byte.
@@ -90,6 +118,10 @@ struct FieldLayout {
   bool big_endian = false;    ///< CANopen is little endian
 };
 
+/// The TPDO number (1..4) whose predefined COB-ID (CiA 301 predefined connection set: 0x180,
+/// 0x280, 0x380, 0x480 + node id) is `cob_id`, or 0.
+int PredefinedTpdo(std::uint32_t cob_id, int node_id);
+
 /// Throws sph::Error naming `what` when offset/width do not fit in 8 bytes.
 void ValidateLayout(const FieldLayout& layout, const std::string& what);
 
@@ -114,6 +146,7 @@ struct EncoderConfig {
   int direction = 1;                       ///< +1 or -1
   std::int64_t zero_offset_counts = 0;     ///< raw value at angle 0
   bool multi_turn = false;
+  int tpdo = 0;  ///< the TPDO's number (objects 1800h/1A00h + tpdo - 1); 0: PredefinedTpdo() or 1
 };
 
 enum class DecodeStatus {
@@ -156,7 +189,12 @@ struct ProbeConfig {
   std::vector<std::int64_t> error_raw;  ///< further raw values that mean "no valid reading"
   int status_offset_byte = -1;          ///< a status byte in the frame, -1 = none
   std::uint8_t status_error_mask = 0xFF;
+  int tpdo = 0;  ///< as EncoderConfig::tpdo
 };
+
+/// The TPDO number a device's `tpdo` setting means: itself, else the predefined one of its
+/// COB-ID and node, else 1.
+int TpdoNumber(int tpdo, std::uint32_t cob_id, int node_id);
 
 void ValidateProbe(const ProbeConfig& config, const std::string& what);
 DecodedValue DecodeProbe(const ProbeConfig& config, const CanFrame& frame);

@@ -4,14 +4,29 @@
 // One SYNC cycle gives one sample:
 //
 //   SYNC(t) ... TPDO theta ... TPDO phi ... TPDO probe ... SYNC(t + T) ...
-//   \______________ cycle: values from the PDOs after SYNC(t) _________/
+//   \______________ window: the PDOs after SYNC(t) _____________/
 //
-// The sample's time is the SYNC's receive time. It is emitted as soon as all three values have
-// arrived; a cycle that ends (next SYNC, Finish()) without all three valid values is an
-// incomplete cycle: counted per device and reason, logged, and written into the points file as
-// a comment (runs of equal incomplete cycles in one comment), never dropped or filled in silence.
-// SYNCs that never arrived (a gap in the SYNC counter, or more than 1.5 periods without SYNC)
-// are counted as missed cycles and written as a comment too.
+// The sample's time is the SYNC's receive time. A window is resolved when the next SYNC arrives
+// (or at the end): only then is it known how many SYNC cycles it spans. SYNCs that never arrived
+// are found by a gap in the SYNC counter (CiA 301 §7.2.5, object 1019h) or by more than 1.5
+// periods (configured, else as observed) without SYNC; both together tell gaps longer than the
+// counter's range, and a counter that jumps further than the time allows (a producer that
+// restarted its counter) is taken by the time. A window that
+// spans m + 1 cycles (m SYNCs missed) is split in time: a PDO belongs to the cycle in whose
+// period it arrived (a synchronous PDO is sent within its SYNC's synchronous window, CiA 301
+// object 1007h, which is at most the period), or, when the device maps the SYNC counter into
+// its PDO, to the cycle of that counter. A cycle with exactly one valid PDO of every device is a
+// sample; the cycles of missed SYNCs are recovered that way too, timed by interpolation between
+// the SYNCs received. A cycle with no PDO of a device, two of them (the second may answer a SYNC
+// that never came), or PDOs after frames were lost that no counter or period can place (kernel
+// receive-queue drops, a controller RX overflow) has no sample for that device: it is counted per
+// device and reason, logged, and written into the points file as a comment (runs of equal
+// incomplete cycles in one comment), never filled from a neighbouring cycle. So a lost SYNC can
+// no longer let a later PDO fill a gap in the previous cycle.
+//
+// A boot-up message (heartbeat state 0x00) of a device's node during the acquisition opens a gap
+// mark in the points file ("# gap start t_s ...: theta (node 1) rebooted ..."); the device's
+// first PDO after it closes it ("# gap end t_s ...").
 #ifndef SPH_CAN_PIPELINE_HPP_
 #define SPH_CAN_PIPELINE_HPP_
 
@@ -45,6 +60,9 @@ struct PipelineConfig {
   std::uint8_t sync_counter_max = 0;     ///< SYNC counter overflow value (2..240); 0: no counter
   double sync_period_s = 0.0;            ///< expected SYNC period for gap detection; 0: unknown
   double heartbeat_timeout_s = 0.0;      ///< a node silent longer than this is lost; 0: not watched
+  /// Per device: the PDO byte that holds the counter of the SYNC it answers (the device maps it);
+  /// -1: none. Needs sync_counter_max.
+  std::array<int, kNumDevices> sync_counter_byte{-1, -1, -1};
   Mode mode = Mode::kStream;
   StandstillConfig standstill;
   int setup = 0;                         ///< sphere placement id written with each sample
@@ -62,10 +80,13 @@ struct PipelineCounts {
   std::uint64_t samples = 0;             ///< complete cycles (stream mode: rows written)
   std::uint64_t incomplete_cycles = 0;
   std::uint64_t missed_syncs = 0;        ///< SYNCs that never arrived (counter or time gaps)
+  std::uint64_t recovered = 0;           ///< of those, cycles whose PDOs all came: samples
+  std::uint64_t counter_jumps = 0;       ///< SYNC counters that jumped further than the time allows
   std::array<std::uint64_t, kNumDevices> missing{};   ///< cycles without a frame from the device
   std::array<std::uint64_t, kNumDevices> flagged{};   ///< values out of range or device errors
   std::array<std::uint64_t, kNumDevices> malformed{}; ///< frames too short for the configured field
-  std::uint64_t duplicates = 0;          ///< a second PDO of one device in one cycle (first one kept)
+  std::uint64_t duplicates = 0;                       ///< a second PDO of one device in one cycle (neither used)
+  std::uint64_t unplaced = 0;                         ///< PDOs after lost frames, or of a SYNC outside the window
   std::uint64_t outside_cycle = 0;       ///< PDOs before the first SYNC
   std::uint64_t malformed_other = 0;     ///< bad SYNC, heartbeat or EMCY frames, unparsable log lines
   std::uint64_t error_frames = 0;
@@ -73,13 +94,15 @@ struct PipelineCounts {
   std::uint64_t emergencies = 0;
   std::uint64_t heartbeats_lost = 0;
   std::uint64_t not_operational = 0;     ///< a node's heartbeat left the operational state
+  std::uint64_t reboots = 0;             ///< boot-up messages of the devices' nodes (gap marks)
   std::uint64_t rx_overflow_drops = 0;   ///< frames the kernel dropped (SO_RXQ_OVFL)
   std::uint64_t other_frames = 0;        ///< frames of no configured device
   std::uint64_t points = 0;              ///< points mode: averaged points written
   std::uint64_t short_stops = 0;         ///< points mode: stops too short to average
-  std::uint64_t cut_by_stop = 0;         ///< the last cycle, unfinished when a stop was requested
+  std::uint64_t cut_by_stop = 0;         ///< the last cycle, unfinished at the end of the acquisition
 
-  /// incomplete_cycles + missed_syncs + rx_overflow_drops: nonzero means samples are missing.
+  /// incomplete_cycles + missed_syncs - recovered + rx_overflow_drops: nonzero means samples are
+  /// missing.
   std::uint64_t Losses() const;
 };
 
@@ -106,22 +129,37 @@ class AcquisitionPipeline {
   void OnMalformedInput(const std::string& what);
   /// The interface went down or came back (live mode): the open cycle is closed, noted in the file.
   void OnLinkEvent(const std::string& what, std::int64_t now_ns);
-  /// End of input: closes the open cycle and the open stop, reports pending incomplete runs.
-  /// With `stopped` (a requested stop, not the end of the data) an unfinished last cycle is
-  /// noted as cut by the stop and counted in cut_by_stop, not as incomplete.
-  void Finish(bool stopped = false);
+  /// End of the acquisition (a stop, --duration-s, the end of a replayed log): resolves the open
+  /// window and closes the open stop, reports pending incomplete runs. The last cycle, whose
+  /// PDOs may simply have come after the end, is a sample when complete, else noted as cut by
+  /// the end and counted in cut_by_stop, not as incomplete. A live run stopped by a signal and
+  /// the replay of its frame log so end alike.
+  void Finish();
 
   const PipelineCounts& counts() const { return counts_; }
   const PipelineConfig& config() const { return config_; }
 
  private:
-  struct Cycle {
-    bool open = false;
-    bool emitted = false;
+  static constexpr std::size_t kMaxPdosPerWindow = 64;
+  static constexpr std::uint64_t kMaxRecovered = 64;  ///< missed cycles of one window placed at most
+  struct Arrival {
+    DecodeStatus status = DecodeStatus::kOk;
+    double value = 0.0;
     std::int64_t t_ns = 0;
-    std::array<DecodeStatus, kNumDevices> status{};
-    std::array<bool, kNumDevices> seen{};
-    std::array<double, kNumDevices> value{};
+    int counter = -1;  ///< the SYNC counter the PDO carries, -1: none
+  };
+  struct Window {
+    bool open = false;
+    std::int64_t t_ns = 0;
+    std::optional<std::uint8_t> counter;
+    bool tainted = false;  ///< frames were lost while it was open
+    std::array<std::vector<Arrival>, kNumDevices> pdos;
+  };
+  /// What one cycle of a resolved window has of a device.
+  struct Slot {
+    int index = -1;     ///< into the window's PDOs of the device; -1 none
+    int count = 0;      ///< PDOs placed in the cycle
+    bool lost = false;  ///< placed after lost frames: unusable
   };
   struct IncompleteRun {
     std::uint64_t cycles = 0;
@@ -135,11 +173,25 @@ class AcquisitionPipeline {
     bool seen = false, lost = false;
     std::uint8_t state = static_cast<std::uint8_t>(NmtState::kOperational);
   };
+  struct Gap {
+    bool open = false;
+    std::int64_t start_ns = 0;
+    std::uint64_t missing_cycles = 0;  ///< cycles since without a PDO of the device
+  };
 
   void OnSync(const CanFrame& frame, const SyncInfo& sync);
   void OnPdo(int device, const CanFrame& frame);
-  void CloseCycle();
-  void EmitSample();
+  /// Resolves the open window into 1 + `missed` cycles; `next_ns` is the next SYNC's time. With
+  /// `last` (the end) an incomplete cycle is cut, not counted as incomplete.
+  void Resolve(std::uint64_t missed, std::int64_t next_ns, bool last = false);
+  /// SYNCs missed before `frame` (see the file comment); remembers the period it observes.
+  std::uint64_t MissedBefore(const CanFrame& frame, const SyncInfo& sync);
+  /// Why a cycle with these slots is no sample ("theta no frame, probe 2 PDOs"); "" for a sample.
+  std::string Reason(const std::array<Slot, kNumDevices>& slots) const;
+  void EmitCycle(const std::array<Slot, kNumDevices>& slots, std::int64_t t_ns);
+  /// Gap end marks for rebooted devices that have a PDO in this cycle.
+  void CloseGaps(const std::array<Slot, kNumDevices>& slots, std::int64_t t_ns);
+  void OnBootUp(const Node& node, std::int64_t t_ns);
   void EmitPoint(const StopPoint& point);
   void NoteIncomplete(const std::string& reason, std::int64_t t_ns);
   void FlushIncomplete();
@@ -153,10 +205,13 @@ class AcquisitionPipeline {
   PipelineConfig config_;
   Callbacks cb_;
   PipelineCounts counts_;
-  Cycle cycle_;
+  Window window_;
+  std::vector<std::array<Slot, kNumDevices>> scratch_;  ///< the cycles of the window being resolved
   IncompleteRun run_;
+  std::array<Gap, kNumDevices> gaps_{};
   std::optional<std::uint8_t> last_counter_;
   std::int64_t last_sync_ns_ = 0;
+  std::int64_t observed_period_ns_ = 0;  ///< the last interval between two SYNCs that followed
   bool have_sync_ = false;
   std::int64_t start_ns_ = 0;
   std::vector<Node> nodes_;

@@ -26,6 +26,15 @@ struct SinCosImpl<ceres::Jet<T, N>> {
   }
 };
 
+/// Whether a value and, for a Jet, every derivative is finite. A residual functor returns false
+/// ("cannot evaluate here") rather than a non-finite value: Ceres then shortens the step instead
+/// of logging the evaluation (readings of absurd size, a step into overflow).
+inline bool AllFinite(double x) { return std::isfinite(x); }
+template <typename T, int N>
+bool AllFinite(const ceres::Jet<T, N>& x) {
+  return std::isfinite(x.a) && x.v.allFinite();
+}
+
 }  // namespace sph::internal
 
 #endif  // SPH_CERES_JET_SINCOS_HPP_

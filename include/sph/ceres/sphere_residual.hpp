@@ -44,7 +44,7 @@ class SphereResidual {
     const T dy = p[1] - center[1];
     const T dz = p[2] - center[2];
     residual[0] = sqrt(dx * dx + dy * dy + dz * dz) - T(radius_mm_);
-    return true;
+    return internal::AllFinite(residual[0]);
   }
 
   /// The autodiff cost function for one reading (the caller, usually ceres::Problem, owns it).

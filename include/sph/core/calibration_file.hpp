@@ -22,6 +22,7 @@
 
 #include <iosfwd>
 #include <optional>
+#include <ostream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -51,6 +52,8 @@ struct CalibrationFile {
 
 /// Writes a calibration file atomically. Throws sph::Error when it cannot be written.
 void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal);
+/// Writes the calibration file's JSON text to `out`.
+void WriteCalibration(std::ostream& out, const CalibrationFile& cal);
 
 /// Reads a calibration file. Throws sph::Error naming the file and the problem when it is not
 /// JSON, is of another format or version, or lacks a field.

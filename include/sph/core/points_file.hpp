@@ -7,17 +7,23 @@
 //   # columns: theta_deg phi_deg r_mm t_s setup
 //   0.000000 7.500000 5.0912345 0.00 0
 //
-// '#' lines are comments; "# key: value" lines before the first sample are header fields.
-// Columns theta_deg, phi_deg, r_mm are required; t_s (acquisition time) and setup (integer id of
-// one placement of the sphere) are optional. Without a columns line: theta_deg phi_deg r_mm.
+// '#' lines are comments; "# key: value" lines before the first sample are header fields, and
+// "# key@<setup>: value" ones belong to one setup (the orientation of the sphere on its mount:
+// "# mount_rotation_deg@1: 0 0 90"). Columns theta_deg, phi_deg, r_mm are required; t_s
+// (acquisition time) and setup (integer id of one placement of the sphere) are optional. Without
+// a columns line: theta_deg phi_deg r_mm.
 #ifndef SPH_CORE_POINTS_FILE_HPP_
 #define SPH_CORE_POINTS_FILE_HPP_
 
 #include <iosfwd>
+#include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
+
+#include <Eigen/Core>
 
 namespace sph {
 
@@ -33,11 +39,28 @@ struct Sample {
   int setup = 0;           ///< sphere placement id; 0 when the file has no setup column
 };
 
+/// How the sphere sits on its mount in one setup. A known orientation is the rotation vector
+/// (axis times angle, in deg) of the rotation R that takes the sphere's body frame into the frame
+/// that turns with the Theta axis: a point of the surface relative to the sphere's centre is
+/// p_theta = R * p_body. Unknown: the sphere was remounted at an orientation nobody measured.
+struct MountRotation {
+  std::optional<Eigen::Vector3d> rotation_deg;  ///< nothing when unknown
+
+  bool known() const { return rotation_deg.has_value(); }
+  static MountRotation Known(const Eigen::Vector3d& rotation_deg) { return {rotation_deg}; }
+  static MountRotation Unknown() { return {}; }
+  bool operator==(const MountRotation& other) const { return rotation_deg == other.rotation_deg; }
+  bool operator!=(const MountRotation& other) const { return !(*this == other); }
+};
+
 /// Header fields of a points file.
 struct PointsHeader {
   std::optional<double> sphere_radius_mm;  ///< R0 from the sphere's certificate [mm]
   std::optional<double> probe_offset_mm;   ///< nominal probe zero distance d [mm]
   std::vector<std::string> columns;        ///< column names in file order
+  /// The sphere's orientation on its mount by setup id ("mount_rotation_deg@<setup>"). A setup
+  /// without an entry holds the sphere in the reference orientation (R = I).
+  std::map<int, MountRotation> mount_rotations;
   /// Other "key: value" header fields, in file order; copied into reports.
   std::vector<std::pair<std::string, std::string>> metadata;
 };
@@ -49,6 +72,11 @@ struct PointsData {
   std::vector<Sample> samples;
   bool has_time = false;   ///< the file had a t_s column
   bool has_setup = false;  ///< the file had a setup column
+  /// The file line of each sample, for messages; empty for data not read from a file.
+  std::vector<long> sample_lines;
+
+  /// "points.txt:120" for sample i (0-based), or "points.txt: sample 115" without line numbers.
+  std::string WhereIs(std::size_t i) const;
 
   /// The distinct setup ids, ascending.
   std::vector<int> SetupIds() const;
@@ -56,8 +84,10 @@ struct PointsData {
 
 /// Reads a points file. Throws sph::Error with "path:line: problem" on any defect: unreadable
 /// file, unsupported format version, duplicate header key, bad or non-positive radius or offset,
-/// unknown, duplicate or missing column, wrong column count, a value that is not a number or not
-/// finite, a non-integer setup id, no samples.
+/// a bad mount rotation (not three numbers nor "unknown", a setup id that is not an integer, a
+/// setup given twice, a setup without samples: named at its header line), unknown, duplicate or
+/// missing column, wrong column count, a value that is not a number or not finite, a non-integer
+/// setup id, no samples.
 PointsData ReadPointsFile(const std::string& path);
 
 /// As ReadPointsFile(), from a stream; `source` names it in messages.
@@ -65,21 +95,47 @@ PointsData ParsePoints(std::istream& in, const std::string& source);
 
 /// What looks wrong in readings that parsed well, in words, one warning each: angle columns that
 /// span no more than a radian measure would (theta within 0..2 pi, phi within 0..pi: degrees are
-/// expected, "theta_deg"), and rows that repeat an earlier row exactly (a logger that wrote a
-/// sample twice). Empty when nothing does.
+/// expected, "theta_deg"), rows that repeat an earlier row exactly (a logger that wrote a sample
+/// twice), and probe readings farther from the median reading than any point of the sphere can
+/// be (its diameter, with the header's sphere_radius_mm), named by line. Empty when nothing does.
 std::vector<std::string> PlausibilityWarnings(const PointsData& data);
 
 /// Writes `data` in format sph-points 1 (header, then one row a sample). Columns: theta_deg
-/// phi_deg r_mm, then t_s if data.has_time, then setup if data.has_setup.
+/// phi_deg r_mm, then t_s if data.has_time, then setup if data.has_setup. Mount rotations are
+/// written with the shortest digits that read back to the same doubles.
 void WritePoints(std::ostream& out, const PointsData& data);
 
-/// WritePoints() to a file, atomically (sph/core/atomic_file.hpp).
+/// WritePoints() to a file, atomically (sph/core/output_files.hpp).
 void WritePointsFile(const std::string& path, const PointsData& data);
+
+/// The largest sphere radius R0 and probe zero distance d that files and options accept [mm].
+inline constexpr double kMaxSphereRadiusMm = 1000.0;
+inline constexpr double kMaxProbeOffsetMm = 10000.0;
 
 /// The header field "key: value" for the radius and offset, and the allowed column names.
 inline constexpr const char* kRadiusKey = "sphere_radius_mm";
 inline constexpr const char* kProbeOffsetKey = "probe_offset_mm";
 inline constexpr const char* kColumnsKey = "columns";
+/// The per-setup header field of the sphere's orientation: "mount_rotation_deg@<setup>".
+inline constexpr const char* kMountRotationKey = "mount_rotation_deg";
+
+/// Whether `key` (the text before a header line's ':', trimmed) is a header key: a name of
+/// letters, digits, '_' and '-', optionally followed by '@' and a setup id (any text without
+/// spaces here; the reader checks that it is an integer for the keys it knows). Anything else
+/// before a colon is prose in a comment.
+bool IsHeaderKey(std::string_view key);
+
+/// The header key of the mount rotation of `setup`: "mount_rotation_deg@1".
+std::string MountRotationKey(int setup);
+
+/// The value of a mount rotation's header field: "rx ry rz" (shortest digits that read back
+/// exactly) or "unknown".
+std::string MountRotationValue(const MountRotation& rotation);
+
+/// Parses the value of a mount rotation's header field ("rx ry rz" in deg, or "unknown"). Throws
+/// sph::Error "<where><key>: expected ..." on a wrong count of values or a value that is not a
+/// finite number; `key` names the field in the message ("mount_rotation_deg@1").
+MountRotation ParseMountRotation(const std::string& value, const std::string& key, const std::string& where);
 
 }  // namespace sph
 

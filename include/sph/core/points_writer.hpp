@@ -22,8 +22,9 @@ struct PointsWriterOptions {
 /// Appends samples to a points file, each row written (one write()) before Write() returns.
 ///
 /// A new or empty file gets the header first (format line, sphere_radius_mm, probe_offset_mm,
-/// the metadata, columns). An existing file is continued, never rewritten: its header must name
-/// the same columns and, where both give them, the same radius and probe offset, else the
+/// the mount rotations, the metadata, columns). An existing file is continued, never rewritten:
+/// its header must name the same columns and, where both give them, the same radius, probe
+/// offset and mount rotation of each setup, else the
 /// constructor throws sph::Error ("points.txt: has columns 'theta_deg phi_deg r_mm' but this run
 /// writes 'theta_deg phi_deg r_mm t_s': use another file"). An incomplete last line is cut off
 /// (see AppendFile). Rows have the same 10 decimals as WritePoints() (t_s: 6).

@@ -8,7 +8,7 @@
 //
 // The probe zero point is at z = -(d + d') on the probe frame's z axis, and the probe measures
 // along +z (towards the axes' common point): reading r is the distance from the zero point to the
-// first intersection of that ray with the sphere |p - O| = R0.
+// first intersection of that ray with the sphere's surface.
 //
 // Effects beyond the seven errors (sph/model/effects.hpp) enter the same way, as elementary
 // transforms in their places, evaluated here from their definitions and not through the model
@@ -18,14 +18,22 @@
 //                    * Rx(wx(phi)) * Ry(wy(phi)) * Rz(-phi_true) * Rz(beta) * Tz(b) * Tx(c) * Rx(pi/2 + epsilon)
 //
 // and the probe reads r_read such that r_read + (gain + nonlinearity + drift)(r_read, t) equals the
-// true distance (solved by fixed-point iteration). The simulator also makes effects that are not in
-// the library, so that the calibrator can be tested on what it cannot explain: a form error of the
-// reference sphere (real spherical harmonics fixed on the sphere) and outliers.
+// true distance (solved by fixed-point iteration). The simulator also makes what is not in the
+// library, so that the calibration can be tested on what it cannot explain, or must separate:
+// outliers, and the reference sphere's own form error. The form is defined on the sphere's BODY
+// frame; in each setup the sphere sits on its mount turned by a rotation R (p_theta = R * p_body
+// for points relative to its centre, in the frame that turns with Theta), so the surface of a
+// setup is { O + R * rho(u) * u : |u| = 1 } with rho(u) the body-frame radius (SurfaceRadius()):
+// R0 plus spherical harmonics and Gaussian bumps, cut by flats. The probe ray is traced to that
+// surface by a bracketed root search (TrueProbeDistance()).
 #ifndef SPH_CORE_SIMULATE_HPP_
 #define SPH_CORE_SIMULATE_HPP_
 
 #include <cstdint>
+#include <map>
 #include <optional>
+#include <set>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -46,14 +54,52 @@ struct AnglePair {
 /// is theta 0, 15, ..., 345 deg and phi 7.5, 22.5, ..., 172.5 deg). Rows: phi outer, theta inner.
 std::vector<AnglePair> GridPattern(int theta_steps, int phi_steps);
 
-/// One component of the reference sphere's form error: the surface radius is
-/// R0 + amplitude * S_lm(direction), with S_lm the Schmidt semi-normalised real spherical harmonic
-/// (|S_lm| <= 1; cos(m lon) for m >= 0, sin(|m| lon) for m < 0) of the direction from the centre,
-/// in the sphere's frame (polar angle from its z axis).
+/// The order in which a setup measures the pattern's points (the same points, another time
+/// order), so that time and direction on the sphere are not one function of the other.
+enum class ScanOrder {
+  kRings,       ///< the pattern's order: for a grid, phi ring by ring, theta within each ring
+  kReversed,    ///< the pattern's order backwards
+  kSerpentine,  ///< ring by ring, every other ring backwards (a ring: consecutive points of one phi)
+  kColumns,     ///< theta outer (in the order the pattern first reaches each theta), phi inner
+  kShuffled,    ///< a random permutation, seeded
+};
+
+/// "rings", "reversed", "serpentine", "columns", "shuffled".
+const char* ScanOrderName(ScanOrder order);
+/// The order named `name` (ScanOrderName()); false for any other text.
+bool ScanOrderFromName(std::string_view name, ScanOrder* order);
+/// The names of all orders, separated by spaces, for messages.
+const char* ScanOrderNames();
+
+/// `pattern` in the time order `order`: a permutation of it. kShuffled draws a Fisher-Yates
+/// shuffle from std::mt19937_64(seed) (the same permutation on every platform).
+std::vector<AnglePair> InScanOrder(const std::vector<AnglePair>& pattern, ScanOrder order, std::uint64_t seed);
+
+/// One spherical-harmonic component of the sphere's form error, on its body frame: the surface
+/// radius gains amplitude * S_lm(u), with S_lm the Schmidt semi-normalised real spherical
+/// harmonic (|S_lm| <= 1, mean square over the sphere 1 / (2l + 1); cos(m lon) for m >= 0,
+/// sin(|m| lon) for m < 0, no Condon-Shortley phase) of the body direction u, polar angle from
+/// the body's z axis, longitude from its x axis.
 struct FormComponent {
   int l = 2;
   int m = 0;
   double amplitude_um = 0.0;
+};
+
+/// A flat ground on the sphere: the sphere cut by the plane at distance R0 - depth from its
+/// centre, normal to the body direction `normal_body` (the radius in a direction u with
+/// u.n > 0 is at most (R0 - depth) / (u.n)).
+struct FormFlat {
+  double depth_um = 0.0;                                   ///< > 0, < R0
+  Eigen::Vector3d normal_body = Eigen::Vector3d::UnitZ();  ///< any length > 0
+};
+
+/// A local bump (a dent when the height is negative): the radius gains
+/// height * exp(-g^2 / (2 width^2)), g the angle between the direction and `center_body`.
+struct FormBump {
+  double height_um = 0.0;
+  double width_deg = 1.0;                                  ///< angular standard deviation, > 0
+  Eigen::Vector3d center_body = Eigen::Vector3d::UnitZ();  ///< any length > 0
 };
 
 /// What the simulated machine and sphere have beyond the seven errors.
@@ -62,12 +108,40 @@ struct SimulatedEffects {
   /// themselves (EffectReferenceOf, before noise), as a calibration sets it from its data.
   EffectModel model;
   std::vector<std::vector<double>> values;  ///< one block per term of `model` (rad, mm)
-  std::vector<FormComponent> form;          ///< form error of the reference sphere
+  std::vector<FormComponent> form;          ///< form error of the reference sphere: harmonics
+  std::vector<FormFlat> flats;              ///< ... flats
+  std::vector<FormBump> bumps;              ///< ... and bumps
   double outlier_fraction = 0.0;            ///< share of readings with a gross error in r
   double outlier_um = 0.0;                  ///< size of that error (random sign) [um]
 
-  bool Empty() const { return model.Empty() && form.empty() && !(outlier_fraction > 0.0); }
+  bool HasForm() const { return !form.empty() || !flats.empty() || !bumps.empty(); }
+  bool Empty() const { return model.Empty() && !HasForm() && !(outlier_fraction > 0.0); }
 };
+
+/// S_lm (FormComponent) of the direction u (any length > 0), evaluated by the simulator itself:
+/// Schmidt semi-normalised Legendre recurrences and (x + iy)^m, independent of
+/// sph/model/spherical_harmonics.hpp, which a fit of the form uses.
+double FormHarmonic(int l, int m, const Eigen::Vector3d& u);
+
+/// The radius [mm] of the sphere's true surface in the body direction u (unit): R0 plus the
+/// harmonics and bumps of `effects`, cut by its flats.
+double SurfaceRadius(const SimulatedEffects& effects, double sphere_radius_mm, const Eigen::Vector3d& u_body);
+
+/// The form's size over the whole sphere, without its degree 0 and 1 parts (a change of radius
+/// and a shift of the centre, which a sphere fit takes): rms and peak-to-valley of
+/// rho(u) - R0 minus its projection onto 1, x, y, z, on a grid of 360 equal-area bands of the
+/// polar angle times 720 longitudes (midpoints, each of the same area), and for the
+/// peak-to-valley also at the centres of the flats and bumps and their opposite directions (a
+/// feature may be narrower than the grid). For harmonics alone the rms equals
+/// sqrt(sum over l >= 2 of a^2 / (2l + 1)) to the grid's accuracy.
+struct FormSize {
+  double rms_um = 0.0;
+  double pv_um = 0.0;
+};
+FormSize FormSizeOf(const SimulatedEffects& effects, double sphere_radius_mm);
+
+/// The rotation matrix of a rotation vector [deg] (axis times angle): p_theta = R * p_body.
+Eigen::Matrix3d RotationOfVectorDeg(const Eigen::Vector3d& rotation_deg);
 
 /// What to simulate. Defaults are the paper's study (Table 1 truth, R0 20 mm, d 25 mm,
 /// 24 x 12 grid, centre (2, 0, 0) mm, noise on r 0.05 um).
@@ -77,7 +151,16 @@ struct SimulationSpec {
   double probe_offset_mm = 25.0;      ///< nominal d
   /// Sphere centre of each setup [mm]; setup ids are 0, 1, ... in this order.
   std::vector<Eigen::Vector3d> centers_mm{Eigen::Vector3d(2.0, 0.0, 0.0)};
+  /// The sphere's orientation on its mount by setup id: the rotation vector [deg] (axis times
+  /// angle) of R, p_theta = R * p_body about the sphere's centre. A setup without an entry holds
+  /// the sphere in the reference orientation (R = I). Written into the points file's header.
+  std::map<int, Eigen::Vector3d> mount_rotations_deg;
+  /// Setups whose header says "mount_rotation_deg@<setup>: unknown" instead of the rotation
+  /// they are simulated with.
+  std::set<int> mount_unknown;
   std::vector<AnglePair> pattern = GridPattern(24, 12);  ///< measured at every setup
+  ScanOrder scan_order = ScanOrder::kRings;              ///< the time order of the pattern in every setup ...
+  std::map<int, ScanOrder> scan_orders;                  ///< ... but these (by setup id)
   double noise_r_um = 0.05;          ///< sigma of Gaussian noise on r [um]
   double noise_theta_arcsec = 0.0;   ///< sigma of the theta reading noise [arcsec]
   double noise_phi_arcsec = 0.0;     ///< sigma of the phi reading noise [arcsec]
@@ -96,18 +179,28 @@ std::optional<double> ProbeReading(const ScmsGeometry& truth, double theta_rad, 
 
 /// The true distance [mm] from the probe zero point to the sphere's surface along the probe ray,
 /// for the axis readings theta_read, phi_read [rad], with the effects of `effects` except the probe's
-/// own errors (gain, nonlinearity, drift), which act on the reading and not on the ray. Nothing
-/// when the ray misses the sphere. `effects.model.reference` is not used here.
+/// own errors (gain, nonlinearity, drift), which act on the reading and not on the ray. The
+/// sphere's form is turned by `body_to_theta` (R) about its centre. Nothing when the ray misses
+/// the sphere. `effects.model.reference` is not used here.
+///
+/// With a form, the hit is the root of g(s) = |x(s) - O| - rho(R^T (x(s) - O) / |x(s) - O|)
+/// along the ray x(s), searched between the entry into the sphere of radius max rho (g >= 0) and
+/// the entry into the sphere of radius min rho (g <= 0), from the bounds of the form, by regula
+/// falsi (Illinois) with a bisection whenever a step shrinks the bracket by less than half: it
+/// converges for any continuous rho, the kink at a flat's rim too, to 1e-14 mm.
 std::optional<double> TrueProbeDistance(const ScmsGeometry& truth, const SimulatedEffects& effects, double theta_rad,
                                         double phi_rad, double probe_offset_mm, const Eigen::Vector3d& center_mm,
-                                        double sphere_radius_mm);
+                                        double sphere_radius_mm,
+                                        const Eigen::Matrix3d& body_to_theta = Eigen::Matrix3d::Identity());
 
 /// The reading r_read [mm] of a probe with the gain, nonlinearity and drift of `effects` (with the
 /// reference `effects.model.reference`) that sees the true distance `distance_mm` at time t_s.
 double ProbeReadingOfDistance(const SimulatedEffects& effects, double distance_mm, double t_s);
 
-/// Simulates a points file: for each setup, each pattern point in order; the axes are at the
-/// commanded angles, the readings carry the noise. Throws sph::Error when a ray misses the sphere.
+/// Simulates a points file: for each setup, each pattern point in the setup's scan order (t_s of
+/// row i is i * sample_period_s); the axes are at the commanded angles, the readings carry the
+/// noise. The header holds the mount rotations (or "unknown") of the setups that have one.
+/// Throws sph::Error when a ray misses the sphere or the spec is impossible.
 /// Equals AddReadingNoise(SimulateExact(spec), spec).
 /// When `reference` is given, it receives the reference the probe terms were simulated with.
 PointsData Simulate(const SimulationSpec& spec, EffectReference* reference = nullptr);

@@ -32,7 +32,7 @@ std::vector<Eigen::Vector3d> ParseXyz(std::istream& in, const std::string& sourc
 /// Writes "# <comment>" lines, then one "x y z" line a point with 10 decimals (0.1 pm in mm).
 void WriteXyz(std::ostream& out, const std::vector<Eigen::Vector3d>& points, const std::vector<std::string>& comments);
 
-/// WriteXyz() to a file, atomically (sph/core/atomic_file.hpp); "-" writes to standard output.
+/// WriteXyz() to a file, atomically (sph/core/output_files.hpp); "-" writes to standard output.
 void WriteXyzFile(const std::string& path, const std::vector<Eigen::Vector3d>& points,
                   const std::vector<std::string>& comments);
 

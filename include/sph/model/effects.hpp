@@ -154,6 +154,10 @@ inline EffectTerm DefaultTerm(Effect e, int harmonics = 4, int drift_order = 1) 
 
 /// Highest harmonic order and highest power of time that parameter names may carry.
 inline constexpr int kMaxEffectHarmonic = 12;
+/// The largest magnitude files and options accept for one parameter of an effect: 3600 arcsec
+/// (1 deg) for an angle, 1000 um for a length. Larger is not an error of a working machine.
+inline constexpr double kMaxEffectArcsec = 3600.0;
+inline constexpr double kMaxEffectUm = 1000.0;
 inline constexpr int kMaxDriftOrder = 3;
 
 /// The component of effect `e` whose parameter is called `name` ("theta_encoder.c2", ...), or false.

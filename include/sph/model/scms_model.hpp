@@ -45,16 +45,19 @@ struct ScmsParamInfo {
   const char* name;    ///< identifier used in files and reports ("alpha", "d_prime", ...)
   const char* symbol;  ///< symbol as in the paper
   Quantity quantity;
+  /// The largest magnitude, in report units (deg or mm), that files and options accept for the
+  /// error: an assembly error, not a different machine (|d'| must moreover stay below d).
+  double max_abs_report;
 };
 
 inline constexpr std::array<ScmsParamInfo, kNumScmsParams> kScmsParamInfo{{
-    {"alpha", "alpha", Quantity::kAngle},
-    {"a", "a", Quantity::kLength},
-    {"beta", "beta", Quantity::kAngle},
-    {"b", "b", Quantity::kLength},
-    {"epsilon", "epsilon", Quantity::kAngle},
-    {"c", "c", Quantity::kLength},
-    {"d_prime", "d'", Quantity::kLength},
+    {"alpha", "alpha", Quantity::kAngle, 10.0},
+    {"a", "a", Quantity::kLength, 10.0},
+    {"beta", "beta", Quantity::kAngle, 10.0},
+    {"b", "b", Quantity::kLength, 10.0},
+    {"epsilon", "epsilon", Quantity::kAngle, 10.0},
+    {"c", "c", Quantity::kLength, 10.0},
+    {"d_prime", "d'", Quantity::kLength, 100.0},
 }};
 
 /// The seven geometric errors in internal units (rad, mm), in ScmsParam order.

@@ -1,0 +1,25 @@
+// Temporary files that must not outlive a program killed by a signal.
+#ifndef SPH_CORE_CLEANUP_HPP_
+#define SPH_CORE_CLEANUP_HPP_
+
+#include <string>
+
+namespace sph {
+
+/// Registers a temporary file to be removed should the process be ended by a signal before
+/// UnregisterTempFile(). Returns a handle for UnregisterTempFile(), or -1 when the table (64
+/// files) is full or the path too long; the file is then only removed by its owner.
+int RegisterTempFile(const std::string& path);
+/// Forgets a registration (the file was renamed into place or removed). -1 is ignored.
+void UnregisterTempFile(int handle);
+/// Removes every registered file. Async-signal-safe: a program's own signal handler may call it.
+void RemoveRegisteredTempFiles() noexcept;
+/// Installs handlers for SIGINT, SIGTERM, SIGHUP and SIGPIPE that remove the registered files
+/// and then end the process by the same signal, as its default action would. A program that
+/// handles SIGINT or SIGTERM itself (to stop cleanly) installs its handlers afterwards; its
+/// normal shutdown then removes what it staged.
+void RemoveTempFilesOnSignals();
+
+}  // namespace sph
+
+#endif  // SPH_CORE_CLEANUP_HPP_

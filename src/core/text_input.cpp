@@ -1,0 +1,68 @@
+#include "sph/core/text_input.hpp"
+
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <charconv>
+#include <climits>
+#include <cmath>
+#include <cstring>
+
+#include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
+
+namespace sph {
+
+using internal::Quoted;
+
+std::ifstream OpenInputFile(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) throw Error(path + ": is a directory, not a file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open for reading: " + std::strerror(errno));
+  return in;
+}
+
+bool TextLines::Next(std::string& line) {
+  errno = 0;
+  if (!std::getline(in_, line)) {
+    if (in_.bad()) {
+      throw Error(source_ + ": read error" + (errno != 0 ? std::string(": ") + std::strerror(errno) : std::string()));
+    }
+    return false;
+  }
+  ++line_no_;
+  if (line_no_ == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
+  if (line.find('\0') != std::string::npos) throw Error(Where() + "binary data (NUL byte): this is not " + kind_);
+  return true;
+}
+
+double ParseNumber(const std::string& token, const std::string& what, const std::string& where) {
+  double v = 0.0;
+  const char* first = token.data();
+  const char* last = token.data() + token.size();
+  if (first != last && *first == '+') ++first;  // from_chars rejects a leading '+'
+  const auto [ptr, ec] = std::from_chars(first, last, v);
+  if (ec == std::errc::result_out_of_range && ptr == last) {
+    throw Error(where + what + ": " + Quoted(token) + " is out of the range of a double");
+  }
+  if (ec != std::errc() || ptr != last) throw Error(where + what + ": " + Quoted(token) + " is not a number");
+  if (!std::isfinite(v)) throw Error(where + what + ": " + Quoted(token) + " is not a finite number");
+  return v;
+}
+
+int ParseInteger(const std::string& token, const std::string& what, const std::string& where) {
+  int v = 0;
+  const char* first = token.data();
+  const char* last = token.data() + token.size();
+  if (first != last && *first == '+') ++first;
+  const auto [ptr, ec] = std::from_chars(first, last, v);
+  if (ec == std::errc::result_out_of_range && ptr == last) {
+    throw Error(where + what + ": " + Quoted(token) + " is out of the range of an integer (" + std::to_string(INT_MIN) +
+                " to " + std::to_string(INT_MAX) + ")");
+  }
+  if (ec != std::errc() || ptr != last) throw Error(where + what + ": " + Quoted(token) + " is not an integer");
+  return v;
+}
+
+}  // namespace sph

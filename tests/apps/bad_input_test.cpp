@@ -1,0 +1,686 @@
+// The bad-input matrix of sph_calibrate, sph_simulate, sph_montecarlo and sph_measure: each case
+// runs the real program in a folder of its own and checks the exit code, the message (naming
+// the option, or the file and line), that no solver log reaches the user, and that the folder
+// is byte for byte as before (device nodes still device nodes), apart from the outputs a
+// successful case makes.
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
+
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "program_run.hpp"
+#include "test_util.hpp"
+
+namespace sph::testing {
+namespace {
+
+using ::testing::HasSubstr;
+
+struct MatrixCase {
+  std::string name;
+  std::vector<std::string> args;  ///< after the program; run in the case's folder
+  int exit = 2;
+  std::string message;                            ///< expected in stderr ("" when none is)
+  std::map<std::string, std::string> files = {};  ///< written into the folder before the run
+  std::vector<std::string> creates = {};          ///< outputs a successful run makes
+  std::string stdout_to = "";                     ///< a name in the folder that takes standard output
+};
+
+std::ostream& operator<<(std::ostream& os, const MatrixCase& c) { return os << c.name; }
+
+std::string Example() { return ReadWholeFile(SPH_SOURCE_DIR "/data/example/points.txt"); }
+
+// The example's header and its first `rows` rows with the column r_mm replaced in row `row`.
+std::string ExampleWithR(int row, const std::string& r) {
+  std::istringstream in(Example());
+  std::string out, line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#' && n++ == row) {
+      std::istringstream ls(line);
+      std::string theta, phi, old, t;
+      ls >> theta >> phi >> old >> t;
+      line = theta + " " + phi + " " + r + " " + t;
+    }
+    out += line + "\n";
+  }
+  return out;
+}
+
+constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
+
+class Matrix : public ::testing::TestWithParam<MatrixCase> {
+ protected:
+  // The files every case finds in its folder: the example (P.txt), a calibration made from it
+  // (cal.json), an angle pattern (a.txt), a folder (sub), and device nodes of its own: a full
+  // device (full), a null device (null) and a block device (disk), never those of /dev.
+  static void SetUpTestSuite() {
+    base_ = MakeTempDir("matrix_base");
+    std::ofstream(base_ + "/P.txt") << Example();
+    const ProgramResult r = RunProgram({SPH_CALIBRATE, "P.txt", "--no-extend", "-q", "-o", "cal.json"}, base_);
+    ASSERT_EQ(r.code, 0) << r.err;
+    nodes_ = ::mknod((base_ + "/full").c_str(), S_IFCHR | 0666, makedev(1, 7)) == 0 &&
+             ::mknod((base_ + "/null").c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0 &&
+             ::mknod((base_ + "/disk").c_str(), S_IFBLK | 0600, makedev(7, 0)) == 0;
+  }
+
+  // A copy of the base folder for one case, with its files.
+  std::string Folder(const MatrixCase& c) {
+    const std::string dir = MakeTempDir("matrix_" + c.name);
+    for (const char* f : {"P.txt", "cal.json"}) std::ofstream(dir + "/" + f) << ReadWholeFile(base_ + "/" + f);
+    std::ofstream(dir + "/a.txt") << "0 45\n90 45\n180 45\n270 45\n0 90\n90 90\n180 90\n270 90\n45 135\n135 135\n";
+    ::mkdir((dir + "/sub").c_str(), 0755);
+    if (nodes_) {
+      ::mknod((dir + "/full").c_str(), S_IFCHR | 0666, makedev(1, 7));
+      ::mknod((dir + "/null").c_str(), S_IFCHR | 0666, makedev(1, 3));
+      ::mknod((dir + "/disk").c_str(), S_IFBLK | 0600, makedev(7, 0));
+    }
+    for (const auto& [name, text] : c.files) std::ofstream(dir + "/" + name, std::ios::binary) << text;
+    return dir;
+  }
+
+  void Check(const char* program) {
+    const MatrixCase& c = GetParam();
+    const bool uses_nodes = [&] {
+      for (const std::string& a : c.args) {
+        if (a == "full" || a == "null" || a == "disk") return true;
+      }
+      return c.stdout_to == "full";
+    }();
+    if (uses_nodes && !nodes_) GTEST_SKIP() << "device nodes cannot be made here (needs CAP_MKNOD)";
+    const std::string dir = Folder(c);
+    const auto before = FolderState(dir);
+    std::vector<std::string> argv = {program};
+    argv.insert(argv.end(), c.args.begin(), c.args.end());
+    const ProgramResult r = RunProgram(argv, dir, c.stdout_to);
+    EXPECT_EQ(r.code, c.exit) << r.err;
+    if (!c.message.empty()) {
+      EXPECT_THAT(r.err, HasSubstr(c.message));
+    }
+    EXPECT_FALSE(HasSolverLog(r.out + r.err)) << r.err;
+    auto after = FolderState(dir);
+    for (const std::string& made : c.creates) {
+      EXPECT_TRUE(after.count(made)) << made << " was not written";
+      after.erase(made);
+    }
+    auto unchanged = before;
+    for (const std::string& made : c.creates) unchanged.erase(made);
+    EXPECT_EQ(after, unchanged) << "the folder changed";
+  }
+
+  static inline std::string base_;
+  static inline bool nodes_ = false;
+};
+
+std::string CaseName(const ::testing::TestParamInfo<MatrixCase>& info) { return info.param.name; }
+
+// ---- sph_calibrate --------------------------------------------------------------------------------
+
+class CalibrateMatrix : public Matrix {};
+TEST_P(CalibrateMatrix, Case) { Check(SPH_CALIBRATE); }
+
+std::vector<MatrixCase> CalibrateCases() {
+  const std::string h = kHeader;
+  const std::string e = "sph_calibrate: error: ";
+  return {
+      {"missing_file", {"nope.txt"}, 2, e + "nope.txt: cannot open for reading: No such file or directory"},
+      {"directory", {"sub"}, 2, e + "sub: is a directory, not a file"},
+      {"empty_file", {"x.txt"}, 2, e + "x.txt: no samples (the file has 0 lines", {{"x.txt", ""}}},
+      {"header_only", {"x.txt"}, 2, e + "x.txt: no samples (the file has 3 lines", {{"x.txt", h}}},
+      {"binary",
+       {"x.txt"},
+       2,
+       e + "x.txt:1: binary data (NUL byte): this is not a points file",
+       {{"x.txt", std::string("\x7f"
+                              "ELF\x02\x01\x01\0\0\0",
+                              10)}}},
+      {"byte_order_mark", {"x.txt", "--no-extend", "-q"}, 0, "", {{"x.txt", "\xEF\xBB\xBF" + Example()}}},
+      {"bad_columns_line_named_at_its_line",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: unknown column name 'temp_c'",
+       {{"x.txt", h + "# columns: theta_deg phi_deg r_mm temp_c\n1 2 3 4\n"}}},
+      {"duplicate_header_key",
+       {"x.txt"},
+       2,
+       e + "x.txt:3: header key 'sphere_radius_mm' is given twice",
+       {{"x.txt", "# sph-points 1\n# sphere_radius_mm: 20\n# sphere_radius_mm: 20\n1 2 3\n"}}},
+      {"radius_in_header_too_large",
+       {"x.txt"},
+       2,
+       e + "x.txt:2: sphere_radius_mm must be at most 1000 mm, got '1e308'",
+       {{"x.txt", "# sph-points 1\n# sphere_radius_mm: 1e308\n1 2 3\n"}}},
+      {"long_field_cut",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: column r_mm: '4x" + std::string(38, '9') + "...' (1000002 characters)",
+       {{"x.txt", h + "0 7.5 4x" + std::string(1000000, '9') + "\n"}}},
+      {"setup_id_out_of_range",
+       {"x.txt"},
+       2,
+       e + "x.txt:5: column setup: '99999999999' is out of the range of an integer",
+       {{"x.txt", h + "# columns: theta_deg phi_deg r_mm setup\n0 7.5 4.8 99999999999\n"}}},
+      {"nan_reading",
+       {"x.txt"},
+       2,
+       e + "x.txt:7: column r_mm: 'nan' is not a finite number",
+       {{"x.txt", ExampleWithR(0, "nan")}}},
+      {"wrong_column_count",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 2",
+       {{"x.txt", h + "1 2\n"}}},
+      {"absurd_reading_named",
+       {"x.txt", "--no-extend", "-q"},
+       0,
+       "x.txt:107: r_mm 1e+10",
+       {{"x.txt", ExampleWithR(100, "1e10")}}},
+      {"huge_constant_readings_no_solver_log",
+       {"x.txt", "-q"},
+       1,
+       "",
+       {{"x.txt",
+         [] {
+           std::string t = kHeader;
+           for (int i = 0; i < 288; ++i)
+             t += std::to_string(15 * (i % 24)) + " " + std::to_string(7.5 + 15 * (i / 24)) + " 1e9\n";
+           return t;
+         }()}}},
+      {"radius_option_too_large",
+       {"P.txt", "--sphere-radius-mm", "1e308"},
+       2,
+       "--sphere-radius-mm: must be > 0 and <= 1000 mm, got 1e308"},
+      {"radius_option_negative",
+       {"P.txt", "--sphere-radius-mm", "-3"},
+       2,
+       "--sphere-radius-mm: must be > 0 and <= 1000 mm, got -3"},
+      {"offset_option_infinite",
+       {"P.txt", "--probe-offset-mm", "inf"},
+       2,
+       "--probe-offset-mm: must be > 0 and <= 10000 mm, got inf"},
+      {"max_std_zero", {"P.txt", "--max-std-um", "0"}, 2, "--max-std-um: must be > 0 and <= 1e+06 um, got 0"},
+      {"max_iterations_zero", {"P.txt", "--max-iterations", "0"}, 2, "--max-iterations: Value 0 not in range"},
+      {"unknown_effect", {"P.txt", "--effects", "probe_temperature"}, 2, "--effects: probe_temperature not in"},
+      {"harmonics_too_high", {"P.txt", "--harmonics", "13"}, 2, "--harmonics: Value 13 not in range"},
+      {"output_is_the_input",
+       {"P.txt", "-o", "P.txt"},
+       2,
+       e + "--output P.txt is also the input points P.txt: an output never replaces an input"},
+      {"output_is_the_input_by_another_name",
+       {"P.txt", "-o", "./sub/../P.txt"},
+       2,
+       e + "--output ./sub/../P.txt is also the input points P.txt"},
+      {"json_is_the_input", {"P.txt", "--json", "P.txt"}, 2, e + "--json P.txt is also the input points P.txt"},
+      {"two_outputs_one_file",
+       {"P.txt", "-o", "c.json", "--json", "c.json"},
+       2,
+       e + "--json c.json and --output c.json are the same file: give each output a file of its own"},
+      {"output_is_the_validation_input",
+       {"P.txt", "--validate", "cal.json", "-o", "cal.json"},
+       2,
+       e + "--output cal.json is also the input --validate cal.json"},
+      {"plot_dir_file_is_the_input",
+       {"sub/residuals.dat", "--plot-dir", "sub"},
+       2,
+       e + "--plot-dir sub/residuals.dat is also the input points sub/residuals.dat",
+       {{"sub/residuals.dat", Example()}}},
+      {"json_to_stdout_twice",
+       {"P.txt", "--json", "-", "-o", "-"},
+       2,
+       e + "--json and --output both write to standard output"},
+      {"output_onto_block_device",
+       {"P.txt", "-o", "disk"},
+       2,
+       e + "disk: is a block device: refusing to write onto it"},
+      {"output_onto_full_device",
+       {"P.txt", "--no-extend", "-q", "-o", "full"},
+       2,
+       e + "full: cannot write: No space left on device"},
+      {"output_onto_null_device", {"P.txt", "--no-extend", "-q", "-o", "null", "--json", "null"}, 0, ""},
+      {"output_onto_directory", {"P.txt", "-o", "sub"}, 2, e + "sub: is a directory; give the name of a file"},
+      {"output_into_missing_folder",
+       {"P.txt", "--no-extend", "-q", "-o", "no/c.json"},
+       2,
+       e + "no/c.json: cannot create a file in 'no': No such file or directory"},
+      {"json_and_output_written",
+       {"P.txt", "--no-extend", "-q", "-o", "c.json", "--json", "r.json"},
+       0,
+       "",
+       {},
+       {"c.json", "r.json"}},
+      {"stdout_full",
+       {"P.txt", "--no-extend"},
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {},
+       {},
+       "full"},
+      {"json_stdout_full",
+       {"P.txt", "--no-extend", "--json", "-"},
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {},
+       {},
+       "full"},
+      {"validate_without_trace", {"P.txt", "--no-extend", "--validate", "P.txt"}, 2, "--no-extend excludes --validate"},
+  };
+}
+INSTANTIATE_TEST_SUITE_P(Calibrate, CalibrateMatrix, ::testing::ValuesIn(CalibrateCases()), CaseName);
+
+// ---- sph_simulate ---------------------------------------------------------------------------------
+
+class SimulateMatrix : public Matrix {};
+TEST_P(SimulateMatrix, Case) { Check(SPH_SIMULATE); }
+
+std::vector<MatrixCase> SimulateCases() {
+  const std::string e = "sph_simulate: error: ";
+  return {
+      {"radius_too_large",
+       {"--sphere-radius-mm", "1e308"},
+       2,
+       "--sphere-radius-mm: must be > 0 and <= 1000 mm, got 1e308"},
+      {"alpha_too_large", {"--alpha-deg", "1e308"}, 2, "--alpha-deg: must be >= -10 and <= 10 deg, got 1e308"},
+      {"a_too_large", {"--a-mm", "-11"}, 2, "--a-mm: must be >= -10 and <= 10 mm, got -11"},
+      {"d_prime_beyond_d",
+       {"--d-prime-mm", "30"},
+       2,
+       e + "--d-prime-mm 30: the error of the probe zero distance must be smaller than the distance itself"},
+      {"noise_infinite", {"--noise-r-um", "inf"}, 2, "--noise-r-um: must be >= 0 and <= 1000 um, got inf"},
+      {"noise_negative",
+       {"--noise-theta-arcsec", "-1"},
+       2,
+       "--noise-theta-arcsec: must be >= 0 and <= 3600 arcsec, got -1"},
+      {"sample_period_too_long",
+       {"--sample-period-s", "1e308"},
+       2,
+       "--sample-period-s: must be >= 0 and <= 86400 s, got 1e308"},
+      {"grid_too_large",
+       {"--theta-steps", "1000000", "--phi-steps", "1000000"},
+       2,
+       e + "--theta-steps 1000000 x --phi-steps 1000000 is a grid of 1000000000000 points; at most 10000000 are "
+           "simulated"},
+      {"steps_zero", {"--theta-steps", "0"}, 2, "--theta-steps: Value 0 not in range"},
+      {"effect_too_large",
+       {"--effect-arcsec", "theta_encoder.c2=1e308"},
+       2,
+       e + "--effect-arcsec theta_encoder.c2=1e308: must be >= -3600 and <= 3600 arcsec, got 1e308"},
+      {"effect_not_a_number",
+       {"--effect-um", "probe_drift.t1=abc"},
+       2,
+       e + "--effect-um probe_drift.t1=abc: 'abc' is not a number"},
+      {"effect_unknown",
+       {"--effect-um", "probe_heat.t1=1"},
+       2,
+       e + "--effect-um probe_heat.t1=1: unknown effect 'probe_heat'"},
+      {"effect_wrong_unit",
+       {"--effect-um", "theta_encoder.c2=1"},
+       2,
+       "theta_encoder is an angle; give it with --effect-arcsec"},
+      {"effect_given_twice",
+       {"--effect-um", "probe_drift.t1=1", "--effect-um", "probe_drift.t1=2"},
+       2,
+       "is given twice"},
+      {"effect_malformed", {"--effect-arcsec", "theta_encoder"}, 2, "expected id.param=value"},
+      {"form_too_large", {"--form-um", "3,2,1e308"}, 2, e + "--form-um 3,2,1e308: must be >= -1000 and <= 1000 um"},
+      {"form_bad_degree", {"--form-um", "30,2,0.1"}, 2, "expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l"},
+      {"outlier_fraction_above_one", {"--outlier-fraction", "2"}, 2, "--outlier-fraction: Value 2 not in range"},
+      {"mount_rotation_without_setup",
+       {"--mount-rotation-deg", "0,0,90"},
+       2,
+       e + "--mount-rotation-deg '0,0,90': expected SETUP:rx,ry,rz (a setup id and a rotation vector in deg, axis "
+           "times angle)"},
+      {"mount_rotation_not_a_number",
+       {"--mount-rotation-deg", "0:0,x,90"},
+       2,
+       e + "--mount-rotation-deg '0:0,x,90': ry: 'x' is not a number"},
+      {"mount_rotation_too_large",
+       {"--mount-rotation-deg", "0:0,0,1e308"},
+       2,
+       e + "--mount-rotation-deg '0:0,0,1e308': rz: must be >= -360 and <= 360 deg, got 1e308"},
+      {"mount_rotation_two_values",
+       {"--mount-rotation-deg", "0:0,90"},
+       2,
+       e + "--mount-rotation-deg '0:0,90': expected"},
+      {"mount_rotation_setup_not_an_integer",
+       {"--mount-rotation-deg", "a:0,0,90"},
+       2,
+       e + "--mount-rotation-deg 'a:0,0,90': setup: 'a' is not an integer"},
+      {"mount_rotation_setup_missing",
+       {"--center-mm", "2,0,0", "--center-mm", "0,2,0", "--mount-rotation-deg", "2:0,0,90"},
+       2,
+       e + "--mount-rotation-deg '2:0,0,90': setup 2 does not exist (the setups are 0 to 1, one per --center-mm)"},
+      {"mount_rotation_given_twice",
+       {"--mount-rotation-deg", "0:0,0,90", "--mount-rotation-deg", "0:0,0,90"},
+       2,
+       e + "--mount-rotation-deg '0:0,0,90': setup 0 is given twice"},
+      {"mount_unknown_not_an_integer",
+       {"--mount-unknown", "x"},
+       2,
+       e + "--mount-unknown 'x': setup: 'x' is not an integer"},
+      {"mount_unknown_setup_missing",
+       {"--mount-unknown", "-1"},
+       2,
+       e + "--mount-unknown '-1': setup -1 does not exist"},
+      {"flat_depth_zero",
+       {"--form-flat-um", "0,1,0,0"},
+       2,
+       e + "--form-flat-um '0,1,0,0': depth_um: must be > 0 and <= 1000 um, got 0"},
+      {"flat_depth_infinite",
+       {"--form-flat-um", "inf,1,0,0"},
+       2,
+       e + "--form-flat-um 'inf,1,0,0': depth_um: 'inf' is not a finite number"},
+      {"flat_no_direction",
+       {"--form-flat-um", "0.5,0,0,0"},
+       2,
+       e + "--form-flat-um '0.5,0,0,0': the direction nx,ny,nz has no length"},
+      {"flat_three_values",
+       {"--form-flat-um", "0.5,1,0"},
+       2,
+       e + "--form-flat-um '0.5,1,0': expected depth_um,nx,ny,nz"},
+      {"flat_direction_too_long",
+       {"--form-flat-um", "0.5,1e308,0,0"},
+       2,
+       e + "--form-flat-um '0.5,1e308,0,0': nx: must be >= -1e+06 and <= 1e+06, got 1e308"},
+      {"bump_width_zero",
+       {"--form-bump-um", "0.2,0,0,0,1"},
+       2,
+       e + "--form-bump-um '0.2,0,0,0,1': width_deg: must be > 0 and <= 180 deg, got 0"},
+      {"bump_height_too_large",
+       {"--form-bump-um", "1e308,5,0,0,1"},
+       2,
+       e + "--form-bump-um '1e308,5,0,0,1': height_um: must be >= -1000 and <= 1000 um, got 1e308"},
+      {"bump_not_a_number",
+       {"--form-bump-um", "0.2,5,0,z,1"},
+       2,
+       e + "--form-bump-um '0.2,5,0,z,1': ny: 'z' is not a number"},
+      {"bump_trailing_comma",
+       {"--form-bump-um", "0.2,5,0,0,1,"},
+       2,
+       e + "--form-bump-um '0.2,5,0,0,1,': expected height_um,width_deg,nx,ny,nz"},
+      {"bump_larger_than_the_sphere",
+       {"--sphere-radius-mm", "0.5", "--probe-offset-mm", "5", "--form-bump-um", "-600,5,0,0,1"},
+       2,
+       e + "simulation: the form error (up to 600 um into the sphere) must be smaller than the sphere's radius (0.5 "
+           "mm)"},
+      {"scan_order_unknown",
+       {"--scan-order", "spiral"},
+       2,
+       e + "--scan-order 'spiral': unknown order 'spiral' (known: rings reversed serpentine columns shuffled)"},
+      {"scan_order_setup_missing",
+       {"--scan-order", "3:columns"},
+       2,
+       e + "--scan-order '3:columns': setup 3 does not exist"},
+      {"scan_order_setup_not_an_integer",
+       {"--scan-order", "one:columns"},
+       2,
+       e + "--scan-order 'one:columns': setup: 'one' is not an integer"},
+      {"separation_options_written",
+       {"-o",           "x.txt",           "--truth",
+        "t.json",       "--center-mm",     "2,0,0",
+        "--center-mm",  "0,2,0",           "--mount-rotation-deg",
+        "1:0,0,90",     "--mount-unknown", "1",
+        "--form-um",    "2,1,0.05",        "--form-flat-um",
+        "0.3,1,0,0",    "--form-bump-um",  "0.1,4,0,0,1",
+        "--scan-order", "columns",         "--scan-order",
+        "1:shuffled"},
+       0,
+       "",
+       {},
+       {"x.txt", "t.json"}},
+      {"center_not_a_number", {"--center-mm", "2,x,0"}, 2, e + "--center-mm '2,x,0': 'x' is not a number"},
+      {"center_too_far",
+       {"--center-mm", "2,0,1e308"},
+       2,
+       e + "--center-mm '2,0,1e308': must be >= -1000 and <= 1000 mm"},
+      {"center_missing_part", {"--center-mm", "2,0"}, 2, e + "--center-mm '2,0': expected x,y,z in mm"},
+      {"ray_misses_the_sphere", {"--center-mm", "30,0,0"}, 2, e + "simulation: the probe ray misses the sphere"},
+      {"angles_missing", {"--angles", "nope.txt"}, 2, e + "nope.txt: cannot open for reading"},
+      {"angles_bad_line",
+       {"--angles", "x.txt"},
+       2,
+       e + "x.txt:2: expected 'theta_deg phi_deg'",
+       {{"x.txt", "0 45\n0 x\n"}}},
+      {"angles_directory", {"--angles", "sub"}, 2, e + "sub: is a directory, not a file"},
+      {"output_is_the_angles",
+       {"-o", "a.txt", "--angles", "a.txt"},
+       2,
+       e + "--output a.txt is also the input --angles a.txt: an output never replaces an input"},
+      {"output_and_truth_one_file", {"-o", "s", "--truth", "s"}, 2, e + "--output s and --truth s are the same file"},
+      {"output_onto_block_device", {"-o", "disk"}, 2, e + "disk: is a block device: refusing to write onto it"},
+      {"output_onto_full_device", {"-o", "full"}, 2, e + "full: cannot write: No space left on device"},
+      {"truth_onto_full_device",
+       {"-o", "x.txt", "--truth", "full"},
+       2,
+       e + "full: cannot write: No space left on device"},
+      {"output_onto_null_device", {"-o", "null"}, 0, ""},
+      {"stdout_full", {}, 2, e + "cannot write to standard output: No space left on device", {}, {}, "full"},
+      {"output_and_truth_written", {"-o", "x.txt", "--truth", "t.json"}, 0, "", {}, {"x.txt", "t.json"}},
+      {"unknown_option", {"--sphere-radius", "20"}, 2, "The following arguments were not expected: 20 --sphere-radius"},
+  };
+}
+INSTANTIATE_TEST_SUITE_P(Simulate, SimulateMatrix, ::testing::ValuesIn(SimulateCases()), CaseName);
+
+// ---- sph_montecarlo -------------------------------------------------------------------------------
+
+class MonteCarloMatrix : public Matrix {};
+TEST_P(MonteCarloMatrix, Case) { Check(SPH_MONTECARLO); }
+
+std::vector<MatrixCase> MonteCarloCases() {
+  const std::string e = "sph_montecarlo: error: ";
+  const std::vector<std::string> quick = {"--trials", "2", "--no-progress"};
+  auto with = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), quick.begin(), quick.end());
+    return args;
+  };
+  return {
+      {"trials_one", {"--trials", "1"}, 2, "--trials: Value 1 not in range"},
+      {"trials_too_many", {"--trials", "100000000"}, 2, "--trials: Value 100000000 not in range"},
+      {"eccentricity_negative", with({"--eccentricities-mm", "-1"}), 2,
+       e + "--eccentricities-mm: -1 is not in [0, R0)"},
+      {"eccentricity_beyond_radius", with({"--eccentricities-mm", "25"}), 2,
+       e + "--eccentricities-mm: 25 is not in [0, R0)"},
+      {"eccentricity_not_a_number", with({"--eccentricities-mm", "x"}), 2, "--eccentricities-mm"},
+      {"table3_calibration_not_studied", with({"--table3-calibration-e-mm", "-5"}), 2,
+       e + "--table3-calibration-e-mm -5: Table 3 uses the study's calibrations at one of the eccentricities studied "
+           "(--eccentricities-mm 0.5, 1, 1.5, 2)"},
+      {"table3_calibration_between", with({"--table3-calibration-e-mm", "1.7"}), 2,
+       e + "--table3-calibration-e-mm 1.7"},
+      {"direction_zero", with({"--direction", "0,0,0"}), 2, e + "--direction must not be zero"},
+      {"direction_bad", with({"--direction", "1,0"}), 2, e + "--direction '1,0': expected x,y,z in mm"},
+      {"setups_zero", with({"--setups", "0"}), 2, "--setups: Value 0 not in range"},
+      {"threads_too_many", with({"--threads", "5000"}), 2, "--threads: Value 5000 not in range"},
+      {"target_without_plan", with({"--target-std-um", "1"}), 2, e + "--target-std-um goes with --plan"},
+      {"target_zero", {"--plan", "--target-std-um", "0"}, 2, "--target-std-um: must be > 0 and <= 1e+06 um, got 0"},
+      {"alpha_too_large", with({"--alpha-deg", "1e308"}), 2, "--alpha-deg: must be >= -10 and <= 10 deg, got 1e308"},
+      {"radius_zero", with({"--sphere-radius-mm", "0"}), 2, "--sphere-radius-mm: must be > 0 and <= 1000 mm, got 0"},
+      {"noise_infinite", with({"--noise-r-um", "inf"}), 2, "--noise-r-um: must be >= 0 and <= 1000 um, got inf"},
+      {"grid_too_large", with({"--theta-steps", "100000", "--phi-steps", "1000"}), 2,
+       e + "--theta-steps 100000 x --phi-steps 1000 is a grid of 100000000 points"},
+      {"angles_missing", with({"--angles", "nope.txt"}), 2, e + "nope.txt: cannot open for reading"},
+      {"angles_binary",
+       with({"--angles", "x.txt"}),
+       2,
+       e + "x.txt:1: expected 'theta_deg phi_deg'",
+       {{"x.txt", std::string("\x01\x02\x03 \x04\n", 6)}}},
+      {"json_is_the_angles", with({"--angles", "a.txt", "--json", "a.txt"}), 2,
+       e + "--json a.txt is also the input --angles a.txt"},
+      {"json_and_csv_one_file", with({"--json", "s", "--csv", "s"}), 2, e + "--json s and --csv s are the same file"},
+      {"csv_onto_block_device", with({"--csv", "disk"}), 2, e + "disk: is a block device: refusing to write onto it"},
+      {"csv_onto_full_device", with({"--no-table3", "--csv", "full"}), 2,
+       e + "full: cannot write: No space left on device"},
+      {"json_onto_directory", with({"--no-table3", "--json", "sub"}), 2,
+       e + "sub: is a directory; give the name of a file"},
+      {"json_into_missing_folder", with({"--no-table3", "--json", "no/m.json"}), 2,
+       e + "no/m.json: cannot create a file in 'no'"},
+      {"plan_json_onto_full_device",
+       {"--plan", "--json", "full"},
+       2,
+       e + "full: cannot write: No space left on device"},
+      {"plot_dir_is_a_file", with({"--no-table3", "--plot-dir", "P.txt"}), 2, e + "P.txt: cannot create the folder"},
+      {"csv_onto_null_device", with({"--no-table3", "--csv", "null", "--json", "null"}), 0, ""},
+      {"stdout_full",
+       with({"--no-table3"}),
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {},
+       {},
+       "full"},
+      {"csv_and_json_written",
+       with({"--no-table3", "--csv", "m.csv", "--json", "m.json"}),
+       0,
+       "",
+       {},
+       {"m.csv", "m.json"}},
+      {"unknown_option", {"--trial", "5"}, 2, "The following arguments were not expected: 5 --trial"},
+  };
+}
+INSTANTIATE_TEST_SUITE_P(MonteCarlo, MonteCarloMatrix, ::testing::ValuesIn(MonteCarloCases()), CaseName);
+
+// ---- sph_measure ----------------------------------------------------------------------------------
+
+class MeasureMatrix : public Matrix {};
+TEST_P(MeasureMatrix, Case) { Check(SPH_MEASURE); }
+
+std::vector<MatrixCase> MeasureCases() {
+  const std::string e = "sph_measure: error: ";
+  // A calibration file written out by hand: the seven errors (alpha in deg) and a covariance
+  // in deg and mm whose (alpha, alpha), (alpha, a) and (a, alpha) entries are given.
+  auto cal = [](const std::string& alpha, const std::string& var_alpha, const std::string& c01,
+                const std::string& c10) {
+    std::string j = R"({"format": "sph-calibration", "format_version": 1, "probe_offset_mm": 25,)"
+                    R"( "geometry": {"alpha": {"value": )" +
+                    alpha + R"(, "unit": "deg"},)";
+    for (const char* p : {"a", "b", "c", "d_prime"})
+      j += std::string(" \"") + p + R"(": {"value": 0.001, "unit": "mm"},)";
+    for (const char* p : {"beta", "epsilon"}) j += std::string(" \"") + p + R"(": {"value": 0.02, "unit": "deg"},)";
+    j.pop_back();
+    j += R"(}, "covariance": {"parameters": ["alpha", "a", "beta", "b", "epsilon", "c", "d_prime"],)"
+         R"( "units": ["deg", "mm", "deg", "mm", "deg", "mm", "mm"], "matrix": [)";
+    for (int p = 0; p < 7; ++p) {
+      j += p ? ", [" : "[";
+      for (int q = 0; q < 7; ++q) {
+        const std::string v = p == 0 && q == 0   ? var_alpha
+                              : p == 0 && q == 1 ? c01
+                              : p == 1 && q == 0 ? c10
+                              : p == q           ? "1e-8"
+                                                 : "0";
+        j += (q ? ", " : "") + v;
+      }
+      j += "]";
+    }
+    return j + R"(]}, "effects": []})" + "\n";
+  };
+  const std::string good = cal("0.02", "1e-8", "0", "0");
+  const std::string xyz = "1 0 0\n0 1 0\n0 0 1\n-1 0 0\n0 -1 0\n0 0 -1\n";
+  const std::vector<std::string> quick = {"-c", "cal.json", "--uncertainty-samples", "0"};
+  auto with = [&](std::vector<std::string> args) {
+    args.insert(args.end(), quick.begin(), quick.end());
+    return args;
+  };
+  return {
+      {"readings_without_calibration", {"P.txt"}, 2, e + "P.txt: readings (theta, phi, r) need a calibration"},
+      {"missing_file", with({"nope.txt"}), 2, e + "nope.txt: cannot open for reading"},
+      {"directory", with({"sub"}), 2, e + "sub: is a directory, not a file"},
+      {"calibration_by_hand_is_good", {"P.txt", "-c", "x.json", "-q"}, 0, "", {{"x.json", good}}},
+      {"calibration_missing", {"P.txt", "-c", "nope.json"}, 2, e + "nope.json: cannot open for reading"},
+      {"calibration_directory", {"P.txt", "-c", "sub"}, 2, e + "sub: is a directory, not a file"},
+      {"calibration_not_json", {"P.txt", "-c", "x.json"}, 2, e + "x.json: not valid JSON", {{"x.json", "{[\n"}}},
+      {"calibration_trailing_garbage",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: not valid JSON",
+       {{"x.json", good + "garbage\n"}}},
+      {"calibration_alpha_absurd",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: field 'geometry.alpha.value' is 1e+308 deg: a geometric error of the machine lies within 10 deg",
+       {{"x.json", cal("1e308", "1e-8", "0", "0")}}},
+      {"calibration_negative_variance",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: covariance.matrix: the variance of alpha is -1: a variance is finite and >= 0",
+       {{"x.json", cal("0.02", "-1", "0", "0")}}},
+      {"calibration_asymmetric_covariance",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: covariance.matrix is not symmetric: the entries of alpha and a differ",
+       {{"x.json", cal("0.02", "1e-8", "5e-9", "0")}}},
+      {"calibration_indefinite_covariance",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: covariance.matrix is not positive semi-definite",
+       {{"x.json", cal("0.02", "1e-8", "2e-8", "2e-8")}}},
+      {"calibration_of_another_probe",
+       with({"x.txt"}),
+       2,
+       e + "x.txt: probe_offset_mm 30 differs from the calibration's 25",
+       {{"x.txt", "# sph-points 1\n# probe_offset_mm: 30\n0 45 4.9\n90 45 4.9\n180 45 4.9\n270 45 4.9\n"}}},
+      {"xyz_empty_field",
+       {"--xyz", "x.xyz"},
+       2,
+       e + "x.xyz:2: an empty field between commas",
+       {{"x.xyz", "1,0,0\n1,2,,3\n"}}},
+      {"xyz_trailing_comma", {"--xyz", "x.xyz"}, 2, e + "x.xyz:1: the line ends with a comma", {{"x.xyz", "1,0,0,\n"}}},
+      {"xyz_count_mismatch",
+       {"--xyz", "x.xyz"},
+       2,
+       e + "x.xyz:1: the count line announces 7 points, but the file holds 6",
+       {{"x.xyz", "7\n" + xyz}}},
+      {"xyz_binary",
+       {"--xyz", "x.xyz"},
+       2,
+       e + "x.xyz:1: binary data (NUL byte): this is not a text file of points",
+       {{"x.xyz", std::string("1\0 2 3\n", 7)}}},
+      {"xyz_with_calibration",
+       {"--xyz", "x.xyz", "-c", "cal.json"},
+       2,
+       e + "--calibration compensates readings",
+       {{"x.xyz", xyz}}},
+      {"xyz_too_few", {"--xyz", "x.xyz"}, 2, e, {{"x.xyz", "1 0 0\n0 1 0\n0 0 1\n"}}},
+      {"setup_missing", with({"P.txt", "--setup", "3"}), 2, e + "P.txt: there is no setup 3"},
+      {"one_draw",
+       {"P.txt", "-c", "cal.json", "--uncertainty-samples", "1"},
+       2,
+       e + "--uncertainty-samples: 1 draw gives no spread"},
+      {"max_dilution_negative", with({"P.txt", "--max-dilution", "-1"}), 2, "--max-dilution: must be"},
+      {"output_is_the_calibration", with({"P.txt", "-o", "cal.json"}), 2,
+       e + "--output cal.json is also the input --calibration cal.json"},
+      {"json_is_the_points", with({"P.txt", "--json", "P.txt"}), 2, e + "--json P.txt is also the input points P.txt"},
+      {"plot_and_script_one_file", with({"P.txt", "--plot", "m", "--plot-script", "m"}), 2,
+       e + "--plot m and --plot-script m are the same file"},
+      {"output_to_stdout_beside_the_report", with({"P.txt", "-o", "-"}), 2,
+       e + "the text report (-q leaves it out) and --output both write to standard output"},
+      {"output_onto_block_device", with({"P.txt", "-o", "disk"}), 2,
+       e + "disk: is a block device: refusing to write onto it"},
+      {"output_onto_full_device", with({"P.txt", "-q", "-o", "full"}), 2,
+       e + "full: cannot write: No space left on device"},
+      {"plot_onto_full_device", with({"P.txt", "-q", "--plot", "full"}), 2,
+       e + "full: is not a regular file: an image is written to a regular file only"},
+      {"output_onto_null_device", with({"P.txt", "-q", "-o", "null", "--json", "null"}), 0, ""},
+      {"output_onto_directory", with({"P.txt", "--json", "sub"}), 2,
+       e + "sub: is a directory; give the name of a file"},
+      {"stdout_full",
+       with({"P.txt"}),
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {},
+       {},
+       "full"},
+      {"outputs_written",
+       with({"P.txt", "-q", "-o", "p.xyz", "--json", "m.json", "--plot-script", "m.gp"}),
+       0,
+       "",
+       {},
+       {"p.xyz", "m.json", "m.gp"}},
+  };
+}
+INSTANTIATE_TEST_SUITE_P(Measure, MeasureMatrix, ::testing::ValuesIn(MeasureCases()), CaseName);
+
+}  // namespace
+}  // namespace sph::testing

@@ -1,0 +1,113 @@
+// Running an installed-style program as a user would, for the bad-input matrices: in a folder
+// of its own, with its standard output and error captured (or standard output sent to a file
+// of the folder, such as a full device), and the folder's content compared before and after.
+#ifndef SPH_TESTS_APPS_PROGRAM_RUN_HPP_
+#define SPH_TESTS_APPS_PROGRAM_RUN_HPP_
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "test_util.hpp"
+
+namespace sph::testing {
+
+struct ProgramResult {
+  int code = -1;  ///< exit code, or 128 + signal
+  std::string out;
+  std::string err;
+};
+
+/// Runs `argv` in `folder`; standard output goes to `stdout_path` (a name in the folder) when
+/// given, else it is captured. Standard input is /dev/null.
+inline ProgramResult RunProgram(const std::vector<std::string>& argv, const std::string& folder,
+                                const std::string& stdout_path = "") {
+  const std::string capture = folder + ".stdout", errors = folder + ".stderr";
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    if (::chdir(folder.c_str()) != 0) ::_exit(125);
+    const int in = ::open("/dev/null", O_RDONLY);
+    const int out = ::open(stdout_path.empty() ? capture.c_str() : stdout_path.c_str(),
+                           O_WRONLY | (stdout_path.empty() ? O_CREAT | O_TRUNC : 0), 0644);
+    const int err = ::open(errors.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (in < 0 || out < 0 || err < 0) ::_exit(125);
+    ::dup2(in, 0);
+    ::dup2(out, 1);
+    ::dup2(err, 2);
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    ::_exit(126);
+  }
+  ProgramResult r;
+  int status = 0;
+  if (pid > 0 && ::waitpid(pid, &status, 0) == pid) {
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  r.out = stdout_path.empty() ? ReadWholeFile(capture) : "";
+  r.err = ReadWholeFile(errors);
+  ::unlink(capture.c_str());
+  ::unlink(errors.c_str());
+  return r;
+}
+
+/// What a folder holds: every entry (not following links) with its type, and for a regular file
+/// its content, for a device its numbers, for a link its target.
+inline std::map<std::string, std::string> FolderState(const std::string& folder) {
+  std::map<std::string, std::string> state;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(folder, ec); it != fs::recursive_directory_iterator();
+       it.increment(ec)) {
+    const std::string path = it->path().string();
+    struct stat st {};
+    if (::lstat(path.c_str(), &st) != 0) continue;
+    std::string what;
+    if (S_ISREG(st.st_mode)) {
+      what = "file " + ReadWholeFile(path);
+    } else if (S_ISDIR(st.st_mode)) {
+      what = "dir";
+    } else if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) {
+      what = std::string(S_ISCHR(st.st_mode) ? "char " : "block ") + std::to_string(major(st.st_rdev)) + "," +
+             std::to_string(minor(st.st_rdev));
+    } else if (S_ISLNK(st.st_mode)) {
+      what = "link " + fs::read_symlink(path, ec).string();
+    } else if (S_ISFIFO(st.st_mode)) {
+      what = "fifo";
+    } else {
+      what = "other";
+    }
+    state[path.substr(folder.size() + 1)] = what;
+  }
+  return state;
+}
+
+/// A Ceres or glog log line ("W20261201 19:45:19.725777  9080 residual_block.cc:129]") or
+/// glog's warning about its initialisation: what a user must never see.
+inline bool HasSolverLog(const std::string& text) {
+  if (text.find("Logging before InitGoogleLogging") != std::string::npos) return true;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    if (line.size() > 9 && std::string("IWEF").find(line[0]) != std::string::npos &&
+        line.find_first_not_of("0123456789", 1) == 9 && line.find(".cc:") != std::string::npos) {
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace sph::testing
+
+#endif  // SPH_TESTS_APPS_PROGRAM_RUN_HPP_

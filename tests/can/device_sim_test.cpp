@@ -1,0 +1,158 @@
+// The simulated devices behave like CANopen nodes: they boot pre-operational, answer SDO from
+// their object dictionary (with aborts), start, stop and reset on NMT, refuse PDO settings while
+// operational, and reboot on demand. Frames are checked byte by byte.
+#include "sph/can/device_sim.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "sph/can/sdo.hpp"
+#include "sph/core/error.hpp"
+
+namespace sph::can {
+namespace {
+
+using ::testing::Contains;
+using ::testing::Not;
+
+constexpr std::int64_t kMs = 1000000;
+constexpr std::int64_t kT0 = 1700000000LL * 1000000000LL;
+
+DeviceSimConfig Config() {
+  DeviceSimConfig c;
+  c.spec.pattern = GridPattern(4, 2);
+  c.sync_period_s = 0.01;
+  c.start_time_s = static_cast<double>(kT0) * 1e-9;
+  c.start_operational = false;
+  return c;
+}
+
+// Drives the devices: frames in at `t`, everything they send until `until` out, as text.
+struct Drive {
+  explicit Drive(const DeviceSimConfig& c) : sim(c) {}
+  std::vector<std::string> At(std::int64_t t, std::vector<CanFrame> in, std::int64_t until) {
+    std::vector<CanFrame> out;
+    for (CanFrame& f : in) {
+      f.t_ns = t;
+      sim.AdvanceTo(t, out);
+      sim.OnFrame(f, out);
+    }
+    sim.AdvanceTo(until, out);
+    std::vector<std::string> text;
+    for (const CanFrame& f : out) text.push_back(ToString(f));
+    return text;
+  }
+  DeviceSimulator sim;
+};
+
+CanFrame Sync() { return EncodeSync(); }
+
+TEST(DeviceSim, BootsPreOperationalAndSendsNoPdoUntilStarted) {
+  Drive d(Config());
+  // Power-on: silent for boot_s, then boot-up messages, pre-operational heartbeats.
+  auto f = d.At(kT0, {}, kT0 + 49 * kMs);
+  EXPECT_TRUE(f.empty());
+  f = d.At(kT0 + 49 * kMs, {}, kT0 + 1100 * kMs);
+  EXPECT_THAT(f, Contains("701#00"));
+  EXPECT_THAT(f, Contains("703#00"));
+  EXPECT_THAT(f, Contains("701#7F"));
+  EXPECT_EQ(d.sim.NodeState(1), 0x7F);
+  f = d.At(kT0 + 1100 * kMs, {Sync()}, kT0 + 1110 * kMs);
+  EXPECT_TRUE(f.empty()) << ::testing::PrintToString(f);  // no PDO before NMT Start
+  f = d.At(kT0 + 1110 * kMs, {EncodeNmt(NmtCommand::kStart, 1)}, kT0 + 1120 * kMs);
+  EXPECT_EQ(d.sim.NodeState(1), 0x05);
+  EXPECT_EQ(d.sim.NodeState(2), 0x7F);
+  f = d.At(kT0 + 1120 * kMs, {Sync()}, kT0 + 1130 * kMs);
+  ASSERT_EQ(f.size(), 1U);
+  EXPECT_EQ(f[0].substr(0, 4), "181#");
+  d.At(kT0 + 1130 * kMs, {EncodeNmt(NmtCommand::kStart, 0)}, kT0 + 1140 * kMs);  // all nodes
+  f = d.At(kT0 + 1140 * kMs, {Sync()}, kT0 + 1150 * kMs);
+  EXPECT_EQ(f.size(), 3U);
+  f = d.At(kT0 + 1150 * kMs, {EncodeNmt(NmtCommand::kStop, 2)}, kT0 + 2100 * kMs);
+  EXPECT_THAT(f, Contains("702#04"));  // stopped: heartbeat only
+  f = d.At(kT0 + 2100 * kMs, {Sync()}, kT0 + 2110 * kMs);
+  EXPECT_THAT(f, Not(Contains(::testing::StartsWith("182#"))));
+  f = d.At(kT0 + 2110 * kMs, {EncodeUploadRequest(2, {0x1018, 1})}, kT0 + 2120 * kMs);
+  EXPECT_TRUE(f.empty());  // no SDO when stopped
+  f = d.At(kT0 + 2120 * kMs, {EncodeNmt(NmtCommand::kResetCommunication, 2)}, kT0 + 2200 * kMs);
+  EXPECT_THAT(f, Contains("702#00"));  // boot-up again
+  EXPECT_EQ(d.sim.NodeState(2), 0x7F);
+}
+
+TEST(DeviceSim, AnswersSdoFromItsDictionaryWithAborts) {
+  Drive d(Config());
+  d.At(kT0, {}, kT0 + 100 * kMs);
+  auto f = d.At(kT0 + 100 * kMs, {EncodeUploadRequest(1, {0x1018, 1})}, kT0 + 101 * kMs);
+  EXPECT_THAT(f, Contains("581#4318100148505300"));
+  f = d.At(kT0 + 101 * kMs, {EncodeUploadRequest(1, {0x6001, 0})}, kT0 + 102 * kMs);
+  EXPECT_THAT(f, Contains("581#4301600000000001"));  // 2^24 counts per revolution
+  f = d.At(kT0 + 102 * kMs, {EncodeUploadRequest(3, {0x6001, 0})}, kT0 + 103 * kMs);
+  EXPECT_THAT(f, Contains("583#8001600000000206"));  // the probe has no 6001h
+  f = d.At(kT0 + 103 * kMs, {EncodeUploadRequest(1, {0x1018, 9})}, kT0 + 104 * kMs);
+  EXPECT_THAT(f, Contains("581#8018100911000906"));  // no such sub-index
+  f = d.At(kT0 + 104 * kMs, {EncodeDownloadRequest(1, {0x6001, 0}, {0, 0x20, 0, 0})}, kT0 + 105 * kMs);
+  EXPECT_THAT(f, Contains("581#8001600002000106"));  // read only
+  f = d.At(kT0 + 105 * kMs, {EncodeUploadRequest(1, {0x1A00, 1})}, kT0 + 106 * kMs);
+  EXPECT_THAT(f, Contains("581#43001A0120000460"));  // 0x6004:00, 32 bits
+}
+
+TEST(DeviceSim, RefusesPdoSettingsWhileOperationalAndFollowsTheMappingAfterwards) {
+  DeviceSimConfig c = Config();
+  c.devices.sync_counter_max = 10;
+  Drive d(c);
+  d.At(kT0, {}, kT0 + 100 * kMs);
+  d.At(kT0 + 100 * kMs, {EncodeNmt(NmtCommand::kStart, 1)}, kT0 + 101 * kMs);
+  auto f = d.At(kT0 + 101 * kMs, {EncodeDownloadRequest(1, {0x1800, 2}, {5})}, kT0 + 102 * kMs);
+  EXPECT_THAT(f, Contains("581#8000180222000008"));  // present device state
+  d.At(kT0 + 102 * kMs, {EncodeNmt(NmtCommand::kEnterPreOperational, 1)}, kT0 + 103 * kMs);
+  f = d.At(kT0 + 103 * kMs, {EncodeDownloadRequest(1, {0x1800, 1}, {0x91, 0x01, 0, 0})}, kT0 + 104 * kMs);
+  EXPECT_THAT(f, Contains("581#8000180130000906"));  // another COB-ID while the PDO is valid
+  f = d.At(kT0 + 104 * kMs, {EncodeDownloadRequest(1, {0x1A00, 2}, {0x08, 0x00, 0x10, 0x20})}, kT0 + 105 * kMs);
+  EXPECT_THAT(f, Contains("581#80001A0200000106"));  // the mapping is on: no entry may change
+  // Map the SYNC counter (2010h) behind the position: 0x20100008 as entry 2.
+  const std::vector<std::vector<std::uint8_t>> writes{{0}, {0x08, 0x00, 0x10, 0x20}, {2}};
+  const std::vector<std::uint8_t> subs{0, 2, 0};
+  for (std::size_t i = 0; i < writes.size(); ++i) {
+    f = d.At(kT0 + (105 + i) * kMs, {EncodeDownloadRequest(1, {0x1A00, subs[i]}, writes[i])}, kT0 + (106 + i) * kMs);
+    ASSERT_EQ(f.size(), 1U);
+    EXPECT_EQ(f[0].substr(0, 6), "581#60") << f[0];
+  }
+  f = d.At(kT0 + 110 * kMs, {EncodeDownloadRequest(1, {0x1A00, 3}, {0x20, 0x00, 0x00, 0x70})}, kT0 + 111 * kMs);
+  EXPECT_THAT(f, Contains("581#80001A0300000106"));  // count is non-zero
+  d.At(kT0 + 111 * kMs, {EncodeNmt(NmtCommand::kStart, 1)}, kT0 + 112 * kMs);
+  f = d.At(kT0 + 112 * kMs, {EncodeSync(std::uint8_t{7})}, kT0 + 113 * kMs);
+  ASSERT_EQ(f.size(), 1U);
+  EXPECT_EQ(f[0].size(), std::string("181#").size() + 10);  // 5 bytes: position, counter
+  EXPECT_EQ(f[0].substr(12), "07");
+}
+
+TEST(DeviceSim, ARebootFaultSilencesTheNodeUntilItsBootUpAndLeavesItPreOperational) {
+  DeviceSimConfig c = Config();
+  c.start_operational = true;
+  c.faults.reboots = {{3, 0.5}};
+  Drive d(c);
+  auto f = d.At(kT0 + 499 * kMs, {}, kT0 + 500 * kMs);
+  f = d.At(kT0 + 501 * kMs, {Sync()}, kT0 + 510 * kMs);
+  EXPECT_THAT(f, Not(Contains(::testing::StartsWith("183#"))));  // rebooting
+  EXPECT_EQ(d.sim.NodeState(3), 0x00);
+  f = d.At(kT0 + 510 * kMs, {}, kT0 + 560 * kMs);
+  EXPECT_THAT(f, Contains("703#00"));
+  f = d.At(kT0 + 560 * kMs, {Sync()}, kT0 + 570 * kMs);
+  EXPECT_THAT(f, Not(Contains(::testing::StartsWith("183#"))));  // pre-operational: no PDO
+  EXPECT_THAT(f, Contains(::testing::StartsWith("181#")));
+  EXPECT_EQ(d.sim.injected().reboots, 1U);
+  EXPECT_EQ(d.sim.injected().boot_ups, 1U);
+}
+
+TEST(DeviceSim, ConfigurationErrors) {
+  DeviceSimConfig c = Config();
+  c.devices.phi.node_id = 1;
+  c.devices.phi.field.can_id = 0x281;
+  EXPECT_THROW(DeviceSimulator{c}, Error);
+  DeviceSimConfig r = Config();
+  r.faults.reboots = {{9, 1.0}};
+  EXPECT_THROW(DeviceSimulator{r}, Error);
+}
+
+}  // namespace
+}  // namespace sph::can

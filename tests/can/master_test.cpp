@@ -1,0 +1,328 @@
+// The CANopen master: against hand-written frames (what a device answers, byte by byte), and
+// against the simulated devices on a bus in memory (boot, identification, checks, start,
+// configuration, a reboot mid-run).
+#include "sph/can/master.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "sim_bus.hpp"
+#include "sph/can/device_sim.hpp"
+#include "sph/can/sdo.hpp"
+#include "sph/core/error.hpp"
+
+namespace sph::can {
+namespace {
+
+using ::testing::Contains;
+using ::testing::HasSubstr;
+using ::testing::Pair;
+
+constexpr std::int64_t kMs = 1000000;
+constexpr std::int64_t kT0 = 1700000000LL * 1000000000LL;
+
+// A master on a bus of simulated devices.
+struct Rig {
+  explicit Rig(DeviceSimConfig sc, MasterConfig mc = {}) : sim(Prepare(sc)), bus(&sim, kT0) {
+    if (mc.nodes.empty()) mc.nodes = MasterNodesFor(sc.devices);
+    master = std::make_unique<CanopenMaster>(
+        mc, CanopenMaster::Callbacks{[this](const CanFrame& f) { bus.Send(f); },
+                                     [this](LogLevel, const std::string& l) { logs.push_back(l); },
+                                     [this](const std::string& n) { notes.push_back(n); }});
+    bus.set_host({[this](const CanFrame& f) { master->OnFrame(f); }, [this](std::int64_t t) { master->OnTime(t); },
+                  [this] { return master->NextDeadline(); }});
+  }
+  static DeviceSimConfig Prepare(DeviceSimConfig sc) {
+    sc.spec.pattern = GridPattern(4, 2);
+    sc.start_time_s = static_cast<double>(kT0) * 1e-9;
+    sc.sync_period_s = 0.01;
+    return sc;
+  }
+  // Frames on the bus as can-utils writes them ("601#4018100100000000").
+  std::vector<std::string> Frames() const {
+    std::vector<std::string> out;
+    for (const CanFrame& f : bus.log()) out.push_back(ToString(f));
+    return out;
+  }
+  std::size_t IndexOf(const std::string& frame) const {
+    const auto f = Frames();
+    return static_cast<std::size_t>(std::find(f.begin(), f.end(), frame) - f.begin());
+  }
+
+  DeviceSimulator sim;
+  testing::SimBus bus;
+  std::unique_ptr<CanopenMaster> master;
+  std::vector<std::string> logs, notes;
+};
+
+DeviceSimConfig Booting() {
+  DeviceSimConfig sc;
+  sc.start_operational = false;
+  return sc;
+}
+
+TEST(Master, IdentifiesChecksAndStartsPreOperationalNodes) {
+  Rig r(Booting());
+  r.bus.ProduceSync(kT0 + 10 * kMs, 10 * kMs);  // a SYNC producer from the start
+  r.master->Begin(kT0);
+  r.bus.RunUntil(kT0 + 3000 * kMs);
+  ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kRunning) << ::testing::PrintToString(r.master->errors());
+  for (int node = 1; node <= 3; ++node) EXPECT_EQ(r.sim.NodeState(node), 0x05) << node;
+  const auto frames = r.Frames();
+  // The first request: an upload of 0x1018:01 from node 1; each node started by its own command.
+  EXPECT_THAT(frames, Contains("601#4018100100000000"));
+  EXPECT_THAT(frames, Contains("581#4318100148505300"));  // vendor-id 0x00535048
+  EXPECT_THAT(frames, Contains("000#0101"));
+  EXPECT_THAT(frames, Contains("000#0102"));
+  EXPECT_THAT(frames, Contains("000#0103"));
+  // The devices stay silent (no PDO) until their start, though SYNCs come from the beginning.
+  const std::size_t start = std::min({r.IndexOf("000#0101"), r.IndexOf("000#0102"), r.IndexOf("000#0103")});
+  for (std::size_t i = 0; i < start; ++i) {
+    const std::uint32_t id = r.bus.log()[i].id;
+    EXPECT_TRUE(id != 0x181 && id != 0x182 && id != 0x183) << frames[i] << " before the start";
+  }
+  std::size_t pdos_after = 0;
+  for (std::size_t i = start; i < frames.size(); ++i) pdos_after += r.bus.log()[i].id == 0x181;
+  EXPECT_GT(pdos_after, 100U);
+  // Identity and resolution go into the header fields.
+  const auto fields = r.master->HeaderFields();
+  ASSERT_EQ(fields.size(), 3U);
+  EXPECT_EQ(fields[0].first, "device_theta_encoder");
+  EXPECT_EQ(fields[0].second,
+            "node 1; name \"sph_cansim theta encoder\"; vendor_id 0x00535048; product_code 0x00004060; revision "
+            "0x00010000; serial 0x00010001; measuring_units_per_revolution 16777216; total_measuring_range 16777216; "
+            "tpdo 1 cob_id 0x181");
+  EXPECT_THAT(fields[2].second, HasSubstr("name \"sph_cansim probe\""));
+  EXPECT_EQ(r.master->counts().restarts, 0U);
+}
+
+TEST(Master, AWrongCountsPerRevolutionRefusesTheStartAndStartsNoNode) {
+  DeviceSimConfig sc = Booting();
+  MasterConfig mc;
+  mc.nodes = MasterNodesFor(sc.devices);
+  mc.nodes[0].devices[0].counts_per_rev = 8192;
+  mc.nodes[0].devices[0].cpr_name = "--theta-counts-per-rev";
+  Rig r(sc, mc);
+  r.master->Begin(kT0);
+  r.bus.RunUntil(kT0 + 3000 * kMs);
+  ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kFailed);
+  ASSERT_EQ(r.master->errors().size(), 1U);
+  EXPECT_EQ(r.master->errors()[0],
+            "node 1 (theta): object 0x6001:00 (measuring units per revolution): the device has 16777216, "
+            "--theta-counts-per-rev 8192");
+  for (int node = 1; node <= 3; ++node) EXPECT_EQ(r.sim.NodeState(node), 0x7F) << node;  // pre-operational
+  for (const std::string& f : r.Frames()) EXPECT_NE(f.rfind("000#01", 0), 0U) << f;
+}
+
+TEST(Master, ATrustedConfigurationWarnsAndStarts) {
+  DeviceSimConfig sc = Booting();
+  MasterConfig mc;
+  mc.trust_config = true;
+  mc.nodes = MasterNodesFor(sc.devices);
+  mc.nodes[1].devices[0].counts_per_rev = 4096;
+  Rig r(sc, mc);
+  r.master->Begin(kT0);
+  r.bus.RunUntil(kT0 + 3000 * kMs);
+  EXPECT_EQ(r.master->phase(), CanopenMaster::Phase::kRunning);
+  EXPECT_THAT(r.logs, Contains(HasSubstr("node 2 (phi): object 0x6001:00 (measuring units per revolution): the device "
+                                         "has 16777216, the configured counts per revolution 4096 (trusted")));
+}
+
+TEST(Master, AnEventDrivenPdoIsRefusedOrConfigured) {
+  DeviceSimConfig sc = Booting();
+  sc.transmission_type = 254;
+  {
+    Rig r(sc);
+    r.master->Begin(kT0);
+    r.bus.RunUntil(kT0 + 3000 * kMs);
+    ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kFailed);
+    EXPECT_EQ(r.master->errors().size(), 3U);
+    EXPECT_THAT(r.master->errors()[0],
+                HasSubstr("node 1 (theta): object 0x1800:02 (TPDO1 transmission type): the device has 254 "
+                          "(event-driven, manufacturer-specific), the daemon needs 1 (synchronous, every SYNC)"));
+  }
+  MasterConfig mc;
+  mc.configure_pdo = true;
+  mc.nodes = MasterNodesFor(sc.devices);
+  Rig r(sc, mc);
+  r.master->Begin(kT0);
+  r.bus.RunUntil(kT0 + 3000 * kMs);
+  ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kRunning) << ::testing::PrintToString(r.master->errors());
+  // CiA 301's sequence for TPDO1 of node 1: invalid, transmission type, mapping off, entry, on, valid.
+  const std::vector<std::string> writes{"601#2300180181010080", "601#2F00180201000000", "601#2F001A0000000000",
+                                        "601#23001A0120000460", "601#2F001A0001000000", "601#2300180181010000"};
+  std::size_t last = 0;
+  for (const std::string& w : writes) {
+    const std::size_t i = r.IndexOf(w);
+    ASSERT_LT(i, r.Frames().size()) << w;
+    EXPECT_GT(i, last) << w;
+    last = i;
+    const std::string answer = "581#60" + w.substr(6, 6) + "00000000";  // the device confirms each write
+    EXPECT_THAT(r.Frames(), Contains(answer)) << w;
+  }
+  EXPECT_THAT(r.Frames(), Contains("000#8001"));  // pre-operational before writing
+}
+
+TEST(Master, PdoWritesWhileOperationalAreRefusedByTheDevice) {
+  DeviceSimConfig sc;  // operational from the start, as after another master
+  Rig r(sc);
+  r.bus.Send(EncodeDownloadRequest(1, {0x1800, 2}, {1}));
+  r.bus.RunUntil(kT0 + 10 * kMs);
+  EXPECT_THAT(r.Frames(), Contains("581#8000180222000008"));  // 0x08000022: the present device state
+  MasterConfig mc;
+  mc.configure_pdo = true;
+  mc.nodes = MasterNodesFor(sc.devices);
+  Rig q(sc, mc);  // the master brings them to pre-operational first
+  q.master->Begin(kT0);
+  q.bus.RunUntil(kT0 + 3000 * kMs);
+  EXPECT_EQ(q.master->phase(), CanopenMaster::Phase::kRunning) << ::testing::PrintToString(q.master->errors());
+}
+
+TEST(Master, ANodeThatDoesNotAnswerFailsTheStartInTime) {
+  DeviceSimConfig sc = Booting();
+  MasterConfig mc;
+  mc.nodes = MasterNodesFor(sc.devices);
+  mc.nodes[2].node_id = 9;  // nobody is node 9
+  mc.nodes[2].name = "probe";
+  Rig r(sc, mc);
+  r.master->Begin(kT0);
+  r.bus.RunUntil(kT0 + 499 * kMs);
+  EXPECT_EQ(r.master->phase(), CanopenMaster::Phase::kStarting);
+  r.bus.RunUntil(kT0 + 600 * kMs);
+  ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kFailed);
+  EXPECT_THAT(r.master->errors(),
+              Contains("node 9 (probe): reading 0x1018:01 (identity: vendor-id): no answer within 500 ms (sent abort "
+                       "0x05040000 (SDO protocol timed out))"));
+  EXPECT_THAT(r.Frames(), Contains("609#8018100100000405"));
+}
+
+TEST(Master, ResetCommunicationWaitsForTheBootUps) {
+  DeviceSimConfig sc;
+  MasterConfig mc;
+  mc.reset_communication = true;
+  mc.nmt_broadcast = true;
+  mc.nodes = MasterNodesFor(sc.devices);
+  Rig r(sc, mc);
+  r.master->Begin(kT0);
+  r.bus.RunUntil(kT0 + 3000 * kMs);
+  ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kRunning);
+  const auto f = r.Frames();
+  ASSERT_FALSE(f.empty());
+  EXPECT_EQ(f[0], "000#8200");
+  EXPECT_LT(r.IndexOf("701#00"), r.IndexOf("601#4018100100000000"));
+  EXPECT_EQ(std::count(f.begin(), f.end(), "000#0100"), 1);  // one broadcast start
+  mc.nodes[0].node_id = 7;
+  Rig q(sc, mc);
+  q.master->Begin(kT0);
+  q.bus.RunUntil(kT0 + 6000 * kMs);
+  ASSERT_EQ(q.master->phase(), CanopenMaster::Phase::kFailed);
+  EXPECT_THAT(q.master->errors(),
+              Contains("node 7 (theta): no boot-up message within 5.0 s after Reset communication"));
+}
+
+TEST(Master, ANodeThatRebootsMidRunIsRestarted) {
+  DeviceSimConfig sc = Booting();
+  sc.faults.reboots = {{2, 2.0}};
+  Rig r(sc);
+  r.bus.ProduceSync(kT0 + 10 * kMs, 10 * kMs);
+  r.master->Begin(kT0);
+  r.bus.RunUntil(kT0 + 1900 * kMs);
+  ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kRunning);
+  const std::size_t before = r.Frames().size();
+  r.bus.RunUntil(kT0 + 4000 * kMs);
+  EXPECT_EQ(r.sim.NodeState(2), 0x05);
+  EXPECT_EQ(r.master->counts().boot_ups, 1U);
+  EXPECT_EQ(r.master->counts().restarts, 1U);
+  const auto f = r.Frames();
+  const auto boot = std::find(f.begin() + static_cast<std::ptrdiff_t>(before), f.end(), "702#00");
+  ASSERT_NE(boot, f.end());
+  const auto ident = std::find(boot, f.end(), "602#4018100100000000");  // identified again
+  const auto start = std::find(ident, f.end(), "000#0102");
+  EXPECT_NE(start, f.end());
+  EXPECT_THAT(r.logs, Contains("node 2 (phi): boot-up message: the node rebooted; restarting it"));
+  EXPECT_THAT(r.logs, Contains("node 2 (phi): restarted, operational again"));
+}
+
+// One encoder node, its answers written out by hand: the start, a reboot, and a device with
+// another serial number where the rebooted one was.
+TEST(Master, ScriptedNodeAndADeviceThatCameBackAsAnother) {
+  PipelineConfig pc;
+  pc.phi.node_id = 0;
+  pc.probe.node_id = 0;
+  MasterConfig mc;
+  mc.nodes = MasterNodesFor(pc);
+  std::vector<std::string> sent, notes;
+  CanopenMaster m(mc, {[&](const CanFrame& f) { sent.push_back(ToString(f)); }, nullptr,
+                       [&](const std::string& n) { notes.push_back(n); }});
+  std::int64_t t = kT0;
+  auto answer = [&](std::initializer_list<std::uint8_t> bytes) {
+    t += kMs;
+    m.OnFrame(MakeFrame(0x581, bytes, t));
+  };
+  auto identify = [&](std::uint8_t serial) {
+    answer({0x43, 0x18, 0x10, 0x01, 0x48, 0x50, 0x53, 0x00});    // vendor-id
+    answer({0x43, 0x18, 0x10, 0x02, 0x60, 0x40, 0x00, 0x00});    // product code
+    answer({0x80, 0x18, 0x10, 0x03, 0x11, 0x00, 0x09, 0x06});    // no revision: sub-index absent
+    answer({0x43, 0x18, 0x10, 0x04, serial, 0x00, 0x01, 0x00});  // serial
+    answer({0x80, 0x08, 0x10, 0x00, 0x00, 0x00, 0x02, 0x06});    // no device name
+    answer({0x4B, 0x17, 0x10, 0x00, 0x00, 0x00, 0x00, 0x00});    // no heartbeat
+    answer({0x43, 0x01, 0x60, 0x00, 0x00, 0x00, 0x00, 0x01});    // 6001h: 2^24
+    answer({0x43, 0x02, 0x60, 0x00, 0x00, 0x00, 0x00, 0x01});    // 6002h: 2^24
+    answer({0x43, 0x00, 0x18, 0x01, 0x81, 0x01, 0x00, 0x00});    // COB-ID 0x181, valid
+    answer({0x4F, 0x00, 0x18, 0x02, 0x01, 0x00, 0x00, 0x00});    // transmission type 1
+    answer({0x4F, 0x00, 0x1A, 0x00, 0x01, 0x00, 0x00, 0x00});    // one mapping entry
+    answer({0x43, 0x00, 0x1A, 0x01, 0x20, 0x00, 0x04, 0x60});    // 0x6004:00, 32 bits
+  };
+  m.Begin(t);
+  identify(0x01);
+  EXPECT_EQ(m.phase(), CanopenMaster::Phase::kRunning);
+  const std::vector<std::string> expected{"601#4018100100000000",
+                                          "601#4018100200000000",
+                                          "601#4018100300000000",
+                                          "601#4018100400000000",
+                                          "601#4008100000000000",
+                                          "601#4017100000000000",
+                                          "601#4001600000000000",
+                                          "601#4002600000000000",
+                                          "601#4000180100000000",
+                                          "601#4000180200000000",
+                                          "601#40001A0000000000",
+                                          "601#40001A0100000000",
+                                          "000#0101"};
+  EXPECT_EQ(sent, expected);
+  EXPECT_EQ(m.HeaderFields()[0].second,
+            "node 1; vendor_id 0x00535048; product_code 0x00004060; serial 0x00010001; "
+            "measuring_units_per_revolution 16777216; total_measuring_range 16777216; tpdo 1 cob_id 0x181");
+  m.OnFrame(MakeFrame(0x701, {0x00}, t += kMs));  // boot-up: rebooted
+  EXPECT_EQ(m.counts().boot_ups, 1U);
+  identify(0x02);  // another serial
+  EXPECT_EQ(m.counts().restart_failures, 1U);
+  EXPECT_EQ(sent.back(), "601#40001A0100000000");  // not started again
+  ASSERT_EQ(notes.size(), 1U);
+  EXPECT_THAT(notes[0], HasSubstr("node 1 (theta) was not restarted after its reboot: it came back as another device"));
+  EXPECT_THAT(notes[0], HasSubstr("serial 0x00010002 (at the start: 0x00535048, 0x00004060, 0x00010001)"));
+}
+
+TEST(Master, ConfigurationErrors) {
+  MasterConfig mc;
+  mc.nmt = false;
+  mc.configure_pdo = true;
+  EXPECT_THROW(mc.Validate(), Error);
+  MasterConfig twice;
+  twice.nodes = MasterNodesFor(PipelineConfig{});
+  twice.nodes[1].node_id = 1;
+  EXPECT_THROW(twice.Validate(), Error);
+  // Two encoders on one node share it, each with its own TPDO.
+  PipelineConfig shared;
+  shared.phi.node_id = 1;
+  shared.phi.field.can_id = 0x281;
+  const auto nodes = MasterNodesFor(shared);
+  ASSERT_EQ(nodes.size(), 2U);
+  EXPECT_EQ(nodes[0].name, "theta+phi");
+  EXPECT_EQ(nodes[0].devices[1].tpdo, 2);
+}
+
+}  // namespace
+}  // namespace sph::can

@@ -1,0 +1,224 @@
+#include "sph/core/gum.hpp"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace sph::gum {
+namespace {
+
+// Rounds to `decimals` decimals, as a published table prints a value.
+double Rounded(double v, int decimals) {
+  const double f = std::pow(10.0, decimals);
+  return std::round(v * f) / f;
+}
+
+TEST(Quantiles, NormalAndStudentTMatchTheTables) {
+  // Closed forms for one and two degrees of freedom: tan(pi (p - 1/2)) and (2p - 1) / sqrt(2p(1 - p));
+  // the others are the quantile functions of R (qnorm, qt) to 13 significant digits.
+  EXPECT_NEAR(NormalQuantile(0.975), 1.959963984540, 1e-12);
+  EXPECT_NEAR(NormalQuantile(0.995), 2.575829303549, 1e-12);
+  EXPECT_NEAR(NormalQuantile(0.025), -1.959963984540, 1e-12);
+  EXPECT_NEAR(NormalQuantile(1e-10), -6.361340902405, 1e-11);
+  EXPECT_EQ(NormalQuantile(0.5), 0.0);
+  EXPECT_NEAR(StudentTQuantile(0.975, 1), std::tan(3.14159265358979323846 * 0.475), 1e-10);
+  EXPECT_NEAR(StudentTQuantile(0.975, 2), 0.95 / std::sqrt(2 * 0.975 * 0.025), 1e-12);
+  EXPECT_NEAR(StudentTQuantile(0.975, 10), 2.228138851986, 1e-11);
+  EXPECT_NEAR(StudentTQuantile(0.975, 30), 2.042272456301, 1e-11);
+  EXPECT_NEAR(StudentTQuantile(0.995, 5), 4.032142983557, 1e-11);
+  EXPECT_NEAR(StudentTQuantile(0.025, 10), -2.228138851986, 1e-11);
+  EXPECT_NEAR(StudentTQuantile(0.975, kInfiniteDof), 1.959963984540, 1e-12);
+  EXPECT_NEAR(StudentTCdf(2.228138851986, 10), 0.975, 1e-12);
+}
+
+TEST(Quantiles, CoverageFactorsOfGumTableG2) {
+  // JCGM 100:2008 Table G.2, p = 95.45 % (the k = 2 of the normal distribution), two decimals.
+  const double p = 0.9545;
+  const std::pair<double, double> table[] = {{1, 13.97}, {2, 4.53},  {3, 3.31},  {4, 2.87},
+                                             {5, 2.65},  {10, 2.28}, {20, 2.13}, {50, 2.05}};
+  for (const auto& [dof, k] : table) EXPECT_EQ(Rounded(CoverageFactor(p, dof), 2), k) << "dof " << dof;
+  EXPECT_EQ(Rounded(CoverageFactor(p, kInfiniteDof), 2), 2.00);
+  // p = 99 %: nu = 16 gives the 2.92 of the end-gauge example (H.1.6).
+  EXPECT_EQ(Rounded(CoverageFactor(0.99, 16), 2), 2.92);
+}
+
+// JCGM 100:2008 H.1, calibration of an end gauge of nominal length 50 mm: l = l_s + d -
+// l_s (delta_alpha theta + alpha_s delta_theta). The budget of Table H.1 from the inputs' stated
+// distributions; the sensitivities at the estimates.
+TEST(Budget, EndGaugeOfGumH1) {
+  const double l_s = 50000623.6;                 // nm
+  const double theta = -0.1, alpha_s = 11.5e-6;  // degC, 1/degC
+  // d from three components (H.1.3.2): the mean of 5 + repeated observations, random and
+  // systematic effects of the comparator.
+  const UncertaintyStatement d = Combine({
+      {"d, repeated observations", EvaluationType::kA, 5.8, 1.0, 24},
+      {"d, random effects of the comparator", EvaluationType::kB, 10.0 / StudentTQuantile(0.975, 5), 1.0, 5},
+      {"d, systematic effects of the comparator", EvaluationType::kB, 20.0 / 3.0, 1.0, 8},
+  });
+  EXPECT_EQ(Rounded(d.u, 1), 9.7);
+  EXPECT_NEAR(d.dof, 25.6, 0.1);
+  const UncertaintyStatement l = Combine(
+      {
+          {"l_s, certificate (U = 75 nm, k = 3)", EvaluationType::kB, 25.0, 1.0, 18},
+          {"d", EvaluationType::kA, d.u, 1.0, d.dof},
+          {"alpha_s", EvaluationType::kB, 2e-6 / std::sqrt(3.0), -l_s * 0.0, kInfiniteDof},  // c = -l_s delta_theta = 0
+          {"theta", EvaluationType::kB, std::sqrt(0.2 * 0.2 + 0.5 * 0.5 / 2.0), -l_s * 0.0, kInfiniteDof},
+          {"delta_alpha", EvaluationType::kB, 1e-6 / std::sqrt(3.0), -l_s * theta, 50},
+          {"delta_theta", EvaluationType::kB, 0.05 / std::sqrt(3.0), -l_s * alpha_s, 2},
+      },
+      CoverageSpec{0.0, 0.99});
+  EXPECT_EQ(Rounded(l.u, 0), 32.0);                    // u_c(l) = 32 nm
+  EXPECT_EQ(std::floor(l.dof), 16.0);                  // nu_eff = 16
+  EXPECT_EQ(Rounded(l.k, 2), 2.92);                    // t_99(16)
+  EXPECT_EQ(Rounded(l.k * Rounded(l.u, 0), 0), 93.0);  // U_99 = 2.92 x (32 nm) = 93 nm, as H.1.6 multiplies
+  EXPECT_DOUBLE_EQ(l.U, l.k * l.u);
+  EXPECT_EQ(l.inputs[static_cast<std::size_t>(l.Largest())].name, "l_s, certificate (U = 75 nm, k = 3)");
+  EXPECT_NEAR(l.coverage_probability, 0.99, 1e-12);
+}
+
+TEST(Budget, KTwoByDefaultAndWelchSatterthwaite) {
+  // u = sqrt(0.57^2 + 0.25^2), nu_eff = u^4 / (0.57^4 / 9) by hand: 12.796.
+  const UncertaintyStatement s = Combine({{"a", EvaluationType::kA, 0.57, 1.0, 9}, {"b", EvaluationType::kB, 0.25}});
+  EXPECT_NEAR(s.u, std::sqrt(0.57 * 0.57 + 0.25 * 0.25), 1e-15);
+  EXPECT_NEAR(s.dof, std::pow(s.u, 4) / (std::pow(0.57, 4) / 9.0), 1e-12);
+  EXPECT_NEAR(s.dof, 12.796, 1e-3);
+  EXPECT_EQ(s.k, 2.0);
+  EXPECT_EQ(s.U, 2.0 * s.u);
+  const UncertaintyStatement b = Combine({{"b", EvaluationType::kB, 0.25}});
+  EXPECT_EQ(b.dof, kInfiniteDof);
+  EXPECT_NEAR(b.coverage_probability, 0.9545, 1e-4);
+}
+
+TEST(Random, DrawsAreReproducibleAndHaveTheirMoments) {
+  Random a(7), b(7);
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(a.Normal(), b.Normal());
+  // The uniform variate is the engine's top 53 bits, shifted off 0 by half a unit.
+  Random c(11);
+  std::mt19937_64 engine(11);
+  EXPECT_EQ(c.Uniform(), (static_cast<double>(engine() >> 11) + 0.5) * 0x1.0p-53);
+  Random r(3);
+  const Distribution dists[] = {Distribution::Gaussian(1.0, 2.0), Distribution::Rectangular(-1.0, 3.0),
+                                Distribution::Arcsine(0.0, 1.0), Distribution::StudentT(0.5, 1.0, 5)};
+  for (const Distribution& d : dists) {
+    double s = 0.0, s2 = 0.0;
+    const int n = 400000;
+    for (int i = 0; i < n; ++i) {
+      const double x = d.Draw(r);
+      s += x;
+      s2 += x * x;
+    }
+    const double mean = s / n, sd = std::sqrt(s2 / n - mean * mean);
+    EXPECT_NEAR(mean, d.Mean(), 5.0 * d.StandardDeviation() / std::sqrt(n));
+    EXPECT_NEAR(sd, d.StandardDeviation(), 0.01 * d.StandardDeviation());
+  }
+}
+
+TEST(MonteCarlo, NumericalToleranceOfClause792) {
+  EXPECT_DOUBLE_EQ(NumericalTolerance(0.0754, 2), 0.0005);  // 75 x 10^-3
+  EXPECT_DOUBLE_EQ(NumericalTolerance(2.0, 2), 0.05);
+  EXPECT_DOUBLE_EQ(NumericalTolerance(10.1, 3), 0.05);
+  EXPECT_DOUBLE_EQ(NumericalTolerance(10.1, 2), 0.5);
+}
+
+double Sum(const std::vector<double>& x) { return x[0] + x[1] + x[2] + x[3]; }
+
+// A Monte Carlo result is known to its numerical tolerance delta (JCGM 101 7.9.2), and so is the
+// published one: each test runs the adaptive procedure with as many significant digits as make
+// delta half a unit of the table's last digit, and expects |ours - table| <= 2 delta. The output of
+// the additive models is symmetric, so that their shortest and probabilistically symmetric intervals
+// coincide; the latter is compared, as the former's position is poorly determined where the density
+// is flat.
+::testing::AssertionResult Agrees(const char* expr, const char*, const char*, double ours, double table, double delta) {
+  if (std::abs(ours - table) <= 2.0 * delta) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << expr << " = " << ours << ", the table gives " << table
+                                       << ", beyond 2 delta = " << 2.0 * delta;
+}
+
+// JCGM 101:2008 9.2.2, Table 2: the additive model with four standard normal inputs: y = 0.00,
+// u(y) = 2.00, 95 % interval [-3.92, 3.92], which the GUM uncertainty framework gives as well.
+TEST(MonteCarlo, AdditiveModelWithNormalInputsOfClause922) {
+  const std::vector<Distribution> in(4, Distribution::Gaussian(0.0, 1.0));
+  MonteCarloOptions o;
+  o.significant_digits = 3;  // delta = 0.005
+  const MonteCarloResult r = PropagateDistributions(Sum, in, o);
+  ASSERT_TRUE(r.converged);
+  EXPECT_EQ(r.tolerance, 0.005);
+  EXPECT_PRED_FORMAT3(Agrees, r.y, 0.00, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.u, 2.00, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.low, -3.92, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.high, 3.92, r.tolerance);
+  EXPECT_TRUE(GufValidated(0.0, 1.96 * 2.0, r));
+}
+
+// JCGM 101:2008 9.2.3, Table 3: the same model with rectangular inputs of the same standard
+// deviation: u(y) = 2.00, but the 95 % interval [-3.88, 3.88] is narrower than the GUM framework's
+// [-3.92, 3.92], which is therefore not validated at this tolerance.
+TEST(MonteCarlo, AdditiveModelWithRectangularInputsOfClause923) {
+  const double a = std::sqrt(3.0);
+  const std::vector<Distribution> in(4, Distribution::Rectangular(-a, a));
+  MonteCarloOptions o;
+  o.significant_digits = 3;
+  const MonteCarloResult r = PropagateDistributions(Sum, in, o);
+  ASSERT_TRUE(r.converged);
+  EXPECT_PRED_FORMAT3(Agrees, r.u, 2.00, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.low, -3.88, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.high, 3.88, r.tolerance);
+  EXPECT_FALSE(GufValidated(0.0, 1.96 * 2.0, r));
+}
+
+// JCGM 101:2008 9.2.4, Table 4: three rectangular inputs of standard deviation 1 and one of 10:
+// u(y) = 10.1, the 95 % interval [-17.0, 17.0] against the GUM framework's [-19.9, 19.9].
+TEST(MonteCarlo, AdditiveModelWithADominantRectangularInputOfClause924) {
+  const double a = std::sqrt(3.0);
+  const std::vector<Distribution> in = {Distribution::Rectangular(-a, a), Distribution::Rectangular(-a, a),
+                                        Distribution::Rectangular(-a, a), Distribution::Rectangular(-10 * a, 10 * a)};
+  MonteCarloOptions o;
+  o.significant_digits = 3;  // delta = 0.05
+  const MonteCarloResult r = PropagateDistributions(Sum, in, o);
+  ASSERT_TRUE(r.converged);
+  EXPECT_EQ(r.tolerance, 0.05);
+  EXPECT_PRED_FORMAT3(Agrees, r.u, 10.1, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.low, -17.0, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.high, 17.0, r.tolerance);
+  const UncertaintyStatement guf = Combine({{"x1", EvaluationType::kB, 1.0},
+                                            {"x2", EvaluationType::kB, 1.0},
+                                            {"x3", EvaluationType::kB, 1.0},
+                                            {"x4", EvaluationType::kB, 10.0}},
+                                           CoverageSpec{0.0, 0.95});
+  EXPECT_EQ(Rounded(guf.U, 1), 19.9);
+  EXPECT_FALSE(GufValidated(0.0, guf.U, r));
+}
+
+// JCGM 101:2008 9.3, mass calibration: the deviation of a weight's conventional mass from 100 g,
+//   dm = (m_Rc + dm_Rc)(1 + (rho_a - rho_a0)(1/rho_W - 1/rho_R)) - m_nom  [mg],
+// rho_a0 = 1.2 kg/m^3, with m_Rc ~ N(100 000.000, 0.050) mg, dm_Rc ~ N(1.234, 0.020) mg,
+// rho_a ~ R(1.10, 1.30) kg/m^3, rho_W ~ R(7 000, 9 000) kg/m^3, rho_R ~ R(7 950, 8 050) kg/m^3.
+// The GUM framework at first order gives 1.2340 mg, u = 0.0539 mg, [1.1285, 1.3395] mg (the
+// buoyancy terms have no sensitivity at the estimates); Monte Carlo 1.2341 mg, u = 0.0754 mg,
+// shortest 95 % interval [1.0834, 1.3825] mg. Two significant digits of u: delta = 0.0005 mg.
+TEST(MonteCarlo, MassCalibrationOfClause93) {
+  const auto model = [](const std::vector<double>& x) {
+    const double m_rc = x[0], dm_rc = x[1], rho_a = x[2], rho_w = x[3], rho_r = x[4];
+    return (m_rc + dm_rc) * (1.0 + (rho_a - 1.2) * (1.0 / rho_w - 1.0 / rho_r)) - 100000.0;
+  };
+  const std::vector<Distribution> in = {Distribution::Gaussian(100000.000, 0.050), Distribution::Gaussian(1.234, 0.020),
+                                        Distribution::Rectangular(1.10, 1.30), Distribution::Rectangular(7000, 9000),
+                                        Distribution::Rectangular(7950, 8050)};
+  const MonteCarloResult r = PropagateDistributions(model, in, {});
+  ASSERT_TRUE(r.converged);
+  EXPECT_EQ(r.tolerance, 0.0005);
+  EXPECT_PRED_FORMAT3(Agrees, r.y, 1.2341, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.u, 0.0754, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.shortest_low, 1.0834, r.tolerance);
+  EXPECT_PRED_FORMAT3(Agrees, r.shortest_high, 1.3825, r.tolerance);
+  const UncertaintyStatement guf =
+      Combine({{"m_Rc", EvaluationType::kB, 0.050}, {"dm_Rc", EvaluationType::kB, 0.020}}, CoverageSpec{0.0, 0.95});
+  EXPECT_EQ(Rounded(guf.u, 4), 0.0539);
+  EXPECT_EQ(Rounded(1.234 - guf.U, 4), 1.1285);
+  EXPECT_EQ(Rounded(1.234 + guf.U, 4), 1.3395);
+  EXPECT_FALSE(GufValidated(1.234, guf.U, r));
+}
+
+}  // namespace
+}  // namespace sph::gum
