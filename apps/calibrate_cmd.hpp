@@ -10,6 +10,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "progress.hpp"
+
 namespace sph::apps {
 
 struct CalibrateOptions {
@@ -28,6 +30,7 @@ struct CalibrateOptions {
   int harmonics = 4;                       ///< highest harmonic order of the harmonic effects
   int drift_order = 2;                     ///< highest power of time of probe_drift
   std::uint64_t seed = 1;                  ///< of the cross-validation folds
+  ProgressMode progress = ProgressMode::kAuto;  ///< progress on stderr
 };
 
 void SetupCalibrateApp(CLI::App& app, CalibrateOptions& options);

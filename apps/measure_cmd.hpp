@@ -13,6 +13,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "progress.hpp"
+
 namespace sph::apps {
 
 struct MeasureOptions {
@@ -29,6 +31,7 @@ struct MeasureOptions {
   std::uint64_t seed = 1;           ///< of the calibration draws
   double max_dilution = 10.0;       ///< coverage limit, see SphereEvaluationOptions
   bool quiet = false;               ///< no text report on stdout (warnings still go to stderr)
+  ProgressMode progress = ProgressMode::kAuto;  ///< progress on stderr
 };
 
 void SetupMeasureApp(CLI::App& app, MeasureOptions& options);
