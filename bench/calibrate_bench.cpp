@@ -26,10 +26,8 @@ sph::CalibrationOptions Options(bool analyse) {
   return o;
 }
 
-// Solve only: problem building and Levenberg-Marquardt.
-void BM_CalibrateSolve(benchmark::State& state) {
-  const sph::PointsData data = Data(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  const sph::CalibrationOptions o = Options(false);
+// Calibrations of `data`, one per benchmark iteration, with their points and LM iterations.
+void RunCalibrations(benchmark::State& state, const sph::PointsData& data, const sph::CalibrationOptions& o) {
   int iterations = 0;
   for (auto _ : state) {
     const sph::CalibrationResult r = sph::Calibrate(data, o);
@@ -38,6 +36,11 @@ void BM_CalibrateSolve(benchmark::State& state) {
   }
   state.counters["points"] = static_cast<double>(data.samples.size());
   state.counters["lm_iterations"] = iterations;
+}
+
+// Solve only: problem building and Levenberg-Marquardt.
+void BM_CalibrateSolve(benchmark::State& state) {
+  RunCalibrations(state, Data(static_cast<int>(state.range(0)), static_cast<int>(state.range(1))), Options(false));
 }
 BENCHMARK(BM_CalibrateSolve)->Args({24, 12})->Args({48, 24})->Args({96, 48})->Unit(benchmark::kMillisecond);
 
@@ -59,14 +62,7 @@ void BM_CalibrateFile(benchmark::State& state, const std::string& path) {
   sph::CalibrationOptions o = Options(false);
   o.sphere_radius_mm = data.header.sphere_radius_mm.value_or(o.sphere_radius_mm);
   o.probe_offset_mm = data.header.probe_offset_mm.value_or(o.probe_offset_mm);
-  int iterations = 0;
-  for (auto _ : state) {
-    const sph::CalibrationResult r = sph::Calibrate(data, o);
-    iterations = r.iterations;
-    benchmark::DoNotOptimize(r.geometry);
-  }
-  state.counters["points"] = static_cast<double>(data.samples.size());
-  state.counters["lm_iterations"] = iterations;
+  RunCalibrations(state, data, o);
 }
 
 }  // namespace

@@ -22,8 +22,8 @@ py=/usr/bin/python3
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT INT TERM
 
-median() {  # the median of the "<name>_median" aggregate of a benchmark's console output, in ms
-  awk -v n="$1_median" '$1 == n { print $2 }'
+median() {  # the median of the "<name>_median" aggregate of a benchmark's console output: wall, CPU [ms]
+  awk -v n="$1_median" '$1 == n { print $2, $4 }'
 }
 
 echo "machine: $(nproc) cores, $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n 1)"
@@ -40,10 +40,11 @@ for grid in "24 12" "96 48"; do
   reps=50
   [ "$n" -gt 1000 ] && reps=10
   "$py" "$here/peer_scipy.py" "$points" --repetitions "$reps" >"$work/peer.txt"
-  theirs=$(awk '$1 == "scipy_median_ms" { print $2 }' "$work/peer.txt")
-  nfev=$(awk '$1 == "scipy_nfev" { print $2 }' "$work/peer.txt")
-  echo "calibration of $n points (solve, same file): sph $ours ms, scipy $theirs ms ($nfev model evaluations), ratio" \
-    "$(awk -v a="$theirs" -v b="$ours" 'BEGIN { printf "%.0f", a / b }')x"
+  field() { awk -v k="$1" '$1 == k { printf "%.3g", $2 }' "$work/peer.txt"; }
+  echo "calibration of $n points (solve, same file), medians: sph ${ours% *} ms wall, ${ours#* } ms CPU;" \
+    "scipy $(field scipy_median_ms) ms wall, $(field scipy_cpu_median_ms) ms CPU ($(field scipy_nfev) model" \
+    "evaluations); ratio $(awk -v a="$(field scipy_median_ms)" -v b="${ours% *}" 'BEGIN { printf "%.0f", a / b }')x wall," \
+    "$(awk -v a="$(field scipy_cpu_median_ms)" -v b="${ours#* }" 'BEGIN { printf "%.0f", a / b }')x CPU"
 done
 echo "numpy $(awk '$1 == "numpy_version" { print $2 }' "$work/peer.txt"), BLAS/LAPACK loaded:" \
   "$(awk '$1 == "numpy_blas" { print $2 }' "$work/peer.txt")"
@@ -51,22 +52,22 @@ echo
 
 # The paper's study: 4 x 1000 calibrations of 288 points, on 2 threads; scipy's figure is 4000
 # times its median above (the same calibration, other noise), not a run of 4000 fits.
-study=$("$build/bench/montecarlo_bench" --benchmark_filter='^BM_DefaultStudy/2$' 2>/dev/null |
+study=$("$build/bench/montecarlo_bench" --benchmark_filter='^BM_DefaultStudy/2/' 2>/dev/null |
   awk '$1 ~ /^BM_DefaultStudy\/2/ { print $2, $0 }')
 study_ms=$(echo "$study" | cut -d' ' -f1)
-study_rss=$(echo "$study" | sed -n 's/.*peak_rss_MB=\([0-9.]*\).*/\1/p')
-scipy288=$("$py" "$here/peer_scipy.py" "$work/points_24x12.txt" --repetitions 50 | awk '$1 == "scipy_median_ms" { print $2 }')
-echo "Monte Carlo study 4 x 1000 x 288 points, 2 threads: sph $study_ms ms (peak RSS $study_rss MB);" \
-  "scipy 4000 x $scipy288 ms = $(awk -v a="$scipy288" 'BEGIN { printf "%.1f", 4 * a }') s, ratio" \
-  "$(awk -v a="$scipy288" -v b="$study_ms" 'BEGIN { printf "%.0f", 4000 * a / b }')x"
-
+study_rss=$(echo "$study" | sed -n 's/.*peak_rss_MB=\([0-9.]*[kM]*\).*/\1/p')
+scipy288=$("$py" "$here/peer_scipy.py" "$work/points_24x12.txt" --repetitions 50 |
+  awk '$1 == "scipy_median_ms" { printf "%.3g", $2 }')
+echo "Monte Carlo study 4 x 1000 x 288 points, 2 threads: sph $study_ms ms wall (peak RSS $study_rss MB);" \
+  "scipy 4000 x $scipy288 ms = $(awk -v a="$scipy288" 'BEGIN { printf "%.1f", 4 * a }') s on one thread," \
+  "ratio $(awk -v a="$scipy288" -v b="$study_ms" 'BEGIN { printf "%.0f", 4000 * a / b }')x"
 trace=$("$build/bench/trace_bench" --benchmark_filter='^BM_Trace4608' --benchmark_repetitions=3 \
   --benchmark_report_aggregates_only=true 2>/dev/null | awk '$1 ~ /^BM_Trace4608.*_median$/')
 echo "trace of 4608 points (paper's study, 96 x 48), 2 threads: median $(echo "$trace" | awk '{ print $2 }') ms," \
-  "peak RSS $(echo "$trace" | sed -n 's/.*peak_rss_MB=\([0-9.]*\).*/\1/p') MB"
+  "peak RSS $(echo "$trace" | sed -n 's/.*peak_rss_MB=\([0-9.]*[kM]*\).*/\1/p') MB"
 undeclared=$("$build/bench/trace_bench" --benchmark_filter='^BM_Trace/undeclared:1/threads:2$' --benchmark_repetitions=5 \
   --benchmark_report_aggregates_only=true 2>/dev/null | median BM_Trace/undeclared:1/threads:2)
-echo "trace of data/example/undeclared (576 points), 2 threads: median $undeclared ms"
+echo "trace of data/example/undeclared (576 points), 2 threads: median ${undeclared% *} ms wall, ${undeclared#* } ms CPU"
 
 [ "$quick" -eq 1 ] && exit 0
 echo
