@@ -103,9 +103,10 @@ TEST_F(CalibrateCmd, ProgressOnRequestNamesEachStageAndEveryRoundOfTheTrace) {
   o.progress = ProgressMode::kAlways;
   const RunOutput r = Calibrate(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
-  for (const std::string s : {"sph_calibrate: reading " + o.points_path + "\n", "sph_calibrate: checking 288 samples\n",
-                              "sph_calibrate: calibrating the seven errors\n",
-                              "sph_calibrate: tracing the residual, round 1: candidates 100% ("}) {
+  for (const std::string& s : std::vector<std::string>{"sph_calibrate: reading " + o.points_path + "\n",
+                                                        "sph_calibrate: checking 288 samples\n",
+                                                        "sph_calibrate: calibrating the seven errors\n",
+                                                        "sph_calibrate: tracing the residual, round 1: candidates 100% ("}) {
     EXPECT_THAT(r.err, HasSubstr(s));
   }
 }
