@@ -43,6 +43,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
   app.add_flag("-q,--quiet", o.quiet, "No text report on stdout (warnings still go to stderr)");
+  AddProgressOptions(app, o.progress);
   std::string ids;
   for (const EffectInfo& e : kEffectInfo) ids += (ids.empty() ? "" : ", ") + std::string(e.id);
   auto* no_extend = app.add_flag("--no-extend", o.no_extend,
@@ -137,6 +138,8 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     if (!o.plot_dir.empty()) {
       for (const std::string& f : kTracePlotFiles) paths.Output("--plot-dir", o.plot_dir + "/" + f);
     }
+    Progress progress(prog, err, o.progress);
+    progress.Stage("reading " + o.points_path);
     const PointsData points = ReadPointsFile(o.points_path);
     CalibrationOptions copts;
     const auto radius = o.sphere_radius_mm ? o.sphere_radius_mm : points.header.sphere_radius_mm;
@@ -158,7 +161,11 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     copts.max_std_um = o.max_std_um;
     copts.max_iterations = o.max_iterations;
     // Readings that parse but look wrong: said first, on stderr, whatever the report's form.
-    for (const std::string& w : PlausibilityWarnings(points)) err << prog << ": warning: " << w << "\n";
+    progress.Stage("checking " + std::to_string(points.samples.size()) + " samples");
+    const std::vector<std::string> warnings = PlausibilityWarnings(points);
+    progress.Finish();
+    for (const std::string& w : warnings) err << prog << ": warning: " << w << "\n";
+    progress.Stage("calibrating the seven errors");
     const CalibrationResult base = Calibrate(points, copts);
     std::optional<TraceResult> trace;
     std::optional<Validation> validation;
@@ -167,6 +174,9 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       topts.harmonics = o.harmonics;
       topts.drift_order = o.drift_order;
       topts.seed = o.seed;
+      topts.progress = [&](int round, int done, int total) {
+        progress.Update("tracing the residual, round " + std::to_string(round) + ": candidates", done, total);
+      };
       if (o.effects.empty()) {
         trace = TraceResidual(points, copts, base, topts);
       } else {
@@ -180,6 +190,7 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       }
       if (!o.validate_path.empty()) validation = Validate(o.validate_path, *offset, *trace);
     }
+    progress.Finish();  // the report follows on stdout, maybe the same terminal
     // The calibration reported: the seven errors of the final model.
     const bool extended = trace && !trace->after.fit.model.Empty();
     const CalibrationResult& result = extended ? trace->after.fit.calibration : base;

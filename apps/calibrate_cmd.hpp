@@ -10,6 +10,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "progress.hpp"
 #include "sph/core/points_file.hpp"
 
 namespace sph::apps {
@@ -32,6 +33,7 @@ struct CalibrateOptions {
   std::uint64_t seed = 1;            ///< of the cross-validation folds
   SphereConditions conditions;       ///< uncertainty inputs; override the file's header
   std::optional<double> coverage;    ///< coverage probability of U (default: k = 2)
+  ProgressMode progress = ProgressMode::kAuto;  ///< progress on stderr
 };
 
 void SetupCalibrateApp(CLI::App& app, CalibrateOptions& options);

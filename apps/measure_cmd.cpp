@@ -417,6 +417,7 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
       ->capture_default_str()
       ->check(InRange({0.0, 1e6, "", true}));
   app.add_flag("-q,--quiet", o.quiet, "No text report on stdout (warnings still go to stderr)");
+  AddProgressOptions(app, o.progress);
 }
 
 int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
@@ -431,10 +432,14 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
         .Output("--output", o.output_path)
         .Output("--plot", o.plot_path)
         .Output("--plot-script", o.plot_script_path);
+    Progress progress(kProgram, err, o.progress);
+    progress.Stage("reading " + o.points_path);
     const Input in = ReadInput(o);
+    progress.Finish();
     for (const std::string& w : in.warnings) err << kProgram << ": warning: " << w << "\n";
     SphereEvaluationOptions eopts;
     eopts.max_dilution = o.max_dilution;
+    progress.Stage("fitting the spheres of " + std::to_string(in.points_mm.size()) + " points");
     const SphereEvaluation ev = EvaluateSphere(in.points_mm, o.points_path, eopts);
 
     std::optional<CalibrationUncertainty> u;
@@ -449,8 +454,10 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
       UncertaintyOptions uopts;
       uopts.samples = o.uncertainty_samples;
       uopts.seed = o.seed;
+      uopts.progress = [&](int done, int total) { progress.Update("uncertainty: calibration draws", done, total); };
       u = PropagateCalibrationUncertainty(in.readings, *in.calibration, ev, uopts);
     }
+    progress.Finish();  // the report follows on stdout, maybe the same terminal
 
     const NoiseFloorResult floor = NoiseFloorOf(o, in, ev);
 
@@ -471,6 +478,7 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
     if (!text) {
       for (const auto& w : ev.warnings) err << kProgram << ": warning: " << w << "\n";
     }
+    progress.Finish();
     files.Commit();
     return kExitOk;
   } catch (const std::exception& e) {

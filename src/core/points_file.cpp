@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -276,15 +277,24 @@ std::vector<std::string> PlausibilityWarnings(const PointsData& data) {
       out.emplace_back(data.source + ": " + buf);
     }
   }
-  // Exact repeats of an earlier row.
-  std::map<std::tuple<double, double, double, double, int>, std::size_t> seen;
-  std::size_t repeats = 0, first = 0;
-  for (std::size_t i = 0; i < data.samples.size(); ++i) {
+  // Exact repeats of an earlier row: the rows sorted by their values (and then by row), each row
+  // after the first of its values a repeat. (A sort of indices: 4 bytes a row, whatever the file.)
+  // Without a t_s column the time is the row index, which no repeat shares.
+  auto key = [&](std::size_t i) {
     const Sample& s = data.samples[i];
-    // Without a t_s column the time is the row index, which no repeat shares.
-    const double t = data.has_time ? s.t_s : 0.0;
-    const auto [it, inserted] = seen.emplace(std::make_tuple(s.theta_deg, s.phi_deg, s.r_mm, t, s.setup), i);
-    if (!inserted && repeats++ == 0) first = i;
+    return std::make_tuple(s.theta_deg, s.phi_deg, s.r_mm, data.has_time ? s.t_s : 0.0, s.setup);
+  };
+  std::vector<std::uint32_t> order(data.samples.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    const auto ka = key(a), kb = key(b);
+    return ka < kb || (ka == kb && a < b);
+  });
+  std::size_t repeats = 0, first = data.samples.size();
+  for (std::size_t j = 1; j < order.size(); ++j) {
+    if (key(order[j]) != key(order[j - 1])) continue;
+    ++repeats;
+    first = std::min<std::size_t>(first, order[j]);
   }
   // Readings no point of the sphere can give: farther from the median reading than its diameter.
   if (data.header.sphere_radius_mm && !data.samples.empty()) {

@@ -96,6 +96,24 @@ TEST_F(CalibrateCmd, ExampleDataGivesAUsableCalibration) {
   EXPECT_TRUE(cal.good());
 }
 
+TEST_F(CalibrateCmd, ProgressOnRequestNamesEachStageAndEveryRoundOfTheTrace) {
+  CalibrateOptions o;
+  o.points_path = SPH_SOURCE_DIR "/data/example/points.txt";
+  o.quiet = true;
+  const RunOutput quiet = Calibrate(o);  // stderr is no terminal here: nothing by default
+  ASSERT_EQ(quiet.code, kExitOk) << quiet.err;
+  EXPECT_THAT(quiet.err, Not(HasSubstr("sph_calibrate: reading")));
+  o.progress = ProgressMode::kAlways;
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  for (const std::string& s : std::vector<std::string>{"sph_calibrate: reading " + o.points_path + "\n",
+                                                        "sph_calibrate: checking 288 samples\n",
+                                                        "sph_calibrate: calibrating the seven errors\n",
+                                                        "sph_calibrate: tracing the residual, round 1: candidates 100% ("}) {
+    EXPECT_THAT(r.err, HasSubstr(s));
+  }
+}
+
 TEST_F(CalibrateCmd, CentredSphereExitsOneAndWritesNoCalibration) {
   SimulationSpec spec;
   spec.centers_mm = {Eigen::Vector3d(0.01, 0, 0)};

@@ -20,6 +20,7 @@
 #define SPH_CALIB_TRACE_HPP_
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,9 @@ struct TraceOptions {
   /// An added effect whose signal is at least this much a pattern fixed on the sphere is reported
   /// as ambiguous with the sphere's own form error.
   double max_sphere_fraction = 0.5;
+  /// Called with (round, candidates scored, candidates of the round) as each candidate is scored
+  /// (from the scoring threads, one at a time).
+  std::function<void(int round, int done, int total)> progress;
 };
 
 /// One candidate tried in one round: an effect of the library, or (sphere_form) the pattern fixed
@@ -87,6 +91,7 @@ struct Unexplained {
 struct TracedFit {
   EffectFit fit;
   std::vector<Eigen::Vector3d> directions;  ///< from the fitted centre to each probed point (unit)
+  StructureFactor factor;                   ///< what the residual analyses of this fit are computed from
   ResidualStructure structure;
   double cv_rms_um = 0.0;
 };
