@@ -72,7 +72,8 @@ Input ReadInput(const MeasureOptions& o) {
   }
   const PointsData data = ReadPointsFile(o.points_path);
   in.warnings = PlausibilityWarnings(data);
-  const Calibration cal = LoadCalibration(o.calibration_path);
+  const CalibrationFile file = ReadCalibrationFile(o.calibration_path);
+  const Calibration cal = ToCalibration(file);
   const auto d = data.header.probe_offset_mm;
   if (d && std::abs(*d - cal.probe_offset_mm) > 1e-9 * cal.probe_offset_mm) {
     throw Error(o.points_path + ": probe_offset_mm " + Format("%.9g", *d) + " differs from the calibration's " +
@@ -98,7 +99,7 @@ Input ReadInput(const MeasureOptions& o) {
   }
   in.points_mm = CompensateAll(cal, in.readings);
   in.calibration = cal;
-  for (const auto& [key, value] : ReadCalibrationFile(o.calibration_path).source) {
+  for (const auto& [key, value] : file.source) {
     char* end = nullptr;
     const double v = std::strtod(value.c_str(), &end);
     if (key == "fit_rms_um" && end != value.c_str() && *end == '\0' && v > 0.0 && std::isfinite(v)) {
