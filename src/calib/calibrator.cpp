@@ -1,18 +1,17 @@
-// The only translation unit of the library that instantiates Ceres templates.
+// The seven-error calibration: start values, Levenberg-Marquardt, outliers, analysis.
 #include "sph/calib/calibrator.hpp"
 
-#include <ceres/ceres.h>
-
 #include <algorithm>
-#include <cstddef>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <map>
 #include <memory>
 #include <set>
 
+#include "calibrate_rows.hpp"
+#include "fit_problem.hpp"
 #include "problem_eval.hpp"
-#include "sph/ceres/sphere_residual_batch.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/sphere_fit.hpp"
@@ -31,7 +30,8 @@ std::size_t CountDistinct(const std::vector<double>& values) {
 }
 
 // Explains in words why the undetermined parameters are undetermined.
-void ExplainUndetermined(const PointsData& points, const CalibrationOptions& options, CalibrationResult& result) {
+void ExplainUndetermined(const PointsData& points, const std::vector<bool>* left_out, const CalibrationOptions& options,
+                         CalibrationResult& result) {
   const ObservabilityReport& rep = result.analysis;
   std::string names;
   for (std::size_t i = 0; i < rep.parameters.size(); ++i) {
@@ -70,8 +70,9 @@ void ExplainUndetermined(const PointsData& points, const CalibrationOptions& opt
   }
   for (int id : result.setup_ids) {
     std::vector<double> thetas, phis;
-    for (const Sample& s : points.samples) {
-      if (s.setup != id) continue;
+    for (std::size_t i = 0; i < points.samples.size(); ++i) {
+      const Sample& s = points.samples[i];
+      if (s.setup != id || (left_out != nullptr && (*left_out)[i])) continue;
       thetas.push_back(s.theta_deg);
       phis.push_back(s.phi_deg);
     }
@@ -94,128 +95,116 @@ void ExplainUndetermined(const PointsData& points, const CalibrationOptions& opt
 
 Eigen::MatrixXd ResidualJacobian(const PointsData& points, const CalibrationOptions& options,
                                  const ScmsGeometry& geometry, const std::vector<Eigen::Vector3d>& centers_mm) {
-  const std::vector<int> ids = points.SetupIds();
-  if (centers_mm.size() != ids.size()) throw Error(points.source + ": one centre per setup is needed");
-  const Eigen::Index n = kNumScmsParams + 3 * static_cast<Eigen::Index>(ids.size());
-  Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(points.samples.size()), n);
-  std::map<int, std::size_t> index;
-  for (std::size_t k = 0; k < ids.size(); ++k) index[ids[k]] = k;
-  using Jet = SphereResidualBatch::Jet;
-  Jet g[kNumScmsParams];
-  for (int k = 0; k < kNumScmsParams; ++k) g[k] = Jet(geometry[static_cast<std::size_t>(k)], k);
-  const ScmsErrorTrig<Jet> trig = ErrorTrigOf(g);
-  for (std::size_t i = 0; i < points.samples.size(); ++i) {
-    const Sample& s = points.samples[i];
-    const std::size_t k = index[s.setup];
-    Jet c[3];
-    for (int j = 0; j < 3; ++j) c[j] = Jet(centers_mm[k](j), kNumScmsParams + j);
-    const SphereResidual functor(s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg, s.r_mm, options.probe_offset_mm,
-                                 options.sphere_radius_mm);
-    Jet e;
-    functor.Evaluate(g, trig, c, &e);
-    const auto row = static_cast<Eigen::Index>(i);
-    jac.row(row).head<kNumScmsParams>() = e.v.head<kNumScmsParams>().transpose();
-    jac.row(row).segment<3>(kNumScmsParams + 3 * static_cast<Eigen::Index>(k)) = e.v.tail<3>().transpose();
-  }
-  return jac;
+  const internal::ReadingTable table(points);
+  if (centers_mm.size() != table.setup_ids.size()) throw Error(points.source + ": one centre per setup is needed");
+  const internal::SphereFitProblem problem(table, internal::AllRows(table), EffectModel{}, options.probe_offset_mm,
+                                           options.sphere_radius_mm);
+  const Eigen::VectorXd x = problem.Pack(geometry, centers_mm, {});
+  return problem.DenseJacobian(x.data());
 }
 
 bool CalibrationResult::Usable() const { return converged && (analysis.Empty() || analysis.AllDetermined()); }
 
-namespace {
+namespace internal {
 
-// One least-squares fit of all samples of `points`.
-CalibrationResult CalibrateAll(const PointsData& points, const CalibrationOptions& options) {
+StartPoints::StartPoints(const ReadingTable& table, const CalibrationOptions& options)
+    : table_(table),
+      g_(options.initial_geometry),
+      trig_(ErrorTrigOf(options.initial_geometry.data())),
+      probe_offset_mm_(options.probe_offset_mm) {}
+
+Eigen::Vector3d StartPoints::operator()(std::size_t i) const {
+  return ScmsPoint(g_.data(), trig_, SinCos<double>{table_.sin_theta[i], table_.cos_theta[i]},
+                   SinCos<double>{table_.sin_phi[i], table_.cos_phi[i]}, table_.r_mm[i], probe_offset_mm_);
+}
+
+std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOptions& options,
+                                 const std::vector<bool>* left_out) {
+  const StartPoints point(table, options);
+  std::vector<Sphere> spheres;
+  for (const std::vector<std::uint32_t>& rows : AllRows(table, left_out)) {
+    spheres.push_back(FitSphereAlgebraic(static_cast<Eigen::Index>(rows.size()),
+                                         [&](Eigen::Index i) { return point(rows[static_cast<std::size_t>(i)]); }));
+  }
+  return spheres;
+}
+
+CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
+                                const CalibrationOptions& options, LmWorkspace* workspace,
+                                const std::vector<Sphere>* start_spheres) {
   const std::string& src = points.source;
   if (!(options.sphere_radius_mm > 0.0)) throw Error(src + ": the sphere radius must be positive");
   if (!(options.probe_offset_mm > 0.0)) throw Error(src + ": the probe offset must be positive");
 
+  RowsOfSetup rows = AllRows(table, left_out);
   CalibrationResult result;
-  result.setup_ids = points.SetupIds();
+  std::size_t n_samples = 0;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    if (rows[k].empty()) continue;
+    result.setup_ids.push_back(table.setup_ids[k]);
+    n_samples += rows[k].size();
+  }
   const std::size_t n_setups = result.setup_ids.size();
   const std::size_t n_params = kNumScmsParams + 3 * n_setups;
-  if (points.samples.size() <= n_params) {
-    throw Error(src + ": " + std::to_string(points.samples.size()) + " samples are too few to fit " +
-                std::to_string(n_params) + " parameters (7 errors and 3 centre coordinates for each of " +
-                std::to_string(n_setups) + " setup(s))");
+  if (n_samples <= n_params) {
+    throw Error(src + ": " + std::to_string(n_samples) + " samples are too few to fit " + std::to_string(n_params) +
+                " parameters (7 errors and 3 centre coordinates for each of " + std::to_string(n_setups) +
+                " setup(s))");
   }
-  std::map<int, std::size_t> setup_index;
-  for (std::size_t k = 0; k < n_setups; ++k) setup_index[result.setup_ids[k]] = k;
-
-  // Per sample: sin and cos of the readings (used for the start values and by the residuals).
-  struct ReadingTrig {
-    SinCos<double> theta, phi;
-  };
-  std::vector<ReadingTrig> trig;
-  trig.reserve(points.samples.size());
-  for (const Sample& s : points.samples)
-    trig.push_back({SinCosOf(s.theta_deg * kRadPerDeg), SinCosOf(s.phi_deg * kRadPerDeg)});
 
   // Initial values: the errors as given (zero by default), each centre from an algebraic sphere
-  // fit of its setup's points computed with those errors.
+  // fit of its setup's points computed with those errors (given when the caller has them).
   result.geometry = options.initial_geometry;
-  const ScmsErrorTrig<double> start_trig = ErrorTrigOf(result.geometry.data());
-  std::vector<std::vector<Eigen::Vector3d>> nominal(n_setups);
-  for (std::size_t i = 0; i < points.samples.size(); ++i) {
-    const Sample& s = points.samples[i];
-    nominal[setup_index[s.setup]].push_back(
-        ScmsPoint(result.geometry.data(), start_trig, trig[i].theta, trig[i].phi, s.r_mm, options.probe_offset_mm));
-  }
-  std::vector<std::array<double, 3>> centers(n_setups);
-  for (std::size_t k = 0; k < n_setups; ++k) {
-    const Sphere fit = FitSphereAlgebraic(nominal[k]);
+  const std::vector<Sphere> spheres = start_spheres ? *start_spheres : StartSpheres(table, options, left_out);
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    if (rows[k].empty()) continue;
+    const Sphere& fit = spheres[k];
     if (!fit.ok) {
-      throw Error(src + ": the points of setup " + std::to_string(result.setup_ids[k]) +
+      throw Error(src + ": the points of setup " + std::to_string(result.setup_ids[result.centers_mm.size()]) +
                   " do not determine a sphere (fewer than four, or all on one plane or line)");
     }
-    centers[k] = {fit.center.x(), fit.center.y(), fit.center.z()};
+    result.centers_mm.push_back(fit.center);
   }
 
-  // One residual per sample, grouped into one cost function per setup (sph/ceres/sphere_residual_batch.hpp).
-  std::vector<std::vector<SphereResidual>> readings(n_setups);
-  std::vector<std::vector<std::size_t>> rows_of_setup(n_setups);  // sample index of each residual
-  for (std::size_t i = 0; i < points.samples.size(); ++i) {
-    const Sample& s = points.samples[i];
-    rows_of_setup[setup_index[s.setup]].push_back(i);
-    readings[setup_index[s.setup]].emplace_back(trig[i].theta, trig[i].phi, s.r_mm, options.probe_offset_mm,
-                                                options.sphere_radius_mm);
-  }
-  ceres::Problem problem;
-  for (std::size_t k = 0; k < n_setups; ++k) {
-    problem.AddResidualBlock(new SphereResidualBatch(std::move(readings[k])), nullptr, result.geometry.data(),
-                             centers[k].data());
-  }
-
-  const ceres::Solver::Options solver_options = internal::CalibrationSolverOptions(options.max_iterations);
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
-  result.converged = summary.termination_type == ceres::CONVERGENCE;
-  result.iterations = static_cast<int>(summary.iterations.size()) - 1;  // iteration 0 is the start
+  // One residual per sample (sph/ceres/sphere_residual.hpp), the gradient derived by hand
+  // (sph/model/residual_gradient.hpp), Levenberg-Marquardt on the normal equations.
+  const SphereFitProblem problem(table, std::move(rows), EffectModel{}, options.probe_offset_mm,
+                                 options.sphere_radius_mm);
+  Eigen::VectorXd x = problem.Pack(result.geometry, result.centers_mm, {});
+  LmWorkspace local;
+  LmWorkspace& lm = workspace ? *workspace : local;
+  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(options.max_iterations), lm);
+  problem.Unpack(x, &result.geometry, &result.centers_mm, nullptr);
+  result.converged = summary.converged;
+  result.iterations = summary.iterations;
   result.solver_message = summary.message;
-  result.n_points = static_cast<int>(points.samples.size());
-  for (const auto& c : centers) result.centers_mm.emplace_back(c[0], c[1], c[2]);
+  result.n_points = static_cast<int>(n_samples);
   if (!result.converged) {
     result.warnings.push_back("the solver did not converge: " + summary.message);
   }
   if (!options.analyse) return result;
 
-  // Residuals and Jacobian at the solution, parameters in report order, rows in file order.
-  std::vector<double*> blocks{result.geometry.data()};
-  for (auto& c : centers) blocks.push_back(c.data());
-  std::vector<std::size_t> sample_of_row;
-  for (const auto& rows : rows_of_setup) sample_of_row.insert(sample_of_row.end(), rows.begin(), rows.end());
-  Eigen::MatrixXd jac;
-  internal::EvaluateInFileOrder(problem, blocks, sample_of_row, static_cast<Eigen::Index>(n_params),
-                                &result.residuals_mm, &jac);
-  internal::SetResidualStatistics(result);
-  const Eigen::Map<const Eigen::VectorXd> res(result.residuals_mm.data(),
-                                              static_cast<Eigen::Index>(result.residuals_mm.size()));
-
-  std::vector<ParameterDescription> desc = internal::BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
-  result.analysis = AnalyseFit(jac, res, std::move(desc), options.max_std_um);
-  ExplainUndetermined(points, options, result);
+  // Residuals in file order; the Jacobian's triangular factor at the solution, parameters in report order.
+  std::vector<double> all(table.size(), 0.0);
+  problem.Residuals(x.data(), all.data());
+  result.residuals_mm.reserve(n_samples);
+  double rss = 0.0;
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    if (left_out != nullptr && (*left_out)[i]) continue;
+    result.residuals_mm.push_back(all[i]);
+    rss += all[i] * all[i];
+  }
+  SetResidualStatistics(result);
+  std::vector<ParameterDescription> desc = BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
+  result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples), rss,
+                               std::move(desc), options.max_std_um);
+  ExplainUndetermined(points, left_out, options, result);
   return result;
 }
+
+}  // namespace internal
+
+namespace {
 
 double Median(std::vector<double> v) {
   const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
@@ -223,19 +212,24 @@ double Median(std::vector<double> v) {
   return *mid;
 }
 
-// Residual [mm] of every sample of `points` under the result's parameters.
-std::vector<double> ResidualsOf(const PointsData& points, const CalibrationOptions& options,
+// Residual [mm] of every sample of the table under the result's parameters.
+std::vector<double> ResidualsOf(const internal::ReadingTable& table, const CalibrationOptions& options,
                                 const CalibrationResult& r) {
-  std::map<int, std::size_t> index;
-  for (std::size_t k = 0; k < r.setup_ids.size(); ++k) index[r.setup_ids[k]] = k;
-  const ScmsErrorTrig<double> trig = ErrorTrigOf(r.geometry.data());
-  std::vector<double> out;
-  out.reserve(points.samples.size());
-  for (const Sample& s : points.samples) {
-    const Eigen::Vector3d p = ScmsPoint(r.geometry.data(), trig, SinCosOf(s.theta_deg * kRadPerDeg),
-                                        SinCosOf(s.phi_deg * kRadPerDeg), s.r_mm, options.probe_offset_mm);
-    out.push_back((p - r.centers_mm[index.at(s.setup)]).norm() - options.sphere_radius_mm);
+  internal::RowsOfSetup rows = internal::AllRows(table);
+  std::vector<Eigen::Vector3d> centers;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    if (rows[k].empty()) continue;
+    const auto it = std::find(r.setup_ids.begin(), r.setup_ids.end(), table.setup_ids[k]);
+    if (it == r.setup_ids.end()) {
+      rows[k].clear();  // a setup the fit did not see: no residuals (every reading an outlier)
+      continue;
+    }
+    centers.push_back(r.centers_mm[static_cast<std::size_t>(it - r.setup_ids.begin())]);
   }
+  const internal::SphereFitProblem problem(table, std::move(rows), EffectModel{}, options.probe_offset_mm,
+                                           options.sphere_radius_mm);
+  std::vector<double> out(table.size(), 0.0);
+  problem.Residuals(problem.Pack(r.geometry, centers, {}).data(), out.data());
   return out;
 }
 
@@ -295,23 +289,15 @@ bool MarkOutliers(const std::vector<double>& residuals, double k, std::vector<bo
 // Residuals [mm] at the start of the fit: the initial errors, and per setup an algebraic sphere
 // fit of the points not out. Gross errors stand out here, before least squares can spread them
 // over the seven errors.
-std::vector<double> StartResiduals(const PointsData& points, const CalibrationOptions& options,
-                                   const std::vector<bool>& out) {
-  const ScmsErrorTrig<double> trig = ErrorTrigOf(options.initial_geometry.data());
-  std::vector<Eigen::Vector3d> p(points.samples.size());
-  std::map<int, std::vector<Eigen::Vector3d>> kept;
-  for (std::size_t i = 0; i < points.samples.size(); ++i) {
-    const Sample& s = points.samples[i];
-    p[i] = ScmsPoint(options.initial_geometry.data(), trig, SinCosOf(s.theta_deg * kRadPerDeg),
-                     SinCosOf(s.phi_deg * kRadPerDeg), s.r_mm, options.probe_offset_mm);
-    if (!out[i]) kept[s.setup].push_back(p[i]);
-  }
-  std::map<int, Sphere> spheres;
-  for (const auto& [id, pts] : kept) spheres[id] = FitSphereAlgebraic(pts);
-  std::vector<double> e(points.samples.size(), 0.0);
-  for (std::size_t i = 0; i < points.samples.size(); ++i) {
-    const auto it = spheres.find(points.samples[i].setup);
-    if (it != spheres.end() && it->second.ok) e[i] = (p[i] - it->second.center).norm() - it->second.radius;
+std::vector<double> StartResiduals(const internal::ReadingTable& table, const CalibrationOptions& options,
+                                   const std::vector<bool>& out, std::vector<Sphere>* spheres_out) {
+  const internal::StartPoints point(table, options);
+  std::vector<Sphere>& spheres = *spheres_out;
+  spheres = internal::StartSpheres(table, options, &out);
+  std::vector<double> e(table.size(), 0.0);
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    const Sphere& sphere = spheres[static_cast<std::size_t>(table.setup[i])];
+    if (sphere.ok) e[i] = (point(i) - sphere.center).norm() - sphere.radius;
   }
   return e;
 }
@@ -324,36 +310,43 @@ std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, double
   return out;
 }
 
-CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options) {
-  if (!options.analyse || !(options.outlier_sigma > 0.0)) return CalibrateAll(points, options);
+namespace internal {
+
+CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& table, const CalibrationOptions& options,
+                                 LmWorkspace* workspace) {
+  if (!options.analyse || !(options.outlier_sigma > 0.0))
+    return CalibrateRows(points, table, nullptr, options, workspace);
   // Robust rejection: the median and the median absolute deviation of the residuals do not follow
   // a few gross errors, as a least-squares fit does. Marked first at the start values, so that the
   // first fit is not pulled away by them; then judged again under each fit.
-  std::vector<bool> out(points.samples.size(), false);
-  for (int round = 0; round < 5 && MarkOutliers(StartResiduals(points, options, out), options.outlier_sigma, out);
-       ++round) {
+  std::vector<bool> out(table.size(), false);
+  std::vector<Sphere> spheres;  // the start spheres of the readings not out, when `out` is still theirs
+  bool spheres_of_out = false;
+  for (int round = 0; round < 5 && !spheres_of_out; ++round) {
+    spheres_of_out = !MarkOutliers(StartResiduals(table, options, out, &spheres), options.outlier_sigma, out);
   }
   auto fit_kept = [&] {
-    CalibrationResult r;
+    CalibrationResult r = CalibrateRows(points, table, &out, options, workspace, spheres_of_out ? &spheres : nullptr);
+    spheres_of_out = false;
     for (std::size_t i = 0; i < out.size(); ++i) {
       if (out[i]) r.outliers.push_back({i, 0.0});
     }
-    const std::vector<Outlier> outliers = r.outliers;
-    r = CalibrateAll(WithoutOutliers(points, r), options);
-    r.outliers = outliers;
     return r;
   };
   CalibrationResult result = fit_kept();
   // Under the fit of the readings kept, the outliers are judged afresh (a reading marked at the
   // start may come back), until the set no longer changes.
+  std::vector<double> residuals;
   for (int round = 0; round < 10; ++round) {
-    const std::vector<bool> judged = RobustOutliers(ResidualsOf(points, options, result), options.outlier_sigma);
+    residuals = ResidualsOf(table, options, result);
+    const std::vector<bool> judged = RobustOutliers(residuals, options.outlier_sigma);
     if (judged == out) break;
     out = judged;
     result = fit_kept();
+    residuals.clear();
   }
   if (result.outliers.empty()) return result;
-  result.residuals_mm = ResidualsOf(points, options, result);  // every sample, in file order
+  result.residuals_mm = residuals.empty() ? ResidualsOf(table, options, result) : residuals;  // every sample
   for (Outlier& o : result.outliers) o.residual_um = result.residuals_mm[o.sample] * kUmPerMm;
   result.warnings.insert(result.warnings.begin(),
                          std::to_string(result.outliers.size()) + " outlier(s) left out of the fit, farther than " +
@@ -361,6 +354,12 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
                              " robust standard deviations from the median residual: " +
                              DescribeOutliers(points, result.outliers));
   return result;
+}
+
+}  // namespace internal
+
+CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options) {
+  return internal::CalibrateTable(points, internal::ReadingTable(points), options);
 }
 
 }  // namespace sph

@@ -1,9 +1,11 @@
 #include "sph/calib/observability.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "sph/model/units.hpp"
 
@@ -28,23 +30,17 @@ double ObservabilityReport::StdAsDisplacementUm(int i) const {
   return std(i) * arm * kUmPerMm;
 }
 
-NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian) {
-  const Eigen::Index m = jacobian.rows();
-  const Eigen::Index n = jacobian.cols();
+namespace {
+
+// The inverse, null space and condition of a Jacobian with `rows` rows from the singular values
+// (descending) and right singular vectors of its column-equilibrated form, out.scale set.
+NormalInverse& Finish(NormalInverse& out, Eigen::Index rows) {
+  const Eigen::Index m = rows;
+  const Eigen::Index n = out.scale.size();
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  NormalInverse out;
   out.inverse = Eigen::MatrixXd::Constant(n, n, nan);
   out.in_null.assign(static_cast<std::size_t>(n), true);
   out.condition_number = std::numeric_limits<double>::infinity();
-  out.scale = Eigen::VectorXd::Zero(n);
-  for (Eigen::Index j = 0; j < n; ++j) {
-    const double norm = jacobian.col(j).norm();
-    out.scale(j) = norm > 0.0 ? 1.0 / norm : 0.0;
-  }
-  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::ColPivHouseholderQRPreconditioner> svd(
-      jacobian * out.scale.asDiagonal(), Eigen::ComputeThinV);
-  out.singular_values = svd.singularValues();
-  out.v = svd.matrixV();
   const Eigen::VectorXd& sv = out.singular_values;
   if (n == 0 || !(sv(0) > 0.0)) return out;
   out.condition_number = sv(n - 1) > 0.0 ? sv(0) / sv(n - 1) : std::numeric_limits<double>::infinity();
@@ -73,11 +69,51 @@ NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian) {
   return out;
 }
 
-ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
-                               std::vector<ParameterDescription> params, double max_std_um) {
+// 1 / |column| (0 for a zero column) of a matrix whose column norms are `norms`.
+Eigen::VectorXd InverseNorms(const Eigen::VectorXd& norms) {
+  return norms.unaryExpr([](double v) { return v > 0.0 ? 1.0 / v : 0.0; });
+}
+
+// NormalInverse of a Jacobian with `rows` rows from the SVD of its column-equilibrated form A D,
+// where A is the Jacobian or its triangular factor (same singular values and V).
+NormalInverse FromEquilibrated(const Eigen::MatrixXd& a, Eigen::Index rows) {
+  NormalInverse out;
+  out.scale = InverseNorms(a.colwise().norm().transpose());
+  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::ColPivHouseholderQRPreconditioner> svd(a * out.scale.asDiagonal(),
+                                                                                        Eigen::ComputeThinV);
+  out.singular_values = svd.singularValues();
+  out.v = svd.matrixV();
+  return Finish(out, rows);
+}
+
+}  // namespace
+
+NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian) {
+  return FromEquilibrated(jacobian, jacobian.rows());
+}
+
+NormalInverse InvertNormalFactor(const Eigen::MatrixXd& r, Eigen::Index rows) { return FromEquilibrated(r, rows); }
+
+std::optional<NormalInverse> InvertNormalEquations(const Eigen::MatrixXd& jtj, Eigen::Index rows) {
+  NormalInverse out;
+  out.scale = InverseNorms(jtj.diagonal().cwiseMax(0.0).cwiseSqrt());
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(out.scale.asDiagonal() * jtj * out.scale.asDiagonal());
+  if (eig.info() != Eigen::Success) return std::nullopt;
+  const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
+  const Eigen::Index n = lambda.size();
+  if (n == 0 || !(lambda(0) > 0.0) || !(lambda(n - 1) < kMaxNormalCondition * lambda(0))) return std::nullopt;
+  out.singular_values = lambda.reverse().cwiseSqrt();
+  out.v = eig.eigenvectors().rowwise().reverse();
+  return Finish(out, rows);
+}
+
+namespace {
+
+// The report from the rows of J, its residual sum of squares and a way to get (J^T J)^-1.
+template <typename Invert>
+ObservabilityReport Analyse(const Invert& invert, Eigen::Index m, Eigen::Index n, double rss,
+                            std::vector<ParameterDescription> params, double max_std_um) {
   ObservabilityReport rep;
-  const Eigen::Index m = jacobian.rows();
-  const Eigen::Index n = jacobian.cols();
   rep.parameters = std::move(params);
   rep.std = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
   rep.covariance = Eigen::MatrixXd::Constant(n, n, std::numeric_limits<double>::quiet_NaN());
@@ -87,9 +123,9 @@ ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::Vec
   rep.condition_number = std::numeric_limits<double>::infinity();
   if (m <= n || n == 0) return rep;
 
-  rep.residual_sigma_mm = std::sqrt(residuals.squaredNorm() / static_cast<double>(m - n));
+  rep.residual_sigma_mm = std::sqrt(rss / static_cast<double>(m - n));
 
-  const NormalInverse inv = InvertNormalMatrix(jacobian);
+  const NormalInverse inv = invert();
   rep.condition_number = inv.condition_number;
   const double s2 = rep.residual_sigma_mm * rep.residual_sigma_mm;
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -141,6 +177,24 @@ ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::Vec
     rep.weak.push_back(std::move(w));
   }
   return rep;
+}
+
+}  // namespace
+
+ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
+                               std::vector<ParameterDescription> params, double max_std_um) {
+  return Analyse([&] { return InvertNormalMatrix(jacobian); }, jacobian.rows(), jacobian.cols(),
+                 residuals.squaredNorm(), std::move(params), max_std_um);
+}
+
+ObservabilityReport AnalyseFactor(const Eigen::MatrixXd& r, Eigen::Index rows, double rss,
+                                  std::vector<ParameterDescription> params, double max_std_um) {
+  return Analyse([&] { return InvertNormalFactor(r, rows); }, rows, r.cols(), rss, std::move(params), max_std_um);
+}
+
+ObservabilityReport AnalyseFit(const NormalInverse& inverse, Eigen::Index rows, double rss,
+                               std::vector<ParameterDescription> params, double max_std_um) {
+  return Analyse([&] { return inverse; }, rows, inverse.scale.size(), rss, std::move(params), max_std_um);
 }
 
 }  // namespace sph

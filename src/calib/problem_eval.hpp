@@ -1,60 +1,43 @@
-// Private to sph::calib: residuals and Jacobian of a solved ceres::Problem in file order, and the
-// residual statistics every fit reports.
+// Private to sph::calib: the solver settings, parameter descriptions and residual statistics of
+// every fit.
 #ifndef SPH_SRC_CALIB_PROBLEM_EVAL_HPP_
 #define SPH_SRC_CALIB_PROBLEM_EVAL_HPP_
 
-#include <ceres/problem.h>
-#include <ceres/solver.h>
-
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "fit_problem.hpp"
+#include "levenberg_marquardt.hpp"
 #include "sph/calib/calibrator.hpp"
+#include "sph/calib/observability.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::internal {
 
-/// The Levenberg-Marquardt settings of every calibration: dense QR, one thread, silent; stops on a
-/// relative cost change of 1e-6 or a relative step of 1e-12.
-inline ceres::Solver::Options CalibrationSolverOptions(int max_iterations) {
-  ceres::Solver::Options o;
-  o.linear_solver_type = ceres::DENSE_QR;
-  o.max_num_iterations = max_iterations;
-  o.num_threads = 1;
-  o.logging_type = ceres::SILENT;
-  o.minimizer_progress_to_stdout = false;
+/// The Levenberg-Marquardt settings of every calibration: stops on a relative cost change of 1e-6
+/// or a relative step of 1e-12.
+inline LmOptions CalibrationSolverOptions(int max_iterations) {
+  LmOptions o;
+  o.max_iterations = max_iterations;
   o.function_tolerance = 1e-6;
   o.gradient_tolerance = 1e-16;
   o.parameter_tolerance = 1e-12;
   return o;
 }
 
-/// Evaluates `problem` at its parameter blocks `blocks` (the Jacobian's column order). Ceres orders
-/// the residuals by residual block; sample_of_row[k] is the sample (file row) of its k-th residual.
-/// Fills the residuals in file order and, when `jacobian` is given, the dense Jacobian with its rows
-/// in file order.
-inline void EvaluateInFileOrder(ceres::Problem& problem, const std::vector<double*>& blocks,
-                                const std::vector<std::size_t>& sample_of_row, Eigen::Index n_params,
-                                std::vector<double>* residuals_mm, Eigen::MatrixXd* jacobian) {
-  ceres::Problem::EvaluateOptions eval;
-  eval.parameter_blocks = blocks;
-  std::vector<double> residuals;
-  ceres::CRSMatrix crs;
-  double cost = 0.0;
-  problem.Evaluate(eval, &cost, &residuals, nullptr, jacobian ? &crs : nullptr);
-  residuals_mm->assign(residuals.size(), 0.0);
-  for (std::size_t row = 0; row < residuals.size(); ++row) (*residuals_mm)[sample_of_row[row]] = residuals[row];
-  if (!jacobian) return;
-  *jacobian = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(residuals.size()), n_params);
-  for (int row = 0; row < crs.num_rows; ++row) {
-    const auto sample = static_cast<Eigen::Index>(sample_of_row[static_cast<std::size_t>(row)]);
-    for (int idx = crs.rows[static_cast<std::size_t>(row)]; idx < crs.rows[static_cast<std::size_t>(row) + 1]; ++idx) {
-      (*jacobian)(sample, crs.cols[static_cast<std::size_t>(idx)]) = crs.values[static_cast<std::size_t>(idx)];
-    }
-  }
+/// (J^T J)^-1 at the solution x of a Levenberg-Marquardt run (whose workspace holds J^T J there):
+/// from the normal equations when J is well conditioned, else from the Jacobian's triangular
+/// factor (another pass over the rows).
+inline NormalInverse NormalInverseAtSolution(const SphereFitProblem& problem, const Eigen::VectorXd& x,
+                                             const LmWorkspace& lm) {
+  const auto rows = static_cast<Eigen::Index>(problem.NumRows());
+  std::optional<NormalInverse> inverse = InvertNormalEquations(lm.at_x.jtj, rows);
+  if (inverse) return *inverse;
+  return InvertNormalFactor(problem.FactorJacobian(x.data()).r(), rows);
 }
 
 /// The descriptions of the seven errors and of x, y, z of each setup's centre ("center_x@1" with

@@ -3,9 +3,11 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 
 #include "sph/internal/format.hpp"
+#include "sph/model/row_qr.hpp"
 #include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
 
@@ -18,6 +20,9 @@ constexpr int kThetaHarmonics = 8;
 constexpr int kPhiTerms = 6;
 constexpr int kPowers = 3;
 constexpr int kSphereDegree = 5;
+// A function whose remainder off the Jacobian (and the functions kept before it) is below this
+// fraction of itself is dropped (see Regress()).
+constexpr double kMinRemainder = 1e-2;
 
 // Continued fraction of the regularised incomplete beta function (modified Lentz).
 double BetaContinuedFraction(double a, double b, double x) {
@@ -56,26 +61,27 @@ double IncompleteBeta(double a, double b, double x) {
   return 1.0 - front * BetaContinuedFraction(b, a, 1.0 - x) / b;
 }
 
+// One group of functions as the regression sees it: its columns (of R, see the header) and names.
 struct Basis {
   std::string variable, description;
   Eigen::MatrixXd columns;
   std::vector<std::string> names;
 };
 
-// Regresses e on the columns of `basis` projected off `q` (orthonormal basis of col(J)).
-StructureGroup Regress(const Basis& basis, const Eigen::MatrixXd& q, const Eigen::VectorXd& e, int n_fit) {
+// Regresses e on the columns of `basis` projected off `q` (orthonormal basis of col(J)); vectors
+// in the coordinates of R, m the number of readings.
+StructureGroup Regress(const Basis& basis, const Eigen::MatrixXd& q, const Eigen::VectorXd& e, int n_fit,
+                       Eigen::Index m) {
   StructureGroup g;
   g.variable = basis.variable;
   g.description = basis.description;
-  const Eigen::Index m = e.size();
   // Gram-Schmidt of the unit columns against col(J) and against the columns kept before them. A
   // column whose remainder is below 1 % of itself is dropped: the functions are computed at the
   // readings the fit expects, which still carry the part of the noise the fit absorbed, and a
   // small remainder is mostly that part, amplified; regressing the residual on it would fit the
   // noise with itself. (At 0.1 %, the union of all groups after a fit with a probe gain showed
   // p = 1e-7 on white noise; at 1 %, p spreads over (0, 1) as it should.)
-  constexpr double kMinRemainder = 1e-2;
-  Eigen::MatrixXd b(m, basis.columns.cols());
+  Eigen::MatrixXd b(e.size(), basis.columns.cols());
   Eigen::Index kept = 0;
   for (Eigen::Index j = 0; j < basis.columns.cols(); ++j) {
     const double norm = basis.columns.col(j).norm();
@@ -138,60 +144,84 @@ int ResidualStructure::Strongest() const {
 
 namespace {
 
-// The groups of functions of the readings (see the header); `e` is the fit's residual, used to
-// take u from the reading the fit expects.
-std::vector<Basis> BuildBases(const PointsData& points, const Eigen::VectorXd& e, const EffectReference& ref,
-                              const std::vector<Eigen::Vector3d>& directions) {
-  const auto m = static_cast<Eigen::Index>(points.samples.size());
-  std::vector<Basis> bases(5);
-  bases[0] = {"theta", "harmonics k = 1.." + std::to_string(kThetaHarmonics) + " of theta", Eigen::MatrixXd(m, 2 * kThetaHarmonics), {}};
-  bases[1] = {"phi", "cos(k phi), k = 1.." + std::to_string(kPhiTerms), Eigen::MatrixXd(m, kPhiTerms), {}};
-  bases[2] = {"r", "powers 1..3 of the probe reading", Eigen::MatrixXd(m, kPowers), {}};
-  bases[3] = {"t", "powers 1..3 of the acquisition time", Eigen::MatrixXd(m, kPowers), {}};
-  const int n_sphere = (kSphereDegree + 1) * (kSphereDegree + 1) - 4;  // degrees 2..5
-  bases[4] = {"sphere", "spherical harmonics of degree 2.." + std::to_string(kSphereDegree) +
-                            " of the direction from the centre (a pattern fixed on the sphere)",
-              Eigen::MatrixXd(m, n_sphere), {}};
-  for (int k = 1; k <= kThetaHarmonics; ++k) {
-    bases[0].names.push_back("cos(" + std::to_string(k) + " theta)");
-    bases[0].names.push_back("sin(" + std::to_string(k) + " theta)");
-  }
-  for (int k = 1; k <= kPhiTerms; ++k) bases[1].names.push_back("cos(" + std::to_string(k) + " phi)");
-  for (int k = 1; k <= kPowers; ++k) {
-    bases[2].names.push_back("u^" + std::to_string(k));
-    bases[3].names.push_back("tau^" + std::to_string(k));
-  }
-  for (int l = 2; l <= kSphereDegree; ++l) {
-    for (int mm = -l; mm <= l; ++mm) bases[4].names.push_back("S(" + std::to_string(l) + "," + std::to_string(mm) + ")");
-  }
-  for (Eigen::Index i = 0; i < m; ++i) {
-    const Sample& s = points.samples[static_cast<std::size_t>(i)];
-    const double th = s.theta_deg * kRadPerDeg, ph = s.phi_deg * kRadPerDeg;
+constexpr int kSphereFunctions = (kSphereDegree + 1) * (kSphereDegree + 1) - 4;  // degrees 2..5
+constexpr int kFunctions = 2 * kThetaHarmonics + kPhiTerms + 2 * kPowers + kSphereFunctions;
+constexpr int kSphereFirst = kFunctions - kSphereFunctions;  // the sphere group is the last
+
+// The groups of functions of the readings (see the header), as columns first.. first + count of
+// the kFunctions functions.
+struct Group {
+  std::string variable, description;
+  int first = 0, count = 0;
+  std::vector<std::string> names;
+};
+
+const std::vector<Group>& Groups() {
+  static const std::vector<Group> groups = [] {
+    std::vector<Group> g(5);
+    g[0] = {"theta", "harmonics k = 1.." + std::to_string(kThetaHarmonics) + " of theta", 0, 2 * kThetaHarmonics, {}};
+    g[1] = {"phi", "cos(k phi), k = 1.." + std::to_string(kPhiTerms), 2 * kThetaHarmonics, kPhiTerms, {}};
+    g[2] = {"r", "powers 1..3 of the probe reading", g[1].first + kPhiTerms, kPowers, {}};
+    g[3] = {"t", "powers 1..3 of the acquisition time", g[2].first + kPowers, kPowers, {}};
+    g[4] = {"sphere",
+            "spherical harmonics of degree 2.." + std::to_string(kSphereDegree) +
+                " of the direction from the centre (a pattern fixed on the sphere)",
+            kSphereFirst,
+            kSphereFunctions,
+            {}};
     for (int k = 1; k <= kThetaHarmonics; ++k) {
-      bases[0].columns(i, 2 * k - 2) = std::cos(k * th);
-      bases[0].columns(i, 2 * k - 1) = std::sin(k * th);
+      g[0].names.push_back("cos(" + std::to_string(k) + " theta)");
+      g[0].names.push_back("sin(" + std::to_string(k) + " theta)");
     }
-    for (int k = 1; k <= kPhiTerms; ++k) bases[1].columns(i, k - 1) = std::cos(k * ph);
-    // u of the reading the fit expects, r + e (de/dr is -1 for a probe aimed at the centre): the
-    // measured r carries the very noise the residual is, and powers of it would fit that noise.
-    // (The Jacobian to project off is evaluated there too: EffectFit::structure_jacobian.)
-    const double u = (s.r_mm + e(i) - ref.r_ref_mm) / ref.r_half_range_mm;
-    const double tau = (s.t_s - ref.t_start_s) / ref.t_span_s;
+    for (int k = 1; k <= kPhiTerms; ++k) g[1].names.push_back("cos(" + std::to_string(k) + " phi)");
     for (int k = 1; k <= kPowers; ++k) {
-      bases[2].columns(i, k - 1) = std::pow(u, k);
-      bases[3].columns(i, k - 1) = std::pow(tau, k);
+      g[2].names.push_back("u^" + std::to_string(k));
+      g[3].names.push_back("tau^" + std::to_string(k));
     }
-    const Eigen::Vector3d& dir = directions[static_cast<std::size_t>(i)];
-    const double lon = std::atan2(dir.y(), dir.x());
-    int col = 0;
     for (int l = 2; l <= kSphereDegree; ++l) {
-      for (int mm = -l; mm <= l; ++mm) bases[4].columns(i, col++) = SchmidtHarmonic(l, mm, lon, dir.z());
+      for (int mm = -l; mm <= l; ++mm) g[4].names.push_back("S(" + std::to_string(l) + "," + std::to_string(mm) + ")");
     }
-  }
-  return bases;
+    return g;
+  }();
+  return groups;
 }
 
-// Orthonormal basis of the Jacobian's column space (its numerical rank).
+// The kFunctions functions at one reading, harmonics by the angle-addition recurrence. e is the
+// fit's residual there (u is taken at the reading the fit expects, r + e: the measured r
+// carries the very noise the residual is, and powers of it would fit that noise; the Jacobian
+// projected off is evaluated there too).
+void FunctionsAt(const Sample& s, double e, const EffectReference& ref, const Eigen::Vector3d& dir,
+                 SchmidtHarmonics& sphere, double* out) {
+  auto harmonics = [](double angle, int orders, double* cos_k, double* sin_k) {
+    const double c1 = std::cos(angle), s1 = std::sin(angle);
+    double c = c1, sn = s1;
+    for (int k = 1; k <= orders; ++k) {
+      cos_k[k - 1] = c;
+      sin_k[k - 1] = sn;
+      const double next = c * c1 - sn * s1;
+      sn = sn * c1 + c * s1;
+      c = next;
+    }
+  };
+  double cos_k[kThetaHarmonics], sin_k[kThetaHarmonics];
+  harmonics(s.theta_deg * kRadPerDeg, kThetaHarmonics, cos_k, sin_k);
+  for (int k = 1; k <= kThetaHarmonics; ++k) {
+    out[2 * k - 2] = cos_k[k - 1];
+    out[2 * k - 1] = sin_k[k - 1];
+  }
+  double* phi = out + 2 * kThetaHarmonics;
+  harmonics(s.phi_deg * kRadPerDeg, kPhiTerms, phi, sin_k);
+  const double u = (s.r_mm + e - ref.r_ref_mm) / ref.r_half_range_mm;
+  const double tau = (s.t_s - ref.t_start_s) / ref.t_span_s;
+  double* powers = phi + kPhiTerms;
+  for (int k = 0; k < kPowers; ++k) {
+    powers[k] = k == 0 ? u : powers[k - 1] * u;
+    powers[kPowers + k] = k == 0 ? tau : powers[kPowers + k - 1] * tau;
+  }
+  sphere.Evaluate(std::atan2(dir.y(), dir.x()), dir.z(), out + kSphereFirst);
+}
+
+// Orthonormal basis of the column space of `jacobian` (its numerical rank), in R's coordinates.
 Eigen::MatrixXd ColumnSpace(const Eigen::MatrixXd& jacobian) {
   Eigen::MatrixXd jn = jacobian;
   for (Eigen::Index j = 0; j < jn.cols(); ++j) {
@@ -203,42 +233,92 @@ Eigen::MatrixXd ColumnSpace(const Eigen::MatrixXd& jacobian) {
   return qr.householderQ() * Eigen::MatrixXd::Identity(jn.rows(), qr.rank());
 }
 
+Basis GroupBasis(const StructureFactor& factor, const Group& group, Eigen::Index first_function) {
+  return {group.variable, group.description,
+          factor.r.middleCols(factor.jacobian_cols + first_function + group.first, group.count), group.names};
+}
+
 }  // namespace
 
-ResidualStructure AnalyseResidualStructure(const FitResiduals& fit) {
-  const PointsData& points = fit.points;
-  const auto m = static_cast<Eigen::Index>(points.samples.size());
-  const Eigen::Map<const Eigen::VectorXd> e(fit.residuals_mm.data(), m);
-  const std::vector<Basis> bases = BuildBases(points, e, fit.reference, fit.directions);
-  Basis all{"all", "all of the above", Eigen::MatrixXd(m, 0), {}};
-  for (const Basis& b : bases) {
-    Eigen::MatrixXd joined(m, all.columns.cols() + b.columns.cols());
-    joined << all.columns, b.columns;
-    all.columns = joined;
-    all.names.insert(all.names.end(), b.names.begin(), b.names.end());
+void DenseJacobianBlocks::ForEach(const BlockFn& fn) const {
+  constexpr Eigen::Index kBlock = 128;
+  std::vector<std::uint32_t> samples(kBlock);
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows;
+  for (Eigen::Index first = 0; first < jacobian_.rows(); first += kBlock) {
+    const Eigen::Index count = std::min(kBlock, jacobian_.rows() - first);
+    for (Eigen::Index i = 0; i < count; ++i)
+      samples[static_cast<std::size_t>(i)] = static_cast<std::uint32_t>(first + i);
+    rows = jacobian_.middleRows(first, count);
+    fn(samples.data(), static_cast<int>(count), rows.data(), static_cast<int>(rows.cols()));
   }
-  const Eigen::MatrixXd q = ColumnSpace(fit.jacobian);
+}
+
+StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vector<double>* signal_mm) {
+  StructureFactor factor;
+  factor.jacobian_cols = fit.jacobian.Cols();
+  factor.has_signal = signal_mm != nullptr;
+  const Eigen::Index n = factor.jacobian_cols;
+  // [J | functions | e], or [J | sphere functions | signal].
+  const Eigen::Index cols = n + (factor.has_signal ? kSphereFunctions : kFunctions) + 1;
+  RowQr qr(cols);
+  std::vector<double> block, functions(kFunctions);
+  SchmidtHarmonics sphere(2, kSphereDegree);
+  fit.jacobian.ForEach([&](const std::uint32_t* samples, int count, const double* jac, int stride) {
+    block.resize(static_cast<std::size_t>(count * cols));
+    for (int i = 0; i < count; ++i) {
+      const std::uint32_t sample = samples[i];
+      double* row = block.data() + i * cols;
+      std::copy(jac + i * stride, jac + i * stride + n, row);
+      FunctionsAt(fit.points.samples[sample], fit.residuals_mm[sample], fit.reference, fit.directions[sample], sphere,
+                  functions.data());
+      if (factor.has_signal) {
+        std::copy(functions.begin() + kSphereFirst, functions.end(), row + n);
+        row[cols - 1] = (*signal_mm)[sample];
+      } else {
+        std::copy(functions.begin(), functions.end(), row + n);
+        row[cols - 1] = fit.residuals_mm[sample];
+      }
+    }
+    qr.AddRows(block.data(), cols, count);
+  });
+  factor.r = qr.r();
+  factor.rows = qr.rows();
+  return factor;
+}
+
+ResidualStructure AnalyseResidualStructure(const StructureFactor& factor) {
+  const Eigen::Index m = factor.rows;
+  const Eigen::Index n = factor.jacobian_cols;
+  const Eigen::VectorXd e = factor.r.col(n + kFunctions);
+  const Eigen::MatrixXd q = ColumnSpace(factor.r.leftCols(n));
   const int n_fit = static_cast<int>(q.cols());  // the Jacobian's rank: the parameters the fit determines
 
   ResidualStructure out;
-  for (const Basis& b : bases) out.groups.push_back(Regress(b, q, e, n_fit));
-  out.all = Regress(all, q, e, n_fit);
+  Basis all{"all", "all of the above", factor.r.middleCols(n, kFunctions), {}};
+  for (const Group& group : Groups()) {
+    out.groups.push_back(Regress(GroupBasis(factor, group, 0), q, e, n_fit, m));
+    all.names.insert(all.names.end(), group.names.begin(), group.names.end());
+  }
+  out.all = Regress(all, q, e, n_fit, m);
   for (int k = 1; k <= kThetaHarmonics; ++k) {
-    Eigen::MatrixXd two(m, 2);
-    two << bases[0].columns.col(2 * k - 2), bases[0].columns.col(2 * k - 1);
+    const Eigen::MatrixXd two = factor.r.middleCols(n + 2 * k - 2, 2);
     const Eigen::Vector2d coef = two.colPivHouseholderQr().solve(e);
     out.theta_harmonics_um.push_back(coef.norm() * kUmPerMm);
   }
   return out;
 }
 
-SpherePattern BestSpherePattern(const FitResiduals& fit) {
-  const auto m = static_cast<Eigen::Index>(fit.points.samples.size());
-  const Eigen::Map<const Eigen::VectorXd> e(fit.residuals_mm.data(), m);
-  const Eigen::MatrixXd q = ColumnSpace(fit.jacobian);
-  const Basis sphere = BuildBases(fit.points, e, fit.reference, fit.directions)[4];
+ResidualStructure AnalyseResidualStructure(const FitResiduals& fit) {
+  return AnalyseResidualStructure(FactorResidualStructure(fit));
+}
+
+SpherePattern BestSpherePattern(const StructureFactor& factor) {
+  const auto m = factor.rows;
+  const Eigen::Index n = factor.jacobian_cols;
+  const Eigen::VectorXd e = factor.r.col(n + kFunctions);
+  const Eigen::MatrixXd q = ColumnSpace(factor.r.leftCols(n));
+  const Basis sphere = GroupBasis(factor, Groups()[4], 0);
   // Unit remainders of the functions off col(J), as in Regress().
-  constexpr double kMinRemainder = 1e-2;
   std::vector<Eigen::VectorXd> rest;
   std::vector<std::string> names;
   for (Eigen::Index j = 0; j < sphere.columns.cols(); ++j) {
@@ -288,18 +368,24 @@ SpherePattern BestSpherePattern(const FitResiduals& fit) {
   return out;
 }
 
-double SpherePatternFraction(const FitResiduals& fit, const std::vector<double>& signal_mm) {
-  const auto m = static_cast<Eigen::Index>(fit.points.samples.size());
-  const Eigen::Map<const Eigen::VectorXd> e(fit.residuals_mm.data(), m);
-  const Eigen::MatrixXd q = ColumnSpace(fit.jacobian);
-  const Eigen::Map<const Eigen::VectorXd> raw(signal_mm.data(), m);
+SpherePattern BestSpherePattern(const FitResiduals& fit) { return BestSpherePattern(FactorResidualStructure(fit)); }
+
+double SpherePatternFraction(const StructureFactor& factor) {
+  const Eigen::Index m = factor.rows;
+  const Eigen::Index n = factor.jacobian_cols;
+  const Eigen::MatrixXd q = ColumnSpace(factor.r.leftCols(n));
+  const Eigen::VectorXd raw = factor.r.col(n + kSphereFunctions);
   const Eigen::VectorXd s = raw - q * (q.transpose() * raw);
   const double total = s.squaredNorm();
   if (!(total > 0.0)) return 0.0;
-  const StructureGroup g =
-      Regress(BuildBases(fit.points, e, fit.reference, fit.directions)[4], q, s, static_cast<int>(q.cols()));
+  // The sphere group's columns follow J directly in a factor with a signal.
+  const StructureGroup g = Regress(GroupBasis(factor, Groups()[4], -kSphereFirst), q, s, static_cast<int>(q.cols()), m);
   const double explained = g.explained_rms_um * g.explained_rms_um / (kUmPerMm * kUmPerMm) * static_cast<double>(m);
   return explained / total;
+}
+
+double SpherePatternFraction(const FitResiduals& fit, const std::vector<double>& signal_mm) {
+  return SpherePatternFraction(FactorResidualStructure(fit, &signal_mm));
 }
 
 }  // namespace sph

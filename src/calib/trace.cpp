@@ -11,6 +11,8 @@
 #include <system_error>
 #include <thread>
 
+#include "effect_fit_rows.hpp"
+#include "fit_problem.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
@@ -45,6 +47,16 @@ std::string SeparateBy(Effect a, Effect b) {
          "readings";
 }
 
+// The readings a trace fits and their table, built once for every candidate, fold and refit.
+struct Readings {
+  PointsData points;
+  internal::ReadingTable table;
+  explicit Readings(PointsData p) : points(std::move(p)), table(points) {}
+};
+
+double CrossValidated(const Readings& data, const CalibrationOptions& options, const EffectModel& model,
+                      const EffectFitStart& start, int folds, std::uint64_t seed);
+
 EffectFitStart StartFrom(const EffectFit& fit) {
   EffectFitStart s;
   s.geometry = fit.calibration.geometry;
@@ -67,20 +79,26 @@ std::vector<Eigen::Vector3d> Directions(const PointsData& points, const Calibrat
   return d;
 }
 
-TracedFit Analysed(EffectFit fit, const PointsData& points, const CalibrationOptions& options, const TraceOptions& trace) {
+// What the residual analyses need of a traced fit.
+FitResiduals ResidualsOfTraced(const Readings& data, const TracedFit& t, const JacobianBlocks& jacobian) {
+  return {data.points, t.fit.calibration.residuals_mm, jacobian, t.fit.model.reference, t.directions};
+}
+
+TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions& options, const TraceOptions& trace) {
   TracedFit t;
-  t.directions = Directions(points, options, fit);
-  t.structure = AnalyseResidualStructure(
-      {points, fit.calibration.residuals_mm, fit.structure_jacobian, fit.model.reference, t.directions});
-  t.cv_rms_um = CrossValidatedRms(points, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
+  t.directions = Directions(data.points, options, fit);
   t.fit = std::move(fit);
+  const internal::StructureJacobian jacobian(data.table, options, t.fit);
+  t.factor = FactorResidualStructure(ResidualsOfTraced(data, t, jacobian));
+  t.structure = AnalyseResidualStructure(t.factor);
+  t.cv_rms_um = CrossValidated(data, options, t.fit.model, StartFrom(t.fit), trace.folds, trace.seed);
   return t;
 }
 
 // The model of `current` with `term` added, fitted; components that the data cannot separate or
 // do not show are left out one at a time. The last term of the returned fit is the candidate
 // (absent when nothing of it is left).
-EffectFit FitCandidate(const PointsData& points, const CalibrationOptions& options, const EffectFit& current,
+EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
                        EffectTerm term, const TraceOptions& trace, std::string* note) {
   EffectModel model = current.model;
   model.terms.push_back(term);
@@ -100,7 +118,7 @@ EffectFit FitCandidate(const PointsData& points, const CalibrationOptions& optio
     at_start.calibration.centers_mm = start.centers_mm;
     at_start.calibration.setup_ids = current.calibration.setup_ids;
     at_start.n_params = current.n_params + model.terms.back().size();
-    const NormalInverse inv = InvertNormalMatrix(JacobianAt(points, options, at_start));
+    const NormalInverse inv = internal::NormalInverseAt(data.table, options, at_start);
     EffectTerm& cand = model.terms.back();
     const int offset = at_start.TermOffset(model.terms.size() - 1);
     int worst = -1;
@@ -125,7 +143,7 @@ EffectFit FitCandidate(const PointsData& points, const CalibrationOptions& optio
     }
   }
   for (;;) {
-    EffectFit fit = FitEffects(points, options, model, start);
+    EffectFit fit = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
     EffectTerm& cand = model.terms.back();
     const ObservabilityReport& rep = fit.calibration.analysis;
     const int offset = fit.TermOffset(model.terms.size() - 1);
@@ -211,11 +229,11 @@ std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const Tr
   return out;
 }
 
-EffectFit FitNone(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
+EffectFit FitNone(const Readings& data, const CalibrationOptions& options, const CalibrationResult& base,
                   const EffectReference& reference) {
   EffectModel none;
   none.reference = reference;
-  return FitEffects(points, options, none, EffectFitStart::From(base));
+  return internal::FitEffectsRows(data.points, data.table, nullptr, options, none, EffectFitStart::From(base));
 }
 
 // The readings of `all` that are outliers under `fit` (the rule of Calibrate()), as indices.
@@ -239,7 +257,7 @@ PointsData Without(const PointsData& points, const std::vector<std::size_t>& out
 // refitted on the readings it keeps, until the set no longer changes. The final model's result then
 // names its outliers and says so.
 void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-                     const TraceOptions& trace, TracedFit& after, PointsData* kept) {
+                     const TraceOptions& trace, TracedFit& after) {
   std::vector<std::size_t> outliers;
   for (const Outlier& o : base.outliers) outliers.push_back(o.sample);
   if (options.outlier_sigma > 0.0) {
@@ -247,9 +265,10 @@ void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, c
       const std::vector<std::size_t> judged = OutliersUnder(all, options, after.fit);
       if (judged == outliers) break;
       outliers = judged;
-      *kept = Without(all, outliers);
+      const Readings kept(Without(all, outliers));
       EffectFitStart start = StartFrom(after.fit);
-      after = Analysed(FitEffects(*kept, options, after.fit.model, start), *kept, options, trace);
+      after = Analysed(internal::FitEffectsRows(kept.points, kept.table, nullptr, options, after.fit.model, start),
+                       kept, options, trace);
     }
   }
   CalibrationResult& cal = after.fit.calibration;
@@ -270,12 +289,14 @@ void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, c
 
 }  // namespace
 
-double CrossValidatedRms(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
-                         const EffectFitStart& start, int folds, std::uint64_t seed) {
-  const std::size_t m = points.samples.size();
+namespace {
+
+double CrossValidated(const Readings& data, const CalibrationOptions& options, const EffectModel& model,
+                      const EffectFitStart& start, int folds, std::uint64_t seed) {
+  const std::size_t m = data.points.samples.size();
   // Folds within each setup, so that every fold leaves every setup points to fit its centre.
   std::map<int, std::vector<std::size_t>> of_setup;
-  for (std::size_t i = 0; i < m; ++i) of_setup[points.samples[i].setup].push_back(i);
+  for (std::size_t i = 0; i < m; ++i) of_setup[data.points.samples[i].setup].push_back(i);
   std::mt19937_64 rng(seed);
   std::vector<int> fold_of(m);
   for (auto& [setup, rows] : of_setup) {
@@ -285,24 +306,39 @@ double CrossValidatedRms(const PointsData& points, const CalibrationOptions& opt
   CalibrationOptions quick = options;
   quick.analyse = false;
   double sum2 = 0.0;
+  internal::LmWorkspace workspace;
+  std::vector<bool> fold(m), others(m);  // fitted without the fold, then predicted on it
   for (int f = 0; f < folds; ++f) {
-    PointsData train, test;
-    train.source = test.source = points.source;
-    train.header = test.header = points.header;
-    for (std::size_t i = 0; i < m; ++i) (fold_of[i] == f ? test : train).samples.push_back(points.samples[i]);
-    if (test.samples.empty()) continue;
-    const EffectFit fit = FitEffects(train, quick, model, start);
-    for (double e : EffectResiduals(test, options, fit)) sum2 += e * e;
+    bool any = false;
+    for (std::size_t i = 0; i < m; ++i) {
+      fold[i] = fold_of[i] == f;
+      others[i] = !fold[i];
+      any |= fold[i];
+    }
+    if (!any) continue;
+    const EffectFit fit = internal::FitEffectsRows(data.points, data.table, &fold, quick, model, start, &workspace);
+    const std::vector<double> e = internal::ResidualsAt(data.table, &others, options, fit, data.points.source);
+    for (std::size_t i = 0; i < m; ++i) {
+      if (fold[i]) sum2 += e[i] * e[i];
+    }
   }
   return std::sqrt(sum2 / static_cast<double>(m)) * kUmPerMm;
+}
+
+}  // namespace
+
+double CrossValidatedRms(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
+                         const EffectFitStart& start, int folds, std::uint64_t seed) {
+  return CrossValidated(Readings(points), options, model, start, folds, seed);
 }
 
 TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
                           const TraceOptions& trace) {
   TraceResult r;
-  const PointsData points = WithoutOutliers(all, base);  // what the seven-error fit used
+  const Readings data(WithoutOutliers(all, base));  // what the seven-error fit used
+  const PointsData& points = data.points;
   const EffectReference reference = EffectReferenceOf(all.samples);
-  r.before = Analysed(FitNone(points, options, base, reference), points, options, trace);
+  r.before = Analysed(FitNone(data, options, base, reference), data, options, trace);
   std::vector<Effect> pool = trace.candidates;
   if (pool.empty()) {
     for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
@@ -322,7 +358,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
         CandidateScore& c = tried[i].first;
         c.effect = todo[i];
         c.round = round;
-        EffectFit fit = FitCandidate(points, options, current.fit,
+        EffectFit fit = FitCandidate(data, options, current.fit,
                                      DefaultTerm(todo[i], trace.harmonics, trace.drift_order), trace, &c.note);
         if (fit.model.terms.size() == current.fit.model.terms.size()) {
           c.delta_bic = std::numeric_limits<double>::quiet_NaN();  // nothing of it left to fit
@@ -332,7 +368,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
           c.term = fit.model.terms.back();
           c.delta_bic = fit.Bic() - current.fit.Bic();
           c.rms_um = fit.calibration.rms_um;
-          c.cv_rms_um = CrossValidatedRms(points, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
+          c.cv_rms_um = CrossValidated(data, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
           c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
           if (!c.determined) {
             c.note += std::string(c.note.empty() ? "" : "; ") + "with it, some parameters are not determined";
@@ -376,9 +412,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     // or an effect outside the library), the spherical harmonics that the BIC keeps, scored as if
     // added to the current fit. When it explains the residual better than the best effect, no
     // effect is added.
-    const SpherePattern sphere = BestSpherePattern({points, current.fit.calibration.residuals_mm,
-                                                    current.fit.structure_jacobian, current.fit.model.reference,
-                                                    current.directions});
+    const SpherePattern sphere = BestSpherePattern(current.factor);
     CandidateScore form;
     form.sphere_form = true;
     form.round = round;
@@ -434,10 +468,11 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     for (std::size_t i = 0; i < signal.size(); ++i) {
       signal[i] = current.fit.calibration.residuals_mm[i] - with.calibration.residuals_mm[i];
     }
-    chosen.sphere_fraction = SpherePatternFraction(
-        {points, current.fit.calibration.residuals_mm, current.fit.structure_jacobian, current.fit.model.reference,
-         current.directions},
-        signal);
+    {
+      const internal::StructureJacobian jacobian(data.table, options, current.fit);
+      chosen.sphere_fraction =
+          SpherePatternFraction(FactorResidualStructure(ResidualsOfTraced(data, current, jacobian), &signal));
+    }
     if (chosen.sphere_fraction >= trace.max_sphere_fraction) {
       r.ambiguous.push_back(
           {InfoOf(chosen.effect).id, "sphere_form", chosen.delta_bic, std::numeric_limits<double>::quiet_NaN(),
@@ -451,11 +486,10 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     }
     r.candidates.push_back(form);
     r.added.push_back(chosen.effect);
-    current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), points, options, trace);
+    current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), data, options, trace);
   }
   r.after = std::move(current);
-  PointsData kept = points;
-  RejudgeOutliers(all, options, base, trace, r.after, &kept);
+  RejudgeOutliers(all, options, base, trace, r.after);
   r.unexplained = RemainingStructure(r.after.structure, trace);
   return r;
 }
@@ -463,18 +497,19 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
 TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
                             const std::vector<Effect>& effects, const TraceOptions& trace) {
   TraceResult r;
-  const PointsData points = WithoutOutliers(all, base);
+  const Readings data(WithoutOutliers(all, base));
   const EffectReference reference = EffectReferenceOf(all.samples);
-  r.before = Analysed(FitNone(points, options, base, reference), points, options, trace);
+  r.before = Analysed(FitNone(data, options, base, reference), data, options, trace);
   EffectModel model;
   model.reference = reference;
   for (Effect e : effects) {
     if (model.Find(e) < 0) model.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
   }
   for (const EffectTerm& t : model.terms) r.added.push_back(t.effect);
-  r.after = Analysed(FitEffects(points, options, model, StartFrom(r.before.fit)), points, options, trace);
-  PointsData kept = points;
-  RejudgeOutliers(all, options, base, trace, r.after, &kept);
+  r.after =
+      Analysed(internal::FitEffectsRows(data.points, data.table, nullptr, options, model, StartFrom(r.before.fit)),
+               data, options, trace);
+  RejudgeOutliers(all, options, base, trace, r.after);
   r.unexplained = RemainingStructure(r.after.structure, trace);
   return r;
 }

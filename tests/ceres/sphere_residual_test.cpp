@@ -3,11 +3,16 @@
 
 #include <random>
 
+#include <ceres/ceres.h>
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 
+#include "calib/calib_test_util.hpp"
+#include "sph/calib/calibrator.hpp"
+#include "sph/calib/effect_fit.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/effects.hpp"
+#include "sph/model/sphere_fit.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -171,6 +176,139 @@ TEST(SphereResidual, ZeroOnRayTracedReadings) {
     double e = 1.0;
     functor(g.data(), c.data(), &e);
     EXPECT_NEAR(e, 0.0, 1e-12);
+  }
+}
+
+// The calibration's Jacobian is derived by hand (sph/model/residual_gradient.hpp); it must be
+// the automatic differentiation of the per-reading functors, row by row.
+TEST(ResidualJacobian, EqualsTheAutodiffJacobianOfThePerReadingFunctors) {
+  SimulationSpec spec;
+  spec.truth = SomeGeometry();
+  spec.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, -1.5, 0.5)};
+  const PointsData points = Simulate(spec);
+  const std::vector<Eigen::Vector3d> centers{{2.001, 0.002, -0.001}, {0.0, -1.499, 0.503}};
+  const Eigen::MatrixXd jac = ResidualJacobian(points, sph::testing::PaperOptions(), spec.truth, centers);
+  ASSERT_EQ(jac.rows(), static_cast<Eigen::Index>(points.samples.size()));
+  ASSERT_EQ(jac.cols(), kNumScmsParams + 6);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
+    std::unique_ptr<ceres::CostFunction> cost(
+        SphereResidual::Create(s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg, s.r_mm, kD, kR0));
+    const std::size_t k = static_cast<std::size_t>(s.setup);
+    const double* params[] = {spec.truth.data(), centers[k].data()};
+    double e = 0.0, jg[kNumScmsParams], jc[3];
+    double* jacobians[] = {jg, jc};
+    ASSERT_TRUE(cost->Evaluate(params, &e, jacobians));
+    const auto row = static_cast<Eigen::Index>(i);
+    for (int j = 0; j < kNumScmsParams; ++j) worst = std::max(worst, std::abs(jac(row, j) - jg[j]));
+    for (int j = 0; j < 3; ++j) {
+      worst = std::max(worst, std::abs(jac(row, kNumScmsParams + 3 * static_cast<Eigen::Index>(k) + j) - jc[j]));
+      EXPECT_EQ(jac(row, kNumScmsParams + 3 * static_cast<Eigen::Index>(1 - k) + j), 0.0);
+    }
+  }
+  EXPECT_LE(worst, 1e-13);  // the derivatives are O(1) to O(20) (mm per rad)
+}
+
+// The reference for the effects: EffectScmsPoint() differentiated by Ceres, one reading at a time.
+struct EffectReadingResidual {
+  const EffectModel* model;
+  EffectReading reading;
+  template <typename T>
+  bool operator()(T const* const* params, T* residual) const {
+    using std::sqrt;
+    const T* g = params[0];
+    const T* c = params[1];
+    const Vec3<T> p = EffectScmsPoint(g, ErrorTrigOf(g), *model, params + 2, reading, kD);
+    const T dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2];
+    residual[0] = sqrt(dx * dx + dy * dy + dz * dz) - T(kR0);
+    return true;
+  }
+};
+
+TEST(JacobianAt, EqualsTheAutodiffJacobianWithEveryEffect) {
+  SimulationSpec spec;
+  spec.pattern = GridPattern(12, 6);
+  const PointsData points = Simulate(spec);
+  EffectFit fit;
+  for (int e = 0; e < kNumEffects; ++e) {
+    fit.model.terms.push_back(DefaultTerm(static_cast<Effect>(e), 2, 2));
+    std::vector<double> v;
+    for (int i = 0; i < fit.model.terms.back().size(); ++i) v.push_back(2e-5 * (i + 1) * (e % 2 ? -1 : 1));
+    fit.values.push_back(v);
+  }
+  fit.model.reference = EffectReferenceOf(points.samples);
+  fit.calibration.geometry = SomeGeometry();
+  fit.calibration.setup_ids = {0};
+  fit.calibration.centers_mm = {Eigen::Vector3d(2.0, 0.01, -0.02)};
+  const Eigen::MatrixXd jac = JacobianAt(points, sph::testing::PaperOptions(), fit);
+  const int n = kNumScmsParams + 3 + fit.model.NumParams();
+  ASSERT_EQ(jac.cols(), n);
+  std::vector<const double*> blocks{fit.calibration.geometry.data(), fit.calibration.centers_mm[0].data()};
+  for (const auto& v : fit.values) blocks.push_back(v.data());
+  double worst = 0.0;
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
+    ceres::DynamicAutoDiffCostFunction<EffectReadingResidual, 8> cost(
+        new EffectReadingResidual{&fit.model, EffectReading(s.theta_deg, s.phi_deg, s.r_mm, s.t_s)});
+    cost.AddParameterBlock(kNumScmsParams);
+    cost.AddParameterBlock(3);
+    for (const auto& v : fit.values) cost.AddParameterBlock(static_cast<int>(v.size()));
+    cost.SetNumResiduals(1);
+    std::vector<std::vector<double>> jb;
+    std::vector<double*> jp;
+    for (int size : cost.parameter_block_sizes()) jb.emplace_back(static_cast<std::size_t>(size));
+    for (auto& b : jb) jp.push_back(b.data());
+    double e = 0.0;
+    ASSERT_TRUE(cost.Evaluate(blocks.data(), &e, jp.data()));
+    int col = 0;
+    for (const auto& b : jb) {
+      for (const double d : b) worst = std::max(worst, std::abs(jac(static_cast<Eigen::Index>(i), col++) - d));
+    }
+    ASSERT_EQ(col, n);
+  }
+  // Basis functions by recurrence against std::cos and std::pow in the reference: rounding apart.
+  EXPECT_LE(worst, 1e-12);
+}
+
+// The calibration's own Levenberg-Marquardt against Ceres' on the per-reading autodiff functors
+// (one AutoDiffCostFunction per reading, dense QR), same start and tolerances.
+TEST(Calibrate, AgreesWithCeresOnThePerReadingFunctors) {
+  for (const double noise_um : {0.0, 0.05}) {
+    SimulationSpec spec;
+    spec.noise_r_um = noise_um;
+    const PointsData points = Simulate(spec);
+    const CalibrationResult fast = Calibrate(points, sph::testing::PaperOptions());
+    ASSERT_TRUE(fast.converged) << fast.solver_message;
+    ScmsGeometry g{};
+    std::vector<Eigen::Vector3d> nominal;
+    for (const Sample& s : points.samples) {
+      nominal.push_back(ScmsPoint(g, s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg, s.r_mm, kD));
+    }
+    Eigen::Vector3d center = FitSphereAlgebraic(nominal).center;
+    ceres::Problem problem;
+    for (const Sample& s : points.samples) {
+      problem.AddResidualBlock(
+          SphereResidual::Create(s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg, s.r_mm, kD, kR0), nullptr, g.data(),
+          center.data());
+    }
+    ceres::Solver::Options o;
+    o.linear_solver_type = ceres::DENSE_QR;
+    o.logging_type = ceres::SILENT;
+    o.function_tolerance = 1e-6;
+    o.gradient_tolerance = 1e-16;
+    o.parameter_tolerance = 1e-12;
+    ceres::Solver::Summary summary;
+    ceres::Solve(o, &problem, &summary);
+    ASSERT_EQ(summary.termination_type, ceres::CONVERGENCE) << summary.message;
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      // Both stop when the cost changes by less than 1e-6 of itself: they agree to about
+      // sqrt(1e-6) of the standard uncertainty (noise-free: to rounding).
+      const double tol = noise_um > 0.0 ? 1e-3 * fast.analysis.std(p) : 1e-12;
+      EXPECT_NEAR(fast.geometry[static_cast<std::size_t>(p)], g[static_cast<std::size_t>(p)], tol)
+          << kScmsParamInfo[static_cast<std::size_t>(p)].name << ", noise " << noise_um << " um";
+    }
+    EXPECT_PRED_FORMAT3(MatrixNear, fast.centers_mm[0], center, noise_um > 0.0 ? 1e-3 * fast.analysis.std(7) : 1e-12);
   }
 }
 

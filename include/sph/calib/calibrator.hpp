@@ -55,7 +55,7 @@ struct CalibrationResult {
   std::vector<Outlier> outliers;            ///< readings left out, in file order
   int iterations = 0;
   bool converged = false;
-  std::string solver_message;               ///< Ceres' termination message
+  std::string solver_message;               ///< the solver's termination message
   /// Uncertainties, correlations and identifiability; parameters in the order: the seven errors,
   /// then center_x, center_y, center_z of each setup. Empty when options.analyse is false.
   ObservabilityReport analysis;

@@ -46,14 +46,6 @@ struct EffectFit {
   CalibrationResult calibration;
   EffectModel model;
   std::vector<std::vector<double>> values;  ///< one block per term (rad, mm)
-  /// Jacobian of the residuals at the solution (rows in file order, columns as the analysis'
-  /// parameters); empty when not analysed.
-  Eigen::MatrixXd jacobian;
-  /// The Jacobian at the readings the fit expects, r + e, for the residual structure analysis
-  /// (sph/calib/residual_structure.hpp): with probe terms in the model, the measured r carries the
-  /// noise that the residual is, and columns computed from it would let the analysis fit that
-  /// noise. Equal to `jacobian` without probe gain or nonlinearity.
-  Eigen::MatrixXd structure_jacobian;
   double rss_mm2 = 0.0;  ///< sum of squared residuals
   int n_params = 0;      ///< fitted parameters in all
 
@@ -69,7 +61,9 @@ EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options
                      const EffectFitStart& start);
 
 /// The Jacobian of the residuals of `points` (rows in file order) at the parameters of `fit`,
-/// columns as fit.jacobian's. Every setup of `points` must be one of the fit's.
+/// columns as the analysis' parameters. Every setup of `points` must be one of the fit's. (The fit
+/// itself never holds it: its analysis uses the Jacobian's triangular factor, accumulated row
+/// block by row block.)
 Eigen::MatrixXd JacobianAt(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);
 
 /// p - O [mm] of each sample of `points` (file order) under the parameters of `fit`: the probed

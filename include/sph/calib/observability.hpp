@@ -1,8 +1,8 @@
 // Uncertainty and identifiability of a least-squares fit from its Jacobian at the solution.
 //
 // With J (m x n) the Jacobian of the residuals, s^2 = sum(e^2) / (m - n) the residual variance:
-//   covariance = s^2 (J^T J)^-1, computed through the SVD of J D with D = diag(1 / |J_:,j|)
-// (column equilibration, so the units of the parameters do not matter). The condition number is
+//   covariance = s^2 (J^T J)^-1, computed through the SVD of J D (or of R D, J = Q R) with
+// D = diag(1 / |J_:,j|) (column equilibration, so the units of the parameters do not matter). The condition number is
 // that of J D; the right singular vectors of its smallest singular values are the nearly dependent
 // parameter combinations. A parameter is undetermined when its standard uncertainty, as a
 // displacement of the probed point (lengths as they are, angles times a lever arm), exceeds a
@@ -10,6 +10,7 @@
 #ifndef SPH_CALIB_OBSERVABILITY_HPP_
 #define SPH_CALIB_OBSERVABILITY_HPP_
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -69,9 +70,33 @@ struct NormalInverse {
 /// NormalInverse of a Jacobian with at least as many rows as columns.
 NormalInverse InvertNormalMatrix(const Eigen::MatrixXd& jacobian);
 
+/// The same from the triangular factor R of the Jacobian (J = Q R, R square) and J's number of
+/// rows: R D has the singular values and right singular vectors of J D, so nothing of size
+/// rows x columns is needed (sph/model/row_qr.hpp accumulates R from blocks of rows).
+NormalInverse InvertNormalFactor(const Eigen::MatrixXd& r, Eigen::Index rows);
+
+/// The ratio of largest to smallest eigenvalue of the equilibrated normal matrix below which
+/// InvertNormalEquations() answers: the square of a condition number of 1e4.
+inline constexpr double kMaxNormalCondition = 1e8;
+
+/// The same from the normal matrix J^T J (full, symmetric) when J is well conditioned: the
+/// eigenvalues of D J^T J D are the squares of the singular values of J D and its eigenvectors are
+/// V, with relative errors of about eps * cond(J D)^2 <= 1e-8 when cond(J D)^2 < kMaxNormalCondition
+/// (then nothing is near the null space either). Empty otherwise: use the factor.
+std::optional<NormalInverse> InvertNormalEquations(const Eigen::MatrixXd& jtj, Eigen::Index rows);
+
 /// Analyses a fit. `jacobian` is m x n with m > n, `residuals` has m entries (any unit, the same
 /// as the Jacobian's rows), `params` describes the n columns.
 ObservabilityReport AnalyseFit(const Eigen::MatrixXd& jacobian, const Eigen::VectorXd& residuals,
+                               std::vector<ParameterDescription> params, double max_std_um);
+
+/// AnalyseFit() from the triangular factor R of the Jacobian (see InvertNormalFactor()), its number
+/// of rows and the residuals' sum of squares.
+ObservabilityReport AnalyseFactor(const Eigen::MatrixXd& r, Eigen::Index rows, double rss,
+                                  std::vector<ParameterDescription> params, double max_std_um);
+
+/// AnalyseFit() from the inverse of the normal matrix as any of the functions above gives it.
+ObservabilityReport AnalyseFit(const NormalInverse& inverse, Eigen::Index rows, double rss,
                                std::vector<ParameterDescription> params, double max_std_um);
 
 }  // namespace sph

@@ -8,9 +8,17 @@
 // exactly s^2 chi^2 with the group's rank r, and
 //   F = (explained / r) / ((RSS - explained) / (m - n - r))
 // follows F(r, m - n - r). A small p-value means structure that the fitted model does not have.
+//
+// Everything here depends on the columns of J, of the functions and of e only through their inner
+// products, so it is computed from the triangular factor R of [J | functions | e] (J = Q R),
+// accumulated in one pass over the rows (StructureFactor): memory O(columns^2) for any number of
+// readings, with the accuracy of an orthogonal factorisation. The projections, Gram-Schmidt steps
+// and regressions then run on the columns of R, as they would on the m-row columns.
 #ifndef SPH_CALIB_RESIDUAL_STRUCTURE_HPP_
 #define SPH_CALIB_RESIDUAL_STRUCTURE_HPP_
 
+#include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -44,19 +52,53 @@ struct ResidualStructure {
   int Strongest() const;
 };
 
-/// What the analysis needs of a fit to `points`: its residuals (file order, mm), its Jacobian
-/// (m x n, at the readings the fit expects: EffectFit::structure_jacobian), the reference that
-/// normalises r and t, and the unit direction from the fitted centre to each probed point (sphere
-/// frame).
+/// The rows of a fit's Jacobian, given block by block (any order, each row once).
+class JacobianBlocks {
+ public:
+  /// fn(samples, count, rows, stride): `count` rows of J, samples[i] the index in the fit's points
+  /// of row i, its column j at rows[i * stride + j].
+  using BlockFn = std::function<void(const std::uint32_t* samples, int count, const double* rows, int stride)>;
+  virtual ~JacobianBlocks() = default;
+  virtual Eigen::Index Cols() const = 0;
+  virtual void ForEach(const BlockFn& fn) const = 0;
+};
+
+/// A Jacobian held in memory (row i: sample i) as JacobianBlocks.
+class DenseJacobianBlocks final : public JacobianBlocks {
+ public:
+  explicit DenseJacobianBlocks(const Eigen::MatrixXd& jacobian) : jacobian_(jacobian) {}
+  Eigen::Index Cols() const override { return jacobian_.cols(); }
+  void ForEach(const BlockFn& fn) const override;
+
+ private:
+  const Eigen::MatrixXd& jacobian_;
+};
+
+/// What the analysis needs of a fit to `points`: its residuals (file order, mm), its Jacobian (at
+/// the readings the fit expects: with probe terms, at r + e), the reference that normalises r and
+/// t, and the unit direction from the fitted centre to each probed point (sphere frame).
 struct FitResiduals {
   const PointsData& points;
   const std::vector<double>& residuals_mm;
-  const Eigen::MatrixXd& jacobian;
+  const JacobianBlocks& jacobian;
   const EffectReference& reference;
   const std::vector<Eigen::Vector3d>& directions;
 };
 
+/// The triangular factor of [J | functions of every group | e] of a fit (see the file comment), or
+/// of [J | the sphere group's functions | signal], from one pass over its rows.
+struct StructureFactor {
+  Eigen::MatrixXd r;               ///< R, upper triangular, columns in the order above
+  Eigen::Index rows = 0;           ///< m
+  Eigen::Index jacobian_cols = 0;  ///< n
+  bool has_signal = false;         ///< the columns are those with a signal
+};
+
+/// The factor of a fit; with `signal_mm` (file order) its column is added (SpherePatternFraction()).
+StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vector<double>* signal_mm = nullptr);
+
 /// Analyses the residuals of a fit (see the file comment).
+ResidualStructure AnalyseResidualStructure(const StructureFactor& factor);
 ResidualStructure AnalyseResidualStructure(const FitResiduals& fit);
 
 /// The best small pattern fixed on the sphere: spherical harmonics of degree 2..5 of the direction
@@ -68,11 +110,14 @@ struct SpherePattern {
   double explained_rms_um = 0.0;
   std::vector<std::string> functions;   ///< e.g. "S(3,2)", in the order chosen
 };
+SpherePattern BestSpherePattern(const StructureFactor& factor);
 SpherePattern BestSpherePattern(const FitResiduals& fit);
 
 /// The share of a signal (file order, mm; e.g. what an effect added to the fitted readings) that
 /// is a pattern fixed on the sphere: of its part outside the columns of the fit's Jacobian, the
 /// fraction that spherical harmonics of degree 2..5 of the direction from the centre explain.
+/// The factor must hold the signal (FactorResidualStructure(fit, &signal)).
+double SpherePatternFraction(const StructureFactor& factor);
 double SpherePatternFraction(const FitResiduals& fit, const std::vector<double>& signal_mm);
 
 /// P(F(d1, d2) >= f), the upper tail of Fisher's F distribution.

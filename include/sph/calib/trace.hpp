@@ -87,6 +87,7 @@ struct Unexplained {
 struct TracedFit {
   EffectFit fit;
   std::vector<Eigen::Vector3d> directions;  ///< from the fitted centre to each probed point (unit)
+  StructureFactor factor;                   ///< what the residual analyses of this fit are computed from
   ResidualStructure structure;
   double cv_rms_um = 0.0;
 };

@@ -2,6 +2,7 @@
 //
 // FitSphereAlgebraic: linear least squares on |p|^2 = 2 c.p + k (Kasa fit). Closed form and
 // robust, but it minimises an algebraic, not a geometric, distance: use it as a starting point.
+// Memory O(1) in the number of points.
 //
 // FitSphereLeastSquares: the geometric (Gaussian, orthogonal-distance) least-squares sphere,
 //   min over (c, R) of  S = sum_i e_i^2,   e_i = |p_i - c| - R,
@@ -27,6 +28,8 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 
+#include "sph/model/row_qr.hpp"
+
 namespace sph {
 
 /// A fitted sphere. `ok` is false when the points do not determine a sphere (fewer than four,
@@ -39,30 +42,43 @@ struct Sphere {
 
 /// Algebraic (Kasa) sphere fit. Solves [2x 2y 2z 1] [c; k] = |p|^2 in the least-squares sense
 /// with column-pivoting QR, after moving the origin to the centroid for conditioning;
-/// radius = sqrt(k + |c|^2). Units are those of the points.
-inline Sphere FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points) {
+/// radius = sqrt(k + |c|^2). The rows are folded into the QR's triangular factor in blocks
+/// (RowQr), so no n x 4 matrix is made. Units are those of the points.
+/// `point(i)` gives point i of n (it is called twice per point).
+template <typename PointAt>
+Sphere FitSphereAlgebraic(Eigen::Index n, const PointAt& point) {
   Sphere s;
-  const Eigen::Index n = static_cast<Eigen::Index>(points.size());
   if (n < 4) return s;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& p : points) mean += p;
+  for (Eigen::Index i = 0; i < n; ++i) mean += point(i);
   mean /= static_cast<double>(n);
-  Eigen::MatrixXd a(n, 4);
-  Eigen::VectorXd rhs(n);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const Eigen::Vector3d q = points[static_cast<std::size_t>(i)] - mean;
-    a.row(i) << 2.0 * q.x(), 2.0 * q.y(), 2.0 * q.z(), 1.0;
-    rhs(i) = q.squaredNorm();
+  constexpr Eigen::Index kBlock = 64;
+  RowQr factor(5);  // columns 2x, 2y, 2z, 1 and the right-hand side |p|^2
+  Eigen::Matrix<double, kBlock, 5, Eigen::RowMajor> block;
+  for (Eigen::Index first = 0; first < n; first += kBlock) {
+    const Eigen::Index count = std::min(kBlock, n - first);
+    for (Eigen::Index i = 0; i < count; ++i) {
+      const Eigen::Vector3d q = point(first + i) - mean;
+      block.row(i) << 2.0 * q.x(), 2.0 * q.y(), 2.0 * q.z(), 1.0, q.squaredNorm();
+    }
+    factor.AddRows(block.data(), 5, count);
   }
-  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+  // [A b] = Q R: the least-squares solution of A x = b is that of R_A x = R_b.
+  const Eigen::ColPivHouseholderQR<Eigen::Matrix4d> qr(factor.r().topLeftCorner<4, 4>());
   if (qr.rank() < 4) return s;
-  const Eigen::Vector4d x = qr.solve(rhs);
+  const Eigen::Vector4d x = qr.solve(factor.r().col(4).head<4>());
   const double r2 = x(3) + x.head<3>().squaredNorm();
   if (!(r2 > 0.0) || !std::isfinite(r2)) return s;
   s.center = mean + x.head<3>();
   s.radius = std::sqrt(r2);
   s.ok = true;
   return s;
+}
+
+/// FitSphereAlgebraic() of a vector of points.
+inline Sphere FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points) {
+  return FitSphereAlgebraic(static_cast<Eigen::Index>(points.size()),
+                            [&](Eigen::Index i) { return points[static_cast<std::size_t>(i)]; });
 }
 
 /// Settings of FitSphereLeastSquares().

@@ -1,0 +1,504 @@
+#include "fit_problem.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+#include <map>
+
+#include "sph/core/error.hpp"
+#include "sph/model/residual_gradient.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph::internal {
+namespace {
+
+constexpr int kRows = SphereFitProblem::kBlockRows;
+
+// Where an effect component enters the residual (ResidualInputs).
+enum Target : int { kDTheta = 0, kDPhi, kMotionX, kMotionY, kMotionZ, kWobbleX, kWobbleY, kDr, kNumTargets };
+
+// The basis function of one component.
+enum class Basis { kThetaHarmonic, kPhiHarmonic, kU, kTau };
+
+struct Component {
+  Target target;
+  Basis basis;
+  int order;
+  bool sine;
+};
+
+Target TargetOf(Effect e, int axis) {
+  switch (e) {
+    case Effect::kThetaEncoder:
+      return kDTheta;
+    case Effect::kPhiEncoder:
+      return kDPhi;
+    case Effect::kThetaRadialMotion:
+      return axis == 0 ? kMotionX : kMotionY;
+    case Effect::kThetaAxialMotion:
+      return kMotionZ;
+    case Effect::kPhiWobble:
+      return axis == 0 ? kWobbleX : kWobbleY;
+    case Effect::kProbeGain:
+    case Effect::kProbeNonlinearity:
+    case Effect::kProbeDrift:
+      break;
+  }
+  return kDr;
+}
+
+Basis BasisOf(Effect e) {
+  const EffectInfo& info = InfoOf(e);
+  if (info.harmonic) return std::strcmp(info.variable, "theta") == 0 ? Basis::kThetaHarmonic : Basis::kPhiHarmonic;
+  return e == Effect::kProbeDrift ? Basis::kTau : Basis::kU;
+}
+
+double Partial(const ResidualGradient& d, Target t) {
+  switch (t) {
+    case kDTheta:
+      return d.theta;
+    case kDPhi:
+      return d.phi;
+    case kMotionX:
+      return d.motion[0];
+    case kMotionY:
+      return d.motion[1];
+    case kMotionZ:
+      return d.motion[2];
+    case kWobbleX:
+      return d.wobble_x;
+    case kWobbleY:
+      return d.wobble_y;
+    default:
+      return d.z;
+  }
+}
+
+// gram (n x n, column-major, lower triangle) += C^T C over `count` rows of the column-major C
+// (leading dimension ld), in 2 x 2 tiles so that each loaded pair of values serves four products.
+void AddGram(const double* c, int ld, int n, int count, double* gram) {
+  int a = 0;
+  for (; a + 1 < n; a += 2) {
+    const double* __restrict x0 = c + a * ld;
+    const double* __restrict x1 = x0 + ld;
+    for (int b = 0; b < a; b += 2) {
+      const double* __restrict y0 = c + b * ld;
+      const double* __restrict y1 = y0 + ld;
+      double s00 = 0.0, s01 = 0.0, s10 = 0.0, s11 = 0.0;
+      for (int i = 0; i < count; ++i) {
+        s00 += x0[i] * y0[i];
+        s01 += x0[i] * y1[i];
+        s10 += x1[i] * y0[i];
+        s11 += x1[i] * y1[i];
+      }
+      gram[b * n + a] += s00;
+      gram[(b + 1) * n + a] += s01;
+      gram[b * n + a + 1] += s10;
+      gram[(b + 1) * n + a + 1] += s11;
+    }
+    double s00 = 0.0, s10 = 0.0, s11 = 0.0;
+    for (int i = 0; i < count; ++i) {
+      s00 += x0[i] * x0[i];
+      s10 += x1[i] * x0[i];
+      s11 += x1[i] * x1[i];
+    }
+    gram[a * n + a] += s00;
+    gram[a * n + a + 1] += s10;
+    gram[(a + 1) * n + a + 1] += s11;
+  }
+  if (a < n) {  // an odd last column
+    const double* __restrict x0 = c + a * ld;
+    for (int b = 0; b <= a; ++b) {
+      const double* __restrict y0 = c + b * ld;
+      double s = 0.0;
+      for (int i = 0; i < count; ++i) s += x0[i] * y0[i];
+      gram[b * n + a] += s;
+    }
+  }
+}
+
+// The seven-error residuals of `count` gathered readings and their Jacobian (columns g0..g6,
+// centre x, y, z; leading dimension kRows). The loop is straight-line code over arrays: the compiler
+// vectorises it (one call site, so that the gradient is inlined into it).
+void SevenErrorRows(const double* g, const ScmsErrorTrig<double> et, double d_plus_dprime, const double* center,
+                    double radius_mm, int count, const double* __restrict ct, const double* __restrict st,
+                    const double* __restrict cp, const double* __restrict sp, const double* __restrict r,
+                    double* __restrict e, double* __restrict cols) {
+  // Local copies: the compiler then knows that the stores below leave them unchanged.
+  double geometry[kNumScmsParams];
+  std::copy(g, g + kNumScmsParams, geometry);
+  const double c[3] = {center[0], center[1], center[2]};
+  for (int i = 0; i < count; ++i) {
+    ResidualInputs in;
+    in.theta.sin = st[i];
+    in.theta.cos = ct[i];
+    in.phi.sin = sp[i];
+    in.phi.cos = cp[i];
+    in.z = r[i] - d_plus_dprime;
+    ResidualGradient out;
+    SphereResidualGradient(geometry, et, in, c, radius_mm, &out);
+    e[i] = out.e;
+    cols[0 * kRows + i] = out.geometry[0];
+    cols[1 * kRows + i] = out.geometry[1];
+    cols[2 * kRows + i] = out.geometry[2];
+    cols[3 * kRows + i] = out.geometry[3];
+    cols[4 * kRows + i] = out.geometry[4];
+    cols[5 * kRows + i] = out.geometry[5];
+    cols[6 * kRows + i] = out.geometry[6];
+    cols[7 * kRows + i] = out.center[0];
+    cols[8 * kRows + i] = out.center[1];
+    cols[9 * kRows + i] = out.center[2];
+  }
+}
+
+}  // namespace
+
+ReadingTable::ReadingTable(const PointsData& points) {
+  const std::size_t m = points.samples.size();
+  for (auto* v : {&theta_rad, &phi_rad, &cos_theta, &sin_theta, &cos_phi, &sin_phi, &r_mm, &t_s}) v->resize(m);
+  setup.resize(m);
+  setup_ids = points.SetupIds();
+  std::map<int, int> index;
+  for (std::size_t k = 0; k < setup_ids.size(); ++k) index[setup_ids[k]] = static_cast<int>(k);
+  for (std::size_t i = 0; i < m; ++i) {
+    const Sample& s = points.samples[i];
+    theta_rad[i] = s.theta_deg * kRadPerDeg;
+    phi_rad[i] = s.phi_deg * kRadPerDeg;
+    const SinCos<double> t = SinCosOf(theta_rad[i]), p = SinCosOf(phi_rad[i]);
+    cos_theta[i] = t.cos;
+    sin_theta[i] = t.sin;
+    cos_phi[i] = p.cos;
+    sin_phi[i] = p.sin;
+    r_mm[i] = s.r_mm;
+    t_s[i] = s.t_s;
+    setup[i] = index.size() == 1 ? 0 : index.at(s.setup);
+  }
+}
+
+void ReadingTable::SetReadings(const PointsData& points) {
+  for (std::size_t i = 0; i < r_mm.size(); ++i) r_mm[i] = points.samples[i].r_mm;
+}
+
+RowsOfSetup AllRows(const ReadingTable& table, const std::vector<bool>* left_out) {
+  RowsOfSetup rows(table.setup_ids.size());
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    if (left_out == nullptr || !(*left_out)[i]) {
+      rows[static_cast<std::size_t>(table.setup[i])].push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  return rows;
+}
+
+struct SphereFitProblem::Scratch {
+  // The gathered readings of one block.
+  alignas(64) double theta[kRows], phi[kRows], ct[kRows], st[kRows], cp[kRows], sp[kRows], r[kRows], t[kRows];
+  // The effects' inputs of each row (Target order) and the basis functions.
+  alignas(64) double target[kNumTargets][kRows];
+  alignas(64) double u_pow[3][kRows], tau_pow[3][kRows];
+  std::vector<double> theta_harmonics, phi_harmonics;  // cos k, sin k for k = 1.., kRows each
+  std::vector<const double*> basis;                    // per effect parameter: its values in the block
+  std::vector<double> cols;                            // local Jacobian columns and e last, kRows each
+  std::vector<double> gram;                            // (cols + 1)^2, lower triangle
+  std::vector<double> global;                          // num_params x kRows for the factor
+  std::vector<Component> components;                   // per effect parameter
+  int theta_orders = 0, phi_orders = 0;
+  bool theta_encoder = false, phi_encoder = false, wobble = false;
+};
+
+SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, const EffectModel& model,
+                                   double probe_offset_mm, double sphere_radius_mm)
+    : table_(table),
+      model_(model),
+      probe_offset_mm_(probe_offset_mm),
+      sphere_radius_mm_(sphere_radius_mm),
+      scratch_(std::make_unique<Scratch>()) {
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    if (rows[k].empty()) continue;
+    num_rows_ += rows[k].size();
+    setups_.push_back(static_cast<int>(k));
+    rows_.push_back(std::move(rows[k]));
+  }
+  num_effect_params_ = model.NumParams();
+  first_effect_ = kNumScmsParams + 3 * static_cast<Eigen::Index>(setups_.size());
+  num_params_ = first_effect_ + num_effect_params_;
+  Scratch& s = *scratch_;
+  for (const EffectTerm& term : model.terms) {
+    for (const EffectComponent& c : term.components) {
+      const Component comp{TargetOf(term.effect, c.axis), BasisOf(term.effect), c.order, c.sine};
+      s.components.push_back(comp);
+      if (comp.basis == Basis::kThetaHarmonic) s.theta_orders = std::max(s.theta_orders, c.order);
+      if (comp.basis == Basis::kPhiHarmonic) s.phi_orders = std::max(s.phi_orders, c.order);
+    }
+    s.theta_encoder |= term.effect == Effect::kThetaEncoder;
+    s.phi_encoder |= term.effect == Effect::kPhiEncoder;
+    s.wobble |= term.effect == Effect::kPhiWobble;
+  }
+  s.theta_harmonics.resize(static_cast<std::size_t>(2 * s.theta_orders * kRows));
+  s.phi_harmonics.resize(static_cast<std::size_t>(2 * s.phi_orders * kRows));
+  s.basis.resize(s.components.size());
+  for (std::size_t p = 0; p < s.components.size(); ++p) {
+    const Component& c = s.components[p];
+    const int slot = 2 * (c.order - 1) + (c.sine ? 1 : 0);
+    switch (c.basis) {
+      case Basis::kThetaHarmonic:
+        s.basis[p] = s.theta_harmonics.data() + slot * kRows;
+        break;
+      case Basis::kPhiHarmonic:
+        s.basis[p] = s.phi_harmonics.data() + slot * kRows;
+        break;
+      case Basis::kU:
+        s.basis[p] = s.u_pow[c.order - 1];
+        break;
+      case Basis::kTau:
+        s.basis[p] = s.tau_pow[c.order - 1];
+        break;
+    }
+  }
+  const int local = kNumScmsParams + 3 + num_effect_params_;
+  s.cols.assign(static_cast<std::size_t>((local + 1) * kRows), 0.0);
+  s.gram.assign(static_cast<std::size_t>((local + 1) * (local + 1)), 0.0);
+}
+
+SphereFitProblem::~SphereFitProblem() = default;
+
+Eigen::VectorXd SphereFitProblem::Pack(const ScmsGeometry& g, const std::vector<Eigen::Vector3d>& centers_mm,
+                                       const std::vector<std::vector<double>>& values) const {
+  Eigen::VectorXd x(num_params_);
+  for (int k = 0; k < kNumScmsParams; ++k) x(k) = g[static_cast<std::size_t>(k)];
+  for (std::size_t k = 0; k < setups_.size(); ++k)
+    x.segment<3>(kNumScmsParams + 3 * static_cast<Eigen::Index>(k)) = centers_mm[k];
+  Eigen::Index j = first_effect_;
+  for (std::size_t t = 0; t < model_.terms.size(); ++t) {
+    for (std::size_t i = 0; i < model_.terms[t].components.size(); ++i) x(j++) = values[t][i];
+  }
+  return x;
+}
+
+void SphereFitProblem::Unpack(const Eigen::VectorXd& x, ScmsGeometry* g, std::vector<Eigen::Vector3d>* centers_mm,
+                              std::vector<std::vector<double>>* values) const {
+  for (int k = 0; k < kNumScmsParams; ++k) (*g)[static_cast<std::size_t>(k)] = x(k);
+  centers_mm->clear();
+  for (std::size_t k = 0; k < setups_.size(); ++k) {
+    centers_mm->push_back(x.segment<3>(kNumScmsParams + 3 * static_cast<Eigen::Index>(k)));
+  }
+  if (values == nullptr) return;
+  values->assign(model_.terms.size(), {});
+  Eigen::Index j = first_effect_;
+  for (std::size_t t = 0; t < model_.terms.size(); ++t) {
+    for (std::size_t i = 0; i < model_.terms[t].components.size(); ++i) (*values)[t].push_back(x(j++));
+  }
+}
+
+void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime,
+                                  const double* center, const std::uint32_t* idx, int count, double* e,
+                                  double* cols) const {
+  Scratch& s = *scratch_;
+  const double* g = x;
+  const EffectReference& ref = model_.reference;
+  const double* effect_values = x + first_effect_;
+  for (int i = 0; i < count; ++i) {
+    s.theta[i] = table_.theta_rad[idx[i]];
+    s.phi[i] = table_.phi_rad[idx[i]];
+    s.t[i] = table_.t_s[idx[i]];
+  }
+  // The basis functions of the block.
+  auto harmonics = [count](int orders, const double* c1, const double* s1, double* out) {
+    for (int order = 1; order <= orders; ++order) {
+      double* ck = out + 2 * (order - 1) * kRows;
+      double* sk = ck + kRows;
+      if (order == 1) {
+        std::copy(c1, c1 + count, ck);
+        std::copy(s1, s1 + count, sk);
+        continue;
+      }
+      const double* cp = ck - 2 * kRows;
+      const double* sp = cp + kRows;
+      for (int i = 0; i < count; ++i) {
+        ck[i] = cp[i] * c1[i] - sp[i] * s1[i];
+        sk[i] = sp[i] * c1[i] + cp[i] * s1[i];
+      }
+    }
+  };
+  harmonics(s.theta_orders, s.ct, s.st, s.theta_harmonics.data());
+  harmonics(s.phi_orders, s.cp, s.sp, s.phi_harmonics.data());
+  for (int i = 0; i < count; ++i) {
+    const double u = (s.r[i] - ref.r_ref_mm) / ref.r_half_range_mm;
+    const double tau = (s.t[i] - ref.t_start_s) / ref.t_span_s;
+    s.u_pow[0][i] = u;
+    s.u_pow[1][i] = u * u;
+    s.u_pow[2][i] = u * u * u;
+    s.tau_pow[0][i] = tau;
+    s.tau_pow[1][i] = tau * tau;
+    s.tau_pow[2][i] = tau * tau * tau;
+  }
+  // Each term's sums, per target, as EffectScmsPoint() adds them.
+  for (auto& t : s.target) std::fill(t, t + count, 0.0);
+  std::size_t p = 0;
+  for (const EffectTerm& term : model_.terms) {
+    for (int axis = 0; axis < term.info().axes; ++axis) {
+      double sum[kRows];
+      std::fill(sum, sum + count, 0.0);
+      for (std::size_t c = 0; c < term.components.size(); ++c) {
+        if (term.components[c].axis != axis) continue;
+        const double v = effect_values[p + c];
+        const double* b = s.basis[p + c];
+        for (int i = 0; i < count; ++i) sum[i] += v * b[i];
+      }
+      double* target = s.target[TargetOf(term.effect, axis)];
+      for (int i = 0; i < count; ++i) target[i] += sum[i];
+    }
+    p += term.components.size();
+  }
+  const int n_eff = num_effect_params_;
+  for (int i = 0; i < count; ++i) {
+    ResidualInputs in;
+    in.theta = s.theta_encoder ? SinCosOf(s.theta[i] + s.target[kDTheta][i]) : SinCos<double>{s.st[i], s.ct[i]};
+    in.phi = s.phi_encoder ? SinCosOf(s.phi[i] + s.target[kDPhi][i]) : SinCos<double>{s.sp[i], s.cp[i]};
+    in.z = (s.r[i] + s.target[kDr][i]) - d_plus_dprime;
+    in.motion[0] = s.target[kMotionX][i];
+    in.motion[1] = s.target[kMotionY][i];
+    in.motion[2] = s.target[kMotionZ][i];
+    ResidualGradient out;
+    if (s.wobble) {
+      in.wobble_x = SinCosOf(s.target[kWobbleX][i]);
+      in.wobble_y = SinCosOf(s.target[kWobbleY][i]);
+      SphereResidualGradient<true>(g, et, in, center, sphere_radius_mm_, &out);
+    } else {
+      SphereResidualGradient<false>(g, et, in, center, sphere_radius_mm_, &out);
+    }
+    e[i] = out.e;
+    if (cols == nullptr) continue;
+    for (int j = 0; j < kNumScmsParams; ++j) cols[j * kRows + i] = out.geometry[j];
+    for (int j = 0; j < 3; ++j) cols[(kNumScmsParams + j) * kRows + i] = out.center[j];
+    for (int q = 0; q < n_eff; ++q) {
+      const Component& c = s.components[static_cast<std::size_t>(q)];
+      cols[(kNumScmsParams + 3 + q) * kRows + i] = Partial(out, c.target) * s.basis[static_cast<std::size_t>(q)][i];
+    }
+  }
+}
+
+void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, bool jacobian,
+                                    const std::function<void(const RowBlock&)>& fn) const {
+  Scratch& s = *scratch_;
+  const double* g = x;
+  const ScmsErrorTrig<double> et = ErrorTrigOf(g);
+  const double d_plus_dprime = probe_offset_mm_ + g[kDPrime];
+  const int local = kNumScmsParams + 3 + num_effect_params_;
+  double* e = s.cols.data() + local * kRows;
+  double* cols = jacobian ? s.cols.data() : nullptr;
+  for (std::size_t k = 0; k < setups_.size(); ++k) {
+    const double* center = x + kNumScmsParams + 3 * k;
+    const std::vector<std::uint32_t>& rows = rows_[k];
+    for (std::size_t first = 0; first < rows.size(); first += kRows) {
+      const int count = static_cast<int>(std::min<std::size_t>(kRows, rows.size() - first));
+      const std::uint32_t* idx = rows.data() + first;
+      for (int i = 0; i < count; ++i) {
+        const std::uint32_t row = idx[i];
+        s.ct[i] = table_.cos_theta[row];
+        s.st[i] = table_.sin_theta[row];
+        s.cp[i] = table_.cos_phi[row];
+        s.sp[i] = table_.sin_phi[row];
+        s.r[i] = r_offset ? table_.r_mm[row] + r_offset[row] : table_.r_mm[row];
+      }
+      if (model_.terms.empty()) {
+        // The Jacobian comes with the residuals: cheaper than a second loop.
+        SevenErrorRows(g, et, d_plus_dprime, center, sphere_radius_mm_, count, s.ct, s.st, s.cp, s.sp, s.r, e,
+                       s.cols.data());
+      } else {
+        EffectRows(x, et, d_plus_dprime, center, idx, count, e, cols);
+      }
+      RowBlock block;
+      block.setup = static_cast<int>(k);
+      block.rows = idx;
+      block.count = count;
+      block.e = e;
+      block.cols = cols;
+      block.num_cols = local;
+      fn(block);
+    }
+  }
+}
+
+bool SphereFitProblem::Evaluate(const double* x, NormalEquations* ne) const {
+  Scratch& s = *scratch_;
+  const int local = kNumScmsParams + 3 + num_effect_params_;
+  const int n = local + 1;  // the residual as the last column: J^T e and e^T e come with J^T J
+  ne->SetZero(num_params_);
+  int current = -1;
+  auto flush = [&] {
+    if (current < 0) return;
+    for (int a = 0; a < n; ++a) {
+      for (int b = 0; b <= a; ++b) {
+        const double v = s.gram[static_cast<std::size_t>(b * n + a)];
+        if (a == local) {
+          if (b == local) {
+            ne->cost += 0.5 * v;
+          } else {
+            ne->jte(GlobalColumn(current, b)) += v;
+          }
+          continue;
+        }
+        const Eigen::Index ga = GlobalColumn(current, a), gb = GlobalColumn(current, b);
+        ne->jtj(ga, gb) += v;
+        if (ga != gb) ne->jtj(gb, ga) += v;
+      }
+    }
+  };
+  ForEachBlock(x, nullptr, true, [&](const RowBlock& block) {
+    if (block.setup != current) {
+      flush();
+      std::fill(s.gram.begin(), s.gram.end(), 0.0);
+      current = block.setup;
+    }
+    AddGram(s.cols.data(), kRows, n, block.count, s.gram.data());
+  });
+  flush();
+  return std::isfinite(ne->cost);
+}
+
+void SphereFitProblem::Residuals(const double* x, double* out) const {
+  ForEachBlock(x, nullptr, false, [&](const RowBlock& block) {
+    for (int i = 0; i < block.count; ++i) out[block.rows[i]] = block.e[i];
+  });
+}
+
+RowQr SphereFitProblem::FactorJacobian(const double* x, const double* r_offset) const {
+  RowQr qr(num_params_);
+  ForEachGlobalBlock(x, r_offset,
+                     [&](const std::uint32_t*, int count, double* rows) { qr.AddRows(rows, num_params_, count); });
+  return qr;
+}
+
+void SphereFitProblem::ForEachGlobalBlock(
+    const double* x, const double* r_offset,
+    const std::function<void(const std::uint32_t* rows, int count, double* jacobian)>& fn) const {
+  Scratch& s = *scratch_;
+  const auto n = static_cast<std::size_t>(num_params_);
+  s.global.assign(n * kRows, 0.0);
+  ForEachBlock(x, r_offset, true, [&](const RowBlock& block) {
+    std::fill(s.global.begin(), s.global.end(), 0.0);
+    for (int c = 0; c < block.num_cols; ++c) {
+      const auto col = static_cast<std::size_t>(GlobalColumn(block.setup, c));
+      for (int i = 0; i < block.count; ++i) s.global[static_cast<std::size_t>(i) * n + col] = block.cols[c * kRows + i];
+    }
+    fn(block.rows, block.count, s.global.data());
+  });
+}
+
+Eigen::MatrixXd SphereFitProblem::DenseJacobian(const double* x, const double* r_offset) const {
+  std::vector<std::uint32_t> order;
+  for (const auto& rows : rows_) order.insert(order.end(), rows.begin(), rows.end());
+  std::sort(order.begin(), order.end());
+  std::vector<Eigen::Index> position(table_.size(), -1);
+  for (std::size_t i = 0; i < order.size(); ++i) position[order[i]] = static_cast<Eigen::Index>(i);
+  Eigen::MatrixXd jac = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(order.size()), num_params_);
+  ForEachBlock(x, r_offset, true, [&](const RowBlock& block) {
+    for (int c = 0; c < block.num_cols; ++c) {
+      const Eigen::Index col = GlobalColumn(block.setup, c);
+      for (int i = 0; i < block.count; ++i) jac(position[block.rows[i]], col) = block.cols[c * kRows + i];
+    }
+  });
+  return jac;
+}
+
+}  // namespace sph::internal

@@ -1,0 +1,143 @@
+// Private to sph::calib: the least-squares problem of every calibration, evaluated fast.
+//
+//   e_i = |EffectScmsPoint(g, effects; reading_i) - O_setup(i)| - R0
+//
+// over the parameters x = [g (7) | centre of each setup (3 each, ascending setup) | effect blocks
+// (term order)], the column order of every analysis. The readings are held once, one array per
+// quantity with their sines and cosines (ReadingTable), and a fit names the rows it uses, so that
+// outliers, cross-validation folds and the candidates of a trace share one table. The residuals
+// and their gradients come from the hand-derived SphereResidualGradient() in blocks of rows (the
+// fixed part of each reading gathered once per block, the loop over the rows vectorised), and
+// whoever needs them takes them block by block: the normal equations of Levenberg-Marquardt, the
+// triangular factor of the Jacobian for the analysis, the residuals. Nothing of size rows x
+// parameters is ever held.
+//
+// The effect terms' basis functions are evaluated per block: harmonics by the angle-addition
+// recurrence from the reading's sine and cosine, powers by multiplication (EffectBasis() computes
+// the same functions, to rounding).
+#ifndef SPH_SRC_CALIB_FIT_PROBLEM_HPP_
+#define SPH_SRC_CALIB_FIT_PROBLEM_HPP_
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "levenberg_marquardt.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/model/effects.hpp"
+#include "sph/model/row_qr.hpp"
+
+namespace sph::internal {
+
+/// The samples of a points file as the fits read them, one array per quantity, in file order.
+struct ReadingTable {
+  std::vector<double> theta_rad, phi_rad, cos_theta, sin_theta, cos_phi, sin_phi, r_mm, t_s;
+  std::vector<int> setup;      ///< index into setup_ids of each sample
+  std::vector<int> setup_ids;  ///< ascending
+
+  ReadingTable() = default;
+  explicit ReadingTable(const PointsData& points);
+  std::size_t size() const { return r_mm.size(); }
+  /// Sets the probe reading of every sample (the Monte Carlo's noisy copies of fixed readings).
+  void SetReadings(const PointsData& points);
+};
+
+/// The rows of a table that a fit uses: for each setup index of the table, its samples (ascending).
+using RowsOfSetup = std::vector<std::vector<std::uint32_t>>;
+
+/// Every sample of `table`, or every sample not marked in `left_out` (table-indexed).
+RowsOfSetup AllRows(const ReadingTable& table, const std::vector<bool>* left_out = nullptr);
+
+/// One block of rows as the evaluation produced it.
+struct RowBlock {
+  int setup = 0;                        ///< problem setup index
+  const std::uint32_t* rows = nullptr;  ///< table row of each
+  int count = 0;
+  const double* e = nullptr;  ///< residuals [mm]
+  /// Jacobian columns, column-major with leading dimension kBlockRows: the seven errors, the centre of
+  /// this block's setup, the effect parameters. Null when the Jacobian was not asked for.
+  const double* cols = nullptr;
+  int num_cols = 0;  ///< 10 + effect parameters
+};
+
+class SphereFitProblem {
+ public:
+  static constexpr int kBlockRows = 128;
+
+  /// The problem over `rows` of `table` (which must outlive it) with the effects of `model`.
+  /// Setups without rows have no centre.
+  SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, const EffectModel& model, double probe_offset_mm,
+                   double sphere_radius_mm);
+  ~SphereFitProblem();
+  SphereFitProblem(const SphereFitProblem&) = delete;
+  SphereFitProblem& operator=(const SphereFitProblem&) = delete;
+
+  Eigen::Index NumParams() const { return num_params_; }
+  int NumSetups() const { return static_cast<int>(setups_.size()); }
+  /// The table setup index of each of the problem's setups.
+  const std::vector<int>& TableSetups() const { return setups_; }
+  std::size_t NumRows() const { return num_rows_; }
+  const ReadingTable& table() const { return table_; }
+  const EffectModel& model() const { return model_; }
+
+  /// x from its parts (centres: one per problem setup; values: one block per term).
+  Eigen::VectorXd Pack(const ScmsGeometry& g, const std::vector<Eigen::Vector3d>& centers_mm,
+                       const std::vector<std::vector<double>>& values) const;
+  /// The parts of x.
+  void Unpack(const Eigen::VectorXd& x, ScmsGeometry* g, std::vector<Eigen::Vector3d>* centers_mm,
+              std::vector<std::vector<double>>* values) const;
+
+  /// The column of x of local column `local` (RowBlock::cols) of problem setup `setup`.
+  Eigen::Index GlobalColumn(int setup, int local) const {
+    if (local < kNumScmsParams) return local;
+    if (local < kNumScmsParams + 3) return kNumScmsParams + 3 * setup + (local - kNumScmsParams);
+    return first_effect_ + (local - kNumScmsParams - 3);
+  }
+
+  /// Levenberg-Marquardt's evaluation: J^T J, J^T e and cost at x. Not thread-safe (scratch).
+  bool Evaluate(const double* x, NormalEquations* ne) const;
+
+  /// Calls fn for every block of rows at x, setup after setup, rows in table order. With r_offset
+  /// (table-indexed, mm) the probe readings are r + r_offset[row]; with jacobian the blocks carry
+  /// the Jacobian's columns.
+  void ForEachBlock(const double* x, const double* r_offset, bool jacobian,
+                    const std::function<void(const RowBlock&)>& fn) const;
+
+  /// Residuals at x into out (table-indexed; rows not in the problem untouched).
+  void Residuals(const double* x, double* out) const;
+
+  /// The triangular factor of the Jacobian at x (readings r + r_offset when given), columns as x.
+  RowQr FactorJacobian(const double* x, const double* r_offset = nullptr) const;
+
+  /// ForEachBlock() with the Jacobian's rows in the columns of x: fn(rows, count, jacobian) with
+  /// the table row of each and the rows one after the other (NumParams() values each; writable).
+  void ForEachGlobalBlock(const double* x, const double* r_offset,
+                          const std::function<void(const std::uint32_t* rows, int count, double* jacobian)>& fn) const;
+
+  /// The Jacobian at x (readings r + r_offset when given), one row per table row of the problem in
+  /// table order (rows not in the problem left out), columns as x.
+  Eigen::MatrixXd DenseJacobian(const double* x, const double* r_offset = nullptr) const;
+
+ private:
+  struct Scratch;
+  // The residuals (and with cols, the Jacobian) of `count` gathered rows with effects.
+  void EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, const double* center,
+                  const std::uint32_t* idx, int count, double* e, double* cols) const;
+  const ReadingTable& table_;
+  RowsOfSetup rows_;         // per problem setup
+  std::vector<int> setups_;  // table setup index per problem setup
+  EffectModel model_;
+  double probe_offset_mm_;
+  double sphere_radius_mm_;
+  std::size_t num_rows_ = 0;
+  Eigen::Index num_params_ = 0;
+  Eigen::Index first_effect_ = 0;
+  int num_effect_params_ = 0;
+  std::unique_ptr<Scratch> scratch_;
+};
+
+}  // namespace sph::internal
+
+#endif  // SPH_SRC_CALIB_FIT_PROBLEM_HPP_
