@@ -218,7 +218,7 @@ void FunctionsAt(const Sample& s, double e, const EffectReference& ref, const Ei
     powers[k] = k == 0 ? u : powers[k - 1] * u;
     powers[kPowers + k] = k == 0 ? tau : powers[kPowers + k - 1] * tau;
   }
-  sphere.Evaluate(std::atan2(dir.y(), dir.x()), dir.z(), out + kSphereFirst);
+  sphere.Evaluate(dir.x(), dir.y(), dir.z(), out + kSphereFirst);
 }
 
 // Orthonormal basis of the column space of `jacobian` (its numerical rank), in R's coordinates.

@@ -62,6 +62,7 @@ EffectFitStart StartFrom(const EffectFit& fit) {
   s.geometry = fit.calibration.geometry;
   s.centers_mm = fit.calibration.centers_mm;
   s.values = fit.values;
+  s.form_values = fit.form_values;
   return s;
 }
 
@@ -114,6 +115,7 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
     EffectFit at_start;
     at_start.model = model;
     at_start.values = start.values;
+    at_start.form_values = start.form_values;
     at_start.calibration.geometry = start.geometry;
     at_start.calibration.centers_mm = start.centers_mm;
     at_start.calibration.setup_ids = current.calibration.setup_ids;
