@@ -7,6 +7,8 @@
 
 #include "calib_test_util.hpp"
 #include "sph/calib/effect_fit.hpp"
+#include "sph/calib/form_report.hpp"
+#include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
 
@@ -193,6 +195,66 @@ TEST(FormFit, RecoversFormAndEffectFromRayTracedData) {
     EXPECT_NEAR(fit.form_values[0][k] * kUmPerMm, truth_um, 4.0 * rep.std(col) * kUmPerMm)
         << model.form.ParamName(0, k);
   }
+}
+
+// A form of 0.05 um RMS of degrees 2 to 4 on the sphere's body frame (amplitudes scaled to it).
+std::vector<FormComponent> FormOfDegrees2To4() {
+  std::vector<FormComponent> form = {{2, 0, 0.06},   {2, 2, -0.05}, {3, 1, 0.05},  {3, -3, 0.04},
+                                     {4, 0, -0.045}, {4, 2, 0.03},  {4, -4, 0.035}};
+  double sum = 0.0;
+  for (const FormComponent& f : form) sum += f.amplitude_um * f.amplitude_um / (2.0 * f.l + 1.0);
+  for (FormComponent& f : form) f.amplitude_um *= 0.05 / std::sqrt(sum);
+  return form;
+}
+
+TraceOptions FewCandidates() {
+  TraceOptions t;
+  t.candidates = {Effect::kThetaEncoder, Effect::kPhiEncoder, Effect::kProbeGain, Effect::kProbeDrift};
+  t.form_degree_max = 6;
+  t.threads = 2;
+  return t;
+}
+
+// Ray-traced: the sphere turned about Theta and tilted, each setup in another scan order, a form
+// and a probe drift. The trace fits the form as part of the model (it turns with the sphere) and
+// adds the drift and nothing else; the form's RMS within 20 %, the drift within 4 std.
+TEST(TraceWithForm, SeparatesTheFormFromADriftWhenTheSphereIsTurned) {
+  SimulationSpec spec;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(2, 0, 0)};
+  spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 0, 90);
+  spec.mount_rotations_deg[2] = Eigen::Vector3d(90, 0, 0);
+  spec.scan_orders[1] = ScanOrder::kSerpentine;
+  spec.scan_orders[2] = ScanOrder::kColumns;
+  spec.noise_r_um = 0.03;
+  spec.seed = 31;
+  spec.effects.form = FormOfDegrees2To4();
+  spec.effects.model.terms = {DefaultTerm(Effect::kProbeDrift, 1, 1)};
+  spec.effects.values = {{0.4 * kMmPerUm}};
+  const PointsData points = Simulate(spec);
+  const CalibrationResult base = Calibrate(points, PaperOptions());
+  const TraceResult r = TraceResidual(points, PaperOptions(), base, FewCandidates());
+  EXPECT_TRUE(r.form.separable) << r.form.design;
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kProbeDrift});
+  const EffectFit& fit = r.after.fit;
+  ASSERT_FALSE(fit.model.form.Empty());
+  EXPECT_GE(r.form.degree_max, 4);
+  const std::vector<SphereFormResult> forms = SphereFormOf(fit);
+  ASSERT_EQ(forms.size(), 1u);
+  EXPECT_NEAR(forms[0].rms_um, 0.05, 0.2 * 0.05);
+  EXPECT_NEAR(fit.values[0][0] * kUmPerMm, 0.4, 4.0 * fit.calibration.analysis.std(fit.TermOffset(0)) * kUmPerMm);
+  EXPECT_LT(r.after.cv_rms_um, 1.1 * 0.03);
+}
+
+// One placement, the same form and no machine effect: nothing is added.
+TEST(TraceWithForm, OnePlacementAddsNoEffectForAForm) {
+  SimulationSpec spec;
+  spec.noise_r_um = 0.03;
+  spec.seed = 32;
+  spec.effects.form = FormOfDegrees2To4();
+  const PointsData points = Simulate(spec);
+  const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), FewCandidates());
+  EXPECT_FALSE(r.form.separable);
+  EXPECT_TRUE(r.added.empty()) << InfoOf(r.added.front()).id;
 }
 
 }  // namespace
