@@ -103,6 +103,19 @@ bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
     file.effects.terms.push_back(fit.model.terms[t]);
     file.effect_values.push_back(fit.values[t]);
   }
+  // The form of the setups of known orientation: the calibration sphere's, on its body frame.
+  if (!fit.model.form.Empty()) {
+    const ObservabilityReport& rep = fit.calibration.analysis;
+    file.form_terms = fit.model.form.terms;
+    file.form_values_mm = fit.form_values[0];
+    file.form_std_mm.clear();
+    for (std::size_t k = 0; k < file.form_terms.size() && !rep.Empty(); ++k) {
+      file.form_std_mm.push_back(rep.std(fit.FormOffset(0) + static_cast<int>(k)));
+    }
+    bool finite = true;
+    for (const double v : file.form_std_mm) finite &= std::isfinite(v);
+    if (!finite) file.form_std_mm.clear();
+  }
   return drift;
 }
 
@@ -397,6 +410,40 @@ void PlotTrace(const std::string& dir, const PointsData& points, const Calibrati
                    {"map_png", name_in_folder(files.StageProduced(folder + "residual_map.png"))},
                    {"time_png", name_in_folder(files.StageProduced(folder + "residual_time.png"))}};
   RunGnuplot(run, "--plot-dir " + dir);
+  // The sphere's form, when the trace separated it: a map over its body frame.
+  const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
+  if (forms.empty()) return;
+  const SphereFormResult& form = forms.front();
+  const std::vector<std::array<double, 3>> map = FormMap(r.after.fit, 0, 1.0);
+  double form_lim = 1e-6;
+  for (const auto& row : map) form_lim = std::max(form_lim, std::abs(row[2]));
+  files.Stage(folder + "sphere_form.dat", [&](std::ostream& f) {
+    f << "# the calibration sphere's form on its body frame: longitude_deg polar_deg form_um\n";
+    for (const auto& row : map) f << Format("%.1f %.1f %.6f\n", row[1], row[0], row[2]);
+  });
+  std::ostringstream form_script;
+  form_script << "# The sphere's form map of sph_calibrate; rerun with: gnuplot sphere_form.gp (in this folder)\n"
+              << "if (!exists(\"data\")) data = 'sphere_form.dat'\n"
+              << "if (!exists(\"png\")) png = 'sphere_form_map.png'\n"
+              << "set terminal pngcairo size 1100,600 noenhanced font ',11'\nset output png\n"
+              << "set title "
+              << GnuplotQuoted(Format("Form of the calibration sphere on its body frame, degrees 2..%d: rms %.4f +- "
+                                      "%.4f um, peak to valley %.4f um",
+                                      form.degree_max, form.rms_um, form.rms_std_um, form.pv_um))
+              << "\n"
+              << "set xlabel 'longitude [deg] (from the body x axis)'\nset ylabel 'polar angle [deg] (from the body z "
+                 "axis)'\n"
+              << "set xrange [0:360]\nset yrange [180:0]\nset palette defined (-1 'blue', 0 'white', 1 'red')\n"
+              << Format("set cbrange [%.6f:%.6f]\n", -form_lim, form_lim)
+              << "set cblabel 'radial form [um]'\nplot data using 1:2:3 with image notitle\n";
+  files.Stage(folder + "sphere_form.gp", [&](std::ostream& f) { f << form_script.str(); });
+  GnuplotRun form_run;
+  form_run.folder = dir;
+  form_run.script = form_script.str();
+  form_run.description = "the sphere's form map";
+  form_run.variables = {{"data", name_in_folder(files.StagedName(folder + "sphere_form.dat"))},
+                        {"png", name_in_folder(files.StageProduced(folder + "sphere_form_map.png"))}};
+  RunGnuplot(form_run, "--plot-dir " + dir);
 }
 
 }  // namespace sph::apps

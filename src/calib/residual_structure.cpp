@@ -384,7 +384,8 @@ double SpherePatternFraction(const StructureFactor& factor) {
   return explained / total;
 }
 
-double DeltaBicBeyondSphere(const StructureFactor& factor, const std::string& variable, const std::vector<int>& functions) {
+double DeltaBicBeyondSphere(const StructureFactor& factor, const std::string& variable,
+                            const std::vector<int>& functions) {
   const Eigen::Index m = factor.rows;
   const Eigen::Index n = factor.jacobian_cols;
   const Eigen::VectorXd e = factor.r.col(n + kFunctions);
