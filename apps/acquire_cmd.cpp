@@ -16,8 +16,12 @@ namespace {
 
 SignalFlags g_signals;
 
-extern "C" void OnStopSignal(int) { g_signals.stop = 1; }
+extern "C" void OnStopSignal(int sig) { g_signals.stop = sig; }
 extern "C" void OnSummarySignal(int) { g_signals.summary = 1; }
+
+constexpr ValidRange kFsyncIntervalS{0.0, 86400.0, "s"};
+constexpr ValidRange kTimeoutS{0.0, 86400.0, "s"};
+constexpr ValidRange kStandstillTolDeg{0.0, 360.0, "deg", true};
 
 can::LogLevel ParseLevel(const std::string& text, int verbose) {
   int level = text == "error" ? 0 : text == "warning" ? 1 : text == "info" ? 2 : 3;
@@ -51,7 +55,8 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
       "(NMT), identifies and checks them (SDO) and restarts a node that reboots.");
   app.option_defaults()->always_capture_default();
   app.set_config("--config", "", "Read options from this file (TOML/INI, 'name = value'; see data/sph_acquired.conf)");
-  auto* iface = app.add_option("-i,--iface", o.iface, "CAN interface to acquire from (live)");
+  UseStrictConfig(app, "sph_acquired", &o.config_path);
+  auto* iface = app.add_option("-i,--iface", o.iface, "CAN interface to acquire from (live)")->check(InterfaceName());
   auto* replay = app.add_option("--replay", o.replay_path, "Candump log to replay instead of a live interface")
                      ->excludes(iface);
   iface->excludes(replay);
@@ -61,39 +66,40 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
       ->check(CLI::IsMember({"stream", "points"}));
   app.add_option("--setup", o.setup, "Sphere placement id written in the setup column");
   app.add_option("--sphere-radius-mm", o.sphere_radius_mm, "Header: reference sphere radius R0 [mm]")
-      ->check(Positive());
+      ->check(InRange(ranges::kSphereRadiusMm));
   app.add_option("--probe-offset-mm", o.probe_offset_mm, "Header: nominal probe zero distance d [mm]")
-      ->check(Positive());
+      ->check(InRange(ranges::kProbeOffsetMm));
   app.add_option("--fsync-interval-s", o.fsync_interval_s,
                  "fsync the output at most this long after a record [s]; 0: every record; -1: only at the end")
       ->check(CLI::Validator(
           [](std::string& text) -> std::string {
             char* end = nullptr;
             const double v = std::strtod(text.c_str(), &end);
-            const bool ok = end != text.c_str() && *end == '\0' && std::isfinite(v) && (v >= 0.0 || v == -1.0);
-            return ok ? "" : "must be -1, 0 or a positive number of seconds, got " + text;
+            const bool ok = end != text.c_str() && *end == '\0' && (v == -1.0 || kFsyncIntervalS.Contains(v));
+            return ok ? "" : "must be -1 (only at the end) or " + kFsyncIntervalS.Refusal(text).substr(8);
           },
-          "SECONDS"));
+          "-1 or " + kFsyncIntervalS.Text()));
   app.add_option("--sync-mode", o.sync_mode, "produce: send SYNC every --sync-period-ms; follow: an external producer")
       ->check(CLI::IsMember({"produce", "follow"}));
   app.add_option("--heartbeat-timeout-s", o.heartbeat_timeout_s, "A node without heartbeat this long is lost; 0: off")
-      ->check(NonNegative());
+      ->check(InRange(kTimeoutS));
   app.add_option("--standstill-tol-deg", o.standstill_tol_deg, "Points mode: both axes within this of the stop [deg]")
-      ->check(Positive());
+      ->check(InRange(kStandstillTolDeg));
   app.add_option("--dwell-s", o.dwell_s, "Points mode: still this long before averaging starts [s]")
-      ->check(NonNegative());
+      ->check(InRange(kTimeoutS));
   app.add_option("--average-s", o.average_s, "Points mode: averaging time per stop [s]; 0: until the axes move")
-      ->check(NonNegative());
+      ->check(InRange(kTimeoutS));
   app.add_option("--min-samples", o.min_samples, "Points mode: fewer averaged samples: no point")
       ->check(CLI::Range(1, 100000000));
   app.add_option("--duration-s", o.duration_s, "Live: stop after this long [s]; 0: until SIGTERM/SIGINT")
-      ->check(NonNegative());
+      ->check(InRange(ranges::kRunTimeS));
   app.add_option("--replay-speed", o.replay_speed, "Replay: 1 = the log's own pace; 0: as fast as possible")
-      ->check(NonNegative());
-  app.add_option("--reopen-interval-s", o.reopen_interval_s, "Live: check this often whether a lost interface is back [s]")
-      ->check(Positive());
+      ->check(InRange({0.0, 1e6, "times the log's pace"}));
+  app.add_option("--reopen-interval-s", o.reopen_interval_s,
+                 "Live: check this often whether a lost interface is back [s]")
+      ->check(InRange({0.0, 3600.0, "s", true}));
   app.add_option("--rcvbuf-bytes", o.rcvbuf_bytes, "Live: socket receive buffer (SO_RCVBUF); 0: kernel default")
-      ->check(NonNegative());
+      ->check(InRange({0.0, 1073741824.0, "bytes"}));
   app.add_option("--log-level", o.log_level, "error, warning, info or debug")
       ->check(CLI::IsMember({"error", "warning", "info", "debug"}));
   app.add_flag("-v,--verbose", o.verbose, "One log level more (repeatable)");
@@ -115,16 +121,16 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
                "Write each TPDO's COB-ID, transmission type 1 and mapping (pre-operational), verify by reading back")
       ->group(m);
   app.add_option("--sdo-timeout-ms", o.sdo_timeout_ms, "An SDO answer later than this fails the transfer [ms]")
-      ->check(CLI::Range(1.0, 60000.0))
+      ->check(InRange({1.0, 60000.0, "ms"}))
       ->group(m);
   app.add_option("--boot-timeout-s", o.boot_timeout_s, "Wait this long for boot-ups after Reset communication [s]")
-      ->check(CLI::Range(0.01, 600.0))
+      ->check(InRange({0.01, 600.0, "s"}))
       ->group(m);
   app.add_option("--probe-pdo-object", o.probe_pdo_object,
                  "Probe: the object (INDEX:SUB, e.g. 0x2000:00) its TPDO maps at --probe-offset-byte; checked, and "
                  "written with --configure-pdo")
       ->group(m);
-  AddDeviceOptions(app, o.devices);
+  AddDeviceOptions(app, o.devices, true);
 }
 
 can::PipelineConfig MakePipelineConfig(const AcquireOptions& o) {
@@ -204,13 +210,34 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
     log(can::LogLevel::kError, e.what());
     return kExitBadInput;
   }
+  try {
+    RunPaths paths;
+    paths.Input("--config", o.config_path).Input("--replay", o.replay_path);
+    paths.Output("--output", o.output_path).Output("--can-log", o.can_log_path);
+  } catch (const std::exception& e) {
+    log(can::LogLevel::kError, e.what());
+    return kExitBadInput;
+  }
   if (!o.replay_path.empty()) {
-    // Before any output file is made: a log that cannot be read or holds no frame is bad input.
+    // Before any output file is made: a log that cannot be read, holds no frame or goes back in
+    // time is bad input.
     const std::string problem = CheckReplayLog(o.replay_path);
     if (!problem.empty()) {
       log(can::LogLevel::kError, problem);
       return kExitBadInput;
     }
+  }
+  try {
+    // The outputs as they are now, before the devices are started: a file that this run may not
+    // continue stays as it is.
+    PointsHeader header;
+    header.sphere_radius_mm = o.sphere_radius_mm;
+    header.probe_offset_mm = o.probe_offset_mm;
+    PointsWriter::CheckContinuable(o.output_path, header, AcquirePointsOptions(o));
+    if (!o.can_log_path.empty()) can::CandumpWriter::CheckContinuable(o.can_log_path);
+  } catch (const std::exception& e) {
+    log(can::LogLevel::kError, e.what());
+    return kExitOutputError;
   }
   AcquireContext ctx{o, log, config, master, ProcessSignals(), nullptr, {}};
   ctx.print_summary = [&] {

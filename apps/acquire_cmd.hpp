@@ -34,6 +34,7 @@ struct AcquireOptions {
   std::string replay_path;       ///< offline: candump log
   std::string output_path;       ///< points file (appended)
   std::string can_log_path;      ///< candump log of every frame (appended); empty: none
+  std::string config_path;       ///< the --config file read (an input: never an output)
   std::string mode = "stream";   ///< stream | points
   int setup = 0;
   std::optional<double> sphere_radius_mm;
@@ -68,7 +69,7 @@ struct AcquireOptions {
 
 /// Flags the signal handlers set (sph_acquired.cpp installs them).
 struct SignalFlags {
-  volatile std::sig_atomic_t stop = 0;     ///< SIGTERM, SIGINT
+  volatile std::sig_atomic_t stop = 0;     ///< SIGTERM, SIGINT: the signal's number
   volatile std::sig_atomic_t summary = 0;  ///< SIGUSR1
 };
 /// The process's flags.

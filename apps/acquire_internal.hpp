@@ -32,8 +32,12 @@ struct AcquireContext {
 int RunLive(AcquireContext& context);
 /// Replay of a candump log. Returns kExitOk or kExitBadInput (unreadable log).
 int RunReplay(AcquireContext& context);
+/// How sph_acquired writes its points file.
+PointsWriterOptions AcquirePointsOptions(const AcquireOptions& options);
 /// Why `path` cannot be replayed ("log.txt: cannot open for reading: ...", "log.txt: no CAN frame
-/// in its 12 lines: ..."), or "" when it can be opened and holds at least one frame.
+/// in its 12 lines: ...", "log.txt:9: the time 1700000000.010000 s is before the 1700000000.020000 s of
+/// line 8: a candump log is in time order"), or "" when it can be opened, holds at least one frame
+/// and its frames' times never go back.
 std::string CheckReplayLog(const std::string& path);
 
 }  // namespace sph::apps

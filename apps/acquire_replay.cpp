@@ -5,6 +5,7 @@
 #include <time.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <limits>
 #include <optional>
 
@@ -23,6 +24,13 @@ std::int64_t MonotonicNs() {
   return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
 }
 
+std::string TimeText(std::int64_t t_ns) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%lld.%06lld", static_cast<long long>(t_ns / 1000000000),
+                static_cast<long long>(t_ns % 1000000000 / 1000));
+  return buf;
+}
+
 void SleepUntil(std::int64_t mono_ns) {
   timespec ts{static_cast<time_t>(mono_ns / 1000000000), static_cast<long>(mono_ns % 1000000000)};
   while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
@@ -36,12 +44,23 @@ std::string CheckReplayLog(const std::string& path) {
   try {
     can::CandumpReader reader(path);
     std::string first_problem;
+    std::uint64_t frames = 0;
+    std::int64_t last_ns = 0, last_line = 0;
     for (;;) {
       const can::CandumpReader::Result r = reader.Next();
-      if (r.status == can::CandumpReader::Status::kFrame) return "";
-      if (r.status == can::CandumpReader::Status::kMalformed && first_problem.empty()) first_problem = r.error;
       if (r.status == can::CandumpReader::Status::kEnd) break;
+      if (r.status == can::CandumpReader::Status::kMalformed && first_problem.empty()) first_problem = r.error;
+      if (r.status != can::CandumpReader::Status::kFrame) continue;
+      // The SYNC window and the master's timeouts need the receive order to be the time order.
+      if (frames++ > 0 && r.frame.t_ns < last_ns) {
+        return path + ":" + std::to_string(reader.line_number()) + ": the time " + TimeText(r.frame.t_ns) +
+               " s is before the " + TimeText(last_ns) + " s of line " + std::to_string(last_line) +
+               ": a candump log is in time order (logs merged or edited?)";
+      }
+      last_ns = r.frame.t_ns;
+      last_line = reader.line_number();
     }
+    if (frames > 0) return "";
     const std::int64_t lines = reader.line_number();
     if (lines == 0) return path + ": empty: no CAN frame to replay";
     if (first_problem.empty()) return path + ": no CAN frame to replay, only blank lines";

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <ctime>
 
+#include "acquire_internal.hpp"
+
 namespace sph::apps {
 namespace {
 
@@ -64,13 +66,27 @@ void AcquireSession::Advance(std::int64_t now_ns) {
   if (master_.phase() == can::CanopenMaster::Phase::kRunning) StartAcquisition(now_ns);
 }
 
-// The outputs, opened together: a file this run creates is removed again when the other cannot
-// be opened, so that a failed start leaves no header-only file behind.
+PointsWriterOptions AcquirePointsOptions(const AcquireOptions& o) {
+  PointsWriterOptions wo;
+  wo.has_time = true;
+  wo.has_setup = true;
+  wo.fsync_interval_s = o.fsync_interval_s;
+  return wo;
+}
+
+// The outputs, opened together: the frame log first (opening writes nothing), then the points
+// file, which writes its header. A file this run created is removed again when the other cannot
+// be opened, so that a failed start leaves no header-only file behind; a file that was there is
+// left as it was (both writers check an existing file before they open it).
 bool AcquireSession::OpenOutputs() {
   const AcquireOptions& o = options_;
   const bool points_existed = ::access(o.output_path.c_str(), F_OK) == 0;
   const bool log_existed = o.can_log_path.empty() || ::access(o.can_log_path.c_str(), F_OK) == 0;
   try {
+    if (!o.can_log_path.empty()) {
+      frame_log_ =
+          std::make_unique<can::CandumpWriter>(o.can_log_path, o.iface.empty() ? "can0" : o.iface, o.fsync_interval_s);
+    }
     PointsHeader header;
     header.sphere_radius_mm = o.sphere_radius_mm;
     header.probe_offset_mm = o.probe_offset_mm;
@@ -78,11 +94,13 @@ bool AcquireSession::OpenOutputs() {
         {"generator", "sph_acquired " SPH_VERSION}, {"source", source_}, {"mode", o.mode}, {"started", UtcNow()}};
     const auto devices = master_.HeaderFields();
     header.metadata.insert(header.metadata.end(), devices.begin(), devices.end());
-    PointsWriterOptions wo;
-    wo.has_time = true;
-    wo.has_setup = true;
-    wo.fsync_interval_s = o.fsync_interval_s;
-    points_ = std::make_unique<PointsWriter>(o.output_path, header, wo);
+    try {
+      points_ = std::make_unique<PointsWriter>(o.output_path, header, AcquirePointsOptions(o));
+    } catch (const std::exception&) {
+      // The header could not be written whole (a full disk): the writer cut it off again.
+      if (!points_existed) std::remove(o.output_path.c_str());
+      throw;
+    }
     if (points_->truncated_bytes() > 0) {
       log_(can::LogLevel::kWarning, o.output_path + ": cut off an incomplete last line of " +
                                         std::to_string(points_->truncated_bytes()) + " bytes left by an earlier run");
@@ -92,18 +110,15 @@ bool AcquireSession::OpenOutputs() {
       for (const auto& [key, value] : devices) points_->WriteComment("devices of this run: " + key + ": " + value);
       log_(can::LogLevel::kInfo, o.output_path + ": continuing the existing file");
     }
-    if (!o.can_log_path.empty()) {
-      frame_log_ =
-          std::make_unique<can::CandumpWriter>(o.can_log_path, o.iface.empty() ? "can0" : o.iface, o.fsync_interval_s);
-    }
   } catch (const std::exception& e) {
     log_(can::LogLevel::kError, e.what());
     try {
       if (points_) points_->Close();
+      if (frame_log_) frame_log_->Close();
     } catch (const std::exception&) {  // the first error is the one to report
     }
     if (points_ && !points_existed) std::remove(o.output_path.c_str());
-    if (frame_log_ == nullptr && !log_existed) std::remove(o.can_log_path.c_str());
+    if (frame_log_ && !log_existed) std::remove(o.can_log_path.c_str());
     points_.reset();
     frame_log_.reset();
     return false;

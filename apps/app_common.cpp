@@ -1,5 +1,6 @@
 #include "app_common.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <fstream>
 #include <sstream>
@@ -27,7 +28,8 @@ std::vector<AnglePair> ReadAngles(const std::string& path) {
     std::istringstream ls(line);
     AnglePair a;
     std::string extra;
-    if (!(ls >> a.theta_deg >> a.phi_deg) || (ls >> extra) || !std::isfinite(a.theta_deg) || !std::isfinite(a.phi_deg)) {
+    if (!(ls >> a.theta_deg >> a.phi_deg) || (ls >> extra) || !std::isfinite(a.theta_deg) ||
+        !std::isfinite(a.phi_deg)) {
       throw Error(lines.Where() + "expected 'theta_deg phi_deg'");
     }
     if (static_cast<long>(out.size()) == kMaxGridPoints) {
@@ -62,6 +64,15 @@ CLI::Validator InRange(const ValidRange& range) {
         return end != text.c_str() && *end == '\0' && range.Contains(v) ? "" : range.Refusal(text);
       },
       range.Text());
+}
+
+void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source) {
+  for (const ConditionField& c : kConditionFields) {
+    std::string name = std::string("--") + c.key;
+    std::replace(name.begin(), name.end(), '_', '-');
+    const ValidRange range{c.min, c.max, c.unit};
+    app.add_option(name, conditions.*c.field, std::string(c.what) + " " + source + c.key + ")")->check(InRange(range));
+  }
 }
 
 double CheckedValue(double value, const ValidRange& range, const std::string& what, const std::string& text) {
@@ -116,8 +127,13 @@ void AddMachineOptions(CLI::App& app, MachineOptions& o, const std::string& grou
 
 SimulationSpec ToSimulationSpec(const MachineOptions& o) {
   SimulationSpec spec;
-  spec.truth = {o.alpha_deg * kRadPerDeg, o.a_mm, o.beta_deg * kRadPerDeg, o.b_mm, o.epsilon_deg * kRadPerDeg,
-                o.c_mm, o.d_prime_mm};
+  spec.truth = {o.alpha_deg * kRadPerDeg,
+                o.a_mm,
+                o.beta_deg * kRadPerDeg,
+                o.b_mm,
+                o.epsilon_deg * kRadPerDeg,
+                o.c_mm,
+                o.d_prime_mm};
   spec.sphere_radius_mm = o.sphere_radius_mm;
   spec.probe_offset_mm = o.probe_offset_mm;
   if (!(std::abs(o.d_prime_mm) < o.probe_offset_mm)) {

@@ -24,9 +24,9 @@ namespace sph::apps {
 
 /// Exit codes of every sph app.
 enum ExitCode : int {
-  kExitOk = 0,        ///< success (sph_calibrate: a usable calibration)
-  kExitNotUsable = 1, ///< sph_calibrate: solved, but not usable (no convergence, undetermined parameters)
-  kExitBadInput = 2,  ///< bad input or usage
+  kExitOk = 0,         ///< success (sph_calibrate: a usable calibration)
+  kExitNotUsable = 1,  ///< sph_calibrate: solved, but not usable (no convergence, undetermined parameters)
+  kExitBadInput = 2,   ///< bad input or usage
 };
 
 /// The valid values of a numeric option: finite, between `lo` and `hi` (excluded where open), in
@@ -54,32 +54,6 @@ CLI::Validator InRange(const ValidRange& range);
 /// it, or throws sph::Error "<what>: must be ..., got <text>".
 double CheckedValue(double value, const ValidRange& range, const std::string& what, const std::string& text);
 
-/// CLI11 checks for numbers with plain messages ("must be positive"); CLI11 2.1's PositiveNumber
-/// and NonNegativeNumber are ranges that print their 300-digit upper bound. Infinity is refused
-/// too: a value written on into a file's header would make a file the readers refuse.
-inline CLI::Validator Positive() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        return end != text.c_str() && *end == '\0' && v > 0.0 && std::isfinite(v)
-                   ? ""
-                   : "must be a positive number, got " + text;
-      },
-      "POSITIVE");
-}
-inline CLI::Validator NonNegative() {
-  return CLI::Validator(
-      [](std::string& text) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        return end != text.c_str() && *end == '\0' && v >= 0.0 && std::isfinite(v)
-                   ? ""
-                   : "must be a finite number >= 0, got " + text;
-      },
-      "NONNEGATIVE");
-}
-
 /// Ranges shared by several apps.
 namespace ranges {
 inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};
@@ -101,7 +75,13 @@ inline constexpr ValidRange kMountRotationDeg{-360.0, 360.0, "deg"};  ///< each 
 inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
 inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
 inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
+inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
 }  // namespace ranges
+
+/// The options of the uncertainty inputs, one per field of kConditionFields ("--sphere-radius-u-um"
+/// for the header field sphere_radius_u_um), with the same ranges. `source` ends the help text:
+/// "(overrides the file's " gives "... (overrides the file's sphere_radius_u_um)".
+void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source);
 
 /// The most grid points (theta steps times phi rings) a simulation makes: 10 million.
 inline constexpr long kMaxGridPoints = 10000000;

@@ -9,6 +9,7 @@
 
 #include "app_common.hpp"
 #include "calibrate_trace.hpp"
+#include "sph/calib/budget.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/report.hpp"
 #include "sph/calib/trace.hpp"
@@ -20,8 +21,9 @@
 namespace sph::apps {
 
 void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
-  app.description("Calibrate the seven geometric errors of a spherical coordinate measuring system from points "
-                  "measured on a reference sphere (format: data/README.md).");
+  app.description(
+      "Calibrate the seven geometric errors of a spherical coordinate measuring system from points "
+      "measured on a reference sphere (format: data/README.md).");
   app.add_option("points", o.points_path, "Points file (sph-points 1)")->required();
   app.add_option("--sphere-radius-mm", o.sphere_radius_mm,
                  "Reference sphere radius R0 [mm] (overrides the file's sphere_radius_mm)")
@@ -41,6 +43,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
   app.add_flag("-q,--quiet", o.quiet, "No text report on stdout (warnings still go to stderr)");
+  AddProgressOptions(app, o.progress);
   std::string ids;
   for (const EffectInfo& e : kEffectInfo) ids += (ids.empty() ? "" : ", ") + std::string(e.id);
   auto* no_extend = app.add_flag("--no-extend", o.no_extend,
@@ -67,7 +70,64 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(1, 3));
   app.add_option("--seed", o.seed, "Seed of the cross-validation folds")->capture_default_str();
+  AddConditionOptions(app, o.conditions, "(overrides the file's ");
+  app.add_option("--coverage", o.coverage,
+                 "Coverage probability of the expanded uncertainties U = k u (k from the effective degrees of "
+                 "freedom); default: k = 2")
+      ->check(InRange(ranges::kCoverageProbability));
 }
+
+namespace {
+
+// Every parameter of a fit in the analysis' order: the seven errors, each setup's centre, the
+// effects' values in term order (rad, mm), then the sphere form's coefficients per group (mm).
+Eigen::VectorXd ParameterVector(const CalibrationResult& r, const std::vector<std::vector<double>>& effects = {},
+                                const std::vector<std::vector<double>>& form = {}) {
+  std::size_t n = kNumScmsParams + 3 * r.centers_mm.size();
+  for (const auto& block : effects) n += block.size();
+  for (const auto& block : form) n += block.size();
+  Eigen::VectorXd v(static_cast<Eigen::Index>(n));
+  Eigen::Index k = 0;
+  for (double g : r.geometry) v(k++) = g;
+  for (const Eigen::Vector3d& c : r.centers_mm) v.segment<3>(k) = c, k += 3;
+  for (const auto& blocks : {&effects, &form}) {
+    for (const auto& block : *blocks) {
+      for (double x : block) v(k++) = x;
+    }
+  }
+  return v;
+}
+
+// The budget of the calibration reported; none (with a warning) when the fit was not analysed or
+// a refit fails.
+std::optional<CalibrationBudget> BudgetOf(const PointsData& points, const CalibrationOptions& copts,
+                                          const CalibrationResult& result, const EffectFit* extended,
+                                          const CalibrationInputs& inputs, std::ostream& err) {
+  if (result.analysis.Empty() || !result.converged) return std::nullopt;
+  BudgetRefit refit = [&](const PointsData& p, const CalibrationOptions& o) {
+    if (extended == nullptr) {
+      CalibrationOptions q = o;
+      q.initial_geometry = result.geometry;
+      return ParameterVector(Calibrate(p, q));
+    }
+    EffectFitStart start;
+    start.geometry = extended->calibration.geometry;
+    start.centers_mm = extended->calibration.centers_mm;
+    start.values = extended->values;
+    start.form_values = extended->form_values;
+    const EffectFit fit = FitEffects(p, o, extended->model, start);
+    return ParameterVector(fit.calibration, fit.values, fit.form_values);
+  };
+  try {
+    return MakeCalibrationBudget(WithoutOutliers(points, result), copts, result.analysis, result.n_points, inputs,
+                                 refit);
+  } catch (const std::exception& e) {
+    err << "sph_calibrate: warning: no uncertainty budget: " << e.what() << "\n";
+    return std::nullopt;
+  }
+}
+
+}  // namespace
 
 int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err) {
   const std::string prog = "sph_calibrate";
@@ -83,24 +143,34 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     if (!o.plot_dir.empty()) {
       for (const std::string& f : kTracePlotFiles) paths.Output("--plot-dir", o.plot_dir + "/" + f);
     }
+    Progress progress(prog, err, o.progress);
+    progress.Stage("reading " + o.points_path);
     const PointsData points = ReadPointsFile(o.points_path);
     CalibrationOptions copts;
     const auto radius = o.sphere_radius_mm ? o.sphere_radius_mm : points.header.sphere_radius_mm;
     const auto offset = o.probe_offset_mm ? o.probe_offset_mm : points.header.probe_offset_mm;
     if (!radius) {
-      throw Error(o.points_path + ": the reference sphere radius R0 is not given: add a header line "
+      throw Error(o.points_path +
+                  ": the reference sphere radius R0 is not given: add a header line "
                   "'# sphere_radius_mm: <R0>' to the file or pass --sphere-radius-mm");
     }
     if (!offset) {
-      throw Error(o.points_path + ": the nominal probe zero distance d is not given: add a header line "
+      throw Error(o.points_path +
+                  ": the nominal probe zero distance d is not given: add a header line "
                   "'# probe_offset_mm: <d>' to the file or pass --probe-offset-mm");
     }
-    copts.sphere_radius_mm = *radius;
+    CalibrationInputs inputs = CalibrationInputs().With(ConditionsOf(points.header)).With(o.conditions);
+    if (o.coverage) inputs.coverage.probability = *o.coverage;
+    copts.sphere_radius_mm = inputs.RadiusAtTemperatureMm(*radius);
     copts.probe_offset_mm = *offset;
     copts.max_std_um = o.max_std_um;
     copts.max_iterations = o.max_iterations;
     // Readings that parse but look wrong: said first, on stderr, whatever the report's form.
-    for (const std::string& w : PlausibilityWarnings(points)) err << prog << ": warning: " << w << "\n";
+    progress.Stage("checking " + std::to_string(points.samples.size()) + " samples");
+    const std::vector<std::string> warnings = PlausibilityWarnings(points);
+    progress.Finish();
+    for (const std::string& w : warnings) err << prog << ": warning: " << w << "\n";
+    progress.Stage("calibrating the seven errors");
     const CalibrationResult base = Calibrate(points, copts);
     std::optional<TraceResult> trace;
     std::optional<Validation> validation;
@@ -109,6 +179,9 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       topts.harmonics = o.harmonics;
       topts.drift_order = o.drift_order;
       topts.seed = o.seed;
+      topts.progress = [&](int round, int done, int total) {
+        progress.Update("tracing the residual, round " + std::to_string(round) + ": candidates", done, total);
+      };
       if (o.effects.empty()) {
         trace = TraceResidual(points, copts, base, topts);
       } else {
@@ -122,14 +195,20 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       }
       if (!o.validate_path.empty()) validation = Validate(o.validate_path, *offset, *trace);
     }
-    // The calibration reported: the seven errors of the final model.
-    const bool extended = trace && !trace->after.fit.model.Empty();
+    progress.Finish();  // the report follows on stdout, maybe the same terminal
+    // The calibration reported: the seven errors of the final model, fitted with its effects and
+    // the sphere's form when the trace added any.
+    const bool extended = trace && !(trace->after.fit.model.Empty() && trace->after.fit.model.form.Empty());
     const CalibrationResult& result = extended ? trace->after.fit.calibration : base;
 
+    const std::optional<CalibrationBudget> budget =
+        BudgetOf(points, copts, result, extended ? &trace->after.fit : nullptr, inputs, err);
+
     ReportContext ctx;
+    ctx.budget = budget ? &*budget : nullptr;
     ctx.program = prog + " " SPH_VERSION;
     ctx.points_path = o.points_path;
-    ctx.sphere_radius_mm = *radius;
+    ctx.sphere_radius_mm = copts.sphere_radius_mm;
     ctx.probe_offset_mm = *offset;
     ctx.max_std_um = o.max_std_um;
     ctx.metadata = points.header.metadata;

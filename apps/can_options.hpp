@@ -4,11 +4,13 @@
 #define SPH_APPS_CAN_OPTIONS_HPP_
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
+#include "app_common.hpp"
 #include "sph/can/pipeline.hpp"
 
 namespace sph::apps {
@@ -53,11 +55,37 @@ struct DeviceOptions {
 };
 
 /// Adds the --theta-*, --phi-*, --probe-* and --sync-* options, in option group "Devices".
-void AddDeviceOptions(CLI::App& app, DeviceOptions& options);
+/// `period_may_be_unknown`: --sync-period-ms 0 means "not known" (a daemon following an
+/// external SYNC producer); else the period must be given.
+void AddDeviceOptions(CLI::App& app, DeviceOptions& options, bool period_may_be_unknown);
 
 /// The pipeline's device part (encoders, probe, SYNC id, counter, period) from the options.
 /// Throws sph::Error on an inconsistent set.
 void ApplyDeviceOptions(const DeviceOptions& options, can::PipelineConfig& config);
+
+/// Ranges of the CAN apps' options.
+namespace ranges {
+inline constexpr ValidRange kSyncPeriodMs{0.1, 60000.0, "ms"};
+/// Times after the start of a simulation or acquisition, and durations: up to about three years.
+inline constexpr ValidRange kRunTimeS{0.0, 1e8, "s"};
+/// Times since the epoch that a frame time in ns (64 bits) can hold: up to the year 2261.
+inline constexpr ValidRange kEpochTimeS{0.0, 9.2e9, "s", false, true};
+}  // namespace ranges
+
+/// A CLI11 check for a number that is 0 (which means `zero`, e.g. "none") or in `range`:
+/// "--heartbeat-period-s: must be 0 (none) or >= 0.001 and <= 65.535 s, got 1e-300".
+CLI::Validator ZeroOrInRange(const ValidRange& range, const std::string& zero);
+
+/// A CLI11 check for a Linux network interface name: 1 to 15 characters, none of them a space,
+/// '/' or ':' (the kernel's rule), and not "." or "..".
+CLI::Validator InterfaceName();
+
+/// Makes `app` read its --config file strictly, the way the apps read every text input: a line
+/// that names no option of `program` (nor of `also_known`, whose options the file may hold for
+/// the other program), an option given twice, a section header or binary data (a NUL byte) is
+/// refused with "<file>:<line>: <problem>". The path of the file read is put in `*path_read`.
+void UseStrictConfig(CLI::App& app, const std::string& program, std::string* path_read,
+                     std::shared_ptr<CLI::App> also_known = nullptr);
 
 }  // namespace sph::apps
 

@@ -1,6 +1,9 @@
 #include "cansim_cmd.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -13,6 +16,7 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <utility>
 
 #include "acquire_cmd.hpp"
 #include "app_common.hpp"
@@ -20,10 +24,22 @@
 #include "sph/can/sdo.hpp"
 #include "sph/can/socket.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::apps {
 namespace {
+
+constexpr ValidRange kStepTimeS{0.0, 3600.0, "s"};
+constexpr ValidRange kProbability{0.0, 1.0, ""};
+
+// sph_acquired's options: a config file may hold them for the daemon (one file describes both).
+std::shared_ptr<CLI::App> AcquiredOptionNames() {
+  auto both = std::make_shared<std::pair<AcquireOptions, CLI::App>>();
+  SetupAcquireApp(both->second, both->first);
+  return std::shared_ptr<CLI::App>(both, &both->second);
+}
 
 std::vector<std::string> Split(const std::string& text, char sep) {
   std::vector<std::string> out;
@@ -65,8 +81,7 @@ void PrintInjected(const can::SimInjected& in, std::ostream& err) {
 
 // One line per SYNC the devices answered: its time, its counter (- without), and per device the
 // value the daemon decodes from the PDO sent (- when none or not a valid one).
-bool WriteRecord(const std::string& path, const std::vector<can::SimCycleRecord>& records, std::ostream& err) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+void WriteRecord(const std::vector<can::SimCycleRecord>& records, std::ostream& out) {
   out << "# sph_cansim record: sync_t_s counter theta_deg phi_deg r_mm\n";
   char buf[160];
   for (const can::SimCycleRecord& r : records) {
@@ -83,12 +98,74 @@ bool WriteRecord(const std::string& path, const std::vector<can::SimCycleRecord>
     }
     out << "\n";
   }
-  out.flush();
-  if (!out) {
-    err << "sph_cansim: error: " << path << ": cannot write the record\n";
-    return false;
+}
+
+// Where the log's lines go, as they are made: a file descriptor, written in blocks of 64 KiB.
+class LogSink {
+ public:
+  LogSink(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
+  void Add(const std::string& line) {
+    pending_ += line;
+    if (pending_.size() >= 65536) Drain();
   }
-  return true;
+  /// Writes what is pending; throws sph::Error naming the path when a write failed.
+  void Finish() {
+    Drain();
+    if (error_ == 0) return;
+    if (path_ == "-") throw Error(std::string("cannot write to standard output: ") + std::strerror(error_));
+    throw Error(path_ + ": cannot write: " + std::strerror(error_));
+  }
+
+ private:
+  void Drain() {
+    const char* p = pending_.data();
+    std::size_t left = error_ == 0 ? pending_.size() : 0;
+    while (left > 0) {
+      const ssize_t n = ::write(fd_, p, left);
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) {
+        error_ = errno;
+        break;
+      }
+      p += n;
+      left -= static_cast<std::size_t>(n);
+    }
+    pending_.clear();
+  }
+
+  int fd_;
+  std::string path_;
+  std::string pending_;
+  int error_ = 0;
+};
+
+// The file the log is written into: standard output, the FIFO or character device itself, or a
+// temporary file beside a regular file (or a new name) that `files` puts in place at the end.
+struct LogTarget {
+  int fd = -1;
+  bool owned = false;  ///< fd is ours to close
+  std::string staged;  ///< the temporary file, when staged
+};
+
+LogTarget OpenLogTarget(const std::string& path, OutputFiles& files) {
+  LogTarget t;
+  if (path == "-") {
+    std::cout.flush();
+    t.fd = STDOUT_FILENO;
+    return t;
+  }
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && (S_ISFIFO(st.st_mode) || S_ISCHR(st.st_mode))) {
+    t.fd = ::open(path.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+    if (t.fd < 0) throw Error(path + ": cannot open for writing: " + std::strerror(errno));
+    t.owned = true;
+    return t;
+  }
+  t.staged = files.StageProduced(path);  // refuses a directory, a block device, a socket
+  t.fd = ::open(t.staged.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
+  if (t.fd < 0) throw Error(path + ": cannot write: " + std::strerror(errno));
+  t.owned = true;
+  return t;
 }
 
 // Plays the devices on a CAN interface in real time: they answer SYNC, NMT and SDO frames from
@@ -114,16 +191,19 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
   }
   // Planned frames, sent at their times; a synchronous PDO remembers its SYNC, because it must
   // not go out once its synchronous window has closed (CiA 301, object 1007h): when the next
-  // SYNC came first, or 0.9 periods after its own. A real device drops it then; a simulator
+  // SYNC came first, or half a period after its own. A real device drops it then; a simulator
   // slowed down (an emulated machine) would otherwise answer one SYNC after the next.
   struct Planned {
     can::CanFrame frame;
     std::int64_t sync_ns = 0;
   };
   std::vector<Planned> pending;
-  std::vector<can::CanFrame> out;
+  std::vector<can::CanFrame> out, arrived;
   std::uint64_t sent = 0, failed = 0, late = 0;
   const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(c.sync_period_s * 1e9));
+  // The synchronous window (1007h): half a period, so that a SYNC of a producer that is late by
+  // less than that, and the early one after it, still find each PDO in its own period.
+  const std::int64_t window_ns = period_ns / 2;
   const std::int64_t start_ns = static_cast<std::int64_t>(std::llround(c.start_time_s * 1e9));
   std::int64_t next_sync = external ? std::numeric_limits<std::int64_t>::max() : start_ns;
   std::int64_t last_sync = 0;
@@ -158,11 +238,21 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
     if (now >= end_ns || (sim.finished() && pending.empty())) break;
     std::stable_sort(pending.begin(), pending.end(), by_time);
     std::size_t k = 0;
+    arrived.clear();
     for (; k < pending.size() && pending[k].frame.t_ns <= now; ++k) {
       const Planned& p = pending[k];
-      if (p.sync_ns != 0 && (p.sync_ns < last_sync || now - p.sync_ns > period_ns * 9 / 10)) {
-        ++late;
-        continue;
+      if (p.sync_ns != 0) {
+        // Just before a synchronous PDO: a SYNC queued meanwhile closes its window.
+        for (int i = 0; i < 64; ++i) {
+          const can::RxResult r = sock->Receive();
+          if (r.status != can::RxStatus::kFrame) break;
+          arrived.push_back(r.frame);
+          if (can::DecodeSync(r.frame, c.devices.sync_cob_id)) last_sync = std::max(last_sync, r.frame.t_ns);
+        }
+        if (p.sync_ns < last_sync || RealtimeNs() - p.sync_ns > window_ns) {
+          ++late;
+          continue;
+        }
       }
       if (sock->Send(p.frame) == can::TxStatus::kOk) {
         ++sent;
@@ -171,6 +261,7 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
       }
     }
     pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(k));
+    for (const can::CanFrame& f : arrived) deliver(f);
     if (!external && now >= next_sync && !sim.finished()) {
       can::CanFrame sync = can::EncodeSync(
           c.devices.sync_counter_max != 0
@@ -207,35 +298,52 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
                   "a CAN interface.");
   app.option_defaults()->always_capture_default();
   app.set_config("--config", "", "Read options from this file (the device options of sph_acquired's config fit)");
+  UseStrictConfig(app, "sph_cansim", &o.config_path, AcquiredOptionNames());
   auto* out = app.add_option("-o,--output", o.output_path, "Candump log to write ('-' for stdout)");
-  auto* iface = app.add_option("-i,--iface", o.iface, "CAN interface to play onto, in real time")->excludes(out);
+  auto* iface = app.add_option("-i,--iface", o.iface, "CAN interface to play onto, in real time")
+                    ->check(InterfaceName())
+                    ->excludes(out);
   out->excludes(iface);
-  app.add_option("--log-iface", o.log_iface, "Interface name written into the log");
+  app.add_option("--log-iface", o.log_iface, "Interface name written into the log")->check(InterfaceName());
   app.add_option("--sync-source", o.sync_source, "internal: send SYNC; external (live only): answer received SYNCs")
       ->check(CLI::IsMember({"internal", "external"}));
   const std::string m = "Machine";
   AddMachineOptions(app, o.machine, m);
   app.add_option("--center-mm", o.center_mm, "Sphere centre x,y,z [mm]")->group(m);
   app.add_option("--seed", o.seed, "Random seed")->group(m);
-  app.add_option("--move-s", o.move_s, "Time to move between pattern points [s]")->check(NonNegative())->group(m);
-  app.add_option("--stop-s", o.stop_s, "Standstill at each pattern point [s]")->check(NonNegative())->group(m);
-  app.add_option("--heartbeat-period-s", o.heartbeat_period_s, "Heartbeat period of every node [s]; 0: none")
-      ->check(NonNegative())->group(m);
-  app.add_option("--start-time-s", o.start_time_s, "Log: time of the first SYNC [s since the epoch]")->group(m);
+  app.add_option("--move-s", o.move_s, "Time to move between pattern points [s]")->check(InRange(kStepTimeS))->group(m);
+  app.add_option("--stop-s", o.stop_s, "Standstill at each pattern point [s]")->check(InRange(kStepTimeS))->group(m);
+  app.add_option("--heartbeat-period-s", o.heartbeat_period_s,
+                 "Heartbeat period of every node [s] (1017h holds whole ms up to 65535); 0: none")
+      ->check(ZeroOrInRange({0.001, 65.535, "s"}, "none"))
+      ->group(m);
+  app.add_option("--start-time-s", o.start_time_s, "Log: time of the first SYNC [s since the epoch]")
+      ->check(InRange(ranges::kEpochTimeS))
+      ->group(m);
   const std::string f = "Faults";
   app.add_option("--drop-probability", o.drop_probability, "Each PDO is lost with this probability")
-      ->check(CLI::Range(0.0, 1.0))->group(f);
+      ->check(InRange(kProbability))
+      ->group(f);
   app.add_option("--short-probability", o.short_probability, "Each PDO loses its last byte (malformed)")
-      ->check(CLI::Range(0.0, 1.0))->group(f);
+      ->check(InRange(kProbability))
+      ->group(f);
   app.add_option("--sync-drop-probability", o.sync_drop_probability, "Each SYNC is lost")
-      ->check(CLI::Range(0.0, 1.0))->group(f);
+      ->check(InRange(kProbability))
+      ->group(f);
   app.add_option("--probe-out-of-range-probability", o.probe_out_of_range_probability,
-                 "The probe sends its over-range code")->check(CLI::Range(0.0, 1.0))->group(f);
+                 "The probe sends its over-range code")
+      ->check(InRange(kProbability))
+      ->group(f);
   app.add_option("--jitter-us", o.jitter_us, "Extra PDO delay, uniform in [0, jitter] [us]")
-      ->check(NonNegative())->group(f);
-  app.add_option("--error-frame-period-s", o.error_frame_period_s, "An error frame (controller problem) this often [s]")
-      ->check(NonNegative())->group(f);
-  app.add_option("--bus-off-at-s", o.bus_off_at_s, "A bus-off error frame at this time after the start [s] (repeatable)")
+      ->check(InRange({0.0, 1e6, "us"}))
+      ->group(f);
+  app.add_option("--error-frame-period-s", o.error_frame_period_s,
+                 "An error frame (controller problem) this often [s]; 0: none")
+      ->check(ZeroOrInRange({0.001, 86400.0, "s"}, "none"))
+      ->group(f);
+  app.add_option("--bus-off-at-s", o.bus_off_at_s,
+                 "A bus-off error frame at this time after the start [s] (repeatable)")
+      ->check(InRange(ranges::kRunTimeS))
       ->group(f);
   app.add_option("--silence", o.silences, "device:from_s:to_s: the device sends nothing then (repeatable)")->group(f);
   app.add_option("--emcy", o.emergencies, "device:at_s:code: an EMCY frame, code in hex (repeatable)")->group(f);
@@ -247,7 +355,9 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
   app.add_flag("--boot-operational", o.boot_operational,
                "Live: the devices start operational, as if another master had started them (log mode always does)")
       ->group(n);
-  app.add_option("--boot-s", o.boot_s, "Power-on or reset to the boot-up message [s]")->check(NonNegative())->group(n);
+  app.add_option("--boot-s", o.boot_s, "Power-on or reset to the boot-up message [s]")
+      ->check(InRange({0.0, 60.0, "s"}))
+      ->group(n);
   app.add_option("--transmission-type", o.transmission_type,
                  "The TPDOs' transmission type after a boot (1: every SYNC; 254: event-driven)")
       ->check(CLI::Range(0, 255))
@@ -256,9 +366,9 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
                  "Write what the devices sent for each SYNC: sync_t_s counter theta_deg phi_deg r_mm (- for none)")
       ->group(n);
   app.add_option("--duration-s", o.duration_s, "Live: stop after this long [s]; 0: at the pattern's end")
-      ->check(NonNegative())
+      ->check(InRange(ranges::kRunTimeS))
       ->group(n);
-  AddDeviceOptions(app, o.devices);
+  AddDeviceOptions(app, o.devices, false);
 }
 
 can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
@@ -283,7 +393,11 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
   for (const std::string& s : o.silences) {
     const auto p = Split(s, ':');
     if (p.size() != 3) throw Error("--silence '" + s + "': expected device:from_s:to_s");
-    f.silences.push_back({ToDevice(p[0], "--silence"), ToDouble(p[1], "--silence"), ToDouble(p[2], "--silence")});
+    const std::string what = "--silence '" + s + "'";
+    const double from = CheckedValue(ToDouble(p[1], what + ": from_s"), ranges::kRunTimeS, what + ": from_s", p[1]);
+    const double to = CheckedValue(ToDouble(p[2], what + ": to_s"), ranges::kRunTimeS, what + ": to_s", p[2]);
+    if (!(from < to)) throw Error(what + ": the window must end after it begins (from_s < to_s)");
+    f.silences.push_back({ToDevice(p[0], "--silence"), from, to});
   }
   for (const std::string& s : o.emergencies) {
     const auto p = Split(s, ':');
@@ -291,7 +405,9 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
     char* end = nullptr;
     const unsigned long code = std::strtoul(p[2].c_str(), &end, 16);
     if (p[2].empty() || *end != '\0' || code > 0xFFFF) throw Error("--emcy '" + s + "': code must be 16-bit hex");
-    f.emergencies.push_back({ToDevice(p[0], "--emcy"), ToDouble(p[1], "--emcy"), static_cast<std::uint16_t>(code)});
+    const std::string what = "--emcy '" + s + "': at_s";
+    const double at = CheckedValue(ToDouble(p[1], what), ranges::kRunTimeS, what, p[1]);
+    f.emergencies.push_back({ToDevice(p[0], "--emcy"), at, static_cast<std::uint16_t>(code)});
   }
   for (const std::string& s : o.faults) {
     const auto at = s.find('@');
@@ -311,14 +427,21 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
       if (node.empty() || *end != '\0' || v < 1 || v > 127) throw Error("--fault '" + s + "': node must be 1..127");
       id = static_cast<int>(v);
     }
-    const double t = ToDouble(s.substr(at + 1), "--fault '" + s + "'");
-    if (!(t >= 0.0) || !std::isfinite(t)) throw Error("--fault '" + s + "': the time must be a finite number >= 0");
+    const std::string what = "--fault '" + s + "': T";
+    const double t = CheckedValue(ToDouble(s.substr(at + 1), what), ranges::kRunTimeS, what, s.substr(at + 1));
     f.reboots.push_back({id, t});
   }
   c.boot_s = o.boot_s;
   c.transmission_type = o.transmission_type;
   c.start_operational = o.iface.empty() || o.boot_operational;
   c.Validate();
+  const auto points = static_cast<double>(c.spec.pattern.size());
+  const double end_s = c.start_time_s + points * c.stop_s + (points - 1.0) * c.move_s;
+  if (!(end_s < ranges::kEpochTimeS.hi)) {
+    throw Error("--start-time-s " + internal::Format("%.0f", c.start_time_s) + ": the simulation would end at " +
+                internal::Format("%.0f", end_s) + " s since the epoch, beyond the " +
+                internal::Format("%g", ranges::kEpochTimeS.hi) + " s that a frame time in ns holds");
+  }
   return c;
 }
 
@@ -334,6 +457,9 @@ int RunCansim(const CansimOptions& o, std::ostream& err) {
   std::optional<can::DeviceSimulator> sim;
   can::DeviceSimConfig config;
   try {
+    RunPaths paths;
+    paths.Input("--config", o.config_path).Input("--angles", o.machine.angles_path);
+    paths.Output("--output", o.output_path).Output("--record", o.record_path);
     config = MakeDeviceSimConfig(o);
     if (!o.iface.empty()) config.start_time_s = static_cast<double>(RealtimeNs()) * 1e-9;  // power-on now
     sim.emplace(config);
@@ -343,38 +469,51 @@ int RunCansim(const CansimOptions& o, std::ostream& err) {
   }
   sim->set_recording(!o.record_path.empty());
   err << "sph_cansim: " << sim->total_cycles() << " SYNC cycles, " << sim->duration_s() << " s\n";
+  OutputFiles files;  // removes what it staged unless committed
   int code = kExitOk;
   if (!o.iface.empty()) {
     code = PlayLive(o, *sim, config, err);
   } else {
-    std::ofstream file;
-    if (o.output_path != "-") {
-      file.open(o.output_path, std::ios::binary | std::ios::trunc);
-      if (!file) {
-        err << "sph_cansim: error: " << o.output_path << ": cannot open for writing: " << std::strerror(errno) << "\n";
-        return kExitOutputError;
+    LogTarget target;
+    try {
+      target = OpenLogTarget(o.output_path, files);
+      LogSink sink(target.fd, o.output_path);
+      std::vector<can::CanFrame> frames;
+      std::string line;
+      while (!ProcessSignals().stop && sim->NextCycle(frames)) {
+        for (const can::CanFrame& fr : frames) {
+          line = can::FormatCandumpLine(fr, o.log_iface);
+          line += '\n';
+          sink.Add(line);
+        }
+        frames.clear();
       }
-    }
-    std::ostream& out = o.output_path == "-" ? std::cout : file;
-    std::vector<can::CanFrame> frames;
-    std::string line;
-    while (!ProcessSignals().stop && sim->NextCycle(frames)) {
-      for (const can::CanFrame& fr : frames) {
-        line = can::FormatCandumpLine(fr, o.log_iface);
-        line += '\n';
-        out.write(line.data(), static_cast<std::streamsize>(line.size()));
+      sink.Finish();
+      if (!target.staged.empty() && ::fsync(target.fd) != 0) {
+        throw Error(o.output_path + ": cannot write: " + std::strerror(errno));
       }
-      frames.clear();
-    }
-    out.flush();
-    if (!out) {
-      err << "sph_cansim: error: " << o.output_path << ": write failed\n";
+      if (target.owned && ::close(std::exchange(target.fd, -1)) != 0) {
+        throw Error(o.output_path + ": cannot write: " + std::strerror(errno));
+      }
+    } catch (const std::exception& e) {
+      if (target.owned && target.fd >= 0) ::close(target.fd);
+      err << "sph_cansim: error: " << e.what() << "\n";
       return kExitOutputError;
+    }
+    if (const int sig = ProcessSignals().stop) {
+      err << "sph_cansim: stopped by signal " << sig << ": "
+          << (target.staged.empty() ? "the log is incomplete" : "no log written") << "\n";
+      return 128 + sig;  // `files` removes the log begun
     }
   }
   PrintInjected(sim->injected(), err);
-  if (!o.record_path.empty() && !WriteRecord(o.record_path, sim->records(), err) && code == kExitOk) {
-    code = kExitOutputError;
+  try {
+    if (!o.record_path.empty())
+      files.Stage(o.record_path, [&](std::ostream& out) { WriteRecord(sim->records(), out); });
+    files.Commit();
+  } catch (const std::exception& e) {
+    err << "sph_cansim: error: " << e.what() << "\n";
+    return kExitOutputError;
   }
   return code;
 }

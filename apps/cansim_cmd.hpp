@@ -17,6 +17,7 @@ namespace sph::apps {
 
 struct CansimOptions {
   std::string output_path;            ///< candump log ("-": stdout)
+  std::string config_path;            ///< the --config file read (an input: never an output)
   std::string iface;                  ///< live: CAN interface, paced in real time
   std::string log_iface = "can0";     ///< interface name written into the log
   std::string sync_source = "internal";  ///< internal: the simulator sends SYNC; external: answers SYNC
@@ -56,6 +57,12 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& options);
 /// injected) goes to `err`. Returns kExitOk, kExitBadInput, or kExitOutputError/kExitInterfaceError.
 /// Log mode has no master: its devices are operational from the start. Live, they boot
 /// pre-operational and wait for NMT Start (unless boot_operational).
+///
+/// The log (a regular file) and the record are written beside their names and put in place at
+/// the end, complete or not at all; a FIFO, a character device or standard output is written
+/// directly. A stop signal (SIGINT, SIGTERM: ProcessSignals().stop) ends a live play normally
+/// (the record is written); it cuts a log short, which is then removed: 128 + the signal's
+/// number is returned.
 int RunCansim(const CansimOptions& options, std::ostream& err);
 
 }  // namespace sph::apps

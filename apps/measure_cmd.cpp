@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "gnuplot.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/noise_floor.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/sphere_measurement.hpp"
@@ -40,9 +42,10 @@ struct Input {
   std::optional<Calibration> calibration;
   std::optional<int> setup;
   std::optional<double> header_radius_mm;
-  std::string description;            ///< one line for the report
-  std::string form_note;              ///< what the calibration file says of the calibration sphere's form
-  std::vector<std::string> warnings;  ///< readings that parse but look wrong (PlausibilityWarnings)
+  std::string description;                       ///< one line for the report
+  std::string form_note;                         ///< what the calibration file says of the calibration sphere's form
+  std::vector<std::string> warnings;             ///< readings that parse but look wrong (PlausibilityWarnings)
+  std::optional<double> calibration_fit_rms_um;  ///< the calibration file's source.fit_rms_um
 };
 
 std::string Vec3Text(const Eigen::Vector3d& v, const char* fmt, double scale = 1.0) {
@@ -133,6 +136,13 @@ Input ReadInput(const MeasureOptions& o) {
     }
   }
   in.calibration = cal;
+  for (const auto& [key, value] : file.source) {
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (key == "fit_rms_um" && end != value.c_str() && *end == '\0' && v > 0.0 && std::isfinite(v)) {
+      in.calibration_fit_rms_um = v;
+    }
+  }
   in.header_radius_mm = data.header.sphere_radius_mm;
   in.description = std::to_string(in.readings.size()) + " readings" +
                    (in.setup ? " (setup " + std::to_string(*in.setup) + ")" : "") + ", compensated with " +
@@ -220,10 +230,85 @@ void DrawFormMap(const MeasureOptions& o, const std::vector<Eigen::Vector3d>& po
   RunGnuplot(run, o.plot_path);
 }
 
+// --- the noise floor of the form values ---------------------------------------------------------
+
+struct NoiseFloorResult {
+  std::optional<FormNoiseFloor> floor;
+  std::string sigma_source;  ///< where sigma came from
+  std::string note;          ///< why there is none
+};
+
+NoiseFloorResult NoiseFloorOf(const MeasureOptions& o, const Input& in, const SphereEvaluation& ev) {
+  NoiseFloorResult r;
+  std::optional<double> sigma_um = o.noise_um;
+  r.sigma_source = "--noise-um";
+  if (!sigma_um && in.calibration_fit_rms_um) {
+    sigma_um = in.calibration_fit_rms_um;
+    r.sigma_source = "the calibration's fit rms";
+  }
+  if (o.noise_floor_draws == 0) {
+    r.note = "not computed (--noise-floor-draws 0)";
+  } else if (!sigma_um) {
+    r.note = "not computed: no noise given (--noise-um) and no calibration fit rms to take it from";
+  } else if (ev.n_points < 5) {
+    r.note = "not computed: fewer than 5 points";
+  } else {
+    NoiseFloorOptions nopts;
+    nopts.draws = o.noise_floor_draws;
+    nopts.seed = o.seed;
+    r.floor = EstimateFormNoiseFloor(in.points_mm, ev.ls.sphere.center, ev.ls.sphere.radius, ev.ls.rms,
+                                     *sigma_um / kUmPerMm, nopts);
+  }
+  return r;
+}
+
+void WriteNoiseFloorText(std::ostream& out, const SphereEvaluation& ev, const NoiseFloorResult& r) {
+  out << "noise floor of the form values\n";
+  if (!r.floor) {
+    out << "  " << r.note << "\n\n";
+    return;
+  }
+  const FormNoiseFloor& f = *r.floor;
+  out << Format("  sigma_um           %.4f   (%s; %d simulated measurements of pure noise at these directions)\n",
+                f.sigma_mm * kUmPerMm, r.sigma_source.c_str(), f.draws);
+  auto line = [&](const char* name, double value, double mean, double std) {
+    const bool within = FormNoiseFloor::Within(value, mean, std);
+    out << Format("  %-18s %.4f +- %.4f   measured %.4f: %s\n", name, mean * kUmPerMm, std * kUmPerMm, value * kUmPerMm,
+                  within ? "within the noise (pure noise gives as much)" : "above the noise: a form error");
+  };
+  line("sphericity_ls_um", ev.sphericity_ls_mm, f.ls_pv_mean_mm, f.ls_pv_std_mm);
+  if (std::isfinite(f.mz_mean_mm)) {
+    line("sphericity_mz_um", ev.mz.width, f.mz_mean_mm, f.mz_std_mm);
+  } else {
+    out << "  sphericity_mz_um   not simulated for this many points\n";
+  }
+  out << Format("  rms_form_um        %.4f   (the residual rms %.4f with the noise's share taken out)\n\n",
+                f.rms_form_mm * kUmPerMm, ev.ls.rms * kUmPerMm);
+}
+
+json NoiseFloorJson(const SphereEvaluation& ev, const NoiseFloorResult& r) {
+  if (!r.floor) return {{"computed", false}, {"note", r.note}};
+  const FormNoiseFloor& f = *r.floor;
+  auto stat = [&](double value, double mean, double std) -> json {
+    if (!std::isfinite(mean)) return nullptr;
+    return {{"mean_um", mean * kUmPerMm},
+            {"std_um", std * kUmPerMm},
+            {"within_noise", FormNoiseFloor::Within(value, mean, std)}};
+  };
+  return {{"computed", true},
+          {"sigma_um", f.sigma_mm * kUmPerMm},
+          {"sigma_source", r.sigma_source},
+          {"draws", f.draws},
+          {"sphericity_ls_um", stat(ev.sphericity_ls_mm, f.ls_pv_mean_mm, f.ls_pv_std_mm)},
+          {"sphericity_mz_um", stat(ev.mz.width, f.mz_mean_mm, f.mz_std_mm)},
+          {"rms_form_um", f.rms_form_mm * kUmPerMm}};
+}
+
 // --- reports ------------------------------------------------------------------------------------
 
 void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, const SphereEvaluation& ev,
-               const std::optional<CalibrationUncertainty>& u, const std::string& uncertainty_note) {
+               const std::optional<CalibrationUncertainty>& u, const std::string& uncertainty_note,
+               const NoiseFloorResult& floor) {
   const double r = ev.ls.sphere.radius;
   out << kProgram << " " SPH_VERSION ": " << o.points_path << "\n  " << in.description << "\n\n";
   if (!in.form_note.empty()) out << "  " << in.form_note << "\n";
@@ -241,8 +326,9 @@ void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, cons
   out << Format("  sphericity_mz_um   %.4f   (radial separation of the two enclosing spheres)\n",
                 ev.mz.width * kUmPerMm);
   out << "  mz_center_mm       " << Vec3Text(ev.mz.center, "%.9f") << "\n";
-  out << Format("  mz_radii_mm        %.9f %.9f   (inner, outer)\n", ev.mz.inner_radius, ev.mz.outer_radius)
-      << "\ncoverage\n";
+  out << Format("  mz_radii_mm        %.9f %.9f   (inner, outer)\n", ev.mz.inner_radius, ev.mz.outer_radius) << "\n";
+  WriteNoiseFloorText(out, ev, floor);
+  out << "coverage\n";
   out << Format("  cap_half_angle_deg %.1f   (90: a hemisphere, near 180: the whole sphere)\n",
                 ev.coverage.cap_half_angle_deg);
   out << Format("  radius_dilution    %.3g   center_dilution %.3g   (1: points over the whole sphere; limit %g)\n",
@@ -281,7 +367,8 @@ void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, cons
 }
 
 std::string JsonReport(const MeasureOptions& o, const Input& in, const SphereEvaluation& ev,
-                       const std::optional<CalibrationUncertainty>& u, const std::string& uncertainty_note) {
+                       const std::optional<CalibrationUncertainty>& u, const std::string& uncertainty_note,
+                       const NoiseFloorResult& floor) {
   json j;
   j["created_by"] = std::string(kProgram) + " " SPH_VERSION;
   j["input"] = {{"points_file", o.points_path},
@@ -299,6 +386,7 @@ std::string JsonReport(const MeasureOptions& o, const Input& in, const SphereEva
   j["rms_um"] = ev.ls.rms * kUmPerMm;
   j["sphericity_ls_um"] = ev.sphericity_ls_mm * kUmPerMm;
   j["sphericity_mz_um"] = ev.mz.width * kUmPerMm;
+  j["noise_floor"] = NoiseFloorJson(ev, floor);
   j["mz_center_mm"] = Vec3Json(ev.mz.center);
   j["mz_inner_radius_mm"] = ev.mz.inner_radius;
   j["mz_outer_radius_mm"] = ev.mz.outer_radius;
@@ -359,12 +447,21 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(0, 1000000));
   app.add_option("--seed", o.seed, "Seed of the calibration draws")->capture_default_str();
+  app.add_option("--noise-um", o.noise_um,
+                 "The probe's noise sigma for the noise floor of the form values [um] (default: the calibration's "
+                 "fit rms, its source.fit_rms_um)")
+      ->check(InRange({0.0, 1000.0, "um", true}));
+  app.add_option("--noise-floor-draws", o.noise_floor_draws,
+                 "Simulated measurements of pure noise at the measured directions for the noise floor; 0: none")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100000));
   app.add_option("--max-dilution", o.max_dilution,
                  "Warn when the coverage determines radius or centre this many times worse than points over the "
                  "whole sphere")
       ->capture_default_str()
-      ->check(Positive());
+      ->check(InRange({0.0, 1e6, "", true}));
   app.add_flag("-q,--quiet", o.quiet, "No text report on stdout (warnings still go to stderr)");
+  AddProgressOptions(app, o.progress);
 }
 
 int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
@@ -379,10 +476,14 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
         .Output("--output", o.output_path)
         .Output("--plot", o.plot_path)
         .Output("--plot-script", o.plot_script_path);
+    Progress progress(kProgram, err, o.progress);
+    progress.Stage("reading " + o.points_path);
     const Input in = ReadInput(o);
+    progress.Finish();
     for (const std::string& w : in.warnings) err << kProgram << ": warning: " << w << "\n";
     SphereEvaluationOptions eopts;
     eopts.max_dilution = o.max_dilution;
+    progress.Stage("fitting the spheres of " + std::to_string(in.points_mm.size()) + " points");
     const SphereEvaluation ev = EvaluateSphere(in.points_mm, o.points_path, eopts);
 
     std::optional<CalibrationUncertainty> u;
@@ -397,12 +498,16 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
       UncertaintyOptions uopts;
       uopts.samples = o.uncertainty_samples;
       uopts.seed = o.seed;
+      uopts.progress = [&](int done, int total) { progress.Update("uncertainty: calibration draws", done, total); };
       u = PropagateCalibrationUncertainty(in.readings, *in.calibration, ev, uopts);
     }
+    progress.Finish();  // the report follows on stdout, maybe the same terminal
+
+    const NoiseFloorResult floor = NoiseFloorOf(o, in, ev);
 
     OutputFiles files(out);
     if (!o.json_path.empty()) {
-      const std::string report = JsonReport(o, in, ev, u, note);
+      const std::string report = JsonReport(o, in, ev, u, note, floor);
       files.Stage(o.json_path, [&](std::ostream& f) { f << report; });
     }
     if (!o.output_path.empty()) {
@@ -413,10 +518,11 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
       });
     }
     if (!o.plot_path.empty() || !o.plot_script_path.empty()) DrawFormMap(o, in.points_mm, ev, files);
-    if (text) WriteText(out, o, in, ev, u, note);
+    if (text) WriteText(out, o, in, ev, u, note, floor);
     if (!text) {
       for (const auto& w : ev.warnings) err << kProgram << ": warning: " << w << "\n";
     }
+    progress.Finish();
     files.Commit();
     return kExitOk;
   } catch (const std::exception& e) {

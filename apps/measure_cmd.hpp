@@ -13,6 +13,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "progress.hpp"
+
 namespace sph::apps {
 
 struct MeasureOptions {
@@ -32,6 +34,9 @@ struct MeasureOptions {
   std::uint64_t seed = 1;           ///< of the calibration draws
   double max_dilution = 10.0;       ///< coverage limit, see SphereEvaluationOptions
   bool quiet = false;               ///< no text report on stdout (warnings still go to stderr)
+  std::optional<double> noise_um;   ///< the probe's noise for the noise floor; default: the calibration's fit rms
+  int noise_floor_draws = 50;       ///< simulated measurements of pure noise; 0: no noise floor
+  ProgressMode progress = ProgressMode::kAuto;  ///< progress on stderr
 };
 
 void SetupMeasureApp(CLI::App& app, MeasureOptions& options);

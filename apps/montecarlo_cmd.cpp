@@ -101,7 +101,20 @@ void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloO
     out << "\n";
   }
   for (const auto& row : r.rows) {
-    out << "\ne = " << row.eccentricity_mm << " mm: " << row.converged << " of " << row.trials << " converged\n";
+    out << "\ne = " << row.eccentricity_mm << " mm: " << row.converged << " of " << row.trials << " converged";
+    if (!row.not_converged.empty()) {
+      // Named, never silently dropped: the statistics below are of the converged trials only.
+      out << "; left out of every statistic below: trial";
+      for (std::size_t i = 0; i < row.not_converged.size() && i < 10; ++i) {
+        out << (i == 0 ? " " : ", ") << row.not_converged[i] + 1;
+      }
+      if (row.not_converged.size() > 10) out << " and " << row.not_converged.size() - 10 << " more";
+    }
+    out << "\n";
+    if (o.random_direction) {
+      out << "(random directions: each trial has its own Cramer-Rao bound CRLB_t; CRLB is their root mean square, "
+             "std/CRLB the std of (estimate - true) / CRLB_t, bias2 the mean of the trials' second-order biases)\n";
+    }
     out << Format("%-9s %14s %14s %10s %9s %9s %10s %9s %9s %9s\n", "param", "true", "mean", "std", "SE", "(m-t)/SE",
                   "CRLB", "std/CRLB", "bias2", "(m-t-b)/SE");
     for (int p = 0; p < kNumScmsParams; ++p) {
@@ -111,7 +124,7 @@ void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloO
           << Format(" %10.6f ", s.truth * u.to_coarse) << Format("%-3s", u.coarse)
           << Format(" %10.6f ", s.mean * u.to_coarse) << Format("%-3s", u.coarse)
           << Format(" %10.4f", s.std * u.to_fine) << Format(" %9.4f", s.se * u.to_fine) << Format(" %9.2f", s.z)
-          << Format(" %10.4f", s.crlb * u.to_fine) << Format(" %9.3f", s.std / s.crlb)
+          << Format(" %10.4f", s.crlb * u.to_fine) << Format(" %9.3f", s.std_over_crlb)
           << Format(" %9.4f", s.bias * u.to_fine) << Format(" %9.2f", s.z_bias) << "  " << u.fine << "\n";
     }
   }
@@ -131,13 +144,16 @@ json StudyJson(const MonteCarloResult& r) {
                                                                   {"se", s.se * u.to_coarse},
                                                                   {"z", s.z},
                                                                   {"crlb", s.crlb * u.to_coarse},
-                                                                  {"std_over_crlb", s.std / s.crlb},
+                                                                  {"std_over_crlb", s.std_over_crlb},
                                                                   {"bias_second_order", s.bias * u.to_coarse},
                                                                   {"z_after_bias", s.z_bias}};
     }
+    json not_converged = json::array();
+    for (int t : row.not_converged) not_converged.push_back(t + 1);
     rows.push_back({{"eccentricity_mm", row.eccentricity_mm},
                     {"trials", row.trials},
                     {"converged", row.converged},
+                    {"not_converged_trials", not_converged},
                     {"parameters", params}});
   }
   return rows;
@@ -152,7 +168,7 @@ void WriteCsv(const std::string& path, const MonteCarloResult& r, OutputFiles& f
         const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
         f << row.eccentricity_mm << "," << kScmsParamInfo[static_cast<std::size_t>(p)].name << "," << u.coarse << ","
           << s.truth * u.to_coarse << "," << s.mean * u.to_coarse << "," << s.std * u.to_coarse << ","
-          << s.se * u.to_coarse << "," << s.z << "," << s.crlb * u.to_coarse << "," << s.std / s.crlb << ","
+          << s.se * u.to_coarse << "," << s.z << "," << s.crlb * u.to_coarse << "," << s.std_over_crlb << ","
           << row.converged << "," << row.trials << "\n";
       }
     }

@@ -3,7 +3,11 @@
 //   build/bench/calibrate_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
+#include <string>
+
 #include "sph/calib/calibrator.hpp"
+#include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
 
 namespace {
@@ -22,10 +26,8 @@ sph::CalibrationOptions Options(bool analyse) {
   return o;
 }
 
-// Solve only: problem building and Levenberg-Marquardt.
-void BM_CalibrateSolve(benchmark::State& state) {
-  const sph::PointsData data = Data(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  const sph::CalibrationOptions o = Options(false);
+// Calibrations of `data`, one per benchmark iteration, with their points and LM iterations.
+void RunCalibrations(benchmark::State& state, const sph::PointsData& data, const sph::CalibrationOptions& o) {
   int iterations = 0;
   for (auto _ : state) {
     const sph::CalibrationResult r = sph::Calibrate(data, o);
@@ -34,6 +36,11 @@ void BM_CalibrateSolve(benchmark::State& state) {
   }
   state.counters["points"] = static_cast<double>(data.samples.size());
   state.counters["lm_iterations"] = iterations;
+}
+
+// Solve only: problem building and Levenberg-Marquardt.
+void BM_CalibrateSolve(benchmark::State& state) {
+  RunCalibrations(state, Data(static_cast<int>(state.range(0)), static_cast<int>(state.range(1))), Options(false));
 }
 BENCHMARK(BM_CalibrateSolve)->Args({24, 12})->Args({48, 24})->Args({96, 48})->Unit(benchmark::kMillisecond);
 
@@ -48,6 +55,26 @@ void BM_CalibrateFull(benchmark::State& state) {
 }
 BENCHMARK(BM_CalibrateFull)->Unit(benchmark::kMillisecond);
 
+// Solve only, of the points file named by SPH_BENCH_POINTS (its header's R0 and d): the same data
+// another implementation is timed on (bench/peer_scipy.sh). Registered only when it is set.
+void BM_CalibrateFile(benchmark::State& state, const std::string& path) {
+  const sph::PointsData data = sph::ReadPointsFile(path);
+  sph::CalibrationOptions o = Options(false);
+  o.sphere_radius_mm = data.header.sphere_radius_mm.value_or(o.sphere_radius_mm);
+  o.probe_offset_mm = data.header.probe_offset_mm.value_or(o.probe_offset_mm);
+  RunCalibrations(state, data, o);
+}
+
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  if (const char* path = std::getenv("SPH_BENCH_POINTS")) {
+    benchmark::RegisterBenchmark("BM_CalibrateFile", BM_CalibrateFile, std::string(path))
+        ->Unit(benchmark::kMillisecond);
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -3,6 +3,7 @@
 //   build/bench/trace_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
+#include "peak_rss.hpp"
 #include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
@@ -48,6 +49,25 @@ void BM_Trace(benchmark::State& state) {
   state.counters["effects_added"] = static_cast<double>(added);
 }
 BENCHMARK(BM_Trace)->ArgsProduct({{0, 1}, {1, 2}})->ArgNames({"undeclared", "threads"})->Unit(benchmark::kMillisecond);
+
+// The trace of the paper's study on the 96 x 48 grid (4608 points), 2 threads, and its memory:
+// peak_rss_MB is the process' peak, its own when run alone (--benchmark_filter=BM_Trace4608).
+void BM_Trace4608(benchmark::State& state) {
+  sph::SimulationSpec spec;
+  spec.pattern = sph::GridPattern(96, 48);
+  const sph::PointsData data = sph::Simulate(spec);
+  const sph::CalibrationOptions o = Options();
+  sph::TraceOptions trace;
+  trace.threads = 2;
+  for (auto _ : state) {
+    const sph::CalibrationResult base = sph::Calibrate(data, o);
+    const sph::TraceResult r = sph::TraceResidual(data, o, base, trace);
+    benchmark::DoNotOptimize(r.after.cv_rms_um);
+  }
+  state.counters["points"] = static_cast<double>(data.samples.size());
+  state.counters["peak_rss_MB"] = sph::bench::PeakRssMb();
+}
+BENCHMARK(BM_Trace4608)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 // One fit with one effect term of 6 parameters (Theta encoder harmonics 2..4), with the analysis.
 void BM_FitOneEffect(benchmark::State& state) {

@@ -1,6 +1,7 @@
 #include "sph/calib/montecarlo.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -86,6 +87,8 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
   struct Trial {
     ScmsGeometry geometry{};
     bool converged = false;
+    // Random directions: this trial's predicted std and bias (its own design).
+    std::array<double, kNumScmsParams> crlb{}, bias{};
   };
   std::vector<Trial> trials(static_cast<std::size_t>(total));
   std::atomic<long> next{0};
@@ -123,7 +126,16 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
           table->SetReadings(data);
         }
         const CalibrationResult r = internal::CalibrateTable(data, *table, copts, &workspace);
-        trials[static_cast<std::size_t>(i)] = {r.geometry, r.converged};
+        Trial& trial = trials[static_cast<std::size_t>(i)];
+        trial.geometry = r.geometry;
+        trial.converged = r.converged;
+        if (spec.random_direction) {
+          const PredictedUncertainty predicted = PredictUncertainty(s);
+          for (int p = 0; p < kNumScmsParams; ++p) {
+            trial.crlb[static_cast<std::size_t>(p)] = predicted.std(p);
+            trial.bias[static_cast<std::size_t>(p)] = predicted.bias(p);
+          }
+        }
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(error_mutex);
         if (error.empty()) error = e.what();
@@ -148,21 +160,38 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
     EccentricityResult row;
     row.eccentricity_mm = spec.eccentricities_mm[k];
     row.trials = spec.trials;
+    std::array<double, kNumScmsParams> crlb2_sum{}, bias_sum{};
     for (std::size_t t = 0; t < n_trials; ++t) {
       const Trial& tr = trials[k * n_trials + t];
-      if (!tr.converged) continue;
+      if (!tr.converged) {
+        row.not_converged.push_back(static_cast<int>(t));
+        continue;
+      }
       ++row.converged;
       row.estimates.push_back(tr.geometry);
+      for (std::size_t p = 0; p < kNumScmsParams; ++p) {
+        crlb2_sum[p] += tr.crlb[p] * tr.crlb[p];
+        bias_sum[p] += tr.bias[p];
+      }
     }
-    SimulationSpec at_truth = spec.base;
-    at_truth.centers_mm = PlacementCenters(spec, row.eccentricity_mm);
-    const PredictedUncertainty crlb = PredictUncertainty(at_truth);
     const double n = static_cast<double>(row.estimates.size());
+    PredictedUncertainty fixed;
+    if (!spec.random_direction) {
+      SimulationSpec at_truth = spec.base;
+      at_truth.centers_mm = PlacementCenters(spec, row.eccentricity_mm);
+      fixed = PredictUncertainty(at_truth);
+    }
     for (int p = 0; p < kNumScmsParams; ++p) {
       ParameterStats& st = row.params[static_cast<std::size_t>(p)];
-      st.truth = spec.base.truth[static_cast<std::size_t>(p)];
-      st.crlb = crlb.std(p);
-      st.bias = crlb.bias(p);
+      const auto q = static_cast<std::size_t>(p);
+      st.truth = spec.base.truth[q];
+      if (spec.random_direction) {
+        st.crlb = n > 0 ? std::sqrt(crlb2_sum[q] / n) : std::nan("");
+        st.bias = n > 0 ? bias_sum[q] / n : std::nan("");
+      } else {
+        st.crlb = fixed.std(p);
+        st.bias = fixed.bias(p);
+      }
       if (row.estimates.size() < 2) continue;
       double sum = 0.0;
       for (const auto& g : row.estimates) sum += g[static_cast<std::size_t>(p)];
@@ -171,6 +200,19 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
       for (const auto& g : row.estimates)
         ss += (g[static_cast<std::size_t>(p)] - st.mean) * (g[static_cast<std::size_t>(p)] - st.mean);
       st.std = std::sqrt(ss / (n - 1.0));
+      if (spec.random_direction) {
+        std::vector<double> z;
+        for (std::size_t t = 0; t < n_trials; ++t) {
+          const Trial& tr = trials[k * n_trials + t];
+          if (tr.converged) z.push_back((tr.geometry[q] - st.truth) / tr.crlb[q]);
+        }
+        double zm = 0.0, zss = 0.0;
+        for (double v : z) zm += v / n;
+        for (double v : z) zss += (v - zm) * (v - zm);
+        st.std_over_crlb = std::sqrt(zss / (n - 1.0));
+      } else {
+        st.std_over_crlb = st.std / st.crlb;
+      }
       st.se = st.std / std::sqrt(n);
       st.z = st.se > 0.0 ? (st.mean - st.truth) / st.se : 0.0;
       st.z_bias = st.se > 0.0 ? (st.mean - st.truth - st.bias) / st.se : 0.0;

@@ -10,6 +10,9 @@
 namespace sph {
 namespace {
 
+using gum::BudgetInput;
+using gum::EvaluationType;
+using gum::UncertaintyStatement;
 using internal::Format;
 using nlohmann::json;
 
@@ -37,6 +40,64 @@ std::string WeakText(const ObservabilityReport& rep, const WeakCombination& w) {
     s += (s.empty() ? "" : ", ") + p.name + (p.quantity == Quantity::kAngle ? "*R0" : "") + " " + Format("%+.2f", c);
   }
   return s;
+}
+
+// The seven errors' budgets: each input's contribution |c_i| u(x_i), u, nu_eff, k and U, in urad
+// or um; then what each input is and where its value comes from.
+void WriteBudgetText(std::ostream& out, const CalibrationResult& r, const CalibrationBudget& b) {
+  out << "uncertainty (GUM): contributions |c_i| u(x_i), combined u, effective degrees of freedom, U = k u\n";
+  out << Format("%-12s %11s", "parameter", "fit (A)");
+  for (const BudgetSensitivity& s : b.inputs) out << Format(" %11s", s.column.c_str());
+  out << Format(" %10s %8s %5s %10s %-4s\n", "u", "nu_eff", "k", "U", "unit");
+  for (std::size_t i = 0; i < kNumScmsParams && i < b.statements.size(); ++i) {
+    const UncertaintyStatement& st = b.statements[i];
+    const Units u = UnitsOf(kScmsParamInfo[i].quantity);
+    const std::string name = r.analysis.Empty() ? kScmsParamInfo[i].name : r.analysis.parameters[i].name;
+    if (st.inputs.empty()) {
+      out << Format("%-12s %10s\n", name.c_str(), "undetermined");
+      continue;
+    }
+    out << Format("%-12s", name.c_str());
+    for (const BudgetInput& in : st.inputs) out << Format(" %11.4f", in.Contribution() * u.to_fine);
+    const std::string dof = !std::isfinite(st.dof) ? "inf" : st.dof > 1e6 ? ">1e6" : Format("%.0f", st.dof);
+    out << Format(" %10.4f %8s %5.2f %10.4f %-4s\n", st.u * u.to_fine, dof.c_str(), st.k, st.U * u.to_fine, u.fine);
+  }
+  out << "  fit (A): the fit's covariance, " << Format("%.0f", b.type_a_dof) << " degrees of freedom\n";
+  for (const BudgetSensitivity& s : b.inputs) {
+    out << "  " << s.input << ": u = " << Format("%.6g", s.u) << " " << s.unit << " (" << s.note << ")\n";
+  }
+  if (b.coverage.probability > 0.0) {
+    out << Format("coverage: %g %%, k from each parameter's effective degrees of freedom (t distribution)\n",
+                  100.0 * b.coverage.probability);
+  } else {
+    out << Format(
+        "coverage: k = %g (about 95.45 %% for a normal distribution; --coverage 0.95 gives a "
+        "coverage interval)\n",
+        b.coverage.k);
+  }
+  out << "\n";
+}
+
+json BudgetJson(const UncertaintyStatement& st, double to_report, const char* report_unit) {
+  json j;
+  j["u"] = st.u * to_report;
+  j["U"] = st.U * to_report;
+  j["k"] = st.k;
+  j["dof"] = std::isfinite(st.dof) ? json(st.dof) : json(nullptr);
+  j["coverage_probability"] = st.coverage_probability;
+  json items = json::array();
+  for (const BudgetInput& in : st.inputs) {
+    items.push_back(
+        {{"input", in.name},
+         {"type", in.type == EvaluationType::kA ? "A" : "B"},
+         // The Type A input is the parameter's own scatter, in its unit.
+         {"u_input", in.type == EvaluationType::kA ? in.standard_uncertainty * to_report : in.standard_uncertainty},
+         {"input_unit", in.type == EvaluationType::kA ? std::string(report_unit) : in.unit},
+         {"sensitivity", in.type == EvaluationType::kA ? in.sensitivity : in.sensitivity * to_report},
+         {"u_contribution", in.Contribution() * to_report}});
+  }
+  j["budget"] = items;
+  return j;
 }
 
 }  // namespace
@@ -69,6 +130,7 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
                   sd * u.to_report, u.report, value * u.to_fine, sd * u.to_fine, u.fine);
   }
   out << "\n";
+  if (ctx.budget != nullptr) WriteBudgetText(out, r, *ctx.budget);
   out << "fit: rms " << Format("%.4f", r.rms_um) << " um, peak-to-valley " << Format("%.4f", r.pv_um) << " um, "
       << r.n_points << " points, " << r.iterations << " iterations, " << (r.converged ? "converged" : "NOT converged")
       << "\n";
@@ -129,6 +191,9 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
       p["determined"] = static_cast<bool>(rep.determined[i]);
       if (!rep.determined[i]) undetermined.push_back(name);
     }
+    if (ctx.budget != nullptr && i < ctx.budget->statements.size() && !ctx.budget->statements[i].inputs.empty()) {
+      p.update(BudgetJson(ctx.budget->statements[i], u.to_report, u.report));
+    }
     params[name] = p;
     order.push_back(name);
   }
@@ -166,6 +231,16 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
     j["nearly_dependent"] = weak;
   }
   j["fit"] = fit;
+  if (ctx.budget != nullptr) {
+    json inputs = json::array();
+    inputs.push_back({{"input", "fit (scatter of the points)"}, {"type", "A"}, {"dof", ctx.budget->type_a_dof}});
+    for (const BudgetSensitivity& s : ctx.budget->inputs) {
+      inputs.push_back({{"input", s.input}, {"type", "B"}, {"u", s.u}, {"unit", s.unit}, {"note", s.note}});
+    }
+    j["uncertainty_inputs"] = inputs;
+    j["coverage"] = ctx.budget->coverage.probability > 0.0 ? json{{"probability", ctx.budget->coverage.probability}}
+                                                           : json{{"k", ctx.budget->coverage.k}};
+  }
   j["undetermined"] = undetermined;
   j["usable"] = r.Usable();
   json outliers = json::array();
@@ -181,9 +256,21 @@ CalibrationFile MakeCalibrationFile(const CalibrationResult& r, const ReportCont
   cal.probe_offset_mm = ctx.probe_offset_mm;
   cal.sphere_radius_mm = ctx.sphere_radius_mm;
   cal.created_by = ctx.program;
-  if (!r.analysis.Empty()) cal.covariance = r.analysis.covariance.topLeftCorner<kNumScmsParams, kNumScmsParams>();
+  // The combined covariance when the budget is made (Type B inputs such as R0 included), so that
+  // measurements with the file carry them; otherwise the fit's.
+  const bool combined = ctx.budget != nullptr && ctx.budget->covariance.rows() >= kNumScmsParams;
+  if (!r.analysis.Empty()) {
+    cal.covariance =
+        (combined ? ctx.budget->covariance : r.analysis.covariance).topLeftCorner<kNumScmsParams, kNumScmsParams>();
+  }
   cal.source.emplace_back("points_file", ctx.points_path);
   cal.source.emplace_back("fit_rms_um", Format("%.6g", r.rms_um));
+  if (combined) {
+    std::string inputs;
+    for (const BudgetSensitivity& s : ctx.budget->inputs)
+      inputs += ", " + s.input + " " + Format("%.6g", s.u) + " " + s.unit;
+    cal.source.emplace_back("covariance", "combined: the fit's (Type A)" + inputs);
+  }
   for (const auto& kv : ctx.metadata) cal.source.push_back(kv);
   return cal;
 }

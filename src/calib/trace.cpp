@@ -6,6 +6,7 @@
 #include <exception>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <numeric>
 #include <random>
 #include <system_error>
@@ -475,6 +476,8 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     }
     std::vector<std::pair<CandidateScore, EffectFit>> tried(todo.size());
     std::vector<std::exception_ptr> failures(todo.size());
+    std::mutex progress_mutex;
+    int scored = 0;
     auto score = [&](std::size_t i) {
       try {
         CandidateScore& c = tried[i].first;
@@ -500,6 +503,9 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
       } catch (...) {
         failures[i] = std::current_exception();
       }
+      if (!trace.progress) return;
+      const std::lock_guard<std::mutex> lock(progress_mutex);
+      trace.progress(round, ++scored, static_cast<int>(todo.size()));
     };
     const unsigned threads = trace.threads > 0 ? static_cast<unsigned>(trace.threads)
                                                : std::max(1u, std::thread::hardware_concurrency());

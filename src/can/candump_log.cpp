@@ -200,8 +200,32 @@ CandumpReader::Result CandumpReader::Next() {
   return r;
 }
 
+void CandumpWriter::CheckContinuable(const std::string& path) {
+  AppendFile::CheckTarget(path);
+  const std::string text = AppendFile::ReadStart(path, 4096);
+  if (text.empty()) return;
+  const std::size_t newline = text.find('\n');
+  std::string why;
+  if (newline == std::string::npos) {
+    if (text[0] == '(') return;  // a line cut short by a crash of an earlier run: cut off
+    why = "expected '(seconds.microseconds)' at the start";
+  } else {
+    CanFrame frame;
+    std::string iface;
+    if (ParseCandumpLine(std::string_view(text).substr(0, newline), frame, iface, why)) return;
+  }
+  throw Error(path + ": is not a candump log (line 1: " + why + "): refusing to append to it; use another file");
+}
+
+namespace {
+const std::string& Checked(const std::string& path) {
+  CandumpWriter::CheckContinuable(path);
+  return path;
+}
+}  // namespace
+
 CandumpWriter::CandumpWriter(const std::string& path, std::string iface, double fsync_interval_s)
-    : file_(path, fsync_interval_s), iface_(std::move(iface)) {}
+    : file_(Checked(path), fsync_interval_s), iface_(std::move(iface)) {}
 
 void CandumpWriter::Write(const CanFrame& frame) {
   pending_ += FormatCandumpLine(frame, iface_);

@@ -142,7 +142,8 @@ UncertaintyStatement Combine(std::vector<BudgetInput> inputs, const CoverageSpec
   s.u = std::sqrt(sum2);
   s.dof = ws > 0.0 ? sum2 * sum2 / ws : kInfiniteDof;
   // GUM G.6.4: a non-integer nu_eff is truncated to the next lower integer for the t-factor.
-  const double dof_for_k = std::isfinite(s.dof) ? std::max(1.0, std::floor(s.dof)) : kInfiniteDof;
+  // (Rounding of the sums must not take an integer nu, as of a single input, to the next lower.)
+  const double dof_for_k = std::isfinite(s.dof) ? std::max(1.0, std::floor(s.dof * (1.0 + 1e-12))) : kInfiniteDof;
   s.k = coverage.probability > 0.0 ? CoverageFactor(coverage.probability, dof_for_k) : coverage.k;
   s.U = s.k * s.u;
   s.coverage_probability = 2.0 * StudentTCdf(s.k, dof_for_k) - 1.0;

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -45,17 +44,15 @@ void AppendFixed(std::string& out, double v, int decimals) {
   out.append(buf, static_cast<std::size_t>(std::clamp(n, 0, static_cast<int>(sizeof buf) - 1)));
 }
 
-// The "key: value" header fields of an existing file (up to its first sample).
-std::map<std::string, std::string> ReadHeaderFields(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot read the existing header");
+// The "key: value" header fields of the whole lines of `text` up to its first sample.
+std::map<std::string, std::string> HeaderFields(const std::string& text) {
   std::map<std::string, std::string> fields;
-  std::string line;
-  while (std::getline(in, line)) {
-    const std::string text = Trim(line);
-    if (text.empty()) continue;
-    if (text[0] != '#') break;  // the first sample ends the header
-    const std::string body = Trim(std::string_view(text).substr(1));
+  std::size_t begin = 0;
+  for (std::size_t end; (end = text.find('\n', begin)) != std::string::npos; begin = end + 1) {
+    const std::string line = Trim(std::string_view(text).substr(begin, end - begin));
+    if (line.empty()) continue;
+    if (line[0] != '#') break;  // the first sample ends the header
+    const std::string body = Trim(std::string_view(line).substr(1));
     const auto colon = body.find(':');
     if (colon == std::string::npos) continue;
     const std::string key = Trim(body.substr(0, colon));
@@ -78,12 +75,20 @@ void CheckSameNumber(const std::string& path, const std::map<std::string, std::s
 
 }  // namespace
 
-PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options)
-    : file_(path, options.fsync_interval_s), options_(options) {
-  const std::string columns = ColumnsOf(options);
-  if (file_.had_content()) {
-    const auto fields = ReadHeaderFields(path);
+void PointsWriter::CheckContinuable(const std::string& path, const PointsHeader& header,
+                                    const PointsWriterOptions& options) {
+  AppendFile::CheckTarget(path);
+  const std::string text = AppendFile::ReadStart(path, 1 << 20);
+  if (text.empty()) return;
+  const std::string format_line = "# sph-points " + std::to_string(kPointsFormatVersion);
+  const std::size_t newline = text.find('\n');
+  if (newline == std::string::npos) {
+    // A header cut short by a crash of an earlier run is cut off and written again.
+    if (format_line.rfind(text, 0) == 0) return;
+  } else if (Trim(std::string_view(text).substr(0, newline)) == format_line) {
+    const auto fields = HeaderFields(text);
     const auto it = fields.find(kColumnsKey);
+    const std::string columns = ColumnsOf(options);
     const std::string theirs = it == fields.end() ? "theta_deg phi_deg r_mm" : it->second;
     if (theirs != columns) {
       throw Error(path + ": has columns '" + theirs + "' but this run writes '" + columns + "': use another file");
@@ -99,6 +104,23 @@ PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, 
                     ": use another file");
       }
     }
+    return;
+  }
+  throw Error(path + ": is not a points file (its first line is not '" + format_line +
+              "'): refusing to append to it; use another file");
+}
+
+namespace {
+const std::string& Checked(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options) {
+  PointsWriter::CheckContinuable(path, header, options);
+  return path;
+}
+}  // namespace
+
+PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options)
+    : file_(Checked(path, header, options), options.fsync_interval_s), options_(options) {
+  const std::string columns = ColumnsOf(options);
+  if (file_.had_content()) {
     resumed_ = true;
     return;
   }

@@ -1,10 +1,16 @@
 #include "sph/core/sphere_measurement.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <limits>
+#include <mutex>
 #include <random>
 #include <stdexcept>
+#include <system_error>
+#include <thread>
 
 #include <Eigen/Eigenvalues>
 
@@ -89,34 +95,103 @@ CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawRead
   u.seed = options.seed;
 
   // g_s = g + L z, z ~ N(0, I), L L^T = Sigma; a covariance from a fit can be semidefinite to
-  // rounding, so L comes from the eigen decomposition with negative eigenvalues set to zero.
+  // rounding, so L comes from the eigen decomposition with negative eigenvalues set to zero. The
+  // draws come first, in order, so that the result depends on the seed only, not on the threads.
   const Eigen::SelfAdjointEigenSolver<ScmsCovariance> eig(*cal.covariance);
   const ScmsCovariance l = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
   std::mt19937_64 rng(options.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
-
-  std::vector<double> radius, pv_ls, pv_mz, form;
-  std::vector<Eigen::Vector3d> center;
-  std::vector<Eigen::Vector3d> points(readings.size());
-  std::vector<double> change(readings.size());
-  Calibration draw = cal;
-  for (int s = 0; s < options.samples; ++s) {
+  std::vector<ScmsGeometry> draws(static_cast<std::size_t>(options.samples));
+  for (ScmsGeometry& g : draws) {
     Eigen::Matrix<double, kNumScmsParams, 1> z;
     for (int k = 0; k < kNumScmsParams; ++k) z(k) = normal(rng);
     const Eigen::Matrix<double, kNumScmsParams, 1> dg = l * z;
     for (int k = 0; k < kNumScmsParams; ++k) {
-      draw.geometry[static_cast<std::size_t>(k)] = cal.geometry[static_cast<std::size_t>(k)] + dg(k);
+      g[static_cast<std::size_t>(k)] = cal.geometry[static_cast<std::size_t>(k)] + dg(k);
     }
-    Compensate(draw, readings.data(), readings.size(), points.data());
-    const LeastSquaresSphere ls = FitSphereLeastSquares(points);
-    if (!ls.sphere.ok) continue;  // a draw that destroys the sphere says nothing about this one
-    const std::vector<double> e = RadialResiduals(points, ls.sphere.center, ls.sphere.radius);
-    for (std::size_t i = 0; i < e.size(); ++i) change[i] = e[i] - nominal.residuals_mm[i];
-    radius.push_back(ls.sphere.radius);
-    center.push_back(ls.sphere.center);
-    pv_ls.push_back(PeakToValley(e));
-    pv_mz.push_back(FitSphereMinimumZone(points, ls.sphere.center).width);
-    form.push_back(PeakToValley(change));
+  }
+  // The readings' sines and cosines, once for all draws.
+  std::vector<EffectReading> fixed;
+  fixed.reserve(readings.size());
+  for (const RawReading& r : readings) fixed.emplace_back(r.theta_deg, r.phi_deg, r.r_mm, 0.0);
+
+  struct Outcome {
+    bool ok = false;
+    double radius = 0.0, pv_ls = 0.0, pv_mz = 0.0, form = 0.0;
+    Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  };
+  std::vector<Outcome> outcomes(draws.size());
+  std::atomic<std::size_t> next{0};
+  std::size_t done = 0;
+  std::mutex progress_mutex;
+  std::exception_ptr failure;  // the first exception of a worker, rethrown here
+  auto work = [&] {
+    std::vector<Eigen::Vector3d> points(readings.size());
+    Calibration draw = cal;
+    SphereFitOptions ls_options;
+    ls_options.start = nominal.ls.sphere;  // each draw's sphere is near the nominal one
+    for (std::size_t s; (s = next++) < draws.size();) {
+      draw.geometry = draws[s];
+      const internal::CompensationContext ctx(draw);
+      for (std::size_t i = 0; i < fixed.size(); ++i) points[i] = internal::CompensateWith(draw, ctx, fixed[i]);
+      const LeastSquaresSphere ls = FitSphereLeastSquares(points, ls_options);
+      Outcome& o = outcomes[s];
+      if (ls.sphere.ok) {  // a draw that destroys the sphere says nothing about this one
+        // Peak-to-valley of the residuals and of their change from the nominal evaluation.
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo, change_lo = lo, change_hi = -lo;
+        for (std::size_t i = 0; i < points.size(); ++i) {
+          const double e = (points[i] - ls.sphere.center).norm() - ls.sphere.radius;
+          const double change = e - nominal.residuals_mm[i];
+          lo = std::min(lo, e);
+          hi = std::max(hi, e);
+          change_lo = std::min(change_lo, change);
+          change_hi = std::max(change_hi, change);
+        }
+        o = {true,
+             ls.sphere.radius,
+             hi - lo,
+             FitSphereMinimumZone(points, ls.sphere.center).width,
+             change_hi - change_lo,
+             ls.sphere.center};
+      }
+      const std::lock_guard<std::mutex> lock(progress_mutex);  // counted and told in order
+      ++done;
+      if (options.progress) options.progress(static_cast<int>(done), options.samples);
+    }
+  };
+  auto worker = [&] {
+    try {
+      work();
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(progress_mutex);
+      if (!failure) failure = std::current_exception();
+      next = draws.size();  // the others stop after their current draw
+    }
+  };
+  unsigned n_threads =
+      options.threads > 0 ? static_cast<unsigned>(options.threads) : std::thread::hardware_concurrency();
+  n_threads = std::max(1u, std::min<unsigned>(n_threads, static_cast<unsigned>(draws.size())));
+  std::vector<std::thread> pool;
+  for (unsigned w = 1; w < n_threads; ++w) {
+    try {
+      pool.emplace_back(worker);
+    } catch (const std::system_error&) {
+      break;  // no more threads to be had: this one does the rest
+    }
+  }
+  worker();
+  for (std::thread& t : pool) t.join();
+  if (failure) std::rethrow_exception(failure);
+
+  std::vector<double> radius, pv_ls, pv_mz, form;
+  std::vector<Eigen::Vector3d> center;
+  for (const Outcome& o : outcomes) {
+    if (!o.ok) continue;
+    radius.push_back(o.radius);
+    center.push_back(o.center);
+    pv_ls.push_back(o.pv_ls);
+    pv_mz.push_back(o.pv_mz);
+    form.push_back(o.form);
   }
   if (radius.size() < 2) throw std::invalid_argument("no calibration draw gave a sphere");
   u.radius_std_mm = StdOf(radius);

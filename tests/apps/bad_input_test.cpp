@@ -65,9 +65,7 @@ class Matrix : public ::testing::TestWithParam<MatrixCase> {
     std::ofstream(base_ + "/P.txt") << Example();
     const ProgramResult r = RunProgram({SPH_CALIBRATE, "P.txt", "--no-extend", "-q", "-o", "cal.json"}, base_);
     ASSERT_EQ(r.code, 0) << r.err;
-    nodes_ = ::mknod((base_ + "/full").c_str(), S_IFCHR | 0666, makedev(1, 7)) == 0 &&
-             ::mknod((base_ + "/null").c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0 &&
-             ::mknod((base_ + "/disk").c_str(), S_IFBLK | 0600, makedev(7, 0)) == 0;
+    nodes_ = MakeDeviceNodes(base_);
   }
 
   // A copy of the base folder for one case, with its files.
@@ -76,11 +74,7 @@ class Matrix : public ::testing::TestWithParam<MatrixCase> {
     for (const char* f : {"P.txt", "cal.json"}) std::ofstream(dir + "/" + f) << ReadWholeFile(base_ + "/" + f);
     std::ofstream(dir + "/a.txt") << "0 45\n90 45\n180 45\n270 45\n0 90\n90 90\n180 90\n270 90\n45 135\n135 135\n";
     ::mkdir((dir + "/sub").c_str(), 0755);
-    if (nodes_) {
-      ::mknod((dir + "/full").c_str(), S_IFCHR | 0666, makedev(1, 7));
-      ::mknod((dir + "/null").c_str(), S_IFCHR | 0666, makedev(1, 3));
-      ::mknod((dir + "/disk").c_str(), S_IFBLK | 0600, makedev(7, 0));
-    }
+    if (nodes_) MakeDeviceNodes(dir);
     for (const auto& [name, text] : c.files) std::ofstream(dir + "/" + name, std::ios::binary) << text;
     return dir;
   }

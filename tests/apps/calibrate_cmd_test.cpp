@@ -1,6 +1,7 @@
 #include "calibrate_cmd.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -12,6 +13,7 @@
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/model/form_model.hpp"
 #include "sph/model/sphere_fit.hpp"
 #include "sph/model/sphere_form.hpp"
 #include "sph/model/units.hpp"
@@ -37,7 +39,9 @@ RunOutput Calibrate(const CalibrateOptions& o) {
 
 class CalibrateCmd : public ::testing::Test {
  protected:
-  void SetUp() override { dir_ = sph::testing::MakeTempDir(::testing::UnitTest::GetInstance()->current_test_info()->name()); }
+  void SetUp() override {
+    dir_ = sph::testing::MakeTempDir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+  }
 
   std::string WriteFile(const std::string& name, const std::string& text) {
     const std::string path = dir_ + "/" + name;
@@ -91,6 +95,24 @@ TEST_F(CalibrateCmd, ExampleDataGivesAUsableCalibration) {
   EXPECT_TRUE(j["warnings"].is_array());
   std::ifstream cal(o.output_path);
   EXPECT_TRUE(cal.good());
+}
+
+TEST_F(CalibrateCmd, ProgressOnRequestNamesEachStageAndEveryRoundOfTheTrace) {
+  CalibrateOptions o;
+  o.points_path = SPH_SOURCE_DIR "/data/example/points.txt";
+  o.quiet = true;
+  const RunOutput quiet = Calibrate(o);  // stderr is no terminal here: nothing by default
+  ASSERT_EQ(quiet.code, kExitOk) << quiet.err;
+  EXPECT_THAT(quiet.err, Not(HasSubstr("sph_calibrate: reading")));
+  o.progress = ProgressMode::kAlways;
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  for (const std::string& s : std::vector<std::string>{"sph_calibrate: reading " + o.points_path + "\n",
+                                                        "sph_calibrate: checking 288 samples\n",
+                                                        "sph_calibrate: calibrating the seven errors\n",
+                                                        "sph_calibrate: tracing the residual, round 1: candidates 100% ("}) {
+    EXPECT_THAT(r.err, HasSubstr(s));
+  }
 }
 
 TEST_F(CalibrateCmd, CentredSphereExitsOneAndWritesNoCalibration) {
@@ -163,7 +185,10 @@ TEST_F(CalibrateCmd, BadInputCasesExitTwoWithTheirMessage) {
 // The bad-input matrix: each case one clear message naming the file and exit 2, and no output
 // file left behind.
 TEST_F(CalibrateCmd, BadFilesExitTwoAndLeaveNothingBehind) {
-  const std::string garbage("\x7f" "ELF\x02\x01\x01\0\0\0\xff\xfe\n\x01\x02", 16);
+  const std::string garbage(
+      "\x7f"
+      "ELF\x02\x01\x01\0\0\0\xff\xfe\n\x01\x02",
+      16);
   const std::vector<std::pair<std::string, std::string>> cases{
       {"", ": no samples"},
       {kHeader, ": no samples"},
@@ -254,8 +279,10 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
   for (const auto& e : j["effects"]) {
     for (const auto& p : e["parameters"]) {
       const std::string name = p["name"];
-      const double truth = name == "theta_encoder.c2" ? 6.0 : name == "theta_encoder.s3" ? -4.0
-                           : name == "probe_drift.t1" ? 0.6 : 0.0;
+      const double truth = name == "theta_encoder.c2"   ? 6.0
+                           : name == "theta_encoder.s3" ? -4.0
+                           : name == "probe_drift.t1"   ? 0.6
+                                                        : 0.0;
       EXPECT_NE(truth, 0.0) << "unexpected component " << name;
       EXPECT_NEAR(p["value"].get<double>(), truth, 4 * p["std"].get<double>()) << name;
     }
@@ -302,6 +329,92 @@ TEST_F(CalibrateCmd, FixedEffectsAreFittedWithoutSelection) {
 void ParseArgs(CLI::App& app, std::vector<std::string> args) {
   std::reverse(args.begin(), args.end());
   app.parse(args);
+}
+
+TEST_F(CalibrateCmd, StatesTheGumBudgetAndPutsTheCombinedCovarianceInTheCalibrationFile) {
+  // The certificate's u(R0) from the header, the probe scale from an option (which would
+  // override a header field of the same name), coverage k = 2.
+  SimulationSpec spec;
+  PointsData data = Simulate(spec);
+  data.header.metadata.emplace_back("sphere_radius_u_um", "0.1");
+  const std::string points = dir_ + "/points.txt";
+  WritePointsFile(points, data);
+  CalibrateOptions o;
+  o.points_path = points;
+  o.no_extend = true;
+  o.conditions.probe_scale_u = 1e-5;
+  o.json_path = dir_ + "/report.json";
+  o.output_path = dir_ + "/cal.json";
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("uncertainty (GUM)"));
+  EXPECT_THAT(r.out, HasSubstr("R0 (certificate): u = 0.1 um (the certificate's standard uncertainty)"));
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json& d = j["parameters"]["d_prime"];
+  const double std_mm = d["std"].get<double>(), u_mm = d["u"].get<double>();
+  EXPECT_GT(u_mm, 0.1e-3);  // R0's 0.1 um, taken one for one, beside a Type A std of 0.007 um
+  EXPECT_LT(std_mm, 0.01e-3);
+  EXPECT_DOUBLE_EQ(d["U"].get<double>(), 2.0 * u_mm);
+  ASSERT_EQ(d["budget"].size(), 4u);
+  double sum2 = 0.0;
+  for (const auto& item : d["budget"]) sum2 += std::pow(item["u_contribution"].get<double>(), 2);
+  EXPECT_NEAR(std::sqrt(sum2), u_mm, 1e-12);
+  EXPECT_EQ(d["budget"][0]["type"], "A");
+  EXPECT_EQ(d["budget"][1]["input"], "R0 (certificate)");
+  EXPECT_DOUBLE_EQ(d["budget"][1]["u_input"].get<double>(), 0.1);
+  EXPECT_DOUBLE_EQ(d["budget"][3]["u_input"].get<double>(), 1e-5);
+  // The calibration file's covariance is the combined one: d' variance u^2, not std^2.
+  const CalibrationFile cal = ReadCalibrationFile(o.output_path);
+  ASSERT_TRUE(cal.covariance.has_value());
+  EXPECT_NEAR(std::sqrt((*cal.covariance)(6, 6)), u_mm, 1e-9);
+}
+
+// A sphere with a form of its own, turned on its mount, on a machine with only the seven errors:
+// the trace adds the form and nothing else, and what is reported and stored is the joint fit (the
+// seven errors fitted with the form), with the form in the calibration file.
+TEST_F(CalibrateCmd, AFormAloneIsFittedWithTheMachineAndStored) {
+  SimulationSpec spec;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(-2, 0, 0)};
+  spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 0, 90);
+  spec.mount_rotations_deg[2] = Eigen::Vector3d(90, 0, 0);
+  spec.noise_r_um = 0.02;
+  spec.seed = 5;
+  spec.effects.form = {{2, 0, 0.06}, {3, 1, 0.05}, {4, 2, 0.04}};
+  CalibrateOptions o;
+  o.points_path = Simulated("points.txt", spec);
+  o.json_path = dir_ + "/report.json";
+  o.output_path = dir_ + "/cal.json";
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_TRUE(j.contains("sphere_form")) << r.out;
+  const CalibrationFile cal = ReadCalibrationFile(o.output_path);
+  ASSERT_FALSE(cal.form_terms.empty()) << r.out;
+  EXPECT_TRUE(cal.effects.terms.empty());
+  // Schmidt harmonics: rms over the sphere sqrt(sum c^2 / (2l + 1)).
+  const double rms_um = std::sqrt(0.06 * 0.06 / 5 + 0.05 * 0.05 / 7 + 0.04 * 0.04 / 9);
+  EXPECT_NEAR(FormRms(cal.form_terms, cal.form_values_mm) * kUmPerMm, rms_um, 0.1 * rms_um);
+  // The stored seven errors are the joint fit's: its rms is at the noise, not at the form's.
+  EXPECT_LT(j["fit"]["rms_um"].get<double>(), 1.2 * 0.02) << r.out;
+  // Its budget refits the form too (the sensitivities have every parameter of the joint fit).
+  EXPECT_THAT(r.err, Not(HasSubstr("no uncertainty budget")));
+  EXPECT_TRUE(j["parameters"]["d_prime"].contains("u")) << r.out;
+}
+
+TEST_F(CalibrateCmd, CoverageProbabilityGivesKFromTheDegreesOfFreedom) {
+  CalibrateOptions o;
+  o.points_path = SPH_SOURCE_DIR "/data/example/points.txt";
+  o.no_extend = true;
+  o.coverage = 0.99;
+  o.json_path = dir_ + "/report.json";
+  ASSERT_EQ(Calibrate(o).code, kExitOk);
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json& alpha = j["parameters"]["alpha"];
+  EXPECT_NEAR(alpha["k"].get<double>(), 2.594, 0.002);  // t_0.995 for 278 degrees of freedom
+  EXPECT_DOUBLE_EQ(j["coverage"]["probability"].get<double>(), 0.99);
 }
 
 TEST(CalibrateCli, ParsesOptions) {

@@ -27,6 +27,7 @@ namespace {
 
 using nlohmann::json;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 constexpr const char* kNistDir = SPH_TEST_DATA_DIR "/nist-ats-l2-sphere/";
 // Agreement with NIST's reference fits through the app (data units); see nist_sphere_test.cpp.
@@ -441,6 +442,23 @@ void ParseArgs(CLI::App& app, std::vector<std::string> args) {
   app.parse(args);
 }
 
+TEST_F(MeasureCmd, ProgressOnRequestNamesEachStageAndEveryDrawByDefaultNone) {
+  MeasureOptions o;
+  o.points_path = Simulated("progress.txt", {Eigen::Vector3d(1.0, 1.0, 0.5)});
+  o.calibration_path = Calibration();
+  o.uncertainty_samples = 20;
+  const RunOutput quiet = Measure(o);  // stderr is no terminal here: nothing by default
+  ASSERT_EQ(quiet.code, kExitOk) << quiet.err;
+  EXPECT_THAT(quiet.err, Not(HasSubstr("sph_measure: reading")));
+  o.progress = ProgressMode::kAlways;
+  const RunOutput r = Measure(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("sph_measure: reading " + o.points_path + "\n"));
+  EXPECT_THAT(r.err, HasSubstr("sph_measure: fitting the spheres of 288 points\n"));
+  EXPECT_THAT(r.err, HasSubstr("sph_measure: uncertainty: calibration draws 100% (20/20)\n"));
+  EXPECT_EQ(r.out, quiet.out);  // the report is the same
+}
+
 TEST(MeasureCli, ParsesOptions) {
   CLI::App app;
   MeasureOptions o;
@@ -469,6 +487,16 @@ TEST(MeasureCli, ParsesOptions) {
   MeasureOptions bad;
   SetupMeasureApp(app3, bad);
   EXPECT_THROW(ParseArgs(app3, {"p.txt", "--max-dilution", "-1"}), CLI::ValidationError);
+  EXPECT_EQ(bad.progress, ProgressMode::kAuto);
+  CLI::App app4;
+  MeasureOptions p;
+  SetupMeasureApp(app4, p);
+  ParseArgs(app4, {"p.txt", "--no-progress"});
+  EXPECT_EQ(p.progress, ProgressMode::kNever);
+  CLI::App app5;
+  MeasureOptions both;
+  SetupMeasureApp(app5, both);
+  EXPECT_THROW(ParseArgs(app5, {"p.txt", "--progress", "--no-progress"}), CLI::ExcludesError);
 }
 
 // The calibration sphere measured again, turned on its mount: with the calibration file's form

@@ -94,6 +94,15 @@ inline std::map<std::string, std::string> FolderState(const std::string& folder)
   return state;
 }
 
+/// Makes the device nodes a case may write to in `folder`, never those of /dev: a full device
+/// (full), a null device (null) and a block device (disk). False when they cannot be made here
+/// (without CAP_MKNOD).
+inline bool MakeDeviceNodes(const std::string& folder) {
+  return ::mknod((folder + "/full").c_str(), S_IFCHR | 0666, makedev(1, 7)) == 0 &&
+         ::mknod((folder + "/null").c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0 &&
+         ::mknod((folder + "/disk").c_str(), S_IFBLK | 0600, makedev(7, 0)) == 0;
+}
+
 /// A Ceres or glog log line ("W20261201 19:45:19.725777  9080 residual_block.cc:129]") or
 /// glog's warning about its initialisation: what a user must never see.
 inline bool HasSolverLog(const std::string& text) {

@@ -69,8 +69,8 @@ TEST_F(PaperStudy, UnbiasedAndAtTheCramerRaoBound) {
 TEST_F(PaperStudy, SecondOrderBiasOfDPrime) {
   const ParameterStats& s = result_->rows[0].params[kDPrime];
   ASSERT_DOUBLE_EQ(result_->rows[0].eccentricity_mm, 0.5);
-  EXPECT_GT(std::abs(s.z), 4.0);        // measurably biased ...
-  EXPECT_LT(std::abs(s.z_bias), 4.0);   // ... by the predicted amount
+  EXPECT_GT(std::abs(s.z), 4.0);         // measurably biased ...
+  EXPECT_LT(std::abs(s.z_bias), 4.0);    // ... by the predicted amount
   EXPECT_LT(s.bias * kUmPerMm, -0.005);  // about -0.014 um
   EXPECT_GT(s.std / s.crlb, 1.5);
 }
@@ -103,6 +103,18 @@ TEST(RunMonteCarlo, SeveralSetupsAndRandomDirections) {
   spec.random_direction = true;
   const MonteCarloResult rnd = RunMonteCarlo(spec);
   EXPECT_GT(rnd.rows[0].converged, 150);
+  EXPECT_EQ(rnd.rows[0].converged + static_cast<int>(rnd.rows[0].not_converged.size()), spec.trials);
+  // Each random placement has its own bound: the estimates normalised by their trial's CRLB
+  // scatter with std 1 (200 trials: +-5 % of sampling scatter). Pooled, the std would be ruled by
+  // the few near-degenerate placements (alpha's pooled std / rms CRLB is 0.24 here).
+  for (int p = 0; p < kNumScmsParams; ++p) {
+    if (p == kDPrime) continue;
+    const ParameterStats& s = rnd.rows[0].params[static_cast<std::size_t>(p)];
+    EXPECT_NEAR(s.std_over_crlb, 1.0, 0.15) << kScmsParamInfo[static_cast<std::size_t>(p)].name;
+  }
+  // d' scatters about 20 % more than its trials' bounds (1.21 with this seed): the bound is
+  // first order, and d' is where the second-order terms of the near-degenerate placements land.
+  EXPECT_GT(rnd.rows[0].params[kDPrime].std_over_crlb, 0.85);
 }
 
 // Table 3, "before": the nominal model's sphericity of spheres at the eccentricities that

@@ -368,12 +368,13 @@ TEST(AcquireProcess, BadNumbersAndAMissingConfigAreBadInput) {
     std::vector<std::string> args;
     std::string message;
   } cases[] = {
-      {{"--sphere-radius-mm", "nan"}, "--sphere-radius-mm: must be a positive number, got nan"},
-      {{"--probe-offset-mm", "-25"}, "--probe-offset-mm: must be a positive number, got -25"},
-      {{"--fsync-interval-s", "nan"}, "--fsync-interval-s: must be -1, 0 or a positive number of seconds, got nan"},
-      {{"--fsync-interval-s", "-2"}, "--fsync-interval-s: must be -1, 0 or a positive number of seconds, got -2"},
+      {{"--sphere-radius-mm", "nan"}, "--sphere-radius-mm: must be > 0 and <= 1000 mm, got nan"},
+      {{"--probe-offset-mm", "-25"}, "--probe-offset-mm: must be > 0 and <= 10000 mm, got -25"},
+      {{"--fsync-interval-s", "nan"},
+       "--fsync-interval-s: must be -1 (only at the end) or >= 0 and <= 86400 s, got nan"},
+      {{"--fsync-interval-s", "-2"}, "--fsync-interval-s: must be -1 (only at the end) or >= 0 and <= 86400 s, got -2"},
       {{"--config", dir + "/missing.conf"}, dir + "/missing.conf was not readable (missing?)"},
-      {{"--config", nan_conf}, "--sphere-radius-mm: must be a positive number, got nan"},
+      {{"--config", nan_conf}, "--sphere-radius-mm: must be > 0 and <= 1000 mm, got nan"},
   };
   for (const auto& c : cases) {
     std::vector<std::string> args{"--replay", log, "-o", out};
@@ -441,7 +442,8 @@ TEST(CansimCmd, BadOptionsAndUnwritableLogsFailAndLeaveNothing) {
        "--fault 'reboot:1': expected reboot:NODE@T (NODE a node id or theta, phi, probe; T in s)"},
       {[](CansimOptions& o) { o.faults = {"reboot:9@1"}; }, kExitBadInput,
        "device simulator: reboot of node 9, which no device is"},
-      {[](CansimOptions& o) { o.faults = {"reboot:theta@-1"}; }, kExitBadInput, "the time must be a finite number"},
+      {[](CansimOptions& o) { o.faults = {"reboot:theta@-1"}; }, kExitBadInput,
+       "--fault 'reboot:theta@-1': T: must be >= 0 and <= 1e+08 s, got -1"},
       {[](CansimOptions& o) { o.output_path += "/no/such/dir/sim.log"; }, kExitOutputError, "sim.log"},
   };
   for (const auto& [edit, exit, message] : cases) {

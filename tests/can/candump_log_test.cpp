@@ -9,6 +9,7 @@
 
 #include "sph/can/canopen.hpp"
 #include "sph/can/error_frame.hpp"
+#include "sph/core/error.hpp"
 #include "test_util.hpp"
 
 namespace sph::can {
@@ -137,6 +138,32 @@ TEST(CandumpWriter, AppendsAndCanUtilsReadsIt) {
   ss << in.rdbuf();
   EXPECT_NE(ss.str().find("181             Rx   d 4 01 02 03 04"), std::string::npos) << ss.str();
   EXPECT_NE(ss.str().find("ErrorFrame"), std::string::npos) << ss.str();
+}
+
+TEST(CandumpWriter, RefusesAFileThatIsNoCandumpLogUntouched) {
+  const std::string dir = sph::testing::MakeTempDir("candump_notes");
+  const std::string path = dir + "/notes.txt";
+  const std::string text = "# sph-points 1\n0 7.5 4.9";  // a points file, its last line cut short
+  { std::ofstream(path, std::ios::binary) << text; }
+  try {
+    CandumpWriter w(path, "can0", 0.0);
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), path +
+                                         ": is not a candump log (line 1: expected '(seconds.microseconds)' at the "
+                                         "start): refusing to append to it; use another file");
+  }
+  EXPECT_EQ(sph::testing::ReadWholeFile(path), text);
+  // A log whose last line a crash cut short is continued, the broken line cut off.
+  const std::string log = dir + "/frames.log";
+  { std::ofstream(log, std::ios::binary) << "(1700000000.000000) can0 080#\n(1700000000.0001"; }
+  EXPECT_NO_THROW(CandumpWriter::CheckContinuable(log));
+  {
+    CandumpWriter w(log, "can0", 0.0);
+    w.Write(MakeFrame(0x080, {}, 1700000001000000000LL));
+    w.Close();
+  }
+  EXPECT_EQ(sph::testing::ReadWholeFile(log), "(1700000000.000000) can0 080#\n(1700000001.000000) can0 080#\n");
 }
 
 }  // namespace

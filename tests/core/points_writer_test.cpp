@@ -8,6 +8,7 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -151,6 +152,53 @@ TEST(PointsWriter, AnIncompleteLastLineIsCutOff) {
   const PointsData d = ReadPointsFile(path);
   ASSERT_EQ(d.samples.size(), 2U);
   EXPECT_DOUBLE_EQ(d.samples[1].r_mm, 7.0);
+}
+
+TEST(PointsWriter, RefusesAFileThatIsNoPointsFileBeforeOpeningIt) {
+  const std::string dir = sph::testing::MakeTempDir("pw_notes");
+  const std::string notes = dir + "/notes.txt", other = dir + "/other.txt";
+  const std::string text = "my notes\nthe last line has no newline";
+  { std::ofstream(notes, std::ios::binary) << text; }
+  // A points file of other columns, its last row cut short: refused, and not cut either.
+  const std::string points = "# sph-points 1\n# columns: theta_deg phi_deg r_mm\n0 7.5 4.9\n0 22.5 4.";
+  { std::ofstream(other, std::ios::binary) << points; }
+  for (const auto& [path, content, message] :
+       {std::tuple{notes, text,
+                   notes + ": is not a points file (its first line is not '# sph-points 1'): refusing "
+                           "to append to it; use another file"},
+        std::tuple{other, points,
+                   other + ": has columns 'theta_deg phi_deg r_mm' but this run writes 'theta_deg "
+                           "phi_deg r_mm t_s setup': use another file"}}) {
+    try {
+      PointsWriter::CheckContinuable(path, Header(), WithSetup());
+      FAIL() << "no throw";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()), message);
+    }
+    EXPECT_THROW(PointsWriter(path, Header(), WithSetup()), Error);
+    EXPECT_EQ(sph::testing::ReadWholeFile(path), content) << "the file must be as it was";
+  }
+}
+
+TEST(PointsWriter, AHeaderCutShortByACrashIsWrittenAgain) {
+  const std::string path = sph::testing::MakeTempDir("pw_cut_header") + "/p.txt";
+  { std::ofstream(path, std::ios::binary) << "# sph-po"; }
+  {
+    PointsWriter w(path, Header(), WithSetup());
+    EXPECT_FALSE(w.resumed());
+    EXPECT_EQ(w.truncated_bytes(), 8U);
+    w.Write({1.0, 2.0, 3.0, 4.0, 0});
+  }
+  EXPECT_EQ(ReadPointsFile(path).samples.size(), 1U);
+}
+
+TEST(PointsWriter, RefusesADirectoryAndAMissingFolderWithoutMakingAFile) {
+  const std::string dir = sph::testing::MakeTempDir("pw_kinds");
+  for (const std::string& path : {dir, dir + "/no/p.txt"}) {
+    EXPECT_THROW(PointsWriter::CheckContinuable(path, Header(), WithSetup()), Error) << path;
+    EXPECT_THROW(PointsWriter(path, Header(), WithSetup()), Error) << path;
+  }
+  EXPECT_NE(::access((dir + "/no").c_str(), F_OK), 0);
 }
 
 TEST(PointsWriter, FullDiskLeavesNoPartialRecord) {

@@ -190,6 +190,31 @@ TEST(PropagateCalibrationUncertainty, IsReproducibleAndZeroForAnExactCalibration
   EXPECT_EQ(zero.calibration_form_p95_mm, 0.0);
 }
 
+TEST(PropagateCalibrationUncertainty, TheSameOnAnyNumberOfThreadsWithProgressForEveryDraw) {
+  Calibration cal = TruthCalibration();
+  cal.covariance = PlausibleCovariance();
+  const std::vector<RawReading> readings = PaperReadings({3, 0, 0}, 0.05);
+  const SphereEvaluation nominal = EvaluateSphere(CompensateAll(cal, readings), "sim");
+  UncertaintyOptions options;
+  options.samples = 40;
+  options.threads = 1;
+  const CalibrationUncertainty one = PropagateCalibrationUncertainty(readings, cal, nominal, options);
+  std::vector<int> done;
+  options.threads = 3;
+  options.progress = [&](int d, int total) {
+    EXPECT_EQ(total, 40);
+    done.push_back(d);
+  };
+  const CalibrationUncertainty three = PropagateCalibrationUncertainty(readings, cal, nominal, options);
+  EXPECT_EQ(one.radius_std_mm, three.radius_std_mm);
+  EXPECT_EQ(one.center_std_mm, three.center_std_mm);
+  EXPECT_EQ(one.sphericity_ls_std_mm, three.sphericity_ls_std_mm);
+  EXPECT_EQ(one.sphericity_mz_std_mm, three.sphericity_mz_std_mm);
+  EXPECT_EQ(one.calibration_form_p95_mm, three.calibration_form_p95_mm);
+  ASSERT_EQ(done.size(), 40u);
+  for (int i = 0; i < 40; ++i) EXPECT_EQ(done[static_cast<std::size_t>(i)], i + 1);
+}
+
 TEST(PropagateCalibrationUncertainty, NeedsACovarianceAndTwoSamples) {
   Calibration cal = TruthCalibration();
   const std::vector<RawReading> readings = PaperReadings({2, 0, 0}, 0.0);

@@ -45,6 +45,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     app.parse(5, argv);
   } catch (const CLI::ParseError&) {
     return 0;
+  } catch (const sph::Error&) {  // the file refused at a line (unknown option, given twice, binary)
+    return 0;
   }
   try {
     const sph::can::PipelineConfig pc = sph::apps::MakePipelineConfig(options);

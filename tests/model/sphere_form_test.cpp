@@ -200,6 +200,52 @@ TEST(FitSphereMinimumZone, NeverWiderThanTheLeastSquaresPeakToValleyAndLocallyMi
   }
 }
 
+// Many points: the zone found from the candidates near the extremes (then checked against all)
+// is the zone of all points at once, on noisy forms and on constructed pairs of spheres with
+// thousands of contact points.
+TEST(FitSphereMinimumZone, CandidatesNearTheExtremesGiveTheZoneOfAllPoints) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  MinimumZoneOptions all_at_once;
+  all_at_once.candidates = 0;
+  for (int trial = 0; trial < 4; ++trial) {
+    const bool hemisphere = trial % 2 == 1;
+    const V c(g(rng), g(rng), g(rng));
+    std::vector<V> pts;
+    for (int i = 0; i < 30000; ++i) {
+      V d = V(g(rng), g(rng), g(rng)).normalized();
+      if (hemisphere) d.z() = std::abs(d.z());
+      const double form = 2e-3 * std::sin(3.0 * d.x()) * d.y() + 5e-4 * g(rng);
+      pts.push_back(c + (20.0 + form) * d);
+    }
+    const LeastSquaresSphere ls = FitSphereLeastSquares(pts);
+    ASSERT_TRUE(ls.sphere.ok);
+    const MinimumZoneSphere mz = FitSphereMinimumZone(pts, ls.sphere.center);
+    const MinimumZoneSphere reference = FitSphereMinimumZone(pts, ls.sphere.center, all_at_once);
+    ASSERT_TRUE(mz.ok && reference.ok);
+    EXPECT_TRUE(mz.converged);
+    EXPECT_NEAR(mz.width, reference.width, kRoundingPerRadius * 20.0) << "trial " << trial;
+    EXPECT_PRED_FORMAT3(MatrixNear, mz.center, reference.center, 1e-10);
+    EXPECT_NEAR(mz.width, RadialPeakToValley(pts, mz.center), kRoundingPerRadius * 20.0);
+    EXPECT_LE(mz.width, RadialPeakToValley(pts, ls.sphere.center));
+  }
+  // Two spheres with 6000 points on each and 20000 between them.
+  const V c(0.3, -0.2, 0.1);
+  const double r_in = 19.999, r_out = 20.001;
+  std::vector<V> inner = AxisDirections(false), outer = AxisDirections(false);
+  for (int i = 0; i < 6000; ++i) outer.push_back(V(g(rng), g(rng), g(rng)).normalized());
+  for (int i = 0; i < 6000; ++i) inner.push_back(V(g(rng), g(rng), g(rng)).normalized());
+  std::vector<V> pts = TwoSpheres(c, r_in, r_out, inner, outer);
+  for (int i = 0; i < 20000; ++i)
+    pts.push_back(c + (r_in + (r_out - r_in) * (0.05 + 0.9 * u(rng))) * V(g(rng), g(rng), g(rng)).normalized());
+  std::shuffle(pts.begin(), pts.end(), rng);
+  const MinimumZoneSphere mz = FitSphereMinimumZone(pts);
+  ASSERT_TRUE(mz.ok);
+  EXPECT_NEAR(mz.width, r_out - r_in, kRoundingPerRadius * r_out);
+  EXPECT_PRED_FORMAT3(MatrixNear, mz.center, c, 1e-11 * r_out);
+}
+
 TEST(FitSphereMinimumZone, ZeroOnASphereAndForFourPoints) {
   std::vector<V> pts;
   for (int i = 0; i < 12; ++i) pts.push_back(V(1, 2, 3) + 7.0 * Direction(15.0 * i, 37.0 * i));

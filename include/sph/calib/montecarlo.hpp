@@ -38,11 +38,18 @@ struct MonteCarloSpec {
 struct ParameterStats {
   double truth = 0.0;
   double mean = 0.0;
-  double std = 0.0;     ///< sample standard deviation over the converged trials
-  double se = 0.0;      ///< standard error of the mean, std / sqrt(n)
-  double z = 0.0;       ///< (mean - truth) / se
-  double crlb = 0.0;    ///< predicted std (design.hpp) at the truth (the fixed-direction design)
-  double bias = 0.0;    ///< predicted second-order bias (design.hpp)
+  double std = 0.0;  ///< sample standard deviation over the converged trials
+  double se = 0.0;   ///< standard error of the mean, std / sqrt(n)
+  double z = 0.0;    ///< (mean - truth) / se
+  /// Predicted std (design.hpp) at the truth. With random directions every trial has its own
+  /// design: the root mean square of the trials' predicted std, sqrt(mean CRLB_t^2), which is the
+  /// std of estimates pooled over random placements (total variance, the estimator unbiased).
+  double crlb = 0.0;
+  double bias = 0.0;  ///< predicted second-order bias (design.hpp); random directions: the trials' mean
+  /// How close the estimates come to their bound: std / crlb for one design; with random
+  /// directions the sample std of (estimate - truth) / CRLB_t, each trial against its own bound
+  /// (a pooled std would be ruled by the few near-degenerate placements). 1: efficient.
+  double std_over_crlb = 0.0;
   double z_bias = 0.0;  ///< (mean - truth - bias) / se
 };
 
@@ -50,6 +57,8 @@ struct EccentricityResult {
   double eccentricity_mm = 0.0;
   int trials = 0;
   int converged = 0;
+  /// Trials (0-based, in trial order) that did not converge: left out of every statistic.
+  std::vector<int> not_converged;
   std::array<ParameterStats, kNumScmsParams> params{};
   std::vector<ScmsGeometry> estimates;  ///< one per converged trial, in trial order
 };
@@ -74,7 +83,8 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec,
 /// the machine of `base` (truth, R0, d, pattern) and evaluated with `geometry` (all zero: the
 /// nominal model): the peak-to-valley of the radial residuals about the geometric least-squares
 /// sphere of the evaluated points.
-double EvaluatedSphericityUm(const SimulationSpec& base, const Eigen::Vector3d& center_mm, const ScmsGeometry& geometry);
+double EvaluatedSphericityUm(const SimulationSpec& base, const Eigen::Vector3d& center_mm,
+                             const ScmsGeometry& geometry);
 
 /// The eccentricity e in [0, max_mm] along `direction` at which the nominal model's sphericity
 /// (EvaluatedSphericityUm with zero errors) equals target_um, found by bisection (the sphericity

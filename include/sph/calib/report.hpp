@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "sph/calib/budget.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/calibration_file.hpp"
 
@@ -14,12 +15,14 @@ namespace sph {
 
 /// What the report says about where the data came from.
 struct ReportContext {
-  std::string program;      ///< e.g. "sph_calibrate 0.1.0"
+  std::string program;  ///< e.g. "sph_calibrate 0.1.0"
   std::string points_path;
   double sphere_radius_mm = 0.0;
   double probe_offset_mm = 0.0;
   double max_std_um = 0.0;
   std::vector<std::pair<std::string, std::string>> metadata;  ///< the points file's extra header fields
+  /// The uncertainty budget of the result's parameters (GUM), when made; not owned.
+  const CalibrationBudget* budget = nullptr;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,

@@ -36,6 +36,7 @@
 #define SPH_CALIB_TRACE_HPP_
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <utility>
@@ -65,6 +66,9 @@ struct TraceOptions {
   /// Highest degree of the sphere's form fitted when the design separates it (see the file
   /// comment); below 2: the form is never fitted. Bounded by what the pattern resolves.
   int form_degree_max = 8;
+  /// Called with (round, candidates scored, candidates of the round) as each candidate is scored
+  /// (from the scoring threads, one at a time).
+  std::function<void(int round, int done, int total)> progress;
 };
 
 /// One candidate tried in one round: an effect of the library, or (sphere_form) the pattern fixed

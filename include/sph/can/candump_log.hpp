@@ -62,9 +62,14 @@ class CandumpReader {
 
 /// Appends frames to a candump log (AppendFile: never overwrites, whole lines only). Lines are
 /// collected in memory and written by Flush(), or when 64 KiB are pending.
+/// An existing file is checked before it is opened: one that is not a candump log is refused
+/// untouched.
 class CandumpWriter {
  public:
   CandumpWriter(const std::string& path, std::string iface, double fsync_interval_s);
+  /// Throws the sph::Error the constructor would for the file now at `path` (not a candump log,
+  /// a directory, a folder that does not exist), without opening, creating or changing anything.
+  static void CheckContinuable(const std::string& path);
   void Write(const CanFrame& frame);
   /// Writes the pending lines (one write()) and syncs when due. Throws sph::Error on failure.
   void Flush();

@@ -22,8 +22,18 @@ namespace sph {
 /// overwritten.
 class AppendFile {
  public:
-  /// Opens or creates `path` (mode 0644). Throws sph::Error when it cannot.
+  /// Opens or creates `path` (mode 0644). Throws sph::Error when it cannot, or when `path` is a
+  /// directory, a block device or a socket (a FIFO or a character device is written, never
+  /// cut or replaced).
   AppendFile(const std::string& path, double fsync_interval_s);
+  /// Throws the sph::Error the constructor would for what `path` is now (a directory, a block
+  /// device, a folder that does not exist or cannot be written), without opening or creating
+  /// anything: a program checks its outputs before it starts.
+  static void CheckTarget(const std::string& path);
+  /// The first `max_bytes` bytes of `path` (all of a shorter file); empty for a file that does
+  /// not exist or is not a regular file. Throws sph::Error when it cannot be read. What a writer
+  /// reads to check an existing file before it opens it.
+  static std::string ReadStart(const std::string& path, std::size_t max_bytes);
   ~AppendFile();  ///< Close() without throwing
   AppendFile(const AppendFile&) = delete;
   AppendFile& operator=(const AppendFile&) = delete;
@@ -53,6 +63,7 @@ class AppendFile {
   std::uint64_t size_ = 0;
   std::uint64_t truncated_bytes_ = 0;
   bool had_content_ = false;
+  bool regular_ = false;
   bool dirty_ = false;
   std::chrono::steady_clock::time_point first_unsynced_{};
   std::uint64_t syncs_ = 0;

@@ -65,6 +65,42 @@ struct PointsHeader {
   std::vector<std::pair<std::string, std::string>> metadata;
 };
 
+/// What the sphere's certificate and the measuring conditions state, with their uncertainties:
+/// the header fields of the same names (data/README.md), checked for range when the file is read
+/// and kept among the header's metadata. Empty: not stated.
+struct SphereConditions {
+  std::optional<double> sphere_radius_u_um;      ///< standard uncertainty of R0 (certificate, k = 1) [um]
+  std::optional<double> sphere_temperature_c;    ///< the sphere's temperature while measured [deg C]
+  std::optional<double> sphere_temperature_u_c;  ///< its standard uncertainty [K]
+  std::optional<double> sphere_cte_per_k;        ///< the sphere's linear expansion coefficient [1/K]
+  std::optional<double> probe_scale_u;           ///< relative standard uncertainty of the probe's scale [1]
+};
+
+/// One header field of SphereConditions: its key and the range a value must lie in.
+struct ConditionField {
+  const char* key;
+  std::optional<double> SphereConditions::*field;
+  double min, max;
+  const char* unit;
+  const char* what;  ///< for help texts
+};
+inline constexpr ConditionField kConditionFields[] = {
+    {"sphere_radius_u_um", &SphereConditions::sphere_radius_u_um, 0.0, 1000.0, "um",
+     "Standard uncertainty of R0 from the sphere's certificate (k = 1) [um]; default 0: R0 taken as exact"},
+    {"sphere_temperature_c", &SphereConditions::sphere_temperature_c, -60.0, 100.0, "deg C",
+     "The sphere's temperature while measured [deg C]; with sphere_cte_per_k, R0 (certified at 20 deg C) is "
+     "corrected to it; default 20"},
+    {"sphere_temperature_u_c", &SphereConditions::sphere_temperature_u_c, 0.0, 50.0, "K",
+     "Standard uncertainty of the sphere's temperature [K]; default 0"},
+    {"sphere_cte_per_k", &SphereConditions::sphere_cte_per_k, 0.0, 1e-3, "1/K",
+     "The sphere's linear expansion coefficient [1/K] (steel about 11.5e-6); default 0: no correction"},
+    {"probe_scale_u", &SphereConditions::probe_scale_u, 0.0, 0.5, "(relative)",
+     "Relative standard uncertainty of the probe's scale [1]; default 0"},
+};
+
+/// The conditions among the header's metadata (values the reader has checked).
+SphereConditions ConditionsOf(const PointsHeader& header);
+
 /// A whole points file in memory.
 struct PointsData {
   std::string source;  ///< where it came from, for messages (a path, or a name given by the caller)

@@ -28,9 +28,16 @@ struct PointsWriterOptions {
 /// constructor throws sph::Error ("points.txt: has columns 'theta_deg phi_deg r_mm' but this run
 /// writes 'theta_deg phi_deg r_mm t_s': use another file"). An incomplete last line is cut off
 /// (see AppendFile). Rows have the same 10 decimals as WritePoints() (t_s: 6).
+///
+/// The existing file is checked before it is opened: a file that is not a points file (its
+/// first line is not "# sph-points 1") or whose header does not match is refused untouched.
 class PointsWriter {
  public:
   PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options);
+  /// Throws the sph::Error the constructor would for the file now at `path` (not a points
+  /// file, another header, a directory, a folder that does not exist), without opening,
+  /// creating or changing anything.
+  static void CheckContinuable(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options);
 
   /// One row. Throws sph::Error on a write error (full disk), leaving the file as it was.
   void Write(const Sample& sample);

@@ -20,6 +20,7 @@
 #define SPH_CORE_SPHERE_MEASUREMENT_HPP_
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,9 @@ SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, c
 struct UncertaintyOptions {
   int samples = 200;       ///< calibration draws (the std of a std from 200 draws is about 5 %)
   std::uint64_t seed = 1;  ///< of the std::mt19937_64 that draws them
+  int threads = 0;         ///< draws evaluated in parallel; 0: one per hardware thread (same result)
+  /// Called with (draws done, draws) as they finish (from the evaluating threads, one at a time).
+  std::function<void(int, int)> progress;
 };
 
 /// What the calibration's covariance means for one measured sphere (see the file comment); mm.

@@ -100,17 +100,19 @@ struct CompensationContext {
   }
 };
 
+/// Compensate() with the context given, of a reading whose sines and cosines are computed (for
+/// readings compensated many times, as by the calibration's uncertainty).
+inline Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const EffectReading& x) {
+  if (!ctx.valid) return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  if (cal.effects.Empty()) return ScmsPoint(cal.geometry.data(), ctx.trig, x.theta, x.phi, x.r_mm, cal.probe_offset_mm);
+  return EffectScmsPoint(cal.geometry.data(), ctx.trig, cal.effects, ctx.blocks.data(), x, cal.probe_offset_mm);
+}
+
 /// Compensate() with the context given, for batches. `Reading` has members theta_deg, phi_deg
 /// [deg] and r_mm [mm].
 template <typename Reading>
 Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const Reading& r) {
-  if (!ctx.valid) return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  if (cal.effects.Empty()) {
-    return ScmsPoint(cal.geometry.data(), ctx.trig, SinCosOf(r.theta_deg * kRadPerDeg),
-                     SinCosOf(r.phi_deg * kRadPerDeg), r.r_mm, cal.probe_offset_mm);
-  }
-  return EffectScmsPoint(cal.geometry.data(), ctx.trig, cal.effects, ctx.blocks.data(),
-                         EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), cal.probe_offset_mm);
+  return CompensateWith(cal, ctx, EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0));
 }
 }  // namespace internal
 

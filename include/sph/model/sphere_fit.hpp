@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -86,6 +87,9 @@ struct SphereFitOptions {
   int max_iterations = 100;
   /// Converged when an accepted step moves centre and radius by less than this times the radius.
   double step_tolerance = 1e-14;
+  /// Where the iteration starts when `start.ok` (a sphere near the solution, such as the fit of
+  /// nearly the same points: fewer iterations); otherwise at FitSphereAlgebraic().
+  Sphere start;
 };
 
 /// The geometric least-squares sphere and what the fit knows about its own conditioning.
@@ -93,7 +97,7 @@ struct SphereFitOptions {
 /// normal matrix is singular at the solution; nothing else is then meaningful.
 struct LeastSquaresSphere {
   Sphere sphere;
-  double rms = 0.0;        ///< RMS of the radial residuals e_i (units of the points)
+  double rms = 0.0;  ///< RMS of the radial residuals e_i (units of the points)
   int n_points = 0;
   int iterations = 0;      ///< Levenberg-Marquardt iterations
   bool converged = false;  ///< the step (or, at rounding level, the cost) stopped changing
@@ -110,7 +114,7 @@ struct LeastSquaresSphere {
   /// (1 for the whole sphere, 2 for a hemisphere).
   double CenterDilution() const {
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(normal_inverse.topLeftCorner<3, 3>(),
-                                                              Eigen::EigenvaluesOnly);
+                                                             Eigen::EigenvaluesOnly);
     return std::sqrt(n_points * std::max(eig.eigenvalues()(2), 0.0) / 3.0);
   }
 };
@@ -121,25 +125,32 @@ namespace internal {
 /// Points are taken relative to `origin` (the centroid) for conditioning.
 inline double SphereNormalEquations(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& origin,
                                     const Eigen::Vector4d& x, Eigen::Matrix4d* jtj, Eigen::Vector4d* jte) {
-  jtj->setZero();
-  jte->setZero();
+  // The ten sums of the lower triangle and the gradient, element by element (j_i j_k as the
+  // rank-one update of the normal matrix would add them).
+  double s[10] = {}, g[4] = {};
   double cost = 0.0;
   for (const Eigen::Vector3d& p : points) {
     const Eigen::Vector3d v = (p - origin) - x.head<3>();
     const double dist = v.norm();
     const double e = dist - x(3);
-    Eigen::Vector4d j;
     // A point exactly at the centre has no radial direction: it only pulls on the radius.
-    if (dist > 0.0) {
-      j << -v / dist, -1.0;
-    } else {
-      j << 0.0, 0.0, 0.0, -1.0;
-    }
-    jtj->selfadjointView<Eigen::Lower>().rankUpdate(j);
-    *jte += j * e;
+    const Eigen::Vector3d a = dist > 0.0 ? Eigen::Vector3d(-v / dist) : Eigen::Vector3d::Zero();
+    const double j[4] = {a.x(), a.y(), a.z(), -1.0};
+    s[0] += j[0] * j[0];
+    s[1] += j[0] * j[1];
+    s[2] += j[0] * j[2];
+    s[3] += j[0] * j[3];
+    s[4] += j[1] * j[1];
+    s[5] += j[1] * j[2];
+    s[6] += j[1] * j[3];
+    s[7] += j[2] * j[2];
+    s[8] += j[2] * j[3];
+    s[9] += j[3] * j[3];
+    for (int k = 0; k < 4; ++k) g[k] += j[k] * e;
     cost += e * e;
   }
-  *jtj = jtj->selfadjointView<Eigen::Lower>();
+  *jtj << s[0], s[1], s[2], s[3], s[1], s[4], s[5], s[6], s[2], s[5], s[7], s[8], s[3], s[6], s[8], s[9];
+  *jte << g[0], g[1], g[2], g[3];
   return cost;
 }
 
@@ -151,7 +162,8 @@ inline LeastSquaresSphere FitSphereLeastSquares(const std::vector<Eigen::Vector3
                                                 const SphereFitOptions& options = SphereFitOptions()) {
   LeastSquaresSphere fit;
   fit.n_points = static_cast<int>(points.size());
-  const Sphere start = FitSphereAlgebraic(points);
+  if (points.size() < 4) return fit;
+  const Sphere start = options.start.ok ? options.start : FitSphereAlgebraic(points);
   if (!start.ok) return fit;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   for (const auto& p : points) origin += p;
@@ -173,6 +185,9 @@ inline LeastSquaresSphere FitSphereLeastSquares(const std::vector<Eigen::Vector3
       Eigen::Matrix4d a = jtj;
       a.diagonal() += lambda * jtj.diagonal();
       step = a.ldlt().solve(-jte);
+      // A step below the tolerance (more damping only shortens it) is the end: the minimum is
+      // reached to within it, whether or not its cost shows the last rounding-level decrease.
+      if (step.norm() <= options.step_tolerance * std::abs(x(3))) break;
       const Eigen::Vector4d x_new = x + step;
       const double cost_new = internal::SphereNormalEquations(points, origin, x_new, &jtj_new, &jte_new);
       if (std::isfinite(cost_new) && cost_new < cost) {

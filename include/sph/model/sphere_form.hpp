@@ -40,6 +40,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -85,6 +86,11 @@ struct MinimumZoneOptions {
   int max_lp_iterations = 100000;  ///< active-set iterations in one linear programme
   /// Stop when the LP predicts a decrease of the width below tolerance * width (plus rounding).
   double tolerance = 1e-12;
+  /// With more than 4 x this many points, the zone is first found for the `candidates` farthest and
+  /// the `candidates` nearest points from the start centre, then checked against all points and
+  /// found again with those outside it added, until it holds them all (see FitSphereMinimumZone).
+  /// 0: all points at once.
+  int candidates = 2048;
 };
 
 /// The minimum-zone sphere pair. Class invariant when ok: inner_radius <= outer_radius and
@@ -184,11 +190,11 @@ LpStatus SolveInequalityLp(const Eigen::Matrix<double, Eigen::Dynamic, N>& a, co
 
 }  // namespace internal
 
-/// Minimum-zone sphere of the points (see the file comment), started at `start_center` (use the
-/// least-squares centre: the width returned is then never above the least-squares sphericity).
-inline MinimumZoneSphere FitSphereMinimumZone(const std::vector<Eigen::Vector3d>& points,
-                                              const Eigen::Vector3d& start_center,
-                                              const MinimumZoneOptions& options = MinimumZoneOptions()) {
+namespace internal {
+
+/// The minimum zone of all `points` at once (FitSphereMinimumZone() without candidates).
+inline MinimumZoneSphere MinimumZoneOfAll(const std::vector<Eigen::Vector3d>& points,
+                                          const Eigen::Vector3d& start_center, const MinimumZoneOptions& options) {
   using Vec5 = Eigen::Matrix<double, 5, 1>;
   using Rows5 = Eigen::Matrix<double, Eigen::Dynamic, 5>;
   constexpr double kEps = std::numeric_limits<double>::epsilon();
@@ -298,6 +304,75 @@ inline MinimumZoneSphere FitSphereMinimumZone(const std::vector<Eigen::Vector3d>
   mz.width = f;
   mz.ok = true;
   return mz;
+}
+
+}  // namespace internal
+
+/// Minimum-zone sphere of the points (see the file comment), started at `start_center` (use the
+/// least-squares centre: the width returned is then never above the least-squares sphericity).
+///
+/// Many points: only points near the extremes can touch the zone, so it is found for the
+/// MinimumZoneOptions::candidates farthest and nearest from the start centre first. When every
+/// other point lies within that zone (to rounding), it is the zone of all points: optimal for a
+/// subset and feasible for all (the LP at its centre predicts no decrease with the other rows
+/// added). Otherwise the points outside are added and the zone found again, from the same start.
+inline MinimumZoneSphere FitSphereMinimumZone(const std::vector<Eigen::Vector3d>& points,
+                                              const Eigen::Vector3d& start_center,
+                                              const MinimumZoneOptions& options = MinimumZoneOptions()) {
+  const std::size_t n = points.size();
+  const auto k = static_cast<std::size_t>(std::max(options.candidates, 0));
+  if (k == 0 || n <= 4 * k || !start_center.allFinite())
+    return internal::MinimumZoneOfAll(points, start_center, options);
+  std::vector<double> d(n);
+  for (std::size_t i = 0; i < n; ++i) d[i] = (points[i] - start_center).norm();
+  // The k farthest and the k nearest points.
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  auto by_distance = [&](std::size_t a, std::size_t b) { return d[a] < d[b] || (d[a] == d[b] && a < b); };
+  std::nth_element(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(k), order.end(), by_distance);
+  std::nth_element(order.begin() + static_cast<std::ptrdiff_t>(k), order.end() - static_cast<std::ptrdiff_t>(k),
+                   order.end(), by_distance);
+  std::vector<std::size_t> chosen(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(k));
+  chosen.insert(chosen.end(), order.end() - static_cast<std::ptrdiff_t>(k), order.end());
+  std::vector<char> in(n, 0);
+  for (const std::size_t i : chosen) in[i] = 1;
+  MinimumZoneSphere mz;
+  int iterations = 0, lp_iterations = 0;
+  for (int round = 0; round < 64; ++round) {
+    std::sort(chosen.begin(), chosen.end());  // file order: the result does not depend on how they were found
+    std::vector<Eigen::Vector3d> subset(chosen.size());
+    for (std::size_t j = 0; j < chosen.size(); ++j) subset[j] = points[chosen[j]];
+    mz = internal::MinimumZoneOfAll(subset, start_center, options);
+    iterations += mz.iterations;
+    lp_iterations += mz.lp_iterations;
+    mz.iterations = iterations;
+    mz.lp_iterations = lp_iterations;
+    if (!mz.ok) return mz;
+    // Every point against the zone; the farthest outside it join.
+    const double rounding = 16.0 * std::numeric_limits<double>::epsilon() * mz.outer_radius;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    std::vector<std::pair<double, std::size_t>> outside;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double di = (points[i] - mz.center).norm();
+      lo = std::min(lo, di);
+      hi = std::max(hi, di);
+      const double excess = std::max(di - mz.outer_radius, mz.inner_radius - di);
+      if (!in[i] && excess > rounding) outside.emplace_back(-excess, i);
+    }
+    if (outside.empty()) {
+      mz.inner_radius = lo;
+      mz.outer_radius = hi;
+      mz.width = hi - lo;
+      return mz;
+    }
+    const std::size_t add = std::min(outside.size(), k);
+    std::partial_sort(outside.begin(), outside.begin() + static_cast<std::ptrdiff_t>(add), outside.end());
+    for (std::size_t j = 0; j < add; ++j) {
+      chosen.push_back(outside[j].second);
+      in[outside[j].second] = 1;
+    }
+  }
+  return internal::MinimumZoneOfAll(points, start_center, options);
 }
 
 /// Minimum-zone sphere started at the geometric least-squares centre; ok == false when the points

@@ -1,0 +1,55 @@
+#include "progress.hpp"
+
+#include <unistd.h>
+
+#include <utility>
+
+namespace sph::apps {
+
+void AddProgressOptions(CLI::App& app, ProgressMode& mode) {
+  auto* always = app.add_flag_callback(
+      "--progress", [&mode] { mode = ProgressMode::kAlways; },
+      "Show progress on stderr from the start, even when it is not a terminal (default: on a terminal, once "
+      "the run takes longer than a second)");
+  app.add_flag_callback("--no-progress", [&mode] { mode = ProgressMode::kNever; }, "No progress on stderr")
+      ->excludes(always);
+}
+
+Progress::Progress(std::string program, std::ostream& err, ProgressMode mode)
+    : program_(std::move(program)),
+      err_(err),
+      enabled_(mode != ProgressMode::kNever),
+      terminal_(::isatty(STDERR_FILENO) == 1),
+      delayed_(mode == ProgressMode::kAuto) {
+  if (mode == ProgressMode::kAuto && !terminal_) enabled_ = false;
+}
+
+Progress::~Progress() { Finish(); }
+
+void Progress::Update(const std::string& what, long done, long total) {
+  if (!enabled_) return;
+  const Clock::time_point now = Clock::now();
+  if (delayed_ && now - start_ < std::chrono::seconds(1)) return;
+  const bool last_of_stage = total > 0 && done >= total;
+  if (what == last_stage_ && !last_of_stage && now - last_ < std::chrono::milliseconds(100)) return;
+  last_ = now;
+  last_stage_ = what;
+  std::string line = program_ + ": " + what;
+  if (total > 0) {
+    line += " " + std::to_string(100 * done / total) + "% (" + std::to_string(done) + "/" + std::to_string(total) + ")";
+  }
+  if (terminal_) {
+    err_ << "\r" << line << "\x1b[K" << std::flush;  // erase what is left of a longer line
+    shown_ = true;
+  } else {
+    err_ << line << "\n" << std::flush;
+  }
+}
+
+void Progress::Finish() {
+  if (!shown_) return;
+  err_ << "\r\x1b[K" << std::flush;  // the line goes: the report follows on a clean terminal
+  shown_ = false;
+}
+
+}  // namespace sph::apps

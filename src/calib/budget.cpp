@@ -1,0 +1,121 @@
+#include "sph/calib/budget.hpp"
+
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph {
+namespace {
+
+using gum::BudgetInput;
+using gum::EvaluationType;
+using gum::kInfiniteDof;
+using gum::UncertaintyStatement;
+
+constexpr double kReferenceTemperatureC = 20.0;  // ISO 1: the temperature R0 is certified at
+constexpr double kRadiusStepMm = 1e-2;           // +-10 um: the fit is linear in R0 far beyond
+constexpr double kScaleStep = 1e-4;              // +-1e-4 of the probe reading
+
+Eigen::VectorXd CentralDifference(const Eigen::VectorXd& plus, const Eigen::VectorXd& minus, double h,
+                                  const char* what) {
+  const Eigen::VectorXd s = (plus - minus) / (2.0 * h);
+  if (!s.allFinite()) throw Error(std::string("uncertainty budget: the refit for the ") + what + " failed");
+  return s;
+}
+
+PointsData WithProbeScale(const PointsData& points, double factor) {
+  PointsData scaled = points;
+  for (Sample& s : scaled.samples) s.r_mm *= factor;
+  return scaled;
+}
+
+}  // namespace
+
+double CalibrationInputs::RadiusAtTemperatureMm(double r0_at_20_mm) const {
+  return r0_at_20_mm * (1.0 + sphere_cte_per_k * (sphere_temperature_c - kReferenceTemperatureC));
+}
+
+CalibrationInputs CalibrationInputs::With(const SphereConditions& stated) const {
+  CalibrationInputs in = *this;
+  if (stated.sphere_radius_u_um) in.sphere_radius_u_um = *stated.sphere_radius_u_um;
+  if (stated.sphere_temperature_c) in.sphere_temperature_c = *stated.sphere_temperature_c;
+  if (stated.sphere_temperature_u_c) in.sphere_temperature_u_c = *stated.sphere_temperature_u_c;
+  if (stated.sphere_cte_per_k) in.sphere_cte_per_k = *stated.sphere_cte_per_k;
+  if (stated.probe_scale_u) in.probe_scale_u = *stated.probe_scale_u;
+  return in;
+}
+
+CalibrationBudget MakeCalibrationBudget(const PointsData& fitted, const CalibrationOptions& options,
+                                        const ObservabilityReport& analysis, int n_points, const CalibrationInputs& in,
+                                        const BudgetRefit& refit) {
+  if (analysis.Empty()) throw Error("uncertainty budget: the fit was not analysed");
+  const auto n = static_cast<Eigen::Index>(analysis.parameters.size());
+  CalibrationBudget b;
+  b.type_a_dof = static_cast<double>(n_points) - static_cast<double>(n);
+  b.coverage = in.coverage;
+
+  // Sensitivities by refits of the same readings, the search started where the fit ended.
+  CalibrationOptions o = options;
+  o.outlier_sigma = 0.0;
+  o.analyse = false;
+  const double r0 = options.sphere_radius_mm;
+  CalibrationOptions plus = o, minus = o;
+  plus.sphere_radius_mm = r0 + kRadiusStepMm;
+  minus.sphere_radius_mm = r0 - kRadiusStepMm;
+  const Eigen::VectorXd s_r0_per_mm =
+      CentralDifference(refit(fitted, plus), refit(fitted, minus), kRadiusStepMm, "radius");
+  const Eigen::VectorXd s_scale =
+      CentralDifference(refit(WithProbeScale(fitted, 1.0 + kScaleStep), o),
+                        refit(WithProbeScale(fitted, 1.0 - kScaleStep), o), kScaleStep, "probe scale");
+  if (s_r0_per_mm.size() != n || s_scale.size() != n) {
+    throw Error("uncertainty budget: the refit returned " + std::to_string(s_r0_per_mm.size()) + " parameters, not " +
+                std::to_string(n));
+  }
+  const double r0_at_20 = r0 / (1.0 + in.sphere_cte_per_k * (in.sphere_temperature_c - kReferenceTemperatureC));
+  const bool cte_given = in.sphere_cte_per_k > 0.0;
+
+  BudgetSensitivity radius{"R0 (certificate)",     "R0", "um", in.sphere_radius_u_um, in.sphere_radius_dof,
+                           s_r0_per_mm / kUmPerMm, ""};
+  radius.note = in.sphere_radius_u_um > 0.0 ? "the certificate's standard uncertainty"
+                                            : "not stated: R0 taken as exact (sphere_radius_u_um)";
+  BudgetSensitivity temperature{"sphere temperature",
+                                "temperature",
+                                "K",
+                                cte_given ? in.sphere_temperature_u_c : 0.0,
+                                kInfiniteDof,
+                                s_r0_per_mm * r0_at_20 * in.sphere_cte_per_k,
+                                ""};
+  temperature.note = !cte_given ? "no expansion coefficient stated (sphere_cte_per_k): R0 not corrected"
+                     : in.sphere_temperature_u_c > 0.0
+                         ? internal::Format("R0 corrected to %.3f deg C", in.sphere_temperature_c)
+                         : "temperature uncertainty not stated (sphere_temperature_u_c)";
+  BudgetSensitivity scale{"probe scale", "probe scale", "relative", in.probe_scale_u, kInfiniteDof, s_scale, ""};
+  scale.note = in.probe_scale_u > 0.0 ? "of the probe reading" : "not stated (probe_scale_u)";
+  b.inputs = {radius, temperature, scale};
+
+  b.covariance = analysis.covariance;
+  for (const BudgetSensitivity& s : b.inputs) b.covariance += s.per_unit * s.per_unit.transpose() * (s.u * s.u);
+
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!analysis.determined[static_cast<std::size_t>(i)] || !std::isfinite(analysis.std(i))) {
+      UncertaintyStatement none;
+      none.u = none.U = std::numeric_limits<double>::infinity();
+      b.statements.push_back(none);
+      continue;
+    }
+    std::vector<BudgetInput> inputs;
+    inputs.push_back({"fit (scatter of the points)", EvaluationType::kA, analysis.std(i), 1.0, b.type_a_dof, "",
+                      "the fit's covariance"});
+    for (const BudgetSensitivity& s : b.inputs) {
+      inputs.push_back({s.input, EvaluationType::kB, s.u, s.per_unit(i), s.dof, s.unit, s.note});
+    }
+    b.statements.push_back(gum::Combine(std::move(inputs), in.coverage));
+  }
+  return b;
+}
+
+}  // namespace sph
