@@ -79,17 +79,21 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
 
 namespace {
 
-// Every parameter of a fit in the analysis' order: the seven errors, each setup's centre, then
-// the effects' values in term order (rad, mm).
-Eigen::VectorXd ParameterVector(const CalibrationResult& r, const std::vector<std::vector<double>>& effects = {}) {
+// Every parameter of a fit in the analysis' order: the seven errors, each setup's centre, the
+// effects' values in term order (rad, mm), then the sphere form's coefficients per group (mm).
+Eigen::VectorXd ParameterVector(const CalibrationResult& r, const std::vector<std::vector<double>>& effects = {},
+                                const std::vector<std::vector<double>>& form = {}) {
   std::size_t n = kNumScmsParams + 3 * r.centers_mm.size();
   for (const auto& block : effects) n += block.size();
+  for (const auto& block : form) n += block.size();
   Eigen::VectorXd v(static_cast<Eigen::Index>(n));
   Eigen::Index k = 0;
   for (double g : r.geometry) v(k++) = g;
   for (const Eigen::Vector3d& c : r.centers_mm) v.segment<3>(k) = c, k += 3;
-  for (const auto& block : effects) {
-    for (double x : block) v(k++) = x;
+  for (const auto& blocks : {&effects, &form}) {
+    for (const auto& block : *blocks) {
+      for (double x : block) v(k++) = x;
+    }
   }
   return v;
 }
@@ -110,8 +114,9 @@ std::optional<CalibrationBudget> BudgetOf(const PointsData& points, const Calibr
     start.geometry = extended->calibration.geometry;
     start.centers_mm = extended->calibration.centers_mm;
     start.values = extended->values;
+    start.form_values = extended->form_values;
     const EffectFit fit = FitEffects(p, o, extended->model, start);
-    return ParameterVector(fit.calibration, fit.values);
+    return ParameterVector(fit.calibration, fit.values, fit.form_values);
   };
   try {
     return MakeCalibrationBudget(WithoutOutliers(points, result), copts, result.analysis, result.n_points, inputs,
@@ -191,8 +196,9 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       if (!o.validate_path.empty()) validation = Validate(o.validate_path, *offset, *trace);
     }
     progress.Finish();  // the report follows on stdout, maybe the same terminal
-    // The calibration reported: the seven errors of the final model.
-    const bool extended = trace && !trace->after.fit.model.Empty();
+    // The calibration reported: the seven errors of the final model, fitted with its effects and
+    // the sphere's form when the trace added any.
+    const bool extended = trace && !(trace->after.fit.model.Empty() && trace->after.fit.model.form.Empty());
     const CalibrationResult& result = extended ? trace->after.fit.calibration : base;
 
     const std::optional<CalibrationBudget> budget =

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "gnuplot.hpp"
+#include "sph/calib/form_report.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/sphere/sphere_fit.hpp"
@@ -58,6 +59,37 @@ json FitJson(const TracedFit& f) {
           {"bic", f.fit.Bic()}};
 }
 
+json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json SphereFormJson(const SphereFormResult& f) {
+  json terms = json::array();
+  for (const FormTermValue& t : f.terms) {
+    terms.push_back({{"l", t.l}, {"m", t.m}, {"value_um", t.value_um}, {"std_um", NumberOrNull(t.std_um)}});
+  }
+  return {{"degree_max", f.degree_max}, {"rms_um", f.rms_um},  {"rms_std_um", NumberOrNull(f.rms_std_um)},
+          {"pv_um", f.pv_um},           {"terms", terms},      {"confounded", f.confounded}};
+}
+
+void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
+  const std::string which = f.setups.empty() ? "" : " of setup " + f.setups.substr(1) + " (unknown orientation)";
+  out << Format("  sphere form%s: degrees 2..%d, rms %.4f +- %.4f um, peak to valley %.4f um over the whole sphere\n",
+                which.c_str(), f.degree_max, f.rms_um, f.rms_std_um, f.pv_um);
+  out << "    (Schmidt semi-normalised harmonics S(l,m) of the sphere's body frame, |S| <= 1, mean square 1/(2l+1); "
+         "radial displacement of the surface)\n";
+  std::string line;
+  int on_line = 0;
+  for (const FormTermValue& t : f.terms) {
+    line += Format("    S(%d,%d) %+.4f +- %.4f", t.l, t.m, t.value_um, t.std_um);
+    if (++on_line == 4) {
+      out << line << "\n";
+      line.clear();
+      on_line = 0;
+    }
+  }
+  if (!line.empty()) out << line << "\n";
+  for (const std::string& c : f.confounded) out << "    confounded: " << c << "\n";
+}
+
 }  // namespace
 
 bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
@@ -70,6 +102,19 @@ bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
     }
     file.effects.terms.push_back(fit.model.terms[t]);
     file.effect_values.push_back(fit.values[t]);
+  }
+  // The form of the setups of known orientation: the calibration sphere's, on its body frame.
+  if (!fit.model.form.Empty()) {
+    const ObservabilityReport& rep = fit.calibration.analysis;
+    file.form_terms = fit.model.form.terms;
+    file.form_values_mm = fit.form_values[0];
+    file.form_std_mm.clear();
+    for (std::size_t k = 0; k < file.form_terms.size() && !rep.Empty(); ++k) {
+      file.form_std_mm.push_back(rep.std(fit.FormOffset(0) + static_cast<int>(k)));
+    }
+    bool finite = true;
+    for (const double v : file.form_std_mm) finite &= std::isfinite(v);
+    if (!finite) file.form_std_mm.clear();
   }
   return drift;
 }
@@ -156,13 +201,34 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
                     rep.Empty() ? std::nan("") : rep.std(col) * u.per_internal, u.name);
     }
   }
+  for (const auto& [e, cost] : r.removed) {
+    out << Format("  removed in the backward step: %s (the final model without it: delta BIC %+.1f)\n", InfoOf(e).id,
+                  cost);
+  }
+  out << "  sphere form: " << r.form.design << "\n";
+  if (r.form.separable) {
+    std::string scores;
+    for (const auto& [l, d] : r.form.delta_ebic) scores += Format(" %d: %.1f", l, d);
+    out << "    extended BIC of the form of degrees 2..L against none, L =" << scores << "; chosen: "
+        << (r.form.degree_max > 0 ? "degrees 2.." + std::to_string(r.form.degree_max) : std::string("no form")) << "\n";
+  }
+  for (const SphereFormResult& f : SphereFormOf(a.fit)) WriteSphereFormText(out, f);
   if (!a.fit.model.Empty()) {
     const EffectReference& ref = a.fit.model.reference;
     out << Format("  reference: u = (r - %.6f mm) / %.6f mm, tau = (t - %.6g s) / %.6g s\n", ref.r_ref_mm,
                   ref.r_half_range_mm, ref.t_start_s, ref.t_span_s);
   }
   for (const Ambiguity& x : r.ambiguous) {
-    if (x.other == "sphere_form") {
+    if (x.chosen == "sphere_form") {
+      out << "  two explanations, neither added: a pattern fixed on the sphere, the sphere's own form"
+          << Format(" (%.4f um rms), or %s (%.4f um rms), which its own variable shows but no more than a form would; ",
+                    x.chosen_rms_um, x.other.c_str(), x.other_rms_um)
+          << "to separate them: " << x.separate_by << "\n";
+    } else if (x.other == "sphere_form" && std::isfinite(x.other_rms_um)) {
+      out << "  two explanations: " << x.chosen << Format(" (%.4f um rms, added: its own variable shows it)", x.chosen_rms_um)
+          << Format(" or a pattern fixed on the sphere, the sphere's own form (%.4f um rms); ", x.other_rms_um)
+          << "to separate them: " << x.separate_by << "\n";
+    } else if (x.other == "sphere_form") {
       out << "  ambiguous: " << Format("%.0f %%", 100 * x.sphere_fraction) << " of what " << x.chosen
           << " explains is a pattern fixed on the sphere, which the reference sphere's own form error would give as "
              "well; to separate them: "
@@ -195,6 +261,9 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
   json added = json::array();
   for (Effect e : r.added) added.push_back(InfoOf(e).id);
   report["effects_added"] = added;
+  json removed = json::array();
+  for (const auto& [e, cost] : r.removed) removed.push_back({{"id", InfoOf(e).id}, {"delta_bic", cost}});
+  report["effects_removed"] = removed;
   report["before"] = FitJson(r.before);
   report["after"] = FitJson(r.after);
   json effects = json::array();
@@ -242,6 +311,8 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
                          {"delta_bic_chosen", x.delta_bic_chosen},
                          {"delta_bic_other", std::isfinite(x.delta_bic_other) ? json(x.delta_bic_other) : json(nullptr)},
                          {"sphere_fraction", x.sphere_fraction},
+                         {"chosen_rms_um", NumberOrNull(x.chosen_rms_um)},
+                         {"other_rms_um", NumberOrNull(x.other_rms_um)},
                          {"separate_by", x.separate_by}});
   }
   report["ambiguous"] = ambiguous;
@@ -251,6 +322,22 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
         {{"follows", u.variable}, {"rms_um", u.rms_um}, {"p_value", u.p_value}, {"description", u.description}});
   }
   report["unexplained"] = unexplained;
+  const std::vector<SphereFormResult> forms = SphereFormOf(a);
+  json form = forms.empty() ? json{{"degree_max", 0}, {"terms", json::array()}, {"confounded", json::array()}}
+                            : SphereFormJson(forms.front());
+  json scores = json::array();
+  for (const auto& [l, d] : r.form.delta_ebic) scores.push_back({{"degree_max", l}, {"delta_ebic", d}});
+  form["separable"] = r.form.separable;
+  form["design"] = r.form.design;
+  form["delta_ebic"] = scores;
+  json unknown = json::array();
+  for (std::size_t k = 1; k < forms.size(); ++k) {
+    json f = SphereFormJson(forms[k]);
+    f["setup"] = std::stoi(forms[k].setups.substr(1));
+    unknown.push_back(f);
+  }
+  form["unknown_orientation"] = unknown;
+  report["sphere_form"] = form;
   if (validation) {
     json setups = json::array();
     for (const ValidationSetup& s : validation->setups) {
@@ -323,6 +410,40 @@ void PlotTrace(const std::string& dir, const PointsData& points, const Calibrati
                    {"map_png", name_in_folder(files.StageProduced(folder + "residual_map.png"))},
                    {"time_png", name_in_folder(files.StageProduced(folder + "residual_time.png"))}};
   RunGnuplot(run, "--plot-dir " + dir);
+  // The sphere's form, when the trace separated it: a map over its body frame.
+  const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
+  if (forms.empty()) return;
+  const SphereFormResult& form = forms.front();
+  const std::vector<std::array<double, 3>> map = FormMap(r.after.fit, 0, 1.0);
+  double form_lim = 1e-6;
+  for (const auto& row : map) form_lim = std::max(form_lim, std::abs(row[2]));
+  files.Stage(folder + "sphere_form.dat", [&](std::ostream& f) {
+    f << "# the calibration sphere's form on its body frame: longitude_deg polar_deg form_um\n";
+    for (const auto& row : map) f << Format("%.1f %.1f %.6f\n", row[1], row[0], row[2]);
+  });
+  std::ostringstream form_script;
+  form_script << "# The sphere's form map of sph_calibrate; rerun with: gnuplot sphere_form.gp (in this folder)\n"
+              << "if (!exists(\"data\")) data = 'sphere_form.dat'\n"
+              << "if (!exists(\"png\")) png = 'sphere_form_map.png'\n"
+              << "set terminal pngcairo size 1100,600 noenhanced font ',11'\nset output png\n"
+              << "set title "
+              << GnuplotQuoted(Format("Form of the calibration sphere on its body frame, degrees 2..%d: rms %.4f +- "
+                                      "%.4f um, peak to valley %.4f um",
+                                      form.degree_max, form.rms_um, form.rms_std_um, form.pv_um))
+              << "\n"
+              << "set xlabel 'longitude [deg] (from the body x axis)'\nset ylabel 'polar angle [deg] (from the body z "
+                 "axis)'\n"
+              << "set xrange [0:360]\nset yrange [180:0]\nset palette defined (-1 'blue', 0 'white', 1 'red')\n"
+              << Format("set cbrange [%.6f:%.6f]\n", -form_lim, form_lim)
+              << "set cblabel 'radial form [um]'\nplot data using 1:2:3 with image notitle\n";
+  files.Stage(folder + "sphere_form.gp", [&](std::ostream& f) { f << form_script.str(); });
+  GnuplotRun form_run;
+  form_run.folder = dir;
+  form_run.script = form_script.str();
+  form_run.description = "the sphere's form map";
+  form_run.variables = {{"data", name_in_folder(files.StagedName(folder + "sphere_form.dat"))},
+                        {"png", name_in_folder(files.StageProduced(folder + "sphere_form_map.png"))}};
+  RunGnuplot(form_run, "--plot-dir " + dir);
 }
 
 }  // namespace sph::apps

@@ -52,7 +52,8 @@ void AddTraceJson(nlohmann::json& report, const TraceResult& trace, const Valida
 
 /// The files PlotTrace() writes into its folder.
 inline const std::vector<std::string> kTracePlotFiles = {"residual_map.png", "residual_time.png", "residuals.dat",
-                                                         "residuals.gp"};
+                                                         "residuals.gp",     "sphere_form_map.png", "sphere_form.dat",
+                                                         "sphere_form.gp"};
 
 /// Stages residual_map.png (over theta and phi, before and after) and residual_time.png (against
 /// t), drawn now, with their gnuplot script and data, in `dir` (created when missing).

@@ -22,6 +22,8 @@
 #include "sph/core/xyz_file.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/compensation.hpp"
+#include "sph/model/form_model.hpp"
+#include "sph/sphere/sphere_fit.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::apps {
@@ -41,6 +43,7 @@ struct Input {
   std::optional<int> setup;
   std::optional<double> header_radius_mm;
   std::string description;                       ///< one line for the report
+  std::string form_note;                         ///< what the calibration file says of the calibration sphere's form
   std::vector<std::string> warnings;             ///< readings that parse but look wrong (PlausibilityWarnings)
   std::optional<double> calibration_fit_rms_um;  ///< the calibration file's source.fit_rms_um
 };
@@ -98,6 +101,40 @@ Input ReadInput(const MeasureOptions& o) {
     if (!in.setup || s.setup == *in.setup) in.readings.push_back({s.theta_deg, s.phi_deg, s.r_mm});
   }
   in.points_mm = CompensateAll(cal, in.readings);
+  if (!file.form_terms.empty()) {
+    int l_max = 0;
+    for (const FormTerm& t : file.form_terms) l_max = std::max(l_max, t.l);
+    in.form_note = Format("the calibration sphere's form (degrees 2..%d, rms %.4f um over the whole sphere) ", l_max,
+                          FormRms(file.form_terms, file.form_values_mm) * kUmPerMm) +
+                   (o.subtract_sphere_form ? "is taken off the points (--subtract-sphere-form)"
+                                           : "is in the calibration file; --subtract-sphere-form takes it off when "
+                                             "these points are of that sphere");
+  }
+  if (o.subtract_sphere_form) {
+    if (file.form_terms.empty()) {
+      throw Error(o.calibration_path +
+                  ": holds no form of the calibration sphere (sph_calibrate stores one when the sphere was measured "
+                  "in at least two known orientations on its mount), which --subtract-sphere-form takes off");
+    }
+    const int id = in.setup.value_or(0);
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    const auto it = data.header.mount_rotations.find(id);
+    if (it != data.header.mount_rotations.end()) {
+      if (!it->second.known()) {
+        throw Error(o.points_path + ": the mount rotation of setup " + std::to_string(id) +
+                    " is unknown: the sphere's form cannot be taken off in an orientation nobody measured");
+      }
+      rotation = MountRotationMatrix(*it->second.rotation_deg);
+    }
+    const LeastSquaresSphere ls = FitSphereLeastSquares(in.points_mm);
+    if (!ls.sphere.ok) throw Error(o.points_path + ": the compensated points determine no sphere");
+    for (Eigen::Vector3d& p : in.points_mm) {
+      const Eigen::Vector3d offset = p - ls.sphere.center;
+      const double dist = offset.norm();
+      const Eigen::Vector3d body = rotation.transpose() * (offset / dist);
+      p = ls.sphere.center + offset * (1.0 - FormValue(file.form_terms, file.form_values_mm.data(), body) / dist);
+    }
+  }
   in.calibration = cal;
   for (const auto& [key, value] : file.source) {
     char* end = nullptr;
@@ -274,6 +311,7 @@ void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, cons
                const NoiseFloorResult& floor) {
   const double r = ev.ls.sphere.radius;
   out << kProgram << " " SPH_VERSION ": " << o.points_path << "\n  " << in.description << "\n\n";
+  if (!in.form_note.empty()) out << "  " << in.form_note << "\n";
   out << "least-squares sphere\n";
   out << "  center_mm          " << Vec3Text(ev.ls.sphere.center, "%.9f") << "\n";
   out << Format("  radius_mm          %.9f   (diameter_mm %.9f)\n", r, 2.0 * r);
@@ -378,6 +416,8 @@ std::string JsonReport(const MeasureOptions& o, const Input& in, const SphereEva
     j["uncertainty"] = nullptr;
     j["uncertainty_note"] = uncertainty_note;
   }
+  j["sphere_form"] =
+      in.form_note.empty() ? json(nullptr) : json{{"note", in.form_note}, {"subtracted", o.subtract_sphere_form}};
   j["warnings"] = ev.warnings;
   return j.dump(2) + "\n";
 }
@@ -391,6 +431,9 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
       "from the calibration, and draw the form-error map.");
   app.add_option("points", o.points_path, "Points file: readings (sph-points 1), or x y z [mm] with --xyz")->required();
   app.add_flag("--xyz", o.xyz, "The points file holds x y z coordinates [mm], one point a line (also NIST .ds)");
+  app.add_flag("--subtract-sphere-form", o.subtract_sphere_form,
+               "The points are of the calibration sphere: take its form (from the calibration file) off them, in the "
+               "orientation the points file's mount_rotation_deg gives");
   app.add_option("-c,--calibration", o.calibration_path, "Calibration file (JSON, from sph_calibrate -o)");
   app.add_option("--setup", o.setup, "Setup id to measure, when the points file holds several");
   app.add_option("--json", o.json_path, "Write the results as JSON to this file ('-' for stdout)");

@@ -59,6 +59,35 @@ int EffectFit::TermOffset(std::size_t term) const {
   return offset;
 }
 
+int EffectFit::FormOffset(int group) const {
+  return TermOffset(model.terms.size()) + group * static_cast<int>(model.form.terms.size());
+}
+
+FormModel FormModelOf(const PointsData& points, const std::vector<FormTerm>& terms) {
+  FormModel form;
+  form.terms = terms;
+  for (const int id : points.SetupIds()) {
+    const auto it = points.header.mount_rotations.find(id);
+    FormSetup fs;
+    if (it != points.header.mount_rotations.end() && !it->second.known()) {
+      fs.group = form.NumGroups();
+      form.group_names.push_back("@" + std::to_string(id));
+    } else if (it != points.header.mount_rotations.end()) {
+      fs.rotation = MountRotationMatrix(*it->second.rotation_deg);
+    }
+    form.setups[id] = fs;
+  }
+  return form;
+}
+
+double FormAt(const EffectFit& fit, int setup_id, const Eigen::Vector3d& offset) {
+  const FormModel& form = fit.model.form;
+  if (form.Empty()) return 0.0;
+  const FormSetup& fs = form.SetupOf(setup_id);
+  const Eigen::Vector3d body = fs.rotation.transpose() * offset.normalized();
+  return FormValue(form.terms, fit.form_values[static_cast<std::size_t>(fs.group)].data(), body);
+}
+
 namespace internal {
 
 EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
@@ -79,7 +108,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   }
   const std::size_t n_setups = result.setup_ids.size();
   if (start.centers_mm.size() != n_setups) throw Error(src + ": the start needs one centre per setup");
-  fit.n_params = kNumScmsParams + 3 * static_cast<int>(n_setups) + model.NumParams();
+  fit.n_params = kNumScmsParams + 3 * static_cast<int>(n_setups) + model.NumParams() + model.form.NumParams();
   if (n_samples <= static_cast<std::size_t>(fit.n_params)) {
     throw Error(src + ": " + std::to_string(n_samples) + " samples are too few to fit " + std::to_string(fit.n_params) +
                 " parameters");
@@ -94,11 +123,11 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
     }
   }
   const SphereFitProblem problem(table, std::move(rows), model, options.probe_offset_mm, options.sphere_radius_mm);
-  Eigen::VectorXd x = problem.Pack(start.geometry, start.centers_mm, values);
+  Eigen::VectorXd x = problem.Pack(start.geometry, start.centers_mm, values, start.form_values);
   LmWorkspace local;
   LmWorkspace& lm = workspace ? *workspace : local;
   const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(options.max_iterations), lm);
-  problem.Unpack(x, &result.geometry, &result.centers_mm, &fit.values);
+  problem.Unpack(x, &result.geometry, &result.centers_mm, &fit.values, &fit.form_values);
   result.converged = summary.converged;
   result.iterations = summary.iterations;
   result.solver_message = summary.message;
@@ -121,6 +150,11 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
       desc.push_back({term.ParamName(i), term.info().quantity, options.sphere_radius_mm});
     }
   }
+  for (int group = 0; group < model.form.NumGroups() && !model.form.Empty(); ++group) {
+    for (std::size_t k = 0; k < model.form.terms.size(); ++k) {
+      desc.push_back({model.form.ParamName(group, k), Quantity::kLength, options.sphere_radius_mm});
+    }
+  }
   result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples),
                                fit.rss_mm2, std::move(desc), options.max_std_um);
   return fit;
@@ -137,8 +171,8 @@ struct ProblemAt {
       : problem(table, AllRows(table, left_out), fit.model, options.probe_offset_mm, options.sphere_radius_mm) {
     RowsOfSetup rows = AllRows(table, left_out);
     x = problem.Pack(fit.calibration.geometry,
-                     CentersFor(table, rows, fit.calibration.setup_ids, fit.calibration.centers_mm, source),
-                     fit.values);
+                     CentersFor(table, rows, fit.calibration.setup_ids, fit.calibration.centers_mm, source), fit.values,
+                     fit.form_values);
   }
 };
 
@@ -148,7 +182,7 @@ StructureJacobian::StructureJacobian(const ReadingTable& table, const Calibratio
     : problem_(table, AllRows(table), fit.model, options.probe_offset_mm, options.sphere_radius_mm) {
   x_ = problem_.Pack(fit.calibration.geometry,
                      CentersFor(table, AllRows(table), fit.calibration.setup_ids, fit.calibration.centers_mm, ""),
-                     fit.values);
+                     fit.values, fit.form_values);
   if (fit.model.Find(Effect::kProbeGain) >= 0 || fit.model.Find(Effect::kProbeNonlinearity) >= 0) {
     offset_ = fit.calibration.residuals_mm;  // table-indexed: the fit covers every sample
   }
@@ -213,7 +247,10 @@ std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const C
 
 std::vector<double> EffectResiduals(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
   std::vector<double> out;
-  for (const Eigen::Vector3d& v : OffsetsFromCentre(points, options, fit)) out.push_back(v.norm() - options.sphere_radius_mm);
+  const std::vector<Eigen::Vector3d> offsets = OffsetsFromCentre(points, options, fit);
+  for (std::size_t i = 0; i < offsets.size(); ++i) {
+    out.push_back(offsets[i].norm() - options.sphere_radius_mm - FormAt(fit, points.samples[i].setup, offsets[i]));
+  }
   return out;
 }
 

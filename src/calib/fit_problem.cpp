@@ -7,6 +7,7 @@
 
 #include "sph/core/error.hpp"
 #include "sph/model/residual_gradient.hpp"
+#include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::internal {
@@ -203,6 +204,10 @@ struct SphereFitProblem::Scratch {
   std::vector<Component> components;                   // per effect parameter
   int theta_orders = 0, phi_orders = 0;
   bool theta_encoder = false, phi_encoder = false, wobble = false;
+  // The form: the harmonics of degrees form_min..form_max, where each term's value is among them.
+  std::unique_ptr<SchmidtHarmonics> harmonics;
+  std::vector<int> form_slot;
+  std::vector<double> harmonic_values, harmonic_gradients;
 };
 
 SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, const EffectModel& model,
@@ -220,8 +225,26 @@ SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, 
   }
   num_effect_params_ = model.NumParams();
   first_effect_ = kNumScmsParams + 3 * static_cast<Eigen::Index>(setups_.size());
-  num_params_ = first_effect_ + num_effect_params_;
+  first_form_ = first_effect_ + num_effect_params_;
+  num_form_terms_ = static_cast<int>(model.form.terms.size());
+  num_params_ = first_form_ + model.form.NumParams();
+  num_local_ = kNumScmsParams + 3 + num_effect_params_ + num_form_terms_;
+  for (const int k : setups_) {
+    const FormSetup& fs = model.form.SetupOf(table.setup_ids[static_cast<std::size_t>(k)]);
+    form_group_.push_back(fs.group);
+    form_rotation_.push_back(fs.rotation);
+  }
   Scratch& s = *scratch_;
+  if (!model.form.Empty()) {
+    int l_min = model.form.terms.front().l;
+    for (const FormTerm& t : model.form.terms) l_min = std::min(l_min, t.l);
+    const int l_max = model.form.MaxDegree();
+    s.harmonics = std::make_unique<SchmidtHarmonics>(l_min, l_max);
+    for (const FormTerm& t : model.form.terms)
+      s.form_slot.push_back(static_cast<int>(HarmonicIndex(t.l, t.m)) - l_min * l_min);
+    s.harmonic_values.resize(static_cast<std::size_t>(s.harmonics->size()));
+    s.harmonic_gradients.resize(static_cast<std::size_t>(3 * s.harmonics->size()));
+  }
   for (const EffectTerm& term : model.terms) {
     for (const EffectComponent& c : term.components) {
       const Component comp{TargetOf(term.effect, c.axis), BasisOf(term.effect), c.order, c.sine};
@@ -254,7 +277,7 @@ SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, 
         break;
     }
   }
-  const int local = kNumScmsParams + 3 + num_effect_params_;
+  const int local = num_local_;
   s.cols.assign(static_cast<std::size_t>((local + 1) * kRows), 0.0);
   s.gram.assign(static_cast<std::size_t>((local + 1) * (local + 1)), 0.0);
 }
@@ -262,7 +285,8 @@ SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, 
 SphereFitProblem::~SphereFitProblem() = default;
 
 Eigen::VectorXd SphereFitProblem::Pack(const ScmsGeometry& g, const std::vector<Eigen::Vector3d>& centers_mm,
-                                       const std::vector<std::vector<double>>& values) const {
+                                       const std::vector<std::vector<double>>& values,
+                                       const std::vector<std::vector<double>>& form_values) const {
   Eigen::VectorXd x(num_params_);
   for (int k = 0; k < kNumScmsParams; ++k) x(k) = g[static_cast<std::size_t>(k)];
   for (std::size_t k = 0; k < setups_.size(); ++k)
@@ -271,28 +295,46 @@ Eigen::VectorXd SphereFitProblem::Pack(const ScmsGeometry& g, const std::vector<
   for (std::size_t t = 0; t < model_.terms.size(); ++t) {
     for (std::size_t i = 0; i < model_.terms[t].components.size(); ++i) x(j++) = values[t][i];
   }
+  const auto terms = static_cast<std::size_t>(num_form_terms_);
+  for (std::size_t group = 0; group < static_cast<std::size_t>(model_.form.NumGroups()) && terms > 0; ++group) {
+    const bool given = group < form_values.size() && form_values[group].size() == terms;
+    for (std::size_t k = 0; k < terms; ++k) x(j++) = given ? form_values[group][k] : 0.0;
+  }
   return x;
 }
 
 void SphereFitProblem::Unpack(const Eigen::VectorXd& x, ScmsGeometry* g, std::vector<Eigen::Vector3d>* centers_mm,
-                              std::vector<std::vector<double>>* values) const {
+                              std::vector<std::vector<double>>* values,
+                              std::vector<std::vector<double>>* form_values) const {
   for (int k = 0; k < kNumScmsParams; ++k) (*g)[static_cast<std::size_t>(k)] = x(k);
   centers_mm->clear();
   for (std::size_t k = 0; k < setups_.size(); ++k) {
     centers_mm->push_back(x.segment<3>(kNumScmsParams + 3 * static_cast<Eigen::Index>(k)));
   }
-  if (values == nullptr) return;
-  values->assign(model_.terms.size(), {});
-  Eigen::Index j = first_effect_;
-  for (std::size_t t = 0; t < model_.terms.size(); ++t) {
-    for (std::size_t i = 0; i < model_.terms[t].components.size(); ++i) (*values)[t].push_back(x(j++));
+  if (values != nullptr) {
+    values->assign(model_.terms.size(), {});
+    Eigen::Index j = first_effect_;
+    for (std::size_t t = 0; t < model_.terms.size(); ++t) {
+      for (std::size_t i = 0; i < model_.terms[t].components.size(); ++i) (*values)[t].push_back(x(j++));
+    }
+  }
+  if (form_values != nullptr) {
+    form_values->clear();
+    if (num_form_terms_ == 0) return;
+    for (int group = 0; group < model_.form.NumGroups(); ++group) {
+      form_values->emplace_back(x.data() + first_form_ + group * num_form_terms_,
+                                x.data() + first_form_ + (group + 1) * num_form_terms_);
+    }
   }
 }
 
-void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime,
-                                  const double* center, const std::uint32_t* idx, int count, double* e,
-                                  double* cols) const {
+void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
+                                  const std::uint32_t* idx, int count, double* e, double* cols) const {
   Scratch& s = *scratch_;
+  const double* center = x + kNumScmsParams + 3 * setup;
+  const bool form = num_form_terms_ > 0;
+  const double* form_values = x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_;
+  const Eigen::Matrix3d& rotation = form_rotation_[static_cast<std::size_t>(setup)];
   const double* g = x;
   const EffectReference& ref = model_.reference;
   const double* effect_values = x + first_effect_;
@@ -359,14 +401,61 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
     in.motion[1] = s.target[kMotionY][i];
     in.motion[2] = s.target[kMotionZ][i];
     ResidualGradient out;
+    auto gradient = [&](const double* o, ResidualGradient* result) {
+      if (s.wobble) {
+        SphereResidualGradient<true>(g, et, in, o, sphere_radius_mm_, result);
+      } else {
+        SphereResidualGradient<false>(g, et, in, o, sphere_radius_mm_, result);
+      }
+    };
     if (s.wobble) {
       in.wobble_x = SinCosOf(s.target[kWobbleX][i]);
       in.wobble_y = SinCosOf(s.target[kWobbleY][i]);
-      SphereResidualGradient<true>(g, et, in, center, sphere_radius_mm_, &out);
-    } else {
-      SphereResidualGradient<false>(g, et, in, center, sphere_radius_mm_, &out);
     }
+    gradient(center, &out);
     e[i] = out.e;
+    if (form) {
+      // See the header: e -= F(R^T n), and the gradient along t = dF/dp taken off.
+      const Eigen::Vector3d n(-out.center[0], -out.center[1], -out.center[2]);
+      const double dist = out.e + sphere_radius_mm_;
+      const Eigen::Vector3d body = rotation.transpose() * n;
+      s.harmonics->Evaluate(body.x(), body.y(), body.z(), s.harmonic_values.data(),
+                            cols == nullptr ? nullptr : s.harmonic_gradients.data());
+      double f = 0.0;
+      Eigen::Vector3d grad_body = Eigen::Vector3d::Zero();
+      for (int k = 0; k < num_form_terms_; ++k) {
+        const auto slot = static_cast<std::size_t>(s.form_slot[static_cast<std::size_t>(k)]);
+        f += form_values[k] * s.harmonic_values[slot];
+        if (cols != nullptr)
+          grad_body += form_values[k] * Eigen::Map<const Eigen::Vector3d>(&s.harmonic_gradients[3 * slot]);
+      }
+      e[i] -= f;
+      if (cols != nullptr) {
+        const Eigen::Vector3d grad = rotation * grad_body;
+        const Eigen::Vector3d t = (grad - n * n.dot(grad)) / dist;
+        const double t_norm = t.norm();
+        if (t_norm > 0.0) {
+          const Eigen::Vector3d point = Eigen::Map<const Eigen::Vector3d>(center) + dist * n;
+          const Eigen::Vector3d behind = point - t / t_norm;
+          ResidualGradient along;
+          gradient(behind.data(), &along);
+          for (int j = 0; j < kNumScmsParams; ++j) out.geometry[j] -= t_norm * along.geometry[j];
+          for (int j = 0; j < 3; ++j) {
+            out.center[j] -= t_norm * along.center[j];
+            out.motion[j] -= t_norm * along.motion[j];
+          }
+          out.theta -= t_norm * along.theta;
+          out.phi -= t_norm * along.phi;
+          out.z -= t_norm * along.z;
+          out.wobble_x -= t_norm * along.wobble_x;
+          out.wobble_y -= t_norm * along.wobble_y;
+        }
+        for (int k = 0; k < num_form_terms_; ++k) {
+          const auto slot = static_cast<std::size_t>(s.form_slot[static_cast<std::size_t>(k)]);
+          cols[(kNumScmsParams + 3 + n_eff + k) * kRows + i] = -s.harmonic_values[slot];
+        }
+      }
+    }
     if (cols == nullptr) continue;
     for (int j = 0; j < kNumScmsParams; ++j) cols[j * kRows + i] = out.geometry[j];
     for (int j = 0; j < 3; ++j) cols[(kNumScmsParams + j) * kRows + i] = out.center[j];
@@ -383,7 +472,7 @@ void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, boo
   const double* g = x;
   const ScmsErrorTrig<double> et = ErrorTrigOf(g);
   const double d_plus_dprime = probe_offset_mm_ + g[kDPrime];
-  const int local = kNumScmsParams + 3 + num_effect_params_;
+  const int local = num_local_;
   double* e = s.cols.data() + local * kRows;
   double* cols = jacobian ? s.cols.data() : nullptr;
   for (std::size_t k = 0; k < setups_.size(); ++k) {
@@ -400,12 +489,12 @@ void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, boo
         s.sp[i] = table_.sin_phi[row];
         s.r[i] = r_offset ? table_.r_mm[row] + r_offset[row] : table_.r_mm[row];
       }
-      if (model_.terms.empty()) {
+      if (model_.terms.empty() && num_form_terms_ == 0) {
         // The Jacobian comes with the residuals: cheaper than a second loop.
         SevenErrorRows(g, et, d_plus_dprime, center, sphere_radius_mm_, count, s.ct, s.st, s.cp, s.sp, s.r, e,
                        s.cols.data());
       } else {
-        EffectRows(x, et, d_plus_dprime, center, idx, count, e, cols);
+        EffectRows(x, et, d_plus_dprime, static_cast<int>(k), idx, count, e, cols);
       }
       RowBlock block;
       block.setup = static_cast<int>(k);
@@ -421,7 +510,7 @@ void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, boo
 
 bool SphereFitProblem::Evaluate(const double* x, NormalEquations* ne) const {
   Scratch& s = *scratch_;
-  const int local = kNumScmsParams + 3 + num_effect_params_;
+  const int local = num_local_;
   const int n = local + 1;  // the residual as the last column: J^T e and e^T e come with J^T J
   ne->SetZero(num_params_);
   int current = -1;

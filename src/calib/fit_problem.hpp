@@ -15,6 +15,15 @@
 // The effect terms' basis functions are evaluated per block: harmonics by the angle-addition
 // recurrence from the reading's sine and cosine, powers by multiplication (EffectBasis() computes
 // the same functions, to rounding).
+//
+// The sphere's form (EffectModel::form) moves the surface, not the probed point:
+//   e_i = |p_i - O| - R0 - F_g(R^T n_i),   n_i = (p_i - O) / |p_i - O|,
+// with F_g = sum c_lm S_lm the form of the setup's group g and R its mount rotation. So
+//   de/dx = (n - t) . dp/dx,   de/dO = t - n,   de/dc_lm = -S_lm(R^T n),
+//   t = dF/dp = (I - n n^T) R grad F(R^T n) / |p - O|,
+// t tangent to the sphere and small (about l F / R0). (n - t) . dp/dx is the seven-error gradient
+// (n . dp/dx) less the same reverse sweep along t: the gradient of |p - O'| for the point O' one
+// unit behind p along t / |t|.
 #ifndef SPH_SRC_CALIB_FIT_PROBLEM_HPP_
 #define SPH_SRC_CALIB_FIT_PROBLEM_HPP_
 
@@ -57,9 +66,10 @@ struct RowBlock {
   int count = 0;
   const double* e = nullptr;  ///< residuals [mm]
   /// Jacobian columns, column-major with leading dimension kBlockRows: the seven errors, the centre of
-  /// this block's setup, the effect parameters. Null when the Jacobian was not asked for.
+  /// this block's setup, the effect parameters, the form coefficients of this setup's group. Null
+  /// when the Jacobian was not asked for.
   const double* cols = nullptr;
-  int num_cols = 0;  ///< 10 + effect parameters
+  int num_cols = 0;  ///< 10 + effect parameters + form terms
 };
 
 class SphereFitProblem {
@@ -82,18 +92,22 @@ class SphereFitProblem {
   const ReadingTable& table() const { return table_; }
   const EffectModel& model() const { return model_; }
 
-  /// x from its parts (centres: one per problem setup; values: one block per term).
+  /// x from its parts (centres: one per problem setup; values: one block per term; form_values:
+  /// one block per group of the model's form, missing blocks at zero).
   Eigen::VectorXd Pack(const ScmsGeometry& g, const std::vector<Eigen::Vector3d>& centers_mm,
-                       const std::vector<std::vector<double>>& values) const;
+                       const std::vector<std::vector<double>>& values,
+                       const std::vector<std::vector<double>>& form_values = {}) const;
   /// The parts of x.
   void Unpack(const Eigen::VectorXd& x, ScmsGeometry* g, std::vector<Eigen::Vector3d>* centers_mm,
-              std::vector<std::vector<double>>* values) const;
+              std::vector<std::vector<double>>* values, std::vector<std::vector<double>>* form_values = nullptr) const;
 
   /// The column of x of local column `local` (RowBlock::cols) of problem setup `setup`.
   Eigen::Index GlobalColumn(int setup, int local) const {
     if (local < kNumScmsParams) return local;
     if (local < kNumScmsParams + 3) return kNumScmsParams + 3 * setup + (local - kNumScmsParams);
-    return first_effect_ + (local - kNumScmsParams - 3);
+    const int effect = local - kNumScmsParams - 3;
+    if (effect < num_effect_params_) return first_effect_ + effect;
+    return first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_ + (effect - num_effect_params_);
   }
 
   /// Levenberg-Marquardt's evaluation: J^T J, J^T e and cost at x. Not thread-safe (scratch).
@@ -122,8 +136,9 @@ class SphereFitProblem {
 
  private:
   struct Scratch;
-  // The residuals (and with cols, the Jacobian) of `count` gathered rows with effects.
-  void EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, const double* center,
+  // The residuals (and with cols, the Jacobian) of `count` gathered rows with effects and form, of
+  // problem setup `setup`.
+  void EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
                   const std::uint32_t* idx, int count, double* e, double* cols) const;
   const ReadingTable& table_;
   RowsOfSetup rows_;         // per problem setup
@@ -135,6 +150,11 @@ class SphereFitProblem {
   Eigen::Index num_params_ = 0;
   Eigen::Index first_effect_ = 0;
   int num_effect_params_ = 0;
+  Eigen::Index first_form_ = 0;
+  int num_form_terms_ = 0;
+  int num_local_ = 0;                           // columns of a RowBlock
+  std::vector<int> form_group_;                 // per problem setup
+  std::vector<Eigen::Matrix3d> form_rotation_;  // per problem setup: body frame into the Theta frame
   std::unique_ptr<Scratch> scratch_;
 };
 

@@ -218,7 +218,7 @@ void FunctionsAt(const Sample& s, double e, const EffectReference& ref, const Ei
     powers[k] = k == 0 ? u : powers[k - 1] * u;
     powers[kPowers + k] = k == 0 ? tau : powers[kPowers + k - 1] * tau;
   }
-  sphere.Evaluate(std::atan2(dir.y(), dir.x()), dir.z(), out + kSphereFirst);
+  sphere.Evaluate(dir.x(), dir.y(), dir.z(), out + kSphereFirst);
 }
 
 // Orthonormal basis of the column space of `jacobian` (its numerical rank), in R's coordinates.
@@ -382,6 +382,43 @@ double SpherePatternFraction(const StructureFactor& factor) {
   const StructureGroup g = Regress(GroupBasis(factor, Groups()[4], -kSphereFirst), q, s, static_cast<int>(q.cols()), m);
   const double explained = g.explained_rms_um * g.explained_rms_um / (kUmPerMm * kUmPerMm) * static_cast<double>(m);
   return explained / total;
+}
+
+double DeltaBicBeyondSphere(const StructureFactor& factor, const std::string& variable,
+                            const std::vector<int>& functions) {
+  const Eigen::Index m = factor.rows;
+  const Eigen::Index n = factor.jacobian_cols;
+  const Eigen::VectorXd e = factor.r.col(n + kFunctions);
+  const Group* group = nullptr;
+  for (const Group& g : Groups()) {
+    if (g.variable == variable) group = &g;
+  }
+  if (group == nullptr || variable == "sphere") return 0.0;
+  // With A = Q R, |A_S x - e| = |R_S x - r_e| for any set S of columns: the fits come from R alone.
+  // The columns equilibrated, so that the rank decision does not depend on their units.
+  auto rss_and_rank = [&](const Eigen::MatrixXd& a, Eigen::Index* rank) {
+    Eigen::MatrixXd an = a;
+    for (Eigen::Index j = 0; j < an.cols(); ++j) {
+      const double norm = an.col(j).norm();
+      if (norm > 0.0) an.col(j) /= norm;
+    }
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(an);
+    qr.setThreshold(1e-10);
+    *rank = qr.rank();
+    return (e - an * qr.solve(e)).squaredNorm();
+  };
+  Eigen::MatrixXd base(factor.r.rows(), n + kSphereFunctions);
+  base << factor.r.leftCols(n), factor.r.middleCols(n + kSphereFirst, kSphereFunctions);
+  Eigen::MatrixXd with(base.rows(), base.cols() + static_cast<Eigen::Index>(functions.size()));
+  with.leftCols(base.cols()) = base;
+  for (std::size_t k = 0; k < functions.size(); ++k) {
+    with.col(base.cols() + static_cast<Eigen::Index>(k)) = factor.r.col(n + group->first + functions[k]);
+  }
+  Eigen::Index rank0 = 0, rank1 = 0;
+  const double rss0 = rss_and_rank(base, &rank0), rss1 = rss_and_rank(with, &rank1);
+  if (!(rss0 > 0.0)) return 0.0;
+  return static_cast<double>(m) * std::log(std::max(rss1, 1e-300) / rss0) +
+         static_cast<double>(rank1 - rank0) * std::log(static_cast<double>(m));
 }
 
 double SpherePatternFraction(const FitResiduals& fit, const std::vector<double>& signal_mm) {

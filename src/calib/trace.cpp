@@ -15,6 +15,7 @@
 #include "effect_fit_rows.hpp"
 #include "fit_problem.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
@@ -63,6 +64,7 @@ EffectFitStart StartFrom(const EffectFit& fit) {
   s.geometry = fit.calibration.geometry;
   s.centers_mm = fit.calibration.centers_mm;
   s.values = fit.values;
+  s.form_values = fit.form_values;
   return s;
 }
 
@@ -115,6 +117,7 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
     EffectFit at_start;
     at_start.model = model;
     at_start.values = start.values;
+    at_start.form_values = start.form_values;
     at_start.calibration.geometry = start.geometry;
     at_start.calibration.centers_mm = start.centers_mm;
     at_start.calibration.setup_ids = current.calibration.setup_ids;
@@ -196,6 +199,120 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
       return without;
     }
   }
+}
+
+// Whether the design separates the sphere's form from the machine (the sphere measured in at least
+// two known orientations), and the highest degree the pattern resolves: a degree-L harmonic has L
+// cycles around the sphere, so it needs more than 2L points on each ring and more than L rings.
+FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
+  FormSelection f;
+  std::vector<Eigen::Matrix3d> orientations;
+  int unknown = 0;
+  for (const int id : points.SetupIds()) {
+    const auto it = points.header.mount_rotations.find(id);
+    if (it != points.header.mount_rotations.end() && !it->second.known()) {
+      ++unknown;
+      continue;
+    }
+    const Eigen::Matrix3d r = it == points.header.mount_rotations.end() ? Eigen::Matrix3d::Identity()
+                                                                         : MountRotationMatrix(*it->second.rotation_deg);
+    bool seen = false;
+    for (const Eigen::Matrix3d& o : orientations) seen |= (o - r).norm() < 1e-9;
+    if (!seen) orientations.push_back(r);
+  }
+  std::vector<double> thetas, phis;
+  for (const Sample& smp : points.samples) {
+    thetas.push_back(std::round(smp.theta_deg * 1e6));
+    phis.push_back(std::round(smp.phi_deg * 1e6));
+  }
+  auto distinct = [](std::vector<double>& v) {
+    std::sort(v.begin(), v.end());
+    return static_cast<int>(std::unique(v.begin(), v.end()) - v.begin());
+  };
+  const int resolved = std::min(distinct(phis) - 1, (distinct(thetas) - 1) / 2);
+  f.degree_limit = std::min(trace.form_degree_max, resolved);
+  f.separable = orientations.size() >= 2 && f.degree_limit >= 2;
+  const std::string unknown_note =
+      unknown > 0 ? "; " + std::to_string(unknown) + " setup(s) of unknown orientation, each with a form of its own" : "";
+  if (f.separable) {
+    f.design = "the sphere measured in " + std::to_string(orientations.size()) +
+               " known orientations on its mount: its form (turning with it) is fitted with the machine, degrees 2 "
+               "to at most " +
+               std::to_string(f.degree_limit) + unknown_note;
+  } else if (orientations.size() < 2) {
+    f.design = "the sphere in one known orientation" + unknown_note +
+               ": a form of the sphere cannot be told from a function of the direction; it competes with the effects "
+               "as a pattern fixed on the sphere";
+  } else {
+    f.design = "the pattern resolves no form of degree 2 or more";
+  }
+  return f;
+}
+
+// The fit of `current`'s model with the sphere's form of degrees 2..L, for the L that minimises
+// the extended BIC (BIC + 2 ln N, N the degrees searched), or the model without a form when no L
+// lowers it by min_delta_bic. sel->delta_ebic gets each degree's score.
+EffectFit SelectFormDegree(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
+                           const TraceOptions& trace, FormSelection* sel) {
+  EffectModel plain = current.model;
+  plain.form = FormModel{};
+  EffectFitStart start = StartFrom(current);
+  start.form_values.clear();
+  EffectFit none = current.model.form.Empty()
+                       ? current
+                       : internal::FitEffectsRows(data.points, data.table, nullptr, options, plain, start);
+  const double penalty = 2.0 * std::log(static_cast<double>(std::max(1, sel->degree_limit - 1)));
+  EffectFit best = none;
+  double best_score = none.Bic();
+  sel->degree_max = 0;
+  sel->delta_ebic.clear();
+  for (int l = 2; l <= sel->degree_limit; ++l) {
+    EffectModel model = plain;
+    model.form = FormModelOf(data.points, FormTermsOfDegrees(2, l));
+    EffectFit fit = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, StartFrom(none));
+    const double score = fit.Bic() + penalty;
+    sel->delta_ebic.emplace_back(l, score - none.Bic());
+    if (!fit.calibration.converged) continue;
+    if (score - none.Bic() <= -trace.min_delta_bic && score < best_score) {
+      best_score = score;
+      best = std::move(fit);
+      sel->degree_max = l;
+    }
+  }
+  return best;
+}
+
+// Whether the candidate follows a variable that a pattern fixed on the sphere is not (the time for
+// probe_drift, the probe reading for the probe terms) and the residual shows its functions of that
+// variable beyond any form of degree 2..5: the linearised BIC of J, every such harmonic and the
+// term's powers against J and the harmonics alone falls by at least min_delta_bic.
+bool ShownBeyondSphere(const CandidateScore& c, const StructureFactor& factor, const TraceOptions& trace) {
+  const std::string v = InfoOf(c.effect).variable;
+  if ((v != "t" && v != "r") || c.term.components.empty()) return false;
+  std::vector<int> functions;
+  for (const EffectComponent& comp : c.term.components) functions.push_back(comp.order - 1);
+  return DeltaBicBeyondSphere(factor, v, functions) <= -trace.min_delta_bic;
+}
+
+// The measurement that separates effect e from a form of the sphere when the sphere was measured
+// in one placement.
+std::string SeparateFromForm(Effect e) {
+  if (e == Effect::kProbeDrift) {
+    return "the pattern measured a second time in another order (reversed or shuffled), so that time is no "
+           "function of the direction on the sphere, or the sphere turned on its mount";
+  }
+  return "a second setup at another eccentricity (the probe then works over another range) or with the sphere turned "
+         "on its mount (a form turns with the sphere)";
+}
+
+// Whether the structure test of the variable effect e follows (time or probe reading) is significant.
+bool ShownByItsVariable(Effect e, const ResidualStructure& structure, const TraceOptions& trace) {
+  const std::string v = InfoOf(e).variable;
+  if (v != "t" && v != "r") return false;
+  for (const StructureGroup& g : structure.groups) {
+    if (g.variable == v) return g.p_value < trace.structure_p;
+  }
+  return false;
 }
 
 std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const TraceOptions& trace) {
@@ -345,6 +462,11 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
   }
   TracedFit current = r.before;
+  r.form = FormDesign(points, trace);
+  if (r.form.separable) {
+    EffectFit with_form = SelectFormDegree(data, options, r.before.fit, trace, &r.form);
+    if (!with_form.model.form.Empty()) current = Analysed(std::move(with_form), data, options, trace);
+  }
   for (int round = 1; round <= trace.max_effects; ++round) {
     // The candidates of a round are independent: they are scored on up to trace.threads threads,
     // each writing only its own slot, so the result does not depend on the number of threads.
@@ -418,7 +540,8 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     // or an effect outside the library), the spherical harmonics that the BIC keeps, scored as if
     // added to the current fit. When it explains the residual better than the best effect, no
     // effect is added.
-    const SpherePattern sphere = BestSpherePattern(current.factor);
+    // With a design that separates the form, it is in the model and no competitor.
+    const SpherePattern sphere = r.form.separable ? SpherePattern{} : BestSpherePattern(current.factor);
     CandidateScore form;
     form.sphere_form = true;
     form.round = round;
@@ -426,15 +549,31 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     form.rms_um = std::sqrt(std::max(0.0, current.fit.calibration.rms_um * current.fit.calibration.rms_um -
                                               sphere.explained_rms_um * sphere.explained_rms_um));
     form.cv_rms_um = std::numeric_limits<double>::quiet_NaN();
-    const bool form_wins = sphere.delta_bic <= -trace.min_delta_bic &&
-                           (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic);
+    const bool form_better = sphere.delta_bic <= -trace.min_delta_bic &&
+                             (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic);
+    // A pattern on the sphere never blocks an effect that its own variable shows: the best such
+    // candidate is added, and both explanations are reported.
+    if (form_better && best >= 0) {
+      int shown = -1;
+      for (std::size_t i = 0; i < tried.size(); ++i) {
+        const CandidateScore& c = tried[i].first;
+        if (admissible(c) && ShownBeyondSphere(c, current.factor, trace) &&
+            (shown < 0 || c.delta_bic < tried[static_cast<std::size_t>(shown)].first.delta_bic)) {
+          shown = static_cast<int>(i);
+        }
+      }
+      best = shown;
+    }
+    const bool form_wins = form_better && best < 0;
     std::string functions;
     for (const std::string& f : sphere.functions) functions += (functions.empty() ? "" : " ") + f;
     form.note = "a pattern fixed on the sphere, spherical harmonics of the direction from the centre, linearised: " +
                 (functions.empty() ? std::string("none lowers the BIC")
-                                   : functions + (form_wins ? "; explains the residual better than any effect of the "
-                                                              "library, so none is added"
-                                                            : "; not better than the best effect"));
+                                   : functions + (form_wins     ? "; explains the residual better than any effect of the "
+                                                                  "library, so none is added"
+                                                  : form_better ? "; explains more than the best effect, which its own "
+                                                                  "variable shows, so both are reported"
+                                                                : "; not better than the best effect"));
     auto explain = [&](CandidateScore& c) {
       if (c.added) return;
       std::string why;
@@ -450,11 +589,21 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
       if (!why.empty()) c.note += std::string(c.note.empty() ? "" : "; ") + why;
     };
     if (best < 0 || form_wins) {
+      // An effect of the time or the probe reading that its variable shows, but no more than a form
+      // would: both explanations, neither added.
+      for (auto& [c, fit] : tried) {
+        if (!form_wins || !admissible(c) || !ShownByItsVariable(c.effect, current.structure, trace)) continue;
+        const double cur_rms = current.fit.calibration.rms_um;
+        Ambiguity a{"sphere_form", c.Id(), sphere.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};
+        a.chosen_rms_um = sphere.explained_rms_um;
+        a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
+        r.ambiguous.push_back(a);
+      }
       for (auto& [c, fit] : tried) {
         explain(c);
         r.candidates.push_back(c);
       }
-      r.candidates.push_back(form);
+      if (!r.form.separable) r.candidates.push_back(form);
       break;
     }
     CandidateScore& chosen = tried[static_cast<std::size_t>(best)].first;
@@ -479,20 +628,64 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
       chosen.sphere_fraction =
           SpherePatternFraction(FactorResidualStructure(ResidualsOfTraced(data, current, jacobian), &signal));
     }
-    if (chosen.sphere_fraction >= trace.max_sphere_fraction) {
-      r.ambiguous.push_back(
-          {InfoOf(chosen.effect).id, "sphere_form", chosen.delta_bic, std::numeric_limits<double>::quiet_NaN(),
-           chosen.sphere_fraction,
-           "a second setup with the sphere turned on its mount (a form error turns with the sphere, a machine error "
-           "stays with the machine), or the sphere's form from its certificate"});
+    const double cur_rms = current.fit.calibration.rms_um, with_rms = with.calibration.rms_um;
+    const double chosen_rms = std::sqrt(std::max(0.0, cur_rms * cur_rms - with_rms * with_rms));
+    if (form_better) {
+      Ambiguity a{InfoOf(chosen.effect).id, "sphere_form", chosen.delta_bic, sphere.delta_bic, chosen.sphere_fraction,
+                  SeparateFromForm(chosen.effect)};
+      a.chosen_rms_um = chosen_rms;
+      a.other_rms_um = sphere.explained_rms_um;
+      r.ambiguous.push_back(a);
+    } else if (!r.form.separable && chosen.sphere_fraction >= trace.max_sphere_fraction) {
+      Ambiguity a{InfoOf(chosen.effect).id,
+                  "sphere_form",
+                  chosen.delta_bic,
+                  std::numeric_limits<double>::quiet_NaN(),
+                  chosen.sphere_fraction,
+                  "a second setup with the sphere turned on its mount (a form error turns with the sphere, a machine "
+                  "error stays with the machine), or the sphere's form from its certificate"};
+      a.chosen_rms_um = chosen_rms;
+      r.ambiguous.push_back(a);
     }
     for (auto& [c, fit] : tried) {
       explain(c);
       r.candidates.push_back(c);
     }
-    r.candidates.push_back(form);
+    if (!r.form.separable) r.candidates.push_back(form);
     r.added.push_back(chosen.effect);
     current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), data, options, trace);
+  }
+  // The effects chosen, the form's degree is chosen again with them in the model.
+  if (r.form.separable && !r.added.empty()) {
+    EffectFit refit = SelectFormDegree(data, options, current.fit, trace, &r.form);
+    if (refit.model.form.terms.size() != current.fit.model.form.terms.size()) {
+      current = Analysed(std::move(refit), data, options, trace);
+    }
+  }
+  // Backward: an effect that the final model no longer needs (the BIC without it is less than
+  // min_delta_bic higher) is removed, the least needed first, and the rest refitted.
+  while (!current.fit.model.terms.empty()) {
+    int weakest = -1;
+    double least = std::numeric_limits<double>::infinity();
+    EffectFit without_weakest;
+    for (std::size_t t = 0; t < current.fit.model.terms.size(); ++t) {
+      EffectModel model = current.fit.model;
+      model.terms.erase(model.terms.begin() + static_cast<std::ptrdiff_t>(t));
+      EffectFitStart start = StartFrom(current.fit);
+      start.values.erase(start.values.begin() + static_cast<std::ptrdiff_t>(t));
+      EffectFit w = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
+      const double cost = w.Bic() - current.fit.Bic();
+      if (w.calibration.converged && cost < least) {
+        least = cost;
+        weakest = static_cast<int>(t);
+        without_weakest = std::move(w);
+      }
+    }
+    if (weakest < 0 || least >= trace.min_delta_bic) break;
+    const Effect e = current.fit.model.terms[static_cast<std::size_t>(weakest)].effect;
+    r.removed.emplace_back(e, least);
+    r.added.erase(std::find(r.added.begin(), r.added.end(), e));
+    current = Analysed(std::move(without_weakest), data, options, trace);
   }
   r.after = std::move(current);
   RejudgeOutliers(all, options, base, trace, r.after);

@@ -1,6 +1,7 @@
 #include "sph/core/calibration_file.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -95,6 +96,57 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
   }
 }
 
+// The optional "sphere_form" object (see the header).
+void ParseSphereForm(const json& j, const std::string& path, CalibrationFile& cal) {
+  if (!j.contains("sphere_form")) return;
+  const json& f = j["sphere_form"];
+  if (!f.is_object()) throw Error(path + ": field 'sphere_form' must be an object");
+  if (Field(f, "normalisation", "sphere_form.", path) != "schmidt_semi_normalised") {
+    throw Error(path + ": field 'sphere_form.normalisation' must be \"schmidt_semi_normalised\"");
+  }
+  if (Field(f, "frame", "sphere_form.", path) != "body")
+    throw Error(path + ": field 'sphere_form.frame' must be \"body\"");
+  if (Field(f, "unit", "sphere_form.", path) != "um") throw Error(path + ": field 'sphere_form.unit' must be \"um\"");
+  const json& terms = Field(f, "terms", "sphere_form.", path);
+  if (!terms.is_array()) throw Error(path + ": field 'sphere_form.terms' must be an array");
+  bool with_std = true;
+  for (std::size_t i = 0; i < terms.size(); ++i) {
+    const std::string where = "sphere_form.terms[" + std::to_string(i) + "].";
+    const json& t = terms[i];
+    const json& l = Field(t, "l", where, path);
+    const json& m = Field(t, "m", where, path);
+    if (!l.is_number_integer() || !m.is_number_integer()) {
+      throw Error(path + ": field '" + where + "l' and 'm' must be integers");
+    }
+    const FormTerm term{l.get<int>(), m.get<int>()};
+    if (term.l < 2 || term.l > kMaxHarmonicDegree || std::abs(term.m) > term.l) {
+      throw Error(path + ": field '" + where + "': degree " + std::to_string(term.l) + " and order " +
+                  std::to_string(term.m) + ": a form term has 2 <= l <= " + std::to_string(kMaxHarmonicDegree) +
+                  " and |m| <= l");
+    }
+    for (const FormTerm& seen : cal.form_terms) {
+      if (seen == term) {
+        throw Error(path + ": field '" + where + "': the term l = " + std::to_string(term.l) +
+                    ", m = " + std::to_string(term.m) + " is listed twice");
+      }
+    }
+    const double v = Number(t, "value_um", where, path);
+    if (!(std::abs(v) <= kMaxEffectUm)) {
+      throw Error(path + ": field '" + where + "value_um' is " + Format("%g", v) + " um: a form term lies within " +
+                  Format("%g", kMaxEffectUm) + " um");
+    }
+    cal.form_terms.push_back(term);
+    cal.form_values_mm.push_back(v * kMmPerUm);
+    if (t.contains("std_um") && t["std_um"].is_number() && std::isfinite(t["std_um"].get<double>()) &&
+        t["std_um"].get<double>() >= 0.0) {
+      cal.form_std_mm.push_back(t["std_um"].get<double>() * kMmPerUm);
+    } else {
+      with_std = false;
+    }
+  }
+  if (!with_std) cal.form_std_mm.clear();
+}
+
 // A covariance matrix must be one: symmetric, with variances >= 0, positive semi-definite (to
 // rounding). Else the draws of sph_measure's uncertainty would be nonsense, or NaN.
 void CheckCovariance(const ScmsCovariance& c, const std::string& path) {
@@ -167,6 +219,16 @@ void WriteCalibration(std::ostream& out, const CalibrationFile& cal) {
     effects.push_back({{"id", term.info().id}, {"parameters", params}});
   }
   j["effects"] = effects;
+  if (!cal.form_terms.empty()) {
+    json terms = json::array();
+    for (std::size_t k = 0; k < cal.form_terms.size(); ++k) {
+      json t = {{"l", cal.form_terms[k].l}, {"m", cal.form_terms[k].m}, {"value_um", cal.form_values_mm[k] * kUmPerMm}};
+      if (k < cal.form_std_mm.size()) t["std_um"] = cal.form_std_mm[k] * kUmPerMm;
+      terms.push_back(t);
+    }
+    j["sphere_form"] = {
+        {"normalisation", "schmidt_semi_normalised"}, {"frame", "body"}, {"unit", "um"}, {"terms", terms}};
+  }
   if (!cal.effects.Empty()) {
     const EffectReference& r = cal.effects.reference;
     j["effect_reference"] = {{"r_ref_mm", r.r_ref_mm},
@@ -252,6 +314,7 @@ CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
     cal.covariance = c;
   }
   ParseEffects(j, path, cal);
+  ParseSphereForm(j, path, cal);
   if (j.contains("source") && j["source"].is_object()) {
     for (const auto& [k, v] : j["source"].items()) cal.source.emplace_back(k, v.is_string() ? v.get<std::string>() : v.dump());
   }

@@ -13,6 +13,7 @@
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/model/form_model.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
 #include "sph/model/units.hpp"
@@ -367,6 +368,39 @@ TEST_F(CalibrateCmd, StatesTheGumBudgetAndPutsTheCombinedCovarianceInTheCalibrat
   const CalibrationFile cal = ReadCalibrationFile(o.output_path);
   ASSERT_TRUE(cal.covariance.has_value());
   EXPECT_NEAR(std::sqrt((*cal.covariance)(6, 6)), u_mm, 1e-9);
+}
+
+// A sphere with a form of its own, turned on its mount, on a machine with only the seven errors:
+// the trace adds the form and nothing else, and what is reported and stored is the joint fit (the
+// seven errors fitted with the form), with the form in the calibration file.
+TEST_F(CalibrateCmd, AFormAloneIsFittedWithTheMachineAndStored) {
+  SimulationSpec spec;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(-2, 0, 0)};
+  spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 0, 90);
+  spec.mount_rotations_deg[2] = Eigen::Vector3d(90, 0, 0);
+  spec.noise_r_um = 0.02;
+  spec.seed = 5;
+  spec.effects.form = {{2, 0, 0.06}, {3, 1, 0.05}, {4, 2, 0.04}};
+  CalibrateOptions o;
+  o.points_path = Simulated("points.txt", spec);
+  o.json_path = dir_ + "/report.json";
+  o.output_path = dir_ + "/cal.json";
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_TRUE(j.contains("sphere_form")) << r.out;
+  const CalibrationFile cal = ReadCalibrationFile(o.output_path);
+  ASSERT_FALSE(cal.form_terms.empty()) << r.out;
+  EXPECT_TRUE(cal.effects.terms.empty());
+  // Schmidt harmonics: rms over the sphere sqrt(sum c^2 / (2l + 1)).
+  const double rms_um = std::sqrt(0.06 * 0.06 / 5 + 0.05 * 0.05 / 7 + 0.04 * 0.04 / 9);
+  EXPECT_NEAR(FormRms(cal.form_terms, cal.form_values_mm) * kUmPerMm, rms_um, 0.1 * rms_um);
+  // The stored seven errors are the joint fit's: its rms is at the noise, not at the form's.
+  EXPECT_LT(j["fit"]["rms_um"].get<double>(), 1.2 * 0.02) << r.out;
+  // Its budget refits the form too (the sensitivities have every parameter of the joint fit).
+  EXPECT_THAT(r.err, Not(HasSubstr("no uncertainty budget")));
+  EXPECT_TRUE(j["parameters"]["d_prime"].contains("u")) << r.out;
 }
 
 TEST_F(CalibrateCmd, CoverageProbabilityGivesKFromTheDegreesOfFreedom) {

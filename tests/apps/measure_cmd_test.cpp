@@ -499,5 +499,46 @@ TEST(MeasureCli, ParsesOptions) {
   EXPECT_THROW(ParseArgs(app5, {"p.txt", "--progress", "--no-progress"}), CLI::ExcludesError);
 }
 
+// The calibration sphere measured again, turned on its mount: with the calibration file's form
+// of it taken off, what is left is the noise; without, the form is the sphericity.
+TEST_F(MeasureCmd, SubtractsTheCalibrationSpheresForm) {
+  SimulationSpec spec;
+  spec.noise_r_um = 0.002;
+  spec.effects.form = {{3, 1, 0.2}, {4, -2, -0.15}};
+  spec.mount_rotations_deg[0] = Eigen::Vector3d(0, 0, 40);
+  const std::string points = dir_ + "/sphere.txt";
+  WritePointsFile(points, Simulate(spec));
+  CalibrationFile cal;
+  cal.geometry = SimulationSpec::PaperTruth();
+  cal.probe_offset_mm = 25.0;
+  cal.form_terms = {{3, 1}, {4, -2}};
+  cal.form_values_mm = {0.2 * kMmPerUm, -0.15 * kMmPerUm};
+  WriteCalibrationFile(dir_ + "/cal.json", cal);
+  MeasureOptions o;
+  o.points_path = points;
+  o.calibration_path = dir_ + "/cal.json";
+  o.json_path = dir_ + "/with.json";
+  o.quiet = true;
+  ASSERT_EQ(Measure(o).code, kExitOk);
+  const double with_form_um = ReadJson(o.json_path)["sphericity_ls_um"].get<double>();
+  o.subtract_sphere_form = true;
+  o.json_path = dir_ + "/without.json";
+  const RunOutput r = Measure(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  const json j = ReadJson(o.json_path);
+  EXPECT_GT(with_form_um, 0.3);
+  EXPECT_LT(j["sphericity_ls_um"].get<double>(), 0.02);  // the noise: 0.002 um, about 6 sigma peak to valley
+  EXPECT_TRUE(j["sphere_form"]["subtracted"].get<bool>());
+  // A calibration without a form cannot take one off.
+  CalibrationFile plain = cal;
+  plain.form_terms.clear();
+  plain.form_values_mm.clear();
+  WriteCalibrationFile(dir_ + "/plain.json", plain);
+  o.calibration_path = dir_ + "/plain.json";
+  const RunOutput none = Measure(o);
+  EXPECT_EQ(none.code, kExitBadInput);
+  EXPECT_THAT(none.err, HasSubstr("holds no form of the calibration sphere"));
+}
+
 }  // namespace
 }  // namespace sph::apps

@@ -183,3 +183,52 @@ TEST(CalibrationFile, NamesEveryMissingOrWrongField) {
 
 }  // namespace
 }  // namespace sph
+
+namespace sph {
+namespace {
+
+// The calibration sphere's form goes through the file; the reader names what is wrong with it.
+TEST(CalibrationFile, SphereFormRoundTripsAndIsValidated) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_form");
+  CalibrationFile cal;
+  cal.probe_offset_mm = 25.0;
+  cal.form_terms = {{2, 0}, {3, -2}, {8, 8}};
+  cal.form_values_mm = {6e-5, -2.5e-5, 1e-6};
+  cal.form_std_mm = {4e-6, 5e-6, 6e-6};
+  WriteCalibrationFile(dir + "/cal.json", cal);
+  const CalibrationFile back = ReadCalibrationFile(dir + "/cal.json");
+  ASSERT_EQ(back.form_terms, cal.form_terms);
+  ASSERT_EQ(back.form_std_mm.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_NEAR(back.form_values_mm[k], cal.form_values_mm[k], 1e-18);
+    EXPECT_NEAR(back.form_std_mm[k], cal.form_std_mm[k], 1e-18);
+  }
+  std::ifstream in(dir + "/cal.json");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string head = R"({"format": "sph-calibration", "format_version": 1, "probe_offset_mm": 25,
+    "geometry": {"alpha": {"value": 0, "unit": "deg"}, "a": {"value": 0, "unit": "mm"},
+    "beta": {"value": 0, "unit": "deg"}, "b": {"value": 0, "unit": "mm"}, "epsilon": {"value": 0, "unit": "deg"},
+    "c": {"value": 0, "unit": "mm"}, "d_prime": {"value": 0, "unit": "mm"}}, "effects": [], "sphere_form": )";
+  const std::string ok = R"("normalisation": "schmidt_semi_normalised", "frame": "body", "unit": "um", )";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {R"({"normalisation": "orthonormal", "frame": "body", "unit": "um", "terms": []})",
+       "sphere_form.normalisation' must be \"schmidt_semi_normalised\""},
+      {R"({"normalisation": "schmidt_semi_normalised", "frame": "body", "unit": "mm", "terms": []})",
+       "sphere_form.unit' must be \"um\""},
+      {"{" + ok + R"("terms": [{"l": 1, "m": 0, "value_um": 0.1}]})", "a form term has 2 <= l <= 40 and |m| <= l"},
+      {"{" + ok + R"("terms": [{"l": 3, "m": 4, "value_um": 0.1}]})", "a form term has 2 <= l <= 40 and |m| <= l"},
+      {"{" + ok + R"("terms": [{"l": 3, "m": 1, "value_um": 0.1}, {"l": 3, "m": 1, "value_um": 0.2}]})",
+       "the term l = 3, m = 1 is listed twice"},
+      {"{" + ok + R"("terms": [{"l": 3, "m": 1, "value_um": 1e6}]})", "a form term lies within 1000 um"},
+      {"{" + ok + R"("terms": [{"l": 3, "m": 1}]})", "sphere_form.terms[0].value_um"},
+  };
+  for (std::size_t k = 0; k < bad.size(); ++k) {
+    const std::string path = dir + "/bad" + std::to_string(k) + ".json";
+    WriteText(path, head + bad[k].first + "}");
+    EXPECT_THAT(ErrorReading(path), HasSubstr(bad[k].second)) << bad[k].first;
+  }
+  EXPECT_THAT(text, HasSubstr("\"normalisation\": \"schmidt_semi_normalised\""));
+}
+
+}  // namespace
+}  // namespace sph

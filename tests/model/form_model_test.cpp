@@ -1,53 +1,11 @@
 #include "sph/model/form_model.hpp"
 
 #include <cmath>
-#include <random>
 
 #include <gtest/gtest.h>
 
-#include "sph/model/spherical_harmonics.hpp"
-
 namespace sph {
 namespace {
-
-Eigen::Vector3d RandomDirection(std::mt19937_64& rng) {
-  std::normal_distribution<double> n;
-  return Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
-}
-
-// The Cartesian evaluation equals the longitude-and-latitude one of the simulator, term by term.
-TEST(FormModel, HarmonicsEqualTheLongitudeLatitudeForm) {
-  std::mt19937_64 rng(3);
-  std::vector<double> s;
-  for (int k = 0; k < 200; ++k) {
-    const Eigen::Vector3d u = RandomDirection(rng);
-    SchmidtHarmonicsOf(u.x(), u.y(), u.z(), 10, &s);
-    for (int l = 0; l <= 10; ++l) {
-      for (int m = -l; m <= l; ++m) {
-        EXPECT_NEAR(s[HarmonicIndex(l, m)], SchmidtHarmonic(l, m, std::atan2(u.y(), u.x()), u.z()), 1e-12)
-            << "l " << l << " m " << m;
-      }
-    }
-  }
-}
-
-TEST(FormModel, HandWorkedValues) {
-  std::vector<double> s;
-  // At the pole only the zonal terms are non-zero, and S_l0(1) = P_l(1) = 1.
-  SchmidtHarmonicsOf(0.0, 0.0, 1.0, 6, &s);
-  for (int l = 0; l <= 6; ++l) {
-    for (int m = -l; m <= l; ++m) EXPECT_NEAR(s[HarmonicIndex(l, m)], m == 0 ? 1.0 : 0.0, 1e-15);
-  }
-  // On the equator at longitude 0: S_20 = P_2(0) = -1/2, S_22 = sqrt(2 / 4!) * 3 = sqrt(3)/2, S_2,-2 = 0.
-  SchmidtHarmonicsOf(1.0, 0.0, 0.0, 2, &s);
-  EXPECT_NEAR(s[HarmonicIndex(2, 0)], -0.5, 1e-15);
-  EXPECT_NEAR(s[HarmonicIndex(2, 2)], std::sqrt(3.0) / 2.0, 1e-15);
-  EXPECT_NEAR(s[HarmonicIndex(2, -2)], 0.0, 1e-15);
-  // At longitude 45 deg on the equator S_2,-2 = sqrt(3)/2 sin(90 deg) and S_22 = sqrt(3)/2 cos(90 deg) = 0.
-  SchmidtHarmonicsOf(std::sqrt(0.5), std::sqrt(0.5), 0.0, 2, &s);
-  EXPECT_NEAR(s[HarmonicIndex(2, -2)], std::sqrt(3.0) / 2.0, 1e-15);
-  EXPECT_NEAR(s[HarmonicIndex(2, 2)], 0.0, 1e-15);
-}
 
 // The mean of S_lm^2 over the sphere is 1 / (2l + 1): checked by quadrature on a fine grid, and
 // so FormRms() is the RMS of the form over the sphere.
@@ -72,9 +30,9 @@ TEST(FormModel, RmsOverTheSphere) {
 }
 
 TEST(FormModel, MountRotationIsAxisTimesAngle) {
-  const Eigen::Matrix3d r = MountRotation(Eigen::Vector3d(0.0, 0.0, 90.0));
+  const Eigen::Matrix3d r = MountRotationMatrix(Eigen::Vector3d(0.0, 0.0, 90.0));
   EXPECT_NEAR((r * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-15);
-  EXPECT_TRUE(MountRotation(Eigen::Vector3d::Zero()).isIdentity());
+  EXPECT_TRUE(MountRotationMatrix(Eigen::Vector3d::Zero()).isIdentity());
   // A point of the surface at body direction +x is seen at +y after a turn of 90 deg about z, so
   // the form a probe sees at +y is the body's form at +x.
   const std::vector<FormTerm> terms = {{2, 2}};

@@ -33,6 +33,8 @@ struct EffectFitStart {
   std::vector<Eigen::Vector3d> centers_mm;  ///< one per setup, ascending setup id
   /// One block per term of the model (rad, mm); missing or wrongly sized blocks start at zero.
   std::vector<std::vector<double>> values;
+  /// One block of form coefficients per group of the model's form [mm]; as values.
+  std::vector<std::vector<double>> form_values;
 
   /// The seven-error calibration's solution, effects at zero.
   static EffectFitStart From(const CalibrationResult& calibration);
@@ -46,6 +48,8 @@ struct EffectFit {
   CalibrationResult calibration;
   EffectModel model;
   std::vector<std::vector<double>> values;  ///< one block per term (rad, mm)
+  /// The form's coefficients [mm], one block per group of model.form (empty without a form).
+  std::vector<std::vector<double>> form_values;
   double rss_mm2 = 0.0;  ///< sum of squared residuals
   int n_params = 0;      ///< fitted parameters in all
 
@@ -53,12 +57,23 @@ struct EffectFit {
   double Bic() const;
   /// Index of the first parameter of term `term` in the analysis' parameter list.
   int TermOffset(std::size_t term) const;
+  /// Index of the first form coefficient of group `group` in the analysis' parameter list.
+  int FormOffset(int group) const;
 };
 
 /// Fits `model` (its reference as given) to `points` from `start`. With options.analyse the
 /// Jacobian, covariance, VIF and determinacy are computed too. Throws sph::Error as Calibrate().
 EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
                      const EffectFitStart& start);
+
+/// The form model of `terms` for the setups of `points`: the setups of known orientation (the
+/// header's mount_rotation_deg, or none: the reference orientation) share one coefficient set,
+/// each setup of unknown orientation has its own. No terms: no form.
+FormModel FormModelOf(const PointsData& points, const std::vector<FormTerm>& terms);
+
+/// F [mm] of the form of `fit` seen by setup `setup_id` at the direction `offset` (p - O, any
+/// length, in the sphere frame); 0 without a form.
+double FormAt(const EffectFit& fit, int setup_id, const Eigen::Vector3d& offset);
 
 /// The Jacobian of the residuals of `points` (rows in file order) at the parameters of `fit`,
 /// columns as the analysis' parameters. Every setup of `points` must be one of the fit's. (The fit
@@ -67,12 +82,14 @@ EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options
 Eigen::MatrixXd JacobianAt(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);
 
 /// p - O [mm] of each sample of `points` (file order) under the parameters of `fit`: the probed
-/// point relative to its setup's centre, in the sphere frame. Throws sph::Error as EffectResiduals().
+/// point relative to its setup's centre, in the sphere frame (the form of the sphere, which moves
+/// the surface and not the point, does not enter). Throws sph::Error as EffectResiduals().
 std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const CalibrationOptions& options,
                                                const EffectFit& fit);
 
-/// Residuals |p - O| - R0 [mm] of the samples of `points`, in file order, under the parameters of
-/// `fit`. Every setup of `points` must be one of the fit's; throws sph::Error otherwise.
+/// Residuals |p - O| - R0 - F(R^T (p - O) / |p - O|) [mm] of the samples of `points`, in file order,
+/// under the parameters of `fit` (F: the form of the setup's group, none without a form). Every
+/// setup of `points` must be one of the fit's; throws sph::Error otherwise.
 std::vector<double> EffectResiduals(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);
 
 }  // namespace sph

@@ -120,6 +120,13 @@ SpherePattern BestSpherePattern(const FitResiduals& fit);
 double SpherePatternFraction(const StructureFactor& factor);
 double SpherePatternFraction(const FitResiduals& fit, const std::vector<double>& signal_mm);
 
+/// The linearised change of the BIC when functions of one variable ("t": tau^1..3 as 0..2, "r":
+/// u^1..3 as 0..2, ...; indices within its group) are added to the fit's Jacobian together with
+/// every spherical harmonic of degree 2..5 of the direction from the centre: whether the variable
+/// shows structure that no pattern fixed on the sphere explains. 0 for the sphere group itself.
+double DeltaBicBeyondSphere(const StructureFactor& factor, const std::string& variable,
+                            const std::vector<int>& functions);
+
 /// P(F(d1, d2) >= f), the upper tail of Fisher's F distribution.
 double FUpperTail(double f, double d1, double d2);
 

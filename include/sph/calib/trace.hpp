@@ -12,6 +12,22 @@
 //    pattern fixed on the sphere (spherical harmonics of degree 2..5 of the direction from the
 //    centre, the reference sphere's own form error or an effect outside the library) does not
 //    explain the residual better by the BIC. Repeat until none is.
+// The sphere's own form. When the design separates it (the sphere measured in at least two known
+// orientations on its mount), the form is no competitor but a component of the model: spherical
+// harmonics of degree 2..L in the sphere's body frame, fitted jointly with the seven errors, the
+// centres and the effects (sph/calib/effect_fit.hpp). L is chosen by an extended BIC, BIC + 2 ln N
+// with N the number of degrees searched, first with the seven errors alone and again after the
+// effects are chosen; every candidate effect is fitted with the form in the model, so components
+// that a form turning with the sphere would explain as well are left out as not separable.
+// Without such a design (one placement, or every setup in one orientation) a form cannot be told
+// from anything that is a function of the direction, and the pattern fixed on the sphere competes
+// as below; but it never blocks an effect that its own variable shows (the time for probe_drift,
+// the probe reading for probe_gain and probe_nonlinearity): that effect is added and both
+// explanations are reported with their sizes and the measurement that separates them.
+//
+// After the rounds, a backward step removes an effect that the final model (with the form chosen
+// again) no longer needs: the BIC without it is less than min_delta_bic higher.
+//
 // 4. Report candidates that explain the residual about as well as the one added (their BICs within
 //    ambiguity_bic), with the measurement that would separate them; an added effect whose signal is
 //    mostly a pattern fixed on the sphere (SpherePatternFraction), which the sphere's own form error
@@ -21,7 +37,9 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sph/calib/effect_fit.hpp"
@@ -45,6 +63,9 @@ struct TraceOptions {
   /// An added effect whose signal is at least this much a pattern fixed on the sphere is reported
   /// as ambiguous with the sphere's own form error.
   double max_sphere_fraction = 0.5;
+  /// Highest degree of the sphere's form fitted when the design separates it (see the file
+  /// comment); below 2: the form is never fitted. Bounded by what the pattern resolves.
+  int form_degree_max = 8;
   /// Called with (round, candidates scored, candidates of the round) as each candidate is scored
   /// (from the scoring threads, one at a time).
   std::function<void(int round, int done, int total)> progress;
@@ -70,13 +91,28 @@ struct CandidateScore {
 
 /// Two explanations of the residual that the data cannot tell apart: an effect added and another
 /// candidate whose BIC is about as good, or the form error of the reference sphere ("sphere_form")
-/// when most of what the added effect explains is a pattern fixed on the sphere.
+/// when most of what the added effect explains is a pattern fixed on the sphere. With chosen
+/// "sphere_form", nothing was added: a pattern on the sphere explains more than `other`, an
+/// effect of the time or the probe reading that its own variable shows, but no more than a form.
 struct Ambiguity {
   std::string chosen, other;  ///< effect ids, or "sphere_form"
   double delta_bic_chosen = 0.0;
   double delta_bic_other = 0.0;  ///< NaN for sphere_form
   double sphere_fraction = 0.0;  ///< share of the chosen effect's signal that is a pattern fixed on the sphere
   std::string separate_by;       ///< the measurement that would tell them apart
+  double chosen_rms_um = std::numeric_limits<double>::quiet_NaN();  ///< what the chosen one explains (RMS)
+  double other_rms_um = std::numeric_limits<double>::quiet_NaN();   ///< what the other explains (RMS)
+};
+
+/// How the trace treated the sphere's form.
+struct FormSelection {
+  bool separable = false;  ///< the design separates the form from the machine
+  std::string design;      ///< why or why not, in words
+  int degree_max = 0;      ///< the degree L fitted (0: no form in the final model)
+  int degree_limit = 0;    ///< the highest degree searched (what the pattern resolves, at most form_degree_max)
+  /// Per degree searched, in the last search: extended BIC of the model with the form of degrees
+  /// 2..L minus that without a form.
+  std::vector<std::pair<int, double>> delta_ebic;
 };
 
 /// Structure left after the final model.
@@ -99,10 +135,13 @@ struct TracedFit {
 struct TraceResult {
   TracedFit before;                 ///< seven errors only
   TracedFit after;                  ///< with the effects added
-  std::vector<Effect> added;        ///< in the order added
+  std::vector<Effect> added;        ///< in the order added (less those removed)
+  /// Effects removed by the backward step, with the BIC without them minus with them.
+  std::vector<std::pair<Effect, double>> removed;
   std::vector<CandidateScore> candidates;  ///< every candidate of every round
   std::vector<Ambiguity> ambiguous;
   std::vector<Unexplained> unexplained;
+  FormSelection form;
 };
 
 /// Traces the residual of `points` (see the file comment). `base` is the seven-error calibration

@@ -12,6 +12,9 @@
 //       ...],
 //     "effect_reference": {"r_ref_mm": .., "r_half_range_mm": .., "t_start_s": .., "t_span_s": ..},
 //                                           with effects: what u and tau are normalised by
+//     "sphere_form": {                      optional: the calibration sphere's own form, when separated
+//       "normalisation": "schmidt_semi_normalised", "frame": "body", "unit": "um",
+//       "terms": [{"l": 2, "m": 0, "value_um": 0.06, "std_um": 0.004}, ...]},  l = 2..40, |m| <= l, each once
 //     "source": {"points_file": "...", ...} free-form provenance
 //   }
 // Angles are stored in deg and lengths in mm; the covariance in the same units (deg^2, deg*mm, mm^2).
@@ -31,6 +34,7 @@
 
 #include "sph/model/compensation.hpp"
 #include "sph/model/effects.hpp"
+#include "sph/model/form_model.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph {
@@ -46,6 +50,11 @@ struct CalibrationFile {
   std::optional<Eigen::Matrix<double, kNumScmsParams, kNumScmsParams>> covariance;
   EffectModel effects;                          ///< further effects (no probe_drift), with their reference
   std::vector<std::vector<double>> effect_values;  ///< one block per term (rad, mm)
+  /// The calibration sphere's own form on its body frame, when the calibration separated it from
+  /// the machine (sph/model/form_model.hpp): Schmidt semi-normalised harmonics and their values.
+  std::vector<FormTerm> form_terms;
+  std::vector<double> form_values_mm;  ///< one per term [mm]
+  std::vector<double> form_std_mm;     ///< their standard uncertainties [mm], when known (else empty)
   std::string created_by;
   std::vector<std::pair<std::string, std::string>> source;  ///< provenance, copied as strings
 };

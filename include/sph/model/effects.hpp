@@ -43,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "sph/model/form_model.hpp"
 #include "sph/model/scms_model.hpp"
 #include "sph/model/units.hpp"
 
@@ -200,11 +201,13 @@ EffectReference EffectReferenceOf(const Readings& readings) {
   return ref;
 }
 
-/// The effects of a model and their normalisation. The parameter blocks are passed separately,
-/// one per term, in term order.
+/// The effects of a model and their normalisation, and the sphere's own form. The parameter blocks
+/// are passed separately, one per term, in term order (the form's coefficients apart: they do not
+/// move the probed point, they move the surface it meets, sph/model/form_model.hpp).
 struct EffectModel {
   std::vector<EffectTerm> terms;
   EffectReference reference;
+  FormModel form;
 
   bool Empty() const { return terms.empty(); }
   int NumParams() const {

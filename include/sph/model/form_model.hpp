@@ -13,18 +13,21 @@
 // centre is p_theta = R_mount p_body in the frame that turns with the Theta axis, so the direction
 // of a probed point p (sphere frame, sph/model/scms_model.hpp) is u = R_mount^T (p - O) / |p - O|.
 //
-// Evaluated from the Cartesian direction, without atan2: S_lm = N_lm Q_l^m(z) Re/Im (x + i y)^m,
-// Q_l^m = P_l^m / (1 - z^2)^(m/2) a polynomial in z, so that it is smooth at the poles and works for
-// ceres::Jet. Header-only, Eigen only.
+// Evaluated from the Cartesian direction, without atan2 (SchmidtHarmonicsOf()), so that it is
+// smooth at the poles and works for ceres::Jet. Header-only, Eigen only.
 #ifndef SPH_MODEL_FORM_MODEL_HPP_
 #define SPH_MODEL_FORM_MODEL_HPP_
 
 #include <cmath>
 #include <cstddef>
+#include <map>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+
+#include "sph/model/spherical_harmonics.hpp"
 
 namespace sph {
 
@@ -43,54 +46,6 @@ inline std::vector<FormTerm> FormTermsOfDegrees(int l_min, int l_max) {
   }
   return terms;
 }
-
-/// The values S_lm(u) of every degree 0..l_max and order, at a unit direction u = (x, y, z):
-/// values[l * (l + 1) + m] = S_lm (so S_00 is at 0, S_2,-2 at 4). Scalar T may be a ceres::Jet.
-template <typename T>
-void SchmidtHarmonicsOf(const T& x, const T& y, const T& z, int l_max, std::vector<T>* values) {
-  values->assign(static_cast<std::size_t>((l_max + 1) * (l_max + 1)), T(0.0));
-  // Re and Im of (x + i y)^m.
-  std::vector<T> re(static_cast<std::size_t>(l_max + 1)), im(static_cast<std::size_t>(l_max + 1));
-  re[0] = T(1.0);
-  im[0] = T(0.0);
-  for (int m = 1; m <= l_max; ++m) {
-    re[static_cast<std::size_t>(m)] = re[static_cast<std::size_t>(m - 1)] * x - im[static_cast<std::size_t>(m - 1)] * y;
-    im[static_cast<std::size_t>(m)] = re[static_cast<std::size_t>(m - 1)] * y + im[static_cast<std::size_t>(m - 1)] * x;
-  }
-  for (int m = 0; m <= l_max; ++m) {
-    // Q_m^m = (2m - 1)!!, Q_{m+1}^m = (2m + 1) z Q_m^m, then the three-term recursion in l.
-    double qmm = 1.0;
-    for (int i = 1; i <= m; ++i) qmm *= 2.0 * i - 1.0;
-    T q_prev(qmm), q(0.0);
-    for (int l = m; l <= l_max; ++l) {
-      T q_l;
-      if (l == m) {
-        q_l = q_prev;
-      } else if (l == m + 1) {
-        q_l = z * T(2.0 * m + 1.0) * q_prev;
-        q = q_prev;
-        q_prev = q_l;
-      } else {
-        q_l = (z * T(2.0 * l - 1.0) * q_prev - T(l + m - 1.0) * q) / T(l - m);
-        q = q_prev;
-        q_prev = q_l;
-      }
-      // N_lm = sqrt(2 (l - m)! / (l + m)!) for m > 0.
-      double norm = 1.0;
-      if (m > 0) {
-        double ratio = 1.0;
-        for (int i = l - m + 1; i <= l + m; ++i) ratio /= i;
-        norm = std::sqrt(2.0 * ratio);
-      }
-      const std::size_t base = static_cast<std::size_t>(l * (l + 1));
-      (*values)[base + static_cast<std::size_t>(m)] = T(norm) * q_l * re[static_cast<std::size_t>(m)];
-      if (m > 0) (*values)[base - static_cast<std::size_t>(m)] = T(norm) * q_l * im[static_cast<std::size_t>(m)];
-    }
-  }
-}
-
-/// The index of S_lm in SchmidtHarmonicsOf()'s values.
-inline std::size_t HarmonicIndex(int l, int m) { return static_cast<std::size_t>(l * (l + 1) + m); }
 
 /// F(u) = sum_k coefficients[k] S_{terms[k]}(u) [mm] at a unit body-frame direction u.
 template <typename T>
@@ -112,12 +67,50 @@ inline double FormRms(const std::vector<FormTerm>& terms, const std::vector<doub
 }
 
 /// The rotation R_mount of a rotation vector in degrees (axis times angle; zero: the identity).
-inline Eigen::Matrix3d MountRotation(const Eigen::Vector3d& rotation_vector_deg) {
+inline Eigen::Matrix3d MountRotationMatrix(const Eigen::Vector3d& rotation_vector_deg) {
   const double angle_deg = rotation_vector_deg.norm();
   if (angle_deg == 0.0) return Eigen::Matrix3d::Identity();
   return Eigen::AngleAxisd(angle_deg * 3.14159265358979323846 / 180.0, rotation_vector_deg / angle_deg)
       .toRotationMatrix();
 }
+
+/// How the readings of one setup see the form: which coefficient set (group) and the mount
+/// rotation R (body frame into the Theta frame).
+struct FormSetup {
+  int group = 0;
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+};
+
+/// The sphere's form in a fit: the terms, the same for every group, and by setup id which
+/// coefficient set a setup uses and how the sphere sits on its mount there. Setups of known
+/// orientation share one set; a sphere remounted at an unknown orientation has its own. The
+/// coefficients are parameters [mm], group after group, term order within each. No terms: no form.
+struct FormModel {
+  std::vector<FormTerm> terms;
+  std::map<int, FormSetup> setups;  ///< a setup absent here: group 0, reference orientation
+  /// Per group, what its parameter names carry: "" for the shared set, "@<setup>" for the set of
+  /// one setup of unknown orientation.
+  std::vector<std::string> group_names{""};
+
+  bool Empty() const { return terms.empty(); }
+  int NumGroups() const { return static_cast<int>(group_names.size()); }
+  int NumParams() const { return static_cast<int>(terms.size()) * NumGroups(); }
+  int MaxDegree() const {
+    int l_max = 0;
+    for (const FormTerm& t : terms) l_max = t.l > l_max ? t.l : l_max;
+    return l_max;
+  }
+  const FormSetup& SetupOf(int setup_id) const {
+    static const FormSetup reference{};
+    const auto it = setups.find(setup_id);
+    return it == setups.end() ? reference : it->second;
+  }
+  /// "sphere_form.S(3,-2)", or "sphere_form@2.S(3,-2)" for the set of unknown setup 2.
+  std::string ParamName(int group, std::size_t term) const {
+    return "sphere_form" + group_names[static_cast<std::size_t>(group)] + ".S(" + std::to_string(terms[term].l) + "," +
+           std::to_string(terms[term].m) + ")";
+  }
+};
 
 }  // namespace sph
 

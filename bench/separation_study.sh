@@ -1,0 +1,72 @@
+#!/bin/sh
+# Separation study: data made by the simulator (ray-traced, independent of the fit), traced by
+# sph_calibrate, scored against the truth. Not a test: a study anyone can rerun.
+#
+#   bench/separation_study.sh [BUILD_DIR] [RUNS] [NOISE_UM]      (defaults: build 5 0.05)
+#
+# Prints one row per case: the runs, how many found exactly the simulated effects, how many
+# added an effect that was not simulated, the median form rms recovered / simulated (cases with
+# the sphere turned on its mount), and the median cv rms / sigma.
+set -eu
+build=${1:-build}
+runs=${2:-5}
+noise=${3:-0.05}
+sim="$build/apps/sph_simulate"
+cal="$build/apps/sph_calibrate"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT INT TERM
+
+form34="--form-um 3,1,0.06 --form-um 3,-2,0.05 --form-um 4,0,-0.07 --form-um 4,3,0.05 --form-um 3,3,0.04"
+form28="--form-um 2,0,0.062 --form-um 2,2,-0.049 --form-um 3,1,0.049 --form-um 3,-3,0.037 --form-um 4,0,-0.043 \
+--form-um 4,2,0.031 --form-um 5,-2,0.037 --form-um 5,4,-0.025 --form-um 6,1,0.031 --form-um 6,-5,0.025 \
+--form-um 7,3,-0.025 --form-um 8,0,0.025 --form-um 8,-6,0.019"
+turned="--center-mm 2,0,0 --center-mm 0,2,0 --center-mm 2,0,0 --mount-rotation-deg 1:0,0,90 \
+--mount-rotation-deg 2:90,0,0 --scan-order 1:serpentine --scan-order 2:columns"
+
+# name | expected effects (comma-separated ids, or -) | sph_simulate arguments | strip t_s (yes/no)
+cases="drift+phi_enc|probe_drift,phi_encoder|--effect-um probe_drift.t1=0.6 --effect-arcsec phi_encoder.c1=10|no
+drift+nonlin_no_t|probe_drift,probe_nonlinearity|--effect-um probe_drift.t1=0.4 --effect-um probe_nonlinearity.u3=0.15|yes
+drift+form34|probe_drift|--effect-um probe_drift.t1=0.5 $form34|no
+theta_enc_5pt|theta_encoder|--effect-arcsec theta_encoder.c5=6|no
+clean|-||no
+form28_one|-|$form28|no
+turned+form28+theta_enc|theta_encoder|$turned $form28 --effect-arcsec theta_encoder.c3=5|no
+turned+form34+drift|probe_drift|$turned $form34 --effect-um probe_drift.t1=0.4|no
+turned+form28+drift+theta_enc|probe_drift,theta_encoder|$turned $form28 --effect-um probe_drift.t1=0.4 --effect-arcsec theta_encoder.c3=5|no"
+
+printf '%-30s %5s %7s %7s %12s %10s\n' case runs right wrong form_ratio cv/sigma
+echo "$cases" | while IFS='|' read -r name expected args strip; do
+  i=1
+  : >"$work/rows"
+  while [ "$i" -le "$runs" ]; do
+    # shellcheck disable=SC2086
+    "$sim" -o "$work/p.txt" --truth "$work/t.json" --noise-r-um "$noise" --seed $((100 + i)) $args >/dev/null
+    if [ "$strip" = yes ]; then
+      awk '/^# columns:/{print "# columns: theta_deg phi_deg r_mm"; next} /^#/{print; next} {print $1, $2, $3}' \
+        "$work/p.txt" >"$work/q.txt"
+      mv "$work/q.txt" "$work/p.txt"
+    fi
+    "$cal" "$work/p.txt" --json "$work/r.json" >/dev/null 2>&1 || true
+    /usr/bin/env python3 - "$work/r.json" "$work/t.json" "$expected" "$noise" >>"$work/rows" <<'EOF'
+import json, sys
+r = json.load(open(sys.argv[1]))
+t = json.load(open(sys.argv[2]))
+expected = set() if sys.argv[3] == "-" else set(sys.argv[3].split(","))
+added = set(r.get("effects_added", []))
+form = r.get("sphere_form", {})
+truth_rms = t.get("form", {}).get("harmonics", {}).get("rms_um", 0.0)
+ratio = form.get("rms_um", 0.0) / truth_rms if form.get("degree_max", 0) > 0 and truth_rms > 0 else float("nan")
+print(int(added == expected), int(bool(added - expected)), ratio, r["after"]["cv_rms_um"] / float(sys.argv[4]))
+EOF
+    i=$((i + 1))
+  done
+  /usr/bin/env python3 - "$name" "$work/rows" <<'EOF'
+import math, sys
+rows = [list(map(float, l.split())) for l in open(sys.argv[2]) if l.strip()]
+def median(v):
+    v = sorted(x for x in v if not math.isnan(x))
+    return float("nan") if not v else (v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2]))
+print("%-30s %5d %7d %7d %12.3f %10.3f" % (sys.argv[1], len(rows), sum(r[0] for r in rows), sum(r[1] for r in rows),
+                                         median([r[2] for r in rows]), median([r[3] for r in rows])))
+EOF
+done

@@ -1,0 +1,261 @@
+// The sphere's form fitted jointly with the seven errors, the centres and the machine effects.
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "calib_test_util.hpp"
+#include "sph/calib/effect_fit.hpp"
+#include "sph/calib/form_report.hpp"
+#include "sph/calib/trace.hpp"
+#include "sph/core/simulate.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph {
+namespace {
+
+using sph::testing::PaperOptions;
+
+// Three setups: the reference orientation at (2, 0, 0) mm, a turn of 90 deg about Theta at
+// (0, 2, 0) mm, and the sphere remounted at an orientation the file calls unknown (a tilt).
+PointsData ThreeSetups(double noise_um, const std::vector<FormComponent>& form, std::uint64_t seed) {
+  SimulationSpec spec;
+  spec.pattern = GridPattern(24, 12);
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(-2, 0, 0.5)};
+  spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 0, 90);
+  spec.mount_rotations_deg[2] = Eigen::Vector3d(90, 0, 0);
+  spec.mount_unknown.insert(2);
+  spec.noise_r_um = noise_um;
+  spec.seed = seed;
+  spec.effects.form = form;
+  return Simulate(spec);
+}
+
+// Hand-worked: with no errors and the centre at the origin, the probe at phi = 0 looks along the
+// Theta axis and meets the point (0, 0, d - r). A form c S_20 is c at the body's pole and -c/2 on
+// its equator: e = |p| - R0 - F.
+TEST(FormFit, ResidualHandWorked) {
+  PointsData points;
+  points.source = "hand";
+  const double c_mm = 0.01, d = 25.0, r0 = 20.0;
+  points.samples.push_back({0.0, 0.0, d - (r0 + c_mm), 0.0, 0});
+  points.samples.push_back({0.0, 0.0, d - (r0 + c_mm), 1.0, 1});
+  points.header.mount_rotations[1] = MountRotation::Known(Eigen::Vector3d(90, 0, 0));
+  EffectFit fit;
+  fit.model.form = FormModelOf(points, {{2, 0}});
+  ASSERT_EQ(fit.model.form.NumGroups(), 1);  // both orientations known: one set
+  fit.form_values = {{c_mm}};
+  fit.calibration.setup_ids = {0, 1};
+  fit.calibration.centers_mm = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  const std::vector<double> e = EffectResiduals(points, PaperOptions(), fit);
+  // To the rounding of lengths of 20 mm (4e-15 mm).
+  EXPECT_NEAR(e[0], 0.0, 1e-14);  // the body's pole: on the surface
+  // Tilted 90 deg about x, the Theta frame's z axis is the body direction R^T z = (0, 1, 0): the
+  // equator, where the surface is at R0 - c/2.
+  EXPECT_NEAR(e[1], c_mm + 0.5 * c_mm, 1e-14);
+}
+
+// Setups of unknown orientation get their own coefficient set; known ones share one.
+TEST(FormFit, GroupsOfTheSetups) {
+  const PointsData points = ThreeSetups(0.0, {}, 1);
+  const FormModel form = FormModelOf(points, FormTermsOfDegrees(2, 3));
+  ASSERT_EQ(form.NumGroups(), 2);
+  EXPECT_EQ(form.SetupOf(0).group, 0);
+  EXPECT_EQ(form.SetupOf(1).group, 0);
+  EXPECT_EQ(form.SetupOf(2).group, 1);
+  EXPECT_NEAR((form.SetupOf(1).rotation * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-15);
+  EXPECT_EQ(form.NumParams(), 2 * 12);
+  EXPECT_EQ(form.ParamName(1, 0), "sphere_form@2.S(2,-2)");
+}
+
+// The hand-derived Jacobian with a form (the reverse sweep less the sweep along dF/dp, see
+// src/calib/fit_problem.hpp) equals central differences of EffectResiduals(), which evaluates the
+// point by EffectScmsPoint() and the form by FormValue(): another code path. The form is large
+// (micrometres) so that its tangential part, about l F / R0 of the columns, is far above the
+// tolerance.
+TEST(FormFit, JacobianMatchesCentralDifferences) {
+  SimulationSpec spec;
+  spec.pattern = GridPattern(12, 6);
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, -1.5, 0.5), Eigen::Vector3d(-1, 0, 0)};
+  spec.mount_rotations_deg[1] = Eigen::Vector3d(10, 20, 90);
+  spec.mount_unknown.insert(2);
+  const PointsData points = Simulate(spec);
+  EffectModel model;
+  model.terms.push_back(DefaultTerm(Effect::kThetaEncoder, 2));
+  model.terms.push_back(DefaultTerm(Effect::kPhiWobble, 1));
+  model.terms.push_back(DefaultTerm(Effect::kProbeGain));
+  model.reference = EffectReferenceOf(points.samples);
+  model.form = FormModelOf(points, FormTermsOfDegrees(2, 4));
+  ASSERT_EQ(model.form.NumGroups(), 2);
+  CalibrationOptions o = PaperOptions();
+  o.max_iterations = 1;
+  EffectFit fit = FitEffects(points, o, model, EffectFitStart::From(Calibrate(points, PaperOptions())));
+  // Parameters away from zero, the form of a few micrometres.
+  for (auto& block : fit.values) {
+    for (std::size_t i = 0; i < block.size(); ++i) block[i] = 2e-5 * (1.0 + 0.3 * static_cast<double>(i));
+  }
+  for (std::size_t g = 0; g < fit.form_values.size(); ++g) {
+    for (std::size_t k = 0; k < fit.form_values[g].size(); ++k) {
+      fit.form_values[g][k] = 3e-3 * std::cos(1.7 * static_cast<double>(k) + static_cast<double>(g));
+    }
+  }
+  const Eigen::MatrixXd jacobian = JacobianAt(points, o, fit);
+  ASSERT_EQ(jacobian.cols(), fit.n_params);
+  EffectFit probe = fit;
+  int col = 0;
+  double largest_tangential = 0.0;
+  auto difference = [&](double& value, double h) {
+    const double keep = value;
+    value = keep + h;
+    const std::vector<double> plus = EffectResiduals(points, o, probe);
+    value = keep - h;
+    const std::vector<double> minus = EffectResiduals(points, o, probe);
+    value = keep;
+    double worst = 0.0, scale = 0.0;
+    for (std::size_t i = 0; i < plus.size(); ++i) {
+      const double numeric = (plus[i] - minus[i]) / (2 * h);
+      worst = std::max(worst, std::abs(numeric - jacobian(static_cast<Eigen::Index>(i), col)));
+      scale = std::max(scale, std::abs(numeric));
+    }
+    EXPECT_LE(worst, 1e-7 * std::max(scale, 1.0))
+        << "column " << col << " (" << fit.calibration.analysis.parameters[static_cast<std::size_t>(col)].name << ")";
+    ++col;
+  };
+  for (double& g : probe.calibration.geometry) difference(g, 1e-6);
+  for (auto& c : probe.calibration.centers_mm) {
+    for (int j = 0; j < 3; ++j) difference(c(j), 1e-6);
+  }
+  for (auto& block : probe.values) {
+    for (double& v : block) difference(v, 1e-6);
+  }
+  for (auto& block : probe.form_values) {
+    for (double& v : block) difference(v, 1e-6);
+  }
+  EXPECT_EQ(col, fit.n_params);
+  // The centre columns are -n + t: without t they would differ from -n by l F / R0, here about
+  // 1e-3 (checked so that the test above is known to see the tangential part).
+  EffectFit no_form = fit;
+  for (auto& block : no_form.form_values) std::fill(block.begin(), block.end(), 0.0);
+  const Eigen::MatrixXd plain = JacobianAt(points, o, no_form);
+  largest_tangential =
+      (jacobian.leftCols(kNumScmsParams + 9) - plain.leftCols(kNumScmsParams + 9)).cwiseAbs().maxCoeff();
+  EXPECT_GT(largest_tangential, 1e-4);
+}
+
+// Ray-traced by the simulator (code of its own): the sphere in three orientations (two known, one
+// unknown), a form of 0.05 um RMS of degrees 2 to 4 and a Theta encoder error of 5" at 3 per turn,
+// sigma_r 0.03 um. The joint fit of the seven errors, the centres, the encoder term and the form
+// recovers the encoder error within 4 std and the form's RMS within 20 %.
+TEST(FormFit, RecoversFormAndEffectFromRayTracedData) {
+  std::vector<FormComponent> form = {{2, 0, 0.06},   {2, 2, -0.05}, {3, 1, 0.05},  {3, -3, 0.04},
+                                     {4, 0, -0.045}, {4, 2, 0.03},  {4, -4, 0.035}};
+  double sum = 0.0;
+  for (const FormComponent& f : form) sum += f.amplitude_um * f.amplitude_um / (2.0 * f.l + 1.0);
+  const double scale = 0.05 / std::sqrt(sum);
+  for (FormComponent& f : form) f.amplitude_um *= scale;
+  SimulationSpec spec;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(2, 0, 0)};
+  spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 0, 90);
+  spec.mount_rotations_deg[2] = Eigen::Vector3d(90, 0, 0);
+  spec.noise_r_um = 0.03;
+  spec.seed = 21;
+  spec.effects.form = form;
+  EffectTerm encoder;
+  encoder.effect = Effect::kThetaEncoder;
+  encoder.components = {{3, 0, false}, {3, 0, true}};
+  spec.effects.model.terms = {encoder};
+  const double c3_rad = 5.0 * kRadPerArcsec;
+  spec.effects.values = {{c3_rad, 0.0}};
+  const PointsData points = Simulate(spec);
+
+  EffectModel model;
+  model.terms = {encoder};
+  model.reference = EffectReferenceOf(points.samples);
+  model.form = FormModelOf(points, FormTermsOfDegrees(2, 4));
+  const EffectFit fit =
+      FitEffects(points, PaperOptions(), model, EffectFitStart::From(Calibrate(points, PaperOptions())));
+  ASSERT_TRUE(fit.calibration.converged) << fit.calibration.solver_message;
+  const ObservabilityReport& rep = fit.calibration.analysis;
+  const int enc = fit.TermOffset(0);
+  EXPECT_NEAR(fit.values[0][0], c3_rad, 4.0 * rep.std(enc)) << "std " << rep.std(enc) / kRadPerArcsec << " arcsec";
+  EXPECT_NEAR(fit.values[0][1], 0.0, 4.0 * rep.std(enc + 1));
+  EXPECT_LT(rep.std(enc), 0.5 * kRadPerArcsec);  // determined well enough for the 4-std test to mean something
+  const double rms_um = FormRms(model.form.terms, fit.form_values[0]) * kUmPerMm;
+  EXPECT_NEAR(rms_um, 0.05, 0.2 * 0.05);
+  // The residual is the noise: nothing of the form is left in it.
+  EXPECT_LT(fit.calibration.rms_um, 0.033);
+  // Each coefficient within 4 std of the simulated amplitude (the others zero).
+  for (std::size_t k = 0; k < model.form.terms.size(); ++k) {
+    double truth_um = 0.0;
+    for (const FormComponent& f : form) {
+      if (f.l == model.form.terms[k].l && f.m == model.form.terms[k].m) truth_um = f.amplitude_um;
+    }
+    const int col = fit.FormOffset(0) + static_cast<int>(k);
+    EXPECT_NEAR(fit.form_values[0][k] * kUmPerMm, truth_um, 4.0 * rep.std(col) * kUmPerMm)
+        << model.form.ParamName(0, k);
+  }
+}
+
+// A form of 0.05 um RMS of degrees 2 to 4 on the sphere's body frame (amplitudes scaled to it).
+std::vector<FormComponent> FormOfDegrees2To4() {
+  std::vector<FormComponent> form = {{2, 0, 0.06},   {2, 2, -0.05}, {3, 1, 0.05},  {3, -3, 0.04},
+                                     {4, 0, -0.045}, {4, 2, 0.03},  {4, -4, 0.035}};
+  double sum = 0.0;
+  for (const FormComponent& f : form) sum += f.amplitude_um * f.amplitude_um / (2.0 * f.l + 1.0);
+  for (FormComponent& f : form) f.amplitude_um *= 0.05 / std::sqrt(sum);
+  return form;
+}
+
+TraceOptions FewCandidates() {
+  TraceOptions t;
+  t.candidates = {Effect::kThetaEncoder, Effect::kPhiEncoder, Effect::kProbeGain, Effect::kProbeDrift};
+  t.form_degree_max = 6;
+  t.threads = 2;
+  return t;
+}
+
+// Ray-traced: the sphere turned about Theta and tilted, each setup in another scan order, a form
+// and a probe drift. The trace fits the form as part of the model (it turns with the sphere) and
+// adds the drift and nothing else; the form's RMS within 20 %, the drift within 4 std.
+TEST(TraceWithForm, SeparatesTheFormFromADriftWhenTheSphereIsTurned) {
+  SimulationSpec spec;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(2, 0, 0)};
+  spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 0, 90);
+  spec.mount_rotations_deg[2] = Eigen::Vector3d(90, 0, 0);
+  spec.scan_orders[1] = ScanOrder::kSerpentine;
+  spec.scan_orders[2] = ScanOrder::kColumns;
+  spec.noise_r_um = 0.03;
+  spec.seed = 31;
+  spec.effects.form = FormOfDegrees2To4();
+  spec.effects.model.terms = {DefaultTerm(Effect::kProbeDrift, 1, 1)};
+  spec.effects.values = {{0.4 * kMmPerUm}};
+  const PointsData points = Simulate(spec);
+  const CalibrationResult base = Calibrate(points, PaperOptions());
+  const TraceResult r = TraceResidual(points, PaperOptions(), base, FewCandidates());
+  EXPECT_TRUE(r.form.separable) << r.form.design;
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kProbeDrift});
+  const EffectFit& fit = r.after.fit;
+  ASSERT_FALSE(fit.model.form.Empty());
+  EXPECT_GE(r.form.degree_max, 4);
+  const std::vector<SphereFormResult> forms = SphereFormOf(fit);
+  ASSERT_EQ(forms.size(), 1u);
+  EXPECT_NEAR(forms[0].rms_um, 0.05, 0.2 * 0.05);
+  EXPECT_NEAR(fit.values[0][0] * kUmPerMm, 0.4, 4.0 * fit.calibration.analysis.std(fit.TermOffset(0)) * kUmPerMm);
+  EXPECT_LT(r.after.cv_rms_um, 1.1 * 0.03);
+}
+
+// One placement, the same form and no machine effect: nothing is added.
+TEST(TraceWithForm, OnePlacementAddsNoEffectForAForm) {
+  SimulationSpec spec;
+  spec.noise_r_um = 0.03;
+  spec.seed = 32;
+  spec.effects.form = FormOfDegrees2To4();
+  const PointsData points = Simulate(spec);
+  const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), FewCandidates());
+  EXPECT_FALSE(r.form.separable);
+  EXPECT_TRUE(r.added.empty()) << InfoOf(r.added.front()).id;
+}
+
+}  // namespace
+}  // namespace sph
