@@ -12,8 +12,8 @@
 #include "sph/calib/form_report.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
-#include "sph/model/sphere_fit.hpp"
-#include "sph/model/sphere_form.hpp"
+#include "sph/sphere/sphere_fit.hpp"
+#include "sph/sphere/sphere_form.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::apps {

@@ -23,7 +23,7 @@
 #include "sph/internal/format.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/form_model.hpp"
-#include "sph/model/sphere_fit.hpp"
+#include "sph/sphere/sphere_fit.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::apps {

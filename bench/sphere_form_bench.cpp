@@ -11,8 +11,8 @@
 #include <random>
 #include <vector>
 
-#include "sph/model/sphere_fit.hpp"
-#include "sph/model/sphere_form.hpp"
+#include "sph/sphere/sphere_fit.hpp"
+#include "sph/sphere/sphere_form.hpp"
 
 namespace {
 

@@ -2,9 +2,17 @@
 # Installs the Debian 12 packages sph needs to build and test, if any are missing. Idempotent:
 # when everything is present it changes nothing and needs no network. Runs apt-get through sudo
 # when not root.
+#
+# Usage: cmake/install-deps.sh [--sanitizers]
+#   --sanitizers  also clang-14 and libFuzzer (libclang-rt-14-dev), for the "asan" preset
 set -eu
 packages="cmake ninja-build g++ ccache libeigen3-dev libceres-dev libcli11-dev nlohmann-json3-dev \
 libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox"
+case "${1:-}" in
+  --sanitizers) packages="$packages clang-14 libclang-rt-14-dev" ;;
+  "") ;;
+  *) echo "install-deps: unknown option '$1' (usage: cmake/install-deps.sh [--sanitizers])" >&2; exit 2 ;;
+esac
 missing=""
 for p in $packages; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"

@@ -8,7 +8,7 @@
 #include "fit_problem.hpp"
 #include "levenberg_marquardt.hpp"
 #include "sph/calib/calibrator.hpp"
-#include "sph/model/sphere_fit.hpp"
+#include "sph/sphere/sphere_fit.hpp"
 
 namespace sph::internal {
 

@@ -14,7 +14,7 @@
 #include "problem_eval.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
-#include "sph/model/sphere_fit.hpp"
+#include "sph/sphere/sphere_fit.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {

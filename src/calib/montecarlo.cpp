@@ -14,8 +14,8 @@
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"
 #include "sph/core/error.hpp"
-#include "sph/model/sphere_fit.hpp"
-#include "sph/model/sphere_form.hpp"
+#include "sph/sphere/sphere_fit.hpp"
+#include "sph/sphere/sphere_form.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {

@@ -6,8 +6,8 @@
 
 #include "sph/core/error.hpp"
 #include "sph/core/gum.hpp"
-#include "sph/model/sphere_fit.hpp"
-#include "sph/model/sphere_form.hpp"
+#include "sph/sphere/sphere_fit.hpp"
+#include "sph/sphere/sphere_form.hpp"
 
 namespace sph {
 namespace {

@@ -14,8 +14,8 @@
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/form_model.hpp"
-#include "sph/model/sphere_fit.hpp"
-#include "sph/model/sphere_form.hpp"
+#include "sph/sphere/sphere_fit.hpp"
+#include "sph/sphere/sphere_form.hpp"
 #include "sph/model/units.hpp"
 #include "test_util.hpp"
 

@@ -12,7 +12,7 @@
 #include "sph/calib/effect_fit.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/effects.hpp"
-#include "sph/model/sphere_fit.hpp"
+#include "sph/sphere/sphere_fit.hpp"
 #include "test_util.hpp"
 
 namespace sph {

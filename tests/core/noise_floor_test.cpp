@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
-#include "sph/model/sphere_fit.hpp"
+#include "sph/sphere/sphere_fit.hpp"
 
 namespace sph {
 namespace {

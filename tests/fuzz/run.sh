@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# Runs the libFuzzer targets of the "fuzz" preset (build-fuzz/) for a time each.
+# Runs the libFuzzer targets of the "asan" preset (build-asan/, built with the tests) for a time each.
 #
 # Usage: tests/fuzz/run.sh [-t SECONDS] [TARGET...]     (default 25 s each, every target)
 #
 # Each target starts from its committed seed corpus (tests/fuzz/corpus/<target>/, read only) and
-# keeps what it finds in build-fuzz/corpus/<target>/; a crash, leak, timeout or sanitizer report
-# is saved as build-fuzz/artifacts/<target>-crash-… (reproduce: build-fuzz/tests/fuzz/<target> FILE)
+# keeps what it finds in build-asan/corpus/<target>/; a crash, leak, timeout or sanitizer report
+# is saved as build-asan/artifacts/<target>-crash-… (reproduce: build-asan/tests/fuzz/<target> FILE)
 # and fails the run. Prints one line per target (runs, cov:, ft:) and "fuzz: N passed, N failed".
 set -uo pipefail
 cd "$(dirname "$0")/../.."
@@ -13,12 +13,12 @@ secs=25
 if [[ ${1:-} == -t ]]; then secs=$2; shift 2; fi
 targets=("$@")
 [[ ${#targets[@]} -gt 0 ]] || targets=(fuzz_points fuzz_xyz fuzz_calibration fuzz_candump fuzz_can_frames fuzz_sdo_nmt fuzz_acquired_config)
-build=build-fuzz
+build=build-asan
 passed=0 failed=0
 for t in "${targets[@]}"; do
   exe="$build/tests/fuzz/$t"
   if [[ ! -x $exe ]]; then
-    echo "fuzz: $t: not built ($exe); build with: cmake --preset fuzz && cmake --build --preset fuzz"
+    echo "fuzz: $t: not built ($exe); build with: cmake --preset asan && cmake --build --preset asan"
     failed=$((failed + 1))
     continue
   fi

@@ -5,8 +5,6 @@
 #include "sph/model/effects.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/scms_model.hpp"
-#include "sph/model/sphere_fit.hpp"
-#include "sph/model/sphere_form.hpp"
 #include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
 
@@ -22,27 +20,6 @@ namespace {
 TEST(ModelOnly, HeadersNeedNoCeres) {
   const ScmsGeometry g{};
   EXPECT_NEAR(ScmsPoint(g, 0.0, kPi / 2, 5.0, 25.0).x(), 20.0, 1e-12);
-}
-
-TEST(ModelOnly, CompensateAndEvaluateASphere) {
-  // What a host does: readings of a sphere of radius 20 at the axes' common point, compensated
-  // with a nominal calibration, then its least-squares and minimum-zone form.
-  Calibration cal;
-  cal.probe_offset_mm = 25.0;
-  std::vector<RawReading> readings;
-  for (int i = 0; i < 24; ++i) {
-    for (int j = 0; j < 12; ++j) readings.push_back({15.0 * i, 7.5 + 15.0 * j, 5.0 + (j == 6 ? 1e-4 : 0.0)});
-  }
-  std::vector<Eigen::Vector3d> points(readings.size());
-  Compensate(cal, readings.data(), readings.size(), points.data());
-  const LeastSquaresSphere ls = FitSphereLeastSquares(points);
-  ASSERT_TRUE(ls.sphere.ok);
-  const MinimumZoneSphere mz = FitSphereMinimumZone(points, ls.sphere.center);
-  ASSERT_TRUE(mz.ok);
-  // One ring (phi = 97.5 deg) is 0.1 um low: the zone is exactly that, about the true centre.
-  EXPECT_NEAR(mz.width, 1e-4, 1e-12);
-  EXPECT_NEAR(mz.center.norm(), 0.0, 1e-10);
-  EXPECT_LE(mz.width, RadialPeakToValley(points, ls.sphere.center));
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 // Evaluation of a measured sphere: least-squares sphere, least-squares and minimum-zone
 // sphericity, how well the coverage determines them, and how much of the result the calibration's
-// own uncertainty can explain. The mathematics is header-only (sph/model/sphere_fit.hpp,
-// sph/model/sphere_form.hpp); this adds the judgement (warnings) and the uncertainty propagation.
+// own uncertainty can explain. The mathematics is header-only (sph/sphere/sphere_fit.hpp,
+// sph/sphere/sphere_form.hpp); this adds the judgement (warnings) and the uncertainty propagation.
 //
 // Uncertainty from the calibration, by sampling (Monte Carlo), not by linearisation: the errors are
 // drawn from N(g, Sigma) (Sigma the calibration's 7 x 7 covariance, rad and mm), the raw readings are
@@ -27,8 +27,8 @@
 #include <Eigen/Core>
 
 #include "sph/model/compensation.hpp"
-#include "sph/model/sphere_fit.hpp"
-#include "sph/model/sphere_form.hpp"
+#include "sph/sphere/sphere_fit.hpp"
+#include "sph/sphere/sphere_form.hpp"
 
 namespace sph {
 

@@ -1,4 +1,4 @@
-#include "sph/model/sphere_fit.hpp"
+#include "sph/sphere/sphere_fit.hpp"
 
 #include <cmath>
 #include <random>

@@ -1,4 +1,4 @@
-#include "sph/model/sphere_form.hpp"
+#include "sph/sphere/sphere_form.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -11,8 +11,8 @@
 
 #include <gtest/gtest.h>
 
-#include "sph/model/sphere_fit.hpp"
-#include "sph/model/sphere_form.hpp"
+#include "sph/sphere/sphere_fit.hpp"
+#include "sph/sphere/sphere_form.hpp"
 #include "test_util.hpp"
 
 namespace sph {
