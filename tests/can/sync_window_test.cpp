@@ -70,7 +70,8 @@ TEST(SyncWindow, ALostSyncNoLongerLetsALaterPdoFillTheCycleBefore) {
     const PipelineConfig c = Config(period, static_cast<std::uint8_t>(counter));
     Sink sink;
     AcquisitionPipeline p(c, sink.Callbacks());
-    auto sync = [&](int k) { p.OnFrame(Sync(T(k), counter ? std::optional<std::uint8_t>(k + 1) : std::nullopt)); };
+    const bool counted = counter != 0;  // a lambda cannot capture a structured binding before C++20
+    auto sync = [&](int k) { p.OnFrame(Sync(T(k), counted ? std::optional<std::uint8_t>(k + 1) : std::nullopt)); };
     sync(0);
     for (int d = 0; d < kNumDevices; ++d) p.OnFrame(Pdo(c, d, 0, T(0) + (d + 1) * 100000));
     sync(1);
