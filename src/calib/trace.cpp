@@ -14,6 +14,7 @@
 
 #include "effect_fit_rows.hpp"
 #include "fit_problem.hpp"
+#include "sph/calib/identifiability.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"
@@ -23,7 +24,9 @@ namespace {
 
 using internal::Format;
 
-bool IsThetaMachine(Effect e) { return e == Effect::kThetaEncoder || e == Effect::kThetaRadialMotion || e == Effect::kThetaAxialMotion; }
+bool IsThetaMachine(Effect e) {
+  return e == Effect::kThetaEncoder || e == Effect::kThetaRadialMotion || e == Effect::kThetaAxialMotion;
+}
 bool IsPhiMachine(Effect e) { return e == Effect::kPhiEncoder || e == Effect::kPhiWobble; }
 bool IsProbe(Effect e) { return e == Effect::kProbeGain || e == Effect::kProbeNonlinearity; }
 
@@ -59,15 +62,6 @@ struct Readings {
 double CrossValidated(const Readings& data, const CalibrationOptions& options, const EffectModel& model,
                       const EffectFitStart& start, int folds, std::uint64_t seed);
 
-EffectFitStart StartFrom(const EffectFit& fit) {
-  EffectFitStart s;
-  s.geometry = fit.calibration.geometry;
-  s.centers_mm = fit.calibration.centers_mm;
-  s.values = fit.values;
-  s.form_values = fit.form_values;
-  return s;
-}
-
 // Unit directions from the fitted centre to each probed point, at the readings the fit expects
 // (r + e, as the structure analysis' other functions of r): the measured r would carry the noise
 // that the residual is into the directions.
@@ -94,7 +88,7 @@ TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions
   const internal::StructureJacobian jacobian(data.table, options, t.fit);
   t.factor = FactorResidualStructure(ResidualsOfTraced(data, t, jacobian));
   t.structure = AnalyseResidualStructure(t.factor);
-  t.cv_rms_um = CrossValidated(data, options, t.fit.model, StartFrom(t.fit), trace.folds, trace.seed);
+  t.cv_rms_um = CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace.folds, trace.seed);
   return t;
 }
 
@@ -105,7 +99,7 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
                        EffectTerm term, const TraceOptions& trace, std::string* note) {
   EffectModel model = current.model;
   model.terms.push_back(term);
-  EffectFitStart start = StartFrom(current);
+  EffectFitStart start = EffectFitStart::From(current);
   start.values.emplace_back(static_cast<std::size_t>(term.size()), 0.0);
   std::vector<std::string> left_out_vif, left_out_t;
   auto short_name = [](const EffectTerm& t, int j) {
@@ -187,7 +181,7 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
       }
       return fit;
     }
-    start = StartFrom(fit);
+    start = EffectFitStart::From(fit);
     cand.components.erase(cand.components.begin() + drop);
     start.values.back().erase(start.values.back().begin() + drop);
     if (cand.components.empty()) {
@@ -215,7 +209,7 @@ FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
       continue;
     }
     const Eigen::Matrix3d r = it == points.header.mount_rotations.end() ? Eigen::Matrix3d::Identity()
-                                                                         : MountRotationMatrix(*it->second.rotation_deg);
+                                                                        : MountRotationMatrix(*it->second.rotation_deg);
     bool seen = false;
     for (const Eigen::Matrix3d& o : orientations) seen |= (o - r).norm() < 1e-9;
     if (!seen) orientations.push_back(r);
@@ -233,7 +227,8 @@ FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
   f.degree_limit = std::min(trace.form_degree_max, resolved);
   f.separable = orientations.size() >= 2 && f.degree_limit >= 2;
   const std::string unknown_note =
-      unknown > 0 ? "; " + std::to_string(unknown) + " setup(s) of unknown orientation, each with a form of its own" : "";
+      unknown > 0 ? "; " + std::to_string(unknown) + " setup(s) of unknown orientation, each with a form of its own"
+                  : "";
   if (f.separable) {
     f.design = "the sphere measured in " + std::to_string(orientations.size()) +
                " known orientations on its mount: its form (turning with it) is fitted with the machine, degrees 2 "
@@ -249,6 +244,29 @@ FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
   return f;
 }
 
+// Which form terms of degrees 2..degree_limit the design cannot tell from the seven errors, the
+// centres and the candidates of `pool` (linearised at `base`), in words. They stay in the search
+// (the form is fitted before any effect, so no machine term they are confounded with is in the
+// model with them); the report says that their split with the machine is not known.
+void ConfoundedFormTerms(const Readings& data, const CalibrationOptions& options, const EffectFit& base,
+                         const std::vector<Effect>& pool, const TraceOptions& trace, FormSelection* sel) {
+  EffectModel machine;
+  machine.reference = base.model.reference;
+  for (const Effect e : pool) machine.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
+  const FormIdentifiability id = IdentifyForm(data.points, options, machine, EffectFitStart::From(base),
+                                              FormTermsOfDegrees(2, sel->degree_limit));
+  sel->terms = FormTermsOfDegrees(2, sel->degree_limit);
+  for (const ConfoundedCombination& c : id.combinations) sel->confounded.push_back(c.words);
+  if (!id.confounded.empty()) {
+    std::string names;
+    for (const FormTerm& t : id.confounded) {
+      names += (names.empty() ? "" : " ") + ("S(" + std::to_string(t.l) + "," + std::to_string(t.m) + ")");
+    }
+    sel->design += "; " + names +
+                   " cannot be told from the machine by this design: fitted as the sphere's, their split is not known";
+  }
+}
+
 // The fit of `current`'s model with the sphere's form of degrees 2..L, for the L that minimises
 // the extended BIC (BIC + 2 ln N, N the degrees searched), or the model without a form when no L
 // lowers it by min_delta_bic. sel->delta_ebic gets each degree's score.
@@ -256,7 +274,7 @@ EffectFit SelectFormDegree(const Readings& data, const CalibrationOptions& optio
                            const TraceOptions& trace, FormSelection* sel) {
   EffectModel plain = current.model;
   plain.form = FormModel{};
-  EffectFitStart start = StartFrom(current);
+  EffectFitStart start = EffectFitStart::From(current);
   start.form_values.clear();
   EffectFit none = current.model.form.Empty()
                        ? current
@@ -267,9 +285,15 @@ EffectFit SelectFormDegree(const Readings& data, const CalibrationOptions& optio
   sel->degree_max = 0;
   sel->delta_ebic.clear();
   for (int l = 2; l <= sel->degree_limit; ++l) {
+    std::vector<FormTerm> terms;
+    for (const FormTerm& t : sel->terms) {
+      if (t.l <= l) terms.push_back(t);
+    }
+    if (terms.empty() || terms.back().l != l) continue;  // nothing of degree l is separable
     EffectModel model = plain;
-    model.form = FormModelOf(data.points, FormTermsOfDegrees(2, l));
-    EffectFit fit = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, StartFrom(none));
+    model.form = FormModelOf(data.points, terms);
+    EffectFit fit =
+        internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(none));
     const double score = fit.Bic() + penalty;
     sel->delta_ebic.emplace_back(l, score - none.Bic());
     if (!fit.calibration.converged) continue;
@@ -329,9 +353,9 @@ std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const Tr
     u.variable = g->variable;
     u.rms_um = g->explained_rms_um;
     u.p_value = g->p_value;
-    const std::string what = g->variable == "sphere"
-                                 ? "a pattern fixed on the sphere (its own form error, or an effect outside the library)"
-                                 : "structure that follows " + g->variable + " (" + g->description + ")";
+    const std::string what =
+        g->variable == "sphere" ? "a pattern fixed on the sphere (its own form error, or an effect outside the library)"
+                                : "structure that follows " + g->variable + " (" + g->description + ")";
     u.description = what + ", " + Format("%.3g", g->explained_rms_um) + " um RMS; strongest " + g->strongest + " (" +
                     Format("%.3g", g->strongest_rms_um) + " um RMS alone)";
     out.push_back(u);
@@ -384,7 +408,7 @@ void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, c
       if (judged == outliers) break;
       outliers = judged;
       const Readings kept(Without(all, outliers));
-      EffectFitStart start = StartFrom(after.fit);
+      EffectFitStart start = EffectFitStart::From(after.fit);
       after = Analysed(internal::FitEffectsRows(kept.points, kept.table, nullptr, options, after.fit.model, start),
                        kept, options, trace);
     }
@@ -419,7 +443,8 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
   std::vector<int> fold_of(m);
   for (auto& [setup, rows] : of_setup) {
     std::shuffle(rows.begin(), rows.end(), rng);
-    for (std::size_t k = 0; k < rows.size(); ++k) fold_of[rows[k]] = static_cast<int>(k % static_cast<std::size_t>(folds));
+    for (std::size_t k = 0; k < rows.size(); ++k)
+      fold_of[rows[k]] = static_cast<int>(k % static_cast<std::size_t>(folds));
   }
   CalibrationOptions quick = options;
   quick.analyse = false;
@@ -463,6 +488,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
   }
   TracedFit current = r.before;
   r.form = FormDesign(points, trace);
+  if (r.form.separable) ConfoundedFormTerms(data, options, r.before.fit, pool, trace, &r.form);
   if (r.form.separable) {
     EffectFit with_form = SelectFormDegree(data, options, r.before.fit, trace, &r.form);
     if (!with_form.model.form.Empty()) current = Analysed(std::move(with_form), data, options, trace);
@@ -493,7 +519,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
           c.term = fit.model.terms.back();
           c.delta_bic = fit.Bic() - current.fit.Bic();
           c.rms_um = fit.calibration.rms_um;
-          c.cv_rms_um = CrossValidated(data, options, fit.model, StartFrom(fit), trace.folds, trace.seed);
+          c.cv_rms_um = CrossValidated(data, options, fit.model, EffectFitStart::From(fit), trace.folds, trace.seed);
           c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
           if (!c.determined) {
             c.note += std::string(c.note.empty() ? "" : "; ") + "with it, some parameters are not determined";
@@ -507,8 +533,8 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
       const std::lock_guard<std::mutex> lock(progress_mutex);
       trace.progress(round, ++scored, static_cast<int>(todo.size()));
     };
-    const unsigned threads = trace.threads > 0 ? static_cast<unsigned>(trace.threads)
-                                               : std::max(1u, std::thread::hardware_concurrency());
+    const unsigned threads =
+        trace.threads > 0 ? static_cast<unsigned>(trace.threads) : std::max(1u, std::thread::hardware_concurrency());
     std::atomic<std::size_t> next{0};
     std::vector<std::thread> workers;
     for (unsigned w = 1; w < std::min<std::size_t>(threads, todo.size()); ++w) {
@@ -569,18 +595,19 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     for (const std::string& f : sphere.functions) functions += (functions.empty() ? "" : " ") + f;
     form.note = "a pattern fixed on the sphere, spherical harmonics of the direction from the centre, linearised: " +
                 (functions.empty() ? std::string("none lowers the BIC")
-                                   : functions + (form_wins     ? "; explains the residual better than any effect of the "
-                                                                  "library, so none is added"
+                                   : functions + (form_wins ? "; explains the residual better than any effect of the "
+                                                              "library, so none is added"
                                                   : form_better ? "; explains more than the best effect, which its own "
                                                                   "variable shows, so both are reported"
                                                                 : "; not better than the best effect"));
     auto explain = [&](CandidateScore& c) {
       if (c.added) return;
       std::string why;
-      if (admissible(c)) {
+      if (admissible(c) && form_wins) {
+        why = "qualifies, but a pattern fixed on the sphere explains more";
+      } else if (admissible(c) && best >= 0) {
         const CandidateScore& b = tried[static_cast<std::size_t>(best)].first;
-        why = form_wins ? "qualifies, but a pattern fixed on the sphere explains more"
-                        : "qualifies; " + b.Id() + Format(" scored better (delta BIC %.1f)", b.delta_bic);
+        why = "qualifies; " + b.Id() + Format(" scored better (delta BIC %.1f)", b.delta_bic);
       } else if (!c.term.components.empty() && c.determined) {
         why = c.delta_bic > -trace.min_delta_bic
                   ? "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")"
@@ -631,8 +658,8 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     const double cur_rms = current.fit.calibration.rms_um, with_rms = with.calibration.rms_um;
     const double chosen_rms = std::sqrt(std::max(0.0, cur_rms * cur_rms - with_rms * with_rms));
     if (form_better) {
-      Ambiguity a{InfoOf(chosen.effect).id, "sphere_form", chosen.delta_bic, sphere.delta_bic, chosen.sphere_fraction,
-                  SeparateFromForm(chosen.effect)};
+      Ambiguity a{InfoOf(chosen.effect).id, "sphere_form",          chosen.delta_bic,
+                  sphere.delta_bic,         chosen.sphere_fraction, SeparateFromForm(chosen.effect)};
       a.chosen_rms_um = chosen_rms;
       a.other_rms_um = sphere.explained_rms_um;
       r.ambiguous.push_back(a);
@@ -671,7 +698,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     for (std::size_t t = 0; t < current.fit.model.terms.size(); ++t) {
       EffectModel model = current.fit.model;
       model.terms.erase(model.terms.begin() + static_cast<std::ptrdiff_t>(t));
-      EffectFitStart start = StartFrom(current.fit);
+      EffectFitStart start = EffectFitStart::From(current.fit);
       start.values.erase(start.values.begin() + static_cast<std::ptrdiff_t>(t));
       EffectFit w = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
       const double cost = w.Bic() - current.fit.Bic();
@@ -705,9 +732,9 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
     if (model.Find(e) < 0) model.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
   }
   for (const EffectTerm& t : model.terms) r.added.push_back(t.effect);
-  r.after =
-      Analysed(internal::FitEffectsRows(data.points, data.table, nullptr, options, model, StartFrom(r.before.fit)),
-               data, options, trace);
+  r.after = Analysed(
+      internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(r.before.fit)),
+      data, options, trace);
   RejudgeOutliers(all, options, base, trace, r.after);
   r.unexplained = RemainingStructure(r.after.structure, trace);
   return r;
