@@ -110,12 +110,7 @@ std::optional<CalibrationBudget> BudgetOf(const PointsData& points, const Calibr
       q.initial_geometry = result.geometry;
       return ParameterVector(Calibrate(p, q));
     }
-    EffectFitStart start;
-    start.geometry = extended->calibration.geometry;
-    start.centers_mm = extended->calibration.centers_mm;
-    start.values = extended->values;
-    start.form_values = extended->form_values;
-    const EffectFit fit = FitEffects(p, o, extended->model, start);
+    const EffectFit fit = FitEffects(p, o, extended->model, EffectFitStart::From(*extended));
     return ParameterVector(fit.calibration, fit.values, fit.form_values);
   };
   try {

@@ -14,8 +14,8 @@
 #include "problem_eval.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
-#include "sph/sphere/sphere_fit.hpp"
 #include "sph/model/units.hpp"
+#include "sph/sphere/sphere_fit.hpp"
 
 namespace sph {
 namespace {
@@ -138,12 +138,7 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
 
   RowsOfSetup rows = AllRows(table, left_out);
   CalibrationResult result;
-  std::size_t n_samples = 0;
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    if (rows[k].empty()) continue;
-    result.setup_ids.push_back(table.setup_ids[k]);
-    n_samples += rows[k].size();
-  }
+  const std::size_t n_samples = SetupsWithRows(table, rows, &result.setup_ids);
   const std::size_t n_setups = result.setup_ids.size();
   const std::size_t n_params = kNumScmsParams + 3 * n_setups;
   if (n_samples <= n_params) {
@@ -348,11 +343,11 @@ CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& t
   if (result.outliers.empty()) return result;
   result.residuals_mm = residuals.empty() ? ResidualsOf(table, options, result) : residuals;  // every sample
   for (Outlier& o : result.outliers) o.residual_um = result.residuals_mm[o.sample] * kUmPerMm;
-  result.warnings.insert(result.warnings.begin(),
-                         std::to_string(result.outliers.size()) + " outlier(s) left out of the fit, farther than " +
-                             Format("%g", options.outlier_sigma) +
-                             " robust standard deviations from the median residual: " +
-                             DescribeOutliers(points, result.outliers));
+  result.warnings.insert(
+      result.warnings.begin(),
+      std::to_string(result.outliers.size()) + " outlier(s) left out of the fit, farther than " +
+          Format("%g", options.outlier_sigma) +
+          " robust standard deviations from the median residual: " + DescribeOutliers(points, result.outliers));
   return result;
 }
 

@@ -47,6 +47,13 @@ EffectFitStart EffectFitStart::From(const CalibrationResult& calibration) {
   return s;
 }
 
+EffectFitStart EffectFitStart::From(const EffectFit& fit) {
+  EffectFitStart s = From(fit.calibration);
+  s.values = fit.values;
+  s.form_values = fit.form_values;
+  return s;
+}
+
 double EffectFit::Bic() const {
   const double m = static_cast<double>(calibration.residuals_mm.size());
   // Residuals of exact data can be zero: no fit is better than rounding (1e-12 mm).
@@ -100,12 +107,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   fit.model = model;
   CalibrationResult& result = fit.calibration;
   RowsOfSetup rows = AllRows(table, left_out);
-  std::size_t n_samples = 0;
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    if (rows[k].empty()) continue;
-    result.setup_ids.push_back(table.setup_ids[k]);
-    n_samples += rows[k].size();
-  }
+  const std::size_t n_samples = SetupsWithRows(table, rows, &result.setup_ids);
   const std::size_t n_setups = result.setup_ids.size();
   if (start.centers_mm.size() != n_setups) throw Error(src + ": the start needs one centre per setup");
   fit.n_params = kNumScmsParams + 3 * static_cast<int>(n_setups) + model.NumParams() + model.form.NumParams();
@@ -144,19 +146,9 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   SetResidualStatistics(result);
   if (!options.analyse) return fit;
 
-  std::vector<ParameterDescription> desc = BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
-  for (const EffectTerm& term : model.terms) {
-    for (std::size_t i = 0; i < term.components.size(); ++i) {
-      desc.push_back({term.ParamName(i), term.info().quantity, options.sphere_radius_mm});
-    }
-  }
-  for (int group = 0; group < model.form.NumGroups() && !model.form.Empty(); ++group) {
-    for (std::size_t k = 0; k < model.form.terms.size(); ++k) {
-      desc.push_back({model.form.ParamName(group, k), Quantity::kLength, options.sphere_radius_mm});
-    }
-  }
   result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples),
-                               fit.rss_mm2, std::move(desc), options.max_std_um);
+                               fit.rss_mm2, ParameterDescriptions(result.setup_ids, model, options.sphere_radius_mm),
+                               options.max_std_um);
   return fit;
 }
 
@@ -237,9 +229,9 @@ std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const C
     if (it == setup_index.end()) {
       throw Error(points.source + ": setup " + std::to_string(s.setup) + " is not one of the calibration's");
     }
-    const Eigen::Vector3d p = EffectScmsPoint(cal.geometry.data(), trig, fit.model, blocks.data(),
-                                              EffectReading(s.theta_deg, s.phi_deg, s.r_mm, s.t_s),
-                                              options.probe_offset_mm);
+    const Eigen::Vector3d p =
+        EffectScmsPoint(cal.geometry.data(), trig, fit.model, blocks.data(),
+                        EffectReading(s.theta_deg, s.phi_deg, s.r_mm, s.t_s), options.probe_offset_mm);
     out.push_back(p - cal.centers_mm[it->second]);
   }
   return out;

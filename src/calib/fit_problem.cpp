@@ -190,6 +190,16 @@ RowsOfSetup AllRows(const ReadingTable& table, const std::vector<bool>* left_out
   return rows;
 }
 
+std::size_t SetupsWithRows(const ReadingTable& table, const RowsOfSetup& rows, std::vector<int>* setup_ids) {
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    if (rows[k].empty()) continue;
+    setup_ids->push_back(table.setup_ids[k]);
+    n += rows[k].size();
+  }
+  return n;
+}
+
 struct SphereFitProblem::Scratch {
   // The gathered readings of one block.
   alignas(64) double theta[kRows], phi[kRows], ct[kRows], st[kRows], cp[kRows], sp[kRows], r[kRows], t[kRows];

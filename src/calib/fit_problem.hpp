@@ -59,6 +59,10 @@ using RowsOfSetup = std::vector<std::vector<std::uint32_t>>;
 /// Every sample of `table`, or every sample not marked in `left_out` (table-indexed).
 RowsOfSetup AllRows(const ReadingTable& table, const std::vector<bool>* left_out = nullptr);
 
+/// The ids of the setups that have rows, ascending (a fit's CalibrationResult::setup_ids), appended
+/// to `setup_ids`; returns the number of rows in all.
+std::size_t SetupsWithRows(const ReadingTable& table, const RowsOfSetup& rows, std::vector<int>* setup_ids);
+
 /// One block of rows as the evaluation produced it.
 struct RowBlock {
   int setup = 0;                        ///< problem setup index

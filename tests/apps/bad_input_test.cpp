@@ -20,20 +20,6 @@
 namespace sph::testing {
 namespace {
 
-using ::testing::HasSubstr;
-
-struct MatrixCase {
-  std::string name;
-  std::vector<std::string> args;  ///< after the program; run in the case's folder
-  int exit = 2;
-  std::string message;                            ///< expected in stderr ("" when none is)
-  std::map<std::string, std::string> files = {};  ///< written into the folder before the run
-  std::vector<std::string> creates = {};          ///< outputs a successful run makes
-  std::string stdout_to = "";                     ///< a name in the folder that takes standard output
-};
-
-std::ostream& operator<<(std::ostream& os, const MatrixCase& c) { return os << c.name; }
-
 std::string Example() { return ReadWholeFile(SPH_SOURCE_DIR "/data/example/points.txt"); }
 
 // The example's header and its first `rows` rows with the column r_mm replaced in row `row`.
@@ -81,38 +67,14 @@ class Matrix : public ::testing::TestWithParam<MatrixCase> {
 
   void Check(const char* program) {
     const MatrixCase& c = GetParam();
-    const bool uses_nodes = [&] {
-      for (const std::string& a : c.args) {
-        if (a == "full" || a == "null" || a == "disk") return true;
-      }
-      return c.stdout_to == "full";
-    }();
-    if (uses_nodes && !nodes_) GTEST_SKIP() << "device nodes cannot be made here (needs CAP_MKNOD)";
-    const std::string dir = Folder(c);
-    const auto before = FolderState(dir);
-    std::vector<std::string> argv = {program};
-    argv.insert(argv.end(), c.args.begin(), c.args.end());
-    const ProgramResult r = RunProgram(argv, dir, c.stdout_to);
-    EXPECT_EQ(r.code, c.exit) << r.err;
-    if (!c.message.empty()) {
-      EXPECT_THAT(r.err, HasSubstr(c.message));
-    }
+    if (UsesDeviceNodes(c) && !nodes_) GTEST_SKIP() << "device nodes cannot be made here (needs CAP_MKNOD)";
+    const ProgramResult r = RunMatrixCase(program, c, Folder(c));
     EXPECT_FALSE(HasSolverLog(r.out + r.err)) << r.err;
-    auto after = FolderState(dir);
-    for (const std::string& made : c.creates) {
-      EXPECT_TRUE(after.count(made)) << made << " was not written";
-      after.erase(made);
-    }
-    auto unchanged = before;
-    for (const std::string& made : c.creates) unchanged.erase(made);
-    EXPECT_EQ(after, unchanged) << "the folder changed";
   }
 
   static inline std::string base_;
   static inline bool nodes_ = false;
 };
-
-std::string CaseName(const ::testing::TestParamInfo<MatrixCase>& info) { return info.param.name; }
 
 // ---- sph_calibrate --------------------------------------------------------------------------------
 

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "test_util.hpp"
@@ -115,6 +116,53 @@ inline bool HasSolverLog(const std::string& text) {
     }
   }
   return false;
+}
+
+/// One case of a bad-input matrix: a program's arguments, run in a folder of its own.
+struct MatrixCase {
+  std::string name;
+  std::vector<std::string> args;  ///< after the program; run in the case's folder
+  int exit = 2;
+  std::string message;                            ///< expected in stderr ("" when none is)
+  std::map<std::string, std::string> files = {};  ///< written into the folder before the run
+  std::vector<std::string> writes = {};           ///< outputs a successful run makes or continues
+  std::string stdout_to = "";                     ///< a name in the folder that takes standard output
+};
+
+inline std::ostream& operator<<(std::ostream& os, const MatrixCase& c) { return os << c.name; }
+
+/// The case's name as the parameterised test's name.
+inline std::string CaseName(const ::testing::TestParamInfo<MatrixCase>& info) { return info.param.name; }
+
+/// True when the case names one of the folder's device nodes (MakeDeviceNodes()).
+inline bool UsesDeviceNodes(const MatrixCase& c) {
+  bool uses = c.stdout_to == "full";
+  for (const std::string& a : c.args) uses |= a == "full" || a == "null" || a == "disk";
+  return uses;
+}
+
+/// Runs `program` with the case's arguments in `dir` (which holds the case's files) and checks the
+/// exit code, the message, and that the folder is byte for byte as before, apart from the case's
+/// outputs, each of which must be written (made, or changed).
+inline ProgramResult RunMatrixCase(const char* program, const MatrixCase& c, const std::string& dir) {
+  const auto before = FolderState(dir);
+  std::vector<std::string> argv = {program};
+  argv.insert(argv.end(), c.args.begin(), c.args.end());
+  const ProgramResult r = RunProgram(argv, dir, c.stdout_to);
+  EXPECT_EQ(r.code, c.exit) << r.err;
+  if (!c.message.empty()) {
+    EXPECT_THAT(r.err, ::testing::HasSubstr(c.message));
+  }
+  auto after = FolderState(dir);
+  auto unchanged = before;
+  for (const std::string& made : c.writes) {
+    EXPECT_TRUE(after.count(made)) << made << " was not written";
+    EXPECT_NE(after[made], before.count(made) ? before.at(made) : "") << made << " was not written";
+    after.erase(made);
+    unchanged.erase(made);
+  }
+  EXPECT_EQ(after, unchanged) << "the folder changed";
+  return r;
 }
 
 }  // namespace sph::testing

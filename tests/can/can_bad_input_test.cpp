@@ -23,20 +23,6 @@
 namespace sph::testing {
 namespace {
 
-using ::testing::HasSubstr;
-
-struct CanCase {
-  std::string name;
-  std::vector<std::string> args;  ///< after the program; run in the case's folder
-  int exit = 2;
-  std::string message;                            ///< expected in stderr ("" when none is)
-  std::map<std::string, std::string> files = {};  ///< written into the folder before the run
-  std::vector<std::string> writes = {};           ///< outputs a successful run makes or continues
-  std::string stdout_to = "";                     ///< a name in the folder that takes standard output
-};
-
-std::ostream& operator<<(std::ostream& os, const CanCase& c) { return os << c.name; }
-
 // A small run of the simulator: 2 stops of 1 s, SYNC every 10 ms.
 const std::vector<std::string> kSmall = {"--theta-steps", "2", "--phi-steps", "1", "--sync-period-ms", "10"};
 
@@ -44,7 +30,7 @@ const std::vector<std::string> kSmall = {"--theta-steps", "2", "--phi-steps", "1
 // leave it byte for byte as it was.
 constexpr const char* kNotes = "my notes\nthe last line has no newline";
 
-class CanMatrix : public ::testing::TestWithParam<CanCase> {
+class CanMatrix : public ::testing::TestWithParam<MatrixCase> {
  protected:
   // What every case finds in its folder: a simulator log (sim.log), the points file the daemon
   // made of it (P.txt), a config file (a.conf), an angle pattern (a.txt), notes (notes.txt), a
@@ -66,7 +52,7 @@ class CanMatrix : public ::testing::TestWithParam<CanCase> {
     nodes_ = MakeDeviceNodes(base_);
   }
 
-  std::string Folder(const CanCase& c) {
+  std::string Folder(const MatrixCase& c) {
     const std::string dir = MakeTempDir("can_matrix_" + c.name);
     for (const char* f : {"sim.log", "P.txt", "a.conf", "a.txt", "notes.txt"}) {
       std::ofstream(dir + "/" + f, std::ios::binary) << ReadWholeFile(base_ + "/" + f);
@@ -78,35 +64,14 @@ class CanMatrix : public ::testing::TestWithParam<CanCase> {
   }
 
   void Check(const char* program) {
-    const CanCase& c = GetParam();
-    bool uses_nodes = c.stdout_to == "full";
-    for (const std::string& a : c.args) uses_nodes |= a == "full" || a == "null" || a == "disk";
-    if (uses_nodes && !nodes_) GTEST_SKIP() << "device nodes cannot be made here (needs CAP_MKNOD)";
-    const std::string dir = Folder(c);
-    const auto before = FolderState(dir);
-    std::vector<std::string> argv = {program};
-    argv.insert(argv.end(), c.args.begin(), c.args.end());
-    const ProgramResult r = RunProgram(argv, dir, c.stdout_to);
-    EXPECT_EQ(r.code, c.exit) << r.err;
-    if (!c.message.empty()) {
-      EXPECT_THAT(r.err, HasSubstr(c.message));
-    }
-    auto after = FolderState(dir);
-    auto unchanged = before;
-    for (const std::string& made : c.writes) {
-      EXPECT_TRUE(after.count(made)) << made << " was not written";
-      EXPECT_NE(after[made], before.count(made) ? before.at(made) : "") << made << " was not written";
-      after.erase(made);
-      unchanged.erase(made);
-    }
-    EXPECT_EQ(after, unchanged) << "the folder changed";
+    const MatrixCase& c = GetParam();
+    if (UsesDeviceNodes(c) && !nodes_) GTEST_SKIP() << "device nodes cannot be made here (needs CAP_MKNOD)";
+    RunMatrixCase(program, c, Folder(c));
   }
 
   static inline std::string base_;
   static inline bool nodes_ = false;
 };
-
-std::string CaseName(const ::testing::TestParamInfo<CanCase>& info) { return info.param.name; }
 
 std::vector<std::string> With(std::vector<std::string> args, const std::vector<std::string>& more) {
   args.insert(args.end(), more.begin(), more.end());
@@ -118,7 +83,7 @@ std::vector<std::string> With(std::vector<std::string> args, const std::vector<s
 class AcquiredMatrix : public CanMatrix {};
 TEST_P(AcquiredMatrix, Case) { Check(SPH_ACQUIRED); }
 
-std::vector<CanCase> AcquiredCases() {
+std::vector<MatrixCase> AcquiredCases() {
   const std::string e = "sph_acquired: error: ";
   const std::vector<std::string> replay = {"--replay", "sim.log", "--sync-period-ms", "10", "--log-level", "error"};
   const auto r = [&](const std::vector<std::string>& more) { return With(replay, more); };
@@ -259,7 +224,7 @@ INSTANTIATE_TEST_SUITE_P(Acquired, AcquiredMatrix, ::testing::ValuesIn(AcquiredC
 class CansimMatrix : public CanMatrix {};
 TEST_P(CansimMatrix, Case) { Check(SPH_CANSIM); }
 
-std::vector<CanCase> CansimCases() {
+std::vector<MatrixCase> CansimCases() {
   const std::string e = "sph_cansim: error: ";
   const auto q = [&](const std::vector<std::string>& more) { return With(kSmall, more); };
   const auto log = [&](const std::vector<std::string>& more) { return With(q({"-o", "x.log"}), more); };

@@ -28,6 +28,8 @@
 namespace sph {
 
 /// Where a fit with effects starts.
+struct EffectFit;
+
 struct EffectFitStart {
   ScmsGeometry geometry{};                  ///< (rad, mm)
   std::vector<Eigen::Vector3d> centers_mm;  ///< one per setup, ascending setup id
@@ -38,6 +40,8 @@ struct EffectFitStart {
 
   /// The seven-error calibration's solution, effects at zero.
   static EffectFitStart From(const CalibrationResult& calibration);
+  /// Where `fit` ended: its seven errors, centres, effects and form (to refit the same model).
+  static EffectFitStart From(const EffectFit& fit);
 };
 
 /// The outcome of a fit with effects.
