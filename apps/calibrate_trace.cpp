@@ -206,6 +206,7 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
                   cost);
   }
   out << "  sphere form: " << r.form.design << "\n";
+  for (const std::string& c : r.form.confounded) out << "    confounded by the design: " << c << "\n";
   if (r.form.separable) {
     std::string scores;
     for (const auto& [l, d] : r.form.delta_ebic) scores += Format(" %d: %.1f", l, d);
@@ -329,6 +330,7 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
   for (const auto& [l, d] : r.form.delta_ebic) scores.push_back({{"degree_max", l}, {"delta_ebic", d}});
   form["separable"] = r.form.separable;
   form["design"] = r.form.design;
+  for (const std::string& c : r.form.confounded) form["confounded"].push_back(c);
   form["delta_ebic"] = scores;
   json unknown = json::array();
   for (std::size_t k = 1; k < forms.size(); ++k) {

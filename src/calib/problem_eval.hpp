@@ -53,6 +53,24 @@ inline std::vector<ParameterDescription> BaseParameterDescriptions(const std::ve
   return desc;
 }
 
+/// BaseParameterDescriptions() followed by the effects' parameters in term order and the form's
+/// coefficients per group: every parameter of a fit of `model`, in the analysis' order.
+inline std::vector<ParameterDescription> ParameterDescriptions(const std::vector<int>& setup_ids,
+                                                               const EffectModel& model, double sphere_radius_mm) {
+  std::vector<ParameterDescription> desc = BaseParameterDescriptions(setup_ids, sphere_radius_mm);
+  for (const EffectTerm& term : model.terms) {
+    for (std::size_t i = 0; i < term.components.size(); ++i) {
+      desc.push_back({term.ParamName(i), term.info().quantity, sphere_radius_mm});
+    }
+  }
+  for (int group = 0; group < model.form.NumGroups() && !model.form.Empty(); ++group) {
+    for (std::size_t k = 0; k < model.form.terms.size(); ++k) {
+      desc.push_back({model.form.ParamName(group, k), Quantity::kLength, sphere_radius_mm});
+    }
+  }
+  return desc;
+}
+
 /// result.rms_um and result.pv_um from result.residuals_mm.
 inline void SetResidualStatistics(CalibrationResult& result) {
   const Eigen::Map<const Eigen::VectorXd> res(result.residuals_mm.data(),

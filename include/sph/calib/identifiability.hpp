@@ -1,0 +1,69 @@
+// What a measurement design can tell apart, from the design alone, before any fit.
+//
+// The residuals of a model (the seven errors, each setup's centre, effects, the sphere's form)
+// are linearised at a point of its parameters: J = de/dx over the readings of the design (the
+// pattern of every setup, its centre, its orientation on the mount, the time order). Scaled to
+// unit columns, J D has singular values sigma_k; a direction v_k with sigma_k / sigma_max small
+// is a combination of parameters that moves the residuals (almost) not at all: the readings
+// cannot tell its parameters apart, whatever the noise and however many repetitions, and a fit
+// returns their split from the noise. This is the design's null space, computed rather than
+// argued. For example, a sphere turned with its mount on the Theta table about the Theta axis,
+// centre and all, is to a machine whose errors do not depend on theta only the first setup read
+// at other theta: what such a machine mimics of the form in one placement (with the library's
+// Phi-axis effects, the m = +-1 terms) stays confounded however often the sphere is turned so,
+// and a tilt on the mount separates it.
+//
+// The machine is what the model holds: the seven errors, the centres and the effects asked about
+// (the trace asks about every candidate). Its own directions that the design does not determine
+// (an effect the pattern cannot see) are set aside first, as the fit leaves such components out.
+// A machine error outside the library is not part of the judgement: the generic reversal argument
+// (any function of the reading angles, the same in every setup) is not made here.
+//
+// Only combinations of the sphere's form with anything else (or of form terms among themselves)
+// are reported here: that is the separation of the machine from the sphere. The weak
+// combinations among machine parameters are the fit's own analysis (ObservabilityReport::weak).
+#ifndef SPH_CALIB_IDENTIFIABILITY_HPP_
+#define SPH_CALIB_IDENTIFIABILITY_HPP_
+
+#include <string>
+#include <vector>
+
+#include "sph/calib/effect_fit.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/model/form_model.hpp"
+
+namespace sph {
+
+/// A combination of parameters the design cannot tell apart.
+struct ConfoundedCombination {
+  double relative_singular_value = 0.0;  ///< sigma_k / sigma_max of the equilibrated Jacobian
+  /// Parameter names with their coefficients, displacement-equivalent (angles times R0), the
+  /// largest magnitude 1, those below 0.1 left out (ObservabilityReport::weak).
+  std::vector<std::pair<std::string, double>> terms;
+  std::vector<FormTerm> form_terms;  ///< the form's terms among them (any group)
+  std::string words;                 ///< what cannot be told from what, and why it matters
+};
+
+/// The form terms of a design that its readings separate from the machine, and those they do not.
+struct FormIdentifiability {
+  std::vector<FormTerm> separable;   ///< in the order of the terms asked about
+  std::vector<FormTerm> confounded;  ///< the others
+  std::vector<ConfoundedCombination> combinations;  ///< weakest first
+};
+
+/// Relative singular values below this count as confounded: the variance of such a combination
+/// is at least 1e4 times what the same parameters would have with independent columns.
+inline constexpr double kConfoundedSingularValue = 1e-2;
+
+/// Which of the form terms `form_terms` (shared by the setups of known orientation, one set per
+/// setup of unknown orientation: FormModelOf) the readings of `points` separate from the seven
+/// errors, the centres and the effects of `model` (its form is replaced), linearised at `at` (the
+/// form at zero). Nothing is fitted. Throws sph::Error as FitEffects() for an unusable design.
+FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOptions& options,
+                                 const EffectModel& model, const EffectFitStart& at,
+                                 const std::vector<FormTerm>& form_terms,
+                                 double max_singular_value = kConfoundedSingularValue);
+
+}  // namespace sph
+
+#endif  // SPH_CALIB_IDENTIFIABILITY_HPP_
