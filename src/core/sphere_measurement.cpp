@@ -320,15 +320,23 @@ CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawRead
   u.samples = options.samples;
   u.seed = options.seed;
 
-  // x_s = L z, z ~ N(0, I), L L^T = Sigma (FactorOf). The draws come first, in order, so that
-  // the result depends on the seed only, not on the threads.
-  const Eigen::MatrixXd l = FactorOf(applied.covariance);
+  // x_s = L z, z ~ N(0, I), L L^T = Sigma (FactorOf). When the file says what Sigma holds, its
+  // Type A part is drawn so and each Type B input on its own, x_s = L_A z + sum_j s_j x_j, so that
+  // the probe scale also scales these readings (CheckByMonteCarlo() draws the same way). The draws
+  // come first, in order, so that the result depends on the seed only, not on the threads.
+  const Eigen::MatrixXd l = FactorOf(applied.inputs.empty() ? applied.covariance : applied.TypeACovariance());
   gum::Random rng(options.seed);
   std::vector<Eigen::VectorXd> draws(static_cast<std::size_t>(options.samples));
-  for (Eigen::VectorXd& x : draws) {
+  std::vector<double> scales(draws.size(), 0.0);
+  for (std::size_t s = 0; s < draws.size(); ++s) {
     Eigen::VectorXd z(l.cols());
     for (Eigen::Index k = 0; k < z.size(); ++k) z(k) = rng.Normal();
-    x = l * z;
+    draws[s] = l * z;
+    for (const CalibrationFile::CovarianceInput& in : applied.inputs) {
+      const double x = in.u * rng.Normal();
+      draws[s] += in.per_unit * x;
+      if (in.input == kProbeScaleInput) scales[s] += x;
+    }
   }
 
   struct Outcome {
@@ -346,7 +354,7 @@ CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawRead
     SphereFitOptions ls_options;
     ls_options.start = nominal.ls.sphere;  // each draw's sphere is near the nominal one
     for (std::size_t s; (s = next++) < draws.size();) {
-      const std::vector<Eigen::Vector3d>& points = moved.Points(&draws[s]);
+      const std::vector<Eigen::Vector3d>& points = moved.Points(&draws[s], scales[s]);
       const LeastSquaresSphere ls = FitSphereLeastSquares(points, ls_options);
       Outcome& o = outcomes[s];
       if (ls.sphere.ok) {  // a draw that destroys the sphere says nothing about this one

@@ -188,7 +188,8 @@ CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawRead
                                                        const SphereEvaluation& nominal,
                                                        const UncertaintyOptions& options = UncertaintyOptions());
 
-/// The same for every parameter `applied` holds the covariance of (effects and form too).
+/// The same for every parameter `applied` holds the covariance of (effects and form too); with
+/// its Type B inputs, each is drawn on its own, and the probe scale scales the readings as well.
 CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawReading>& readings,
                                                        const AppliedCalibration& applied,
                                                        const SphereEvaluation& nominal,
