@@ -323,6 +323,15 @@ TEST(MeasurementBudget, SplitsTheCalibrationIntoItsTypeAPartAndItsInputs) {
   expect +=
       2.0 * c[0].per_parameter.dot(s_scale) * c[0].per_probe_scale * 1e-8 + std::pow(c[0].per_probe_scale * 1e-4, 2);
   EXPECT_NEAR(st.u * st.u, expect, 1e-9 * expect);
+  // The sampled propagation draws the same inputs (the scale on the readings too): its radius std
+  // is the budget's calibration part, where the two paths of the scale nearly cancel.
+  UncertaintyOptions options;
+  options.samples = 400;
+  const CalibrationUncertainty sampled = PropagateCalibrationUncertainty(readings, applied, nominal, options);
+  double calibration2 = 0.0;
+  for (std::size_t i = 1; i < st.inputs.size(); ++i) calibration2 += std::pow(st.inputs[i].Contribution(), 2);
+  EXPECT_NEAR(sampled.radius_std_mm / std::sqrt(calibration2), 1.0, 0.15);
+  EXPECT_LT(std::abs(st.inputs[3].sensitivity), 0.2 * std::abs(c[0].per_parameter.dot(s_scale)));
 }
 
 TEST(PropagateCalibrationUncertainty, NeedsACovarianceAndTwoSamples) {
