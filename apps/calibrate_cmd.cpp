@@ -221,6 +221,10 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
           err << prog << ": note: " << o.output_path
               << " leaves out probe_drift: a drift belongs to the run it was measured in\n";
         }
+        std::vector<int> columns;
+        for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
+        if (extended) columns = AppliedColumns(trace->after.fit);
+        AddCovarianceToCalibrationFile(columns, result, budget ? &*budget : nullptr, file);
         files.Stage(o.output_path, [&](std::ostream& f) { WriteCalibration(f, file); });
       } else {
         err << prog << ": not writing " << o.output_path << ": the calibration is not usable\n";

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <tuple>
 #include <utility>
 
 #include "gnuplot.hpp"
@@ -32,10 +33,11 @@ EffectUnit UnitOf(const EffectTerm& term) {
                                                   : EffectUnit{"um", kUmPerMm};
 }
 
-double LsSphericityUm(const std::vector<Eigen::Vector3d>& points) {
+// Peak to valley and rms [um] of the radial residuals about the points' least-squares sphere.
+std::pair<double, double> LsSphericityUm(const std::vector<Eigen::Vector3d>& points) {
   const LeastSquaresSphere fit = FitSphereLeastSquares(points);
   if (!fit.sphere.ok) throw Error("the validation points do not determine a sphere");
-  return RadialPeakToValley(points, fit.sphere.center) * kUmPerMm;
+  return {RadialPeakToValley(points, fit.sphere.center) * kUmPerMm, fit.rms * kUmPerMm};
 }
 
 json GroupJson(const StructureGroup& g) {
@@ -119,6 +121,44 @@ bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
   return drift;
 }
 
+std::vector<int> AppliedColumns(const EffectFit& fit) {
+  std::vector<int> columns;
+  for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
+  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
+    if (fit.model.terms[t].effect == Effect::kProbeDrift) continue;
+    for (int i = 0; i < fit.model.terms[t].size(); ++i) columns.push_back(fit.TermOffset(t) + i);
+  }
+  if (!fit.model.form.Empty()) {
+    for (std::size_t k = 0; k < fit.model.form.terms.size(); ++k)
+      columns.push_back(fit.FormOffset(0) + static_cast<int>(k));
+  }
+  return columns;
+}
+
+void AddCovarianceToCalibrationFile(const std::vector<int>& columns, const CalibrationResult& result,
+                                    const CalibrationBudget* budget, CalibrationFile& file) {
+  if (result.analysis.Empty()) return;
+  const Eigen::MatrixXd& all = budget != nullptr ? budget->covariance : result.analysis.covariance;
+  const auto n = static_cast<Eigen::Index>(columns.size());
+  Eigen::MatrixXd c(n, n);
+  for (Eigen::Index p = 0; p < n; ++p) {
+    for (Eigen::Index q = 0; q < n; ++q)
+      c(p, q) = all(columns[static_cast<std::size_t>(p)], columns[static_cast<std::size_t>(q)]);
+  }
+  if (!c.allFinite()) return;  // a parameter the data do not determine: the seven errors' block alone
+  file.covariance = c.topLeftCorner<kNumScmsParams, kNumScmsParams>();
+  if (n > kNumScmsParams) file.parameter_covariance = c;
+  file.covariance_type_a_dof =
+      budget != nullptr ? budget->type_a_dof
+                        : static_cast<double>(result.n_points) - static_cast<double>(result.analysis.parameters.size());
+  if (budget == nullptr) return;
+  for (const BudgetSensitivity& s : budget->inputs) {
+    CalibrationFile::CovarianceInput in{s.input, s.unit, s.u, Eigen::VectorXd(n)};
+    for (Eigen::Index p = 0; p < n; ++p) in.per_unit(p) = s.per_unit(columns[static_cast<std::size_t>(p)]);
+    file.covariance_inputs.push_back(in);
+  }
+}
+
 Validation Validate(const std::string& path, double probe_offset_mm, const TraceResult& trace) {
   const PointsData data = ReadPointsFile(path);
   Validation v;
@@ -151,8 +191,8 @@ Validation Validate(const std::string& path, double probe_offset_mm, const Trace
     vs.setup = setup;
     vs.n_points = static_cast<int>(pts.first.size());
     try {
-      vs.before_um = LsSphericityUm(pts.first);
-      vs.after_um = LsSphericityUm(pts.second);
+      std::tie(vs.before_um, vs.before_rms_um) = LsSphericityUm(pts.first);
+      std::tie(vs.after_um, vs.after_rms_um) = LsSphericityUm(pts.second);
     } catch (const Error& e) {
       throw Error(path + ": setup " + std::to_string(setup) + ": " + e.what());
     }
@@ -160,6 +200,22 @@ Validation Validate(const std::string& path, double probe_offset_mm, const Trace
     v.after_um = std::max(v.after_um, vs.after_um);
     v.setups.push_back(vs);
   }
+  // The rms pooled over the setups, each about its own sphere: nu = sum (n_s - 4).
+  double ss_before = 0.0, ss_after = 0.0, n = 0.0, dof = 0.0;
+  for (const ValidationSetup& vs : v.setups) {
+    ss_before += vs.before_rms_um * vs.before_rms_um * vs.n_points;
+    ss_after += vs.after_rms_um * vs.after_rms_um * vs.n_points;
+    n += vs.n_points;
+    dof += std::max(1, vs.n_points - 4);
+  }
+  RmsComparison& c = v.rms;
+  c.before_um = std::sqrt(ss_before / n);
+  c.after_um = std::sqrt(ss_after / n);
+  c.before_u_um = c.before_um / std::sqrt(2.0 * dof);
+  c.after_u_um = c.after_um / std::sqrt(2.0 * dof);
+  c.difference_um = c.before_um - c.after_um;
+  c.difference_u_um = std::hypot(c.before_u_um, c.after_u_um);
+  c.inside_noise = std::abs(c.difference_um) <= 2.0 * c.difference_u_um;
   return v;
 }
 
@@ -245,13 +301,21 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   }
   if (r.unexplained.empty()) out << "  no significant structure remains\n";
   if (validation) {
+    const RmsComparison& c = validation->rms;
     out << Format("  validation on %s (%d points): least-squares sphericity %.4f um before, %.4f um after%s\n",
                   validation->path.c_str(), validation->n_points, validation->before_um, validation->after_um,
                   validation->setups.size() > 1 ? " (worst setup)" : "");
+    out << Format(
+        "    rms about the least-squares sphere %.4f +- %.4f um before, %.4f +- %.4f um after (standard "
+        "uncertainties): the difference %.4f +- %.4f um is %s\n",
+        c.before_um, c.before_u_um, c.after_um, c.after_u_um, c.difference_um, c.difference_u_um,
+        c.inside_noise ? "inside the noise (within twice its uncertainty): the validation shows no change"
+                       : "beyond the noise (more than twice its uncertainty)");
+    out << "    (a peak to valley is an extreme of the noise: compare before and after by the rms)\n";
     if (validation->setups.size() > 1) {
       for (const ValidationSetup& s : validation->setups) {
-        out << Format("    setup %d (%d points): %.4f um before, %.4f um after\n", s.setup, s.n_points, s.before_um,
-                      s.after_um);
+        out << Format("    setup %d (%d points): %.4f um before, %.4f um after; rms %.4f um before, %.4f um after\n",
+                      s.setup, s.n_points, s.before_um, s.after_um, s.before_rms_um, s.after_rms_um);
       }
     }
     if (!validation->note.empty()) out << "    " << validation->note << "\n";
@@ -346,12 +410,22 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
       setups.push_back({{"setup", s.setup},
                         {"n_points", s.n_points},
                         {"before_ls_sphericity_um", s.before_um},
-                        {"after_ls_sphericity_um", s.after_um}});
+                        {"after_ls_sphericity_um", s.after_um},
+                        {"before_rms_um", s.before_rms_um},
+                        {"after_rms_um", s.after_rms_um}});
     }
+    const RmsComparison& c = validation->rms;
     report["validation"] = {{"points_file", validation->path},
                             {"n_points", validation->n_points},
                             {"before_ls_sphericity_um", validation->before_um},
                             {"after_ls_sphericity_um", validation->after_um},
+                            {"before_rms_um", c.before_um},
+                            {"before_rms_u_um", c.before_u_um},
+                            {"after_rms_um", c.after_um},
+                            {"after_rms_u_um", c.after_u_um},
+                            {"rms_difference_um", c.difference_um},
+                            {"rms_difference_u_um", c.difference_u_um},
+                            {"rms_difference_inside_noise", c.inside_noise},
                             {"setups", setups},
                             {"note", validation->note}};
   }

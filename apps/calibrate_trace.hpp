@@ -9,18 +9,35 @@
 
 #include <nlohmann/json.hpp>
 
+#include "sph/calib/budget.hpp"
 #include "sph/calib/trace.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/output_files.hpp"
 
 namespace sph::apps {
 
-/// Least-squares sphericity [um] of one sphere position of the validation file.
+/// Least-squares sphericity and rms of the residuals about the least-squares sphere [um] of one
+/// sphere position of the validation file.
 struct ValidationSetup {
   int setup = 0;
   int n_points = 0;
   double before_um = 0.0;
   double after_um = 0.0;
+  double before_rms_um = 0.0;
+  double after_rms_um = 0.0;
+};
+
+/// An rms of residuals with its standard uncertainty, and how two of them compare. For n
+/// residuals with nu = n - 4 degrees of freedom (per sphere) u(rms) = rms / sqrt(2 nu), the std of
+/// the rms of normal residuals to first order. A difference is inside the noise when it is at most
+/// twice sqrt(u_1^2 + u_2^2) (the two taken as independent, which overstates the uncertainty of
+/// the difference of two rms of the same readings: "inside" is said rather too often than too
+/// rarely).
+struct RmsComparison {
+  double before_um = 0.0, before_u_um = 0.0;
+  double after_um = 0.0, after_u_um = 0.0;
+  double difference_um = 0.0, difference_u_um = 0.0;
+  bool inside_noise = true;
 };
 
 /// Least-squares sphericity [um] of another sphere measured on the same machine, compensated with
@@ -32,7 +49,8 @@ struct Validation {
   double before_um = 0.0;
   double after_um = 0.0;
   std::vector<ValidationSetup> setups;
-  std::string note;  ///< what of the model was not applied, and why
+  RmsComparison rms;  ///< pooled over the setups (each about its own sphere)
+  std::string note;   ///< what of the model was not applied, and why
 };
 
 /// Compensates the points of `path` with `before` and `after` and fits a least-squares sphere
@@ -42,6 +60,19 @@ Validation Validate(const std::string& path, double probe_offset_mm, const Trace
 /// Puts the effects of `fit` into a calibration file, except probe_drift (it belongs to the run).
 /// Returns whether a probe_drift was left out.
 bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file);
+
+/// The columns of the fit's analysis (its parameter order) of what AddEffectsToCalibrationFile()
+/// puts into the file, in the file's covariance order: the seven errors, every effect parameter
+/// but probe_drift's, then the form's coefficients of the setups of known orientation.
+std::vector<int> AppliedColumns(const EffectFit& fit);
+
+/// Puts the covariance of the parameters `columns` of the fit's analysis (in the file's order,
+/// AppliedColumns(); the seven errors' alone without effects) into the file: `covariance` (their
+/// 7 x 7 block) and `parameter_covariance`, the budget's combined one when given (else the fit's),
+/// with each Type B input's share and the Type A degrees of freedom. Nothing when a parameter is
+/// undetermined.
+void AddCovarianceToCalibrationFile(const std::vector<int>& columns, const CalibrationResult& result,
+                                    const CalibrationBudget* budget, CalibrationFile& file);
 
 /// The trace section of the text report.
 void WriteTraceText(std::ostream& out, const TraceResult& trace, const Validation* validation);

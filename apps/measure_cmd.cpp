@@ -15,6 +15,7 @@
 #include "gnuplot.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/gum.hpp"
 #include "sph/core/noise_floor.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
@@ -23,14 +24,16 @@
 #include "sph/internal/format.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/form_model.hpp"
-#include "sph/sphere/sphere_fit.hpp"
 #include "sph/model/units.hpp"
+#include "sph/sphere/sphere_fit.hpp"
 
 namespace sph::apps {
 namespace {
 
 using nlohmann::json;
 
+using gum::BudgetInput;
+using gum::EvaluationType;
 using internal::Format;
 
 const char* const kProgram = "sph_measure";
@@ -39,7 +42,8 @@ const char* const kProgram = "sph_measure";
 struct Input {
   std::vector<Eigen::Vector3d> points_mm;
   std::vector<RawReading> readings;  ///< empty for x y z input
-  std::optional<Calibration> calibration;
+  std::optional<AppliedCalibration> applied;  ///< what compensated them, with its covariance
+  std::string covariance_note;                ///< what of the calibration goes without its uncertainty
   std::optional<int> setup;
   std::optional<double> header_radius_mm;
   std::string description;                       ///< one line for the report
@@ -110,6 +114,7 @@ Input ReadInput(const MeasureOptions& o) {
                                            : "is in the calibration file; --subtract-sphere-form takes it off when "
                                              "these points are of that sphere");
   }
+  AppliedCalibration applied = AppliedCalibration::Of(file, o.subtract_sphere_form);
   if (o.subtract_sphere_form) {
     if (file.form_terms.empty()) {
       throw Error(o.calibration_path +
@@ -117,25 +122,31 @@ Input ReadInput(const MeasureOptions& o) {
                   "in at least two known orientations on its mount), which --subtract-sphere-form takes off");
     }
     const int id = in.setup.value_or(0);
-    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
     const auto it = data.header.mount_rotations.find(id);
     if (it != data.header.mount_rotations.end()) {
       if (!it->second.known()) {
         throw Error(o.points_path + ": the mount rotation of setup " + std::to_string(id) +
                     " is unknown: the sphere's form cannot be taken off in an orientation nobody measured");
       }
-      rotation = MountRotationMatrix(*it->second.rotation_deg);
+      applied.form.rotation = MountRotationMatrix(*it->second.rotation_deg);
     }
     const LeastSquaresSphere ls = FitSphereLeastSquares(in.points_mm);
     if (!ls.sphere.ok) throw Error(o.points_path + ": the compensated points determine no sphere");
-    for (Eigen::Vector3d& p : in.points_mm) {
-      const Eigen::Vector3d offset = p - ls.sphere.center;
-      const double dist = offset.norm();
-      const Eigen::Vector3d body = rotation.transpose() * (offset / dist);
-      p = ls.sphere.center + offset * (1.0 - FormValue(file.form_terms, file.form_values_mm.data(), body) / dist);
-    }
+    applied.form.center_mm = ls.sphere.center;  // the form's directions are taken from here
+    in.points_mm = ApplyCalibration(applied, in.readings);
   }
-  in.calibration = cal;
+  std::vector<std::string> without;
+  if (applied.covariance.size() > 0 && !applied.effects_in_covariance && !cal.effects.Empty()) {
+    without.push_back("its effects are applied without their uncertainty");
+  }
+  if (applied.covariance.size() > 0 && !applied.form.Empty() && !applied.form_in_covariance) {
+    without.push_back("the form is taken off without its uncertainty");
+  }
+  if (!without.empty()) {
+    in.covariance_note = o.calibration_path + " holds the covariance of the seven errors alone: " + without.front() +
+                         (without.size() > 1 ? ", and " + without.back() : std::string());
+  }
+  in.applied = std::move(applied);
   for (const auto& [key, value] : file.source) {
     char* end = nullptr;
     const double v = std::strtod(value.c_str(), &end);
@@ -304,11 +315,198 @@ json NoiseFloorJson(const SphereEvaluation& ev, const NoiseFloorResult& r) {
           {"rms_form_um", f.rms_form_mm * kUmPerMm}};
 }
 
+// --- the budget (GUM) of each result --------------------------------------------------------------
+
+struct ResultBudget {
+  MeasuredResult which;
+  const char* name;  ///< as in the report: radius_mm, sphericity_ls_um, ...
+  const char* key;   ///< of the JSON
+  double value_mm = 0.0;
+  gum::UncertaintyStatement statement;
+  std::optional<gum::MonteCarloResult> mc;  ///< the JCGM 101 check, for the sphericities
+  std::string mc_note;                      ///< why there is none
+};
+
+struct Budgets {
+  std::vector<ResultBudget> results;
+  gum::CoverageSpec coverage;
+  std::string type_a_form_note;  ///< where the sphericities' Type A comes from, or why there is none
+};
+
+Budgets BudgetsOf(const MeasureOptions& o, const Input& in, const SphereEvaluation& ev, const NoiseFloorResult& floor,
+                  Progress& progress) {
+  Budgets b;
+  if (o.coverage) b.coverage.probability = *o.coverage;
+  const AppliedCalibration none;
+  const AppliedCalibration& applied = in.applied ? *in.applied : none;
+  const bool calibrated = applied.covariance.size() > 0;
+  std::array<ResultSensitivity, 3> c{};
+  if (calibrated) {
+    progress.Stage("uncertainty budget: sensitivities to " + std::to_string(applied.covariance.rows()) +
+                   " calibration parameters");
+    c = SensitivitiesOf(in.readings, applied, ev);
+  }
+  // Type A of the sphericities: how much the probe's noise alone moves each statistic at these
+  // directions (the noise floor's std), from that many simulated measurements.
+  double ls_a = 0.0, mz_a = 0.0, form_dof = gum::kInfiniteDof;
+  if (floor.floor) {
+    ls_a = floor.floor->ls_pv_std_mm;
+    mz_a = std::isfinite(floor.floor->mz_std_mm) ? floor.floor->mz_std_mm : 0.0;
+    form_dof = std::max(1.0, floor.floor->draws - 1.0);
+    b.type_a_form_note =
+        Format("the std of each sphericity over the noise floor's %d simulated measurements", floor.floor->draws);
+    if (!std::isfinite(floor.floor->mz_std_mm)) {
+      b.type_a_form_note += " (the minimum zone's is not simulated for this many points: left out of its budget)";
+    }
+  } else {
+    b.type_a_form_note = "the sphericities' own scatter is not evaluated: the noise floor is " + floor.note;
+  }
+  const double n_dof = std::max(1.0, ev.n_points - 4.0);
+  b.results = {{MeasuredResult::kRadius, "radius_mm", "radius", ev.ls.sphere.radius, {}, {}, {}},
+               {MeasuredResult::kSphericityLs, "sphericity_ls_um", "sphericity_ls", ev.sphericity_ls_mm, {}, {}, {}},
+               {MeasuredResult::kSphericityMz, "sphericity_mz_um", "sphericity_mz", ev.mz.width, {}, {}, {}}};
+  const std::array<double, 3> type_a{ev.radius_fit_std_mm, ls_a, mz_a};
+  const std::array<double, 3> dof{n_dof, form_dof, form_dof};
+  const std::array<const char*, 3> type_a_name{
+      "measurement (scatter of the points)", "measurement (noise of the points)", "measurement (noise of the points)"};
+  for (std::size_t k = 0; k < 3; ++k) {
+    ResultBudget& r = b.results[k];
+    r.statement = MeasurementBudget(type_a_name[k], type_a[k], dof[k], c[k], applied, b.coverage);
+    if (r.which == MeasuredResult::kRadius) continue;
+    if (!calibrated) {
+      r.mc_note = "no calibration covariance to propagate";
+    } else if (o.mc_max_trials == 0) {
+      r.mc_note = "not run (--mc-max-trials 0)";
+    } else if (ev.n_points > o.mc_max_points) {
+      r.mc_note = Format("not run: %d points, above --mc-max-points %ld (each trial compensates and fits them all)",
+                         ev.n_points, o.mc_max_points);
+    } else {
+      progress.Stage(std::string("Monte Carlo check (JCGM 101) of ") + r.name);
+      gum::MonteCarloOptions mo;
+      mo.probability = r.statement.coverage_probability;
+      mo.significant_digits = o.mc_digits;
+      mo.seed = o.seed;
+      mo.batch_trials = o.mc_batch_trials;
+      mo.max_trials = o.mc_max_trials;
+      r.mc = CheckByMonteCarlo(r.which, in.readings, applied, ev, type_a[k], dof[k], mo);
+    }
+  }
+  progress.Finish();
+  return b;
+}
+
+double ReportScale(const BudgetInput& in) { return in.unit.empty() ? kUmPerMm : 1.0; }
+
+void WriteBudgetText(std::ostream& out, const Budgets& b, int mc_digits) {
+  out << "uncertainty (GUM): each input's contribution |c_i| u(x_i), the combined u, effective degrees of freedom "
+         "nu_eff and U = k u, in um\n";
+  for (const ResultBudget& r : b.results) {
+    const gum::UncertaintyStatement& st = r.statement;
+    const std::string dof = !std::isfinite(st.dof) ? "inf" : st.dof > 1e6 ? ">1e6" : Format("%.0f", st.dof);
+    const std::string value =
+        r.which == MeasuredResult::kRadius ? Format("%.9f", r.value_mm) : Format("%.4f", r.value_mm * kUmPerMm);
+    out << Format("  %-18s %s   u %.4f   nu_eff %s   k %.2f   U %.4f\n", r.name, value.c_str(), st.u * kUmPerMm,
+                  dof.c_str(), st.k, st.U * kUmPerMm);
+    for (const BudgetInput& in : st.inputs) {
+      std::string detail = in.type == EvaluationType::kA
+                               ? (std::isfinite(in.dof) ? Format("A, %.0f degrees of freedom", in.dof) : "A")
+                               : "B";
+      if (!in.unit.empty()) {
+        detail += Format(", u %.4g ", in.standard_uncertainty) + in.unit +
+                  Format(", sensitivity %.4g um/", in.sensitivity * kUmPerMm) + in.unit;
+      }
+      out << Format("    %-44s %.4f   (%s)\n", in.name.c_str(), in.Contribution() * kUmPerMm, detail.c_str());
+    }
+    if (r.mc) {
+      const gum::MonteCarloResult& mc = *r.mc;
+      const double lo = r.value_mm - st.U, hi = r.value_mm + st.U;
+      out << Format(
+          "    Monte Carlo check (JCGM 101, adaptive): %ld trials, mean %.4f, u %.4f, %.2f %% interval "
+          "[%.4f, %.4f]; tolerance %.4f (%d significant digit%s of u)\n",
+          mc.trials, mc.y * kUmPerMm, mc.u * kUmPerMm, 100.0 * st.coverage_probability, mc.low * kUmPerMm,
+          mc.high * kUmPerMm, mc.tolerance * kUmPerMm, mc_digits, mc_digits == 1 ? "" : "s");
+      if (!mc.converged) {
+        out << "    not converged to that tolerance within --mc-max-trials: the comparison is not conclusive\n";
+      } else if (gum::GufValidated(r.value_mm, st.U, mc)) {
+        out << Format(
+            "    the GUM interval [%.4f, %.4f] agrees with it within the tolerance: the linear budget holds\n",
+            lo * kUmPerMm, hi * kUmPerMm);
+      } else {
+        out << Format(
+            "    the GUM interval [%.4f, %.4f] does not agree: the statistic is not linear enough; the Monte "
+            "Carlo interval is the statement\n",
+            lo * kUmPerMm, hi * kUmPerMm);
+      }
+    } else if (!r.mc_note.empty()) {
+      out << "    Monte Carlo check: " << r.mc_note << "\n";
+    }
+  }
+  out << "  sphericities' Type A: " << b.type_a_form_note << "\n";
+  if (b.coverage.probability > 0.0) {
+    out << Format("  coverage: %g %%, k from each result's effective degrees of freedom (t distribution)\n\n",
+                  100.0 * b.coverage.probability);
+  } else {
+    out << Format(
+        "  coverage: k = %g (about 95.45 %% for a normal distribution; --coverage 0.95 gives a coverage "
+        "interval)\n\n",
+        b.coverage.k);
+  }
+}
+
+json BudgetsJson(const Budgets& b, int mc_digits) {
+  json j = json::object();
+  for (const ResultBudget& r : b.results) {
+    const gum::UncertaintyStatement& st = r.statement;
+    json items = json::array();
+    for (const BudgetInput& in : st.inputs) {
+      items.push_back({{"input", in.name},
+                       {"type", in.type == EvaluationType::kA ? "A" : "B"},
+                       {"u_input", in.standard_uncertainty * ReportScale(in)},
+                       {"input_unit", in.unit.empty() ? std::string("um") : in.unit},
+                       {"sensitivity", in.unit.empty() ? in.sensitivity : in.sensitivity * kUmPerMm},
+                       {"u_contribution", in.Contribution() * kUmPerMm},
+                       {"dof", std::isfinite(in.dof) ? json(in.dof) : json(nullptr)}});
+    }
+    json e = {{"value", r.which == MeasuredResult::kRadius ? r.value_mm : r.value_mm * kUmPerMm},
+              {"value_unit", r.which == MeasuredResult::kRadius ? "mm" : "um"},
+              {"unit", "um"},
+              {"std", st.inputs.front().standard_uncertainty * kUmPerMm},
+              {"u", st.u * kUmPerMm},
+              {"U", st.U * kUmPerMm},
+              {"k", st.k},
+              {"dof", std::isfinite(st.dof) ? json(st.dof) : json(nullptr)},
+              {"coverage_probability", st.coverage_probability},
+              {"budget", items}};
+    if (r.mc) {
+      const gum::MonteCarloResult& mc = *r.mc;
+      e["monte_carlo"] = {{"method", "JCGM 101 adaptive"},
+                          {"trials", mc.trials},
+                          {"mean_um", mc.y * kUmPerMm},
+                          {"u_um", mc.u * kUmPerMm},
+                          {"low_um", mc.low * kUmPerMm},
+                          {"high_um", mc.high * kUmPerMm},
+                          {"shortest_low_um", mc.shortest_low * kUmPerMm},
+                          {"shortest_high_um", mc.shortest_high * kUmPerMm},
+                          {"tolerance_um", mc.tolerance * kUmPerMm},
+                          {"significant_digits", mc_digits},
+                          {"converged", mc.converged},
+                          {"gum_validated", mc.converged && gum::GufValidated(r.value_mm, st.U, mc)}};
+    } else if (r.which != MeasuredResult::kRadius) {
+      e["monte_carlo"] = {{"note", r.mc_note}};
+    }
+    j[r.key] = e;
+  }
+  j["type_a_sphericity"] = b.type_a_form_note;
+  j["coverage"] =
+      b.coverage.probability > 0.0 ? json{{"probability", b.coverage.probability}} : json{{"k", b.coverage.k}};
+  return j;
+}
+
 // --- reports ------------------------------------------------------------------------------------
 
 void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, const SphereEvaluation& ev,
                const std::optional<CalibrationUncertainty>& u, const std::string& uncertainty_note,
-               const NoiseFloorResult& floor) {
+               const NoiseFloorResult& floor, const Budgets& budgets) {
   const double r = ev.ls.sphere.radius;
   out << kProgram << " " SPH_VERSION ": " << o.points_path << "\n  " << in.description << "\n\n";
   if (!in.form_note.empty()) out << "  " << in.form_note << "\n";
@@ -358,6 +556,8 @@ void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, cons
   } else {
     out << "uncertainty from the calibration: " << uncertainty_note << "\n\n";
   }
+  if (!in.covariance_note.empty()) out << "  note: " << in.covariance_note << "\n\n";
+  WriteBudgetText(out, budgets, o.mc_digits);
   if (ev.warnings.empty()) {
     out << "warnings: none\n";
   } else {
@@ -368,7 +568,7 @@ void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, cons
 
 std::string JsonReport(const MeasureOptions& o, const Input& in, const SphereEvaluation& ev,
                        const std::optional<CalibrationUncertainty>& u, const std::string& uncertainty_note,
-                       const NoiseFloorResult& floor) {
+                       const NoiseFloorResult& floor, const Budgets& budgets) {
   json j;
   j["created_by"] = std::string(kProgram) + " " SPH_VERSION;
   j["input"] = {{"points_file", o.points_path},
@@ -416,6 +616,11 @@ std::string JsonReport(const MeasureOptions& o, const Input& in, const SphereEva
     j["uncertainty"] = nullptr;
     j["uncertainty_note"] = uncertainty_note;
   }
+  j["budget"] = BudgetsJson(budgets, o.mc_digits);
+  if (u) {
+    j["uncertainty"]["parameters"] = in.applied->names;
+    j["uncertainty"]["note"] = in.covariance_note;
+  }
   j["sphere_form"] =
       in.form_note.empty() ? json(nullptr) : json{{"note", in.form_note}, {"subtracted", o.subtract_sphere_form}};
   j["warnings"] = ev.warnings;
@@ -455,6 +660,24 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
                  "Simulated measurements of pure noise at the measured directions for the noise floor; 0: none")
       ->capture_default_str()
       ->check(CLI::Range(0, 100000));
+  app.add_option("--coverage", o.coverage,
+                 "Coverage probability of the expanded uncertainties U = k u (k from the effective degrees of "
+                 "freedom); default: k = 2")
+      ->check(InRange(ranges::kCoverageProbability));
+  app.add_option("--mc-max-trials", o.mc_max_trials,
+                 "JCGM 101 adaptive Monte Carlo check of the sphericities' budgets: at most this many trials; 0: none")
+      ->capture_default_str()
+      ->check(CLI::Range(0L, 100000000L));
+  app.add_option("--mc-batch-trials", o.mc_batch_trials, "Trials per batch of that check")
+      ->capture_default_str()
+      ->check(CLI::Range(10L, 10000000L));
+  app.add_option("--mc-max-points", o.mc_max_points, "Run that check only for at most this many points")
+      ->capture_default_str()
+      ->check(CLI::Range(0L, 100000000L));
+  app.add_option("--mc-digits", o.mc_digits,
+                 "Significant digits of u that set the check's numerical tolerance (JCGM 101 7.9.2)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 3));
   app.add_option("--max-dilution", o.max_dilution,
                  "Warn when the coverage determines radius or centre this many times worse than points over the "
                  "whole sphere")
@@ -488,9 +711,9 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
 
     std::optional<CalibrationUncertainty> u;
     std::string note;
-    if (!in.calibration) {
+    if (!in.applied) {
       note = "none (x y z input carries no calibration)";
-    } else if (!in.calibration->covariance) {
+    } else if (in.applied->covariance.size() == 0) {
       note = "none (" + o.calibration_path + " holds no covariance)";
     } else if (o.uncertainty_samples == 0) {
       note = "not computed (--uncertainty-samples 0)";
@@ -499,15 +722,16 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
       uopts.samples = o.uncertainty_samples;
       uopts.seed = o.seed;
       uopts.progress = [&](int done, int total) { progress.Update("uncertainty: calibration draws", done, total); };
-      u = PropagateCalibrationUncertainty(in.readings, *in.calibration, ev, uopts);
+      u = PropagateCalibrationUncertainty(in.readings, *in.applied, ev, uopts);
     }
     progress.Finish();  // the report follows on stdout, maybe the same terminal
 
     const NoiseFloorResult floor = NoiseFloorOf(o, in, ev);
+    const Budgets budgets = BudgetsOf(o, in, ev, floor, progress);
 
     OutputFiles files(out);
     if (!o.json_path.empty()) {
-      const std::string report = JsonReport(o, in, ev, u, note, floor);
+      const std::string report = JsonReport(o, in, ev, u, note, floor, budgets);
       files.Stage(o.json_path, [&](std::ostream& f) { f << report; });
     }
     if (!o.output_path.empty()) {
@@ -518,7 +742,7 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
       });
     }
     if (!o.plot_path.empty() || !o.plot_script_path.empty()) DrawFormMap(o, in.points_mm, ev, files);
-    if (text) WriteText(out, o, in, ev, u, note, floor);
+    if (text) WriteText(out, o, in, ev, u, note, floor, budgets);
     if (!text) {
       for (const auto& w : ev.warnings) err << kProgram << ": warning: " << w << "\n";
     }

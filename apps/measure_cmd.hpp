@@ -36,6 +36,11 @@ struct MeasureOptions {
   bool quiet = false;               ///< no text report on stdout (warnings still go to stderr)
   std::optional<double> noise_um;   ///< the probe's noise for the noise floor; default: the calibration's fit rms
   int noise_floor_draws = 50;       ///< simulated measurements of pure noise; 0: no noise floor
+  std::optional<double> coverage;   ///< coverage probability of U (default: k = 2)
+  long mc_max_trials = 100000;      ///< JCGM 101 check of the sphericities: at most this many trials; 0: none
+  long mc_batch_trials = 1000;      ///< trials per batch of the adaptive procedure
+  int mc_digits = 1;                ///< significant digits of u that set the check's numerical tolerance
+  long mc_max_points = 2000;        ///< the check is run for at most this many points (its cost grows with them)
   ProgressMode progress = ProgressMode::kAuto;  ///< progress on stderr
 };
 

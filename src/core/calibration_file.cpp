@@ -147,23 +147,48 @@ void ParseSphereForm(const json& j, const std::string& path, CalibrationFile& ca
   if (!with_std) cal.form_std_mm.clear();
 }
 
-// A covariance matrix must be one: symmetric, with variances >= 0, positive semi-definite (to
-// rounding). Else the draws of sph_measure's uncertainty would be nonsense, or NaN.
-void CheckCovariance(const ScmsCovariance& c, const std::string& path) {
+// One parameter of the file's covariance: its name, the unit it is stored in and the internal
+// units per stored unit.
+struct StoredParameter {
+  std::string name;
+  std::string unit;
+  double scale;
+};
+
+std::vector<StoredParameter> StoredParameters(const CalibrationFile& cal) {
+  std::vector<StoredParameter> v;
   for (int p = 0; p < kNumScmsParams; ++p) {
-    if (!(c(p, p) >= 0.0) || !std::isfinite(c(p, p))) {
-      throw Error(path + ": covariance.matrix: the variance of " + kScmsParamInfo[static_cast<std::size_t>(p)].name +
-                  " is " + Format("%g", ToReportUnits(p, ToReportUnits(p, c(p, p)))) +
-                  ": a variance is finite and >= 0");
+    v.push_back({kScmsParamInfo[static_cast<std::size_t>(p)].name, UnitOf(p), FromReportUnits(p, 1.0)});
+  }
+  for (const EffectTerm& term : cal.effects.terms) {
+    for (std::size_t i = 0; i < term.components.size(); ++i) {
+      v.push_back({term.ParamName(i), EffectUnit(term), EffectScale(term)});
     }
   }
-  for (int p = 0; p < kNumScmsParams; ++p) {
-    for (int q = p + 1; q < kNumScmsParams; ++q) {
+  for (const FormTerm& t : cal.form_terms) {
+    v.push_back({"sphere_form.S(" + std::to_string(t.l) + "," + std::to_string(t.m) + ")", "um", kMmPerUm});
+  }
+  return v;
+}
+
+// A covariance matrix must be one: symmetric, with variances >= 0, positive semi-definite (to
+// rounding). Else the draws of sph_measure's uncertainty would be nonsense, or NaN. `c` in stored
+// units.
+void CheckCovariance(const Eigen::MatrixXd& c, const std::vector<StoredParameter>& params, const std::string& path) {
+  const Eigen::Index n = c.rows();
+  for (Eigen::Index p = 0; p < n; ++p) {
+    if (!(c(p, p) >= 0.0) || !std::isfinite(c(p, p))) {
+      throw Error(path + ": covariance.matrix: the variance of " + params[static_cast<std::size_t>(p)].name + " is " +
+                  Format("%g", c(p, p)) + ": a variance is finite and >= 0");
+    }
+  }
+  for (Eigen::Index p = 0; p < n; ++p) {
+    for (Eigen::Index q = p + 1; q < n; ++q) {
       const double scale = std::sqrt(c(p, p) * c(q, q));
       if (!std::isfinite(c(p, q)) || std::abs(c(p, q) - c(q, p)) > 1e-9 * scale + 1e-300) {
         throw Error(path + ": covariance.matrix is not symmetric: the entries of " +
-                    kScmsParamInfo[static_cast<std::size_t>(p)].name + " and " +
-                    kScmsParamInfo[static_cast<std::size_t>(q)].name + " differ");
+                    params[static_cast<std::size_t>(p)].name + " and " + params[static_cast<std::size_t>(q)].name +
+                    " differ");
       }
     }
   }
@@ -174,6 +199,86 @@ void CheckCovariance(const ScmsCovariance& c, const std::string& path) {
   if (eig.eigenvalues().minCoeff() < -1e-8) {
     throw Error(path + ": covariance.matrix is not positive semi-definite (its correlation matrix has the eigenvalue " +
                 Format("%.3g", eig.eigenvalues().minCoeff()) + "): it is not the covariance of any estimate");
+  }
+}
+
+json NamesOf(const std::vector<StoredParameter>& params, std::size_t n, bool units) {
+  json a = json::array();
+  for (std::size_t i = 0; i < n; ++i) a.push_back(units ? params[i].unit : params[i].name);
+  return a;
+}
+
+// The "covariance" object, read after the effects and the form that name its parameters.
+void ParseCovariance(const json& cov, const std::string& path, CalibrationFile& cal) {
+  const std::vector<StoredParameter> all = StoredParameters(cal);
+  // The matrix is only meaningful in the order and units it names: they must be the writer's, of
+  // the seven errors alone (older files) or of every parameter.
+  const json& names = Field(cov, "parameters", "covariance.", path);
+  std::size_t n = kNumScmsParams;
+  if (all.size() > kNumScmsParams && names == NamesOf(all, all.size(), false)) n = all.size();
+  for (const bool units : {false, true}) {
+    const json expected = NamesOf(all, n, units);
+    if (Field(cov, units ? "units" : "parameters", "covariance.", path) != expected) {
+      std::string also;
+      if (!units && all.size() > kNumScmsParams)
+        also = " (the seven errors') or " + NamesOf(all, all.size(), false).dump();
+      throw Error(path + ": field 'covariance." + (units ? "units" : "parameters") + "' must be " + expected.dump() +
+                  also);
+    }
+  }
+  const std::string size = std::to_string(n) + " x " + std::to_string(n);
+  const json& rows = Field(cov, "matrix", "covariance.", path);
+  if (!rows.is_array() || rows.size() != n) throw Error(path + ": covariance.matrix must be " + size);
+  Eigen::MatrixXd stored(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(n));
+  for (std::size_t p = 0; p < n; ++p) {
+    const json& row = rows[p];
+    if (!row.is_array() || row.size() != n) throw Error(path + ": covariance.matrix must be " + size);
+    for (std::size_t q = 0; q < n; ++q) {
+      const json& v = row[q];
+      if (!v.is_number()) throw Error(path + ": covariance.matrix has a non-number");
+      stored(static_cast<Eigen::Index>(p), static_cast<Eigen::Index>(q)) = v.get<double>();
+    }
+  }
+  CheckCovariance(stored, all, path);
+  Eigen::VectorXd scale(static_cast<Eigen::Index>(n));
+  for (std::size_t p = 0; p < n; ++p) scale(static_cast<Eigen::Index>(p)) = all[p].scale;
+  const Eigen::MatrixXd c = scale.asDiagonal() * stored * scale.asDiagonal();
+  cal.covariance = c.topLeftCorner<kNumScmsParams, kNumScmsParams>();
+  if (n > kNumScmsParams) cal.parameter_covariance = c;
+  if (cov.contains("type_a_dof") && !cov["type_a_dof"].is_null()) {
+    const double dof = Number(cov, "type_a_dof", "covariance.", path);
+    if (!(dof >= 1.0))
+      throw Error(path + ": field 'covariance.type_a_dof' must be at least 1, got " + Format("%g", dof));
+    cal.covariance_type_a_dof = dof;
+  }
+  if (!cov.contains("inputs")) return;
+  const json& inputs = cov["inputs"];
+  if (!inputs.is_array()) throw Error(path + ": field 'covariance.inputs' must be an array");
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    const std::string where = "covariance.inputs[" + std::to_string(k) + "].";
+    CalibrationFile::CovarianceInput in;
+    const json& name = Field(inputs[k], "input", where, path);
+    const json& unit = Field(inputs[k], "unit", where, path);
+    if (!name.is_string() || !unit.is_string()) {
+      throw Error(path + ": field '" + where + "input' and 'unit' must be strings");
+    }
+    in.input = name.get<std::string>();
+    in.unit = unit.get<std::string>();
+    in.u = Number(inputs[k], "u", where, path);
+    if (!(in.u >= 0.0) || !std::isfinite(in.u)) throw Error(path + ": field '" + where + "u' must be finite and >= 0");
+    const json& s = Field(inputs[k], "sensitivity", where, path);
+    if (!s.is_array() || s.size() != n) {
+      throw Error(path + ": field '" + where + "sensitivity' must hold " + std::to_string(n) +
+                  " numbers, one per covariance parameter");
+    }
+    in.per_unit.resize(static_cast<Eigen::Index>(n));
+    for (std::size_t p = 0; p < n; ++p) {
+      if (!s[p].is_number() || !std::isfinite(s[p].get<double>())) {
+        throw Error(path + ": field '" + where + "sensitivity' has a non-number");
+      }
+      in.per_unit(static_cast<Eigen::Index>(p)) = s[p].get<double>() * all[p].scale;
+    }
+    cal.covariance_inputs.push_back(in);
   }
 }
 
@@ -196,16 +301,29 @@ void WriteCalibration(std::ostream& out, const CalibrationFile& cal) {
         {"value", ToReportUnits(p, cal.geometry[static_cast<std::size_t>(p)])}, {"unit", UnitOf(p)}};
   }
   j["geometry"] = geometry;
-  if (cal.covariance) {
-    json names = json::array(), units = json::array(), rows = json::array();
-    for (int p = 0; p < kNumScmsParams; ++p) {
-      names.push_back(kScmsParamInfo[static_cast<std::size_t>(p)].name);
-      units.push_back(UnitOf(p));
+  const Eigen::MatrixXd c = AppliedCovariance(cal);
+  if (c.size() > 0) {
+    const std::vector<StoredParameter> all = StoredParameters(cal);
+    const auto n = static_cast<std::size_t>(c.rows());
+    json rows = json::array();
+    for (std::size_t p = 0; p < n; ++p) {
       json row = json::array();
-      for (int q = 0; q < kNumScmsParams; ++q) row.push_back(ToReportUnits(q, ToReportUnits(p, (*cal.covariance)(p, q))));
+      for (std::size_t q = 0; q < n; ++q) {
+        row.push_back(c(static_cast<Eigen::Index>(p), static_cast<Eigen::Index>(q)) / (all[p].scale * all[q].scale));
+      }
       rows.push_back(row);
     }
-    j["covariance"] = {{"parameters", names}, {"units", units}, {"matrix", rows}};
+    json cov = {{"parameters", NamesOf(all, n, false)}, {"units", NamesOf(all, n, true)}, {"matrix", rows}};
+    if (std::isfinite(cal.covariance_type_a_dof)) cov["type_a_dof"] = cal.covariance_type_a_dof;
+    json inputs = json::array();
+    for (const CalibrationFile::CovarianceInput& in : cal.covariance_inputs) {
+      if (in.per_unit.size() != c.rows()) continue;
+      json s = json::array();
+      for (std::size_t p = 0; p < n; ++p) s.push_back(in.per_unit(static_cast<Eigen::Index>(p)) / all[p].scale);
+      inputs.push_back({{"input", in.input}, {"unit", in.unit}, {"u", in.u}, {"sensitivity", s}});
+    }
+    if (!inputs.empty()) cov["inputs"] = inputs;
+    j["covariance"] = cov;
   }
   json effects = json::array();
   for (std::size_t t = 0; t < cal.effects.terms.size(); ++t) {
@@ -287,38 +405,28 @@ CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
     }
     cal.geometry[static_cast<std::size_t>(p)] = FromReportUnits(p, value);
   }
-  if (j.contains("covariance")) {
-    // The matrix is only meaningful in the order and units it names: they must be the writer's.
-    for (const char* key : {"parameters", "units"}) {
-      json expected = json::array();
-      for (int p = 0; p < kNumScmsParams; ++p) {
-        expected.push_back(std::string(key) == "units" ? UnitOf(p) : kScmsParamInfo[static_cast<std::size_t>(p)].name);
-      }
-      if (Field(j["covariance"], key, "covariance.", path) != expected) {
-        throw Error(path + ": field 'covariance." + key + "' must be " + expected.dump());
-      }
-    }
-    const json& rows = Field(j["covariance"], "matrix", "covariance.", path);
-    if (!rows.is_array() || rows.size() != kNumScmsParams) throw Error(path + ": covariance.matrix must be 7 x 7");
-    Eigen::Matrix<double, kNumScmsParams, kNumScmsParams> c;
-    for (int p = 0; p < kNumScmsParams; ++p) {
-      const json& row = rows[static_cast<std::size_t>(p)];
-      if (!row.is_array() || row.size() != kNumScmsParams) throw Error(path + ": covariance.matrix must be 7 x 7");
-      for (int q = 0; q < kNumScmsParams; ++q) {
-        const json& v = row[static_cast<std::size_t>(q)];
-        if (!v.is_number()) throw Error(path + ": covariance.matrix has a non-number");
-        c(p, q) = FromReportUnits(q, FromReportUnits(p, v.get<double>()));
-      }
-    }
-    CheckCovariance(c, path);
-    cal.covariance = c;
-  }
   ParseEffects(j, path, cal);
   ParseSphereForm(j, path, cal);
+  if (j.contains("covariance")) ParseCovariance(j["covariance"], path, cal);
   if (j.contains("source") && j["source"].is_object()) {
     for (const auto& [k, v] : j["source"].items()) cal.source.emplace_back(k, v.is_string() ? v.get<std::string>() : v.dump());
   }
   return cal;
+}
+
+std::vector<std::string> CalibrationParameterNames(const CalibrationFile& file) {
+  std::vector<std::string> names;
+  for (const StoredParameter& p : StoredParameters(file)) names.push_back(p.name);
+  return names;
+}
+
+Eigen::MatrixXd AppliedCovariance(const CalibrationFile& file) {
+  const auto n = static_cast<Eigen::Index>(StoredParameters(file).size());
+  if (file.parameter_covariance.rows() == n && file.parameter_covariance.cols() == n && n > kNumScmsParams) {
+    return file.parameter_covariance;
+  }
+  if (file.covariance) return *file.covariance;
+  return {};
 }
 
 Calibration ToCalibration(const CalibrationFile& file) {

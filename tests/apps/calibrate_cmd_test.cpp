@@ -298,6 +298,31 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
   ASSERT_TRUE(ls.sphere.ok);
   EXPECT_NEAR(RadialPeakToValley(pts, ls.sphere.center) * 1e3, j["validation"]["after_ls_sphericity_um"].get<double>(),
               1e-9);
+  // Before and after compared by the rms, with its uncertainty rms / sqrt(2 (n - 4)), and said plainly.
+  const nlohmann::json& v = j["validation"];
+  EXPECT_NEAR(v["after_rms_um"].get<double>(), ls.rms * 1e3, 1e-9);
+  EXPECT_NEAR(v["after_rms_u_um"].get<double>(), ls.rms * 1e3 / std::sqrt(2.0 * (288 - 4)), 1e-9);
+  EXPECT_NEAR(v["rms_difference_um"].get<double>(), v["before_rms_um"].get<double>() - v["after_rms_um"].get<double>(),
+              1e-12);
+  EXPECT_EQ(v["rms_difference_inside_noise"].get<bool>(),
+            std::abs(v["rms_difference_um"].get<double>()) <= 2.0 * v["rms_difference_u_um"].get<double>());
+  EXPECT_THAT(r.out, HasSubstr("rms about the least-squares sphere"));
+  EXPECT_THAT(r.out,
+              HasSubstr(v["rms_difference_inside_noise"].get<bool>() ? "is inside the noise" : "is beyond the noise"));
+  // The file keeps the covariance of the seven errors and of the effect's two parameters, jointly.
+  const CalibrationFile file = ReadCalibrationFile(o.output_path);
+  EXPECT_EQ(CalibrationParameterNames(file).size(), 9u);
+  ASSERT_EQ(file.parameter_covariance.rows(), 9);
+  const double std_c2_arcsec = std::sqrt(file.parameter_covariance(7, 7)) / kRadPerArcsec;
+  for (const auto& e : j["effects"]) {
+    for (const auto& p : e["parameters"]) {
+      if (p["name"] == "theta_encoder.c2") {
+        EXPECT_NEAR(std_c2_arcsec, p["std"].get<double>(), 1e-6 * std_c2_arcsec);
+      }
+    }
+  }
+  EXPECT_EQ(file.covariance_inputs.size(), 3u);  // R0, temperature, probe scale: stated as 0 here
+  EXPECT_GT(file.covariance_type_a_dof, 500.0);
   EXPECT_GT(sph::testing::ReadWholeFile(o.plot_dir + "/residual_map.png").size(), 1000u);
   EXPECT_GT(sph::testing::ReadWholeFile(o.plot_dir + "/residual_time.png").size(), 1000u);
 }

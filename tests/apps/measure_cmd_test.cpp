@@ -161,6 +161,60 @@ TEST_F(MeasureCmd, MeasuresWithACalibrationInTextAndJson) {
   EXPECT_TRUE(j["warnings"].empty());
 }
 
+// Each result's budget: the measurement's own Type A, the calibration's Type A part and each
+// Type B input the calibration file holds, combined as the GUM does; the sphericities checked by
+// JCGM 101's adaptive Monte Carlo method.
+TEST_F(MeasureCmd, StatesAGumBudgetOfEachResult) {
+  MeasureOptions o;
+  o.points_path = Simulated("budget.txt", {Eigen::Vector3d(1.0, 1.0, 0.5)});
+  o.calibration_path = Calibration();
+  o.json_path = dir_ + "/b.json";
+  const RunOutput r = Measure(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("uncertainty (GUM)"));
+  EXPECT_THAT(r.out, HasSubstr("calibration: fit (scatter of its points)"));
+  EXPECT_THAT(r.out, HasSubstr("Monte Carlo check (JCGM 101, adaptive)"));
+  const json j = ReadJson(o.json_path);
+  const json& radius = j["budget"]["radius"];
+  EXPECT_NEAR(radius["std"].get<double>(), j["coverage"]["radius_fit_std_um"].get<double>(), 1e-12);
+  double sum2 = 0.0;
+  std::vector<std::string> names;
+  for (const json& in : radius["budget"]) {
+    sum2 += std::pow(in["u_contribution"].get<double>(), 2);
+    names.push_back(in["input"]);
+    EXPECT_NEAR(in["u_contribution"].get<double>(),
+                std::abs(in["sensitivity"].get<double>()) * in["u_input"].get<double>(), 1e-12);
+  }
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"measurement (scatter of the points)", "calibration: fit (scatter of its points)",
+                                      "calibration: R0 (certificate)", "calibration: sphere temperature",
+                                      "calibration: probe scale"}));
+  EXPECT_NEAR(radius["u"].get<double>(), std::sqrt(sum2), 1e-12);
+  EXPECT_EQ(radius["k"].get<double>(), 2.0);
+  EXPECT_NEAR(radius["U"].get<double>(), 2.0 * radius["u"].get<double>(), 1e-12);
+  // The linear budget's calibration part and the sampled one agree for the radius (200 draws: 5 %).
+  EXPECT_NEAR(radius["budget"][1]["u_contribution"].get<double>() / j["uncertainty"]["radius_std_um"].get<double>(),
+              1.0, 0.2);
+  for (const char* k : {"sphericity_ls", "sphericity_mz"}) {
+    const json& b = j["budget"][k];
+    EXPECT_GT(b["u"].get<double>(), 0.0) << k;
+    // The sphericities' own Type A: the noise floor's std of the statistic.
+    EXPECT_NEAR(b["std"].get<double>(), j["noise_floor"][std::string(k) + "_um"]["std_um"].get<double>(), 1e-12) << k;
+    const json& mc = b["monte_carlo"];
+    ASSERT_TRUE(mc.contains("trials")) << mc.dump();
+    EXPECT_GE(mc["trials"].get<long>(), 2000) << k;
+    EXPECT_LE(mc["low_um"].get<double>(), mc["high_um"].get<double>());
+    EXPECT_GT(mc["tolerance_um"].get<double>(), 0.0);
+  }
+  // A coverage probability: k from the effective degrees of freedom.
+  o.coverage = 0.95;
+  o.mc_max_trials = 0;
+  ASSERT_EQ(Measure(o).code, kExitOk);
+  const json p = ReadJson(o.json_path);
+  EXPECT_NEAR(p["budget"]["radius"]["k"].get<double>(), 1.96, 0.02);
+  EXPECT_EQ(p["budget"]["sphericity_ls"]["monte_carlo"]["note"], "not run (--mc-max-trials 0)");
+}
+
 TEST_F(MeasureCmd, CompensatedPointsRoundTripThroughXyz) {
   MeasureOptions o;
   o.points_path = Simulated("measure.txt", {Eigen::Vector3d(-1.0, 0.5, 0.0)});

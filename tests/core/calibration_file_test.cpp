@@ -6,6 +6,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "sph/core/error.hpp"
 #include "sph/model/units.hpp"
@@ -228,6 +229,98 @@ TEST(CalibrationFile, SphereFormRoundTripsAndIsValidated) {
     EXPECT_THAT(ErrorReading(path), HasSubstr(bad[k].second)) << bad[k].first;
   }
   EXPECT_THAT(text, HasSubstr("\"normalisation\": \"schmidt_semi_normalised\""));
+}
+
+}  // namespace
+}  // namespace sph
+
+namespace sph {
+namespace {
+
+// The covariance of every parameter applied goes through the file in the units it is stored in,
+// with the Type B inputs it holds; a file of the seven errors' block alone is read as before.
+TEST(CalibrationFile, FullCovarianceOfErrorsEffectsAndFormRoundTrips) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_fullcov");
+  CalibrationFile cal;
+  cal.geometry = {1e-4, 0.002, -2e-4, 0.001, 3e-4, -0.002, -0.06};
+  cal.probe_offset_mm = 25.0;
+  cal.effects.terms = {{Effect::kThetaEncoder, {{2, 0, false}, {3, 0, true}}}, {Effect::kProbeGain, {{1, 0, false}}}};
+  cal.effect_values = {{6 * kRadPerArcsec, -4 * kRadPerArcsec}, {0.4 * kMmPerUm}};
+  cal.effects.reference = {4.9, 2.1, 0.0, 287.0};
+  cal.form_terms = {{2, 0}, {3, -2}};
+  cal.form_values_mm = {6e-5, -2.5e-5};
+  // A covariance of 7 + 3 + 2 parameters with correlations across the blocks (internal units).
+  Eigen::VectorXd sd(12);
+  sd << 2e-6, 2e-4, 2e-5, 5e-4, 2e-5, 5e-4, 1e-4, 0.7 * kRadPerArcsec, 0.6 * kRadPerArcsec, 8e-6, 2e-6, 3e-6;
+  Eigen::MatrixXd corr = Eigen::MatrixXd::Identity(12, 12);
+  corr(0, 7) = corr(7, 0) = 0.5;    // alpha with theta_encoder.c2
+  corr(6, 9) = corr(9, 6) = -0.9;   // d' with probe_gain.u1
+  corr(8, 11) = corr(11, 8) = 0.3;  // theta_encoder.s3 with S(3,-2)
+  cal.parameter_covariance = sd.asDiagonal() * corr * sd.asDiagonal();
+  cal.covariance = cal.parameter_covariance.topLeftCorner<7, 7>();
+  Eigen::VectorXd s_r0 = Eigen::VectorXd::Zero(12);
+  s_r0(6) = 1.0056e-3;  // d' per um of R0 [mm/um]
+  s_r0(9) = 2e-5;
+  cal.covariance_inputs = {{"R0 (certificate)", "um", 0.1, s_r0}};
+  cal.covariance_type_a_dof = 571;
+  WriteCalibrationFile(dir + "/cal.json", cal);
+
+  const CalibrationFile back = ReadCalibrationFile(dir + "/cal.json");
+  EXPECT_EQ(
+      CalibrationParameterNames(back),
+      (std::vector<std::string>{"alpha", "a", "beta", "b", "epsilon", "c", "d_prime", "theta_encoder.c2",
+                                "theta_encoder.s3", "probe_gain.u1", "sphere_form.S(2,0)", "sphere_form.S(3,-2)"}));
+  ASSERT_EQ(back.parameter_covariance.rows(), 12);
+  EXPECT_TRUE(back.parameter_covariance.isApprox(cal.parameter_covariance, 1e-14));
+  ASSERT_TRUE(back.covariance.has_value());
+  EXPECT_TRUE(back.covariance->isApprox(cal.parameter_covariance.topLeftCorner<7, 7>(), 1e-14));
+  EXPECT_TRUE(AppliedCovariance(back).isApprox(cal.parameter_covariance, 1e-14));
+  ASSERT_EQ(back.covariance_inputs.size(), 1u);
+  EXPECT_EQ(back.covariance_inputs[0].input, "R0 (certificate)");
+  EXPECT_EQ(back.covariance_inputs[0].unit, "um");
+  EXPECT_DOUBLE_EQ(back.covariance_inputs[0].u, 0.1);
+  EXPECT_TRUE(back.covariance_inputs[0].per_unit.isApprox(s_r0, 1e-14));
+  EXPECT_DOUBLE_EQ(back.covariance_type_a_dof, 571.0);
+
+  // Stored in the units the parameters are stored in: the encoder's variance in arcsec^2, the
+  // gain's and the form's in um^2, the cross term of d' and the gain in mm um.
+  std::ifstream in(dir + "/cal.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const auto& m = j["covariance"]["matrix"];
+  EXPECT_NEAR(m[7][7].get<double>(), 0.49, 1e-12);
+  EXPECT_NEAR(m[9][9].get<double>(), 64.0 * 1e-6, 1e-15);
+  EXPECT_NEAR(m[6][9].get<double>(), -0.9 * 1e-4 * 8e-3, 1e-15);
+  EXPECT_NEAR(m[10][10].get<double>(), 4e-6, 1e-15);
+  EXPECT_EQ(j["covariance"]["units"][7], "arcsec");
+  EXPECT_EQ(j["covariance"]["units"][11], "um");
+  EXPECT_NEAR(j["covariance"]["inputs"][0]["sensitivity"][6].get<double>(), 1.0056e-3, 1e-15);
+
+  // The same file with the seven errors' block alone: read as before, the effects without covariance.
+  CalibrationFile seven = cal;
+  seven.parameter_covariance.resize(0, 0);
+  seven.covariance_inputs.clear();
+  WriteCalibrationFile(dir + "/seven.json", seven);
+  const CalibrationFile old = ReadCalibrationFile(dir + "/seven.json");
+  EXPECT_EQ(old.parameter_covariance.size(), 0);
+  ASSERT_TRUE(old.covariance.has_value());
+  EXPECT_EQ(AppliedCovariance(old).rows(), 7);
+
+  // Another list of parameters is refused, naming both it accepts.
+  std::string text = nlohmann::json(j).dump();
+  const std::string from = "\"theta_encoder.s3\",\"probe_gain.u1\"";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "\"probe_gain.u1\",\"theta_encoder.s3\"");
+  WriteText(dir + "/swapped.json", text);
+  EXPECT_THAT(
+      ErrorReading(dir + "/swapped.json"),
+      HasSubstr("swapped.json: field 'covariance.parameters' must be [\"alpha\",\"a\",\"beta\",\"b\",\"epsilon\","
+                "\"c\",\"d_prime\"] (the seven errors') or [\"alpha\""));
+  // An input's sensitivity of the wrong length.
+  nlohmann::json short_input = j;
+  short_input["covariance"]["inputs"][0]["sensitivity"].erase(0);
+  WriteText(dir + "/short.json", short_input.dump());
+  EXPECT_THAT(ErrorReading(dir + "/short.json"),
+              HasSubstr("field 'covariance.inputs[0].sensitivity' must hold 12 numbers, one per covariance parameter"));
 }
 
 }  // namespace

@@ -6,7 +6,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/gum.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/compensation.hpp"
 #include "test_util.hpp"
@@ -213,6 +215,123 @@ TEST(PropagateCalibrationUncertainty, TheSameOnAnyNumberOfThreadsWithProgressFor
   EXPECT_EQ(one.calibration_form_p95_mm, three.calibration_form_p95_mm);
   ASSERT_EQ(done.size(), 40u);
   for (int i = 0; i < 40; ++i) EXPECT_EQ(done[static_cast<std::size_t>(i)], i + 1);
+}
+
+// A calibration with a probe gain and a Theta encoder term, and the joint covariance of the seven
+// errors and their three parameters (internal units), as a calibration file holds it.
+AppliedCalibration EffectBearingCalibration() {
+  CalibrationFile file;
+  file.geometry = SimulationSpec::PaperTruth();
+  file.probe_offset_mm = 25.0;
+  file.effects.terms = {{Effect::kThetaEncoder, {{2, 0, false}, {3, 0, true}}}, {Effect::kProbeGain, {{1, 0, false}}}};
+  file.effect_values = {{6 * kRadPerArcsec, -4 * kRadPerArcsec}, {0.3 * kMmPerUm}};
+  file.effects.reference = {2.0, 2.2, 0.0, 288.0};  // u = (r - 2 mm) / 2.2 mm: about 1.4 on these readings
+  Eigen::MatrixXd c = Eigen::MatrixXd::Zero(10, 10);
+  c.topLeftCorner<7, 7>() = PlausibleCovariance();
+  c(7, 7) = std::pow(0.7 * kRadPerArcsec, 2);
+  c(8, 8) = std::pow(0.6 * kRadPerArcsec, 2);
+  c(9, 9) = std::pow(0.2 * kMmPerUm, 2);
+  c(9, kDPrime) = c(kDPrime, 9) = -0.5 * std::sqrt(c(9, 9) * c(kDPrime, kDPrime));
+  file.parameter_covariance = c;
+  file.covariance = c.topLeftCorner<7, 7>();
+  return AppliedCalibration::Of(file, false);
+}
+
+TEST(PropagateCalibrationUncertainty, DrawsTheEffectsWithTheSevenErrors) {
+  const AppliedCalibration applied = EffectBearingCalibration();
+  ASSERT_TRUE(applied.effects_in_covariance);
+  ASSERT_EQ(applied.covariance.rows(), 10);
+  EXPECT_EQ(applied.names.back(), "probe_gain.u1");
+  const std::vector<RawReading> readings = PaperReadings({5, 0, 0}, 0.0);
+  const SphereEvaluation nominal = EvaluateSphere(ApplyCalibration(applied, readings), "sim");
+  UncertaintyOptions options;
+  options.samples = 400;
+  const CalibrationUncertainty full = PropagateCalibrationUncertainty(readings, applied, nominal, options);
+  AppliedCalibration seven = applied;
+  seven.covariance = applied.covariance.topLeftCorner<7, 7>();
+  seven.effects_in_covariance = false;
+  const CalibrationUncertainty alone = PropagateCalibrationUncertainty(readings, seven, nominal, options);
+  // The linear budget: sqrt(c^T C c) with c by central differences.
+  const std::array<ResultSensitivity, 3> c = SensitivitiesOf(readings, applied, nominal);
+  ASSERT_EQ(c[0].per_parameter.size(), 10);
+  const double linear = MeasurementBudget("", 0.0, gum::kInfiniteDof, c[0], applied, {}).u;
+  EXPECT_NEAR(full.radius_std_mm / linear, 1.0, 0.15) << "sampled " << full.radius_std_mm << " linear " << linear;
+  // The gain's 0.2 um at u = 1 moves the radius by about 0.2 * 1.4 um, more than the seven errors'
+  // covariance alone (0.1 um of d').
+  EXPECT_GT(full.radius_std_mm, 1.5 * alone.radius_std_mm);
+  // The gain alone, worked out from the geometry: it adds du_i = (r_i - r_ref) / r_half per unit
+  // of u1 to each reading, which moves the point along the probe line (towards the axes, the
+  // direction -p_i / |p_i|) and so its residual about the sphere by -du_i (n_i . p_i / |p_i|);
+  // the least-squares sphere takes the radius of those changes through its normal equations.
+  const Sphere& sphere = nominal.ls.sphere;
+  const std::vector<Eigen::Vector3d> points = ApplyCalibration(applied, readings);
+  Eigen::MatrixXd jac(static_cast<Eigen::Index>(points.size()), 4);
+  Eigen::VectorXd de(static_cast<Eigen::Index>(points.size()));
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d n = (points[i] - sphere.center).normalized();
+    const auto row = static_cast<Eigen::Index>(i);
+    jac.row(row) << -n.transpose(), -1.0;  // d(|p - c| - R) / d(c, R)
+    de(row) = -(readings[i].r_mm - 2.0) / 2.2 * n.dot(points[i].normalized());
+  }
+  const Eigen::Vector4d moved = -(jac.transpose() * jac).ldlt().solve(jac.transpose() * de);
+  EXPECT_NEAR(c[0].per_parameter(9), moved(3), 0.01 * std::abs(moved(3)));
+  // The radius is linear in the parameters: the JCGM 101 check agrees with the GUM interval.
+  gum::MonteCarloOptions mo;
+  mo.probability = 0.9545;
+  mo.batch_trials = 1000;
+  mo.max_trials = 40000;
+  mo.significant_digits = 1;
+  const gum::UncertaintyStatement st = MeasurementBudget("", 0.0, gum::kInfiniteDof, c[0], applied, {});
+  const gum::MonteCarloResult mc =
+      CheckByMonteCarlo(MeasuredResult::kRadius, readings, applied, nominal, 0.0, gum::kInfiniteDof, mo);
+  EXPECT_TRUE(mc.converged);
+  EXPECT_TRUE(gum::GufValidated(nominal.ls.sphere.radius, st.U, mc))
+      << "GUM " << st.U << " MC [" << mc.low - nominal.ls.sphere.radius << ", " << mc.high - nominal.ls.sphere.radius
+      << "] tolerance " << mc.tolerance;
+}
+
+// The calibration file's Type B inputs split the calibration's share: the contributions of its
+// Type A part and of R0 combine to what the whole covariance gives; the probe scale acts through
+// the calibration and through the readings at once.
+TEST(MeasurementBudget, SplitsTheCalibrationIntoItsTypeAPartAndItsInputs) {
+  AppliedCalibration applied = EffectBearingCalibration();
+  const Eigen::MatrixXd type_a = applied.covariance;
+  Eigen::VectorXd s_r0 = Eigen::VectorXd::Zero(10), s_scale = Eigen::VectorXd::Zero(10);
+  s_r0(kDPrime) = 1.0056e-3;  // d' per um of R0
+  s_scale(kDPrime) = 5.0;     // d' per unit of relative scale: the mean reading [mm]
+  applied.inputs = {{"R0 (certificate)", "um", 0.2, s_r0}, {kProbeScaleInput, "relative", 1e-4, s_scale}};
+  for (const auto& in : applied.inputs) applied.covariance += in.per_unit * in.per_unit.transpose() * in.u * in.u;
+  applied.type_a_dof = 500;
+  EXPECT_TRUE(applied.TypeACovariance().isApprox(type_a, 1e-12));
+  const std::vector<RawReading> readings = PaperReadings({5, 0, 0}, 0.0);
+  const SphereEvaluation nominal = EvaluateSphere(ApplyCalibration(applied, readings), "sim");
+  const std::array<ResultSensitivity, 3> c = SensitivitiesOf(readings, applied, nominal);
+  const gum::UncertaintyStatement st = MeasurementBudget("measurement", 1e-6, 284, c[0], applied, gum::CoverageSpec{});
+  ASSERT_EQ(st.inputs.size(), 4u);
+  EXPECT_EQ(st.inputs[1].name, "calibration: fit (scatter of its points)");
+  EXPECT_EQ(st.inputs[1].dof, 500);
+  EXPECT_NEAR(st.inputs[1].standard_uncertainty, std::sqrt(c[0].per_parameter.dot(type_a * c[0].per_parameter)), 1e-15);
+  EXPECT_EQ(st.inputs[2].name, "calibration: R0 (certificate)");
+  EXPECT_NEAR(st.inputs[2].sensitivity, c[0].per_parameter.dot(s_r0), 1e-15);
+  // The scale through the readings: a larger reading is a point nearer the axes, so the measured
+  // radius shrinks as the scale grows (about -mean(r) per unit of scale).
+  EXPECT_NEAR(st.inputs[3].sensitivity, c[0].per_parameter.dot(s_scale) + c[0].per_probe_scale, 1e-15);
+  EXPECT_LT(c[0].per_probe_scale, 0.0);
+  // Uncorrelated inputs: the GUM's sum of squares equals c^T C c of the whole covariance plus the
+  // direct part of the scale, cross term included.
+  double expect = c[0].per_parameter.dot(applied.covariance * c[0].per_parameter) + 1e-12;
+  expect +=
+      2.0 * c[0].per_parameter.dot(s_scale) * c[0].per_probe_scale * 1e-8 + std::pow(c[0].per_probe_scale * 1e-4, 2);
+  EXPECT_NEAR(st.u * st.u, expect, 1e-9 * expect);
+  // The sampled propagation draws the same inputs (the scale on the readings too): its radius std
+  // is the budget's calibration part, where the two paths of the scale nearly cancel.
+  UncertaintyOptions options;
+  options.samples = 400;
+  const CalibrationUncertainty sampled = PropagateCalibrationUncertainty(readings, applied, nominal, options);
+  double calibration2 = 0.0;
+  for (std::size_t i = 1; i < st.inputs.size(); ++i) calibration2 += std::pow(st.inputs[i].Contribution(), 2);
+  EXPECT_NEAR(sampled.radius_std_mm / std::sqrt(calibration2), 1.0, 0.15);
+  EXPECT_LT(std::abs(st.inputs[3].sensitivity), 0.2 * std::abs(c[0].per_parameter.dot(s_scale)));
 }
 
 TEST(PropagateCalibrationUncertainty, NeedsACovarianceAndTwoSamples) {

@@ -6,7 +6,12 @@
 //     "probe_offset_mm": 25.0,              nominal d the errors refer to
 //     "sphere_radius_mm": 20.0,             R0 of the reference sphere (information)
 //     "geometry": {"alpha": {"value": 0.02, "unit": "deg"}, "a": {"value": 0.002, "unit": "mm"}, ...},
-//     "covariance": {"parameters": ["alpha", ...], "units": ["deg", "mm", ...], "matrix": [[...], ...]},
+//     "covariance": {                       the covariance of every parameter the file applies
+//       "parameters": ["alpha", ..., "d_prime", "theta_encoder.c2", ..., "sphere_form.S(2,0)", ...],
+//       "units": ["deg", "mm", ..., "arcsec", ..., "um", ...], "matrix": [[...], ...],
+//       "type_a_dof": 571,                  optional: degrees of freedom of its Type A part (m - n)
+//       "inputs": [{"input": "R0 (certificate)", "unit": "um", "u": 0.1,     optional: the Type B
+//                   "sensitivity": [...]}]},  inputs in it, d(parameter)/d(input) in the parameters' units
 //     "effects": [                          further effects of the machine (sph/model/effects.hpp), may be empty
 //       {"id": "theta_encoder", "parameters": [{"name": "theta_encoder.c2", "value": 5.5, "unit": "arcsec"}, ...]},
 //       ...],
@@ -18,12 +23,19 @@
 //     "source": {"points_file": "...", ...} free-form provenance
 //   }
 // Angles are stored in deg and lengths in mm; the covariance in the same units (deg^2, deg*mm, mm^2).
+// The covariance's parameters are the seven errors, then every effect parameter in the order of
+// "effects", then every term of "sphere_form" (its coefficients, um), each in the unit it is stored
+// in; or the seven errors alone (files that keep only their block are read as before: the effects'
+// and the form's values are then applied without an uncertainty). Its matrix is the combined one
+// (Type A and every Type B input); "inputs" says what of it each Type B input is:
+// matrix = A + sum_j s_j s_j^T u_j^2, with A the calibration's Type A covariance.
 // Effect parameters are in arcsec (angle effects) or um (length effects). probe_drift is refused:
 // a drift belongs to the run it was measured in, not to the machine.
 #ifndef SPH_CORE_CALIBRATION_FILE_HPP_
 #define SPH_CORE_CALIBRATION_FILE_HPP_
 
 #include <iosfwd>
+#include <limits>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -55,6 +67,20 @@ struct CalibrationFile {
   std::vector<FormTerm> form_terms;
   std::vector<double> form_values_mm;  ///< one per term [mm]
   std::vector<double> form_std_mm;     ///< their standard uncertainties [mm], when known (else empty)
+  /// The covariance of every parameter the file applies (rad, mm): the seven errors, then the
+  /// effects' parameters (term, then component order), then the form's coefficients; its
+  /// top-left 7 x 7 block is `covariance`. Empty when the file holds the seven errors' alone.
+  Eigen::MatrixXd parameter_covariance;
+  /// What the covariance is made of, when the calibration's budget gave it (see the file comment).
+  struct CovarianceInput {
+    std::string input;         ///< "R0 (certificate)", "sphere temperature", "probe scale"
+    std::string unit;          ///< of the input: "um", "K", "relative"
+    double u = 0.0;            ///< its standard uncertainty, in `unit`
+    Eigen::VectorXd per_unit;  ///< d(parameter)/d(input) per `unit`, internal units, one per covariance row
+  };
+  std::vector<CovarianceInput> covariance_inputs;
+  /// Degrees of freedom of the covariance's Type A part; infinite when not stated.
+  double covariance_type_a_dof = std::numeric_limits<double>::infinity();
   std::string created_by;
   std::vector<std::pair<std::string, std::string>> source;  ///< provenance, copied as strings
 };
@@ -70,6 +96,15 @@ CalibrationFile ReadCalibrationFile(const std::string& path);
 
 /// As ReadCalibrationFile(), from a stream; `source` names it in messages.
 CalibrationFile ParseCalibration(std::istream& in, const std::string& source);
+
+/// The names of the parameters of the file's full covariance, in its order: the seven errors,
+/// every effect parameter, then "sphere_form.S(l,m)" for each form term.
+std::vector<std::string> CalibrationParameterNames(const CalibrationFile& file);
+
+/// The covariance of every parameter the file applies (rad, mm), in the order of
+/// CalibrationParameterNames() when the file has it, else the seven errors' block alone; empty
+/// without a covariance.
+Eigen::MatrixXd AppliedCovariance(const CalibrationFile& file);
 
 /// The part of a calibration file that compensation uses (sph/model/compensation.hpp).
 Calibration ToCalibration(const CalibrationFile& file);

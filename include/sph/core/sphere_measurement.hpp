@@ -16,9 +16,23 @@
 //                             error that the calibration's uncertainty alone produces in 95 % of cases.
 // The form error exceeds the calibration when the least-squares sphericity is above that percentile.
 // Probe noise of the measurement itself is not part of the calibration's covariance and not in here.
+//
+// What is drawn is every parameter the measurement applies (AppliedCalibration): the seven errors,
+// the effects' parameters and, when the calibration sphere's form is taken off the points, the
+// form's coefficients, from their joint covariance as the calibration file holds it.
+//
+// The budget (GUM) of radius and sphericities: the linear sensitivities c = dy/dx of each result
+// to the applied parameters (central differences, MeasurementSensitivitiesOf()), the measurement's
+// own Type A input, and the calibration's covariance split into its Type A part and the Type B
+// inputs it holds (R0, temperature, probe scale: C = A + sum_j s_j s_j^T u_j^2), each input
+// contributing |c^T s_j| u_j; the probe's scale acts on this measurement's readings too, and so
+// the same scale error enters twice, through the calibration and directly (one input, one
+// sensitivity: their sum). A sphericity is not linear in the parameters (a max minus a min), so its
+// statement is checked by the adaptive Monte Carlo method of JCGM 101 (CheckByMonteCarlo()).
 #ifndef SPH_CORE_SPHERE_MEASUREMENT_HPP_
 #define SPH_CORE_SPHERE_MEASUREMENT_HPP_
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -26,7 +40,10 @@
 
 #include <Eigen/Core>
 
+#include "sph/core/calibration_file.hpp"
+#include "sph/core/gum.hpp"
 #include "sph/model/compensation.hpp"
+#include "sph/model/form_model.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
 
@@ -63,9 +80,91 @@ struct SphereEvaluation {
 SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, const std::string& source,
                                 const SphereEvaluationOptions& options = SphereEvaluationOptions());
 
+/// The calibration sphere's own form, taken off compensated points of that sphere (sph_measure
+/// --subtract-sphere-form): each point p moves along its direction u = (p - center) / |p - center|
+/// by -F(R^T u) (sph/model/form_model.hpp).
+struct FormCorrection {
+  std::vector<FormTerm> terms;
+  std::vector<double> values_mm;                           ///< one coefficient per term [mm]
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< body frame into the Theta frame (the mount)
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();     ///< where the directions are taken from
+  bool Empty() const { return terms.empty(); }
+};
+
+/// Takes the form off `points_mm` with the coefficients `values_mm` (one per term).
+void SubtractForm(const FormCorrection& form, const double* values_mm, std::vector<Eigen::Vector3d>& points_mm);
+
+/// What a measurement applies of its calibration, with the joint covariance of all of it.
+struct AppliedCalibration {
+  Calibration calibration;  ///< the seven errors and the effects (its own 7 x 7 covariance is not used here)
+  FormCorrection form;      ///< taken off the points when not empty
+  /// Covariance (rad, mm) of the parameters applied, in this order: the seven errors, the effects'
+  /// parameters (term, then component order) when effects_in_covariance, the form's coefficients
+  /// when form_in_covariance. Empty: no covariance.
+  Eigen::MatrixXd covariance;
+  bool effects_in_covariance = false;
+  bool form_in_covariance = false;
+  std::vector<std::string> names;  ///< of the covariance's parameters
+  /// The Type B inputs the covariance holds (sized as it), when the calibration file says.
+  std::vector<CalibrationFile::CovarianceInput> inputs;
+  double type_a_dof = gum::kInfiniteDof;  ///< of the covariance's Type A part
+
+  /// The covariance less its Type B inputs: the calibration's Type A part A = C - sum_j s_j s_j^T u_j^2.
+  Eigen::MatrixXd TypeACovariance() const;
+  /// The parameters applied and their covariance, from a calibration file; `with_form`: the
+  /// file's form is taken off the points (then `form` is to be completed by the caller with the
+  /// mount rotation and centre).
+  static AppliedCalibration Of(const CalibrationFile& file, bool with_form);
+};
+
+/// The points of `readings` under the calibration `applied` with its parameters moved by `delta`
+/// (covariance order; nullptr: none) and the probe readings scaled by 1 + `probe_scale`.
+std::vector<Eigen::Vector3d> ApplyCalibration(const AppliedCalibration& applied,
+                                              const std::vector<RawReading>& readings,
+                                              const Eigen::VectorXd* delta = nullptr, double probe_scale = 0.0);
+
+/// The results of a sphere that a budget is made for.
+enum class MeasuredResult { kRadius, kSphericityLs, kSphericityMz };
+
+/// The Type B input of a calibration file that scales the probe readings (sph/calib/budget.hpp):
+/// it acts on the measurement's readings as well.
+inline constexpr const char* kProbeScaleInput = "probe scale";
+
+/// A result of `points` [mm]: the least-squares radius, peak-to-valley of its residuals, or the
+/// minimum-zone width; `start`: a sphere near theirs.
+double MeasuredValue(MeasuredResult which, const std::vector<Eigen::Vector3d>& points, const Sphere& start);
+
+/// Linear sensitivities of one result: to each parameter of the covariance (mm per rad or mm, by
+/// central differences with steps of a tenth of the parameter's standard uncertainty; 0 for a
+/// parameter of zero variance) and to the probe's relative scale through this measurement's
+/// readings alone [mm].
+struct ResultSensitivity {
+  Eigen::VectorXd per_parameter;
+  double per_probe_scale = 0.0;
+};
+/// The sensitivities of radius, least-squares and minimum-zone sphericity, in MeasuredResult order.
+std::array<ResultSensitivity, 3> SensitivitiesOf(const std::vector<RawReading>& readings,
+                                                 const AppliedCalibration& applied, const SphereEvaluation& nominal);
+
+/// The budget of one result: `type_a_u` [mm] and `type_a_dof` of the measurement's own scatter
+/// (named `type_a_name`), then the calibration's Type A part and each Type B input it holds, or
+/// the calibration's covariance as one input when the file does not say what it holds.
+gum::UncertaintyStatement MeasurementBudget(const std::string& type_a_name, double type_a_u, double type_a_dof,
+                                            const ResultSensitivity& c, const AppliedCalibration& applied,
+                                            const gum::CoverageSpec& coverage);
+
+/// JCGM 101 adaptive Monte Carlo check of a result's statement: the calibration's Type A part
+/// drawn from its covariance, each Type B input from a Gaussian of its u (through the calibration
+/// and, for the probe scale, the readings), the measurement's own Type A as an additive t
+/// variable of std `type_a_u` and `type_a_dof` (Gaussian when infinite), the result evaluated for
+/// each draw. `options.probability`: the coverage probability of the statement checked.
+gum::MonteCarloResult CheckByMonteCarlo(MeasuredResult which, const std::vector<RawReading>& readings,
+                                        const AppliedCalibration& applied, const SphereEvaluation& nominal,
+                                        double type_a_u, double type_a_dof, const gum::MonteCarloOptions& options);
+
 struct UncertaintyOptions {
   int samples = 200;       ///< calibration draws (the std of a std from 200 draws is about 5 %)
-  std::uint64_t seed = 1;  ///< of the std::mt19937_64 that draws them
+  std::uint64_t seed = 1;  ///< of the sph::gum::Random that draws them
   int threads = 0;         ///< draws evaluated in parallel; 0: one per hardware thread (same result)
   /// Called with (draws done, draws) as they finish (from the evaluating threads, one at a time).
   std::function<void(int, int)> progress;
@@ -86,6 +185,13 @@ struct CalibrationUncertainty {
 /// Propagates cal.covariance to the evaluation `nominal` of `readings` compensated with `cal`.
 /// Throws std::invalid_argument when the calibration has no covariance or samples < 2.
 CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawReading>& readings, const Calibration& cal,
+                                                       const SphereEvaluation& nominal,
+                                                       const UncertaintyOptions& options = UncertaintyOptions());
+
+/// The same for every parameter `applied` holds the covariance of (effects and form too); with
+/// its Type B inputs, each is drawn on its own, and the probe scale scales the readings as well.
+CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawReading>& readings,
+                                                       const AppliedCalibration& applied,
                                                        const SphereEvaluation& nominal,
                                                        const UncertaintyOptions& options = UncertaintyOptions());
 
