@@ -1,6 +1,8 @@
 #include "sph/calib/effect_fit.hpp"
 
 #include <cmath>
+#include <cstdint>
+#include <iostream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -41,6 +43,7 @@ TEST(FitEffects, JacobianMatchesCentralDifferences) {
   EffectModel model;
   for (int e = 0; e < kNumEffects; ++e) model.terms.push_back(DefaultTerm(static_cast<Effect>(e), 2, 2));
   model.reference = EffectReferenceOf(points.samples);
+  model.phi_wobble_pivot_mm = 60.0;
   EffectFitStart start = EffectFitStart::From(Calibrate(points, PaperOptions()));
   CalibrationOptions o = PaperOptions();
   o.max_iterations = 1;
@@ -85,7 +88,10 @@ namespace {
 // Truth values for each effect (rad for angles, mm for lengths), sized for DefaultTerm(e, 3, 2).
 std::vector<double> TruthValues(const EffectTerm& term) {
   std::vector<double> v;
-  const double unit = term.info().quantity == Quantity::kAngle ? 4.0 * kRadPerArcsec : 0.3 * kMmPerUm;
+  // An incidence error is per unit sin^2 psi, which reaches (e / R0)^2 = 0.01 here: 30 um is 0.3 um.
+  const double unit = term.info().quantity == Quantity::kAngle ? 4.0 * kRadPerArcsec
+                      : term.effect == Effect::kProbeIncidence ? 30.0 * kMmPerUm
+                                                               : 0.3 * kMmPerUm;
   for (std::size_t i = 0; i < term.components.size(); ++i) {
     v.push_back(unit * (1.0 - 0.37 * static_cast<double>(i)) * (i % 2 == 0 ? 1.0 : -0.8));
   }
@@ -95,6 +101,7 @@ std::vector<double> TruthValues(const EffectTerm& term) {
 struct RecoveryCase {
   Effect effect;
   std::vector<Eigen::Vector3d> centers_mm;  // the design that determines it
+  double pivot_mm = 0.0;                    // where phi_wobble pivots
 };
 
 class EffectRecovery : public ::testing::TestWithParam<RecoveryCase> {};
@@ -108,6 +115,7 @@ TEST_P(EffectRecovery, NoiseFreeSimulationIsRecovered) {
   spec.centers_mm = c.centers_mm;
   EffectModel truth;
   truth.terms = {DefaultTerm(c.effect, 3, 2)};
+  truth.phi_wobble_pivot_mm = c.pivot_mm;
   spec.effects.model = truth;
   spec.effects.values = {TruthValues(truth.terms[0])};
   EffectReference ref;
@@ -148,15 +156,65 @@ const std::vector<Eigen::Vector3d> kThreeSetups{Eigen::Vector3d(2.0, 0.0, 0.0), 
 
 INSTANTIATE_TEST_SUITE_P(
     Library, EffectRecovery,
-    ::testing::Values(RecoveryCase{Effect::kThetaEncoder, kOneSetup}, RecoveryCase{Effect::kPhiEncoder, kOneSetup},
-                      RecoveryCase{Effect::kThetaRadialMotion, kOneSetup},
-                      RecoveryCase{Effect::kThetaAxialMotion, kOneSetup}, RecoveryCase{Effect::kPhiWobble, kOneSetup},
-                      RecoveryCase{Effect::kPhiWobble, kThreeSetups}, RecoveryCase{Effect::kThetaAxialMotion, kThreeSetups},
-                      RecoveryCase{Effect::kProbeGain, kOneSetup}, RecoveryCase{Effect::kProbeNonlinearity, kOneSetup},
-                      RecoveryCase{Effect::kProbeDrift, kOneSetup}),
+    ::testing::Values(
+        RecoveryCase{Effect::kThetaEncoder, kOneSetup}, RecoveryCase{Effect::kPhiEncoder, kOneSetup},
+        RecoveryCase{Effect::kThetaRadialMotion, kOneSetup}, RecoveryCase{Effect::kThetaAxialMotion, kOneSetup},
+        RecoveryCase{Effect::kPhiWobble, kOneSetup}, RecoveryCase{Effect::kPhiWobble, kThreeSetups},
+        RecoveryCase{Effect::kThetaAxialMotion, kThreeSetups}, RecoveryCase{Effect::kProbeGain, kOneSetup},
+        RecoveryCase{Effect::kProbeNonlinearity, kOneSetup}, RecoveryCase{Effect::kProbeDrift, kOneSetup},
+        RecoveryCase{Effect::kPhiRadialMotion, kOneSetup}, RecoveryCase{Effect::kPhiAxialMotion, kOneSetup},
+        RecoveryCase{Effect::kPhiAxialMotion, kThreeSetups}, RecoveryCase{Effect::kThetaTiltMotion, kOneSetup},
+        RecoveryCase{Effect::kThetaTiltMotion, kThreeSetups}, RecoveryCase{Effect::kPhiWobble, kOneSetup, 60.0},
+        RecoveryCase{Effect::kProbeIncidence, kOneSetup}, RecoveryCase{Effect::kProbeIncidence, kThreeSetups}),
     [](const ::testing::TestParamInfo<RecoveryCase>& param) {
-      return std::string(InfoOf(param.param.effect).id) + (param.param.centers_mm.size() > 1 ? "_three_setups" : "");
+      return std::string(InfoOf(param.param.effect).id) + (param.param.centers_mm.size() > 1 ? "_three_setups" : "") +
+             (param.param.pivot_mm != 0.0 ? "_pivot" : "");
     });
+
+}  // namespace
+}  // namespace sph
+
+namespace sph {
+namespace {
+
+// A probe gain stated in the probe's own range (readings 0 to 10 mm) is a constant of the probe:
+// calibrations at 1 and 2 mm eccentricity, which use 2 and 4 mm of that range, give the same
+// number. Normalised by the range of each calibration's own readings, the numbers differ as those
+// ranges do.
+TEST(FitEffects, ProbeGainInTheProbesRangeIsTheSameAtAnyEccentricity) {
+  constexpr double kRangeMm = 10.0, kGainMm = 10e-3;  // 0.2 %: 10 um at the end of the range
+  double gain[2], gain_std[2], own[2], own_std[2], own_half[2];
+  for (int k = 0; k < 2; ++k) {
+    SimulationSpec spec;
+    spec.centers_mm = {Eigen::Vector3d(1.0 + k, 0.0, 0.0)};
+    spec.seed = 11 + static_cast<std::uint64_t>(k);
+    spec.probe_range_mm = kRangeMm;
+    spec.effects.model.terms = {DefaultTerm(Effect::kProbeGain)};
+    spec.effects.values = {{kGainMm}};
+    const PointsData points = Simulate(spec);
+    const EffectFitStart start = EffectFitStart::From(Calibrate(points, PaperOptions()));
+    EffectModel model;
+    model.terms = {DefaultTerm(Effect::kProbeGain)};
+    model.reference = WithProbeRange(EffectReferenceOf(points.samples), kRangeMm);
+    const EffectFit fit = FitEffects(points, PaperOptions(), model, start);
+    ASSERT_TRUE(fit.calibration.converged) << fit.calibration.solver_message;
+    gain[k] = fit.values[0][0];
+    gain_std[k] = fit.calibration.analysis.std(fit.TermOffset(0));
+    EXPECT_NEAR(gain[k], kGainMm, 4.0 * gain_std[k]) << "eccentricity " << 1 + k << " mm";
+    model.reference = EffectReferenceOf(points.samples);
+    const EffectFit by_data = FitEffects(points, PaperOptions(), model, start);
+    own[k] = by_data.values[0][0];
+    own_std[k] = by_data.calibration.analysis.std(by_data.TermOffset(0));
+    own_half[k] = model.reference.r_half_range_mm;
+    std::cout << "eccentricity " << 1 + k << " mm: u1 " << gain[k] * kUmPerMm << " +- " << gain_std[k] * kUmPerMm
+              << " um in the probe's range, " << own[k] * kUmPerMm << " +- " << own_std[k] * kUmPerMm
+              << " um in the readings' own (half range " << own_half[k] << " mm)\n";
+  }
+  EXPECT_NEAR(gain[0], gain[1], std::hypot(gain_std[0], gain_std[1]));
+  // By the readings' own range: the gain times each half range, which differ by about 2.
+  EXPECT_GT(own_half[1] / own_half[0], 1.8);
+  for (int k = 0; k < 2; ++k) EXPECT_NEAR(own[k], kGainMm * own_half[k] / (0.5 * kRangeMm), 4.0 * own_std[k]);
+}
 
 }  // namespace
 }  // namespace sph
