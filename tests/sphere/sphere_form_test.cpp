@@ -1,4 +1,5 @@
 #include "sph/sphere/sphere_form.hpp"
+#include "sph/sphere/inequality_lp.hpp"
 
 #include <algorithm>
 #include <cmath>
