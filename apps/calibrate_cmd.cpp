@@ -66,6 +66,11 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("--harmonics", o.harmonics, "Highest harmonic order of the harmonic effects")
       ->capture_default_str()
       ->check(CLI::Range(1, 12));
+  app.add_option("--phi-wobble-pivot-mm", o.phi_wobble_pivot_mm,
+                 "Distance along the Phi axis from its frame's origin to the bearing it tilts about (phi_wobble), "
+                 "from the machine's drawing [mm]")
+      ->capture_default_str()
+      ->check(InRange({-kMaxPivotMm, kMaxPivotMm, "mm"}));
   app.add_option("--drift-order", o.drift_order, "Highest power of time of probe_drift")
       ->capture_default_str()
       ->check(CLI::Range(1, 3));
@@ -173,6 +178,9 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       TraceOptions topts;
       topts.harmonics = o.harmonics;
       topts.drift_order = o.drift_order;
+      topts.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
+      topts.probe_range_mm =
+          o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
       topts.seed = o.seed;
       topts.progress = [&](int round, int done, int total) {
         progress.Update("tracing the residual, round " + std::to_string(round) + ": candidates", done, total);

@@ -30,6 +30,7 @@ struct CalibrateOptions {
   std::string plot_dir;              ///< residual plots (PNG, gnuplot) into this folder
   int harmonics = 4;                 ///< highest harmonic order of the harmonic effects
   int drift_order = 2;               ///< highest power of time of probe_drift
+  double phi_wobble_pivot_mm = 0.0;  ///< where the Phi axis pivots, along it (the drawing's) [mm]
   std::uint64_t seed = 1;            ///< of the cross-validation folds
   SphereConditions conditions;       ///< uncertainty inputs; override the file's header
   std::optional<double> coverage;    ///< coverage probability of U (default: k = 2)

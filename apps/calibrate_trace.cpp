@@ -97,6 +97,7 @@ void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
 bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
   bool drift = false;
   file.effects.reference = fit.model.reference;
+  file.effects.phi_wobble_pivot_mm = fit.model.phi_wobble_pivot_mm;
   for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
     if (fit.model.terms[t].effect == Effect::kProbeDrift) {
       drift = true;
@@ -168,6 +169,7 @@ Validation Validate(const std::string& path, double probe_offset_mm, const Trace
   const EffectFit& after = trace.after.fit;
   EffectModel model;
   model.reference = after.model.reference;
+  model.phi_wobble_pivot_mm = after.model.phi_wobble_pivot_mm;
   std::vector<std::vector<double>> values;
   for (std::size_t t = 0; t < after.model.terms.size(); ++t) {
     if (after.model.terms[t].effect == Effect::kProbeDrift) {
@@ -179,12 +181,26 @@ Validation Validate(const std::string& path, double probe_offset_mm, const Trace
   }
   // Each setup is a sphere position of its own: one least-squares sphere each.
   std::map<int, std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>>> points;
+  std::map<int, std::vector<EffectReading>> readings;
   const ScmsGeometry& g0 = trace.before.fit.calibration.geometry;
   for (const Sample& s : data.samples) {
     const EffectReading x(s.theta_deg, s.phi_deg, s.r_mm, s.t_s);
     auto& [before_pts, after_pts] = points[s.setup];
     before_pts.push_back(ScmsPoint(g0, x.theta_rad, x.phi_rad, s.r_mm, probe_offset_mm));
     after_pts.push_back(EffectScmsPoint(after.calibration.geometry, model, values, x, probe_offset_mm));
+    readings[s.setup].push_back(x);
+  }
+  // A probe_incidence term needs the sphere's centre: that of the points without it, then again.
+  for (int pass = 0; pass < 2 && model.Find(Effect::kProbeIncidence) >= 0; ++pass) {
+    for (auto& [setup, pts] : points) {
+      const LeastSquaresSphere fit = FitSphereLeastSquares(pts.second);
+      if (!fit.sphere.ok) break;
+      const std::vector<EffectReading>& xs = readings[setup];
+      for (std::size_t i = 0; i < xs.size(); ++i) {
+        pts.second[i] =
+            EffectScmsPoint(after.calibration.geometry, model, values, xs[i], probe_offset_mm, &fit.sphere.center);
+      }
+    }
   }
   for (const auto& [setup, pts] : points) {
     ValidationSetup vs;
@@ -250,7 +266,8 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   for (std::size_t t = 0; t < a.fit.model.terms.size(); ++t) {
     const EffectTerm& term = a.fit.model.terms[t];
     const EffectUnit u = UnitOf(term);
-    out << "  " << term.info().id << ": " << term.info().description << "\n";
+    const std::string iso = *term.info().iso_name ? std::string(" (ISO 230: ") + term.info().iso_name + ")" : "";
+    out << "  " << term.info().id << ": " << term.info().description << iso << "\n";
     for (std::size_t i = 0; i < term.components.size(); ++i) {
       const int col = a.fit.TermOffset(t) + static_cast<int>(i);
       out << Format("    %-30s %12.5f +- %.5f %s\n", term.ParamName(i).c_str(), a.fit.values[t][i] * u.per_internal,
@@ -345,7 +362,10 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
                         {"std", rep.Empty() ? json(nullptr) : json(rep.std(col) * u.per_internal)},
                         {"unit", u.name}});
     }
-    effects.push_back({{"id", term.info().id}, {"description", term.info().description}, {"parameters", params}});
+    effects.push_back({{"id", term.info().id},
+                       {"iso_name", term.info().iso_name},
+                       {"description", term.info().description},
+                       {"parameters", params}});
   }
   report["effects"] = effects;
   const EffectReference& ref = a.model.reference;

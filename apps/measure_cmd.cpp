@@ -80,7 +80,7 @@ Input ReadInput(const MeasureOptions& o) {
   const PointsData data = ReadPointsFile(o.points_path);
   in.warnings = PlausibilityWarnings(data);
   const CalibrationFile file = ReadCalibrationFile(o.calibration_path);
-  const Calibration cal = ToCalibration(file);
+  Calibration cal = ToCalibration(file);
   const auto d = data.header.probe_offset_mm;
   if (d && std::abs(*d - cal.probe_offset_mm) > 1e-9 * cal.probe_offset_mm) {
     throw Error(o.points_path + ": probe_offset_mm " + Format("%.9g", *d) + " differs from the calibration's " +
@@ -105,6 +105,35 @@ Input ReadInput(const MeasureOptions& o) {
     if (!in.setup || s.setup == *in.setup) in.readings.push_back({s.theta_deg, s.phi_deg, s.r_mm});
   }
   in.points_mm = CompensateAll(cal, in.readings);
+  if (const int t = cal.effects.Find(Effect::kProbeIncidence); t >= 0) {
+    // Its angle needs the sphere's centre: that of the points without it, then again. The error
+    // is then folded into the readings, so that the calibration's draws compensate them alike.
+    Eigen::Vector3d center = Eigen::Vector3d::Zero();
+    for (int pass = 0; pass < 2; ++pass) {
+      const LeastSquaresSphere fit = FitSphereLeastSquares(in.points_mm);
+      if (!fit.sphere.ok) throw Error(o.points_path + ": the compensated points determine no sphere");
+      center = fit.sphere.center;
+      in.points_mm = CompensateAll(cal, in.readings, center);
+    }
+    std::vector<const double*> blocks;
+    for (const auto& v : cal.effect_values) blocks.push_back(v.data());
+    const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());
+    for (RawReading& r : in.readings) {
+      r.r_mm +=
+          ProbeIncidenceError(cal.geometry.data(), trig, cal.effects, blocks.data(),
+                              EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), cal.probe_offset_mm, center.data());
+    }
+    cal.effects.terms.erase(cal.effects.terms.begin() + t);
+    cal.effect_values.erase(cal.effect_values.begin() + t);
+    in.points_mm = CompensateAll(cal, in.readings);
+  }
+  if (const std::size_t n = ProbeExtrapolations(cal, in.readings); n > 0) {
+    const EffectReference& ref = cal.effects.reference;
+    in.warnings.push_back(
+        Format("%zu of %zu readings lie outside the probe readings the calibration's probe terms were "
+               "fitted over (r_mm %.6f to %.6f): the probe polynomial is extrapolated there",
+               n, in.readings.size(), ref.FitMin(), ref.FitMax()));
+  }
   if (!file.form_terms.empty()) {
     int l_max = 0;
     for (const FormTerm& t : file.form_terms) l_max = std::max(l_max, t.l);

@@ -226,6 +226,15 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
   app.add_option("--effect-um", o.effects_um,
                  "A length effect's parameter, id.param=value [um], e.g. probe_drift.t1=0.5; repeatable")
       ->group("Effects (not declared in the points file)");
+  app.add_option("--probe-range-mm", o.probe_range_mm,
+                 "The probe's measuring range, readings 0 to it [mm]: probe_gain and probe_nonlinearity are given at "
+                 "its ends (else at the ends of the readings); written into the header as probe_range_mm")
+      ->check(InRange({0.002, 10000.0, "mm"}))
+      ->group("Effects (not declared in the points file)");
+  app.add_option("--phi-wobble-pivot-mm", o.phi_wobble_pivot_mm,
+                 "Distance along the Phi axis from its frame's origin to the bearing phi_wobble tilts about [mm]")
+      ->check(InRange({-kMaxPivotMm, kMaxPivotMm, "mm"}))
+      ->group("Effects (not declared in the points file)");
   const std::string sphere = "The sphere on its mount and its form";
   app.add_option("--mount-rotation-deg", o.mount_rotations_deg,
                  "SETUP:rx,ry,rz: the rotation vector (axis times angle) [deg] that takes the sphere's body frame into "
@@ -275,6 +284,8 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
     spec.sample_period_s = o.sample_period_s;
     for (const auto& e : o.effects_arcsec) AddEffectValue(e, Quantity::kAngle, spec.effects);
     for (const auto& e : o.effects_um) AddEffectValue(e, Quantity::kLength, spec.effects);
+    spec.effects.model.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
+    spec.probe_range_mm = o.probe_range_mm;
     for (const auto& f : o.form_um) {
       FormComponent c;
       char tail = 0;
@@ -292,6 +303,7 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
     PointsData data = Simulate(spec, &reference);
     data.header.metadata.emplace_back("generator", "sph_simulate " SPH_VERSION);
     data.header.metadata.emplace_back("seed", std::to_string(o.seed));
+    if (o.probe_range_mm) data.header.metadata.emplace_back("probe_range_mm", Format("%.17g", *o.probe_range_mm));
 
     OutputFiles files;
     if (!o.truth_path.empty()) {
@@ -338,7 +350,9 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
           params[term.ParamName(i)] = {{"value", spec.effects.values[k][i] / (angle ? kRadPerArcsec : kMmPerUm)},
                                        {"unit", angle ? "arcsec" : "um"}};
         }
-        effects.push_back({{"id", term.info().id}, {"parameters", params}});
+        nlohmann::json entry = {{"id", term.info().id}, {"iso_name", term.info().iso_name}, {"parameters", params}};
+        if (term.effect == Effect::kPhiWobble) entry["pivot_mm"] = spec.effects.model.phi_wobble_pivot_mm;
+        effects.push_back(entry);
       }
       t["effects"] = effects;
       t["effect_reference"] = {{"r_ref_mm", reference.r_ref_mm},

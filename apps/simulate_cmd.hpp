@@ -3,6 +3,7 @@
 #define SPH_APPS_SIMULATE_CMD_HPP_
 
 #include <cstdint>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -35,6 +36,9 @@ struct SimulateOptions {
   std::vector<std::string> scan_orders;  ///< "ORDER" (every setup) or "SETUP:ORDER"
   double outlier_fraction = 0.0;
   double outlier_um = 0.0;
+  double phi_wobble_pivot_mm = 0.0;  ///< where the Phi axis tilts about, along it [mm]
+  /// The probe's measuring range (readings 0 to it) [mm], written into the header; empty: none.
+  std::optional<double> probe_range_mm;
 };
 
 /// Parses "id.param=value" into `effects` (value in arcsec for angle effects, um for length

@@ -23,19 +23,31 @@ form28="--form-um 2,0,0.062 --form-um 2,2,-0.049 --form-um 3,1,0.049 --form-um 3
 turned="--center-mm 2,0,0 --center-mm 0,2,0 --center-mm 2,0,0 --mount-rotation-deg 1:0,0,90 \
 --mount-rotation-deg 2:90,0,0 --scan-order 1:serpentine --scan-order 2:columns"
 
+heights="--center-mm 2,0,0 --center-mm 0,2,3"
+eccentricities="--center-mm 2,0,0 --center-mm 0,1,0"
+pivot="--phi-wobble-pivot-mm 80"
+
 # name | expected effects (comma-separated ids, or -) | sph_simulate arguments | strip t_s (yes/no)
-cases="drift+phi_enc|probe_drift,phi_encoder|--effect-um probe_drift.t1=0.6 --effect-arcsec phi_encoder.c1=10|no
-drift+nonlin_no_t|probe_drift,probe_nonlinearity|--effect-um probe_drift.t1=0.4 --effect-um probe_nonlinearity.u3=0.15|yes
-drift+form34|probe_drift|--effect-um probe_drift.t1=0.5 $form34|no
-theta_enc_5pt|theta_encoder|--effect-arcsec theta_encoder.c5=6|no
-clean|-||no
-form28_one|-|$form28|no
-turned+form28+theta_enc|theta_encoder|$turned $form28 --effect-arcsec theta_encoder.c3=5|no
-turned+form34+drift|probe_drift|$turned $form34 --effect-um probe_drift.t1=0.4|no
-turned+form28+drift+theta_enc|probe_drift,theta_encoder|$turned $form28 --effect-um probe_drift.t1=0.4 --effect-arcsec theta_encoder.c3=5|no"
+#      | sph_calibrate arguments
+cases="drift+phi_enc|probe_drift,phi_encoder|--effect-um probe_drift.t1=0.6 --effect-arcsec phi_encoder.c1=10|no|
+drift+nonlin_no_t|probe_drift,probe_nonlinearity|--effect-um probe_drift.t1=0.4 --effect-um probe_nonlinearity.u3=0.15|yes|
+drift+form34|probe_drift|--effect-um probe_drift.t1=0.5 $form34|no|
+theta_enc_5pt|theta_encoder|--effect-arcsec theta_encoder.c5=6|no|
+clean|-||no|
+form28_one|-|$form28|no|
+turned+form28+theta_enc|theta_encoder|$turned $form28 --effect-arcsec theta_encoder.c3=5|no|
+turned+form34+drift|probe_drift|$turned $form34 --effect-um probe_drift.t1=0.4|no|
+turned+form28+drift+theta_enc|probe_drift,theta_encoder|$turned $form28 --effect-um probe_drift.t1=0.4 --effect-arcsec theta_encoder.c3=5|no|
+phi_radial_0.3|phi_radial_motion|--effect-um phi_radial_motion.x_c2=0.3|no|
+phi_axial_2|phi_axial_motion|--effect-um phi_axial_motion.c2=2|no|
+theta_tilt_10|theta_tilt_motion|--effect-arcsec theta_tilt_motion.x_c2=10|no|
+heights+theta_tilt_10|theta_tilt_motion|$heights --effect-arcsec theta_tilt_motion.x_c2=10|no|
+wobble_L80_2|phi_wobble|$pivot --effect-arcsec phi_wobble.x_c2=2|no|$pivot
+incidence_30|probe_incidence|--effect-um probe_incidence.i1=30|no|
+eccentricities+incidence_30|probe_incidence|$eccentricities --effect-um probe_incidence.i1=30|no|"
 
 printf '%-30s %5s %7s %7s %12s %10s\n' case runs right wrong form_ratio cv/sigma
-echo "$cases" | while IFS='|' read -r name expected args strip; do
+echo "$cases" | while IFS='|' read -r name expected args strip cal_args; do
   i=1
   : >"$work/rows"
   while [ "$i" -le "$runs" ]; do
@@ -46,7 +58,8 @@ echo "$cases" | while IFS='|' read -r name expected args strip; do
         "$work/p.txt" >"$work/q.txt"
       mv "$work/q.txt" "$work/p.txt"
     fi
-    "$cal" "$work/p.txt" --json "$work/r.json" >/dev/null 2>&1 || true
+    # shellcheck disable=SC2086
+    "$cal" "$work/p.txt" --json "$work/r.json" $cal_args >/dev/null 2>&1 || true
     /usr/bin/env python3 - "$work/r.json" "$work/t.json" "$expected" "$noise" >>"$work/rows" <<'EOF'
 import json, sys
 r = json.load(open(sys.argv[1]))

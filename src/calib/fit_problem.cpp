@@ -16,10 +16,25 @@ namespace {
 constexpr int kRows = SphereFitProblem::kBlockRows;
 
 // Where an effect component enters the residual (ResidualInputs).
-enum Target : int { kDTheta = 0, kDPhi, kMotionX, kMotionY, kMotionZ, kWobbleX, kWobbleY, kDr, kNumTargets };
+enum Target : int {
+  kDTheta = 0,
+  kDPhi,
+  kMotionX,
+  kMotionY,
+  kMotionZ,
+  kWobbleX,
+  kWobbleY,
+  kPhiMotionX,
+  kPhiMotionY,
+  kPhiMotionZ,
+  kTiltX,
+  kTiltY,
+  kDr,
+  kNumTargets
+};
 
 // The basis function of one component.
-enum class Basis { kThetaHarmonic, kPhiHarmonic, kU, kTau };
+enum class Basis { kThetaHarmonic, kPhiHarmonic, kU, kTau, kIncidence };
 
 struct Component {
   Target target;
@@ -40,9 +55,16 @@ Target TargetOf(Effect e, int axis) {
       return kMotionZ;
     case Effect::kPhiWobble:
       return axis == 0 ? kWobbleX : kWobbleY;
+    case Effect::kPhiRadialMotion:
+      return axis == 0 ? kPhiMotionX : kPhiMotionY;
+    case Effect::kPhiAxialMotion:
+      return kPhiMotionZ;
+    case Effect::kThetaTiltMotion:
+      return axis == 0 ? kTiltX : kTiltY;
     case Effect::kProbeGain:
     case Effect::kProbeNonlinearity:
     case Effect::kProbeDrift:
+    case Effect::kProbeIncidence:
       break;
   }
   return kDr;
@@ -51,6 +73,7 @@ Target TargetOf(Effect e, int axis) {
 Basis BasisOf(Effect e) {
   const EffectInfo& info = InfoOf(e);
   if (info.harmonic) return std::strcmp(info.variable, "theta") == 0 ? Basis::kThetaHarmonic : Basis::kPhiHarmonic;
+  if (e == Effect::kProbeIncidence) return Basis::kIncidence;
   return e == Effect::kProbeDrift ? Basis::kTau : Basis::kU;
 }
 
@@ -70,9 +93,36 @@ double Partial(const ResidualGradient& d, Target t) {
       return d.wobble_x;
     case kWobbleY:
       return d.wobble_y;
+    case kPhiMotionX:
+      return d.phi_motion[0];
+    case kPhiMotionY:
+      return d.phi_motion[1];
+    case kPhiMotionZ:
+      return d.phi_motion[2];
+    case kTiltX:
+      return d.tilt_x;
+    case kTiltY:
+      return d.tilt_y;
     default:
       return d.z;
   }
+}
+
+// result += k * d for the derivatives with respect to every input of the residual but z (e and
+// de/dz stay).
+void AddScaled(const ResidualGradient& d, double k, ResidualGradient* result) {
+  for (int j = 0; j < kNumScmsParams; ++j) result->geometry[j] += k * d.geometry[j];
+  for (int j = 0; j < 3; ++j) {
+    result->center[j] += k * d.center[j];
+    result->motion[j] += k * d.motion[j];
+    result->phi_motion[j] += k * d.phi_motion[j];
+  }
+  result->theta += k * d.theta;
+  result->phi += k * d.phi;
+  result->wobble_x += k * d.wobble_x;
+  result->wobble_y += k * d.wobble_y;
+  result->tilt_x += k * d.tilt_x;
+  result->tilt_y += k * d.tilt_y;
 }
 
 // gram (n x n, column-major, lower triangle) += C^T C over `count` rows of the column-major C
@@ -205,7 +255,7 @@ struct SphereFitProblem::Scratch {
   alignas(64) double theta[kRows], phi[kRows], ct[kRows], st[kRows], cp[kRows], sp[kRows], r[kRows], t[kRows];
   // The effects' inputs of each row (Target order) and the basis functions.
   alignas(64) double target[kNumTargets][kRows];
-  alignas(64) double u_pow[3][kRows], tau_pow[3][kRows];
+  alignas(64) double u_pow[3][kRows], tau_pow[3][kRows], incidence_pow[kMaxIncidenceOrder][kRows];
   std::vector<double> theta_harmonics, phi_harmonics;  // cos k, sin k for k = 1.., kRows each
   std::vector<const double*> basis;                    // per effect parameter: its values in the block
   std::vector<double> cols;                            // local Jacobian columns and e last, kRows each
@@ -213,7 +263,8 @@ struct SphereFitProblem::Scratch {
   std::vector<double> global;                          // num_params x kRows for the factor
   std::vector<Component> components;                   // per effect parameter
   int theta_orders = 0, phi_orders = 0;
-  bool theta_encoder = false, phi_encoder = false, wobble = false;
+  bool theta_encoder = false, phi_encoder = false, wobble = false, tilt = false;
+  int incidence = -1;  // the first effect parameter of the probe_incidence term, or -1
   // The form: the harmonics of degrees form_min..form_max, where each term's value is among them.
   std::unique_ptr<SchmidtHarmonics> harmonics;
   std::vector<int> form_slot;
@@ -256,6 +307,7 @@ SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, 
     s.harmonic_gradients.resize(static_cast<std::size_t>(3 * s.harmonics->size()));
   }
   for (const EffectTerm& term : model.terms) {
+    if (term.effect == Effect::kProbeIncidence) s.incidence = static_cast<int>(s.components.size());
     for (const EffectComponent& c : term.components) {
       const Component comp{TargetOf(term.effect, c.axis), BasisOf(term.effect), c.order, c.sine};
       s.components.push_back(comp);
@@ -265,6 +317,7 @@ SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, 
     s.theta_encoder |= term.effect == Effect::kThetaEncoder;
     s.phi_encoder |= term.effect == Effect::kPhiEncoder;
     s.wobble |= term.effect == Effect::kPhiWobble;
+    s.tilt |= term.effect == Effect::kThetaTiltMotion;
   }
   s.theta_harmonics.resize(static_cast<std::size_t>(2 * s.theta_orders * kRows));
   s.phi_harmonics.resize(static_cast<std::size_t>(2 * s.phi_orders * kRows));
@@ -284,6 +337,9 @@ SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, 
         break;
       case Basis::kTau:
         s.basis[p] = s.tau_pow[c.order - 1];
+        break;
+      case Basis::kIncidence:
+        s.basis[p] = s.incidence_pow[c.order - 1];
         break;
     }
   }
@@ -387,6 +443,10 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
   for (auto& t : s.target) std::fill(t, t + count, 0.0);
   std::size_t p = 0;
   for (const EffectTerm& term : model_.terms) {
+    if (term.effect == Effect::kProbeIncidence) {  // its basis depends on the row's point: below
+      p += term.components.size();
+      continue;
+    }
     for (int axis = 0; axis < term.info().axes; ++axis) {
       double sum[kRows];
       std::fill(sum, sum + count, 0.0);
@@ -406,22 +466,96 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
     ResidualInputs in;
     in.theta = s.theta_encoder ? SinCosOf(s.theta[i] + s.target[kDTheta][i]) : SinCos<double>{s.st[i], s.ct[i]};
     in.phi = s.phi_encoder ? SinCosOf(s.phi[i] + s.target[kDPhi][i]) : SinCos<double>{s.sp[i], s.cp[i]};
-    in.z = (s.r[i] + s.target[kDr][i]) - d_plus_dprime;
     in.motion[0] = s.target[kMotionX][i];
     in.motion[1] = s.target[kMotionY][i];
     in.motion[2] = s.target[kMotionZ][i];
-    ResidualGradient out;
-    auto gradient = [&](const double* o, ResidualGradient* result) {
-      if (s.wobble) {
-        SphereResidualGradient<true>(g, et, in, o, sphere_radius_mm_, result);
-      } else {
-        SphereResidualGradient<false>(g, et, in, o, sphere_radius_mm_, result);
-      }
-    };
+    in.phi_motion[0] = s.target[kPhiMotionX][i];
+    in.phi_motion[1] = s.target[kPhiMotionY][i];
+    in.phi_motion[2] = s.target[kPhiMotionZ][i];
     if (s.wobble) {
       in.wobble_x = SinCosOf(s.target[kWobbleX][i]);
       in.wobble_y = SinCosOf(s.target[kWobbleY][i]);
+      in.pivot_mm = model_.phi_wobble_pivot_mm;
     }
+    if (s.tilt) {
+      in.tilt_x = SinCosOf(s.target[kTiltX][i]);
+      in.tilt_y = SinCosOf(s.target[kTiltY][i]);
+    }
+    auto gradient_at = [&](const ResidualInputs& inputs, const double* o, ResidualGradient* result) {
+      if (s.wobble && s.tilt) {
+        SphereResidualGradient<true, true>(g, et, inputs, o, sphere_radius_mm_, result);
+      } else if (s.wobble) {
+        SphereResidualGradient<true, false>(g, et, inputs, o, sphere_radius_mm_, result);
+      } else if (s.tilt) {
+        SphereResidualGradient<false, true>(g, et, inputs, o, sphere_radius_mm_, result);
+      } else {
+        SphereResidualGradient<false, false>(g, et, inputs, o, sphere_radius_mm_, result);
+      }
+    };
+    // probe_incidence: the reading's error i_k sin^2k psi, psi between the beam B and the normal n0
+    // at the point p0 of z0 = r - (d + d') (the reading without the probe's terms). Its derivatives
+    // come through c = B . n0: dc/dx = gc . dp0/dx + n0 . dB/dx, gc = (B - c n0) / |p0 - O|; the
+    // first is the reverse sweep at z0 along gc, the second that along n0 at z0 + 1 less that at
+    // z0 (p is affine in z, so the difference is n0 . dB/dx exactly), and dc/dO = -gc.
+    double incidence = 0.0, de_dc_per_de_dz = 0.0;
+    ResidualGradient dc;  // dc/dx, its e and z unused
+    if (s.incidence >= 0) {
+      ResidualInputs in0 = in;
+      in0.z = s.r[i] - d_plus_dprime;
+      ResidualGradient at0;
+      gradient_at(in0, center, &at0);
+      const Eigen::Vector3d n0(-at0.center[0], -at0.center[1], -at0.center[2]);
+      const double dist0 = at0.e + sphere_radius_mm_;
+      const Eigen::Vector3d p0 = Eigen::Map<const Eigen::Vector3d>(center) + dist0 * n0;
+      Eigen::Vector3d beam;
+      if (s.wobble && s.tilt) {
+        BeamDirection<true, true>(et, in0, beam.data());
+      } else if (s.wobble) {
+        BeamDirection<true, false>(et, in0, beam.data());
+      } else if (s.tilt) {
+        BeamDirection<false, true>(et, in0, beam.data());
+      } else {
+        BeamDirection<false, false>(et, in0, beam.data());
+      }
+      const double c = beam.dot(n0), sin2 = 1.0 - c * c;
+      double power = 1.0;
+      for (int k = 1; k <= kMaxIncidenceOrder; ++k) {
+        const double previous = power;  // sin^2(k-1) psi
+        power *= sin2;
+        s.incidence_pow[k - 1][i] = power;
+        for (std::size_t q = static_cast<std::size_t>(s.incidence); q < s.components.size(); ++q) {
+          const Component& comp = s.components[q];
+          if (comp.basis != Basis::kIncidence || comp.order != k) continue;
+          incidence += effect_values[q] * power;
+          de_dc_per_de_dz += effect_values[q] * k * previous * (-2.0 * c);
+        }
+      }
+      if (cols != nullptr) {
+        const Eigen::Vector3d gc = (beam - c * n0) / dist0;
+        const double gc_norm = gc.norm();
+        if (gc_norm > 0.0) {
+          const Eigen::Vector3d behind = p0 - gc / gc_norm;
+          ResidualGradient along_gc;
+          gradient_at(in0, behind.data(), &along_gc);
+          AddScaled(along_gc, gc_norm, &dc);
+        }
+        ResidualInputs in1 = in0;
+        in1.z = in0.z + 1.0;
+        const Eigen::Vector3d behind1 = (p0 + beam) - n0;
+        ResidualGradient at1;
+        gradient_at(in1, behind1.data(), &at1);
+        AddScaled(at1, 1.0, &dc);
+        AddScaled(at0, -1.0, &dc);
+        for (int j = 0; j < 3; ++j) dc.center[j] = -gc[j];
+      }
+    }
+    in.z = (s.r[i] + (s.target[kDr][i] + incidence)) - d_plus_dprime;
+    ResidualGradient out;
+    // The gradient of e (centre o) with the chain through the incidence angle.
+    auto gradient = [&](const double* o, ResidualGradient* result) {
+      gradient_at(in, o, result);
+      if (s.incidence >= 0 && cols != nullptr) AddScaled(dc, result->z * de_dc_per_de_dz, result);
+    };
     gradient(center, &out);
     e[i] = out.e;
     if (form) {
@@ -453,12 +587,15 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
           for (int j = 0; j < 3; ++j) {
             out.center[j] -= t_norm * along.center[j];
             out.motion[j] -= t_norm * along.motion[j];
+            out.phi_motion[j] -= t_norm * along.phi_motion[j];
           }
           out.theta -= t_norm * along.theta;
           out.phi -= t_norm * along.phi;
           out.z -= t_norm * along.z;
           out.wobble_x -= t_norm * along.wobble_x;
           out.wobble_y -= t_norm * along.wobble_y;
+          out.tilt_x -= t_norm * along.tilt_x;
+          out.tilt_y -= t_norm * along.tilt_y;
         }
         for (int k = 0; k < num_form_terms_; ++k) {
           const auto slot = static_cast<std::size_t>(s.form_slot[static_cast<std::size_t>(k)]);

@@ -185,6 +185,7 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
     json p;
     p["value"] = ParamValue(r, i) * u.to_report;
     p["unit"] = u.report;
+    if (i < kNumScmsParams) p["iso_name"] = kScmsParamInfo[i].iso_name;
     if (!rep.Empty()) {
       const double sd = rep.std(static_cast<Eigen::Index>(i));
       p["std"] = std::isfinite(sd) ? json(sd * u.to_report) : json(nullptr);

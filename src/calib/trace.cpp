@@ -25,9 +25,15 @@ namespace {
 using internal::Format;
 
 bool IsThetaMachine(Effect e) {
-  return e == Effect::kThetaEncoder || e == Effect::kThetaRadialMotion || e == Effect::kThetaAxialMotion;
+  return e == Effect::kThetaEncoder || e == Effect::kThetaRadialMotion || e == Effect::kThetaAxialMotion ||
+         e == Effect::kThetaTiltMotion;
 }
-bool IsPhiMachine(Effect e) { return e == Effect::kPhiEncoder || e == Effect::kPhiWobble; }
+bool IsPhiMachine(Effect e) {
+  return e == Effect::kPhiEncoder || e == Effect::kPhiWobble || e == Effect::kPhiRadialMotion ||
+         e == Effect::kPhiAxialMotion;
+}
+bool IsThetaMotion(Effect e) { return e == Effect::kThetaRadialMotion || e == Effect::kThetaAxialMotion; }
+bool IsPair(Effect a, Effect b, Effect x, Effect y) { return (a == x && b == y) || (a == y && b == x); }
 bool IsProbe(Effect e) { return e == Effect::kProbeGain || e == Effect::kProbeNonlinearity; }
 
 // The measurement that tells two effects apart, from how each maps onto the readings.
@@ -35,6 +41,20 @@ std::string SeparateBy(Effect a, Effect b) {
   if (a == Effect::kProbeDrift || b == Effect::kProbeDrift) {
     return "repeated reference points: return to one position at the start, middle and end of the run, or measure "
            "the pattern in another order (drift follows time, the other follows the position)";
+  }
+  if (a == Effect::kProbeIncidence || b == Effect::kProbeIncidence) {
+    return "a second sphere position at another eccentricity: the probe's incidence error grows with its square "
+           "(sin psi reaches about e / R0), a machine error's signal on the sphere in proportion to it or not at all";
+  }
+  if ((a == Effect::kThetaTiltMotion && IsThetaMotion(b)) || (b == Effect::kThetaTiltMotion && IsThetaMotion(a))) {
+    return "a second sphere position at another height along the Theta axis or another eccentricity: a tilt of the "
+           "spindle moves the sphere by its lever (the centre's distance from the pivot), a radial or axial motion by "
+           "the same amount wherever the sphere sits";
+  }
+  if (IsPair(a, b, Effect::kPhiWobble, Effect::kPhiRadialMotion)) {
+    return "a larger eccentricity: a tilt of the Phi axis about its pivot at L shifts the probe line by L w along the "
+           "beam as a radial motion does, and besides turns it across the surface, which shows only through the "
+           "eccentricity (e w against L w)";
   }
   if (IsThetaMachine(a) && IsThetaMachine(b)) {
     return "a second sphere position at another eccentricity or azimuth: an encoder error moves the probed point "
@@ -371,10 +391,17 @@ std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const Tr
   return out;
 }
 
+// What the probe and drift terms of a trace of `all` are normalised by.
+EffectReference ReferenceOf(const PointsData& all, const TraceOptions& trace) {
+  const EffectReference of_data = EffectReferenceOf(all.samples);
+  return trace.probe_range_mm ? WithProbeRange(of_data, *trace.probe_range_mm) : of_data;
+}
+
 EffectFit FitNone(const Readings& data, const CalibrationOptions& options, const CalibrationResult& base,
-                  const EffectReference& reference) {
+                  const EffectReference& reference, const TraceOptions& trace) {
   EffectModel none;
   none.reference = reference;
+  none.phi_wobble_pivot_mm = trace.phi_wobble_pivot_mm;
   return internal::FitEffectsRows(data.points, data.table, nullptr, options, none, EffectFitStart::From(base));
 }
 
@@ -480,8 +507,8 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
   TraceResult r;
   const Readings data(WithoutOutliers(all, base));  // what the seven-error fit used
   const PointsData& points = data.points;
-  const EffectReference reference = EffectReferenceOf(all.samples);
-  r.before = Analysed(FitNone(data, options, base, reference), data, options, trace);
+  const EffectReference reference = ReferenceOf(all, trace);
+  r.before = Analysed(FitNone(data, options, base, reference, trace), data, options, trace);
   std::vector<Effect> pool = trace.candidates;
   if (pool.empty()) {
     for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
@@ -724,10 +751,11 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
                             const std::vector<Effect>& effects, const TraceOptions& trace) {
   TraceResult r;
   const Readings data(WithoutOutliers(all, base));
-  const EffectReference reference = EffectReferenceOf(all.samples);
-  r.before = Analysed(FitNone(data, options, base, reference), data, options, trace);
+  const EffectReference reference = ReferenceOf(all, trace);
+  r.before = Analysed(FitNone(data, options, base, reference, trace), data, options, trace);
   EffectModel model;
   model.reference = reference;
+  model.phi_wobble_pivot_mm = trace.phi_wobble_pivot_mm;
   for (Effect e : effects) {
     if (model.Find(e) < 0) model.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
   }

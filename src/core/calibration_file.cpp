@@ -79,6 +79,14 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
       }
       values.push_back(v * EffectScale(term));
     }
+    if (e == Effect::kPhiWobble && effects[k].contains("pivot_mm")) {
+      const double pivot = Number(effects[k], "pivot_mm", where, path);
+      if (!(std::abs(pivot) <= kMaxPivotMm)) {
+        throw Error(path + ": field '" + where + "pivot_mm' is " + Format("%g", pivot) +
+                    " mm: the Phi axis' pivot lies within " + Format("%g", kMaxPivotMm) + " mm of its frame's origin");
+      }
+      cal.effects.phi_wobble_pivot_mm = pivot;
+    }
     cal.effects.terms.push_back(term);
     cal.effect_values.push_back(values);
   }
@@ -89,6 +97,15 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
   r.r_half_range_mm = Number(ref, "r_half_range_mm", "effect_reference.", path);
   r.t_start_s = Number(ref, "t_start_s", "effect_reference.", path);
   r.t_span_s = Number(ref, "t_span_s", "effect_reference.", path);
+  if (ref.contains("r_fit_min_mm") || ref.contains("r_fit_max_mm")) {
+    r.r_fit_min_mm = Number(ref, "r_fit_min_mm", "effect_reference.", path);
+    r.r_fit_max_mm = Number(ref, "r_fit_max_mm", "effect_reference.", path);
+    if (!(r.r_fit_min_mm <= r.r_fit_max_mm) || !std::isfinite(r.r_fit_min_mm) || !std::isfinite(r.r_fit_max_mm)) {
+      throw Error(path +
+                  ": field 'effect_reference': r_fit_min_mm and r_fit_max_mm must be finite, the first not "
+                  "above the second");
+    }
+  }
   if (!(r.r_half_range_mm >= kMinProbeHalfRangeMm) || !(r.t_span_s > 0.0) || !std::isfinite(r.r_ref_mm) ||
       !std::isfinite(r.t_start_s)) {
     throw Error(path + ": field 'effect_reference': r_half_range_mm must be at least " +
@@ -334,7 +351,9 @@ void WriteCalibration(std::ostream& out, const CalibrationFile& cal) {
                         {"value", cal.effect_values[t][i] / EffectScale(term)},
                         {"unit", EffectUnit(term)}});
     }
-    effects.push_back({{"id", term.info().id}, {"parameters", params}});
+    json entry = {{"id", term.info().id}, {"iso_name", term.info().iso_name}, {"parameters", params}};
+    if (term.effect == Effect::kPhiWobble) entry["pivot_mm"] = cal.effects.phi_wobble_pivot_mm;
+    effects.push_back(entry);
   }
   j["effects"] = effects;
   if (!cal.form_terms.empty()) {
@@ -349,10 +368,9 @@ void WriteCalibration(std::ostream& out, const CalibrationFile& cal) {
   }
   if (!cal.effects.Empty()) {
     const EffectReference& r = cal.effects.reference;
-    j["effect_reference"] = {{"r_ref_mm", r.r_ref_mm},
-                             {"r_half_range_mm", r.r_half_range_mm},
-                             {"t_start_s", r.t_start_s},
-                             {"t_span_s", r.t_span_s}};
+    j["effect_reference"] = {{"r_ref_mm", r.r_ref_mm},     {"r_half_range_mm", r.r_half_range_mm},
+                             {"t_start_s", r.t_start_s},   {"t_span_s", r.t_span_s},
+                             {"r_fit_min_mm", r.FitMin()}, {"r_fit_max_mm", r.FitMax()}};
   }
   json source = json::object();
   for (const auto& [k, v] : cal.source) source[k] = v;

@@ -364,7 +364,8 @@ Eigen::Matrix3d RotationOfVectorDeg(const Eigen::Vector3d& rotation_deg) {
 
 std::optional<double> TrueProbeDistance(const ScmsGeometry& g, const SimulatedEffects& e, double theta_rad,
                                         double phi_rad, double probe_offset_mm, const Eigen::Vector3d& center_mm,
-                                        double sphere_radius_mm, const Eigen::Matrix3d& body_to_theta) {
+                                        double sphere_radius_mm, const Eigen::Matrix3d& body_to_theta,
+                                        double* sin2_incidence) {
   using Eigen::AngleAxisd;
   using Eigen::Translation3d;
   using Eigen::Vector3d;
@@ -375,10 +376,21 @@ std::optional<double> TrueProbeDistance(const ScmsGeometry& g, const SimulatedEf
                         EffectValue(e, Effect::kThetaAxialMotion, 0, theta_rad));
   const double wx = EffectValue(e, Effect::kPhiWobble, 0, phi_rad);
   const double wy = EffectValue(e, Effect::kPhiWobble, 1, phi_rad);
-  const Eigen::Affine3d T_theta_phi = AngleAxisd(theta, Vector3d::UnitZ()) * Translation3d(-motion) *
-                                      Translation3d(g[kA], 0.0, 0.0) *
-                                      AngleAxisd(kPi / 2 + g[kAlpha], Vector3d::UnitX()) *
-                                      AngleAxisd(wx, Vector3d::UnitX()) * AngleAxisd(wy, Vector3d::UnitY());
+  const Vector3d pivot(0.0, 0.0, e.model.phi_wobble_pivot_mm);
+  const Vector3d phi_motion(EffectValue(e, Effect::kPhiRadialMotion, 0, phi_rad),
+                            EffectValue(e, Effect::kPhiRadialMotion, 1, phi_rad),
+                            EffectValue(e, Effect::kPhiAxialMotion, 0, phi_rad));
+  // The Theta spindle's rotor (and the sphere on it) in the machine frame: turned by -theta about
+  // z, tilted by (tx, ty) about the machine x and y axes through the origin, displaced by `motion`.
+  const double tx = EffectValue(e, Effect::kThetaTiltMotion, 0, theta_rad);
+  const double ty = EffectValue(e, Effect::kThetaTiltMotion, 1, theta_rad);
+  const Eigen::Affine3d machine_from_sphere(Translation3d(motion) * AngleAxisd(tx, Vector3d::UnitX()) *
+                                            AngleAxisd(ty, Vector3d::UnitY()) * AngleAxisd(-theta, Vector3d::UnitZ()));
+  // The Phi axis' rotor in its frame: tilted by (wx, wy) about the bearing at `pivot`, then displaced.
+  const Eigen::Affine3d phi_rotor(Translation3d(phi_motion) * Translation3d(pivot) * AngleAxisd(wx, Vector3d::UnitX()) *
+                                  AngleAxisd(wy, Vector3d::UnitY()) * Translation3d(-pivot));
+  const Eigen::Affine3d T_theta_phi = machine_from_sphere.inverse(Eigen::Isometry) * Translation3d(g[kA], 0.0, 0.0) *
+                                      AngleAxisd(kPi / 2 + g[kAlpha], Vector3d::UnitX()) * phi_rotor;
   const Eigen::Affine3d T_phi_probe = AngleAxisd(-phi, Vector3d::UnitZ()) * AngleAxisd(g[kBeta], Vector3d::UnitZ()) *
                                       Translation3d(0.0, 0.0, g[kB]) * Translation3d(g[kC], 0.0, 0.0) *
                                       AngleAxisd(kPi / 2 + g[kEpsilon], Vector3d::UnitX());
@@ -386,8 +398,15 @@ std::optional<double> TrueProbeDistance(const ScmsGeometry& g, const SimulatedEf
   const double zero_z = -(probe_offset_mm + g[kDPrime]);
   const Vector3d origin = T_sphere_probe * Vector3d(0.0, 0.0, zero_z);  // probe zero point
   const Vector3d dir = T_sphere_probe.linear() * Vector3d::UnitZ();      // unit: rotations only
-  if (!e.HasForm()) return RaySphere(origin, dir, center_mm, sphere_radius_mm);
-  return RaySurface(origin, dir, center_mm, sphere_radius_mm, e, body_to_theta);
+  const std::optional<double> hit = e.HasForm() ? RaySurface(origin, dir, center_mm, sphere_radius_mm, e, body_to_theta)
+                                                : RaySphere(origin, dir, center_mm, sphere_radius_mm);
+  if (hit && sin2_incidence) {
+    // The angle between the beam and the sphere's normal where it meets the surface (the form's
+    // slope, micrometres over millimetres, left aside).
+    const Vector3d normal = (origin + *hit * dir - center_mm).normalized();
+    *sin2_incidence = dir.cross(normal).squaredNorm();
+  }
+  return hit;
 }
 
 std::optional<double> ProbeReading(const ScmsGeometry& g, double theta_rad, double phi_rad, double probe_offset_mm,
@@ -395,10 +414,12 @@ std::optional<double> ProbeReading(const ScmsGeometry& g, double theta_rad, doub
   return TrueProbeDistance(g, SimulatedEffects{}, theta_rad, phi_rad, probe_offset_mm, center_mm, sphere_radius_mm);
 }
 
-double ProbeReadingOfDistance(const SimulatedEffects& e, double distance_mm, double t_s) {
+double ProbeReadingOfDistance(const SimulatedEffects& e, double distance_mm, double t_s, double sin2_incidence) {
   const EffectReference& ref = e.model.reference;
   const double tau = (t_s - ref.t_start_s) / ref.t_span_s;
-  const double drift = EffectValue(e, Effect::kProbeDrift, 0, tau);
+  // The errors that do not depend on the reading: the drift at t and the error at this incidence.
+  const double drift =
+      EffectValue(e, Effect::kProbeDrift, 0, tau) + EffectValue(e, Effect::kProbeIncidence, 0, sin2_incidence);
   // r + error(r) = distance, error(r) = gain + nonlinearity in u(r) + drift: a contraction (the
   // errors change by far less than r does), so fixed-point iteration converges in a few steps.
   double r = distance_mm;
@@ -450,6 +471,7 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
   data.has_time = true;
   data.has_setup = spec.centers_mm.size() > 1;
   data.samples.reserve(spec.centers_mm.size() * spec.pattern.size());
+  std::vector<double> sin2_incidence;  // of each sample's beam against the surface
   for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
     const int setup = static_cast<int>(k);
     const auto rotation = spec.mount_rotations_deg.find(setup);
@@ -465,8 +487,11 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
     const std::vector<AnglePair> scan = InScanOrder(
         spec.pattern, order == spec.scan_orders.end() ? spec.scan_order : order->second, ScanSeed(spec.seed, k));
     for (const AnglePair& a : scan) {
-      const auto r = TrueProbeDistance(spec.truth, spec.effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg,
-                                       spec.probe_offset_mm, spec.centers_mm[k], spec.sphere_radius_mm, body_to_theta);
+      double sin2 = 0.0;
+      const auto r =
+          TrueProbeDistance(spec.truth, spec.effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg,
+                            spec.probe_offset_mm, spec.centers_mm[k], spec.sphere_radius_mm, body_to_theta, &sin2);
+      sin2_incidence.push_back(sin2);
       if (!r) {
         throw Error("simulation: the probe ray misses the sphere at theta " + std::to_string(a.theta_deg) +
                     " deg, phi " + std::to_string(a.phi_deg) + " deg (setup " + std::to_string(k) + ")");
@@ -486,9 +511,19 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
   SimulatedEffects effects = spec.effects;
   const std::vector<Sample> distances = data.samples;
   effects.model.reference = EffectReferenceOf(distances);
-  for (int it = 0; it < 20; ++it) {
+  if (spec.probe_range_mm) {
+    effects.model.reference = WithProbeRange(effects.model.reference, *spec.probe_range_mm);
     for (std::size_t i = 0; i < distances.size(); ++i) {
-      data.samples[i].r_mm = ProbeReadingOfDistance(effects, distances[i].r_mm, distances[i].t_s);
+      data.samples[i].r_mm = ProbeReadingOfDistance(effects, distances[i].r_mm, distances[i].t_s, sin2_incidence[i]);
+    }
+    // The data's span as a calibration records it; the normalisation stays the probe's.
+    const EffectReference of_readings = EffectReferenceOf(data.samples);
+    effects.model.reference.r_fit_min_mm = of_readings.r_fit_min_mm;
+    effects.model.reference.r_fit_max_mm = of_readings.r_fit_max_mm;
+  }
+  for (int it = 0; it < 20 && !spec.probe_range_mm; ++it) {
+    for (std::size_t i = 0; i < distances.size(); ++i) {
+      data.samples[i].r_mm = ProbeReadingOfDistance(effects, distances[i].r_mm, distances[i].t_s, sin2_incidence[i]);
     }
     const EffectReference next = EffectReferenceOf(data.samples);
     const bool settled = next.r_ref_mm == effects.model.reference.r_ref_mm &&

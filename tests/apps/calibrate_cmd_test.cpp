@@ -87,6 +87,10 @@ TEST_F(CalibrateCmd, ExampleDataGivesAUsableCalibration) {
     EXPECT_TRUE(j["parameters"][p]["std"].is_number());
   }
   EXPECT_EQ(j["parameters"]["alpha"]["unit"], "deg");
+  // ISO 230-1's names beside ours, with the sign where it differs.
+  EXPECT_EQ(j["parameters"]["alpha"]["iso_name"], "EA0B");
+  EXPECT_EQ(j["parameters"]["beta"]["iso_name"], "-EB0B");
+  EXPECT_EQ(j["parameters"]["d_prime"]["iso_name"], "");
   EXPECT_EQ(j["parameters"]["a"]["unit"], "mm");
   EXPECT_EQ(j["fit"]["n_points"], 288);
   EXPECT_TRUE(j["fit"]["converged"].get<bool>());

@@ -596,3 +596,69 @@ TEST_F(MeasureCmd, SubtractsTheCalibrationSpheresForm) {
 
 }  // namespace
 }  // namespace sph::apps
+
+namespace sph::apps {
+namespace {
+
+// A calibration of the paper's machine (its truth, no covariance) with one effect term.
+std::string WriteCalibrationWith(const std::string& path, const EffectTerm& term, const std::vector<double>& values,
+                                 const EffectReference& reference) {
+  CalibrationFile file;
+  file.geometry = SimulationSpec::PaperTruth();
+  file.probe_offset_mm = 25.0;
+  file.effects.terms = {term};
+  file.effect_values = {values};
+  file.effects.reference = reference;
+  WriteCalibrationFile(path, file);
+  return path;
+}
+
+// Readings outside those the calibration's probe gain was fitted over are counted in a warning.
+TEST_F(MeasureCmd, WarnsWithTheirCountWhenItExtrapolatesTheProbePolynomial) {
+  MeasureOptions o;
+  o.points_path = Simulated("measure.txt", {Eigen::Vector3d(2.0, 0.0, 0.0)});
+  EffectReference ref = WithProbeRange(EffectReference{}, 10.0);
+  ref.r_fit_min_mm = 4.0;
+  ref.r_fit_max_mm = 6.0;
+  o.calibration_path = WriteCalibrationWith(dir_ + "/cal.json", DefaultTerm(Effect::kProbeGain), {1e-3}, ref);
+  o.uncertainty_samples = 0;
+  o.noise_floor_draws = 0;
+  int outside = 0;
+  const PointsData points = ReadPointsFile(o.points_path);
+  for (const Sample& s : points.samples) outside += s.r_mm < 4.0 || s.r_mm > 6.0 ? 1 : 0;
+  ASSERT_GT(outside, 0);
+  const RunOutput r = Measure(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.err, HasSubstr(std::to_string(outside) + " of " + std::to_string(points.samples.size()) +
+                               " readings lie outside the probe readings the calibration's probe terms were fitted "
+                               "over (r_mm 4.000000 to 6.000000)"));
+}
+
+// A probe incidence error, simulated from the ray's angle, is compensated with the centre of the
+// measured sphere: noise-free readings then lie on a sphere to rounding, as without the error.
+TEST_F(MeasureCmd, CompensatesAProbeIncidenceErrorWithTheMeasuredSpheresCentre) {
+  SimulationSpec spec;
+  spec.centers_mm = {Eigen::Vector3d(1.5, -1.0, 0.5)};
+  spec.noise_r_um = 0.0;
+  const EffectTerm term = DefaultTerm(Effect::kProbeIncidence);
+  spec.effects.model.terms = {term};
+  spec.effects.values = {{30e-3}};
+  MeasureOptions o;
+  o.points_path = dir_ + "/measure.txt";
+  WritePointsFile(o.points_path, Simulate(spec));
+  o.json_path = dir_ + "/m.json";
+  o.quiet = true;
+  o.uncertainty_samples = 0;
+  o.noise_floor_draws = 0;
+  o.calibration_path = WriteCalibrationWith(dir_ + "/cal.json", term, {30e-3}, EffectReference{});
+  ASSERT_EQ(Measure(o).code, kExitOk);
+  const double with_um = ReadJson(o.json_path)["sphericity_ls_um"].get<double>();
+  o.calibration_path = WriteCalibrationWith(dir_ + "/none.json", term, {0.0}, EffectReference{});
+  ASSERT_EQ(Measure(o).code, kExitOk);
+  const double without_um = ReadJson(o.json_path)["sphericity_ls_um"].get<double>();
+  EXPECT_LT(with_um, 1e-4);
+  EXPECT_GT(without_um, 0.05);  // i1 (e / R0)^2 = 30 um x 0.0088: 0.26 um at most
+}
+
+}  // namespace
+}  // namespace sph::apps

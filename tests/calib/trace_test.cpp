@@ -245,3 +245,121 @@ TEST(FitEffects, ProbeGainOfExactDataIsTheSimulatedOne) {
 
 }  // namespace
 }  // namespace sph
+
+namespace sph {
+namespace {
+
+// The points of one effect (its components and values) with the sphere at `centers_mm`.
+PointsData Placed(const std::vector<Eigen::Vector3d>& centers_mm, Effect e, std::vector<EffectComponent> components,
+                  std::vector<double> values, double pivot_mm = 0.0) {
+  SimulationSpec spec;
+  spec.centers_mm = centers_mm;
+  spec.effects.model.terms = {{e, std::move(components)}};
+  spec.effects.model.phi_wobble_pivot_mm = pivot_mm;
+  spec.effects.values = {std::move(values)};
+  return Simulate(spec);
+}
+
+TraceResult TraceWith(const PointsData& points, const TraceOptions& options) {
+  return TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), options);
+}
+
+// The ambiguity between effects a and b, either way round, or null.
+const Ambiguity* Between(const TraceResult& r, const std::string& a, const std::string& b) {
+  for (const Ambiguity& x : r.ambiguous) {
+    if ((x.chosen == a && x.other == b) || (x.chosen == b && x.other == a)) return &x;
+  }
+  return nullptr;
+}
+
+const std::vector<Eigen::Vector3d> kAt2mm{Eigen::Vector3d(2.0, 0.0, 0.0)};
+
+// A two-lobe radial motion of the Phi axis moves the probe along its beam: one placement shows it.
+TEST(TraceResidual, FindsARadialMotionOfThePhiAxisInOnePlacement) {
+  const TraceResult r = Trace(Placed(kAt2mm, Effect::kPhiRadialMotion, {{2, 0, false}}, {0.3 * kMmPerUm}));
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kPhiRadialMotion}) << Describe(r);
+  const EffectFit& fit = r.after.fit;
+  ASSERT_EQ(fit.model.terms[0].ParamName(0), "phi_radial_motion.x_c2") << Describe(r);
+  EXPECT_NEAR(fit.values[0][0], 0.3 * kMmPerUm, 4 * fit.calibration.analysis.std(fit.TermOffset(0)));
+}
+
+// An axial motion of the Phi axis moves the probed point across the beam, along the Theta
+// azimuth: the eccentricity shows 2 um of it.
+TEST(TraceResidual, FindsAnAxialMotionOfThePhiAxisInOnePlacement) {
+  const TraceResult r = Trace(Placed(kAt2mm, Effect::kPhiAxialMotion, {{2, 0, false}}, {2.0 * kMmPerUm}));
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kPhiAxialMotion}) << Describe(r);
+  EXPECT_TRUE(r.unexplained.empty()) << Describe(r);
+}
+
+// A tilt of the Theta spindle about the axes' common point moves a sphere there along the axis
+// only, as an axial motion does: one placement cannot tell them, and the tracer says so with the
+// measurement that would; a second placement at another height does.
+TEST(TraceResidual, NamesASpindleTiltConfoundedInOnePlacementAndFindsItWithTwoHeights) {
+  const double tilt = 10 * kRadPerArcsec;
+  const TraceResult one = Trace(Placed(kAt2mm, Effect::kThetaTiltMotion, {{2, 0, false}}, {tilt}));
+  ASSERT_EQ(one.added.size(), 1u) << Describe(one);
+  EXPECT_TRUE(one.added[0] == Effect::kThetaTiltMotion || one.added[0] == Effect::kThetaAxialMotion) << Describe(one);
+  const Ambiguity* pair = Between(one, "theta_tilt_motion", "theta_axial_motion");
+  ASSERT_NE(pair, nullptr) << Describe(one);
+  EXPECT_NE(pair->separate_by.find("another height along the Theta axis"), std::string::npos) << pair->separate_by;
+
+  const TraceResult two = Trace(Placed({Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, 2.0, 3.0)},
+                                       Effect::kThetaTiltMotion, {{2, 0, false}}, {tilt}));
+  ASSERT_EQ(two.added, std::vector<Effect>{Effect::kThetaTiltMotion}) << Describe(two);
+  EXPECT_EQ(Between(two, "theta_tilt_motion", "theta_axial_motion"), nullptr) << Describe(two);
+  const EffectFit& fit = two.after.fit;
+  ASSERT_EQ(fit.model.terms[0].ParamName(0), "theta_tilt_motion.x_c2") << Describe(two);
+  EXPECT_NEAR(fit.values[0][0], tilt, 4 * fit.calibration.analysis.std(fit.TermOffset(0)));
+}
+
+// A wobble of the Phi axis about its bearing 80 mm along it shifts the probe line as a radial
+// motion does (L w along the beam); it also turns the line, which only the eccentricity shows:
+// at 2 mm the two are named as confounded, at 6 mm the wobble is found.
+TEST(TraceResidual, NamesAWobbleAboutItsPivotConfoundedAndFindsItAtALargerEccentricity) {
+  TraceOptions options;
+  options.phi_wobble_pivot_mm = 80.0;
+  const double w = 2 * kRadPerArcsec;
+  const TraceResult near = TraceWith(Placed(kAt2mm, Effect::kPhiWobble, {{2, 0, false}}, {w}, 80.0), options);
+  ASSERT_EQ(near.added.size(), 1u) << Describe(near);
+  const Ambiguity* pair = Between(near, "phi_wobble", "phi_radial_motion");
+  ASSERT_NE(pair, nullptr) << Describe(near);
+  EXPECT_NE(pair->separate_by.find("larger eccentricity"), std::string::npos) << pair->separate_by;
+
+  const TraceResult far =
+      TraceWith(Placed({Eigen::Vector3d(6.0, 0.0, 0.0)}, Effect::kPhiWobble, {{2, 0, false}}, {w}, 80.0), options);
+  ASSERT_EQ(far.added, std::vector<Effect>{Effect::kPhiWobble}) << Describe(far);
+  const EffectFit& fit = far.after.fit;
+  EXPECT_EQ(fit.model.phi_wobble_pivot_mm, 80.0);
+  ASSERT_EQ(fit.model.terms[0].ParamName(0), "phi_wobble.x_c2") << Describe(far);
+  EXPECT_NEAR(fit.values[0][0], w, 4 * fit.calibration.analysis.std(fit.TermOffset(0)));
+}
+
+// An incidence error of the probe is never taken for a Theta encoder error. On a sphere whose
+// centre is e from the axes' common point, sin^2 psi = (e^2 - (rho - R0)^2) / R0^2 at first order:
+// a quadratic of the reading, so any placements confound it with the probe's own polynomial, and
+// the tracer names that. With the probe's gain and nonlinearity known (calibrated on a length
+// standard: not candidates), two eccentricities find it.
+TEST(TraceResidual, NamesAProbeIncidenceErrorAndFindsItWhenTheProbesPolynomialIsKnown) {
+  const double i1 = 30 * kMmPerUm;
+  const std::vector<Eigen::Vector3d> two{Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, 1.0, 0.0)};
+  for (const auto& centers : {kAt2mm, two}) {
+    const TraceResult r = Trace(Placed(centers, Effect::kProbeIncidence, {{1, 0, false}}, {i1}));
+    EXPECT_TRUE(std::find(r.added.begin(), r.added.end(), Effect::kThetaEncoder) == r.added.end()) << Describe(r);
+    const bool found = r.added == std::vector<Effect>{Effect::kProbeIncidence};
+    bool named = false;
+    for (const Ambiguity& a : r.ambiguous) named |= a.chosen == "probe_incidence" || a.other == "probe_incidence";
+    EXPECT_TRUE(found || named || !r.unexplained.empty()) << Describe(r);
+  }
+  TraceOptions known;
+  for (int e = 0; e < kNumEffects; ++e) {
+    const auto effect = static_cast<Effect>(e);
+    if (effect != Effect::kProbeGain && effect != Effect::kProbeNonlinearity) known.candidates.push_back(effect);
+  }
+  const TraceResult r = TraceWith(Placed(two, Effect::kProbeIncidence, {{1, 0, false}}, {i1}), known);
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kProbeIncidence}) << Describe(r);
+  const EffectFit& fit = r.after.fit;
+  EXPECT_NEAR(fit.values[0][0], i1, 4 * fit.calibration.analysis.std(fit.TermOffset(0)));
+}
+
+}  // namespace
+}  // namespace sph

@@ -219,7 +219,7 @@ struct EffectReadingResidual {
     using std::sqrt;
     const T* g = params[0];
     const T* c = params[1];
-    const Vec3<T> p = EffectScmsPoint(g, ErrorTrigOf(g), *model, params + 2, reading, kD);
+    const Vec3<T> p = EffectScmsPoint(g, ErrorTrigOf(g), *model, params + 2, reading, kD, nullptr, c);
     const T dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2];
     residual[0] = sqrt(dx * dx + dy * dy + dz * dz) - T(kR0);
     return true;
@@ -238,6 +238,10 @@ TEST(JacobianAt, EqualsTheAutodiffJacobianWithEveryEffect) {
     fit.values.push_back(v);
   }
   fit.model.reference = EffectReferenceOf(points.samples);
+  fit.model.phi_wobble_pivot_mm = 60.0;
+  // An incidence error of a real size (50 um at 90 deg, 0.5 um at the eccentricity's 6 deg), so that
+  // its chain through the beam and the normal counts.
+  fit.values[static_cast<std::size_t>(fit.model.Find(Effect::kProbeIncidence))] = {50e-3};
   fit.calibration.geometry = SomeGeometry();
   fit.calibration.setup_ids = {0};
   fit.calibration.centers_mm = {Eigen::Vector3d(2.0, 0.01, -0.02)};

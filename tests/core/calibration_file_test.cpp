@@ -137,6 +137,38 @@ TEST(CalibrationFile, EffectsGoThroughTheFileAndIntoCompensation) {
   EXPECT_TRUE(Compensate(broken, 30.0, 60.0, 5.1).array().isNaN().all());
 }
 
+// The Phi axis' pivot, the readings the probe terms were fitted over and the ISO 230 names go
+// through the file; a pivot beyond the bounds is refused at its field.
+TEST(CalibrationFile, PivotFitRangeAndIsoNames) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_pivot");
+  CalibrationFile file;
+  file.probe_offset_mm = 25.0;
+  file.effects.terms = {{Effect::kPhiWobble, {{2, 0, false}}},
+                        {Effect::kThetaTiltMotion, {{2, 1, true}}},
+                        {Effect::kProbeGain, {{1, 0, false}}}};
+  file.effect_values = {{3 * kRadPerArcsec}, {-2 * kRadPerArcsec}, {0.4 * kMmPerUm}};
+  file.effects.reference = WithProbeRange(EffectReference{4.9, 2.1, 0.0, 287.0, 3.1, 6.8}, 10.0);
+  file.effects.phi_wobble_pivot_mm = 82.5;
+  WriteCalibrationFile(dir + "/cal.json", file);
+  const std::string text = sph::testing::ReadWholeFile(dir + "/cal.json");
+  EXPECT_NE(text.find(R"x("iso_name": "EAB, ECB (tilt error motion of B)")x"), std::string::npos) << text;
+  EXPECT_NE(text.find(R"x("iso_name": "EAC, EBC (tilt error motion of C)")x"), std::string::npos);
+  const Calibration cal = LoadCalibration(dir + "/cal.json");
+  ASSERT_TRUE(cal.IsValid());
+  EXPECT_EQ(cal.effects.phi_wobble_pivot_mm, 82.5);
+  EXPECT_EQ(cal.effects.reference.r_ref_mm, 5.0);
+  EXPECT_EQ(cal.effects.reference.r_half_range_mm, 5.0);
+  EXPECT_EQ(cal.effects.reference.FitMin(), 3.1);
+  EXPECT_EQ(cal.effects.reference.FitMax(), 6.8);
+  // Readings outside 3.1 .. 6.8 mm are extrapolated by the gain: two of these four.
+  const std::vector<RawReading> readings{{0, 90, 3.0}, {0, 90, 3.1}, {0, 90, 6.8}, {0, 90, 7.2}};
+  EXPECT_EQ(ProbeExtrapolations(cal, readings), 2u);
+  std::string bad = text;
+  bad.replace(bad.find("82.5"), 4, "2e+04");
+  WriteText(dir + "/bad.json", bad);
+  EXPECT_THAT(ErrorReading(dir + "/bad.json"), HasSubstr("bad.json: field 'effects[0].pivot_mm' is 20000 mm"));
+}
+
 TEST(CalibrationFile, NamesEveryMissingOrWrongField) {
   const std::string dir = sph::testing::MakeTempDir("calfile_fields");
   const std::vector<std::pair<std::pair<std::string, std::string>, std::string>> cases{

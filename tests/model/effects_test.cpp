@@ -86,6 +86,86 @@ TEST(EffectScmsPoint, PhiWobbleTiltsThePhiFrame) {
   EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, expected, kTol);
 }
 
+TEST(EffectScmsPoint, PhiWobblePivotsAtTheBearing) {
+  // x_c1 = w with the pivot L along the Phi axis: s - L e_z = (rho sin phi, rho cos phi, -L) turned
+  // by t = w cos(phi) about x, L e_z added back: (rho sin phi, rho cos phi cos t + L sin t,
+  // rho cos phi sin t + L (1 - cos t)); in the machine frame (x, -z, y).
+  const double w = 30 * kRadPerArcsec, phi = 50 * kRadPerDeg, t = w * std::cos(phi), rho = 20.0, pivot = 80.0;
+  EffectModel model;
+  model.terms = {{Effect::kPhiWobble, {{1, 0, false}}}};
+  model.phi_wobble_pivot_mm = pivot;
+  const Eigen::Vector3d p = EffectScmsPoint(ScmsGeometry{}, model, {{w}}, EffectReading(0.0, 50.0, 5.0, 0.0), kD);
+  const Eigen::Vector3d expected(rho * std::sin(phi),
+                                 -(rho * std::cos(phi) * std::sin(t) + pivot * (1.0 - std::cos(t))),
+                                 rho * std::cos(phi) * std::cos(t) + pivot * std::sin(t));
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, expected, kTol);
+  // At first order the probe moves by L t along the Phi frame's y, machine z: 80 mm x 70 urad.
+  EXPECT_NEAR(p.z() - rho * std::cos(phi), pivot * t, 1e-6);
+}
+
+TEST(EffectScmsPoint, PhiAxisMotionsMoveTheProbeInThePhiFrame) {
+  // On the nominal machine the Phi frame's x, y, z are machine x, z, -y (Rx(pi/2)).
+  const double a = 0.4e-3, th = 30 * kRadPerDeg;
+  const auto turned = [&](const Eigen::Vector3d& m) {  // Rz(theta) of a machine-frame displacement
+    return Eigen::Vector3d(std::cos(th) * m.x() - std::sin(th) * m.y(), std::sin(th) * m.x() + std::cos(th) * m.y(),
+                           m.z());
+  };
+  // Radial x_c2 at phi = 60 deg: cos(120 deg) = -1/2 along the Phi frame's x.
+  const Eigen::Vector3d p = PointWith(Effect::kPhiRadialMotion, {2, 0, false}, a, 30.0, 60.0, 5.0);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p,
+                      Nominal(th, 60 * kRadPerDeg, 20.0) + turned(Eigen::Vector3d(-0.5 * a, 0, 0)), kTol);
+  // Radial y_s2 at phi = 45 deg: sin(90 deg) = 1 along the Phi frame's y, the Theta axis.
+  const Eigen::Vector3d q = PointWith(Effect::kPhiRadialMotion, {2, 1, true}, a, 30.0, 45.0, 5.0);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, q, Nominal(th, 45 * kRadPerDeg, 20.0) + Eigen::Vector3d(0, 0, a), kTol);
+  // Axial c1 at phi = 60 deg: cos(60 deg) = 1/2 along the Phi axis, machine -y.
+  const Eigen::Vector3d z = PointWith(Effect::kPhiAxialMotion, {1, 0, false}, a, 30.0, 60.0, 5.0);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, z,
+                      Nominal(th, 60 * kRadPerDeg, 20.0) + turned(Eigen::Vector3d(0, -0.5 * a, 0)), kTol);
+}
+
+TEST(EffectScmsPoint, ThetaTiltTurnsThePointBackAboutTheMachineAxes) {
+  // y_c2 = t at theta = 0: the spindle tilts by t about machine y, so the machine point
+  // rho (sin phi, 0, cos phi) is seen from the sphere turned by -t: (c x - s z, 0, s x + c z).
+  const double t = 25 * kRadPerArcsec, phi = 70 * kRadPerDeg, rho = 20.0;
+  const double x = rho * std::sin(phi), zc = rho * std::cos(phi);
+  const Eigen::Vector3d p = PointWith(Effect::kThetaTiltMotion, {2, 1, false}, t, 0.0, 70.0, 5.0);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p,
+                      Eigen::Vector3d(std::cos(t) * x - std::sin(t) * zc, 0.0, std::sin(t) * x + std::cos(t) * zc),
+                      kTol);
+  // x_s2 = t at theta = 45 deg (sin 90 deg = 1): about machine x, (x, s z, c z), then Rz(45 deg).
+  const double th = 45 * kRadPerDeg;
+  const Eigen::Vector3d k(x, std::sin(t) * zc, std::cos(t) * zc);
+  const Eigen::Vector3d q = PointWith(Effect::kThetaTiltMotion, {2, 0, true}, t, 45.0, 70.0, 5.0);
+  EXPECT_PRED_FORMAT3(
+      sph::testing::MatrixNear, q,
+      Eigen::Vector3d(std::cos(th) * k.x() - std::sin(th) * k.y(), std::sin(th) * k.x() + std::cos(th) * k.y(), k.z()),
+      kTol);
+}
+
+TEST(EffectScmsPoint, ProbeIncidenceFollowsTheAngleBetweenBeamAndNormal) {
+  // theta = 0, phi = 90 deg, r = 5: the point p0 = (20, 0, 0) mm, the beam along -x (r grows
+  // towards the axes' common point). The sphere's centre at (0, 2, 0): n0 = (20, -2, 0) / sqrt(404),
+  // cos psi = 20 / sqrt(404), sin^2 psi = 4 / 404.
+  const double i1 = 30e-3, i2 = -50e-3, sin2 = 4.0 / 404.0;
+  EffectModel model;
+  model.terms = {{Effect::kProbeIncidence, {{1, 0, false}, {2, 0, false}}}};
+  const Eigen::Vector3d center(0.0, 2.0, 0.0);
+  const EffectReading x(0.0, 90.0, 5.0, 0.0);
+  const Eigen::Vector3d p = EffectScmsPoint(ScmsGeometry{}, model, {{i1, i2}}, x, kD, &center);
+  const double error = i1 * sin2 + i2 * sin2 * sin2;
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, Eigen::Vector3d(kD - 5.0 - error, 0, 0), kTol);
+  const std::vector<double> block{i1, i2};
+  const double* blocks[] = {block.data()};
+  const ScmsGeometry g{};
+  EXPECT_NEAR(ProbeIncidenceError(g.data(), ErrorTrigOf(g.data()), model, blocks, x, kD, center.data()), error, 1e-15);
+  // Without the centre the term cannot be evaluated and is left out; at normal incidence it is 0.
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, EffectScmsPoint(ScmsGeometry{}, model, {{i1, i2}}, x, kD),
+                      Eigen::Vector3d(kD - 5.0, 0, 0), kTol);
+  const Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, EffectScmsPoint(ScmsGeometry{}, model, {{i1, i2}}, x, kD, &origin),
+                      Eigen::Vector3d(kD - 5.0, 0, 0), kTol);
+}
+
 TEST(EffectScmsPoint, ProbeTermsCorrectTheReading) {
   const EffectReference ref{5.0, 2.0, 100.0, 400.0};
   const double phi = 40 * kRadPerDeg;
@@ -115,6 +195,11 @@ TEST(EffectTerm, NamesAndDefaults) {
   EXPECT_EQ(c.axis, 1);
   EXPECT_TRUE(c.sine);
   EXPECT_FALSE(FindComponent(Effect::kProbeGain, "probe_gain.u2", &c));
+  // The once-per-turn radial motions and tilt are parameters of the set-up, not error motions.
+  EXPECT_FALSE(FindComponent(Effect::kPhiRadialMotion, "phi_radial_motion.x_c1", &c));
+  EXPECT_FALSE(FindComponent(Effect::kThetaTiltMotion, "theta_tilt_motion.y_s1", &c));
+  ASSERT_TRUE(FindComponent(Effect::kPhiAxialMotion, "phi_axial_motion.s1", &c));
+  EXPECT_EQ(DefaultTerm(Effect::kThetaTiltMotion, 3, 1).ParamName(5), "theta_tilt_motion.y_s2");
   Effect e;
   EXPECT_TRUE(EffectFromId("probe_nonlinearity", &e));
   EXPECT_EQ(e, Effect::kProbeNonlinearity);

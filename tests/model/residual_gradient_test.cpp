@@ -13,16 +13,19 @@ constexpr double kD = 25.0;
 constexpr double kR0 = 20.0;
 
 // The inputs of ResidualGradient that a fit differentiates: the seven errors, the centre and the
-// places where the effects enter (theta', phi', z, motion, wobble), as one vector.
+// places where the effects enter (theta', phi', z, the motions and tilts of both axes), as one vector.
 struct Point {
   ScmsGeometry g{};
   double center[3] = {};
   double theta = 0.0, phi = 0.0, r = 0.0;
   double motion[3] = {};
   double wx = 0.0, wy = 0.0;
+  double pivot_mm = 0.0;
+  double phi_motion[3] = {};
+  double tx = 0.0, ty = 0.0;
 };
 
-template <bool kWobble>
+template <bool kWobble, bool kTilt = false>
 ResidualGradient Evaluate(const Point& p) {
   ResidualInputs in;
   in.theta = SinCosOf(p.theta);
@@ -31,28 +34,33 @@ ResidualGradient Evaluate(const Point& p) {
   for (int k = 0; k < 3; ++k) in.motion[k] = p.motion[k];
   in.wobble_x = SinCosOf(p.wx);
   in.wobble_y = SinCosOf(p.wy);
+  in.pivot_mm = p.pivot_mm;
+  for (int k = 0; k < 3; ++k) in.phi_motion[k] = p.phi_motion[k];
+  in.tilt_x = SinCosOf(p.tx);
+  in.tilt_y = SinCosOf(p.ty);
   ResidualGradient out;
-  SphereResidualGradient<kWobble>(p.g.data(), ErrorTrigOf(p.g.data()), in, p.center, kR0, &out);
+  SphereResidualGradient<kWobble, kTilt>(p.g.data(), ErrorTrigOf(p.g.data()), in, p.center, kR0, &out);
   return out;
 }
 
 // Every derivative against central differences of e (steps 1e-6; truncation ~1e-12).
-template <bool kWobble>
+template <bool kWobble, bool kTilt = false>
 void ExpectCentralDifferences(const Point& p) {
-  const ResidualGradient d = Evaluate<kWobble>(p);
+  const auto Evaluate = [](const Point& q) { return sph::Evaluate<kWobble, kTilt>(q); };
+  const ResidualGradient d = Evaluate(p);
   const double h = 1e-6;
   auto check = [&](double Point::*member, double analytic, const char* name) {
     Point plus = p, minus = p;
     plus.*member += h;
     minus.*member -= h;
-    const double numeric = (Evaluate<kWobble>(plus).e - Evaluate<kWobble>(minus).e) / (2 * h);
+    const double numeric = (Evaluate(plus).e - Evaluate(minus).e) / (2 * h);
     EXPECT_NEAR(analytic, numeric, 1e-8 * std::max(1.0, std::abs(numeric))) << name;
   };
   for (int k = 0; k < kNumScmsParams; ++k) {
     Point plus = p, minus = p;
     plus.g[static_cast<std::size_t>(k)] += h;
     minus.g[static_cast<std::size_t>(k)] -= h;
-    const double numeric = (Evaluate<kWobble>(plus).e - Evaluate<kWobble>(minus).e) / (2 * h);
+    const double numeric = (Evaluate(plus).e - Evaluate(minus).e) / (2 * h);
     EXPECT_NEAR(d.geometry[k], numeric, 1e-8 * std::max(1.0, std::abs(numeric)))
         << kScmsParamInfo[static_cast<std::size_t>(k)].name;
   }
@@ -60,14 +68,17 @@ void ExpectCentralDifferences(const Point& p) {
     Point plus = p, minus = p;
     plus.center[k] += h;
     minus.center[k] -= h;
-    EXPECT_NEAR(d.center[k], (Evaluate<kWobble>(plus).e - Evaluate<kWobble>(minus).e) / (2 * h), 1e-8)
-        << "centre " << k;
+    EXPECT_NEAR(d.center[k], (Evaluate(plus).e - Evaluate(minus).e) / (2 * h), 1e-8) << "centre " << k;
     plus = p;
     minus = p;
     plus.motion[k] += h;
     minus.motion[k] -= h;
-    EXPECT_NEAR(d.motion[k], (Evaluate<kWobble>(plus).e - Evaluate<kWobble>(minus).e) / (2 * h), 1e-8)
-        << "motion " << k;
+    EXPECT_NEAR(d.motion[k], (Evaluate(plus).e - Evaluate(minus).e) / (2 * h), 1e-8) << "motion " << k;
+    plus = p;
+    minus = p;
+    plus.phi_motion[k] += h;
+    minus.phi_motion[k] -= h;
+    EXPECT_NEAR(d.phi_motion[k], (Evaluate(plus).e - Evaluate(minus).e) / (2 * h), 1e-8) << "Phi axis motion " << k;
   }
   check(&Point::theta, d.theta, "theta");
   check(&Point::phi, d.phi, "phi");
@@ -75,6 +86,10 @@ void ExpectCentralDifferences(const Point& p) {
   if (kWobble) {
     check(&Point::wx, d.wobble_x, "wobble_x");
     check(&Point::wy, d.wobble_y, "wobble_y");
+  }
+  if (kTilt) {
+    check(&Point::tx, d.tilt_x, "tilt_x");
+    check(&Point::ty, d.tilt_y, "tilt_y");
   }
 }
 
@@ -93,8 +108,14 @@ TEST(SphereResidualGradient, MatchesCentralDifferences) {
     for (double& m : p.motion) m = small(rng);
     p.wx = small(rng);
     p.wy = small(rng);
+    for (double& m : p.phi_motion) m = small(rng);
+    p.tx = small(rng);
+    p.ty = small(rng);
+    p.pivot_mm = 60.0 * angle(rng);  // the bearing up to 370 mm along the Phi axis
     ExpectCentralDifferences<false>(p);
     ExpectCentralDifferences<true>(p);
+    ExpectCentralDifferences<false, true>(p);
+    ExpectCentralDifferences<true, true>(p);
   }
 }
 
@@ -124,6 +145,19 @@ TEST(SphereResidualGradient, ResidualIsThatOfTheModel) {
       p.motion[2] = 4e-4 * std::cos(2 * x.theta_rad);
       const double e_effects = (EffectScmsPoint(g, model, values, x, kD) - c).norm() - kR0;
       EXPECT_EQ(Evaluate<true>(p).e, e_effects);
+      // With the pivot, both axes' motions and the Theta spindle's tilt.
+      model.phi_wobble_pivot_mm = 75.0;
+      model.terms.push_back({Effect::kPhiRadialMotion, {{2, 1, true}}});
+      model.terms.push_back({Effect::kPhiAxialMotion, {{1, 0, false}}});
+      model.terms.push_back({Effect::kThetaTiltMotion, {{2, 0, false}, {3, 1, true}}});
+      const std::vector<std::vector<double>> more{{2e-5, -3e-5}, {4e-4}, {-6e-4}, {3e-4}, {5e-5, -2e-5}};
+      p.pivot_mm = 75.0;
+      p.phi_motion[1] = -6e-4 * std::sin(2 * x.phi_rad);
+      p.phi_motion[2] = 3e-4 * std::cos(x.phi_rad);
+      p.tx = 5e-5 * std::cos(2 * x.theta_rad);
+      p.ty = -2e-5 * std::sin(3 * x.theta_rad);
+      const double e_all = (EffectScmsPoint(g, model, more, x, kD) - c).norm() - kR0;
+      EXPECT_EQ((Evaluate<true, true>(p).e), e_all);
     }
   }
 }

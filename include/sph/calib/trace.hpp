@@ -38,6 +38,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -67,6 +68,12 @@ struct TraceOptions {
   /// Highest degree of the sphere's form fitted when the design separates it (see the file
   /// comment); below 2: the form is never fitted. Bounded by what the pattern resolves.
   int form_degree_max = 8;
+  /// Where the Phi axis pivots when it tilts, along it from the Phi frame's origin [mm]
+  /// (EffectModel::phi_wobble_pivot_mm): a constant of the machine's drawing, never fitted.
+  double phi_wobble_pivot_mm = 0.0;
+  /// The probe's measuring range, readings 0 to it [mm] (the points file's probe_range_mm): the
+  /// probe terms are expressed at its ends (WithProbeRange()); empty: at the ends of the readings.
+  std::optional<double> probe_range_mm;
   /// Called with (round, candidates scored, candidates of the round) as each candidate is scored
   /// (from the scoring threads, one at a time).
   std::function<void(int round, int done, int total)> progress;

@@ -13,10 +13,14 @@
 //       "inputs": [{"input": "R0 (certificate)", "unit": "um", "u": 0.1,     optional: the Type B
 //                   "sensitivity": [...]}]},  inputs in it, d(parameter)/d(input) in the parameters' units
 //     "effects": [                          further effects of the machine (sph/model/effects.hpp), may be empty
-//       {"id": "theta_encoder", "parameters": [{"name": "theta_encoder.c2", "value": 5.5, "unit": "arcsec"}, ...]},
+//       {"id": "theta_encoder", "iso_name": "ECC (...)",     (iso_name: information, not read)
+//        "parameters": [{"name": "theta_encoder.c2", "value": 5.5, "unit": "arcsec"}, ...]},
+//       {"id": "phi_wobble", "pivot_mm": 80.0, ...},  where the Phi axis tilts about, |L| <= 10000 mm (default 0)
 //       ...],
-//     "effect_reference": {"r_ref_mm": .., "r_half_range_mm": .., "t_start_s": .., "t_span_s": ..},
-//                                           with effects: what u and tau are normalised by
+//     "effect_reference": {"r_ref_mm": .., "r_half_range_mm": .., "t_start_s": .., "t_span_s": ..,
+//                          "r_fit_min_mm": .., "r_fit_max_mm": ..},
+//                                           with effects: what u and tau are normalised by, and the
+//                                           readings the probe terms were fitted over (optional)
 //     "sphere_form": {                      optional: the calibration sphere's own form, when separated
 //       "normalisation": "schmidt_semi_normalised", "frame": "body", "unit": "um",
 //       "terms": [{"l": 2, "m": 0, "value_um": 0.06, "std_um": 0.004}, ...]},  l = 2..40, |m| <= l, each once

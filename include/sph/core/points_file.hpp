@@ -74,6 +74,7 @@ struct SphereConditions {
   std::optional<double> sphere_temperature_u_c;  ///< its standard uncertainty [K]
   std::optional<double> sphere_cte_per_k;        ///< the sphere's linear expansion coefficient [1/K]
   std::optional<double> probe_scale_u;           ///< relative standard uncertainty of the probe's scale [1]
+  std::optional<double> probe_range_mm;          ///< the probe's measuring range: readings 0 to it [mm]
 };
 
 /// One header field of SphereConditions: its key and the range a value must lie in.
@@ -96,6 +97,9 @@ inline constexpr ConditionField kConditionFields[] = {
      "The sphere's linear expansion coefficient [1/K] (steel about 11.5e-6); default 0: no correction"},
     {"probe_scale_u", &SphereConditions::probe_scale_u, 0.0, 0.5, "(relative)",
      "Relative standard uncertainty of the probe's scale [1]; default 0"},
+    {"probe_range_mm", &SphereConditions::probe_range_mm, 0.002, 10000.0, "mm",
+     "The probe's measuring range, readings 0 to it [mm]: probe terms are then given at its ends, the same "
+     "numbers at any eccentricity; default: the range of the readings"},
 };
 
 /// The conditions among the header's metadata (values the reader has checked).

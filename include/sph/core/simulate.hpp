@@ -167,6 +167,10 @@ struct SimulationSpec {
   std::uint64_t seed = 1;
   double sample_period_s = 1.0;      ///< t_s of row i is i * sample_period_s
   SimulatedEffects effects;          ///< none by default
+  /// The probe's measuring range, readings 0 to it [mm]: when given, the probe's gain and
+  /// nonlinearity are normalised by it (WithProbeRange()), a property of the probe; otherwise by
+  /// the range of the readings, as a calibration without it normalises them.
+  std::optional<double> probe_range_mm;
 
   /// Table 1 of the paper: alpha = beta = epsilon = 0.02 deg, a = b = c = 0.002 mm, d' = -0.062 mm.
   static ScmsGeometry PaperTruth();
@@ -191,11 +195,14 @@ std::optional<double> ProbeReading(const ScmsGeometry& truth, double theta_rad, 
 std::optional<double> TrueProbeDistance(const ScmsGeometry& truth, const SimulatedEffects& effects, double theta_rad,
                                         double phi_rad, double probe_offset_mm, const Eigen::Vector3d& center_mm,
                                         double sphere_radius_mm,
-                                        const Eigen::Matrix3d& body_to_theta = Eigen::Matrix3d::Identity());
+                                        const Eigen::Matrix3d& body_to_theta = Eigen::Matrix3d::Identity(),
+                                        double* sin2_incidence = nullptr);
 
-/// The reading r_read [mm] of a probe with the gain, nonlinearity and drift of `effects` (with the
-/// reference `effects.model.reference`) that sees the true distance `distance_mm` at time t_s.
-double ProbeReadingOfDistance(const SimulatedEffects& effects, double distance_mm, double t_s);
+/// The reading r_read [mm] of a probe with the gain, nonlinearity, drift and incidence error of
+/// `effects` (with the reference `effects.model.reference`) that sees the true distance
+/// `distance_mm` at time t_s, its beam meeting the surface at sin^2 psi = sin2_incidence.
+double ProbeReadingOfDistance(const SimulatedEffects& effects, double distance_mm, double t_s,
+                              double sin2_incidence = 0.0);
 
 /// Simulates a points file: for each setup, each pattern point in the setup's scan order (t_s of
 /// row i is i * sample_period_s); the axes are at the commanded angles, the readings carry the

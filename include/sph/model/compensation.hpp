@@ -101,20 +101,36 @@ struct CompensationContext {
 };
 
 /// Compensate() with the context given, of a reading whose sines and cosines are computed (for
-/// readings compensated many times, as by the calibration's uncertainty).
-inline Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const EffectReading& x) {
+/// readings compensated many times, as by the calibration's uncertainty). center_mm: the measured
+/// sphere's centre, for a probe_incidence term (left out without it).
+inline Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const EffectReading& x,
+                                      const double* center_mm = nullptr) {
   if (!ctx.valid) return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   if (cal.effects.Empty()) return ScmsPoint(cal.geometry.data(), ctx.trig, x.theta, x.phi, x.r_mm, cal.probe_offset_mm);
-  return EffectScmsPoint(cal.geometry.data(), ctx.trig, cal.effects, ctx.blocks.data(), x, cal.probe_offset_mm);
+  return EffectScmsPoint(cal.geometry.data(), ctx.trig, cal.effects, ctx.blocks.data(), x, cal.probe_offset_mm, nullptr,
+                         center_mm);
 }
 
 /// Compensate() with the context given, for batches. `Reading` has members theta_deg, phi_deg
 /// [deg] and r_mm [mm].
 template <typename Reading>
-Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const Reading& r) {
-  return CompensateWith(cal, ctx, EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0));
+Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const Reading& r,
+                               const double* center_mm = nullptr) {
+  return CompensateWith(cal, ctx, EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), center_mm);
 }
 }  // namespace internal
+
+/// How many of `readings` (members r_mm) a probe term of `cal` (probe_gain, probe_nonlinearity)
+/// would extrapolate: their r lies outside the probe readings the calibration was fitted over
+/// (EffectReference::FitMin() to FitMax()). 0 when the calibration has no probe term.
+template <typename Readings>
+std::size_t ProbeExtrapolations(const Calibration& cal, const Readings& readings) {
+  if (cal.effects.Find(Effect::kProbeGain) < 0 && cal.effects.Find(Effect::kProbeNonlinearity) < 0) return 0;
+  const double lo = cal.effects.reference.FitMin(), hi = cal.effects.reference.FitMax();
+  std::size_t n = 0;
+  for (const auto& r : readings) n += r.r_mm < lo || r.r_mm > hi ? 1 : 0;
+  return n;
+}
 
 /// The compensated point [mm] of one reading (theta_deg, phi_deg in deg, r_mm in mm).
 inline Eigen::Vector3d Compensate(const Calibration& cal, double theta_deg, double phi_deg, double r_mm) {
@@ -141,6 +157,21 @@ std::vector<Eigen::Vector3d> CompensateAll(const Calibration& cal, const Reading
   points_mm.reserve(readings.size());
   const internal::CompensationContext ctx(cal);  // once for the batch
   for (const auto& r : readings) points_mm.push_back(internal::CompensateWith(cal, ctx, r));
+  return points_mm;
+}
+
+/// CompensateAll() of the readings of one sphere whose centre is about `center_mm` [mm] (the
+/// least-squares centre of CompensateAll()'s points, say): what a calibration with a
+/// probe_incidence term needs, the angle between the beam and the sphere's normal. An error of
+/// the centre by delta changes sin^2 psi by about 2 sin(psi) delta / R: iterate once more when
+/// that matters.
+template <typename Readings>
+std::vector<Eigen::Vector3d> CompensateAll(const Calibration& cal, const Readings& readings,
+                                           const Eigen::Vector3d& center_mm) {
+  std::vector<Eigen::Vector3d> points_mm;
+  points_mm.reserve(readings.size());
+  const internal::CompensationContext ctx(cal);
+  for (const auto& r : readings) points_mm.push_back(internal::CompensateWith(cal, ctx, r, center_mm.data()));
   return points_mm;
 }
 

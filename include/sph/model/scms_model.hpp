@@ -48,16 +48,20 @@ struct ScmsParamInfo {
   /// The largest magnitude, in report units (deg or mm), that files and options accept for the
   /// error: an assembly error, not a different machine (|d'| must moreover stay below d).
   double max_abs_report;
+  /// Its location error of ISO 230-1 (Theta the C axis, Phi the B axis, both with the senses of
+  /// ISO 841 for the probe relative to the sphere), with a minus sign where ours is opposite;
+  /// "" for the probe's offsets and orientation, which ISO 230-1 has no name for.
+  const char* iso_name;
 };
 
 inline constexpr std::array<ScmsParamInfo, kNumScmsParams> kScmsParamInfo{{
-    {"alpha", "alpha", Quantity::kAngle, 10.0},
-    {"a", "a", Quantity::kLength, 10.0},
-    {"beta", "beta", Quantity::kAngle, 10.0},
-    {"b", "b", Quantity::kLength, 10.0},
-    {"epsilon", "epsilon", Quantity::kAngle, 10.0},
-    {"c", "c", Quantity::kLength, 10.0},
-    {"d_prime", "d'", Quantity::kLength, 100.0},
+    {"alpha", "alpha", Quantity::kAngle, 10.0, "EA0B"},
+    {"a", "a", Quantity::kLength, 10.0, "X0B"},
+    {"beta", "beta", Quantity::kAngle, 10.0, "-EB0B"},
+    {"b", "b", Quantity::kLength, 10.0, ""},
+    {"epsilon", "epsilon", Quantity::kAngle, 10.0, ""},
+    {"c", "c", Quantity::kLength, 10.0, ""},
+    {"d_prime", "d'", Quantity::kLength, 100.0, ""},
 }};
 
 /// The seven geometric errors in internal units (rad, mm), in ScmsParam order.
