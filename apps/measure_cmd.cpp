@@ -531,6 +531,67 @@ json BudgetsJson(const Budgets& b, int mc_digits) {
   return j;
 }
 
+// --- the minimum zone's certificate and starts -----------------------------------------------------
+
+// What the bounds of sph/sphere/sphere_form.hpp say of the zone found, to the evaluation's slack.
+void WriteMinimumZoneCheck(std::ostream& out, const MinimumZoneSphere& mz) {
+  const double slack_mm = SphereEvaluationOptions().mz_slack_mm;
+  const double certified_mm = mz.CertifiedRadius(slack_mm);
+  out << (std::isfinite(certified_mm) ? Format("  mz_certified_um    %.4g", certified_mm * kUmPerMm)
+                                      : std::string("  mz_certified_um    any"))
+      << Format("   (no centre within this distance narrows the zone by more than %.4f um)\n", slack_mm * kUmPerMm);
+  if (std::isfinite(mz.near_radius)) {
+    out << Format(
+        "  mz_near_um         %.4g   (a narrower zone has its centre within this distance, and is then at most "
+        "%.4f um narrower, or beyond %.4g mm)\n",
+        mz.near_radius * kUmPerMm, mz.MaxDecreaseWithin(mz.near_radius) * kUmPerMm, mz.far_radius);
+  } else {
+    out << "  mz_near_um         none   (the coverage does not bound where a narrower zone's centre can be)\n";
+  }
+  if (mz.starts.empty()) return;
+  if (mz.StartsAgree()) {
+    out << Format(
+        "  mz_starts          %.0f searches (the least-squares centre, and displaced along and across the "
+        "points' principal directions) all reach it\n",
+        static_cast<double>(mz.starts.size()));
+    return;
+  }
+  out << Format(
+      "  mz_starts          %.0f searches reach widths from %.4f to %.4f um, centres up to %.4g um apart "
+      "(the narrowest is reported):\n",
+      static_cast<double>(mz.starts.size()), mz.width * kUmPerMm, (mz.width + mz.StartWidthSpread()) * kUmPerMm,
+      mz.StartCenterSpread() * kUmPerMm);
+  for (const MinimumZoneStart& s : mz.starts) {
+    out << "    from " << Vec3Text(s.start, "%.6f") << "  to " << Vec3Text(s.center, "%.6f")
+        << Format("  width_um %.4f", s.width * kUmPerMm) << (s.converged ? "" : "  (not converged)") << "\n";
+  }
+}
+
+json MinimumZoneCheckJson(const MinimumZoneSphere& mz) {
+  const double slack_mm = SphereEvaluationOptions().mz_slack_mm;
+  auto finite_or_null = [](double v, double scale) { return std::isfinite(v) ? json(v * scale) : json(nullptr); };
+  json check = {{"slack_um", slack_mm * kUmPerMm},
+                {"certified_radius_um", finite_or_null(mz.CertifiedRadius(slack_mm), kUmPerMm)},
+                {"near_radius_um", finite_or_null(mz.near_radius, kUmPerMm)},
+                {"far_radius_mm", finite_or_null(mz.far_radius, 1.0)},
+                {"max_decrease_near_um", mz.MaxDecreaseWithin(mz.near_radius) * kUmPerMm},
+                {"starts", nullptr}};
+  if (!mz.starts.empty()) {
+    json runs = json::array();
+    for (const MinimumZoneStart& s : mz.starts) {
+      runs.push_back({{"start_mm", Vec3Json(s.start)},
+                      {"center_mm", Vec3Json(s.center)},
+                      {"width_um", s.width * kUmPerMm},
+                      {"converged", s.converged}});
+    }
+    check["starts"] = {{"agree", mz.StartsAgree()},
+                       {"width_spread_um", mz.StartWidthSpread() * kUmPerMm},
+                       {"center_spread_um", mz.StartCenterSpread() * kUmPerMm},
+                       {"runs", runs}};
+  }
+  return check;
+}
+
 // --- reports ------------------------------------------------------------------------------------
 
 void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, const SphereEvaluation& ev,
@@ -553,7 +614,9 @@ void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, cons
   out << Format("  sphericity_mz_um   %.4f   (radial separation of the two enclosing spheres)\n",
                 ev.mz.width * kUmPerMm);
   out << "  mz_center_mm       " << Vec3Text(ev.mz.center, "%.9f") << "\n";
-  out << Format("  mz_radii_mm        %.9f %.9f   (inner, outer)\n", ev.mz.inner_radius, ev.mz.outer_radius) << "\n";
+  out << Format("  mz_radii_mm        %.9f %.9f   (inner, outer)\n", ev.mz.inner_radius, ev.mz.outer_radius);
+  WriteMinimumZoneCheck(out, ev.mz);
+  out << "\n";
   WriteNoiseFloorText(out, ev, floor);
   out << "coverage\n";
   out << Format("  cap_half_angle_deg %.1f   (90: a hemisphere, near 180: the whole sphere)\n",
@@ -619,6 +682,7 @@ std::string JsonReport(const MeasureOptions& o, const Input& in, const SphereEva
   j["mz_center_mm"] = Vec3Json(ev.mz.center);
   j["mz_inner_radius_mm"] = ev.mz.inner_radius;
   j["mz_outer_radius_mm"] = ev.mz.outer_radius;
+  j["mz_check"] = MinimumZoneCheckJson(ev.mz);
   j["fit"] = {{"ls_iterations", ev.ls.iterations},
               {"ls_converged", ev.ls.converged},
               {"mz_iterations", ev.mz.iterations},

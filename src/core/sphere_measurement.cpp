@@ -14,6 +14,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "sph/core/error.hpp"
+#include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
@@ -267,8 +268,12 @@ SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, c
   }
   ev.residuals_mm = RadialResiduals(points_mm, ev.ls.sphere.center, ev.ls.sphere.radius);
   ev.sphericity_ls_mm = PeakToValley(ev.residuals_mm);
-  ev.mz = FitSphereMinimumZone(points_mm, ev.ls.sphere.center);
   ev.coverage = CoverageOf(points_mm, ev.ls.sphere.center);
+  ev.mz = FitSphereMinimumZone(points_mm, ev.ls.sphere.center);
+  if (ev.mz.ok && (ev.coverage.cap_half_angle_deg <= options.multi_start_cap_deg ||
+                   ev.mz.MaxDecreaseWithin(ev.mz.near_radius) > options.mz_slack_mm)) {
+    ev.mz = FitSphereMinimumZoneMultiStart(points_mm, ev.ls.sphere.center);
+  }
   ev.radius_dilution = ev.ls.RadiusDilution();
   ev.center_dilution = ev.ls.CenterDilution();
   if (ev.n_points > 4) {
@@ -294,6 +299,13 @@ SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, c
   }
   if (!ev.ls.converged) ev.warnings.push_back("the least-squares fit did not converge");
   if (!ev.mz.ok || !ev.mz.converged) ev.warnings.push_back("the minimum-zone search did not converge");
+  if (ev.mz.ok && !ev.mz.starts.empty() && !ev.mz.StartsAgree()) {
+    ev.warnings.push_back(Format(
+        "the minimum zone has several local minima for this coverage: searched from %.0f starts, it reached widths "
+        "from %.4f to %.4f um with centres up to %.4g um apart; the narrowest is reported (sphericity_mz_um)",
+        static_cast<double>(ev.mz.starts.size()), ev.mz.width * kUmPerMm,
+        (ev.mz.width + ev.mz.StartWidthSpread()) * kUmPerMm, ev.mz.StartCenterSpread() * kUmPerMm));
+  }
   return ev;
 }
 

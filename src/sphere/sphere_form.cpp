@@ -6,6 +6,8 @@
 #include <limits>
 #include <utility>
 
+#include <Eigen/Eigenvalues>
+
 #include "sph/model/units.hpp"
 #include "sph/sphere/inequality_lp.hpp"
 
@@ -39,8 +41,8 @@ double PeakToValley(const std::vector<double>& values) {
 namespace {
 
 /// The minimum zone of all `points` at once (FitSphereMinimumZone() without candidates).
-MinimumZoneSphere MinimumZoneOfAll(const std::vector<Eigen::Vector3d>& points,
-                                   const Eigen::Vector3d& start_center, const MinimumZoneOptions& options) {
+MinimumZoneSphere MinimumZoneOfAll(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& start_center,
+                                   const MinimumZoneOptions& options) {
   using Vec5 = Eigen::Matrix<double, 5, 1>;
   using Rows5 = Eigen::Matrix<double, Eigen::Dynamic, 5>;
   constexpr double kEps = std::numeric_limits<double>::epsilon();
@@ -69,17 +71,15 @@ MinimumZoneSphere MinimumZoneOfAll(const std::vector<Eigen::Vector3d>& points,
   const double rounding = 16.0 * kEps * scale;
 
   double radius = f;  // trust region: the zone width is the scale of the centre's move
-  std::vector<double> d_new(n);
   Rows5 a;
   Eigen::VectorXd h;
   std::vector<int> working;
   Vec5 objective;
   objective << 0.0, 0.0, 0.0, 1.0, -1.0;
-  mz.converged = f <= rounding;  // on a sphere already (e.g. four points)
-  for (int it = 0; it < options.max_iterations && !mz.converged; ++it) {
-    mz.iterations = it + 1;
-    // Build the LP at c: outer rows [-u_i, -1, 0] x <= -d_i, inner rows [u_i, 0, 1] x <= d_i, box.
-    const double reach = 2.0 * std::sqrt(3.0) * radius;
+  // The LP at c over the box |delta_k| <= box: outer rows [-u_i, -1, 0] x <= -d_i, inner rows
+  // [u_i, 0, 1] x <= d_i, and the box. Its optimum goes to *x; false when it has none.
+  auto solve_lp = [&](double box, Vec5* x) {
+    const double reach = 2.0 * std::sqrt(3.0) * box;
     const double outer_from = d[i_max] - reach;
     const double inner_to = d[i_min] + reach;
     std::size_t rows = 6;
@@ -104,21 +104,28 @@ MinimumZoneSphere MinimumZoneOfAll(const std::vector<Eigen::Vector3d>& points,
     for (int k = 0; k < 3; ++k) {
       a.row(row).setZero();
       a(row, k) = 1.0;
-      h(row++) = radius;
+      h(row++) = box;
       a.row(row).setZero();
       a(row, k) = -1.0;
-      h(row++) = radius;
+      h(row++) = box;
     }
-    Vec5 x;
-    x << 0.0, 0.0, 0.0, d[i_max], d[i_min];
+    *x << 0.0, 0.0, 0.0, d[i_max], d[i_min];
     working.assign({start_outer, start_inner});
-    const internal::LpStatus status =
-        internal::SolveInequalityLp<5>(a, h, objective, options.max_lp_iterations, &x, &working, &mz.lp_iterations);
-    if (status != internal::LpStatus::kOptimal) break;
-
+    return internal::SolveInequalityLp<5>(a, h, objective, options.max_lp_iterations, x, &working, &mz.lp_iterations) ==
+           internal::LpStatus::kOptimal;
+  };
+  std::vector<double> d_new(n);
+  mz.converged = f <= rounding;  // on a sphere already (e.g. four points)
+  bool certified = false;        // the last LP was solved at the final c
+  for (int it = 0; it < options.max_iterations && !mz.converged; ++it) {
+    mz.iterations = it + 1;
+    Vec5 x;
+    if (!solve_lp(radius, &x)) break;
     const double predicted = f - (x(3) - x(4));
     if (predicted <= options.tolerance * f + rounding) {
-      mz.converged = true;
+      mz.converged = certified = true;
+      mz.lp_box = radius;
+      mz.lp_decrease = std::max(predicted, 0.0);
       break;
     }
     const Eigen::Vector3d delta = x.head<3>();
@@ -144,6 +151,15 @@ MinimumZoneSphere MinimumZoneOfAll(const std::vector<Eigen::Vector3d>& points,
       break;
     }
   }
+  if (mz.converged && !certified && f > 0.0) {
+    // Stopped by rounding (or on a sphere): one LP at the final centre over a box of the zone's
+    // width gives the certificate, whatever decrease it still predicts.
+    Vec5 x;
+    if (solve_lp(f, &x)) {
+      mz.lp_box = f;
+      mz.lp_decrease = std::max(f - (x(3) - x(4)), 0.0);
+    }
+  }
   mz.center = start_center + c;
   mz.outer_radius = d[i_max];
   mz.inner_radius = d[i_min];
@@ -152,15 +168,63 @@ MinimumZoneSphere MinimumZoneOfAll(const std::vector<Eigen::Vector3d>& points,
   return mz;
 }
 
-}  // namespace
+/// The roots of rho w - rho^2 / (2 (r - rho)) = 2 f (bound (3) of the header), i.e. of
+/// (1 + 2 w) rho^2 - (2 r w + 4 f) rho + 4 r f = 0, and the vertex between them. Without real
+/// roots nothing is excluded: both infinite.
+struct NearFar {
+  double near_radius, far_radius, vertex;
+};
+NearFar NearFarRoots(double w, double f, double r) {
+  const double a = 1.0 + 2.0 * w, b = 2.0 * r * w + 4.0 * f, c = 4.0 * r * f;
+  const double disc = b * b - 4.0 * a * c;
+  const double vertex = b / (2.0 * a);
+  if (!(disc >= 0.0)) return {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(), vertex};
+  const double big = b + std::sqrt(disc);
+  return {2.0 * c / big, big / (2.0 * a), vertex};  // the smaller root without cancellation
+}
 
-MinimumZoneSphere FitSphereMinimumZone(const std::vector<Eigen::Vector3d>& points,
-                                       const Eigen::Vector3d& start_center,
-                                       const MinimumZoneOptions& options) {
+/// The directions u_i = (p_i - c) / |p_i - c|, their (population) covariance, and the nearest and
+/// farthest distance.
+struct Directions {
+  std::vector<Eigen::Vector3d> u;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  double nearest = std::numeric_limits<double>::infinity(), farthest = 0.0;
+};
+Directions DirectionsFrom(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& c) {
+  Directions dirs;
+  dirs.u.resize(points.size());
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d v = points[i] - c;
+    const double d = v.norm();
+    dirs.nearest = std::min(dirs.nearest, d);
+    dirs.farthest = std::max(dirs.farthest, d);
+    dirs.u[i] = d > 0.0 ? Eigen::Vector3d(v / d) : Eigen::Vector3d::Zero();
+    mean += dirs.u[i];
+    second += dirs.u[i] * dirs.u[i].transpose();
+  }
+  const double n = static_cast<double>(std::max<std::size_t>(points.size(), 1));
+  mean /= n;
+  dirs.covariance = second / n - mean * mean.transpose();
+  return dirs;
+}
+
+/// near_radius and far_radius of bound (3), with w >= 2 sqrt(lambda_min) in every direction.
+void Localise(const std::vector<Eigen::Vector3d>& points, MinimumZoneSphere* mz) {
+  const Directions dirs = DirectionsFrom(points, mz->center);
+  const double lambda_min =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(dirs.covariance, Eigen::EigenvaluesOnly).eigenvalues()(0);
+  const NearFar nf = NearFarRoots(2.0 * std::sqrt(std::max(lambda_min, 0.0)), mz->width, mz->inner_radius);
+  mz->near_radius = nf.near_radius;
+  mz->far_radius = nf.far_radius;
+}
+
+MinimumZoneSphere FitFromStart(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& start_center,
+                               const MinimumZoneOptions& options) {
   const std::size_t n = points.size();
   const auto k = static_cast<std::size_t>(std::max(options.candidates, 0));
-  if (k == 0 || n <= 4 * k || !start_center.allFinite())
-    return MinimumZoneOfAll(points, start_center, options);
+  if (k == 0 || n <= 4 * k || !start_center.allFinite()) return MinimumZoneOfAll(points, start_center, options);
   std::vector<double> d(n);
   for (std::size_t i = 0; i < n; ++i) d[i] = (points[i] - start_center).norm();
   // The k farthest and the k nearest points.
@@ -213,8 +277,92 @@ MinimumZoneSphere FitSphereMinimumZone(const std::vector<Eigen::Vector3d>& point
   return MinimumZoneOfAll(points, start_center, options);
 }
 
-MinimumZoneSphere FitSphereMinimumZone(const std::vector<Eigen::Vector3d>& points,
+}  // namespace
+
+double MinimumZoneSphere::MaxDecreaseWithin(double rho) const {
+  if (!(lp_box > 0.0) || !(rho < inner_radius)) return width;
+  const double bound = lp_decrease * std::max(1.0, rho / lp_box) + rho * rho / (2.0 * (inner_radius - rho));
+  return std::min(width, bound);
+}
+
+double MinimumZoneSphere::CertifiedRadius(double slack) const {
+  if (slack >= width) return std::numeric_limits<double>::infinity();
+  if (!(lp_box > 0.0) || lp_decrease > slack) return 0.0;
+  // MaxDecreaseWithin rises from lp_decrease <= slack at 0 to width > slack at inner_radius.
+  double lo = 0.0, hi = inner_radius;
+  for (int k = 0; k < 200 && hi - lo > std::numeric_limits<double>::epsilon() * hi; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (MaxDecreaseWithin(mid) <= slack ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+double MinimumZoneSphere::StartWidthSpread() const {
+  double lo = width, hi = width;
+  for (const MinimumZoneStart& s : starts) {
+    if (!s.converged) continue;
+    lo = std::min(lo, s.width);
+    hi = std::max(hi, s.width);
+  }
+  return hi - lo;
+}
+
+double MinimumZoneSphere::StartCenterSpread() const {
+  double far = 0.0;
+  for (const MinimumZoneStart& s : starts) {
+    if (s.converged) far = std::max(far, (s.center - center).norm());
+  }
+  return far;
+}
+
+bool MinimumZoneSphere::StartsAgree() const {
+  const bool all_converged =
+      std::all_of(starts.begin(), starts.end(), [](const MinimumZoneStart& s) { return s.converged; });
+  return all_converged && StartWidthSpread() <= 1e-10 * outer_radius;
+}
+
+MinimumZoneSphere FitSphereMinimumZone(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& start_center,
                                        const MinimumZoneOptions& options) {
+  MinimumZoneSphere mz = FitFromStart(points, start_center, options);
+  if (mz.ok) Localise(points, &mz);
+  return mz;
+}
+
+MinimumZoneSphere FitSphereMinimumZoneMultiStart(const std::vector<Eigen::Vector3d>& points,
+                                                 const Eigen::Vector3d& start_center,
+                                                 const MinimumZoneOptions& options) {
+  MinimumZoneSphere best = FitSphereMinimumZone(points, start_center, options);
+  if (!best.ok) return best;
+  std::vector<MinimumZoneStart> starts{{start_center, best.center, best.width, best.converged}};
+  // Bound (3) at the start: along each principal direction e of the u_i, every centre better
+  // than the start lies within rho_near(e) (or very far); 0 and +-2/3 rho_near(e) are the centres
+  // of three equal cells covering [-rho_near, rho_near].
+  const Directions dirs = DirectionsFrom(points, start_center);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(dirs.covariance);
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d e = eig.eigenvectors().col(k);
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Eigen::Vector3d& u : dirs.u) {
+      lo = std::min(lo, u.dot(e));
+      hi = std::max(hi, u.dot(e));
+    }
+    const NearFar nf = NearFarRoots(hi - lo, dirs.farthest - dirs.nearest, dirs.nearest);
+    const double rho = std::isfinite(nf.near_radius) ? nf.near_radius : nf.vertex;
+    for (const double sign : {1.0, -1.0}) {
+      const Eigen::Vector3d s = start_center + sign * (2.0 / 3.0) * rho * e;
+      MinimumZoneSphere mz = FitSphereMinimumZone(points, s, options);
+      if (!mz.ok) continue;
+      starts.push_back({s, mz.center, mz.width, mz.converged});
+      if ((mz.converged && !best.converged) || (mz.converged == best.converged && mz.width < best.width)) {
+        best = std::move(mz);
+      }
+    }
+  }
+  best.starts = std::move(starts);
+  return best;
+}
+
+MinimumZoneSphere FitSphereMinimumZone(const std::vector<Eigen::Vector3d>& points, const MinimumZoneOptions& options) {
   const LeastSquaresSphere ls = FitSphereLeastSquares(points);
   if (!ls.sphere.ok) return MinimumZoneSphere();
   return FitSphereMinimumZone(points, ls.sphere.center, options);

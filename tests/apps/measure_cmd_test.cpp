@@ -269,6 +269,51 @@ TEST_F(MeasureCmd, SaysWhenACapLeavesTheResultIllPosed) {
   EXPECT_THAT(as_json.err, HasSubstr("sph_measure: warning: ill-posed for the coverage"));
 }
 
+// A cap whose minimum zone has two local minima (tests/sphere/sphere_form_test.cpp): the search
+// from several starts reports the narrower zone and what each start reached, in text and JSON; over
+// the whole sphere one search is certified and no starts are listed.
+TEST_F(MeasureCmd, ReportsTheMinimumZonesCertificateAndStarts) {
+  MeasureOptions o;
+  o.points_path = SPH_TEST_DATA_DIR "/minimum-zone/two_minima_cap.xyz";
+  o.xyz = true;
+  o.json_path = dir_ + "/cap.json";
+  const RunOutput r = Measure(o);
+  EXPECT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("mz_starts          7 searches reach widths from"));
+  EXPECT_THAT(r.out, HasSubstr("the minimum zone has several local minima for this coverage"));
+  const json j = ReadJson(o.json_path);
+  const json& starts = j["mz_check"]["starts"];
+  ASSERT_TRUE(starts.is_object());
+  EXPECT_FALSE(starts["agree"].get<bool>());
+  ASSERT_EQ(starts["runs"].size(), 7u);
+  double lo = 1e300, hi = 0.0;
+  for (const json& run : starts["runs"]) {
+    lo = std::min(lo, run["width_um"].get<double>());
+    hi = std::max(hi, run["width_um"].get<double>());
+  }
+  EXPECT_EQ(lo, j["sphericity_mz_um"].get<double>());
+  EXPECT_GT(hi - lo, 0.1);  // um
+  EXPECT_NEAR(starts["width_spread_um"].get<double>(), hi - lo, 1e-9);
+  EXPECT_GT(starts["center_spread_um"].get<double>(), 1000.0);
+
+  o.points_path = Simulated("full.txt", {Eigen::Vector3d(2, 0, 0)});
+  o.xyz = false;
+  o.calibration_path = Calibration();
+  o.uncertainty_samples = 0;
+  o.noise_floor_draws = 0;
+  o.json_path = dir_ + "/full.json";
+  const RunOutput full = Measure(o);
+  ASSERT_EQ(full.code, kExitOk) << full.err;
+  EXPECT_THAT(full.out, HasSubstr("mz_certified_um"));
+  EXPECT_THAT(full.out, Not(HasSubstr("mz_starts")));
+  const json jf = ReadJson(o.json_path);
+  EXPECT_TRUE(jf["mz_check"]["starts"].is_null());
+  // sqrt(2 R 1 nm) = 6.3 um on a 20 mm sphere; the near region is below twice the width.
+  EXPECT_NEAR(jf["mz_check"]["certified_radius_um"].get<double>(), 6.3, 0.1);
+  EXPECT_LT(jf["mz_check"]["near_radius_um"].get<double>(), 2.0 * jf["sphericity_mz_um"].get<double>());
+  EXPECT_LT(jf["mz_check"]["max_decrease_near_um"].get<double>(), 1e-5);
+}
+
 TEST_F(MeasureCmd, ACalibrationWithoutCovarianceStillCompensates) {
   CalibrationFile cal = ReadCalibrationFile(Calibration());
   cal.covariance.reset();
@@ -377,7 +422,9 @@ TEST_F(MeasureCmd, BrokenFilesGiveOneMessageAndExitTwo) {
   expect_one_error(o, o.points_path + ": no samples (the file has 0 lines, none of them a sample)");
   o.points_path = WriteFile("header.txt", "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n");
   expect_one_error(o, o.points_path + ": no samples (the file has 3 lines, none of them a sample)");
-  o.points_path = WriteFile("binary.txt", std::string("\x7f" "ELF\x02\x01\x01\0\0\0\0\0\0\0\0\0\x03\0>\0", 20));
+  o.points_path = WriteFile("binary.txt", std::string("\x7f"
+                                                      "ELF\x02\x01\x01\0\0\0\0\0\0\0\0\0\x03\0>\0",
+                                                      20));
   expect_one_error(o, o.points_path + ":1: binary data (NUL byte): this is not a points file");
   o.points_path = WriteFile("garbage.txt", "\xde\xad\xbe\xef 7.5 4.9\n");
   // Bytes that are not printable ASCII are shown as \xHH, so the message stays readable.

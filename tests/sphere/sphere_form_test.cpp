@@ -2,12 +2,15 @@
 #include "sph/sphere/inequality_lp.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "sph/model/units.hpp"
+#include "sph/sphere/inequality_lp.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -283,6 +286,175 @@ TEST(FitSphereMinimumZone, DoesNotDependOnOrderOrOrigin) {
   // Coordinates of size 1000 carry 1e-13 of rounding: the zone keeps about that.
   EXPECT_NEAR(mz_moved.width, mz.width, kRoundingPerRadius * 1000.0);
   EXPECT_PRED_FORMAT3(MatrixNear, mz_moved.center - shift, mz.center, 1e-9);
+}
+
+// Bound (1) of the header, on random vectors: L <= |q - delta| <= L + rho^2 / (2 (d - rho)), and
+// the 1/2 is the best constant (a step across u reaches it as rho / d -> 0).
+TEST(MinimumZoneBound, TheDistanceLiesBetweenItsLinearModelAndTheQuadraticExcess) {
+  std::mt19937 rng(21);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  for (int k = 0; k < 20000; ++k) {
+    const V q = V(g(rng), g(rng), g(rng)) * 10.0;
+    const double d = q.norm(), rho = d * std::pow(10.0, -6.0 * u01(rng)) * 0.999;
+    const V delta = V(g(rng), g(rng), g(rng)).normalized() * rho;
+    const double linear = d - q.dot(delta) / d, exact = (q - delta).norm();
+    ASSERT_GE(exact, linear - 1e-14 * d) << k;
+    ASSERT_LE(exact, linear + rho * rho / (2.0 * (d - rho)) + 1e-14 * d) << k;
+  }
+  const V q(0.0, 0.0, 20.0);
+  for (const double rho : {1e-1, 1e-2, 1e-3}) {
+    const double excess = (q - V(rho, 0.0, 0.0)).norm() - 20.0;  // the linear model is 20 across u
+    EXPECT_GT(excess / (rho * rho / (2.0 * (20.0 - rho))), 1.0 - 1.5 * rho / 20.0) << rho;
+  }
+}
+
+// Noisy forms over the whole sphere, a hemisphere and caps of 30 and 10 deg, few points: f at
+// centres on shells of radius rho about the result (random directions and the axes) is never below
+// width - MaxDecreaseWithin(rho), and a centre that narrows the zone lies within near_radius or
+// beyond far_radius.
+TEST(MinimumZoneBound, HoldsAgainstBruteForceOnSmallCases) {
+  std::mt19937 rng(8);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  for (int trial = 0; trial < 16; ++trial) {
+    const double cap_deg = std::array<double, 4>{180.0, 90.0, 30.0, 10.0}[trial % 4];
+    const double form = trial < 8 ? 2e-4 : 2e-2;  // 0.2 um, and 20 um (sizeable on the small caps)
+    std::vector<V> pts;
+    const int n = 6 + trial;
+    for (int i = 0; i < n; ++i) {
+      const double ct = 1.0 - (1.0 - std::cos(cap_deg * kRadPerDeg)) * u01(rng);
+      pts.push_back((20.0 + form * (u01(rng) - 0.5)) * Direction(std::acos(ct) * kDegPerRad, 360.0 * u01(rng)));
+    }
+    const LeastSquaresSphere ls = FitSphereLeastSquares(pts);
+    ASSERT_TRUE(ls.sphere.ok);
+    const MinimumZoneSphere mz = FitSphereMinimumZone(pts, ls.sphere.center);
+    ASSERT_TRUE(mz.ok && mz.converged) << trial;
+    ASSERT_GT(mz.lp_box, 0.0);
+    EXPECT_LE(mz.lp_decrease, 1e-12 * mz.width + 1e-13 * 20.0);
+    EXPECT_TRUE(!std::isfinite(mz.near_radius) || mz.far_radius > mz.near_radius) << trial;
+    const double rounding = 1e-13 * 20.0;
+    for (const double rho : {1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.1, 1.0, 3.0}) {
+      const double bound = mz.MaxDecreaseWithin(rho);
+      EXPECT_LE(bound, mz.width);
+      std::vector<V> dirs{V::UnitX(), -V::UnitX(), V::UnitY(), -V::UnitY(), V::UnitZ(), -V::UnitZ()};
+      for (int k = 0; k < 300; ++k) dirs.push_back(V(g(rng), g(rng), g(rng)).normalized());
+      for (const V& e : dirs) {
+        const double f = RadialPeakToValley(pts, mz.center + rho * e);
+        ASSERT_GE(f, mz.width - bound - rounding) << "trial " << trial << " rho " << rho;
+        if (f < mz.width - rounding) {
+          EXPECT_TRUE(rho <= mz.near_radius || rho >= mz.far_radius) << "trial " << trial << " rho " << rho;
+        }
+      }
+    }
+    // CertifiedRadius inverts MaxDecreaseWithin.
+    for (const double slack : {1e-9, 1e-6, 1e-4}) {
+      const double r = mz.CertifiedRadius(slack);
+      if (slack >= mz.width) {
+        EXPECT_EQ(r, std::numeric_limits<double>::infinity());
+        continue;
+      }
+      ASSERT_GT(r, 0.0);
+      EXPECT_LE(mz.MaxDecreaseWithin(r), slack);
+      EXPECT_GT(mz.MaxDecreaseWithin(r * (1.0 + 1e-9)), slack * (1.0 - 1e-6));
+    }
+  }
+}
+
+// The radius certified to 1 nm on a 20 mm sphere is sqrt(2 r 1 nm), about 6.3 um (header).
+TEST(MinimumZoneBound, CertifiesAboutSqrtTwoRSlack) {
+  std::mt19937 rng(2);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<V> pts;
+  for (int i = 0; i < 500; ++i) pts.push_back((20.0 + 1e-4 * g(rng)) * V(g(rng), g(rng), g(rng)).normalized());
+  const MinimumZoneSphere mz = FitSphereMinimumZone(pts);
+  ASSERT_TRUE(mz.ok && mz.converged);
+  EXPECT_NEAR(mz.CertifiedRadius(1e-6), std::sqrt(2.0 * mz.inner_radius * 1e-6), 2e-6);
+  // Over the whole sphere the near region is below twice the width and what it can hide is
+  // below 2 width^2 / R: the minimum is certified global.
+  EXPECT_LT(mz.near_radius, 2.0 * mz.width);
+  EXPECT_LT(mz.MaxDecreaseWithin(mz.near_radius), 2.0 * mz.width * mz.width / 20.0);
+  EXPECT_GT(mz.far_radius, 5.0);
+}
+
+// Nine points within 60 deg of +z on a sphere of 20 mm with a form of +-0.6 mm: a cap whose zone
+// has two local minima 1.7 mm apart (found by a seeded search, written out here).
+std::vector<V> TwoMinimaCap() {
+  return {{-5.9989185279576525, 6.4741103079621345, 18.524824011327858},
+          {15.438674662492117, 2.2942719775537954, 12.528761783870548},
+          {-0.92245025013406257, 12.446469745214147, 14.856884304535946},
+          {5.1515760800844506, 9.4329676379211751, 16.944264769013312},
+          {-9.2316119548407816, 2.6594187032009522, 17.616811594979314},
+          {1.2373143065472203, 14.425551204756202, 14.190994501095734},
+          {-1.6516343294302642, -3.5710728229802191, 20.071308173865983},
+          {16.323802745614586, -0.25478002925380705, 10.750252051565985},
+          {-2.2028857815319687, -12.136933866934575, 15.207818047088884}};
+}
+
+TEST(FitSphereMinimumZoneMultiStart, FindsTheBetterOfTwoLocalMinimaOnACapAndReportsTheOther) {
+  const std::vector<V> pts = TwoMinimaCap();
+  const LeastSquaresSphere ls = FitSphereLeastSquares(pts);
+  ASSERT_TRUE(ls.sphere.ok);
+  const MinimumZoneSphere single = FitSphereMinimumZone(pts, ls.sphere.center);
+  const MinimumZoneSphere multi = FitSphereMinimumZoneMultiStart(pts, ls.sphere.center);
+  ASSERT_TRUE(single.ok && single.converged && multi.ok && multi.converged);
+  ASSERT_EQ(multi.starts.size(), 7u);
+  EXPECT_PRED_FORMAT3(MatrixNear, multi.starts[0].start, ls.sphere.center, 0.0);
+  EXPECT_EQ(multi.starts[0].width, single.width);
+  // The least-squares start ends in the worse minimum; another start finds a narrower one.
+  EXPECT_GT(single.width, multi.width + 1e-4);
+  EXPECT_GT((single.center - multi.center).norm(), 1.0);
+  EXPECT_FALSE(multi.StartsAgree());
+  EXPECT_NEAR(multi.StartWidthSpread(), single.width - multi.width, 1e-12);
+  EXPECT_GE(multi.StartCenterSpread(), (single.center - multi.center).norm());
+  // Both are local minima (f about each at offsets of 1e-2 .. 1e-6 of the width).
+  ExpectLocalMinimum(pts, single.center, single.width, 20.0, 1);
+  ExpectLocalMinimum(pts, multi.center, multi.width, 20.0, 2);
+  // Brute force: 400 searches from centres spread over 4 mm about the least-squares one reach
+  // nothing narrower than the multi-start result, and some of them the other minimum.
+  std::mt19937 rng(17);
+  std::normal_distribution<double> g(0.0, 1.0);
+  int worse = 0;
+  for (int k = 0; k < 400; ++k) {
+    const MinimumZoneSphere r = FitSphereMinimumZone(pts, ls.sphere.center + 2.0 * V(g(rng), g(rng), g(rng)));
+    if (!r.converged) continue;
+    EXPECT_GE(r.width, multi.width - 1e-12) << k;
+    if (std::abs(r.width - single.width) < 1e-9) ++worse;
+  }
+  EXPECT_GT(worse, 0);
+  // And a grid of centres: f over a cube of 6 mm at 0.05 mm steps is nowhere below the result.
+  double lowest = std::numeric_limits<double>::infinity();
+  for (int i = -60; i <= 60; ++i) {
+    for (int j = -60; j <= 60; ++j) {
+      for (int k = -60; k <= 60; ++k) {
+        lowest = std::min(lowest, RadialPeakToValley(pts, ls.sphere.center + 0.05 * V(i, j, k)));
+      }
+    }
+  }
+  EXPECT_GE(lowest, multi.width - 1e-12);
+  EXPECT_LT(lowest, multi.width + 2e-3);  // the grid comes near it
+}
+
+TEST(FitSphereMinimumZoneMultiStart, AllStartsAgreeOnAnOrdinaryHemisphere) {
+  std::mt19937 rng(6);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<V> pts;
+  for (int i = 0; i < 2000; ++i) {
+    V d = V(g(rng), g(rng), g(rng)).normalized();
+    d.z() = std::abs(d.z());
+    pts.push_back(V(1, 2, 3) + (20.0 + 2e-4 * std::sin(3.0 * d.x()) * d.y() + 5e-5 * g(rng)) * d);
+  }
+  const LeastSquaresSphere ls = FitSphereLeastSquares(pts);
+  const MinimumZoneSphere single = FitSphereMinimumZone(pts, ls.sphere.center);
+  const MinimumZoneSphere multi = FitSphereMinimumZoneMultiStart(pts, ls.sphere.center);
+  ASSERT_TRUE(multi.ok && multi.converged);
+  ASSERT_EQ(multi.starts.size(), 7u);
+  EXPECT_TRUE(multi.StartsAgree());
+  EXPECT_NEAR(multi.width, single.width, 1e-13 * 20.0);
+  EXPECT_LT(multi.StartCenterSpread(), 1e-9);
+  for (std::size_t k = 1; k < multi.starts.size(); ++k) {
+    EXPECT_GT((multi.starts[k].start - ls.sphere.center).norm(), 0.5 * multi.width) << k;  // elsewhere
+  }
 }
 
 TEST(CoverageOf, GivesTheCapHalfAngle) {

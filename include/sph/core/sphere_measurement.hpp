@@ -54,6 +54,12 @@ struct SphereEvaluationOptions {
   /// times worse than by the same number of points over the whole sphere (see
   /// LeastSquaresSphere::RadiusDilution: 10 is an evenly covered cap of half-angle about 45 deg).
   double max_dilution = 10.0;
+  /// The minimum zone is searched from several starts (FitSphereMinimumZoneMultiStart) when the
+  /// points lie within this half-angle of their mean direction (a cap or a hemisphere), or when
+  /// one search does not certify it to mz_slack_mm over its whole near region.
+  double multi_start_cap_deg = 135.0;
+  /// The slack to which the minimum zone's certificate is stated (1 nm).
+  double mz_slack_mm = 1e-6;
 };
 
 /// Everything measured about one sphere; lengths in mm.
@@ -62,7 +68,7 @@ struct SphereEvaluation {
   LeastSquaresSphere ls;             ///< ls.sphere.center, ls.sphere.radius [mm]
   std::vector<double> residuals_mm;  ///< radial residuals about the least-squares sphere, in point order
   double sphericity_ls_mm = 0.0;     ///< peak-to-valley of residuals_mm
-  MinimumZoneSphere mz;              ///< minimum-zone centre, radii and width [mm]
+  MinimumZoneSphere mz;              ///< minimum-zone centre, radii, width and certificate [mm]
   SphereCoverage coverage;           ///< about the least-squares centre
   double radius_dilution = 0.0;      ///< LeastSquaresSphere::RadiusDilution()
   double center_dilution = 0.0;      ///< LeastSquaresSphere::CenterDilution()
