@@ -151,9 +151,10 @@ MinimumZoneSphere MinimumZoneOfAll(const std::vector<Eigen::Vector3d>& points, c
       break;
     }
   }
-  if (mz.converged && !certified && f > 0.0) {
-    // Stopped by rounding (or on a sphere): one LP at the final centre over a box of the zone's
-    // width gives the certificate, whatever decrease it still predicts.
+  if (mz.converged && f > 0.0 && !(certified && mz.lp_box >= f)) {
+    // The trust region shrinks with the steps, and bound (2) grows as rho / Delta beyond the box:
+    // one LP at the final centre over a box of the zone's width makes the certificate (whatever
+    // decrease it still predicts, e.g. after a stop by rounding).
     Vec5 x;
     if (solve_lp(f, &x)) {
       mz.lp_box = f;
