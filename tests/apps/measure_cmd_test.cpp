@@ -308,9 +308,10 @@ TEST_F(MeasureCmd, ReportsTheMinimumZonesCertificateAndStarts) {
   EXPECT_THAT(full.out, Not(HasSubstr("mz_starts")));
   const json jf = ReadJson(o.json_path);
   EXPECT_TRUE(jf["mz_check"]["starts"].is_null());
-  // sqrt(2 R 1 nm) = 6.3 um on a 20 mm sphere; the near region is below twice the width.
+  // sqrt(2 R 1 nm) = 6.3 um on a 20 mm sphere; the near region is about twice the width (2 f / w
+  // with w >= 2 sqrt(lambda_min), near 1 for the paper's grid).
   EXPECT_NEAR(jf["mz_check"]["certified_radius_um"].get<double>(), 6.3, 0.1);
-  EXPECT_LT(jf["mz_check"]["near_radius_um"].get<double>(), 2.0 * jf["sphericity_mz_um"].get<double>());
+  EXPECT_LT(jf["mz_check"]["near_radius_um"].get<double>(), 2.5 * jf["sphericity_mz_um"].get<double>());
   EXPECT_LT(jf["mz_check"]["max_decrease_near_um"].get<double>(), 1e-5);
 }
 

@@ -58,8 +58,9 @@
 // deviation (Popoviciu), lambda_min the smallest eigenvalue of the covariance of the u_i, (3)
 // holds with one w in every direction: MinimumZoneSphere::near_radius and far_radius, and by (2)
 // no centre nearer than far_radius gives a zone narrower by more than MaxDecreaseWithin(near_radius).
-// Over the whole sphere w is near 2, rho_near below 2 f and that bound below 2 f^2 / R (9 pm for a
-// form of 0.3 um on a 20 mm sphere): the minimum found is the global one. On a cap the
+// Over the whole sphere w is near 2 (the bound 2 sqrt(lambda_min) about 1), rho_near about 2 f and
+// that bound about 2 f^2 / R (9 pm for a form of 0.3 um on a 20 mm sphere): the minimum found is
+// the global one. On a cap the
 // directions spread little along the axis (w = 1 - cos t: 0.13 at 30 deg, 0.015 at 10 deg), the
 // near region grows to 2 f / w and, with it, room for other local minima: for partial coverage
 // FitSphereMinimumZoneMultiStart() searches again from starts displaced along the principal
