@@ -83,14 +83,14 @@ FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOpti
     scale(c) = norm > 0.0 ? 1.0 / norm : 0.0;
     eq.col(c) *= scale(c);
   }
-  const Eigen::BDCSVD<Eigen::MatrixXd> machine(eq.leftCols(n_machine), Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> machine(eq.leftCols(n_machine), Eigen::ComputeThinU | Eigen::ComputeThinV);
   Eigen::Index kept = 0;
   while (kept < n_machine && machine.singularValues()(kept) >= max_singular_value) ++kept;
   // [U_kept F]: U_kept orthonormal, F the form's unit columns. A form column's variance inflation in
   // it is how much of it the determinable machine and the other form terms reproduce.
   Eigen::MatrixXd a(j.rows(), kept + n_form);
   a << machine.matrixU().leftCols(kept), eq.rightCols(n_form);
-  const Eigen::BDCSVD<Eigen::MatrixXd> joint(a, Eigen::ComputeThinV);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> joint(a, Eigen::ComputeThinV);
   const Eigen::VectorXd& sv = joint.singularValues();
   const Eigen::MatrixXd& v = joint.matrixV();
   const double max_vif = 1.0 / (max_singular_value * max_singular_value);
