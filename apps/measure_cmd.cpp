@@ -471,15 +471,7 @@ void WriteBudgetText(std::ostream& out, const Budgets& b, int mc_digits) {
     }
   }
   out << "  sphericities' Type A: " << b.type_a_form_note << "\n";
-  if (b.coverage.probability > 0.0) {
-    out << Format("  coverage: %g %%, k from each result's effective degrees of freedom (t distribution)\n\n",
-                  100.0 * b.coverage.probability);
-  } else {
-    out << Format(
-        "  coverage: k = %g (about 95.45 %% for a normal distribution; --coverage 0.95 gives a coverage "
-        "interval)\n\n",
-        b.coverage.k);
-  }
+  out << "  " << gum::CoverageSentence(b.coverage, "result") << "\n\n";
 }
 
 json BudgetsJson(const Budgets& b, int mc_digits) {

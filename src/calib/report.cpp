@@ -66,16 +66,7 @@ void WriteBudgetText(std::ostream& out, const CalibrationResult& r, const Calibr
   for (const BudgetSensitivity& s : b.inputs) {
     out << "  " << s.input << ": u = " << Format("%.6g", s.u) << " " << s.unit << " (" << s.note << ")\n";
   }
-  if (b.coverage.probability > 0.0) {
-    out << Format("coverage: %g %%, k from each parameter's effective degrees of freedom (t distribution)\n",
-                  100.0 * b.coverage.probability);
-  } else {
-    out << Format(
-        "coverage: k = %g (about 95.45 %% for a normal distribution; --coverage 0.95 gives a "
-        "coverage interval)\n",
-        b.coverage.k);
-  }
-  out << "\n";
+  out << gum::CoverageSentence(b.coverage, "parameter") << "\n\n";
 }
 
 json BudgetJson(const UncertaintyStatement& st, double to_report, const char* report_unit) {

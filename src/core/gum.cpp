@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 
 #include "sph/core/error.hpp"
@@ -268,6 +269,29 @@ double StdOfMean(const std::vector<double>& x) {
 }
 
 }  // namespace
+
+std::string CoverageSentence(const CoverageSpec& coverage, const std::string& result) {
+  char text[200];
+  if (coverage.probability > 0.0) {
+    std::snprintf(text, sizeof text, "coverage: %g %%, k from each %s's effective degrees of freedom (t distribution)",
+                  100.0 * coverage.probability, result.c_str());
+  } else {
+    std::snprintf(text, sizeof text,
+                  "coverage: k = %g (about 95.45 %% for a normal distribution; --coverage 0.95 gives a coverage "
+                  "interval)",
+                  coverage.k);
+  }
+  return text;
+}
+
+double SampleStd(const std::vector<double>& v) {
+  double mean = 0.0;
+  for (const double x : v) mean += x - v.front();
+  mean /= static_cast<double>(v.size());
+  double ss = 0.0;
+  for (const double x : v) ss += (x - v.front() - mean) * (x - v.front() - mean);
+  return std::sqrt(ss / static_cast<double>(v.size() - 1));
+}
 
 MonteCarloResult PropagateDistributions(const std::function<double(const std::vector<double>&)>& model,
                                         const std::vector<Distribution>& inputs, const MonteCarloOptions& options) {

@@ -25,17 +25,6 @@ std::string Format(const char* fmt, double a, double b = 0.0, double c = 0.0, do
   return buf;
 }
 
-// Sample standard deviation, of the values shifted by the first one: a radius of 20 mm varying by
-// nanometres keeps its digits, and equal values give exactly 0.
-double StdOf(const std::vector<double>& v) {
-  double mean = 0.0;
-  for (const double x : v) mean += x - v.front();
-  mean /= static_cast<double>(v.size());
-  double ss = 0.0;
-  for (const double x : v) ss += (x - v.front() - mean) * (x - v.front() - mean);
-  return std::sqrt(ss / static_cast<double>(v.size() - 1));
-}
-
 // The readings' sines and cosines, once for all evaluations.
 std::vector<EffectReading> FixedReadings(const std::vector<RawReading>& readings) {
   std::vector<EffectReading> fixed;
@@ -427,14 +416,14 @@ CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawRead
     form.push_back(o.form);
   }
   if (radius.size() < 2) throw std::invalid_argument("no calibration draw gave a sphere");
-  u.radius_std_mm = StdOf(radius);
+  u.radius_std_mm = gum::SampleStd(radius);
   for (int k = 0; k < 3; ++k) {
     std::vector<double> ck;
     for (const auto& c : center) ck.push_back(c(k));
-    u.center_std_mm(k) = StdOf(ck);
+    u.center_std_mm(k) = gum::SampleStd(ck);
   }
-  u.sphericity_ls_std_mm = StdOf(pv_ls);
-  u.sphericity_mz_std_mm = StdOf(pv_mz);
+  u.sphericity_ls_std_mm = gum::SampleStd(pv_ls);
+  u.sphericity_mz_std_mm = gum::SampleStd(pv_mz);
   std::sort(form.begin(), form.end());
   const auto k95 = static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(form.size()))) - 1;
   u.calibration_form_p95_mm = form[k95];

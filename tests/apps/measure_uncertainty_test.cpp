@@ -55,15 +55,6 @@ CalibrationFile NewCalibration(std::uint64_t seed) {
   return ParseCalibration(text, "cal.json");
 }
 
-double StdOf(const std::vector<double>& v) {
-  double mean = 0.0;
-  for (const double x : v) mean += x - v.front();
-  mean /= static_cast<double>(v.size());
-  double ss = 0.0;
-  for (const double x : v) ss += (x - v.front() - mean) * (x - v.front() - mean);
-  return std::sqrt(ss / static_cast<double>(v.size() - 1));
-}
-
 // Root mean square of stated uncertainties.
 double Rms(const std::vector<double>& v) {
   double ss = 0.0;
@@ -122,7 +113,7 @@ TEST(MeasurementUncertainty, CoversTheSpreadOfRepeatedEffectBearingCalibrations)
   // least-squares sphericity: the stated u is the spread, linear and by Monte Carlo.
   double spread[3], linear[3], mc[3], seven_alone[3];
   for (int k = 0; k < 3; ++k) {
-    spread[k] = StdOf(value[k]);
+    spread[k] = gum::SampleStd(value[k]);
     linear[k] = Rms(stated[k]);
     mc[k] = k > 0 ? Rms(sampled[k]) : std::nan("");
     seven_alone[k] = Rms(stated_seven[k]);

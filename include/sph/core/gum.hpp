@@ -67,6 +67,14 @@ struct CoverageSpec {
   double probability = 0;  ///< 0 < p < 1: the coverage probability instead of a fixed k
 };
 
+/// "coverage: ..." for a report: the coverage probability and where k comes from (each result's
+/// effective degrees of freedom), or the fixed k. `result` names what each k belongs to.
+std::string CoverageSentence(const CoverageSpec& coverage, const std::string& result);
+
+/// Sample standard deviation (n - 1) of at least two values, computed about the first one: a
+/// radius of 20 mm that varies by nanometres keeps its digits, and equal values give exactly 0.
+double SampleStd(const std::vector<double>& values);
+
 /// The uncertainty statement of one result.
 struct UncertaintyStatement {
   std::vector<BudgetInput> inputs;
