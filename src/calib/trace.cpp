@@ -275,7 +275,6 @@ void ConfoundedFormTerms(const Readings& data, const CalibrationOptions& options
   for (const Effect e : pool) machine.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
   const FormIdentifiability id = IdentifyForm(data.points, options, machine, EffectFitStart::From(base),
                                               FormTermsOfDegrees(2, sel->degree_limit));
-  sel->terms = FormTermsOfDegrees(2, sel->degree_limit);
   for (const ConfoundedCombination& c : id.combinations) sel->confounded.push_back(c.words);
   if (!id.confounded.empty()) {
     std::string names;
@@ -305,13 +304,8 @@ EffectFit SelectFormDegree(const Readings& data, const CalibrationOptions& optio
   sel->degree_max = 0;
   sel->delta_ebic.clear();
   for (int l = 2; l <= sel->degree_limit; ++l) {
-    std::vector<FormTerm> terms;
-    for (const FormTerm& t : sel->terms) {
-      if (t.l <= l) terms.push_back(t);
-    }
-    if (terms.empty() || terms.back().l != l) continue;  // nothing of degree l is separable
     EffectModel model = plain;
-    model.form = FormModelOf(data.points, terms);
+    model.form = FormModelOf(data.points, FormTermsOfDegrees(2, l));
     EffectFit fit =
         internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(none));
     const double score = fit.Bic() + penalty;

@@ -44,7 +44,6 @@
 #include <vector>
 
 #include "sph/calib/effect_fit.hpp"
-#include "sph/model/form_model.hpp"
 #include "sph/calib/residual_structure.hpp"
 
 namespace sph {
@@ -118,8 +117,6 @@ struct FormSelection {
   std::string design;      ///< why or why not, in words
   int degree_max = 0;      ///< the degree L fitted (0: no form in the final model)
   int degree_limit = 0;    ///< the highest degree searched (what the pattern resolves, at most form_degree_max)
-  /// The terms searched: degrees 2..degree_limit.
-  std::vector<FormTerm> terms;
   /// What the design cannot tell apart from the seven errors, the centres and the candidate
   /// effects (IdentifyForm(), before any fit), in words.
   std::vector<std::string> confounded;
