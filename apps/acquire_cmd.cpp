@@ -8,6 +8,8 @@
 #include <ctime>
 #include <memory>
 
+#include <CLI/CLI.hpp>
+
 #include "acquire_internal.hpp"
 #include "app_common.hpp"
 

@@ -9,7 +9,7 @@
 #ifndef SPH_APPS_ACQUIRE_CMD_HPP_
 #define SPH_APPS_ACQUIRE_CMD_HPP_
 
-#include <CLI/CLI.hpp>
+#include "cli_fwd.hpp"
 #include <csignal>
 #include <cstdint>
 #include <optional>

@@ -5,6 +5,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <CLI/CLI.hpp>
+
 #include "sph/core/error.hpp"
 #include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
@@ -152,6 +154,31 @@ SimulationSpec ToSimulationSpec(const MachineOptions& o) {
   spec.noise_theta_arcsec = o.noise_theta_arcsec;
   spec.noise_phi_arcsec = o.noise_phi_arcsec;
   return spec;
+}
+
+int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI::App&)>& setup,
+           const std::function<int()>& run) {
+  RemoveTempFilesOnSignals();
+  const StandardOutput standard_output;
+  CLI::App app;
+  setup(app);
+  app.set_version_flag("--version", std::string(name) + " " SPH_VERSION);
+  int code = kExitOk;
+  try {
+    app.parse(argc, argv);
+    code = run();
+  } catch (const CLI::ParseError& e) {
+    code = app.exit(e) == 0 ? kExitOk : kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << name << ": error: " << e.what() << "\n";
+    code = kExitBadInput;
+  }
+  const std::string failed = FlushStandardOutput();
+  if (!failed.empty()) {
+    std::cerr << name << ": error: cannot write to standard output: " << failed << "\n";
+    return code == kExitOk || code == kExitNotUsable ? kExitBadInput : code;
+  }
+  return code;
 }
 
 }  // namespace sph::apps

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <exception>
+#include <functional>
 #include <iostream>
 #include <string>
 #include <utility>
@@ -12,7 +13,7 @@
 
 #include <Eigen/Core>
 
-#include <CLI/CLI.hpp>
+#include "cli_fwd.hpp"
 
 #include "sph/core/cleanup.hpp"
 #include "sph/core/output_files.hpp"
@@ -112,43 +113,23 @@ SimulationSpec ToSimulationSpec(const MachineOptions& o);
 /// Parses "x,y,z" (mm); `what` names the option in the error.
 Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what);
 
-/// Handles a CLI11 parse error the way every app does: --help and --version exit 0, anything else
-/// prints CLI11's message and exits with kExitBadInput.
-inline int ExitForParseError(const CLI::App& app, const CLI::ParseError& e) {
-  const int code = app.exit(e);
-  return code == 0 ? kExitOk : kExitBadInput;
-}
-
 /// The whole main() of an app: set up the options, parse, run. --help and --version exit 0, a parse
 /// error exits kExitBadInput, and an exception escaping `run` is printed as "<name>: error: <what>"
-/// on stderr with kExitBadInput. `run` takes the parsed options and returns the exit code. A
-/// signal that ends the program removes the temporary files of its unfinished outputs
-/// (sph/core/cleanup.hpp), and a failed write to standard output (a full disk, a closed pipe)
-/// is an error: "<name>: error: cannot write to standard output: No space left on device".
+/// on stderr with kExitBadInput. `run` returns the exit code. A signal that ends the program
+/// removes the temporary files of its unfinished outputs (sph/core/cleanup.hpp), and a failed write
+/// to standard output (a full disk, a closed pipe) is an error: "<name>: error: cannot write to
+/// standard output: No space left on device". Compiled once, in app_common.cpp, so that no main()
+/// compiles CLI11 (cli_fwd.hpp).
+int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI::App&)>& setup,
+           const std::function<int()>& run);
+
+/// RunApp() for an app whose options are an `Options` struct: `setup(app, options)` declares them
+/// and `run(options)` runs with the parsed ones.
 template <typename Options, typename Setup, typename Run>
 int AppMain(int argc, char** argv, const char* name, Setup setup, Run run) {
-  RemoveTempFilesOnSignals();
-  const StandardOutput standard_output;
-  CLI::App app;
   Options options;
-  setup(app, options);
-  app.set_version_flag("--version", std::string(name) + " " SPH_VERSION);
-  int code = kExitOk;
-  try {
-    app.parse(argc, argv);
-    code = run(options);
-  } catch (const CLI::ParseError& e) {
-    code = ExitForParseError(app, e);
-  } catch (const std::exception& e) {
-    std::cerr << name << ": error: " << e.what() << "\n";
-    code = kExitBadInput;
-  }
-  const std::string failed = FlushStandardOutput();
-  if (!failed.empty()) {
-    std::cerr << name << ": error: cannot write to standard output: " << failed << "\n";
-    return code == kExitOk || code == kExitNotUsable ? kExitBadInput : code;
-  }
-  return code;
+  return RunApp(
+      argc, argv, name, [&](CLI::App& app) { setup(app, options); }, [&] { return run(options); });
 }
 
 }  // namespace sph::apps

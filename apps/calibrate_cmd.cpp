@@ -7,6 +7,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "app_common.hpp"
 #include "calibrate_trace.hpp"
 #include "sph/calib/budget.hpp"

@@ -3,6 +3,8 @@
 #include <map>
 #include <sstream>
 
+#include <CLI/CLI.hpp>
+
 #include "sph/core/error.hpp"
 #include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"

@@ -18,6 +18,8 @@
 #include <sstream>
 #include <utility>
 
+#include <CLI/CLI.hpp>
+
 #include "acquire_cmd.hpp"
 #include "app_common.hpp"
 #include "sph/can/candump_log.hpp"

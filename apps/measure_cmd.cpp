@@ -11,6 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "app_common.hpp"
 #include "gnuplot.hpp"
 #include "sph/core/calibration_file.hpp"

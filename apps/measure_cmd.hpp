@@ -11,7 +11,7 @@
 #include <ostream>
 #include <string>
 
-#include <CLI/CLI.hpp>
+#include "cli_fwd.hpp"
 
 #include "progress.hpp"
 

@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include <CLI/CLI.hpp>
+
 #include "gnuplot.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"

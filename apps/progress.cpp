@@ -4,6 +4,8 @@
 
 #include <utility>
 
+#include <CLI/CLI.hpp>
+
 namespace sph::apps {
 
 void AddProgressOptions(CLI::App& app, ProgressMode& mode) {

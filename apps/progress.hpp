@@ -6,7 +6,7 @@
 #include <ostream>
 #include <string>
 
-#include <CLI/CLI.hpp>
+#include "cli_fwd.hpp"
 
 namespace sph::apps {
 

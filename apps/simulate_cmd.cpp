@@ -10,6 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "app_common.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"

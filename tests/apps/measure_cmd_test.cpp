@@ -9,6 +9,7 @@
 
 #include <sys/stat.h>
 
+#include <CLI/CLI.hpp>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -222,6 +223,7 @@ TEST_F(MeasureCmd, CompensatedPointsRoundTripThroughXyz) {
   o.json_path = dir_ + "/a.json";
   o.output_path = dir_ + "/points.xyz";
   o.quiet = true;
+  o.mc_max_trials = 0;  // the budget's Monte Carlo check is not what this test is about
   ASSERT_EQ(Measure(o).code, kExitOk);
   std::ifstream in(o.output_path);
   std::string first, second;
@@ -336,6 +338,7 @@ TEST_F(MeasureCmd, ChoosesASetupOfSeveral) {
   MeasureOptions o;
   o.points_path = Simulated("two.txt", {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 3, 0)});
   o.calibration_path = Calibration();
+  o.mc_max_trials = 0;  // the budget's Monte Carlo check is not what this test is about
   o.json_path = dir_ + "/m.json";
   RunOutput r = Measure(o);
   EXPECT_EQ(r.code, kExitBadInput);
@@ -498,6 +501,7 @@ TEST_F(MeasureCmd, DrawsTheFormErrorMap) {
   o.points_path = Simulated("measure.txt", {Eigen::Vector3d(2.0, 0.0, 0.0)});
   o.calibration_path = Calibration();
   o.uncertainty_samples = 0;
+  o.mc_max_trials = 0;
   o.quiet = true;
   // A folder whose name holds a space and a quote, to test the quoting.
   ASSERT_EQ(::mkdir((dir_ + "/plots 'A'").c_str(), 0755), 0);
@@ -549,6 +553,7 @@ TEST_F(MeasureCmd, ProgressOnRequestNamesEachStageAndEveryDrawByDefaultNone) {
   o.points_path = Simulated("progress.txt", {Eigen::Vector3d(1.0, 1.0, 0.5)});
   o.calibration_path = Calibration();
   o.uncertainty_samples = 20;
+  o.mc_max_trials = 0;  // the budget's Monte Carlo check is not what this test is about
   const RunOutput quiet = Measure(o);  // stderr is no terminal here: nothing by default
   ASSERT_EQ(quiet.code, kExitOk) << quiet.err;
   EXPECT_THAT(quiet.err, Not(HasSubstr("sph_measure: reading")));
