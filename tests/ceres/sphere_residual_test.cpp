@@ -26,6 +26,7 @@ constexpr double kR0 = 20.0;
 
 ScmsGeometry SomeGeometry() { return {3e-4, 2e-3, -4e-4, 1e-3, 5e-4, -2e-3, -0.062}; }
 
+// The dual-number SinCosOf() of sph/model/dh.hpp with ceres::Jet itself.
 TEST(JetSinCos, EqualsCeresSinAndCos) {
   Jet10 x(0.7, 3);
   x.v(5) = -2.0;

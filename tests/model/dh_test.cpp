@@ -53,5 +53,38 @@ TEST(SinCosOf, MatchesSinAndCos) {
   }
 }
 
+// A dual number of the shape SinCosOf() recognises (a value `a`, a derivative vector `v`, T(a, v)),
+// whose own sin and cos count their calls.
+struct Dual {
+  double a = 0.0;
+  Eigen::Vector2d v = Eigen::Vector2d::Zero();
+  Dual() = default;
+  template <typename Derived>
+  Dual(double value, const Eigen::MatrixBase<Derived>& derivative) : a(value), v(derivative) {}
+};
+int dual_trig_calls = 0;
+Dual sin(const Dual& x) {
+  ++dual_trig_calls;
+  return Dual(std::sin(x.a), std::cos(x.a) * x.v);
+}
+Dual cos(const Dual& x) {
+  ++dual_trig_calls;
+  return Dual(std::cos(x.a), -std::sin(x.a) * x.v);
+}
+
+// Whatever was included before: the model headers take a dual number's sine and cosine from one
+// scalar sine and cosine, never through its own sin and cos, and get the same values.
+TEST(SinCosOf, TakesADualNumbersSineAndCosineFromItsValuePart) {
+  const Dual x(0.7, Eigen::Vector2d(1.0, -2.0));
+  dual_trig_calls = 0;
+  const SinCos<Dual> t = SinCosOf(x);
+  EXPECT_EQ(dual_trig_calls, 0);
+  const Dual s = sin(x), c = cos(x);
+  EXPECT_EQ(t.sin.a, s.a);
+  EXPECT_EQ(t.cos.a, c.a);
+  EXPECT_EQ(t.sin.v, s.v);
+  EXPECT_EQ(t.cos.v, c.v);
+}
+
 }  // namespace
 }  // namespace sph

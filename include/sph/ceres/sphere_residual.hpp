@@ -13,7 +13,7 @@
 
 #include <ceres/autodiff_cost_function.h>
 
-#include "sph/ceres/jet_sincos.hpp"
+#include "sph/ceres/all_finite.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph {

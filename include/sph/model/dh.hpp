@@ -14,6 +14,8 @@
 #define SPH_MODEL_DH_HPP_
 
 #include <cmath>
+#include <type_traits>
+#include <utility>
 
 #include <Eigen/Core>
 
@@ -26,8 +28,8 @@ using Vec3 = Eigen::Matrix<T, 3, 1>;
 template <typename T>
 using Vec4 = Eigen::Matrix<T, 4, 1>;
 
-/// Sine and cosine of one angle. Computing both together lets a scalar type evaluate the
-/// transcendental part once (ceres::Jet: sph/ceres/jet_sincos.hpp specialises SinCosOf).
+/// Sine and cosine of one angle. Computing both together lets a dual number (ceres::Jet) evaluate
+/// the transcendental part once.
 template <typename T>
 struct SinCos {
   T sin;
@@ -35,13 +37,31 @@ struct SinCos {
 };
 
 namespace internal {
-/// Customisation point for SinCosOf(): the generic version calls sin and cos.
-template <typename T>
+/// SinCosOf() for a scalar: sin and cos.
+template <typename T, typename = void>
 struct SinCosImpl {
   static SinCos<T> Eval(const T& angle) {
     using std::cos;
     using std::sin;
     return {sin(angle), cos(angle)};
+  }
+};
+
+/// SinCosOf() for a dual number: a type with a value part `a`, a derivative vector `v` and a
+/// constructor T(a, v), as ceres::Jet has. sin(x) and cos(x) of a Jet each evaluate both the scalar
+/// sine and cosine (the derivative of one is the other): two Jet calls, four transcendental
+/// calls. This costs two, with identical results. Chosen by the type's shape, not by naming
+/// ceres::Jet, so that this header needs no Ceres and no include order decides which one a
+/// translation unit gets (a specialisation declared after a use would be silently ignored there).
+template <typename T>
+struct SinCosImpl<T, std::void_t<decltype(std::declval<const T&>().a), decltype(std::declval<const T&>().v),
+                                 decltype(T(std::declval<const T&>().a, std::declval<const T&>().v))>> {
+  static SinCos<T> Eval(const T& x) {
+    using std::cos;
+    using std::sin;
+    const auto s = sin(x.a);
+    const auto c = cos(x.a);
+    return {T(s, c * x.v), T(c, -s * x.v)};
   }
 };
 }  // namespace internal

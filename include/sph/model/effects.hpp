@@ -69,11 +69,12 @@ struct EffectReading {
   SinCos<double> phi{0.0, 1.0};
 
   EffectReading() = default;
-  EffectReading(double theta_deg, double phi_deg, double r, double t)
+  /// From the readings as a points file holds them: axis angles in deg, probe in mm, time in s.
+  EffectReading(double theta_deg, double phi_deg, double probe_mm, double time_s)
       : theta_rad(theta_deg * kRadPerDeg),
         phi_rad(phi_deg * kRadPerDeg),
-        r_mm(r),
-        t_s(t),
+        r_mm(probe_mm),
+        t_s(time_s),
         theta(SinCosOf(theta_rad)),
         phi(SinCosOf(phi_rad)) {}
 };
