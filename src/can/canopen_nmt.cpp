@@ -1,7 +1,6 @@
 // NMT, SYNC, heartbeat and EMCY frames (CiA 301).
-#include <cstdio>
-
 #include "sph/can/canopen.hpp"
+#include "sph/internal/format.hpp"
 
 namespace sph::can {
 namespace {
@@ -47,9 +46,7 @@ std::string NmtStateName(std::uint8_t state) {
     case NmtState::kOperational: return "operational";
     case NmtState::kPreOperational: return "pre-operational";
   }
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "unknown state 0x%02X", state);
-  return buf;
+  return internal::Format("unknown state 0x%02X", state);
 }
 
 std::string NmtCommandName(std::uint8_t command) {
@@ -65,9 +62,7 @@ std::string NmtCommandName(std::uint8_t command) {
     case NmtCommand::kResetCommunication:
       return "Reset communication";
   }
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "unknown NMT command 0x%02X", command);
-  return buf;
+  return internal::Format("unknown NMT command 0x%02X", command);
 }
 
 CanFrame EncodeNmt(NmtCommand command, int node_id) {
@@ -153,11 +148,9 @@ CanFrame EncodeEmergency(const Emergency& e) {
 }
 
 std::string DescribeEmergency(const Emergency& e) {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "node %d: EMCY 0x%04X (%s), error register 0x%02X, data %02X %02X %02X %02X %02X",
-                e.node_id, e.error_code, EmergencyClass(e.error_code), e.error_register, e.manufacturer[0],
-                e.manufacturer[1], e.manufacturer[2], e.manufacturer[3], e.manufacturer[4]);
-  return buf;
+  return internal::Format("node %d: EMCY 0x%04X (%s), error register 0x%02X, data %02X %02X %02X %02X %02X",
+                          e.node_id, e.error_code, EmergencyClass(e.error_code), e.error_register, e.manufacturer[0],
+                          e.manufacturer[1], e.manufacturer[2], e.manufacturer[3], e.manufacturer[4]);
 }
 
 }  // namespace sph::can

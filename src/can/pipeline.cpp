@@ -3,24 +3,20 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <set>
 
 #include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
 
 namespace sph::can {
 namespace {
 
 std::string TimeText(std::int64_t t_ns) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.6f", static_cast<double>(t_ns) * 1e-9);
-  return buf;
+  return internal::Format("%.6f", static_cast<double>(t_ns) * 1e-9);
 }
 
 std::string Hex(std::uint32_t id) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%X", id & ~kEffFlag);
-  return buf;
+  return internal::Format("0x%X", id & ~kEffFlag);
 }
 
 }  // namespace
@@ -261,11 +257,10 @@ void AcquisitionPipeline::CloseGaps(const std::array<Slot, kNumDevices>& slots, 
     FlushIncomplete();
     const EncoderConfig* e = d == kTheta ? &config_.theta : d == kPhi ? &config_.phi : nullptr;
     const int node = e != nullptr ? e->node_id : config_.probe.node_id;
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.3f", static_cast<double>(t_ns - g.start_ns) * 1e-9);
+    const std::string after_s = internal::Format("%.3f", static_cast<double>(t_ns - g.start_ns) * 1e-9);
     const std::uint64_t cycles = g.missing_cycles;
     const std::string text = "gap end t_s " + TimeText(t_ns) + ": " + DeviceName(d) + " (node " + std::to_string(node) +
-                             ") sends again, " + buf + " s after its reboot (" + std::to_string(cycles) +
+                             ") sends again, " + after_s + " s after its reboot (" + std::to_string(cycles) +
                              " SYNC cycle" + (cycles == 1 ? "" : "s") + " without it)";
     Note(text);
     Log(LogLevel::kInfo, text);
@@ -401,11 +396,9 @@ void AcquisitionPipeline::EmitCycle(const std::array<Slot, kNumDevices>& slots, 
 void AcquisitionPipeline::EmitPoint(const StopPoint& p) {
   ++counts_.points;
   if (cb_.sample) cb_.sample(p.mean);
-  char buf[200];
-  std::snprintf(buf, sizeof buf,
-                "scatter of the point above: n %d, sd theta %.3f arcsec, sd phi %.3f arcsec, sd r %.4f um, over %.3f s",
-                p.n, p.sd_theta_deg * 3600.0, p.sd_phi_deg * 3600.0, p.sd_r_mm * 1000.0, p.duration_s);
-  Note(buf);
+  Note(internal::Format(
+      "scatter of the point above: n %d, sd theta %.3f arcsec, sd phi %.3f arcsec, sd r %.4f um, over %.3f s", p.n,
+      p.sd_theta_deg * 3600.0, p.sd_phi_deg * 3600.0, p.sd_r_mm * 1000.0, p.duration_s));
 }
 
 void AcquisitionPipeline::NoteIncomplete(const std::string& reason, std::int64_t t_ns) {

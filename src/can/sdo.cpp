@@ -1,7 +1,7 @@
 // SDO frames, abort codes and the client's transfer state machine (CiA 301 §7.2.4).
 #include "sph/can/sdo.hpp"
 
-#include <cstdio>
+#include "sph/internal/format.hpp"
 
 namespace sph::can {
 namespace {
@@ -71,9 +71,7 @@ std::string FrameText(const CanFrame& f) { return ToString(f); }
 }  // namespace
 
 std::string ToString(const ObjectAddress& o) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%04X:%02X", o.index, o.subindex);
-  return buf;
+  return internal::Format("0x%04X:%02X", o.index, o.subindex);
 }
 
 const char* SdoAbortName(std::uint32_t code) {
@@ -146,9 +144,7 @@ const char* SdoAbortName(std::uint32_t code) {
 }
 
 std::string DescribeAbort(std::uint32_t code) {
-  char buf[24];
-  std::snprintf(buf, sizeof buf, "0x%08X", code);
-  return std::string(buf) + " (" + SdoAbortName(code) + ")";
+  return internal::Format("0x%08X", code) + " (" + SdoAbortName(code) + ")";
 }
 
 std::optional<SdoServerMessage> DecodeSdoServer(const CanFrame& f, std::string* error) {
@@ -331,9 +327,8 @@ SdoClient::Step SdoClient::Fail(SdoError::Kind kind, std::uint32_t code, const s
 SdoClient::Step SdoClient::OnTime(std::int64_t now_ns) {
   if (state_ == State::kIdle) return {};
   if (now_ns < deadline_ns_) return {Status::kWaiting, false, {}};
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "no answer within %.0f ms", static_cast<double>(timeout_ns_) * 1e-6);
-  return Fail(SdoError::Kind::kTimeout, kAbortTimeout, buf);
+  return Fail(SdoError::Kind::kTimeout, kAbortTimeout,
+              internal::Format("no answer within %.0f ms", static_cast<double>(timeout_ns_) * 1e-6));
 }
 
 SdoClient::Step SdoClient::OnFrame(const CanFrame& frame) {

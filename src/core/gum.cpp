@@ -284,10 +284,19 @@ std::string CoverageSentence(const CoverageSpec& coverage, const std::string& re
   return text;
 }
 
-double SampleStd(const std::vector<double>& v) {
+namespace {
+// The mean of the values' differences from the first one.
+double MeanAboutFirst(const std::vector<double>& v) {
   double mean = 0.0;
   for (const double x : v) mean += x - v.front();
-  mean /= static_cast<double>(v.size());
+  return mean / static_cast<double>(v.size());
+}
+}  // namespace
+
+double SampleMean(const std::vector<double>& v) { return v.front() + MeanAboutFirst(v); }
+
+double SampleStd(const std::vector<double>& v) {
+  const double mean = MeanAboutFirst(v);
   double ss = 0.0;
   for (const double x : v) ss += (x - v.front() - mean) * (x - v.front() - mean);
   return std::sqrt(ss / static_cast<double>(v.size() - 1));

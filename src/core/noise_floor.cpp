@@ -10,17 +10,6 @@
 #include "sph/sphere/sphere_form.hpp"
 
 namespace sph {
-namespace {
-
-void MeanAndStd(const std::vector<double>& v, double* mean, double* std) {
-  double m = 0.0, ss = 0.0;
-  for (double x : v) m += x / static_cast<double>(v.size());
-  for (double x : v) ss += (x - m) * (x - m);
-  *mean = m;
-  *std = v.size() > 1 ? std::sqrt(ss / static_cast<double>(v.size() - 1)) : 0.0;
-}
-
-}  // namespace
 
 FormNoiseFloor EstimateFormNoiseFloor(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& center_mm,
                                       double radius_mm, double rms_mm, double sigma_mm,
@@ -57,9 +46,11 @@ FormNoiseFloor EstimateFormNoiseFloor(const std::vector<Eigen::Vector3d>& points
       if (z.ok) mz.push_back(z.width);
     }
   }
-  MeanAndStd(pv, &f.ls_pv_mean_mm, &f.ls_pv_std_mm);
+  f.ls_pv_mean_mm = gum::SampleMean(pv);
+  f.ls_pv_std_mm = gum::SampleStd(pv);
   if (mz.size() >= 2) {
-    MeanAndStd(mz, &f.mz_mean_mm, &f.mz_std_mm);
+    f.mz_mean_mm = gum::SampleMean(mz);
+    f.mz_std_mm = gum::SampleStd(mz);
   } else {
     f.mz_mean_mm = f.mz_std_mm = std::numeric_limits<double>::quiet_NaN();
   }

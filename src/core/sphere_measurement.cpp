@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <cstdio>
 #include <exception>
 #include <limits>
 #include <mutex>
@@ -14,16 +13,13 @@
 #include <Eigen/Eigenvalues>
 
 #include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
 
-std::string Format(const char* fmt, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
-  char buf[512];
-  std::snprintf(buf, sizeof buf, fmt, a, b, c, d);
-  return buf;
-}
+using internal::Format;
 
 // The readings' sines and cosines, once for all evaluations.
 std::vector<EffectReading> FixedReadings(const std::vector<RawReading>& readings) {
@@ -282,7 +278,7 @@ SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, c
   }
   if (ev.n_points <= 5) {
     ev.warnings.push_back(Format(
-        "only %.0f points: a sphere has 4 parameters and a minimum zone 5 contact points, so the sphericity says "
+        "only %d points: a sphere has 4 parameters and a minimum zone 5 contact points, so the sphericity says "
         "little about the form",
         ev.n_points));
   }
@@ -290,9 +286,9 @@ SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, c
   if (!ev.mz.ok || !ev.mz.converged) ev.warnings.push_back("the minimum-zone search did not converge");
   if (ev.mz.ok && !ev.mz.starts.empty() && !ev.mz.StartsAgree()) {
     ev.warnings.push_back(Format(
-        "the minimum zone has several local minima for this coverage: searched from %.0f starts, it reached widths "
+        "the minimum zone has several local minima for this coverage: searched from %zu starts, it reached widths "
         "from %.4f to %.4f um with centres up to %.4g um apart; the narrowest is reported (sphericity_mz_um)",
-        static_cast<double>(ev.mz.starts.size()), ev.mz.width * kUmPerMm,
+        ev.mz.starts.size(), ev.mz.width * kUmPerMm,
         (ev.mz.width + ev.mz.StartWidthSpread()) * kUmPerMm, ev.mz.StartCenterSpread() * kUmPerMm));
   }
   return ev;

@@ -90,6 +90,18 @@ TEST(Budget, KTwoByDefaultAndWelchSatterthwaite) {
   EXPECT_NEAR(b.coverage_probability, 0.9545, 1e-4);
 }
 
+// Worked by hand: a radius of 20 mm that varies by a few nanometres, where summing the values
+// themselves would leave only about 9 of the 16 digits to the variation.
+TEST(SampleStatistics, KeepTheDigitsOfSmallVariationsOfALargeValue) {
+  const std::vector<double> radius_mm = {20.000001, 20.000003, 20.000002, 20.000006};
+  // mean 20.000003; deviations -2, 0, -1, 3 nm; sum of squares 14e-12; n - 1 = 3
+  EXPECT_NEAR(gum::SampleMean(radius_mm), 20.000003, 1e-14);
+  EXPECT_NEAR(gum::SampleStd(radius_mm), std::sqrt(14e-12 / 3.0), 1e-15);
+  const std::vector<double> equal(5, 20.000001);
+  EXPECT_EQ(gum::SampleMean(equal), 20.000001);
+  EXPECT_EQ(gum::SampleStd(equal), 0.0);
+}
+
 TEST(Random, DrawsAreReproducibleAndHaveTheirMoments) {
   Random a(7), b(7);
   for (int i = 0; i < 10; ++i) EXPECT_EQ(a.Normal(), b.Normal());

@@ -71,8 +71,12 @@ struct CoverageSpec {
 /// effective degrees of freedom), or the fixed k. `result` names what each k belongs to.
 std::string CoverageSentence(const CoverageSpec& coverage, const std::string& result);
 
-/// Sample standard deviation (n - 1) of at least two values, computed about the first one: a
-/// radius of 20 mm that varies by nanometres keeps its digits, and equal values give exactly 0.
+/// Mean of at least one value, summed about the first one: a radius of 20 mm that varies by
+/// nanometres keeps its digits, and equal values give exactly that value.
+double SampleMean(const std::vector<double>& values);
+
+/// Sample standard deviation (n - 1) of at least two values, computed about the first one, as
+/// SampleMean().
 double SampleStd(const std::vector<double>& values);
 
 /// The uncertainty statement of one result.
