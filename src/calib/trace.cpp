@@ -496,222 +496,244 @@ double CrossValidatedRms(const PointsData& points, const CalibrationOptions& opt
   return CrossValidated(Readings(points), options, model, start, folds, seed);
 }
 
-TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-                          const TraceOptions& trace) {
-  TraceResult r;
-  const Readings data(WithoutOutliers(all, base));  // what the seven-error fit used
-  const PointsData& points = data.points;
-  const EffectReference reference = ReferenceOf(all, trace);
-  r.before = Analysed(FitNone(data, options, base, reference, trace), data, options, trace);
-  std::vector<Effect> pool = trace.candidates;
-  if (pool.empty()) {
-    for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
-  }
-  TracedFit current = r.before;
-  r.form = FormDesign(points, trace);
-  if (r.form.separable) ConfoundedFormTerms(data, options, r.before.fit, pool, trace, &r.form);
-  if (r.form.separable) {
-    EffectFit with_form = SelectFormDegree(data, options, r.before.fit, trace, &r.form);
-    if (!with_form.model.form.Empty()) current = Analysed(std::move(with_form), data, options, trace);
-  }
-  for (int round = 1; round <= trace.max_effects; ++round) {
-    // The candidates of a round are independent: they are scored on up to trace.threads threads,
-    // each writing only its own slot, so the result does not depend on the number of threads.
-    std::vector<Effect> todo;
-    for (Effect e : pool) {
-      if (current.fit.model.Find(e) < 0) todo.push_back(e);
-    }
-    std::vector<std::pair<CandidateScore, EffectFit>> tried(todo.size());
-    std::vector<std::exception_ptr> failures(todo.size());
-    std::mutex progress_mutex;
-    int scored = 0;
-    auto score = [&](std::size_t i) {
-      try {
-        CandidateScore& c = tried[i].first;
-        c.effect = todo[i];
-        c.round = round;
-        EffectFit fit = FitCandidate(data, options, current.fit,
-                                     DefaultTerm(todo[i], trace.harmonics, trace.drift_order), trace, &c.note);
-        if (fit.model.terms.size() == current.fit.model.terms.size()) {
-          c.delta_bic = std::numeric_limits<double>::quiet_NaN();  // nothing of it left to fit
-          c.rms_um = current.fit.calibration.rms_um;
-          c.cv_rms_um = current.cv_rms_um;
-        } else {
-          c.term = fit.model.terms.back();
-          c.delta_bic = fit.Bic() - current.fit.Bic();
-          c.rms_um = fit.calibration.rms_um;
-          c.cv_rms_um = CrossValidated(data, options, fit.model, EffectFitStart::From(fit), trace.folds, trace.seed);
-          c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
-          if (!c.determined) {
-            c.note += std::string(c.note.empty() ? "" : "; ") + "with it, some parameters are not determined";
-          }
-        }
-        tried[i].second = std::move(fit);
-      } catch (...) {
-        failures[i] = std::current_exception();
-      }
-      if (!trace.progress) return;
-      const std::lock_guard<std::mutex> lock(progress_mutex);
-      trace.progress(round, ++scored, static_cast<int>(todo.size()));
-    };
-    const unsigned threads =
-        trace.threads > 0 ? static_cast<unsigned>(trace.threads) : std::max(1u, std::thread::hardware_concurrency());
-    std::atomic<std::size_t> next{0};
-    std::vector<std::thread> workers;
-    for (unsigned w = 1; w < std::min<std::size_t>(threads, todo.size()); ++w) {
-      try {
-        workers.emplace_back([&] {
-          for (std::size_t i; (i = next++) < todo.size();) score(i);
-        });
-      } catch (const std::system_error&) {
-        break;  // no more threads to be had: this one scores the rest
-      }
-    }
-    for (std::size_t i; (i = next++) < todo.size();) score(i);
-    for (std::thread& t : workers) t.join();
-    for (const std::exception_ptr& f : failures) {
-      if (f) std::rethrow_exception(f);
-    }
-    auto admissible = [&](const CandidateScore& c) {
-      return !c.term.components.empty() && c.determined && c.delta_bic <= -trace.min_delta_bic &&
-             c.cv_rms_um < current.cv_rms_um;
-    };
-    int best = -1;
-    for (std::size_t i = 0; i < tried.size(); ++i) {
-      if (admissible(tried[i].first) &&
-          (best < 0 || tried[i].first.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic)) {
-        best = static_cast<int>(i);
-      }
-    }
-    // The competitor no effect of the library is: a pattern fixed on the sphere (its form error,
-    // or an effect outside the library), the spherical harmonics that the BIC keeps, scored as if
-    // added to the current fit. When it explains the residual better than the best effect, no
-    // effect is added.
-    // With a design that separates the form, it is in the model and no competitor.
-    const SpherePattern sphere = r.form.separable ? SpherePattern{} : BestSpherePattern(current.factor);
-    CandidateScore form;
-    form.sphere_form = true;
-    form.round = round;
-    form.delta_bic = sphere.delta_bic;
-    form.rms_um = std::sqrt(std::max(0.0, current.fit.calibration.rms_um * current.fit.calibration.rms_um -
-                                              sphere.explained_rms_um * sphere.explained_rms_um));
-    form.cv_rms_um = std::numeric_limits<double>::quiet_NaN();
-    const bool form_better = sphere.delta_bic <= -trace.min_delta_bic &&
-                             (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic);
-    // A pattern on the sphere never blocks an effect that its own variable shows: the best such
-    // candidate is added, and both explanations are reported.
-    if (form_better && best >= 0) {
-      int shown = -1;
-      for (std::size_t i = 0; i < tried.size(); ++i) {
-        const CandidateScore& c = tried[i].first;
-        if (admissible(c) && ShownBeyondSphere(c, current.factor, trace) &&
-            (shown < 0 || c.delta_bic < tried[static_cast<std::size_t>(shown)].first.delta_bic)) {
-          shown = static_cast<int>(i);
+namespace {
+
+// The candidates of one round, each added to the current fit and scored.
+using Tried = std::vector<std::pair<CandidateScore, EffectFit>>;
+
+// Each effect of `todo` added to `current`, fitted and scored. The candidates are independent:
+// they are scored on up to trace.threads threads, each writing only its own slot, so the result
+// does not depend on the number of threads.
+Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                      const std::vector<Effect>& todo, int round, const TraceOptions& trace) {
+  Tried tried(todo.size());
+  std::vector<std::exception_ptr> failures(todo.size());
+  std::mutex progress_mutex;
+  int scored = 0;
+  auto score = [&](std::size_t i) {
+    try {
+      CandidateScore& c = tried[i].first;
+      c.effect = todo[i];
+      c.round = round;
+      EffectFit fit = FitCandidate(data, options, current.fit, DefaultTerm(todo[i], trace.harmonics, trace.drift_order),
+                                   trace, &c.note);
+      if (fit.model.terms.size() == current.fit.model.terms.size()) {
+        c.delta_bic = std::numeric_limits<double>::quiet_NaN();  // nothing of it left to fit
+        c.rms_um = current.fit.calibration.rms_um;
+        c.cv_rms_um = current.cv_rms_um;
+      } else {
+        c.term = fit.model.terms.back();
+        c.delta_bic = fit.Bic() - current.fit.Bic();
+        c.rms_um = fit.calibration.rms_um;
+        c.cv_rms_um = CrossValidated(data, options, fit.model, EffectFitStart::From(fit), trace.folds, trace.seed);
+        c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
+        if (!c.determined) {
+          c.note += std::string(c.note.empty() ? "" : "; ") + "with it, some parameters are not determined";
         }
       }
-      best = shown;
+      tried[i].second = std::move(fit);
+    } catch (...) {
+      failures[i] = std::current_exception();
     }
-    const bool form_wins = form_better && best < 0;
-    std::string functions;
-    for (const std::string& f : sphere.functions) functions += (functions.empty() ? "" : " ") + f;
-    form.note = "a pattern fixed on the sphere, spherical harmonics of the direction from the centre, linearised: " +
-                (functions.empty() ? std::string("none lowers the BIC")
-                                   : functions + (form_wins ? "; explains the residual better than any effect of the "
-                                                              "library, so none is added"
-                                                  : form_better ? "; explains more than the best effect, which its own "
-                                                                  "variable shows, so both are reported"
-                                                                : "; not better than the best effect"));
-    auto explain = [&](CandidateScore& c) {
-      if (c.added) return;
-      std::string why;
-      if (admissible(c) && form_wins) {
-        why = "qualifies, but a pattern fixed on the sphere explains more";
-      } else if (admissible(c) && best >= 0) {
-        const CandidateScore& b = tried[static_cast<std::size_t>(best)].first;
-        why = "qualifies; " + b.Id() + Format(" scored better (delta BIC %.1f)", b.delta_bic);
-      } else if (!c.term.components.empty() && c.determined) {
-        why = c.delta_bic > -trace.min_delta_bic
-                  ? "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")"
-                  : "no lower cross-validated RMS";
-      }
-      if (!why.empty()) c.note += std::string(c.note.empty() ? "" : "; ") + why;
-    };
-    if (best < 0 || form_wins) {
-      // An effect of the time or the probe reading that its variable shows, but no more than a form
-      // would: both explanations, neither added.
-      for (auto& [c, fit] : tried) {
-        if (!form_wins || !admissible(c) || !ShownByItsVariable(c.effect, current.structure, trace)) continue;
-        const double cur_rms = current.fit.calibration.rms_um;
-        Ambiguity a{"sphere_form", c.Id(), sphere.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};
-        a.chosen_rms_um = sphere.explained_rms_um;
-        a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
-        r.ambiguous.push_back(a);
-      }
-      for (auto& [c, fit] : tried) {
-        explain(c);
-        r.candidates.push_back(c);
-      }
-      if (!r.form.separable) r.candidates.push_back(form);
-      break;
-    }
-    CandidateScore& chosen = tried[static_cast<std::size_t>(best)].first;
-    chosen.added = true;
-    for (std::size_t i = 0; i < tried.size(); ++i) {
-      const CandidateScore& c = tried[i].first;
-      if (static_cast<int>(i) == best || !admissible(c)) continue;
-      if (c.delta_bic - chosen.delta_bic < trace.ambiguity_bic) {
-        r.ambiguous.push_back({InfoOf(chosen.effect).id, InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
-                               SeparateBy(chosen.effect, c.effect)});
-      }
-    }
-    // What the effect explains: the change of the residual. When that is mostly a pattern fixed on
-    // the sphere, the sphere's own form error explains it as well.
-    const EffectFit& with = tried[static_cast<std::size_t>(best)].second;
-    std::vector<double> signal(points.samples.size());
-    for (std::size_t i = 0; i < signal.size(); ++i) {
-      signal[i] = current.fit.calibration.residuals_mm[i] - with.calibration.residuals_mm[i];
-    }
-    {
-      const internal::StructureJacobian jacobian(data.table, options, current.fit);
-      chosen.sphere_fraction =
-          SpherePatternFraction(FactorResidualStructure(ResidualsOfTraced(data, current, jacobian), &signal));
-    }
-    const double cur_rms = current.fit.calibration.rms_um, with_rms = with.calibration.rms_um;
-    const double chosen_rms = std::sqrt(std::max(0.0, cur_rms * cur_rms - with_rms * with_rms));
-    if (form_better) {
-      Ambiguity a{InfoOf(chosen.effect).id, "sphere_form",          chosen.delta_bic,
-                  sphere.delta_bic,         chosen.sphere_fraction, SeparateFromForm(chosen.effect)};
-      a.chosen_rms_um = chosen_rms;
-      a.other_rms_um = sphere.explained_rms_um;
-      r.ambiguous.push_back(a);
-    } else if (!r.form.separable && chosen.sphere_fraction >= trace.max_sphere_fraction) {
-      Ambiguity a{InfoOf(chosen.effect).id,
-                  "sphere_form",
-                  chosen.delta_bic,
-                  std::numeric_limits<double>::quiet_NaN(),
-                  chosen.sphere_fraction,
-                  "a second setup with the sphere turned on its mount (a form error turns with the sphere, a machine "
-                  "error stays with the machine), or the sphere's form from its certificate"};
-      a.chosen_rms_um = chosen_rms;
-      r.ambiguous.push_back(a);
-    }
-    for (auto& [c, fit] : tried) {
-      explain(c);
-      r.candidates.push_back(c);
-    }
-    if (!r.form.separable) r.candidates.push_back(form);
-    r.added.push_back(chosen.effect);
-    current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), data, options, trace);
-  }
-  // The effects chosen, the form's degree is chosen again with them in the model.
-  if (r.form.separable && !r.added.empty()) {
-    EffectFit refit = SelectFormDegree(data, options, current.fit, trace, &r.form);
-    if (refit.model.form.terms.size() != current.fit.model.form.terms.size()) {
-      current = Analysed(std::move(refit), data, options, trace);
+    if (!trace.progress) return;
+    const std::lock_guard<std::mutex> lock(progress_mutex);
+    trace.progress(round, ++scored, static_cast<int>(todo.size()));
+  };
+  const unsigned threads =
+      trace.threads > 0 ? static_cast<unsigned>(trace.threads) : std::max(1u, std::thread::hardware_concurrency());
+  std::atomic<std::size_t> next{0};
+  std::vector<std::thread> workers;
+  for (unsigned w = 1; w < std::min<std::size_t>(threads, todo.size()); ++w) {
+    try {
+      workers.emplace_back([&] {
+        for (std::size_t i; (i = next++) < todo.size();) score(i);
+      });
+    } catch (const std::system_error&) {
+      break;  // no more threads to be had: this one scores the rest
     }
   }
-  // Backward: an effect that the final model no longer needs (the BIC without it is less than
-  // min_delta_bic higher) is removed, the least needed first, and the rest refitted.
+  for (std::size_t i; (i = next++) < todo.size();) score(i);
+  for (std::thread& t : workers) t.join();
+  for (const std::exception_ptr& f : failures) {
+    if (f) std::rethrow_exception(f);
+  }
+  return tried;
+}
+
+// Whether a candidate may be added to `current`: a term with something to fit, every parameter
+// determined, a BIC lower by trace.min_delta_bic and a lower cross-validated RMS.
+bool Admissible(const CandidateScore& c, const TracedFit& current, const TraceOptions& trace) {
+  return !c.term.components.empty() && c.determined && c.delta_bic <= -trace.min_delta_bic &&
+         c.cv_rms_um < current.cv_rms_um;
+}
+
+// The admissible candidate of `tried` with the lowest delta BIC among those `also` accepts; -1:
+// none.
+template <typename Also>
+int BestAdmissible(const Tried& tried, const TracedFit& current, const TraceOptions& trace, Also also) {
+  int best = -1;
+  for (std::size_t i = 0; i < tried.size(); ++i) {
+    const CandidateScore& c = tried[i].first;
+    if (Admissible(c, current, trace) && also(c) &&
+        (best < 0 || c.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic)) {
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+// The competitor no effect of the library is: a pattern fixed on the sphere (its form error, or an
+// effect outside the library), the spherical harmonics that the BIC keeps, scored as if added to
+// the current fit (its note is written once the round is decided: SphereCompetitorNote()).
+CandidateScore SphereCompetitor(const SpherePattern& sphere, const TracedFit& current, int round) {
+  CandidateScore form;
+  form.sphere_form = true;
+  form.round = round;
+  form.delta_bic = sphere.delta_bic;
+  const double rms_um = current.fit.calibration.rms_um;
+  form.rms_um = std::sqrt(std::max(0.0, rms_um * rms_um - sphere.explained_rms_um * sphere.explained_rms_um));
+  form.cv_rms_um = std::numeric_limits<double>::quiet_NaN();
+  return form;
+}
+
+std::string SphereCompetitorNote(const SpherePattern& sphere, bool form_better, bool form_wins) {
+  std::string functions;
+  for (const std::string& f : sphere.functions) functions += (functions.empty() ? "" : " ") + f;
+  return "a pattern fixed on the sphere, spherical harmonics of the direction from the centre, linearised: " +
+         (functions.empty() ? std::string("none lowers the BIC")
+                            : functions + (form_wins     ? "; explains the residual better than any effect of the "
+                                                           "library, so none is added"
+                                           : form_better ? "; explains more than the best effect, which its own "
+                                                           "variable shows, so both are reported"
+                                                         : "; not better than the best effect"));
+}
+
+// Why candidate c was not added, appended to its note. `best`: the candidate added, if any.
+void NoteWhyNotAdded(CandidateScore& c, bool admissible, bool form_wins, const CandidateScore* best,
+                     const TraceOptions& trace) {
+  if (c.added) return;
+  std::string why;
+  if (admissible && form_wins) {
+    why = "qualifies, but a pattern fixed on the sphere explains more";
+  } else if (admissible && best != nullptr) {
+    why = "qualifies; " + best->Id() + Format(" scored better (delta BIC %.1f)", best->delta_bic);
+  } else if (!c.term.components.empty() && c.determined) {
+    why = c.delta_bic > -trace.min_delta_bic
+              ? "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")"
+              : "no lower cross-validated RMS";
+  }
+  if (!why.empty()) c.note += std::string(c.note.empty() ? "" : "; ") + why;
+}
+
+// The ambiguities of the effect chosen in a round: the other admissible candidates that scored
+// almost as well, and the sphere's form where it explains the same change of the residual.
+void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                       const Tried& tried, std::size_t best, const SpherePattern& sphere, bool form_better,
+                       bool form_separable, const TraceOptions& trace, CandidateScore& chosen,
+                       std::vector<Ambiguity>* ambiguous) {
+  for (std::size_t i = 0; i < tried.size(); ++i) {
+    const CandidateScore& c = tried[i].first;
+    if (i == best || !Admissible(c, current, trace)) continue;
+    if (c.delta_bic - chosen.delta_bic < trace.ambiguity_bic) {
+      ambiguous->push_back({InfoOf(chosen.effect).id, InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
+                            SeparateBy(chosen.effect, c.effect)});
+    }
+  }
+  // What the effect explains: the change of the residual. When that is mostly a pattern fixed on
+  // the sphere, the sphere's own form error explains it as well.
+  const EffectFit& with = tried[best].second;
+  std::vector<double> signal(data.points.samples.size());
+  for (std::size_t i = 0; i < signal.size(); ++i) {
+    signal[i] = current.fit.calibration.residuals_mm[i] - with.calibration.residuals_mm[i];
+  }
+  {
+    const internal::StructureJacobian jacobian(data.table, options, current.fit);
+    chosen.sphere_fraction =
+        SpherePatternFraction(FactorResidualStructure(ResidualsOfTraced(data, current, jacobian), &signal));
+  }
+  const double cur_rms = current.fit.calibration.rms_um, with_rms = with.calibration.rms_um;
+  const double chosen_rms = std::sqrt(std::max(0.0, cur_rms * cur_rms - with_rms * with_rms));
+  if (form_better) {
+    Ambiguity a{InfoOf(chosen.effect).id, "sphere_form",          chosen.delta_bic,
+                sphere.delta_bic,         chosen.sphere_fraction, SeparateFromForm(chosen.effect)};
+    a.chosen_rms_um = chosen_rms;
+    a.other_rms_um = sphere.explained_rms_um;
+    ambiguous->push_back(a);
+  } else if (!form_separable && chosen.sphere_fraction >= trace.max_sphere_fraction) {
+    Ambiguity a{InfoOf(chosen.effect).id,
+                "sphere_form",
+                chosen.delta_bic,
+                std::numeric_limits<double>::quiet_NaN(),
+                chosen.sphere_fraction,
+                "a second setup with the sphere turned on its mount (a form error turns with the sphere, a machine "
+                "error stays with the machine), or the sphere's form from its certificate"};
+    a.chosen_rms_um = chosen_rms;
+    ambiguous->push_back(a);
+  }
+}
+
+// One forward round: every effect of `pool` not yet in the model scored against `current`; the
+// best admissible one is added (true), or none is and the search ends (false). The round's scores
+// and ambiguities go into `r`.
+bool ForwardRound(const Readings& data, const CalibrationOptions& options, const std::vector<Effect>& pool, int round,
+                  const TraceOptions& trace, TracedFit& current, TraceResult& r) {
+  std::vector<Effect> todo;
+  for (Effect e : pool) {
+    if (current.fit.model.Find(e) < 0) todo.push_back(e);
+  }
+  Tried tried = ScoreCandidates(data, options, current, todo, round, trace);
+  const auto any = [](const CandidateScore&) { return true; };
+  int best = BestAdmissible(tried, current, trace, any);
+  // With a design that separates the form, it is in the model and no competitor. When the
+  // competitor explains the residual better than the best effect, no effect is added.
+  const SpherePattern sphere = r.form.separable ? SpherePattern{} : BestSpherePattern(current.factor);
+  CandidateScore form = SphereCompetitor(sphere, current, round);
+  const bool form_better = sphere.delta_bic <= -trace.min_delta_bic &&
+                           (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic);
+  // A pattern on the sphere never blocks an effect that its own variable shows: the best such
+  // candidate is added, and both explanations are reported.
+  if (form_better && best >= 0) {
+    best = BestAdmissible(tried, current, trace,
+                          [&](const CandidateScore& c) { return ShownBeyondSphere(c, current.factor, trace); });
+  }
+  const bool form_wins = form_better && best < 0;
+  form.note = SphereCompetitorNote(sphere, form_better, form_wins);
+  const CandidateScore* chosen = nullptr;
+  if (best < 0 || form_wins) {
+    // An effect of the time or the probe reading that its variable shows, but no more than a form
+    // would: both explanations, neither added.
+    for (const auto& [c, fit] : tried) {
+      if (!form_wins || !Admissible(c, current, trace) || !ShownByItsVariable(c.effect, current.structure, trace)) {
+        continue;
+      }
+      const double cur_rms = current.fit.calibration.rms_um;
+      Ambiguity a{"sphere_form", c.Id(), sphere.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};
+      a.chosen_rms_um = sphere.explained_rms_um;
+      a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
+      r.ambiguous.push_back(a);
+    }
+  } else {
+    CandidateScore& c = tried[static_cast<std::size_t>(best)].first;
+    c.added = true;
+    ChosenAmbiguities(data, options, current, tried, static_cast<std::size_t>(best), sphere, form_better,
+                      r.form.separable, trace, c, &r.ambiguous);
+    chosen = &c;
+  }
+  for (auto& [c, fit] : tried) {
+    NoteWhyNotAdded(c, Admissible(c, current, trace), form_wins, chosen, trace);
+    r.candidates.push_back(c);
+  }
+  if (!r.form.separable) r.candidates.push_back(form);
+  if (chosen == nullptr) return false;
+  r.added.push_back(chosen->effect);
+  current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), data, options, trace);
+  return true;
+}
+
+// Backward: an effect that the final model no longer needs (the BIC without it is less than
+// min_delta_bic higher) is removed, the least needed first, and the rest refitted.
+void RemoveUnneeded(const Readings& data, const CalibrationOptions& options, const TraceOptions& trace,
+                    TracedFit& current, TraceResult& r) {
   while (!current.fit.model.terms.empty()) {
     int weakest = -1;
     double least = std::numeric_limits<double>::infinity();
@@ -735,6 +757,39 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     r.added.erase(std::find(r.added.begin(), r.added.end(), e));
     current = Analysed(std::move(without_weakest), data, options, trace);
   }
+}
+
+}  // namespace
+
+TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
+                          const TraceOptions& trace) {
+  TraceResult r;
+  const Readings data(WithoutOutliers(all, base));  // what the seven-error fit used
+  const EffectReference reference = ReferenceOf(all, trace);
+  r.before = Analysed(FitNone(data, options, base, reference, trace), data, options, trace);
+  std::vector<Effect> pool = trace.candidates;
+  if (pool.empty()) {
+    for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
+  }
+  TracedFit current = r.before;
+  // The sphere's form first, where the design separates it from the machine.
+  r.form = FormDesign(data.points, trace);
+  if (r.form.separable) ConfoundedFormTerms(data, options, r.before.fit, pool, trace, &r.form);
+  if (r.form.separable) {
+    EffectFit with_form = SelectFormDegree(data, options, r.before.fit, trace, &r.form);
+    if (!with_form.model.form.Empty()) current = Analysed(std::move(with_form), data, options, trace);
+  }
+  for (int round = 1; round <= trace.max_effects; ++round) {
+    if (!ForwardRound(data, options, pool, round, trace, current, r)) break;
+  }
+  // The effects chosen, the form's degree is chosen again with them in the model.
+  if (r.form.separable && !r.added.empty()) {
+    EffectFit refit = SelectFormDegree(data, options, current.fit, trace, &r.form);
+    if (refit.model.form.terms.size() != current.fit.model.form.terms.size()) {
+      current = Analysed(std::move(refit), data, options, trace);
+    }
+  }
+  RemoveUnneeded(data, options, trace, current, r);
   r.after = std::move(current);
   RejudgeOutliers(all, options, base, trace, r.after);
   r.unexplained = RemainingStructure(r.after.structure, trace);
