@@ -18,10 +18,12 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <utility>
 
 #include "acquire_internal.hpp"
 #include "app_common.hpp"
 #include "sph/can/socket.hpp"
+#include "sph/internal/format.hpp"
 
 namespace sph::apps {
 namespace {
@@ -98,12 +100,213 @@ class SyncTimer {
   int fd_ = -1;
 };
 
+// Signals are delivered only inside ppoll (see the file comment): blocked for the object's
+// lifetime, and `wait_mask` is the mask ppoll waits with.
+class BlockedSignals {
+ public:
+  BlockedSignals() {
+    sigemptyset(&blocked_);
+    for (const int s : {SIGTERM, SIGINT, SIGUSR1}) sigaddset(&blocked_, s);
+    pthread_sigmask(SIG_BLOCK, &blocked_, &wait_mask_);
+    for (const int s : {SIGTERM, SIGINT, SIGUSR1}) sigdelset(&wait_mask_, s);
+  }
+  ~BlockedSignals() { pthread_sigmask(SIG_UNBLOCK, &blocked_, nullptr); }
+  BlockedSignals(const BlockedSignals&) = delete;
+  BlockedSignals& operator=(const BlockedSignals&) = delete;
+  const sigset_t* wait_mask() const { return &wait_mask_; }
+
+ private:
+  sigset_t blocked_;
+  sigset_t wait_mask_;
+};
+
+// The live acquisition: the socket, the SYNC timer and the session, one step of Run()'s loop per
+// wake-up.
+class LiveLoop {
+ public:
+  LiveLoop(AcquireContext& ctx, can::CanSocket socket)
+      : ctx_(ctx),
+        o_(ctx.options),
+        config_(ctx.pipeline_config),
+        socket_options_(SocketOptions(o_, config_)),
+        produce_(o_.sync_mode == "produce"),
+        sock_(std::move(socket)),
+        session_(*ctx.session) {
+    session_.set_send([this](const can::CanFrame& f) {
+      if (sock_) sock_->Send(f);
+    });
+  }
+
+  // The loop until a stop signal, --duration-s, a refused start, an output that failed or a
+  // ppoll error; then the NMT command at exit. The exit code.
+  int Run() {
+    const double t_start = MonotonicS();
+    session_.Begin(RealtimeNs());
+    int result = kExitOk;
+    while (!ctx_.signals.stop) {
+      if (session_.state() == AcquireSession::State::kStartRefused ||
+          session_.state() == AcquireSession::State::kOutputFailed) {
+        break;
+      }
+      if (produce_ && session_.acquiring() && !timer_) timer_.emplace(config_.sync_period_s);
+      if (ctx_.signals.summary) {
+        ctx_.signals.summary = 0;
+        ctx_.print_summary();
+      }
+      const double now = MonotonicS();
+      if (o_.duration_s > 0.0 && now - t_start >= o_.duration_s) {
+        ctx_.log(can::LogLevel::kInfo, "--duration-s reached");
+        break;
+      }
+      if (!sock_) {
+        WaitForInterface(now);
+      } else if (!ServeSocket()) {
+        result = kExitInterfaceError;
+        break;
+      }
+      session_.OnTime(RealtimeNs());
+      session_.FlushOutputs();
+    }
+    Finish();
+    return result;
+  }
+
+ private:
+  // The interface is down: wait, and every --reopen-interval-s try to reopen the socket.
+  void WaitForInterface(double now) {
+    if (now >= next_reopen_) {
+      next_reopen_ = now + o_.reopen_interval_s;
+      if (can::InterfaceIsUp(o_.iface)) {
+        try {
+          sock_.emplace(socket_options_);
+          ctx_.log(can::LogLevel::kWarning, o_.iface + ": up again after " +
+                                                internal::Format("%.2f", now - down_since_) + " s; socket reopened");
+          session_.OnLinkEvent("interface " + o_.iface + " up again, acquisition resumed", RealtimeNs());
+          if (timer_) timer_->Expirations();  // no burst of SYNCs for the time we were down
+          return;
+        } catch (const std::exception& e) {
+          ctx_.log(can::LogLevel::kDebug, std::string("reopen failed: ") + e.what());
+        }
+      }
+    }
+    const timespec wait = ToTimespec(std::max(0.0, std::min(next_reopen_ - now, 0.2)));
+    ::ppoll(nullptr, 0, &wait, signals_.wait_mask());
+    if (timer_) timer_->Expirations();
+  }
+
+  // Waits at most until the master's next timeout for frames, the SYNC timer or a signal; sends
+  // the SYNC that is due and reads the frames queued. False on a ppoll error.
+  bool ServeSocket() {
+    double wait_s = 0.2;
+    const std::int64_t deadline = session_.NextDeadline();
+    if (deadline != std::numeric_limits<std::int64_t>::max()) {
+      wait_s = std::max(0.0, std::min(wait_s, static_cast<double>(deadline - RealtimeNs()) * 1e-9 + 1e-4));
+    }
+    pollfd fds[2] = {{sock_->fd(), POLLIN, 0}, {timer_ ? timer_->fd() : -1, POLLIN, 0}};
+    const timespec wait = ToTimespec(wait_s);
+    const int rc = ::ppoll(fds, timer_ ? 2 : 1, &wait, signals_.wait_mask());
+    if (rc < 0 && errno != EINTR) {
+      ctx_.log(can::LogLevel::kError, std::string("ppoll: ") + std::strerror(errno));
+      return false;
+    }
+    int down_errno = 0;
+    const bool up = !(rc > 0 && timer_ && (fds[1].revents & POLLIN)) || SendSync(&down_errno);
+    if (!up || !ReadFrames(&down_errno)) LinkLost(down_errno);
+    return true;
+  }
+
+  // The SYNCs the timer asks for (one; overruns counted and logged). False when the interface
+  // went down, with its errno.
+  bool SendSync(int* down_errno) {
+    const std::uint64_t n = timer_->Expirations();
+    if (n > 1) {
+      sync_overruns_ += n - 1;
+      ctx_.log(can::LogLevel::kWarning, "SYNC timer overrun: " + std::to_string(n - 1) + " SYNC periods skipped");
+    }
+    if (n == 0) return true;
+    std::optional<std::uint8_t> c;
+    if (config_.sync_counter_max != 0) c = counter_ = can::NextSyncCounter(counter_, config_.sync_counter_max);
+    const can::TxStatus tx = sock_->Send(can::EncodeSync(c, config_.sync_cob_id), down_errno);
+    if (tx == can::TxStatus::kOk) {
+      ++syncs_sent_;
+    } else if (tx == can::TxStatus::kBusy) {
+      ++tx_busy_;
+    } else {
+      return false;
+    }
+    return true;
+  }
+
+  // Every frame queued, bounded so that the timer is served, into the session. False when the
+  // interface went down, with its errno.
+  bool ReadFrames(int* down_errno) {
+    for (int i = 0; i < 256; ++i) {
+      const can::RxResult r = sock_->Receive();
+      if (r.new_drops > 0) session_.OnRxOverflow(r.new_drops, RealtimeNs());
+      if (r.status == can::RxStatus::kNone) {  // queue empty: drops that no frame followed
+        session_.OnRxOverflow(sock_->TakeDrops(), RealtimeNs());
+        return true;
+      }
+      if (r.status == can::RxStatus::kDown) {
+        *down_errno = r.error;
+        return false;
+      }
+      if (r.status == can::RxStatus::kMalformed) {
+        session_.OnMalformedInput(o_.iface + ": a read of unexpected size");
+      } else {
+        session_.OnFrame(r.frame);
+      }
+    }
+    return true;
+  }
+
+  // The interface went down: the socket is closed until it is up again.
+  void LinkLost(int down_errno) {
+    session_.OnRxOverflow(sock_->TakeDrops(), RealtimeNs());
+    ctx_.log(can::LogLevel::kWarning,
+             o_.iface + ": " + std::strerror(down_errno) + ": waiting for the interface to come back");
+    session_.OnLinkEvent("interface " + o_.iface + " lost (" + std::strerror(down_errno) + ")", RealtimeNs());
+    sock_.reset();
+    down_since_ = MonotonicS();
+    next_reopen_ = down_since_ + o_.reopen_interval_s;
+  }
+
+  // The drops after the last frame read, the NMT command at exit, the SYNC counts.
+  void Finish() {
+    if (sock_) session_.OnRxOverflow(sock_->TakeDrops(), RealtimeNs());
+    if (ctx_.signals.stop) ctx_.log(can::LogLevel::kInfo, "stop requested: flushing and closing");
+    if (sock_ && (o_.nmt_stop_at_exit || o_.nmt_preop_at_exit)) {
+      const auto command = o_.nmt_stop_at_exit ? can::NmtCommand::kStop : can::NmtCommand::kEnterPreOperational;
+      for (const can::CanFrame& f : session_.master().CommandAll(command)) sock_->Send(f);
+      ctx_.log(can::LogLevel::kInfo, "NMT " + can::NmtCommandName(static_cast<std::uint8_t>(command)) + " sent");
+    }
+    session_.set_send(nullptr);  // the socket goes with this loop; the session lives on
+    if (produce_ && timer_) {
+      ctx_.log(can::LogLevel::kInfo, "SYNC sent " + std::to_string(syncs_sent_) + ", timer overruns " +
+                                         std::to_string(sync_overruns_) + ", TX queue full " +
+                                         std::to_string(tx_busy_));
+    }
+  }
+
+  AcquireContext& ctx_;
+  const AcquireOptions& o_;
+  const can::PipelineConfig& config_;
+  const can::CanSocketOptions socket_options_;
+  const bool produce_;
+  std::optional<can::CanSocket> sock_;
+  AcquireSession& session_;
+  const BlockedSignals signals_;
+  std::optional<SyncTimer> timer_;
+  std::uint8_t counter_ = 0;
+  std::uint64_t syncs_sent_ = 0, sync_overruns_ = 0, tx_busy_ = 0;
+  double down_since_ = 0.0, next_reopen_ = 0.0;
+};
+
 }  // namespace
 
 int RunLive(AcquireContext& ctx) {
   const AcquireOptions& o = ctx.options;
   const can::PipelineConfig& config = ctx.pipeline_config;
-  const can::CanSocketOptions sopts = SocketOptions(o, config);
   const bool produce = o.sync_mode == "produce";
   if (produce && !(config.sync_period_s > 0.0)) {
     ctx.log(can::LogLevel::kError, "--sync-mode produce needs a --sync-period-ms above 0");
@@ -111,16 +314,12 @@ int RunLive(AcquireContext& ctx) {
   }
   std::optional<can::CanSocket> sock;
   try {
-    sock.emplace(sopts);
+    sock.emplace(SocketOptions(o, config));
   } catch (const std::exception& e) {
     ctx.log(can::LogLevel::kError, e.what());
     return kExitInterfaceError;
   }
   ctx.session = std::make_unique<AcquireSession>(o, config, ctx.master_config, ctx.log, "CAN interface " + o.iface);
-  AcquireSession& session = *ctx.session;
-  session.set_send([&](const can::CanFrame& f) {
-    if (sock) sock->Send(f);
-  });
   ctx.log(can::LogLevel::kInfo,
           o.iface + ": " +
               (ctx.master_config.nmt || ctx.master_config.sdo ? std::string("starting the devices")
@@ -129,145 +328,8 @@ int RunLive(AcquireContext& ctx) {
               (produce ? "produced every " + std::to_string(o.devices.sync_period_ms) + " ms"
                        : std::string("from an external producer")) +
               ", timestamps: " + can::ToString(sock->timestamp_mode()) + ")");
-  // Signals are delivered only inside ppoll (see the file comment).
-  sigset_t blocked, wait_mask;
-  sigemptyset(&blocked);
-  sigaddset(&blocked, SIGTERM);
-  sigaddset(&blocked, SIGINT);
-  sigaddset(&blocked, SIGUSR1);
-  pthread_sigmask(SIG_BLOCK, &blocked, &wait_mask);
-  sigdelset(&wait_mask, SIGTERM);
-  sigdelset(&wait_mask, SIGINT);
-  sigdelset(&wait_mask, SIGUSR1);
-
-  std::optional<SyncTimer> timer;
-  std::uint8_t counter = 0;
-  std::uint64_t syncs_sent = 0, sync_overruns = 0, tx_busy = 0;
-  const double t_start = MonotonicS();
-  double down_since = 0.0, next_reopen = 0.0;
-  int result = kExitOk;
-  session.Begin(RealtimeNs());
-
-  while (!ctx.signals.stop) {
-    if (session.state() == AcquireSession::State::kStartRefused ||
-        session.state() == AcquireSession::State::kOutputFailed) {
-      break;
-    }
-    if (produce && session.acquiring() && !timer) timer.emplace(config.sync_period_s);
-    if (ctx.signals.summary) {
-      ctx.signals.summary = 0;
-      ctx.print_summary();
-    }
-    const double now = MonotonicS();
-    if (o.duration_s > 0.0 && now - t_start >= o.duration_s) {
-      ctx.log(can::LogLevel::kInfo, "--duration-s reached");
-      break;
-    }
-    if (!sock) {  // interface down: wait, then try to reopen
-      if (now >= next_reopen) {
-        next_reopen = now + o.reopen_interval_s;
-        if (can::InterfaceIsUp(o.iface)) {
-          try {
-            sock.emplace(sopts);
-            char buf[64];
-            std::snprintf(buf, sizeof buf, "%.2f", now - down_since);
-            ctx.log(can::LogLevel::kWarning, o.iface + ": up again after " + std::string(buf) + " s; socket reopened");
-            session.OnLinkEvent("interface " + o.iface + " up again, acquisition resumed", RealtimeNs());
-            if (timer) timer->Expirations();  // no burst of SYNCs for the time we were down
-            continue;
-          } catch (const std::exception& e) {
-            ctx.log(can::LogLevel::kDebug, std::string("reopen failed: ") + e.what());
-          }
-        }
-      }
-      const timespec wait = ToTimespec(std::max(0.0, std::min(next_reopen - now, 0.2)));
-      ::ppoll(nullptr, 0, &wait, &wait_mask);
-      if (timer) timer->Expirations();
-      session.OnTime(RealtimeNs());
-      session.FlushOutputs();
-      continue;
-    }
-
-    // Wait at most until the master's next timeout.
-    double wait_s = 0.2;
-    const std::int64_t deadline = session.NextDeadline();
-    if (deadline != std::numeric_limits<std::int64_t>::max()) {
-      wait_s = std::max(0.0, std::min(wait_s, static_cast<double>(deadline - RealtimeNs()) * 1e-9 + 1e-4));
-    }
-    pollfd fds[2] = {{sock->fd(), POLLIN, 0}, {timer ? timer->fd() : -1, POLLIN, 0}};
-    const timespec wait = ToTimespec(wait_s);
-    const int rc = ::ppoll(fds, timer ? 2 : 1, &wait, &wait_mask);
-    if (rc < 0 && errno != EINTR) {
-      ctx.log(can::LogLevel::kError, std::string("ppoll: ") + std::strerror(errno));
-      result = kExitInterfaceError;
-      break;
-    }
-    bool went_down = false;
-    int down_errno = 0;
-    if (rc > 0 && timer && (fds[1].revents & POLLIN)) {
-      const std::uint64_t n = timer->Expirations();
-      if (n > 1) {
-        sync_overruns += n - 1;
-        ctx.log(can::LogLevel::kWarning, "SYNC timer overrun: " + std::to_string(n - 1) + " SYNC periods skipped");
-      }
-      if (n > 0) {
-        std::optional<std::uint8_t> c;
-        if (config.sync_counter_max != 0) c = counter = can::NextSyncCounter(counter, config.sync_counter_max);
-        int err = 0;
-        const can::TxStatus tx = sock->Send(can::EncodeSync(c, config.sync_cob_id), &err);
-        if (tx == can::TxStatus::kOk) {
-          ++syncs_sent;
-        } else if (tx == can::TxStatus::kBusy) {
-          ++tx_busy;
-        } else {
-          went_down = true;
-          down_errno = err;
-        }
-      }
-    }
-    // Read every frame queued (bounded, so the timer is served) before the timeouts.
-    for (int i = 0; i < 256 && !went_down; ++i) {
-      const can::RxResult r = sock->Receive();
-      if (r.new_drops > 0) session.OnRxOverflow(r.new_drops, RealtimeNs());
-      if (r.status == can::RxStatus::kNone) {  // queue empty: drops that no frame followed
-        session.OnRxOverflow(sock->TakeDrops(), RealtimeNs());
-        break;
-      }
-      if (r.status == can::RxStatus::kDown) {
-        went_down = true;
-        down_errno = r.error;
-      } else if (r.status == can::RxStatus::kMalformed) {
-        session.OnMalformedInput(o.iface + ": a read of unexpected size");
-      } else {
-        session.OnFrame(r.frame);
-      }
-    }
-    if (went_down) {
-      session.OnRxOverflow(sock->TakeDrops(), RealtimeNs());
-      ctx.log(can::LogLevel::kWarning, o.iface + ": " + std::strerror(down_errno) +
-                                           ": waiting for the interface to come back");
-      session.OnLinkEvent("interface " + o.iface + " lost (" + std::strerror(down_errno) + ")", RealtimeNs());
-      sock.reset();
-      down_since = MonotonicS();
-      next_reopen = down_since + o.reopen_interval_s;
-    }
-    session.OnTime(RealtimeNs());
-    session.FlushOutputs();
-  }
-  if (sock) session.OnRxOverflow(sock->TakeDrops(), RealtimeNs());  // drops after the last frame read
-  if (ctx.signals.stop) ctx.log(can::LogLevel::kInfo, "stop requested: flushing and closing");
-  if (sock && (o.nmt_stop_at_exit || o.nmt_preop_at_exit)) {
-    const auto command = o.nmt_stop_at_exit ? can::NmtCommand::kStop : can::NmtCommand::kEnterPreOperational;
-    for (const can::CanFrame& f : session.master().CommandAll(command)) sock->Send(f);
-    ctx.log(can::LogLevel::kInfo, "NMT " + can::NmtCommandName(static_cast<std::uint8_t>(command)) + " sent");
-  }
-  session.set_send(nullptr);  // the socket goes with this function; the session lives on
-  pthread_sigmask(SIG_UNBLOCK, &blocked, nullptr);
-  if (produce && timer) {
-    ctx.log(can::LogLevel::kInfo, "SYNC sent " + std::to_string(syncs_sent) + ", timer overruns " +
-                                      std::to_string(sync_overruns) + ", TX queue full " + std::to_string(tx_busy));
-  }
-  return result;
+  LiveLoop loop(ctx, std::move(*sock));
+  return loop.Run();
 }
 
 }  // namespace sph::apps
