@@ -202,6 +202,55 @@ void SevenErrorRows(const double* g, const ScmsErrorTrig<double> et, double d_pl
   }
 }
 
+// out[2 (k - 1) kRows ...] = cos k x, then sin k x, for k = 1..orders, from cos x and sin x of
+// `count` rows (the angle-addition recurrence).
+void Harmonics(int count, int orders, const double* c1, const double* s1, double* out) {
+  for (int order = 1; order <= orders; ++order) {
+    double* ck = out + 2 * (order - 1) * kRows;
+    double* sk = ck + kRows;
+    if (order == 1) {
+      std::copy(c1, c1 + count, ck);
+      std::copy(s1, s1 + count, sk);
+      continue;
+    }
+    const double* cp = ck - 2 * kRows;
+    const double* sp = cp + kRows;
+    for (int i = 0; i < count; ++i) {
+      ck[i] = cp[i] * c1[i] - sp[i] * s1[i];
+      sk[i] = sp[i] * c1[i] + cp[i] * s1[i];
+    }
+  }
+}
+
+// SphereResidualGradient() with the Phi wobble and the Theta tilt terms where the model has them.
+void GradientAt(bool wobble, bool tilt, const double* g, const ScmsErrorTrig<double>& et, const ResidualInputs& in,
+                const double* center, double radius_mm, ResidualGradient* result) {
+  if (wobble && tilt) {
+    SphereResidualGradient<true, true>(g, et, in, center, radius_mm, result);
+  } else if (wobble) {
+    SphereResidualGradient<true, false>(g, et, in, center, radius_mm, result);
+  } else if (tilt) {
+    SphereResidualGradient<false, true>(g, et, in, center, radius_mm, result);
+  } else {
+    SphereResidualGradient<false, false>(g, et, in, center, radius_mm, result);
+  }
+}
+
+// BeamDirection() likewise.
+Eigen::Vector3d BeamAt(bool wobble, bool tilt, const ScmsErrorTrig<double>& et, const ResidualInputs& in) {
+  Eigen::Vector3d beam;
+  if (wobble && tilt) {
+    BeamDirection<true, true>(et, in, beam.data());
+  } else if (wobble) {
+    BeamDirection<true, false>(et, in, beam.data());
+  } else if (tilt) {
+    BeamDirection<false, true>(et, in, beam.data());
+  } else {
+    BeamDirection<false, false>(et, in, beam.data());
+  }
+  return beam;
+}
+
 }  // namespace
 
 ReadingTable::ReadingTable(const PointsData& points) {
@@ -394,41 +443,16 @@ void SphereFitProblem::Unpack(const Eigen::VectorXd& x, ScmsGeometry* g, std::ve
   }
 }
 
-void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
-                                  const std::uint32_t* idx, int count, double* e, double* cols) const {
+void SphereFitProblem::BlockBasis(const std::uint32_t* idx, int count) const {
   Scratch& s = *scratch_;
-  const double* center = x + kNumScmsParams + 3 * setup;
-  const bool form = num_form_terms_ > 0;
-  const double* form_values = x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_;
-  const Eigen::Matrix3d& rotation = form_rotation_[static_cast<std::size_t>(setup)];
-  const double* g = x;
   const EffectReference& ref = model_.reference;
-  const double* effect_values = x + first_effect_;
   for (int i = 0; i < count; ++i) {
     s.theta[i] = table_.theta_rad[idx[i]];
     s.phi[i] = table_.phi_rad[idx[i]];
     s.t[i] = table_.t_s[idx[i]];
   }
-  // The basis functions of the block.
-  auto harmonics = [count](int orders, const double* c1, const double* s1, double* out) {
-    for (int order = 1; order <= orders; ++order) {
-      double* ck = out + 2 * (order - 1) * kRows;
-      double* sk = ck + kRows;
-      if (order == 1) {
-        std::copy(c1, c1 + count, ck);
-        std::copy(s1, s1 + count, sk);
-        continue;
-      }
-      const double* cp = ck - 2 * kRows;
-      const double* sp = cp + kRows;
-      for (int i = 0; i < count; ++i) {
-        ck[i] = cp[i] * c1[i] - sp[i] * s1[i];
-        sk[i] = sp[i] * c1[i] + cp[i] * s1[i];
-      }
-    }
-  };
-  harmonics(s.theta_orders, s.ct, s.st, s.theta_harmonics.data());
-  harmonics(s.phi_orders, s.cp, s.sp, s.phi_harmonics.data());
+  Harmonics(count, s.theta_orders, s.ct, s.st, s.theta_harmonics.data());
+  Harmonics(count, s.phi_orders, s.cp, s.sp, s.phi_harmonics.data());
   for (int i = 0; i < count; ++i) {
     const double u = (s.r[i] - ref.r_ref_mm) / ref.r_half_range_mm;
     const double tau = (s.t[i] - ref.t_start_s) / ref.t_span_s;
@@ -439,11 +463,14 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
     s.tau_pow[1][i] = tau * tau;
     s.tau_pow[2][i] = tau * tau * tau;
   }
-  // Each term's sums, per target, as EffectScmsPoint() adds them.
+}
+
+void SphereFitProblem::SumTerms(const double* effect_values, int count) const {
+  Scratch& s = *scratch_;
   for (auto& t : s.target) std::fill(t, t + count, 0.0);
   std::size_t p = 0;
   for (const EffectTerm& term : model_.terms) {
-    if (term.effect == Effect::kProbeIncidence) {  // its basis depends on the row's point: below
+    if (term.effect == Effect::kProbeIncidence) {  // its basis depends on the row's point: IncidenceAt()
       p += term.components.size();
       continue;
     }
@@ -461,6 +488,69 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
     }
     p += term.components.size();
   }
+}
+
+// probe_incidence: the reading's error i_k sin^2k psi, psi between the beam B and the normal n0 at
+// the point p0 of z0 = r - (d + d') (the reading without the probe's terms). Its derivatives come
+// through c = B . n0: dc/dx = gc . dp0/dx + n0 . dB/dx, gc = (B - c n0) / |p0 - O|; the first is the
+// reverse sweep at z0 along gc, the second that along n0 at z0 + 1 less that at z0 (p is affine in
+// z, so the difference is n0 . dB/dx exactly), and dc/dO = -gc.
+SphereFitProblem::Incidence SphereFitProblem::IncidenceAt(const double* g, const ScmsErrorTrig<double>& et,
+                                                          const double* center, const double* effect_values,
+                                                          ResidualInputs in0, int i, bool jacobian) const {
+  Scratch& s = *scratch_;
+  Incidence result;
+  ResidualGradient at0;
+  GradientAt(s.wobble, s.tilt, g, et, in0, center, sphere_radius_mm_, &at0);
+  const Eigen::Vector3d n0(-at0.center[0], -at0.center[1], -at0.center[2]);
+  const double dist0 = at0.e + sphere_radius_mm_;
+  const Eigen::Vector3d p0 = Eigen::Map<const Eigen::Vector3d>(center) + dist0 * n0;
+  const Eigen::Vector3d beam = BeamAt(s.wobble, s.tilt, et, in0);
+  const double c = beam.dot(n0), sin2 = 1.0 - c * c;
+  double power = 1.0;
+  for (int k = 1; k <= kMaxIncidenceOrder; ++k) {
+    const double previous = power;  // sin^2(k-1) psi
+    power *= sin2;
+    s.incidence_pow[k - 1][i] = power;
+    for (std::size_t q = static_cast<std::size_t>(s.incidence); q < s.components.size(); ++q) {
+      const Component& comp = s.components[q];
+      if (comp.basis != Basis::kIncidence || comp.order != k) continue;
+      result.dr_mm += effect_values[q] * power;
+      result.de_dc_per_de_dz += effect_values[q] * k * previous * (-2.0 * c);
+    }
+  }
+  if (!jacobian) return result;
+  ResidualGradient& dc = result.dc;
+  const Eigen::Vector3d gc = (beam - c * n0) / dist0;
+  const double gc_norm = gc.norm();
+  if (gc_norm > 0.0) {
+    const Eigen::Vector3d behind = p0 - gc / gc_norm;
+    ResidualGradient along_gc;
+    GradientAt(s.wobble, s.tilt, g, et, in0, behind.data(), sphere_radius_mm_, &along_gc);
+    AddScaled(along_gc, gc_norm, &dc);
+  }
+  ResidualInputs in1 = in0;
+  in1.z = in0.z + 1.0;
+  const Eigen::Vector3d behind1 = (p0 + beam) - n0;
+  ResidualGradient at1;
+  GradientAt(s.wobble, s.tilt, g, et, in1, behind1.data(), sphere_radius_mm_, &at1);
+  AddScaled(at1, 1.0, &dc);
+  AddScaled(at0, -1.0, &dc);
+  for (int j = 0; j < 3; ++j) dc.center[j] = -gc[j];
+  return result;
+}
+
+void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
+                                  const std::uint32_t* idx, int count, double* e, double* cols) const {
+  Scratch& s = *scratch_;
+  const double* center = x + kNumScmsParams + 3 * setup;
+  const bool form = num_form_terms_ > 0;
+  const double* form_values = x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_;
+  const Eigen::Matrix3d& rotation = form_rotation_[static_cast<std::size_t>(setup)];
+  const double* g = x;
+  const double* effect_values = x + first_effect_;
+  BlockBasis(idx, count);
+  SumTerms(effect_values, count);  // each term's sums, per target, as EffectScmsPoint() adds them
   const int n_eff = num_effect_params_;
   for (int i = 0; i < count; ++i) {
     ResidualInputs in;
@@ -481,80 +571,18 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
       in.tilt_x = SinCosOf(s.target[kTiltX][i]);
       in.tilt_y = SinCosOf(s.target[kTiltY][i]);
     }
-    auto gradient_at = [&](const ResidualInputs& inputs, const double* o, ResidualGradient* result) {
-      if (s.wobble && s.tilt) {
-        SphereResidualGradient<true, true>(g, et, inputs, o, sphere_radius_mm_, result);
-      } else if (s.wobble) {
-        SphereResidualGradient<true, false>(g, et, inputs, o, sphere_radius_mm_, result);
-      } else if (s.tilt) {
-        SphereResidualGradient<false, true>(g, et, inputs, o, sphere_radius_mm_, result);
-      } else {
-        SphereResidualGradient<false, false>(g, et, inputs, o, sphere_radius_mm_, result);
-      }
-    };
-    // probe_incidence: the reading's error i_k sin^2k psi, psi between the beam B and the normal n0
-    // at the point p0 of z0 = r - (d + d') (the reading without the probe's terms). Its derivatives
-    // come through c = B . n0: dc/dx = gc . dp0/dx + n0 . dB/dx, gc = (B - c n0) / |p0 - O|; the
-    // first is the reverse sweep at z0 along gc, the second that along n0 at z0 + 1 less that at
-    // z0 (p is affine in z, so the difference is n0 . dB/dx exactly), and dc/dO = -gc.
-    double incidence = 0.0, de_dc_per_de_dz = 0.0;
-    ResidualGradient dc;  // dc/dx, its e and z unused
+    Incidence incidence;
     if (s.incidence >= 0) {
       ResidualInputs in0 = in;
       in0.z = s.r[i] - d_plus_dprime;
-      ResidualGradient at0;
-      gradient_at(in0, center, &at0);
-      const Eigen::Vector3d n0(-at0.center[0], -at0.center[1], -at0.center[2]);
-      const double dist0 = at0.e + sphere_radius_mm_;
-      const Eigen::Vector3d p0 = Eigen::Map<const Eigen::Vector3d>(center) + dist0 * n0;
-      Eigen::Vector3d beam;
-      if (s.wobble && s.tilt) {
-        BeamDirection<true, true>(et, in0, beam.data());
-      } else if (s.wobble) {
-        BeamDirection<true, false>(et, in0, beam.data());
-      } else if (s.tilt) {
-        BeamDirection<false, true>(et, in0, beam.data());
-      } else {
-        BeamDirection<false, false>(et, in0, beam.data());
-      }
-      const double c = beam.dot(n0), sin2 = 1.0 - c * c;
-      double power = 1.0;
-      for (int k = 1; k <= kMaxIncidenceOrder; ++k) {
-        const double previous = power;  // sin^2(k-1) psi
-        power *= sin2;
-        s.incidence_pow[k - 1][i] = power;
-        for (std::size_t q = static_cast<std::size_t>(s.incidence); q < s.components.size(); ++q) {
-          const Component& comp = s.components[q];
-          if (comp.basis != Basis::kIncidence || comp.order != k) continue;
-          incidence += effect_values[q] * power;
-          de_dc_per_de_dz += effect_values[q] * k * previous * (-2.0 * c);
-        }
-      }
-      if (cols != nullptr) {
-        const Eigen::Vector3d gc = (beam - c * n0) / dist0;
-        const double gc_norm = gc.norm();
-        if (gc_norm > 0.0) {
-          const Eigen::Vector3d behind = p0 - gc / gc_norm;
-          ResidualGradient along_gc;
-          gradient_at(in0, behind.data(), &along_gc);
-          AddScaled(along_gc, gc_norm, &dc);
-        }
-        ResidualInputs in1 = in0;
-        in1.z = in0.z + 1.0;
-        const Eigen::Vector3d behind1 = (p0 + beam) - n0;
-        ResidualGradient at1;
-        gradient_at(in1, behind1.data(), &at1);
-        AddScaled(at1, 1.0, &dc);
-        AddScaled(at0, -1.0, &dc);
-        for (int j = 0; j < 3; ++j) dc.center[j] = -gc[j];
-      }
+      incidence = IncidenceAt(g, et, center, effect_values, in0, i, cols != nullptr);
     }
-    in.z = (s.r[i] + (s.target[kDr][i] + incidence)) - d_plus_dprime;
+    in.z = (s.r[i] + (s.target[kDr][i] + incidence.dr_mm)) - d_plus_dprime;
     ResidualGradient out;
     // The gradient of e (centre o) with the chain through the incidence angle.
     auto gradient = [&](const double* o, ResidualGradient* result) {
-      gradient_at(in, o, result);
-      if (s.incidence >= 0 && cols != nullptr) AddScaled(dc, result->z * de_dc_per_de_dz, result);
+      GradientAt(s.wobble, s.tilt, g, et, in, o, sphere_radius_mm_, result);
+      if (s.incidence >= 0 && cols != nullptr) AddScaled(incidence.dc, result->z * incidence.de_dc_per_de_dz, result);
     };
     gradient(center, &out);
     e[i] = out.e;
@@ -583,19 +611,8 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
           const Eigen::Vector3d behind = point - t / t_norm;
           ResidualGradient along;
           gradient(behind.data(), &along);
-          for (int j = 0; j < kNumScmsParams; ++j) out.geometry[j] -= t_norm * along.geometry[j];
-          for (int j = 0; j < 3; ++j) {
-            out.center[j] -= t_norm * along.center[j];
-            out.motion[j] -= t_norm * along.motion[j];
-            out.phi_motion[j] -= t_norm * along.phi_motion[j];
-          }
-          out.theta -= t_norm * along.theta;
-          out.phi -= t_norm * along.phi;
+          AddScaled(along, -t_norm, &out);
           out.z -= t_norm * along.z;
-          out.wobble_x -= t_norm * along.wobble_x;
-          out.wobble_y -= t_norm * along.wobble_y;
-          out.tilt_x -= t_norm * along.tilt_x;
-          out.tilt_y -= t_norm * along.tilt_y;
         }
         for (int k = 0; k < num_form_terms_; ++k) {
           const auto slot = static_cast<std::size_t>(s.form_slot[static_cast<std::size_t>(k)]);

@@ -36,6 +36,7 @@
 #include "levenberg_marquardt.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/model/effects.hpp"
+#include "sph/model/residual_gradient.hpp"
 #include "sph/model/row_qr.hpp"
 
 namespace sph::internal {
@@ -144,6 +145,17 @@ class SphereFitProblem {
   // problem setup `setup`.
   void EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
                   const std::uint32_t* idx, int count, double* e, double* cols) const;
+  // Its parts: the readings and basis functions of the block's rows (idx), each target's sum of
+  // the terms' components, and probe_incidence's change of row i's reading with its derivatives.
+  void BlockBasis(const std::uint32_t* idx, int count) const;
+  void SumTerms(const double* effect_values, int count) const;
+  struct Incidence {
+    double dr_mm = 0.0;            // the reading's error
+    double de_dc_per_de_dz = 0.0;  // its derivative with respect to c = B . n0, per de/dz
+    ResidualGradient dc;           // dc/dx (its e and z unused)
+  };
+  Incidence IncidenceAt(const double* g, const ScmsErrorTrig<double>& et, const double* center,
+                        const double* effect_values, ResidualInputs in0, int i, bool jacobian) const;
   const ReadingTable& table_;
   RowsOfSetup rows_;         // per problem setup
   std::vector<int> setups_;  // table setup index per problem setup
