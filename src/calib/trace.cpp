@@ -525,11 +525,15 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
         c.term = fit.model.terms.back();
         c.delta_bic = fit.Bic() - current.fit.Bic();
         c.rms_um = fit.calibration.rms_um;
-        c.cv_rms_um = CrossValidated(data, options, fit.model, EffectFitStart::From(fit), trace.folds, trace.seed);
         c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
         if (!c.determined) {
           c.note += std::string(c.note.empty() ? "" : "; ") + "with it, some parameters are not determined";
         }
+        // The cross-validated RMS decides only between the candidates the BIC admits (Admissible()),
+        // and costs `folds` fits: the others are not cross-validated.
+        c.cv_rms_um = c.determined && c.delta_bic <= -trace.min_delta_bic
+                          ? CrossValidated(data, options, fit.model, EffectFitStart::From(fit), trace.folds, trace.seed)
+                          : std::numeric_limits<double>::quiet_NaN();
       }
       tried[i].second = std::move(fit);
     } catch (...) {

@@ -89,7 +89,8 @@ struct CandidateScore {
   EffectTerm term;           ///< the components kept (empty: nothing the data determine)
   double delta_bic = 0.0;    ///< BIC with it minus BIC without; NaN when nothing of it was left to fit
   double rms_um = 0.0;       ///< fit RMS with it
-  double cv_rms_um = 0.0;    ///< cross-validated RMS with it (NaN for sphere_form: not fitted)
+  double cv_rms_um = 0.0;    ///< cross-validated RMS with it; NaN when the BIC does not admit it (not needed, so not
+                             ///< computed) and for sphere_form (not fitted)
   bool determined = false;   ///< every parameter of the model with it is determined
   bool added = false;
   double sphere_fraction = 0.0;  ///< of the added effect's signal (SpherePatternFraction); 0 when not added
