@@ -115,6 +115,72 @@ TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions
 // The model of `current` with `term` added, fitted; components that the data cannot separate or
 // do not show are left out one at a time. The last term of the returned fit is the candidate
 // (absent when nothing of it is left).
+// A component that FitCandidate() leaves out of the candidate term, and why.
+struct Drop {
+  int component;       // index into the term's components as fitted
+  bool not_separable;  // its VIF is above TraceOptions::max_vif (else: its t below min_t)
+};
+
+// The rule of FitCandidate() over the candidate's `size` components (parameters offset.. of the
+// fit `rep`, values `values`): while a VIF is above max_vif the component with the largest is
+// dropped, else while a |t| is below min_t the one with the smallest. The first drop is decided
+// on the fit itself; the ones after it on the linearised problem at the fit, where refitting
+// without component j is holding it at zero: the covariance C is downdated by C e_j e_j^T C / C_jj,
+// the values by C e_j x_j / C_jj, the residual sum of squares grows by x_j^2 / C_jj in units of
+// sigma^2 (and the degrees of freedom by one), and each VIF scales with its C_kk. The caller
+// refits once without them all and applies the rule to that fit again.
+std::vector<Drop> Eliminate(const ObservabilityReport& rep, std::vector<double> values, int offset, int size,
+                            double rows, const TraceOptions& trace) {
+  std::vector<Drop> drops;
+  std::vector<bool> alive(static_cast<std::size_t>(size), true);
+  Eigen::MatrixXd c = rep.covariance;
+  const double dof = rows - static_cast<double>(c.rows());
+  double rss_ratio = 1.0;  // (residual sum of squares) / (sigma^2 dof) of the fit
+  for (;;) {
+    const bool exact = drops.empty();
+    int worst_vif = -1, weakest = -1;
+    double vif_max = 0.0, t_min = std::numeric_limits<double>::infinity();
+    const double sigma_ratio = std::sqrt(rss_ratio * dof / (dof + static_cast<double>(drops.size())));
+    for (int j = 0; j < size; ++j) {
+      if (!alive[static_cast<std::size_t>(j)]) continue;
+      const Eigen::Index col = offset + j;
+      const double vif = exact ? rep.vif(col) : rep.vif(col) * c(col, col) / rep.covariance(col, col);
+      if (!(vif <= vif_max)) {  // NaN and inf count as worst
+        vif_max = std::isfinite(vif) ? vif : std::numeric_limits<double>::infinity();
+        worst_vif = j;
+      }
+      const double std = exact ? rep.std(col) : std::sqrt(std::max(c(col, col), 0.0)) * sigma_ratio;
+      const double t = std::abs(values[static_cast<std::size_t>(j)]) / std;
+      if (!(t >= t_min)) {
+        t_min = std::isfinite(t) ? t : 0.0;
+        weakest = j;
+      }
+    }
+    int drop = -1;
+    if (vif_max > trace.max_vif) {
+      drop = worst_vif;
+    } else if (t_min < trace.min_t) {
+      drop = weakest;
+    }
+    if (drop < 0) break;
+    drops.push_back({drop, vif_max > trace.max_vif});
+    // Downdate, where the linearised problem is defined.
+    const Eigen::Index k = offset + drop;
+    const double ckk = c(k, k);
+    if (!c.allFinite() || !(ckk > 0.0)) break;
+    const double x = values[static_cast<std::size_t>(drop)];
+    for (int j = 0; j < size; ++j) {
+      values[static_cast<std::size_t>(j)] -= c(offset + j, k) * x / ckk;
+    }
+    rss_ratio += x * x / ckk / dof;
+    const Eigen::VectorXd ck = c.col(k);
+    c.noalias() -= ck * ck.transpose() / ckk;
+    alive[static_cast<std::size_t>(drop)] = false;
+    if (std::find(alive.begin(), alive.end(), true) == alive.end()) break;
+  }
+  return drops;
+}
+
 EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
                        EffectTerm term, const TraceOptions& trace, std::string* note) {
   EffectModel model = current.model;
@@ -163,31 +229,10 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
   for (;;) {
     EffectFit fit = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
     EffectTerm& cand = model.terms.back();
-    const ObservabilityReport& rep = fit.calibration.analysis;
-    const int offset = fit.TermOffset(model.terms.size() - 1);
-    int worst_vif = -1, weakest = -1;
-    double vif_max = 0.0, t_min = std::numeric_limits<double>::infinity();
-    for (int j = 0; j < cand.size(); ++j) {
-      const double vif = rep.vif(offset + j);
-      if (!(vif <= vif_max)) {  // NaN and inf count as worst
-        vif_max = std::isfinite(vif) ? vif : std::numeric_limits<double>::infinity();
-        worst_vif = j;
-      }
-      const double t = std::abs(fit.values.back()[static_cast<std::size_t>(j)]) / rep.std(offset + j);
-      if (!(t >= t_min)) {
-        t_min = std::isfinite(t) ? t : 0.0;
-        weakest = j;
-      }
-    }
-    int drop = -1;
-    if (vif_max > trace.max_vif) {
-      drop = worst_vif;
-      left_out_vif.push_back(short_name(cand, drop));
-    } else if (t_min < trace.min_t) {
-      drop = weakest;
-      left_out_t.push_back(short_name(cand, drop));
-    }
-    if (drop < 0) {
+    const std::vector<Drop> drops =
+        Eliminate(fit.calibration.analysis, fit.values.back(), fit.TermOffset(model.terms.size() - 1), cand.size(),
+                  static_cast<double>(data.points.samples.size()), trace);
+    if (drops.empty()) {
       *note = "";
       if (!left_out_vif.empty()) {
         std::string s;
@@ -202,8 +247,16 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
       return fit;
     }
     start = EffectFitStart::From(fit);
-    cand.components.erase(cand.components.begin() + drop);
-    start.values.back().erase(start.values.back().begin() + drop);
+    std::vector<int> dropped;
+    for (const Drop& d : drops) {
+      (d.not_separable ? left_out_vif : left_out_t).push_back(short_name(cand, d.component));
+      dropped.push_back(d.component);
+    }
+    std::sort(dropped.rbegin(), dropped.rend());
+    for (const int j : dropped) {
+      cand.components.erase(cand.components.begin() + j);
+      start.values.back().erase(start.values.back().begin() + j);
+    }
     if (cand.components.empty()) {
       model.terms.pop_back();
       start.values.pop_back();
