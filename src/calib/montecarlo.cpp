@@ -7,16 +7,16 @@
 #include <limits>
 #include <memory>
 #include <mutex>
-#include <random>
 #include <thread>
 
 #include "calibrate_rows.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/gum.hpp"
+#include "sph/model/units.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
-#include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
@@ -32,10 +32,10 @@ std::uint64_t SplitMix64(std::uint64_t x) {
 std::vector<Eigen::Vector3d> Centers(const MonteCarloSpec& spec, double e_mm, std::uint64_t trial_seed) {
   std::vector<Eigen::Vector3d> out;
   if (spec.random_direction) {
-    std::mt19937_64 rng(SplitMix64(trial_seed ^ 0xD1B54A32D192ED03ULL));
-    std::normal_distribution<double> g(0.0, 1.0);
+    gum::Random rng(SplitMix64(trial_seed ^ 0xD1B54A32D192ED03ULL));
     for (int j = 0; j < spec.setups; ++j) {
-      Eigen::Vector3d u(g(rng), g(rng), g(rng));
+      const double x = rng.Normal(), y = rng.Normal(), z = rng.Normal();  // in this order on every compiler
+      Eigen::Vector3d u(x, y, z);
       out.push_back(e_mm * u.normalized());
     }
     return out;

@@ -326,8 +326,8 @@ void ConfoundedFormTerms(const Readings& data, const CalibrationOptions& options
   EffectModel machine;
   machine.reference = base.model.reference;
   for (const Effect e : pool) machine.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
-  const FormIdentifiability id = IdentifyForm(data.points, options, machine, EffectFitStart::From(base),
-                                              FormTermsOfDegrees(2, sel->degree_limit));
+  const FormIdentifiability id =
+      IdentifyForm(data.points, options, machine, EffectFitStart::From(base), FormTermsOfDegrees(2, sel->degree_limit));
   for (const ConfoundedCombination& c : id.combinations) sel->confounded.push_back(c.words);
   if (!id.confounded.empty()) {
     std::string names;
@@ -513,10 +513,14 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
   // Folds within each setup, so that every fold leaves every setup points to fit its centre.
   std::map<int, std::vector<std::size_t>> of_setup;
   for (std::size_t i = 0; i < m; ++i) of_setup[data.points.samples[i].setup].push_back(i);
+  // Fisher-Yates from the engine's own outputs: std::shuffle's algorithm is the standard library's
+  // choice, and the folds would differ between libraries.
   std::mt19937_64 rng(seed);
   std::vector<int> fold_of(m);
   for (auto& [setup, rows] : of_setup) {
-    std::shuffle(rows.begin(), rows.end(), rng);
+    for (std::size_t i = rows.size(); i > 1; --i) {
+      std::swap(rows[i - 1], rows[static_cast<std::size_t>(rng() % i)]);  // bias below 1e-13 for any set of rows
+    }
     for (std::size_t k = 0; k < rows.size(); ++k)
       fold_of[rows[k]] = static_cast<int>(k % static_cast<std::size_t>(folds));
   }

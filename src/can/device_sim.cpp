@@ -311,8 +311,7 @@ bool DeviceSimulator::NextCycle(std::vector<CanFrame>& frames) {
     sync_counter_ = NextSyncCounter(sync_counter_, config_.devices.sync_counter_max);
     counter = sync_counter_;
   }
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  if (config_.faults.sync_drop_probability > 0.0 && uniform(rng_) < config_.faults.sync_drop_probability) {
+  if (config_.faults.sync_drop_probability > 0.0 && rng_.Uniform() < config_.faults.sync_drop_probability) {
     ++injected_.syncs_dropped;
   } else {
     CanFrame sync = EncodeSync(counter, config_.devices.sync_cob_id);
@@ -329,8 +328,6 @@ bool DeviceSimulator::NextCycle(std::vector<CanFrame>& frames) {
 void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> counter, std::vector<CanFrame>& out) {
   if (finished()) return;
   const SimFaults& f = config_.faults;
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  std::normal_distribution<double> gauss(0.0, 1.0);
   const std::size_t first = out.size();
   const auto period_ns = ToNs(config_.sync_period_s);
   auto at = [&](double offset_us) {  // a time inside this cycle
@@ -346,7 +343,7 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> coun
   // Draw every random number in a fixed order, whatever faults are on, so a seed gives the same
   // readings with and without faults.
   const AnglePair axes = AxesAt(t_pattern);
-  const double n_theta = gauss(rng_), n_phi = gauss(rng_), n_r = gauss(rng_);
+  const double n_theta = rng_.Normal(), n_phi = rng_.Normal(), n_r = rng_.Normal();
   const double theta_deg = axes.theta_deg + config_.spec.noise_theta_arcsec / 3600.0 * n_theta;
   const double phi_deg = axes.phi_deg + config_.spec.noise_phi_arcsec / 3600.0 * n_phi;
   const auto r =
@@ -356,7 +353,7 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> coun
   rec.sync_ns = t_ns;
   rec.counter = counter;
   for (int dev = 0; dev < kNumDevices; ++dev) {
-    const double u_drop = uniform(rng_), u_short = uniform(rng_), u_range = uniform(rng_), u_jit = uniform(rng_);
+    const double u_drop = rng_.Uniform(), u_short = rng_.Uniform(), u_range = rng_.Uniform(), u_jit = rng_.Uniform();
     const auto d = static_cast<std::size_t>(dev);
     Node& n = *nodes_[d];
     bool out_of_range = false;

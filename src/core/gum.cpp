@@ -154,8 +154,10 @@ UncertaintyStatement Combine(std::vector<BudgetInput> inputs, const CoverageSpec
 // ---- Monte Carlo --------------------------------------------------------------------------------
 
 double Random::Uniform() {
-  // The top 53 bits, shifted off zero by half a unit: (k + 0.5) / 2^53 lies in (0, 1).
-  return (static_cast<double>(engine_() >> 11) + 0.5) * 0x1.0p-53;
+  // The top 52 bits k, shifted off zero by half a unit: (k + 0.5) / 2^52 = (2k + 1) / 2^53, exact in a
+  // double, lies in [2^-53, 1 - 2^-53]. (With 53 bits, k + 0.5 is not representable above 2^52 and
+  // rounds to even: the largest k gave exactly 1.)
+  return (static_cast<double>(engine_() >> 12) + 0.5) * 0x1.0p-52;
 }
 
 double Random::Normal() {

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 
 #include "sph/core/error.hpp"
+#include "sph/core/gum.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
@@ -536,22 +537,20 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
 }
 
 void AddReadingNoise(PointsData& data, const SimulationSpec& spec) {
-  std::mt19937_64 rng(spec.seed);
-  std::normal_distribution<double> gauss(0.0, 1.0);
+  gum::Random rng(spec.seed);  // the same numbers with every standard library
   const double sigma_r_mm = spec.noise_r_um * kMmPerUm;
   const double sigma_theta_deg = spec.noise_theta_arcsec / 3600.0;
   const double sigma_phi_deg = spec.noise_phi_arcsec / 3600.0;
   for (Sample& s : data.samples) {
-    const double n_r = gauss(rng), n_t = gauss(rng), n_p = gauss(rng);
+    const double n_r = rng.Normal(), n_t = rng.Normal(), n_p = rng.Normal();
     s.r_mm += sigma_r_mm * n_r;
     s.theta_deg += sigma_theta_deg * n_t;
     s.phi_deg += sigma_phi_deg * n_p;
   }
   if (spec.effects.outlier_fraction > 0.0) {
-    std::mt19937_64 gross(spec.seed ^ 0x6f75746c69657273ULL);  // its own stream: the noise above stays the same
-    std::uniform_real_distribution<double> uniform(0.0, 1.0);
+    gum::Random gross(spec.seed ^ 0x6f75746c69657273ULL);  // its own stream: the noise above stays the same
     for (Sample& s : data.samples) {
-      const double pick = uniform(gross), sign = uniform(gross) < 0.5 ? -1.0 : 1.0;
+      const double pick = gross.Uniform(), sign = gross.Uniform() < 0.5 ? -1.0 : 1.0;
       if (pick < spec.effects.outlier_fraction) s.r_mm += sign * spec.effects.outlier_um * kMmPerUm;
     }
   }

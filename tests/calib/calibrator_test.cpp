@@ -5,8 +5,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "sph/core/error.hpp"
 #include "calib_test_util.hpp"
+#include "sph/core/error.hpp"
 #include "sph/core/simulate.hpp"
 #include "test_util.hpp"
 
@@ -36,7 +36,8 @@ TEST(Calibrate, NoiseFreeDataRecoversAllTenParameters) {
   EXPECT_TRUE(r.converged) << r.solver_message;
   // 1e-9 in mm and in deg; the angles are held in rad, so the bound there is 1e-9 deg in rad.
   for (int p = 0; p < kNumScmsParams; ++p) {
-    const double tol = kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle ? 1e-9 * kRadPerDeg : 1e-9;
+    const double tol =
+        kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle ? 1e-9 * kRadPerDeg : 1e-9;
     EXPECT_NEAR(r.geometry[static_cast<std::size_t>(p)], spec.truth[static_cast<std::size_t>(p)], tol)
         << kScmsParamInfo[static_cast<std::size_t>(p)].name;
   }
@@ -128,7 +129,8 @@ TEST(Calibrate, TwoSetupsBeatEitherAlone) {
   }
   for (std::size_t k = 0; k < 2; ++k) {
     for (int i = 0; i < 3; ++i) {
-      EXPECT_LT(std::abs(r.centers_mm[k](i) - both.centers_mm[k](i)), 3 * r.analysis.std(kNumScmsParams + 3 * static_cast<int>(k) + i));
+      EXPECT_LT(std::abs(r.centers_mm[k](i) - both.centers_mm[k](i)),
+                3 * r.analysis.std(kNumScmsParams + 3 * static_cast<int>(k) + i));
     }
   }
   for (const auto& centre : both.centers_mm) {
@@ -146,14 +148,31 @@ TEST(Calibrate, TwoSetupsBeatEitherAlone) {
 TEST(Calibrate, CentreOnTheThetaAxisLeavesAzimuthalErrorsUndetermined) {
   SimulationSpec spec;
   spec.centers_mm = {Eigen::Vector3d(0.0, 0.0, 2.0)};
+  auto warnings = [](const CalibrationResult& r) {
+    std::string all;
+    for (const auto& w : r.warnings) all += w + "\n";
+    return all;
+  };
+  // The design itself, without noise: b and epsilon are undetermined, c is determined, and the
+  // report places the centre on the axis.
+  spec.noise_r_um = 0.0;
+  const CalibrationResult exact = Calibrate(Simulate(spec), PaperOptions());
+  EXPECT_FALSE(exact.Usable());
+  EXPECT_FALSE(exact.analysis.determined[kB]);
+  EXPECT_FALSE(exact.analysis.determined[kEpsilon]);
+  EXPECT_TRUE(exact.analysis.determined[kC]);
+  EXPECT_THAT(warnings(exact), HasSubstr("mm off the Theta axis and 2 mm along it"));
+  // With noise the fit stops at an arbitrary point of the valley of the undetermined parameters
+  // (alpha 0.036 rad from the truth in the median of 300 seeds, 3 rad at most) and the centre's
+  // height is itself undetermined. At some of those points c is coupled to them: in 18 of 300 seeds
+  // its reported std exceeds 10 um (c is then 22-81 um off, so the report is right). What holds for
+  // every realisation: b and epsilon undetermined, the calibration not usable, and why.
+  spec.noise_r_um = 0.05;
   const CalibrationResult r = Calibrate(Simulate(spec), PaperOptions());
   EXPECT_FALSE(r.Usable());
   EXPECT_FALSE(r.analysis.determined[kB]);
   EXPECT_FALSE(r.analysis.determined[kEpsilon]);
-  EXPECT_TRUE(r.analysis.determined[kC]);
-  std::string all;
-  for (const auto& w : r.warnings) all += w + "\n";
-  EXPECT_THAT(all, HasSubstr("mm off the Theta axis and 2 mm along it"));
+  EXPECT_THAT(warnings(r), HasSubstr("a centre on the Theta axis moreover looks the same from every theta"));
 }
 
 TEST(Calibrate, TooFewSamplesIsAnError) {

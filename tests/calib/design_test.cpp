@@ -64,7 +64,14 @@ TEST(SmallestEccentricityMm, MeetsTheTargetExactlyThere) {
 }
 
 // The plan's predictions against the Monte Carlo: 500 trials give the std to 3.2 % (1 sigma),
-// so 10 % is three sigma.
+// so 10 % is three sigma. Over 300 such runs the ratio of the six errors other than d' has a mean of
+// 0.996-0.999 and a std of 0.032-0.034, as that says.
+//
+// d' is not first order at 1 mm: a tangential error of 10 um changes the measured radius by
+// delta^2 / 2 R0, which d' absorbs, so its Monte Carlo std exceeds the first-order bound (the
+// README's Monte Carlo section; 3.7 times the bound at 0.5 mm). Over those 300 runs its ratio has a
+// mean of 1.045 and a std of 0.035: 17 of them lie beyond 1.10. The bound is then a lower bound, and
+// the ratio is held to three of its sampling std about that measured excess.
 TEST(PredictUncertainty, MatchesTheMonteCarloSpread) {
   MonteCarloSpec mc;
   mc.eccentricities_mm = {1.0};
@@ -74,8 +81,10 @@ TEST(PredictUncertainty, MatchesTheMonteCarloSpread) {
   const MonteCarloResult r = RunMonteCarlo(mc);
   const PredictedUncertainty u = PredictUncertainty(AtEccentricity(1.0));
   for (int p = 0; p < kNumScmsParams; ++p) {
-    EXPECT_NEAR(r.rows[0].params[static_cast<std::size_t>(p)].std / u.std(p), 1.0, 0.10)
-        << kScmsParamInfo[static_cast<std::size_t>(p)].name;
+    const double ratio = r.rows[0].params[static_cast<std::size_t>(p)].std / u.std(p);
+    const double expected = p == kDPrime ? 1.045 : 1.0,
+                 sampling_std = p == kDPrime ? 0.035 : 1.0 / std::sqrt(2.0 * 499);
+    EXPECT_NEAR(ratio, expected, 3.0 * sampling_std) << kScmsParamInfo[static_cast<std::size_t>(p)].name;
   }
 }
 

@@ -67,9 +67,8 @@ TEST(FitEffects, JacobianMatchesCentralDifferences) {
       worst = std::max(worst, std::abs(numeric - jacobian(static_cast<Eigen::Index>(i), col)));
       scale = std::max(scale, std::abs(numeric));
     }
-    EXPECT_LE(worst, 1e-6 * std::max(scale, 1.0)) << "column " << col << " ("
-                                                   << fit.calibration.analysis.parameters[static_cast<std::size_t>(col)].name
-                                                   << ")";
+    EXPECT_LE(worst, 1e-6 * std::max(scale, 1.0))
+        << "column " << col << " (" << fit.calibration.analysis.parameters[static_cast<std::size_t>(col)].name << ")";
     ++col;
   };
   for (double& g : probe.calibration.geometry) difference(g, 1e-6);
@@ -101,8 +100,13 @@ std::vector<double> TruthValues(const EffectTerm& term) {
 
 struct RecoveryCase {
   Effect effect;
-  std::vector<Eigen::Vector3d> centers_mm;  // the design that determines it
+  std::vector<Eigen::Vector3d> centers_mm;  // the design
   double pivot_mm = 0.0;                    // where phi_wobble pivots
+  // With the paper's noise the design determines every parameter. One setup does not for the
+  // effects whose low orders move the probed point as b and epsilon (theta encoder, radial motion)
+  // or alpha and beta (axial and tilt motion) do; no placement does for phi_wobble about the frame's
+  // origin (VIFs near 1e9, see below).
+  bool determined = true;
 };
 
 class EffectRecovery : public ::testing::TestWithParam<RecoveryCase> {};
@@ -130,7 +134,8 @@ TEST_P(EffectRecovery, NoiseFreeSimulationIsRecovered) {
   const PointsData points = Simulate(spec, &ref);
   truth.reference = ref;
 
-  const EffectFit fit = FitEffects(points, PaperOptions(), truth, EffectFitStart::From(Calibrate(points, PaperOptions())));
+  const EffectFit fit =
+      FitEffects(points, PaperOptions(), truth, EffectFitStart::From(Calibrate(points, PaperOptions())));
   ASSERT_TRUE(fit.calibration.converged) << fit.calibration.solver_message;
   const ObservabilityReport& rep = fit.calibration.analysis;
   // The model takes the incidence angle where the reading without the probe's errors meets the
@@ -160,12 +165,23 @@ TEST_P(EffectRecovery, NoiseFreeSimulationIsRecovered) {
   }
   EXPECT_LT(fit.calibration.rms_um, 1e-6);
 
-  // With the paper's noise every parameter lies within 4 of its reported standard uncertainties.
+  // With the paper's noise the fit says whether the design determines every parameter, and where it
+  // does, every parameter lies within 4 of its reported standard uncertainties. Where it does not,
+  // the fit stops somewhere along the valley of a nearly degenerate combination (b's std is 0.2 mm
+  // for the theta encoder on one setup), and the Jacobian there is not the Jacobian at the truth:
+  // b's reported std ranges over 0.10-0.26 mm between noise realisations (0.23 mm at the truth).
+  // The reported std is then not the spread of the estimates: over 200 seeds the errors over their
+  // reported std have an rms of 1.03-1.55 in those six cases and 0.2-2.5 % of them lie beyond 4,
+  // against an rms of 0.96-1.02 and none of 11,000 beyond 4 (largest 3.8) in the determined ones.
   spec.noise_r_um = 0.05;
   const PointsData noisy = Simulate(spec);
-  const EffectFit nfit = FitEffects(noisy, PaperOptions(), truth, EffectFitStart::From(Calibrate(noisy, PaperOptions())));
+  const EffectFit nfit =
+      FitEffects(noisy, PaperOptions(), truth, EffectFitStart::From(Calibrate(noisy, PaperOptions())));
+  ASSERT_EQ(nfit.calibration.analysis.AllDetermined(), c.determined);
+  if (!c.determined) return;
   for (std::size_t i = 0; i < spec.effects.values[0].size(); ++i) {
-    EXPECT_NEAR(nfit.values[0][i], spec.effects.values[0][i], 4.0 * nfit.calibration.analysis.std(offset + static_cast<int>(i)))
+    EXPECT_NEAR(nfit.values[0][i], spec.effects.values[0][i],
+                4.0 * nfit.calibration.analysis.std(offset + static_cast<int>(i)))
         << truth.terms[0].ParamName(i);
   }
 }
@@ -177,13 +193,16 @@ const std::vector<Eigen::Vector3d> kThreeSetups{Eigen::Vector3d(2.0, 0.0, 0.0), 
 INSTANTIATE_TEST_SUITE_P(
     Library, EffectRecovery,
     ::testing::Values(
-        RecoveryCase{Effect::kThetaEncoder, kOneSetup}, RecoveryCase{Effect::kPhiEncoder, kOneSetup},
-        RecoveryCase{Effect::kThetaRadialMotion, kOneSetup}, RecoveryCase{Effect::kThetaAxialMotion, kOneSetup},
-        RecoveryCase{Effect::kPhiWobble, kOneSetup}, RecoveryCase{Effect::kPhiWobble, kThreeSetups},
+        RecoveryCase{Effect::kThetaEncoder, kOneSetup, 0.0, false}, RecoveryCase{Effect::kPhiEncoder, kOneSetup},
+        RecoveryCase{Effect::kThetaRadialMotion, kOneSetup, 0.0, false},
+        RecoveryCase{Effect::kThetaAxialMotion, kOneSetup, 0.0, false},
+        RecoveryCase{Effect::kPhiWobble, kOneSetup, 0.0, false},
+        RecoveryCase{Effect::kPhiWobble, kThreeSetups, 0.0, false},
         RecoveryCase{Effect::kThetaAxialMotion, kThreeSetups}, RecoveryCase{Effect::kProbeGain, kOneSetup},
         RecoveryCase{Effect::kProbeNonlinearity, kOneSetup}, RecoveryCase{Effect::kProbeDrift, kOneSetup},
         RecoveryCase{Effect::kPhiRadialMotion, kOneSetup}, RecoveryCase{Effect::kPhiAxialMotion, kOneSetup},
-        RecoveryCase{Effect::kPhiAxialMotion, kThreeSetups}, RecoveryCase{Effect::kThetaTiltMotion, kOneSetup},
+        RecoveryCase{Effect::kPhiAxialMotion, kThreeSetups},
+        RecoveryCase{Effect::kThetaTiltMotion, kOneSetup, 0.0, false},
         RecoveryCase{Effect::kThetaTiltMotion, kThreeSetups}, RecoveryCase{Effect::kPhiWobble, kOneSetup, 60.0},
         RecoveryCase{Effect::kProbeIncidence, kOneSetup}, RecoveryCase{Effect::kProbeIncidence, kThreeSetups}),
     [](const ::testing::TestParamInfo<RecoveryCase>& param) {

@@ -31,11 +31,11 @@
 #include <array>
 #include <cstdint>
 #include <memory>
-#include <random>
 #include <vector>
 
 #include "sph/can/frame.hpp"
 #include "sph/can/pipeline.hpp"
+#include "sph/core/gum.hpp"
 #include "sph/core/simulate.hpp"
 
 namespace sph::can {
@@ -166,7 +166,7 @@ class DeviceSimulator {
   std::int64_t GridNs(double at_s, double offset_us) const;
 
   DeviceSimConfig config_;
-  std::mt19937_64 rng_;
+  gum::Random rng_;  // the same numbers with every standard library
   std::vector<std::unique_ptr<Node>> nodes_;
   std::int64_t start_ns_ = 0;
   std::uint64_t cycle_ = 0;

@@ -102,7 +102,7 @@ UncertaintyStatement Combine(std::vector<BudgetInput> inputs, const CoverageSpec
 class Random {
  public:
   explicit Random(std::uint64_t seed) : engine_(seed) {}
-  /// Uniform on the open interval (0, 1), 53 random bits.
+  /// Uniform on the open interval (0, 1): (2k + 1) / 2^53 for 52 random bits k, symmetric about 1/2.
   double Uniform();
   /// Standard normal (the polar method of Marsaglia).
   double Normal();

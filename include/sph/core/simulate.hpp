@@ -215,9 +215,10 @@ PointsData Simulate(const SimulationSpec& spec, EffectReference* reference = nul
 /// Simulate() without noise and outliers: the exact readings of the stated truth and effects.
 PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference = nullptr);
 
-/// Adds Gaussian noise with the spec's sigmas to every reading, drawn from std::mt19937_64(spec.seed)
-/// in the order (r, theta, phi) per sample, so that a seed gives the same noise whatever sigmas are zero;
-/// then the outliers of spec.effects, from a second generator seeded from spec.seed.
+/// Adds Gaussian noise with the spec's sigmas to every reading, drawn from sph::gum::Random(spec.seed)
+/// (the same numbers with every compiler) in the order (r, theta, phi) per sample, so that a seed gives
+/// the same noise whatever sigmas are zero; then the outliers of spec.effects, from a second generator
+/// seeded from spec.seed.
 void AddReadingNoise(PointsData& data, const SimulationSpec& spec);
 
 }  // namespace sph
