@@ -6,7 +6,11 @@
 # Usage: cmake/install-deps.sh [--sanitizers]
 #   --sanitizers  also clang-14 and libFuzzer (libclang-rt-14-dev), for the "asan" preset
 set -eu
-packages="cmake ninja-build g++ ccache libeigen3-dev libceres-dev libcli11-dev nlohmann-json3-dev \
+# libunwind-dev is named although libceres-dev pulls it in: glog's CMake package (which Ceres' needs)
+# finds libunwind 1.6 through it, and installing libc++-14-dev replaces it by libunwind-14-dev, which
+# satisfies the package's dependency but not glog-config.cmake ("Failed to find Ceres - Missing
+# required Ceres dependency: glog").
+packages="cmake ninja-build g++ ccache libeigen3-dev libceres-dev libunwind-dev libcli11-dev nlohmann-json3-dev \
 libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox"
 case "${1:-}" in
   --sanitizers) packages="$packages clang-14 libclang-rt-14-dev" ;;
