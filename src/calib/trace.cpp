@@ -8,13 +8,13 @@
 #include <map>
 #include <mutex>
 #include <numeric>
-#include <random>
 #include <system_error>
 #include <thread>
 
 #include "effect_fit_rows.hpp"
 #include "fit_problem.hpp"
 #include "sph/calib/identifiability.hpp"
+#include "sph/core/gum.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"
@@ -112,9 +112,6 @@ TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions
   return t;
 }
 
-// The model of `current` with `term` added, fitted; components that the data cannot separate or
-// do not show are left out one at a time. The last term of the returned fit is the candidate
-// (absent when nothing of it is left).
 // A component that FitCandidate() leaves out of the candidate term, and why.
 struct Drop {
   int component;       // index into the term's components as fitted
@@ -181,6 +178,9 @@ std::vector<Drop> Eliminate(const ObservabilityReport& rep, std::vector<double> 
   return drops;
 }
 
+// The model of `current` with `term` added, fitted; components that the data cannot separate or
+// do not show are left out (Eliminate(): after each fit, all that the rule drops at it, then
+// refitted). The last term of the returned fit is the candidate (absent when nothing of it is left).
 EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
                        EffectTerm term, const TraceOptions& trace, std::string* note) {
   EffectModel model = current.model;
@@ -513,14 +513,10 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
   // Folds within each setup, so that every fold leaves every setup points to fit its centre.
   std::map<int, std::vector<std::size_t>> of_setup;
   for (std::size_t i = 0; i < m; ++i) of_setup[data.points.samples[i].setup].push_back(i);
-  // Fisher-Yates from the engine's own outputs: std::shuffle's algorithm is the standard library's
-  // choice, and the folds would differ between libraries.
-  std::mt19937_64 rng(seed);
+  gum::Random rng(seed);
   std::vector<int> fold_of(m);
   for (auto& [setup, rows] : of_setup) {
-    for (std::size_t i = rows.size(); i > 1; --i) {
-      std::swap(rows[i - 1], rows[static_cast<std::size_t>(rng() % i)]);  // bias below 1e-13 for any set of rows
-    }
+    rng.Shuffle(rows);
     for (std::size_t k = 0; k < rows.size(); ++k)
       fold_of[rows[k]] = static_cast<int>(k % static_cast<std::size_t>(folds));
   }

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdlib>
 #include <map>
-#include <random>
 #include <string>
 #include <utility>
 
@@ -256,11 +255,7 @@ std::vector<AnglePair> InScanOrder(const std::vector<AnglePair>& pattern, ScanOr
     }
     case ScanOrder::kShuffled: {
       out = pattern;
-      std::mt19937_64 rng(seed);
-      for (std::size_t i = out.size(); i > 1; --i) {
-        const std::size_t j = static_cast<std::size_t>(rng() % i);  // bias below 1e-13 for any pattern size
-        std::swap(out[i - 1], out[j]);
-      }
+      gum::Random(seed).Shuffle(out);
       break;
     }
   }

@@ -27,6 +27,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace sph::gum {
@@ -106,6 +107,15 @@ class Random {
   double Uniform();
   /// Standard normal (the polar method of Marsaglia).
   double Normal();
+  /// `items` in an order drawn by Fisher-Yates from the engine's outputs (j = output mod (i + 1),
+  /// a bias below 1e-13 for any size that fits in memory). std::shuffle's algorithm is the
+  /// standard library's choice, and its orders differ between libraries.
+  template <typename T>
+  void Shuffle(std::vector<T>& items) {
+    for (std::size_t i = items.size(); i > 1; --i) {
+      std::swap(items[i - 1], items[static_cast<std::size_t>(engine_() % i)]);
+    }
+  }
 
  private:
   std::mt19937_64 engine_;
