@@ -124,11 +124,12 @@ class BlockedSignals {
 // wake-up.
 class LiveLoop {
  public:
-  LiveLoop(AcquireContext& ctx, can::CanSocket socket)
+  // `socket` is open with `socket_options`, which reopen it after the interface was lost.
+  LiveLoop(AcquireContext& ctx, can::CanSocketOptions socket_options, can::CanSocket socket)
       : ctx_(ctx),
         o_(ctx.options),
         config_(ctx.pipeline_config),
-        socket_options_(SocketOptions(o_, config_)),
+        socket_options_(std::move(socket_options)),
         produce_(o_.sync_mode == "produce"),
         sock_(std::move(socket)),
         session_(*ctx.session) {
@@ -312,9 +313,10 @@ int RunLive(AcquireContext& ctx) {
     ctx.log(can::LogLevel::kError, "--sync-mode produce needs a --sync-period-ms above 0");
     return kExitBadInput;
   }
+  const can::CanSocketOptions socket_options = SocketOptions(o, config);
   std::optional<can::CanSocket> sock;
   try {
-    sock.emplace(SocketOptions(o, config));
+    sock.emplace(socket_options);
   } catch (const std::exception& e) {
     ctx.log(can::LogLevel::kError, e.what());
     return kExitInterfaceError;
@@ -328,7 +330,7 @@ int RunLive(AcquireContext& ctx) {
               (produce ? "produced every " + std::to_string(o.devices.sync_period_ms) + " ms"
                        : std::string("from an external producer")) +
               ", timestamps: " + can::ToString(sock->timestamp_mode()) + ")");
-  LiveLoop loop(ctx, std::move(*sock));
+  LiveLoop loop(ctx, socket_options, std::move(*sock));
   return loop.Run();
 }
 
