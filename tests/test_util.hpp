@@ -37,6 +37,21 @@ template <typename A, typename B>
   return ::testing::AssertionFailure() << os.str();
 }
 
+/// The Kolmogorov-Smirnov distance sup |F_n(x) - F(x)| of a sample from the distribution whose
+/// CDF is `cdf` (the sample is sorted here). sqrt(n) D exceeds x with probability about
+/// 2 exp(-2 x^2) for a sample of that distribution (1.63 at 0.01, 1.95 at 0.001).
+template <typename Cdf>
+double KolmogorovSmirnovDistance(std::vector<double> sample, Cdf cdf) {
+  std::sort(sample.begin(), sample.end());
+  const auto n = static_cast<double>(sample.size());
+  double distance = 0.0;
+  for (std::size_t i = 0; i < sample.size(); ++i) {
+    const double f = cdf(sample[i]);
+    distance = std::max({distance, f - static_cast<double>(i) / n, static_cast<double>(i + 1) / n - f});
+  }
+  return distance;
+}
+
 /// The whole content of a file ("" when it cannot be read).
 inline std::string ReadWholeFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
