@@ -82,6 +82,27 @@ double CheckedValue(double value, const ValidRange& range, const std::string& wh
   return value;
 }
 
+std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,
+                                const std::vector<Field>& fields) {
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  for (std::string part; std::getline(ss, part, ',');) parts.push_back(part);
+  if (parts.size() != fields.size() || text.empty() || text.back() == ',') throw Error(what + ": expected " + expected);
+  std::vector<double> values;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const double v = ParseNumber(parts[i], fields[i].name, what + ": ");
+    values.push_back(CheckedValue(v, fields[i].range, what + ": " + fields[i].name, parts[i]));
+  }
+  return values;
+}
+
+Eigen::Vector3d ParseRotationDeg(const std::string& text, const std::string& what, const std::string& expected) {
+  const std::vector<double> v = ParseFields(
+      text, what, expected,
+      {{"rx", ranges::kMountRotationDeg}, {"ry", ranges::kMountRotationDeg}, {"rz", ranges::kMountRotationDeg}});
+  return {v[0], v[1], v[2]};
+}
+
 Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what) {
   std::vector<std::string> parts;
   std::stringstream ss(text);

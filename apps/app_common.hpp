@@ -71,6 +71,8 @@ inline constexpr ValidRange kCenterMm{-1000.0, 1000.0, "mm"};  ///< each coordin
 inline constexpr ValidRange kEffectArcsec{-kMaxEffectArcsec, kMaxEffectArcsec, "arcsec"};
 inline constexpr ValidRange kEffectUm{-kMaxEffectUm, kMaxEffectUm, "um"};
 inline constexpr ValidRange kStdUm{0.0, 1e6, "um", true};
+/// The Phi axis wobble's pivot distance along the axis (phi_wobble).
+inline constexpr ValidRange kPivotMm{-kMaxPivotMm, kMaxPivotMm, "mm"};
 /// The sphere on its mount and its form (sph_simulate).
 inline constexpr ValidRange kMountRotationDeg{-360.0, 360.0, "deg"};  ///< each component of a rotation vector
 inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
@@ -109,6 +111,21 @@ void AddMachineOptions(CLI::App& app, MachineOptions& o, const std::string& grou
 /// The simulation spec of the options (centres and seed left at their defaults). Reads the
 /// --angles file; throws sph::Error on a bad one.
 SimulationSpec ToSimulationSpec(const MachineOptions& o);
+
+/// One number of a comma-separated option value: its name and its valid values.
+struct Field {
+  const char* name;
+  ValidRange range;
+};
+
+/// "v1,v2,..." as the numbers `fields`, each in its range; `what` ("--form-flat-um '0.1,0,0,1'")
+/// names the option and its value in messages, `expected` the layout ("depth_um,nx,ny,nz").
+std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,
+                                const std::vector<Field>& fields);
+
+/// "rx,ry,rz": a rotation vector [deg] (axis times angle), each component within
+/// ranges::kMountRotationDeg; messages as ParseFields().
+Eigen::Vector3d ParseRotationDeg(const std::string& text, const std::string& what, const std::string& expected);
 
 /// Parses "x,y,z" (mm); `what` names the option in the error.
 Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what);

@@ -72,7 +72,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "Distance along the Phi axis from its frame's origin to the bearing it tilts about (phi_wobble), "
                  "from the machine's drawing [mm]")
       ->capture_default_str()
-      ->check(InRange({-kMaxPivotMm, kMaxPivotMm, "mm"}));
+      ->check(InRange(ranges::kPivotMm));
   app.add_option("--drift-order", o.drift_order, "Highest power of time of probe_drift")
       ->capture_default_str()
       ->check(CLI::Range(1, 3));

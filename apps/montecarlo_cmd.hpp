@@ -12,6 +12,10 @@
 
 #include "app_common.hpp"
 
+namespace sph {
+struct MonteCarloSpec;
+}  // namespace sph
+
 namespace sph::apps {
 
 struct MonteCarloOptions {
@@ -31,6 +35,13 @@ struct MonteCarloOptions {
   bool plan = false;                     ///< predict only, no simulation
   std::optional<double> target_std_um;   ///< with plan: search the smallest eccentricity
   bool progress = true;                  ///< progress bar on stderr when it is a terminal
+  /// --plan-orientations: the mount orientations that separate the sphere's form from the machine.
+  bool plan_orientations = false;
+  std::vector<std::string> effects;              ///< the machine's effects (ids); empty: the whole library
+  int form_degree_max = 4;                       ///< the form's terms of degrees 2..L
+  int max_orientations = 5;                      ///< the reference orientation included
+  std::vector<std::string> candidate_rotations;  ///< "rx,ry,rz" [deg]; empty: the default candidates
+  double phi_wobble_pivot_mm = 0.0;
 };
 
 void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& options);
@@ -38,6 +49,11 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& options);
 /// Runs the study (or the plan); tables go to `out`, progress and errors to `err`.
 /// Returns kExitOk, or kExitBadInput on bad options or a failed output.
 int RunMonteCarloApp(const MonteCarloOptions& options, std::ostream& out, std::ostream& err);
+
+/// The --plan-orientations run (orientation_plan_cmd.cpp): the plan for the sphere at each
+/// eccentricity of `options`, as text on `out` or JSON through `files`. Throws sph::Error.
+int RunOrientationPlan(const MonteCarloOptions& options, const MonteCarloSpec& spec, std::ostream& out,
+                       OutputFiles& files);
 
 }  // namespace sph::apps
 

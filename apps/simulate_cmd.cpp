@@ -27,27 +27,6 @@ using internal::Quoted;
 
 namespace {
 
-struct Field {
-  const char* name;
-  ValidRange range;
-};
-
-// "v1,v2,..." as the numbers `fields`, each in its range; `what` ("--form-flat-um '0.1,0,0,1'")
-// names the option and its value in messages, `expected` the layout ("depth_um,nx,ny,nz").
-std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,
-                                const std::vector<Field>& fields) {
-  std::vector<std::string> parts;
-  std::stringstream ss(text);
-  for (std::string part; std::getline(ss, part, ',');) parts.push_back(part);
-  if (parts.size() != fields.size() || text.empty() || text.back() == ',') throw Error(what + ": expected " + expected);
-  std::vector<double> values;
-  for (std::size_t i = 0; i < parts.size(); ++i) {
-    const double v = ParseNumber(parts[i], fields[i].name, what + ": ");
-    values.push_back(CheckedValue(v, fields[i].range, what + ": " + fields[i].name, parts[i]));
-  }
-  return values;
-}
-
 // A direction of three parsed values, refused when it has no length.
 Eigen::Vector3d Direction(const std::vector<double>& v, std::size_t first, const std::string& what) {
   const Eigen::Vector3d d(v[first], v[first + 1], v[first + 2]);
@@ -76,14 +55,11 @@ std::pair<int, std::string> SplitSetup(const std::string& text, const std::strin
 // The sphere on its mount, its form and the scan orders of the options, into `spec`.
 void AddSphereOptions(const SimulateOptions& o, SimulationSpec& spec) {
   const int n = static_cast<int>(spec.centers_mm.size());
-  const std::vector<Field> rotation{
-      {"rx", ranges::kMountRotationDeg}, {"ry", ranges::kMountRotationDeg}, {"rz", ranges::kMountRotationDeg}};
   for (const std::string& text : o.mount_rotations_deg) {
     const std::string what = "--mount-rotation-deg " + Quoted(text);
     const std::string expected = "SETUP:rx,ry,rz (a setup id and a rotation vector in deg, axis times angle)";
     const auto [setup, rest] = SplitSetup(text, what, expected, n);
-    const std::vector<double> v = ParseFields(rest, what, expected, rotation);
-    if (!spec.mount_rotations_deg.emplace(setup, Eigen::Vector3d(v[0], v[1], v[2])).second) {
+    if (!spec.mount_rotations_deg.emplace(setup, ParseRotationDeg(rest, what, expected)).second) {
       throw Error(what + ": setup " + std::to_string(setup) + " is given twice");
     }
   }
@@ -235,7 +211,7 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
       ->group("Effects (not declared in the points file)");
   app.add_option("--phi-wobble-pivot-mm", o.phi_wobble_pivot_mm,
                  "Distance along the Phi axis from its frame's origin to the bearing phi_wobble tilts about [mm]")
-      ->check(InRange({-kMaxPivotMm, kMaxPivotMm, "mm"}))
+      ->check(InRange(ranges::kPivotMm))
       ->group("Effects (not declared in the points file)");
   const std::string sphere = "The sphere on its mount and its form";
   app.add_option("--mount-rotation-deg", o.mount_rotations_deg,

@@ -41,6 +41,10 @@ std::string Words(const ConfoundedCombination& c) {
 
 }  // namespace
 
+double FormIdentifiability::MaxVarianceInflation() const {
+  return variance_inflation.empty() ? 0.0 : *std::max_element(variance_inflation.begin(), variance_inflation.end());
+}
+
 FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOptions& options,
                                  const EffectModel& model, const EffectFitStart& at,
                                  const std::vector<FormTerm>& form_terms, double max_singular_value) {
@@ -94,16 +98,18 @@ FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOpti
   const Eigen::VectorXd& sv = joint.singularValues();
   const Eigen::MatrixXd& v = joint.matrixV();
   const double max_vif = 1.0 / (max_singular_value * max_singular_value);
-  std::vector<bool> confounded(form_terms.size(), false);
+  // A term's inflation is its largest over the form's groups (one per orientation not known).
+  out.variance_inflation.assign(form_terms.size(), 0.0);
   for (Eigen::Index c = kept; c < a.cols(); ++c) {
     double vif = 0.0;
     for (Eigen::Index k = 0; k < sv.size(); ++k) {
       vif += sv(k) > 0.0 ? v(c, k) * v(c, k) / (sv(k) * sv(k)) : std::numeric_limits<double>::infinity();
     }
-    if (!(vif <= max_vif)) confounded[static_cast<std::size_t>(c - kept) % form_terms.size()] = true;
+    double& term = out.variance_inflation[static_cast<std::size_t>(c - kept) % form_terms.size()];
+    term = std::isnan(vif) ? std::numeric_limits<double>::infinity() : std::max(term, vif);
   }
   for (std::size_t k = 0; k < form_terms.size(); ++k) {
-    (confounded[k] ? out.confounded : out.separable).push_back(form_terms[k]);
+    (out.variance_inflation[k] <= max_vif ? out.separable : out.confounded).push_back(form_terms[k]);
   }
 
   // The combinations, weakest first: the form's coefficients as they are, the machine's mapped back

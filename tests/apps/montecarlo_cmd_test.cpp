@@ -84,6 +84,42 @@ TEST(MonteCarloCmd, PlanPredictsAndFindsTheEccentricity) {
   EXPECT_THAT(r.out, HasSubstr("96 x 48"));
 }
 
+// The orientations that separate the form from a radial motion of the Phi axis: with the sphere
+// at the axes' common point the zonal terms are functions of phi, as that motion is; a tilt on the
+// mount separates them (sph/calib/orientation_plan.hpp), and the JSON says the same as the table.
+TEST(MonteCarloCmd, PlansTheOrientationsThatSeparateTheForm) {
+  const std::string dir = sph::testing::MakeTempDir("mcplan");
+  MonteCarloOptions o;
+  o.plan_orientations = true;
+  o.eccentricities_mm = {0.0};
+  o.effects = {"phi_radial_motion"};
+  o.form_degree_max = 4;
+  o.json_path = dir + "/plan.json";
+  const RunOutput r = RunApp(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("separate its form (degrees 2..4) from the seven errors, the centres and "
+                               "phi_radial_motion"));
+  EXPECT_THAT(r.out, HasSubstr("S(2,0) S(3,0) S(4,0)"));
+  EXPECT_THAT(r.out, HasSubstr("separable with 2 orientation(s); in the points file: mount_rotation_deg@0: 0 0 0, "
+                               "mount_rotation_deg@1: "));
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["plans"].size(), 1u);
+  const nlohmann::json& plan = j["plans"][0];
+  EXPECT_EQ(plan["separable"], true);
+  ASSERT_EQ(plan["steps"].size(), 2u);
+  EXPECT_EQ(plan["steps"][0]["confounded"], nlohmann::json({"S(2,0)", "S(3,0)", "S(4,0)"}));
+  EXPECT_TRUE(plan["steps"][1]["confounded"].empty());
+  EXPECT_LT(plan["steps"][1]["max_variance_inflation"].get<double>(), 1e4);
+
+  o.candidate_rotations = {"0,0,90", "0,0,180"};
+  o.json_path.clear();
+  const RunOutput turns = RunApp(o);
+  ASSERT_EQ(turns.code, kExitOk) << turns.err;
+  EXPECT_THAT(turns.out, HasSubstr("not separable with these candidates: no further one helps; still confounded: "
+                                   "S(2,0) S(3,0) S(4,0)"));
+}
+
 TEST(MonteCarloCmd, BadOptionsExitTwo) {
   MonteCarloOptions o;
   o.direction = "0,0,0";

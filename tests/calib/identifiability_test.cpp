@@ -1,6 +1,7 @@
 // What a design separates, from its null space (sph/calib/identifiability.hpp), on designs whose
 // answer is known from their symmetry.
 #include "sph/calib/identifiability.hpp"
+#include "sph/calib/orientation_plan.hpp"
 
 #include <algorithm>
 #include <vector>
@@ -9,6 +10,7 @@
 
 #include "calib_test_util.hpp"
 #include "sph/calib/calibrator.hpp"
+#include "sph/core/error.hpp"
 #include "sph/core/simulate.hpp"
 
 namespace sph {
@@ -84,6 +86,65 @@ TEST(IdentifyForm, UnknownOrientationsTieNothingToTheSphere) {
   const FormIdentifiability single = IdentifyForm(one, PaperOptions(), PhiEffects(one), At(one), terms);
   for (const FormTerm& t : single.confounded) EXPECT_TRUE(Contains(all.confounded, t)) << t.l << "," << t.m;
   EXPECT_GE(all.confounded.size(), single.confounded.size());
+}
+
+// The plan for the Phi axis' effects and degrees 2..4 from the default candidates: one placement
+// leaves terms confounded; each orientation the plan adds lowers their count, and the last leaves
+// none. Judged again on the design read by Simulate() at the plan's orientations and linearised
+// at its calibration rather than at the truth, the plan holds.
+TEST(PlanOrientations, SeparatesThePhiAxisEffectsFromTheForm) {
+  SimulationSpec design;
+  OrientationPlanOptions options;
+  options.effects = {Effect::kPhiEncoder, Effect::kPhiWobble};
+  options.form_degree_max = 4;
+  const OrientationPlan plan = PlanOrientations(design, options);
+  ASSERT_GE(plan.steps.size(), 2u);
+  EXPECT_FALSE(plan.steps.front().identifiability.confounded.empty());
+  for (std::size_t k = 1; k < plan.steps.size(); ++k) {
+    EXPECT_LT(plan.steps[k].identifiability.confounded.size(), plan.steps[k - 1].identifiability.confounded.size());
+  }
+  ASSERT_TRUE(plan.Separable());
+  EXPECT_LE(plan.steps.size(), 3u);
+
+  SimulationSpec check;
+  check.noise_r_um = 0.0;
+  check.centers_mm.assign(plan.steps.size(), design.centers_mm.front());
+  for (std::size_t k = 0; k < plan.steps.size(); ++k) check.mount_rotations_deg[static_cast<int>(k)] = plan.steps[k].rotation_deg;
+  const PointsData points = Simulate(check);
+  EffectModel machine = PhiEffects(points);
+  const FormIdentifiability id = IdentifyForm(points, PaperOptions(), machine, At(points), FormTermsOfDegrees(2, 4));
+  EXPECT_TRUE(id.confounded.empty());
+}
+
+// With the sphere centred at the axes' common point the probed direction's polar angle is phi, so
+// a zonal term S(l,0) of the form is a function of phi alone, as the radial error motion of the
+// Phi axis is, and a turn of the sphere about z leaves S(l,0) as it was: candidates that only turn
+// the sphere about z cannot separate them, and the plan says so and stops. A tilt separates them.
+TEST(PlanOrientations, SaysWhenTheCandidatesCannotSeparate) {
+  SimulationSpec design;
+  design.centers_mm = {Eigen::Vector3d::Zero()};
+  OrientationPlanOptions options;
+  options.effects = {Effect::kPhiRadialMotion};
+  options.form_degree_max = 4;
+  options.candidates_deg = {Eigen::Vector3d(0, 0, 90), Eigen::Vector3d(0, 0, 180)};
+  const OrientationPlan plan = PlanOrientations(design, options);
+  EXPECT_FALSE(plan.Separable());
+  EXPECT_EQ(plan.steps.size(), 1u);
+  const std::vector<FormTerm> zonal{{2, 0}, {3, 0}, {4, 0}};
+  EXPECT_EQ(plan.steps.back().identifiability.confounded, zonal);
+  options.candidates_deg.push_back(Eigen::Vector3d(90, 0, 0));
+  const OrientationPlan tilted = PlanOrientations(design, options);
+  ASSERT_TRUE(tilted.Separable());
+  EXPECT_EQ(tilted.steps.back().rotation_deg, Eigen::Vector3d(90, 0, 0));
+}
+
+TEST(PlanOrientations, RefusesAnImpossibleRequest) {
+  OrientationPlanOptions options;
+  options.form_degree_max = 1;
+  EXPECT_THROW(PlanOrientations(SimulationSpec{}, options), Error);
+  options.form_degree_max = 4;
+  options.max_orientations = 0;
+  EXPECT_THROW(PlanOrientations(SimulationSpec{}, options), Error);
 }
 
 }  // namespace

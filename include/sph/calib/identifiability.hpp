@@ -49,6 +49,12 @@ struct FormIdentifiability {
   std::vector<FormTerm> separable;   ///< in the order of the terms asked about
   std::vector<FormTerm> confounded;  ///< the others
   std::vector<ConfoundedCombination> combinations;  ///< weakest first
+  /// Each term's variance inflation against the determinable machine and the other form terms, in
+  /// the order of the terms asked about (confounded above 1 / max_singular_value^2; +inf when
+  /// reproduced exactly).
+  std::vector<double> variance_inflation;
+  /// The largest variance inflation (0 without form terms).
+  double MaxVarianceInflation() const;
 };
 
 /// Relative singular values below this count as confounded: the variance of such a combination
