@@ -62,7 +62,8 @@ MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
     }
   }
   const auto& es = spec.eccentricities_mm;
-  if (o.table3 && !o.plan && !o.plan_orientations && std::find(es.begin(), es.end(), o.table3_calibration_e_mm) == es.end()) {
+  if (o.table3 && !o.plan && !o.plan_orientations &&
+      std::find(es.begin(), es.end(), o.table3_calibration_e_mm) == es.end()) {
     std::string list;
     for (double e : es) list += (list.empty() ? "" : ", ") + Format("%g", e);
     throw Error("--table3-calibration-e-mm " + Format("%g", o.table3_calibration_e_mm) +
@@ -403,7 +404,8 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   }
   app.add_option("--effects", o.effects,
                  "With --plan-orientations: the machine's effects beyond the seven errors (comma-separated; default "
-                 "the whole library): " + ids)
+                 "the whole library): " +
+                     ids)
       ->delimiter(',')
       ->needs(orient)
       ->check(CLI::IsMember(all_ids));

@@ -81,9 +81,9 @@ json Report(std::ostream& out, double e_mm, const Eigen::Vector3d& center_mm, co
   } else {
     const FormIdentifiability& last = plan.steps.back().identifiability;
     out << "  not separable with these candidates"
-        << (static_cast<int>(plan.steps.size()) >= max_orientations ? " within " + std::to_string(max_orientations) +
-                                                                          " orientations"
-                                                                    : std::string(": no further one helps"))
+        << (static_cast<int>(plan.steps.size()) >= max_orientations
+                ? " within " + std::to_string(max_orientations) + " orientations"
+                : std::string(": no further one helps"))
         << "; still confounded: " << TermsText(last.confounded) << "\n";
     if (!last.combinations.empty()) out << "  weakest: " << last.combinations.front().words << "\n";
   }

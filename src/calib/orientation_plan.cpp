@@ -57,8 +57,8 @@ bool Better(const FormIdentifiability& a, const FormIdentifiability& b) {
 
 std::vector<Eigen::Vector3d> DefaultOrientationCandidates() {
   const double third = 120.0 / std::sqrt(3.0);
-  return {{0, 0, 90}, {0, 0, 180}, {0, 0, -90}, {90, 0, 0}, {-90, 0, 0}, {180, 0, 0},
-          {0, 90, 0}, {0, -90, 0}, {0, 180, 0}, {third, third, third}};
+  return {{0, 0, 90},  {0, 0, 180}, {0, 0, -90}, {90, 0, 0},  {-90, 0, 0},
+          {180, 0, 0}, {0, 90, 0},  {0, -90, 0}, {0, 180, 0}, {third, third, third}};
 }
 
 OrientationPlan PlanOrientations(const SimulationSpec& design, const OrientationPlanOptions& options) {

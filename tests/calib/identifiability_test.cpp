@@ -109,7 +109,8 @@ TEST(PlanOrientations, SeparatesThePhiAxisEffectsFromTheForm) {
   SimulationSpec check;
   check.noise_r_um = 0.0;
   check.centers_mm.assign(plan.steps.size(), design.centers_mm.front());
-  for (std::size_t k = 0; k < plan.steps.size(); ++k) check.mount_rotations_deg[static_cast<int>(k)] = plan.steps[k].rotation_deg;
+  for (std::size_t k = 0; k < plan.steps.size(); ++k)
+    check.mount_rotations_deg[static_cast<int>(k)] = plan.steps[k].rotation_deg;
   const PointsData points = Simulate(check);
   EffectModel machine = PhiEffects(points);
   const FormIdentifiability id = IdentifyForm(points, PaperOptions(), machine, At(points), FormTermsOfDegrees(2, 4));

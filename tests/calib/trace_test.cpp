@@ -9,9 +9,9 @@
 #include <gtest/gtest.h>
 
 #include "calib_test_util.hpp"
-#include "test_util.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
+#include "test_util.hpp"
 
 namespace sph {
 namespace {
