@@ -293,7 +293,12 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
                   ref.r_half_range_mm, ref.t_start_s, ref.t_span_s);
   }
   for (const Ambiguity& x : r.ambiguous) {
-    if (x.chosen == "sphere_form") {
+    if (x.chosen == "sphere_form" && x.form_turns_with_sphere) {
+      out << "  two explanations, neither added: the sphere's own form, turning with it, of a higher degree"
+          << Format(" (%.4f um rms), or %s (%.4f um rms), which this design cannot tell from such a form; ",
+                    x.chosen_rms_um, x.other.c_str(), x.other_rms_um)
+          << "to separate them: " << x.separate_by << "\n";
+    } else if (x.chosen == "sphere_form") {
       out << "  two explanations, neither added: a pattern fixed on the sphere, the sphere's own form"
           << Format(" (%.4f um rms), or %s (%.4f um rms), which its own variable shows but no more than a form would; ",
                     x.chosen_rms_um, x.other.c_str(), x.other_rms_um)
@@ -391,14 +396,16 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
   report["candidates"] = candidates;
   json ambiguous = json::array();
   for (const Ambiguity& x : r.ambiguous) {
-    ambiguous.push_back({{"chosen", x.chosen},
-                         {"other", x.other},
-                         {"delta_bic_chosen", x.delta_bic_chosen},
-                         {"delta_bic_other", std::isfinite(x.delta_bic_other) ? json(x.delta_bic_other) : json(nullptr)},
-                         {"sphere_fraction", x.sphere_fraction},
-                         {"chosen_rms_um", NumberOrNull(x.chosen_rms_um)},
-                         {"other_rms_um", NumberOrNull(x.other_rms_um)},
-                         {"separate_by", x.separate_by}});
+    ambiguous.push_back(
+        {{"chosen", x.chosen},
+         {"other", x.other},
+         {"delta_bic_chosen", NumberOrNull(x.delta_bic_chosen)},
+         {"delta_bic_other", std::isfinite(x.delta_bic_other) ? json(x.delta_bic_other) : json(nullptr)},
+         {"sphere_fraction", x.sphere_fraction},
+         {"chosen_rms_um", NumberOrNull(x.chosen_rms_um)},
+         {"other_rms_um", NumberOrNull(x.other_rms_um)},
+         {"form_turns_with_sphere", x.form_turns_with_sphere},
+         {"separate_by", x.separate_by}});
   }
   report["ambiguous"] = ambiguous;
   json unexplained = json::array();

@@ -312,6 +312,11 @@ ResidualStructure AnalyseResidualStructure(const FitResiduals& fit) {
   return AnalyseResidualStructure(FactorResidualStructure(fit));
 }
 
+double SubsetSearchPenalty(int searched, int kept) {
+  if (kept <= 0 || kept >= searched) return 0.0;
+  return 2.0 * (std::lgamma(searched + 1.0) - std::lgamma(kept + 1.0) - std::lgamma(searched - kept + 1.0));
+}
+
 SpherePattern BestSpherePattern(const StructureFactor& factor) {
   const auto m = factor.rows;
   const Eigen::Index n = factor.jacobian_cols;
@@ -351,8 +356,9 @@ SpherePattern BestSpherePattern(const StructureFactor& factor) {
       }
     }
     if (best < 0) break;
-    const double next_bic = static_cast<double>(m) * std::log(std::max(rss - gain, 1e-300) / rss0) +
-                            static_cast<double>(step + 1) * log_m;
+    const int kept = static_cast<int>(step) + 1;
+    const double next_bic = static_cast<double>(m) * std::log(std::max(rss - gain, 1e-300) / rss0) + kept * log_m +
+                            SubsetSearchPenalty(static_cast<int>(rest.size()), kept);
     if (next_bic >= out.delta_bic) break;  // the BIC no longer falls
     out.delta_bic = next_bic;
     rss -= gain;

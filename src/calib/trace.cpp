@@ -8,6 +8,7 @@
 #include <map>
 #include <mutex>
 #include <numeric>
+#include <set>
 #include <system_error>
 #include <thread>
 
@@ -70,6 +71,13 @@ std::string SeparateBy(Effect a, Effect b) {
   }
   return "a second sphere position (another eccentricity or azimuth), which changes how machine errors map onto the "
          "readings";
+}
+
+// The extended BIC's charge for the components `term` keeps of those its effect's default term
+// searched (FitCandidate() keeps only the separable and significant ones).
+double SearchPenalty(const EffectTerm& term, const TraceOptions& trace) {
+  const auto searched = DefaultTerm(term.effect, trace.harmonics, trace.drift_order).components.size();
+  return SubsetSearchPenalty(static_cast<int>(searched), static_cast<int>(term.components.size()));
 }
 
 // The readings a trace fits and their table, built once for every candidate, fold and refit.
@@ -576,7 +584,7 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
         c.cv_rms_um = current.cv_rms_um;
       } else {
         c.term = fit.model.terms.back();
-        c.delta_bic = fit.Bic() - current.fit.Bic();
+        c.delta_bic = fit.Bic() - current.fit.Bic() + SearchPenalty(c.term, trace);
         c.rms_um = fit.calibration.rms_um;
         c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
         if (!c.determined) {
@@ -658,11 +666,11 @@ std::string SphereCompetitorNote(const SpherePattern& sphere, bool form_better, 
   for (const std::string& f : sphere.functions) functions += (functions.empty() ? "" : " ") + f;
   return "a pattern fixed on the sphere, spherical harmonics of the direction from the centre, linearised: " +
          (functions.empty() ? std::string("none lowers the BIC")
-                            : functions + (form_wins     ? "; explains the residual better than any effect of the "
-                                                           "library, so none is added"
-                                           : form_better ? "; explains more than the best effect, which its own "
-                                                           "variable shows, so both are reported"
-                                                         : "; not better than the best effect"));
+                            : functions + (form_wins     ? "; explains the residual as well as any effect of the "
+                                                           "library or better, so none is added"
+                                           : form_better ? "; explains as much as the best effect or more, which "
+                                                           "its own variable shows, so both are reported"
+                                                         : "; less than the best effect"));
 }
 
 // Why candidate c was not added, appended to its note. `best`: the candidate added, if any.
@@ -671,7 +679,7 @@ void NoteWhyNotAdded(CandidateScore& c, bool admissible, bool form_wins, const C
   if (c.added) return;
   std::string why;
   if (admissible && form_wins) {
-    why = "qualifies, but a pattern fixed on the sphere explains more";
+    why = "qualifies, but a pattern fixed on the sphere explains as much or more";
   } else if (admissible && best != nullptr) {
     why = "qualifies; " + best->Id() + Format(" scored better (delta BIC %.1f)", best->delta_bic);
   } else if (!c.term.components.empty() && c.determined) {
@@ -729,6 +737,48 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
   }
 }
 
+// With a design that separates the form: whether candidate c still lowers the extended BIC by
+// min_delta_bic with the form at the highest degree searched in the model, as the time and probe
+// effects must beyond a pattern in one placement (ShownBeyondSphere()). A candidate whose signal a
+// form of some degree explains as well turns with the sphere in this design: a probe polynomial,
+// for one, when the eccentricity points the same way on the sphere's body in every setup. `full`
+// is the current model with that form (fitted once per round); *delta_ebic gets the candidate's
+// score beside it.
+bool ShownBeyondForm(const Readings& data, const CalibrationOptions& options, const CandidateScore& c,
+                     const EffectFit& full, const TraceOptions& trace, double* delta_ebic) {
+  EffectModel model = full.model;
+  model.terms.push_back(c.term);
+  const EffectFit with =
+      internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(full));
+  *delta_ebic = with.Bic() - full.Bic() + SearchPenalty(c.term, trace);
+  if (!with.calibration.converged || !(*delta_ebic <= -trace.min_delta_bic)) return false;
+  // Its components must stay separable from that form, as FitCandidate() asks (that one of them
+  // is less significant among that many form terms is no sign of the form explaining it).
+  const int offset = with.TermOffset(model.terms.size() - 1);
+  const Eigen::VectorXd& vif = with.calibration.analysis.vif;
+  for (int k = 0; k < c.term.size(); ++k) {
+    const int col = offset + k;
+    if (col >= vif.size() || !(vif(col) <= trace.max_vif)) {
+      *delta_ebic = std::numeric_limits<double>::quiet_NaN();
+      return false;
+    }
+  }
+  return true;
+}
+
+// The current model with the form of degrees 2..limit (its start: the current fit's).
+EffectFit FullForm(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                   const FormSelection& sel) {
+  EffectModel model = current.fit.model;
+  model.form = FormModelOf(data.points, FormTermsOfDegrees(2, sel.degree_limit));
+  return internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(current.fit));
+}
+
+// The measurement that separates a probe effect from a form that turns with the sphere.
+constexpr const char* kSeparateFromTurningForm =
+    "orientations of the sphere on its mount that point the eccentricity elsewhere on its body, or a second "
+    "eccentricity (sph_montecarlo --plan-orientations proposes orientations)";
+
 // One forward round: every effect of `pool` not yet in the model scored against `current`; the
 // best admissible one is added (true), or none is and the search ends (false). The round's scores
 // and ambiguities go into `r`.
@@ -742,11 +792,15 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   const auto any = [](const CandidateScore&) { return true; };
   int best = BestAdmissible(tried, current, trace, any);
   // With a design that separates the form, it is in the model and no competitor. When the
-  // competitor explains the residual better than the best effect, no effect is added.
+  // competitor explains the residual better than the best effect, or about as well, no effect is
+  // added.
   const SpherePattern sphere = r.form.separable ? SpherePattern{} : BestSpherePattern(current.factor);
   CandidateScore form = SphereCompetitor(sphere, current, round);
-  const bool form_better = sphere.delta_bic <= -trace.min_delta_bic &&
-                           (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic);
+  // Within ambiguity_bic of the best effect the pattern counts as better: two explanations about
+  // equal, and a machine effect is the claim that must be shown.
+  const bool form_better =
+      sphere.delta_bic <= -trace.min_delta_bic &&
+      (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic + trace.ambiguity_bic);
   // A pattern on the sphere never blocks an effect that its own variable shows: the best such
   // candidate is added, and both explanations are reported.
   if (form_better && best >= 0) {
@@ -755,6 +809,33 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   }
   const bool form_wins = form_better && best < 0;
   form.note = SphereCompetitorNote(sphere, form_better, form_wins);
+  std::set<Effect> not_beyond_form;  // admissible, but a form of a higher degree explains them as well
+  if (r.form.separable && best >= 0 && r.form.degree_limit > r.form.degree_max) {
+    // The effect added must be more than a form of a higher degree (a form turns with the sphere).
+    const EffectFit full = FullForm(data, options, current, r.form);
+    std::map<Effect, double> beyond;  // the candidates tried: their extended BIC beside that form
+    best = BestAdmissible(tried, current, trace, [&](const CandidateScore& c) {
+      return full.calibration.converged && ShownBeyondForm(data, options, c, full, trace, &beyond[c.effect]);
+    });
+    const double cur_rms = current.fit.calibration.rms_um, full_rms = full.calibration.rms_um;
+    for (auto& [c, fit] : tried) {
+      const auto b = beyond.find(c.effect);
+      if (b == beyond.end() || b->second <= -trace.min_delta_bic) continue;
+      not_beyond_form.insert(c.effect);
+      c.note +=
+          std::string(c.note.empty() ? "" : "; ") +
+          (std::isnan(b->second)
+               ? Format("qualifies, but is not separable from the sphere's form of degrees 2..%d", r.form.degree_limit)
+               : Format("qualifies, but not beside the sphere's form of degrees 2..%d (delta BIC %.1f there)",
+                        r.form.degree_limit, b->second));
+      Ambiguity a{"sphere_form", c.Id(), std::numeric_limits<double>::quiet_NaN(),
+                  c.delta_bic,   0.0,    kSeparateFromTurningForm};
+      a.chosen_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - full_rms * full_rms));
+      a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
+      a.form_turns_with_sphere = true;
+      r.ambiguous.push_back(a);
+    }
+  }
   const CandidateScore* chosen = nullptr;
   if (best < 0 || form_wins) {
     // An effect of the time or the probe reading that its variable shows, but no more than a form
@@ -777,7 +858,9 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     chosen = &c;
   }
   for (auto& [c, fit] : tried) {
-    NoteWhyNotAdded(c, Admissible(c, current, trace), form_wins, chosen, trace);
+    if (not_beyond_form.count(c.effect) == 0) {
+      NoteWhyNotAdded(c, Admissible(c, current, trace), form_wins, chosen, trace);
+    }
     r.candidates.push_back(c);
   }
   if (!r.form.separable) r.candidates.push_back(form);
@@ -801,7 +884,7 @@ void RemoveUnneeded(const Readings& data, const CalibrationOptions& options, con
       EffectFitStart start = EffectFitStart::From(current.fit);
       start.values.erase(start.values.begin() + static_cast<std::ptrdiff_t>(t));
       EffectFit w = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
-      const double cost = w.Bic() - current.fit.Bic();
+      const double cost = w.Bic() - current.fit.Bic() - SearchPenalty(current.fit.model.terms[t], trace);
       if (w.calibration.converged && cost < least) {
         least = cost;
         weakest = static_cast<int>(t);

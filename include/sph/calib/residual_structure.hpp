@@ -103,10 +103,12 @@ ResidualStructure AnalyseResidualStructure(const FitResiduals& fit);
 
 /// The best small pattern fixed on the sphere: spherical harmonics of degree 2..5 of the direction
 /// from the centre chosen one at a time (each the one that explains most of what is left) while
-/// the BIC falls, as a fit that added them would (linearised). It competes with the effects of
-/// the library, which keep only their significant components too.
+/// the extended BIC falls (SubsetSearchPenalty() of the functions chosen from all of them), as a
+/// fit that added them would (linearised). It competes with the effects of the library, which
+/// keep only their significant components too and are charged for that search in the same way:
+/// two searched explanations compared on equal terms.
 struct SpherePattern {
-  double delta_bic = 0.0;               ///< of adding the chosen functions (0: none chosen)
+  double delta_bic = 0.0;  ///< extended BIC of adding the chosen functions (0: none chosen)
   double explained_rms_um = 0.0;
   std::vector<std::string> functions;   ///< e.g. "S(3,2)", in the order chosen
 };
@@ -126,6 +128,12 @@ double SpherePatternFraction(const FitResiduals& fit, const std::vector<double>&
 /// shows structure that no pattern fixed on the sphere explains. 0 for the sphere group itself.
 double DeltaBicBeyondSphere(const StructureFactor& factor, const std::string& variable,
                             const std::vector<int>& functions);
+
+/// 2 ln C(searched, kept): what the extended BIC (Chen and Chen 2008, gamma = 1) adds to the BIC of
+/// a model whose `kept` components were chosen from `searched` candidates. The plain BIC charges
+/// ln m for each component kept, however many were tried: the largest of many noise components
+/// then passes it, and a selection that keeps only its significant components adds noise.
+double SubsetSearchPenalty(int searched, int kept);
 
 /// P(F(d1, d2) >= f), the upper tail of Fisher's F distribution.
 double FUpperTail(double f, double d1, double d2);

@@ -5,20 +5,30 @@
 //    data cannot separate from the rest (variance inflation above max_vif) are left out, the
 //    weakest first; then components that are not significantly non-zero (|value| < min_t std),
 //    so that a term keeps only what the data show.
-// 3. Score each candidate by the change of the Bayesian information criterion (delta_bic) and by
-//    k-fold cross-validated RMS (folds within each setup; each fitted without its points, then
-//    predicted). The best candidate is added when delta_bic <= -min_delta_bic (strong evidence),
-//    its cross-validated RMS is lower, every parameter of the model stays determined, and a
-//    pattern fixed on the sphere (spherical harmonics of degree 2..5 of the direction from the
-//    centre, the reference sphere's own form error or an effect outside the library) does not
-//    explain the residual better by the BIC. Repeat until none is.
+// 3. Score each candidate by the change of an extended Bayesian information criterion (delta_bic:
+//    the BIC's change plus 2 ln C(P, k) for the k components kept of the P its term searched,
+//    SubsetSearchPenalty(), so that the best of many noise components does not pass for an
+//    effect) and by k-fold cross-validated RMS (folds within each setup; each fitted without its
+//    points, then predicted). The best candidate is added when delta_bic <= -min_delta_bic
+//    (strong evidence), its cross-validated RMS is lower, every parameter of the model stays
+//    determined, and a pattern fixed on the sphere (spherical harmonics of degree 2..5 of the
+//    direction from the centre, the reference sphere's own form error or an effect outside the
+//    library; its choice of harmonics charged in the same way) does not explain the residual
+//    better or about as well (within ambiguity_bic: the machine effect is the claim that must be
+//    shown). Repeat until none is.
 // The sphere's own form. When the design separates it (the sphere measured in at least two known
 // orientations on its mount), the form is no competitor but a component of the model: spherical
 // harmonics of degree 2..L in the sphere's body frame, fitted jointly with the seven errors, the
 // centres and the effects (sph/calib/effect_fit.hpp). L is chosen by an extended BIC, BIC + 2 ln N
 // with N the number of degrees searched, first with the seven errors alone and again after the
 // effects are chosen; every candidate effect is fitted with the form in the model, so components
-// that a form turning with the sphere would explain as well are left out as not separable.
+// that a form turning with the sphere would explain as well are left out as not separable. Effects
+// and form compete in one selection: an effect is added only when it still qualifies beside the
+// form of the highest degree searched (its components separable and significant, the extended BIC
+// lower by min_delta_bic), so that what a lower degree leaves of the form is not taken for an
+// effect; one that qualifies only without it is reported with the form as two explanations,
+// neither added (a probe polynomial when the eccentricity points the same way on the body in every
+// setup is such a function of the body's direction).
 // Without such a design (one placement, or every setup in one orientation) a form cannot be told
 // from anything that is a function of the direction, and the pattern fixed on the sphere competes
 // as below; but it never blocks an effect that its own variable shows (the time for probe_drift,
@@ -26,7 +36,7 @@
 // explanations are reported with their sizes and the measurement that separates them.
 //
 // After the rounds, a backward step removes an effect that the final model (with the form chosen
-// again) no longer needs: the BIC without it is less than min_delta_bic higher.
+// again) no longer needs: the extended BIC without it is less than min_delta_bic higher.
 //
 // 4. Report candidates that explain the residual about as well as the one added (their BICs within
 //    ambiguity_bic), with the measurement that would separate them; an added effect whose signal is
@@ -78,16 +88,19 @@ struct TraceOptions {
   std::function<void(int round, int done, int total)> progress;
 };
 
-/// One candidate tried in one round: an effect of the library, or (sphere_form) the pattern fixed
-/// on the sphere that competes with them.
+/// One candidate tried in one round: an effect of the library, or (sphere_form) the sphere's form
+/// that competes with them: in one placement a pattern fixed on the sphere, with a design that
+/// separates the form its next degrees (added: the degree was raised).
 struct CandidateScore {
   Effect effect = Effect::kThetaEncoder;
-  bool sphere_form = false;  ///< the competitor: spherical harmonics of degree 2..5 on the sphere
+  bool sphere_form = false;  ///< the competitor, not an effect
   /// "sphere_form" or the effect's id.
   std::string Id() const { return sphere_form ? "sphere_form" : InfoOf(effect).id; }
-  int round = 0;             ///< 1 for the first effect added, ...
+  int round = 0;             ///< 1 for the first round, ...
   EffectTerm term;           ///< the components kept (empty: nothing the data determine)
-  double delta_bic = 0.0;    ///< BIC with it minus BIC without; NaN when nothing of it was left to fit
+  /// Extended BIC with it minus without: the BIC's change plus SubsetSearchPenalty() of the
+  /// components kept of those searched; NaN when nothing of it was left to fit.
+  double delta_bic = 0.0;
   double rms_um = 0.0;       ///< fit RMS with it
   double cv_rms_um = 0.0;    ///< cross-validated RMS with it; NaN when the BIC does not admit it (not needed, so not
                              ///< computed) and for sphere_form (not fitted)
@@ -105,11 +118,14 @@ struct CandidateScore {
 struct Ambiguity {
   std::string chosen, other;  ///< effect ids, or "sphere_form"
   double delta_bic_chosen = 0.0;
-  double delta_bic_other = 0.0;  ///< NaN for sphere_form
+  double delta_bic_other = 0.0;  ///< NaN for a pattern fixed on the sphere in one placement
   double sphere_fraction = 0.0;  ///< share of the chosen effect's signal that is a pattern fixed on the sphere
   std::string separate_by;       ///< the measurement that would tell them apart
   double chosen_rms_um = std::numeric_limits<double>::quiet_NaN();  ///< what the chosen one explains (RMS)
   double other_rms_um = std::numeric_limits<double>::quiet_NaN();   ///< what the other explains (RMS)
+  /// "sphere_form" is the form of a design that separates it, at the highest degree searched (it
+  /// turns with the sphere), not a pattern fixed on the sphere in one placement.
+  bool form_turns_with_sphere = false;
 };
 
 /// How the trace treated the sphere's form.
