@@ -6,7 +6,7 @@
 #
 # Prints one row per case: the runs, how many found exactly the simulated effects, how many
 # added an effect that was not simulated, the median form rms recovered / simulated (cases with
-# the sphere turned on its mount), and the median cv rms / sigma.
+# the sphere turned on its mount), the median cv rms / sigma, and how often each effect was added.
 set -eu
 build=${1:-build}
 runs=${2:-5}
@@ -46,7 +46,7 @@ wobble_L80_2|phi_wobble|$pivot --effect-arcsec phi_wobble.x_c2=2|no|$pivot
 incidence_30|probe_incidence|--effect-um probe_incidence.i1=30|no|
 eccentricities+incidence_30|probe_incidence|$eccentricities --effect-um probe_incidence.i1=30|no|"
 
-printf '%-30s %5s %7s %7s %12s %10s\n' case runs right wrong form_ratio cv/sigma
+printf '%-30s %5s %7s %7s %12s %10s  %s\n' case runs right wrong form_ratio cv/sigma 'effects added (count)'
 echo "$cases" | while IFS='|' read -r name expected args strip cal_args; do
   i=1
   : >"$work/rows"
@@ -69,17 +69,25 @@ added = set(r.get("effects_added", []))
 form = r.get("sphere_form", {})
 truth_rms = t.get("form", {}).get("harmonics", {}).get("rms_um", 0.0)
 ratio = form.get("rms_um", 0.0) / truth_rms if form.get("degree_max", 0) > 0 and truth_rms > 0 else float("nan")
-print(int(added == expected), int(bool(added - expected)), ratio, r["after"]["cv_rms_um"] / float(sys.argv[4]))
+print(int(added == expected), int(bool(added - expected)), ratio, r["after"]["cv_rms_um"] / float(sys.argv[4]),
+      ",".join(sorted(added)) or "-")
 EOF
     i=$((i + 1))
   done
   /usr/bin/env python3 - "$name" "$work/rows" <<'EOF'
 import math, sys
-rows = [list(map(float, l.split())) for l in open(sys.argv[2]) if l.strip()]
+lines = [l.split() for l in open(sys.argv[2]) if l.strip()]
+rows = [list(map(float, l[:4])) for l in lines]
+counts = {}
+for l in lines:
+    for e in l[4].split(","):
+        if e != "-":
+            counts[e] = counts.get(e, 0) + 1
 def median(v):
     v = sorted(x for x in v if not math.isnan(x))
     return float("nan") if not v else (v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2]))
-print("%-30s %5d %7d %7d %12.3f %10.3f" % (sys.argv[1], len(rows), sum(r[0] for r in rows), sum(r[1] for r in rows),
-                                         median([r[2] for r in rows]), median([r[3] for r in rows])))
+print("%-30s %5d %7d %7d %12.3f %10.3f  %s" % (sys.argv[1], len(rows), sum(r[0] for r in rows), sum(r[1] for r in rows),
+                                             median([r[2] for r in rows]), median([r[3] for r in rows]),
+                                             "  ".join("%s %d" % (e, k) for e, k in sorted(counts.items()))))
 EOF
 done

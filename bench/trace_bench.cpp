@@ -69,6 +69,45 @@ void BM_Trace4608(benchmark::State& state) {
 }
 BENCHMARK(BM_Trace4608)->UseRealTime()->Unit(benchmark::kMillisecond);
 
+// A separation: the sphere in five orientations on its mount (turned by 90 and 180 deg about z,
+// tilted by 90 deg about x and y), 288 points each (1440 in all), each setup in another scan
+// order, with a form of 0.05 um rms of degrees 2..8, a Theta encoder error of 5 arcsec at 3 per
+// turn and a probe drift of 0.4 um: the form's degree chosen, the effects found beside it, 2 threads.
+void BM_Trace1440FiveOrientations(benchmark::State& state) {
+  sph::SimulationSpec spec;
+  spec.seed = 3;
+  spec.centers_mm = std::vector<Eigen::Vector3d>(5, Eigen::Vector3d(2.0, 0.0, 0.0));
+  spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {0, 0, 180}}, {3, {90, 0, 0}}, {4, {0, 90, 0}}};
+  spec.scan_orders = {{1, sph::ScanOrder::kSerpentine},
+                      {2, sph::ScanOrder::kColumns},
+                      {3, sph::ScanOrder::kReversed},
+                      {4, sph::ScanOrder::kShuffled}};
+  spec.effects.model.terms = {{sph::Effect::kThetaEncoder, {{3, 0, false}}},
+                              {sph::Effect::kProbeDrift, {{1, 0, false}}}};
+  spec.effects.values = {{5 * sph::kRadPerArcsec}, {0.4 * sph::kMmPerUm}};
+  spec.effects.form = {{2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043},
+                       {4, 2, 0.031},  {5, -2, 0.037}, {5, 4, -0.025}, {6, 1, 0.031},  {6, -5, 0.025},
+                       {7, 3, -0.025}, {8, 0, 0.025},  {8, -6, 0.019}};
+  const sph::PointsData data = sph::Simulate(spec);
+  const sph::CalibrationOptions o = Options();
+  sph::TraceOptions trace;
+  trace.threads = 2;
+  std::size_t added = 0;
+  int degree = 0;
+  for (auto _ : state) {
+    const sph::CalibrationResult base = sph::Calibrate(data, o);
+    const sph::TraceResult r = sph::TraceResidual(data, o, base, trace);
+    added = r.added.size();
+    degree = r.form.degree_max;
+    benchmark::DoNotOptimize(r.after.cv_rms_um);
+  }
+  state.counters["points"] = static_cast<double>(data.samples.size());
+  state.counters["effects_added"] = static_cast<double>(added);
+  state.counters["form_degree"] = degree;
+  state.counters["peak_rss_MB"] = sph::bench::PeakRssMb();
+}
+BENCHMARK(BM_Trace1440FiveOrientations)->UseRealTime()->Unit(benchmark::kMillisecond);
+
 // One fit with one effect term of 6 parameters (Theta encoder harmonics 2..4), with the analysis.
 void BM_FitOneEffect(benchmark::State& state) {
   const sph::PointsData data = Data(false);

@@ -3,10 +3,18 @@
 // by hand (README.md, "Closing the loop"); it prints one line per case.
 //
 //   build/bench/trace_study [trials]      (default 100 for the clean case, 40 for the others)
+//   build/bench/trace_study --false-additions [runs]   (default 500)
+//
+// The second form counts the runs that add any effect to data that have none: clean data, data
+// with a form error of the sphere in one placement, and the same sphere in three orientations on
+// its mount, with the rate's exact (Clopper-Pearson) 95 % confidence interval.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sph/calib/trace.hpp"
@@ -24,9 +32,93 @@ struct Case {
   std::vector<sph::FormComponent> form;  // instead of an effect: the reference sphere's own form error
 };
 
+// P(X <= k) for X ~ Binomial(n, p), 0 < p < 1.
+double BinomialCdf(int k, int n, double p) {
+  double sum = 0.0;
+  for (int i = 0; i <= k; ++i) {
+    sum += std::exp(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0) + i * std::log(p) +
+                    (n - i) * std::log1p(-p));
+  }
+  return sum;
+}
+
+// The p at which `f`, falling in p, equals `target`, by bisection on (0, 1).
+template <typename F>
+double Solve(F f, double target) {
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (f(mid) > target ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// The exact (Clopper-Pearson) two-sided 95 % interval of a binomial rate, k of n: the p at which
+// P(X >= k) = 2.5 % and the p at which P(X <= k) = 2.5 % (each CDF falls as p rises).
+std::pair<double, double> ClopperPearson(int k, int n) {
+  const double lo = k == 0 ? 0.0 : Solve([&](double p) { return BinomialCdf(k - 1, n, p); }, 0.975);
+  const double hi = k == n ? 1.0 : Solve([&](double p) { return BinomialCdf(k, n, p); }, 0.025);
+  return {lo, hi};
+}
+
+const std::vector<sph::FormComponent>& Form28() {
+  // 0.050 um rms of degrees 2..8 (bench/separation_study.sh's form28).
+  static const std::vector<sph::FormComponent> form{
+      {2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043}, {4, 2, 0.031}, {5, -2, 0.037},
+      {5, 4, -0.025}, {6, 1, 0.031},  {6, -5, 0.025}, {7, 3, -0.025}, {8, 0, 0.025},  {8, -6, 0.019}};
+  return form;
+}
+
+int FalseAdditions(int runs, const sph::CalibrationOptions& o) {
+  struct Clean {
+    const char* name;
+    bool form;
+    bool turned;
+  };
+  std::printf(
+      "false additions: data without any effect of the machine, %d runs per case, sigma_r 0.05 um,\n"
+      "the paper's pattern at 2 mm; form28: 0.050 um rms of degrees 2..8; turned: three setups, the sphere\n"
+      "at 0 deg, turned by 90 deg about z and tilted by 90 deg about x, each in another scan order\n",
+      runs);
+  std::printf("%-28s %6s %6s %8s %22s  %s\n", "case", "runs", "added", "rate", "95 % interval (exact)",
+              "effects added (count)");
+  for (const Clean& c : {Clean{"clean, one placement", false, false}, Clean{"form28, one placement", true, false},
+                         Clean{"form28, turned", true, true}}) {
+    int added = 0;
+    std::map<std::string, int> counts;
+    for (int seed = 1; seed <= runs; ++seed) {
+      sph::SimulationSpec spec;
+      spec.seed = static_cast<std::uint64_t>(1000 + seed);
+      if (c.form) spec.effects.form = Form28();
+      if (c.turned) {
+        spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(2, 0, 0)};
+        spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {90, 0, 0}}};
+        spec.scan_orders = {{1, sph::ScanOrder::kSerpentine}, {2, sph::ScanOrder::kColumns}};
+      }
+      const sph::PointsData points = sph::Simulate(spec);
+      const sph::TraceResult r = sph::TraceResidual(points, o, sph::Calibrate(points, o), sph::TraceOptions{});
+      added += !r.added.empty();
+      for (sph::Effect e : r.added) counts[sph::InfoOf(e).id]++;
+    }
+    const auto [lo, hi] = ClopperPearson(added, runs);
+    std::string list;
+    for (const auto& [id, k] : counts) list += id + " " + std::to_string(k) + "  ";
+    std::printf("%-28s %6d %6d %7.2f%% %9.2f%% to %6.2f%%  %s\n", c.name, runs, added, 100.0 * added / runs, 100.0 * lo,
+                100.0 * hi, list.c_str());
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  sph::CalibrationOptions paper;
+  paper.sphere_radius_mm = 20.0;
+  paper.probe_offset_mm = 25.0;
+  if (argc > 1 && std::strcmp(argv[1], "--false-additions") == 0) {
+    return FalseAdditions(argc > 2 ? std::atoi(argv[2]) : 500, paper);
+  }
   const int trials = argc > 1 ? std::atoi(argv[1]) : 0;
   using sph::Effect;
   const double as = sph::kRadPerArcsec, um = sph::kMmPerUm;
@@ -42,9 +134,7 @@ int main(int argc, char** argv) {
       {"form S(3,2)", Effect::kProbeGain, {}, 0.0, "0.2 um", {{3, 2, 0.2}}},
       {"form S(5,3)", Effect::kProbeGain, {}, 0.0, "0.3 um", {{5, 3, 0.3}}},
   };
-  sph::CalibrationOptions o;
-  o.sphere_radius_mm = 20.0;
-  o.probe_offset_mm = 25.0;
+  const sph::CalibrationOptions& o = paper;
   std::printf("the paper's set-up (one position at 2 mm, 24 x 12 points, sigma_r 0.05 um), one effect at a time;\n"
               "'form': the reference sphere's own form error, which no effect of the library is\n");
   std::printf("%-18s %-16s %7s %9s %9s %11s %12s  %s\n", "effect", "size", "trials", "added", "it alone", "ambiguous",
