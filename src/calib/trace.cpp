@@ -750,8 +750,12 @@ bool ShownBeyondForm(const Readings& data, const CalibrationOptions& options, co
   model.terms.push_back(c.term);
   const EffectFit with =
       internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(full));
+  if (!with.calibration.converged) {  // a fit that does not settle beside that form: not separable from it
+    *delta_ebic = std::numeric_limits<double>::quiet_NaN();
+    return false;
+  }
   *delta_ebic = with.Bic() - full.Bic() + SearchPenalty(c.term, trace);
-  if (!with.calibration.converged || !(*delta_ebic <= -trace.min_delta_bic)) return false;
+  if (!(*delta_ebic <= -trace.min_delta_bic)) return false;
   // Its components must stay separable from that form, as FitCandidate() asks (that one of them
   // is less significant among that many form terms is no sign of the form explaining it).
   const int offset = with.TermOffset(model.terms.size() - 1);
