@@ -1,0 +1,205 @@
+// The separation matrix: what the residual trace finds on data made by the simulator (ray-traced,
+// independent of the fit), for each library effect alone, every pair among six of them and three
+// at once, each with and without a form error of the sphere (0.050 um rms of degrees 2..8), in one
+// placement, with the sphere in three orientations on its mount and in five placements (Design()),
+// at two noise levels. A study
+// program, run by hand (README.md, "Closing the loop"):
+//
+//   build/bench/separation_matrix [RUNS]      (default 5 runs per cell, seeds 1..RUNS)
+//
+// Prints a row per cell (right: exactly the simulated effects added; wrong: an effect added that
+// was not simulated; form ratio: the form rms found over the simulated one, median; cv/sigma:
+// the cross-validated rms over the noise, median; the effects added with their counts), then a
+// summary per group of cases.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "sph/calib/form_report.hpp"
+#include "sph/calib/trace.hpp"
+#include "sph/core/simulate.hpp"
+#include "sph/model/units.hpp"
+
+namespace {
+
+using sph::Effect;
+
+// One simulated effect: a component of a library effect and its size (rad or mm).
+struct Simulated {
+  Effect effect;
+  sph::EffectComponent component;
+  double value;
+};
+
+constexpr double kPivotMm = 80.0;  // the Phi wobble's pivot, told to the simulator and the trace
+
+const std::map<Effect, Simulated>& Library() {
+  const double as = sph::kRadPerArcsec, um = sph::kMmPerUm;
+  static const std::map<Effect, Simulated> library{
+      {Effect::kThetaEncoder, {Effect::kThetaEncoder, {3, 0, false}, 5 * as}},
+      {Effect::kPhiEncoder, {Effect::kPhiEncoder, {1, 0, false}, 10 * as}},
+      {Effect::kThetaRadialMotion, {Effect::kThetaRadialMotion, {2, 0, false}, 0.3 * um}},
+      {Effect::kThetaAxialMotion, {Effect::kThetaAxialMotion, {2, 0, false}, 0.3 * um}},
+      {Effect::kPhiWobble, {Effect::kPhiWobble, {2, 0, false}, 2 * as}},
+      {Effect::kProbeGain, {Effect::kProbeGain, {1, 0, false}, 10 * um}},
+      {Effect::kProbeNonlinearity, {Effect::kProbeNonlinearity, {3, 0, false}, 0.15 * um}},
+      {Effect::kProbeDrift, {Effect::kProbeDrift, {1, 0, false}, 0.4 * um}},
+      {Effect::kPhiRadialMotion, {Effect::kPhiRadialMotion, {2, 0, false}, 0.3 * um}},
+      {Effect::kPhiAxialMotion, {Effect::kPhiAxialMotion, {2, 0, false}, 2 * um}},
+      {Effect::kThetaTiltMotion, {Effect::kThetaTiltMotion, {2, 0, false}, 10 * as}},
+      {Effect::kProbeIncidence, {Effect::kProbeIncidence, {1, 0, false}, 30 * um}},
+  };
+  return library;
+}
+
+struct Case {
+  std::string group;  // "single", "pair", "three"
+  std::vector<Effect> effects;
+};
+
+std::vector<Case> Cases() {
+  std::vector<Case> cases;
+  for (const auto& [e, s] : Library()) cases.push_back({"single", {e}});
+  const std::vector<Effect> six{Effect::kThetaEncoder, Effect::kPhiEncoder,  Effect::kThetaRadialMotion,
+                                Effect::kProbeDrift,   Effect::kProbeGain,   Effect::kProbeNonlinearity};
+  for (std::size_t i = 0; i < six.size(); ++i) {
+    for (std::size_t j = i + 1; j < six.size(); ++j) cases.push_back({"pair", {six[i], six[j]}});
+  }
+  cases.push_back({"three", {Effect::kThetaEncoder, Effect::kProbeDrift, Effect::kProbeNonlinearity}});
+  return cases;
+}
+
+const std::vector<sph::FormComponent>& Form28() {
+  static const std::vector<sph::FormComponent> form{
+      {2, 0, 0.062}, {2, 2, -0.049}, {3, 1, 0.049}, {3, -3, 0.037}, {4, 0, -0.043}, {4, 2, 0.031}, {5, -2, 0.037},
+      {5, 4, -0.025}, {6, 1, 0.031}, {6, -5, 0.025}, {7, 3, -0.025}, {8, 0, 0.025}, {8, -6, 0.019}};
+  return form;
+}
+
+// The designs: "one", the paper's pattern at (2, 0, 0) mm; "three", the sphere also turned by 90
+// deg about z and tilted by 90 deg about x about its own centre (so that the eccentricity points
+// another way on its body in each), each setup in another scan order; "five", three more
+// placements besides: turned by 90 deg about z with its mount on the Theta table (centre
+// (0, 2, 0) mm), turned by 90 deg about y at another eccentricity and height (1, 0, 3) mm, and by
+// 120 deg about (1, 1, 1) at (0, -1, 0) mm: other eccentricities, azimuths and a height, which
+// tell a Theta encoder error from a spindle motion and a Phi positioning error from a Phi axis
+// motion.
+enum class Setups { kOne, kThree, kFive };
+const char* SetupsName(Setups s) { return s == Setups::kOne ? "one" : s == Setups::kThree ? "three" : "five"; }
+
+sph::SimulationSpec Design(const Case& c, bool form, Setups setups, double noise_um, std::uint64_t seed) {
+  sph::SimulationSpec spec;
+  spec.seed = seed;
+  spec.noise_r_um = noise_um;
+  if (setups == Setups::kThree) {
+    spec.centers_mm.assign(3, Eigen::Vector3d(2, 0, 0));
+    spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {90, 0, 0}}};
+    spec.scan_orders = {{1, sph::ScanOrder::kSerpentine}, {2, sph::ScanOrder::kColumns}};
+  } else if (setups == Setups::kFive) {
+    const double third = 120.0 / std::sqrt(3.0);
+    spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0),
+                       Eigen::Vector3d(1, 0, 3), Eigen::Vector3d(0, -1, 0)};
+    spec.mount_rotations_deg = {{1, {90, 0, 0}}, {2, {0, 0, 90}}, {3, {0, 90, 0}}, {4, {third, third, third}}};
+    spec.scan_orders = {{1, sph::ScanOrder::kColumns},
+                        {2, sph::ScanOrder::kSerpentine},
+                        {3, sph::ScanOrder::kReversed},
+                        {4, sph::ScanOrder::kShuffled}};
+  }
+  spec.effects.model.phi_wobble_pivot_mm = kPivotMm;
+  for (const Effect e : c.effects) {
+    const Simulated& s = Library().at(e);
+    spec.effects.model.terms.push_back({s.effect, {s.component}});
+    spec.effects.values.push_back({s.value});
+  }
+  if (form) spec.effects.form = Form28();
+  return spec;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string Name(const std::vector<Effect>& effects) {
+  std::string s;
+  for (const Effect e : effects) s += (s.empty() ? "" : "+") + std::string(sph::InfoOf(e).id);
+  return s;
+}
+
+struct Tally {
+  int runs = 0, right = 0, wrong = 0;
+  std::vector<double> form_ratio, cv_over_sigma;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int runs = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
+  sph::CalibrationOptions o;
+  o.sphere_radius_mm = 20.0;
+  o.probe_offset_mm = 25.0;
+  sph::TraceOptions trace;
+  trace.phi_wobble_pivot_mm = kPivotMm;
+  std::printf("separation matrix: %d runs per cell (seeds 1..%d), the paper's pattern at 2 mm; form: 0.050 um rms of\n"
+              "degrees 2..8; three: the sphere also turned by 90 deg about z and tilted by 90 deg about x; five: and\n"
+              "at other eccentricities, azimuths and a height (bench/separation_matrix.cpp, Design())\n",
+              runs, runs);
+  std::printf("%-52s %-5s %-6s %5s %5s %6s %6s %8s %8s  %s\n", "effects", "form", "setup", "sigma", "runs", "right",
+              "wrong", "form_r", "cv/sig", "effects added (count)");
+  std::map<std::string, Tally> summary;  // by group, form, design, sigma
+  for (const Case& c : Cases()) {
+    for (const double noise : {0.03, 0.05}) {
+      for (const Setups setups : {Setups::kOne, Setups::kThree, Setups::kFive}) {
+        for (const bool form : {false, true}) {
+          Tally t;
+          std::map<std::string, int> counts;
+          const std::set<Effect> expected(c.effects.begin(), c.effects.end());
+          for (int seed = 1; seed <= runs; ++seed) {
+            const sph::SimulationSpec spec = Design(c, form, setups, noise, static_cast<std::uint64_t>(seed));
+            const sph::PointsData points = sph::Simulate(spec);
+            const sph::TraceResult r = sph::TraceResidual(points, o, sph::Calibrate(points, o), trace);
+            const std::set<Effect> added(r.added.begin(), r.added.end());
+            ++t.runs;
+            t.right += added == expected;
+            t.wrong += std::any_of(added.begin(), added.end(), [&](Effect e) { return expected.count(e) == 0; });
+            for (const Effect e : added) counts[sph::InfoOf(e).id]++;
+            t.cv_over_sigma.push_back(r.after.cv_rms_um / noise);
+            if (form && r.form.degree_max > 0) {
+              const std::vector<sph::SphereFormResult> found = sph::SphereFormOf(r.after.fit);
+              if (!found.empty()) {
+                t.form_ratio.push_back(found[0].rms_um / sph::FormSizeOf(spec.effects, spec.sphere_radius_mm).rms_um);
+              }
+            }
+          }
+          std::string list;
+          for (const auto& [id, k] : counts) list += id + " " + std::to_string(k) + "  ";
+          std::printf("%-52s %-5s %-6s %5.2f %5d %6d %6d %8.3f %8.3f  %s\n", Name(c.effects).c_str(),
+                      form ? "yes" : "no", SetupsName(setups), noise, t.runs, t.right, t.wrong,
+                      Median(t.form_ratio), Median(t.cv_over_sigma), list.c_str());
+          std::fflush(stdout);
+          Tally& s = summary[c.group + (form ? " form " : " - ") + SetupsName(setups) +
+                             (noise < 0.04 ? " 0.03" : " 0.05")];
+          s.runs += t.runs;
+          s.right += t.right;
+          s.wrong += t.wrong;
+          s.form_ratio.insert(s.form_ratio.end(), t.form_ratio.begin(), t.form_ratio.end());
+          s.cv_over_sigma.insert(s.cv_over_sigma.end(), t.cv_over_sigma.begin(), t.cv_over_sigma.end());
+        }
+      }
+    }
+  }
+  std::printf("\nsummary: group form setup sigma | runs right wrong | median form ratio, cv/sigma\n");
+  for (const auto& [key, s] : summary) {
+    std::printf("%-26s %5d %6d %6d %8.3f %8.3f\n", key.c_str(), s.runs, s.right, s.wrong, Median(s.form_ratio),
+                Median(s.cv_over_sigma));
+  }
+  return 0;
+}
