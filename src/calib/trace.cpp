@@ -837,7 +837,15 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
       a.chosen_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - full_rms * full_rms));
       a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
       a.form_turns_with_sphere = true;
-      r.ambiguous.push_back(a);
+      // Once per candidate: a later round's sizes replace an earlier round's.
+      const auto same = std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [&](const Ambiguity& x) {
+        return x.form_turns_with_sphere && x.chosen == a.chosen && x.other == a.other;
+      });
+      if (same != r.ambiguous.end()) {
+        *same = a;
+      } else {
+        r.ambiguous.push_back(a);
+      }
     }
   }
   const CandidateScore* chosen = nullptr;
