@@ -783,6 +783,46 @@ constexpr const char* kSeparateFromTurningForm =
     "orientations of the sphere on its mount that point the eccentricity elsewhere on its body, or a second "
     "eccentricity (sph_montecarlo --plan-orientations proposes orientations)";
 
+// With a design that separates the form: the best admissible candidate of `tried` that still
+// qualifies beside the form of the highest degree searched (ShownBeyondForm()), or -1. Those that
+// qualify only without it get a note, go into *not_beyond_form and are reported in r.ambiguous as
+// two explanations with that form, once per candidate (a later round's sizes replace an earlier's).
+int BestBesideForm(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                   const TraceOptions& trace, Tried& tried, TraceResult& r, std::set<Effect>* not_beyond_form) {
+  const EffectFit full = FullForm(data, options, current, r.form);
+  std::map<Effect, double> beyond;  // the candidates tried: their extended BIC beside that form
+  const int best = BestAdmissible(tried, current, trace, [&](const CandidateScore& c) {
+    return full.calibration.converged && ShownBeyondForm(data, options, c, full, trace, &beyond[c.effect]);
+  });
+  const double cur_rms = current.fit.calibration.rms_um, full_rms = full.calibration.rms_um;
+  for (auto& [c, fit] : tried) {
+    const auto b = beyond.find(c.effect);
+    if (b == beyond.end() || b->second <= -trace.min_delta_bic) continue;
+    not_beyond_form->insert(c.effect);
+    c.note +=
+        std::string(c.note.empty() ? "" : "; ") +
+        (std::isnan(b->second)
+             ? Format("qualifies, but is not separable from the sphere's form of degrees 2..%d", r.form.degree_limit)
+             : Format("qualifies, but not beside the sphere's form of degrees 2..%d (delta BIC %.1f there)",
+                      r.form.degree_limit, b->second));
+    Ambiguity a{"sphere_form", c.Id(), std::numeric_limits<double>::quiet_NaN(),
+                c.delta_bic,   0.0,    kSeparateFromTurningForm};
+    a.chosen_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - full_rms * full_rms));
+    a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
+    a.form_turns_with_sphere = true;
+    // Once per candidate: a later round's sizes replace an earlier round's.
+    const auto same = std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [&](const Ambiguity& x) {
+      return x.form_turns_with_sphere && x.chosen == a.chosen && x.other == a.other;
+    });
+    if (same != r.ambiguous.end()) {
+      *same = a;
+    } else {
+      r.ambiguous.push_back(a);
+    }
+  }
+  return best;
+}
+
 // One forward round: every effect of `pool` not yet in the model scored against `current`; the
 // best admissible one is added (true), or none is and the search ends (false). The round's scores
 // and ambiguities go into `r`.
@@ -815,38 +855,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   form.note = SphereCompetitorNote(sphere, form_better, form_wins);
   std::set<Effect> not_beyond_form;  // admissible, but a form of a higher degree explains them as well
   if (r.form.separable && best >= 0 && r.form.degree_limit > r.form.degree_max) {
-    // The effect added must be more than a form of a higher degree (a form turns with the sphere).
-    const EffectFit full = FullForm(data, options, current, r.form);
-    std::map<Effect, double> beyond;  // the candidates tried: their extended BIC beside that form
-    best = BestAdmissible(tried, current, trace, [&](const CandidateScore& c) {
-      return full.calibration.converged && ShownBeyondForm(data, options, c, full, trace, &beyond[c.effect]);
-    });
-    const double cur_rms = current.fit.calibration.rms_um, full_rms = full.calibration.rms_um;
-    for (auto& [c, fit] : tried) {
-      const auto b = beyond.find(c.effect);
-      if (b == beyond.end() || b->second <= -trace.min_delta_bic) continue;
-      not_beyond_form.insert(c.effect);
-      c.note +=
-          std::string(c.note.empty() ? "" : "; ") +
-          (std::isnan(b->second)
-               ? Format("qualifies, but is not separable from the sphere's form of degrees 2..%d", r.form.degree_limit)
-               : Format("qualifies, but not beside the sphere's form of degrees 2..%d (delta BIC %.1f there)",
-                        r.form.degree_limit, b->second));
-      Ambiguity a{"sphere_form", c.Id(), std::numeric_limits<double>::quiet_NaN(),
-                  c.delta_bic,   0.0,    kSeparateFromTurningForm};
-      a.chosen_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - full_rms * full_rms));
-      a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
-      a.form_turns_with_sphere = true;
-      // Once per candidate: a later round's sizes replace an earlier round's.
-      const auto same = std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [&](const Ambiguity& x) {
-        return x.form_turns_with_sphere && x.chosen == a.chosen && x.other == a.other;
-      });
-      if (same != r.ambiguous.end()) {
-        *same = a;
-      } else {
-        r.ambiguous.push_back(a);
-      }
-    }
+    best = BestBesideForm(data, options, current, trace, tried, r, &not_beyond_form);
   }
   const CandidateScore* chosen = nullptr;
   if (best < 0 || form_wins) {
