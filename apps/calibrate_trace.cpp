@@ -47,6 +47,8 @@ json GroupJson(const StructureGroup& g) {
           {"strongest_rms_um", g.strongest_rms_um}, {"delta_bic", g.delta_bic}};
 }
 
+json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
 json FitJson(const TracedFit& f) {
   json structure = json::object();
   for (const StructureGroup& g : f.structure.groups) structure[g.variable] = GroupJson(g);
@@ -54,6 +56,7 @@ json FitJson(const TracedFit& f) {
   return {{"rms_um", f.fit.calibration.rms_um},
           {"pv_um", f.fit.calibration.pv_um},
           {"cv_rms_um", f.cv_rms_um},
+          {"loso_rms_um", NumberOrNull(f.loso_rms_um)},
           {"structure_p_value", f.structure.all.p_value},
           {"structure", structure},
           {"theta_harmonics_um", f.structure.theta_harmonics_um},
@@ -61,7 +64,6 @@ json FitJson(const TracedFit& f) {
           {"bic", f.fit.Bic()}};
 }
 
-json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 json SphereFormJson(const SphereFormResult& f) {
   json terms = json::array();
@@ -246,6 +248,11 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   for (Effect e : r.added) added += (added.empty() ? "" : " + ") + std::string(InfoOf(e).id);
   out << Format("  %-34s %10.4f %10.4f %10.4f %12.2g\n", ("after" + (added.empty() ? "" : " (+ " + added + ")")).c_str(),
                 a.fit.calibration.rms_um, a.fit.calibration.pv_um, a.cv_rms_um, a.structure.all.p_value);
+  if (std::isfinite(b.loso_rms_um) && std::isfinite(a.loso_rms_um)) {
+    out << Format("  leave one setup out (each setup of known orientation predicted from the others, its centre "
+                  "refitted): rms %.4f um before, %.4f um after\n",
+                  b.loso_rms_um, a.loso_rms_um);
+  }
   out << "  structure before, by variable (F test against white noise):\n";
   for (const StructureGroup& g : b.structure.groups) {
     out << Format("    %-7s explains %.4f um rms, p = %.2g, strongest %s (%.4f um rms alone)\n", g.variable.c_str(),

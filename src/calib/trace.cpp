@@ -12,9 +12,12 @@
 #include <system_error>
 #include <thread>
 
+#include <Eigen/QR>
+
 #include "effect_fit_rows.hpp"
 #include "fit_problem.hpp"
 #include "sph/calib/identifiability.hpp"
+#include "sph/core/error.hpp"
 #include "sph/core/gum.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/form_model.hpp"
@@ -89,6 +92,7 @@ struct Readings {
 
 double CrossValidated(const Readings& data, const CalibrationOptions& options, const EffectModel& model,
                       const EffectFitStart& start, int folds, std::uint64_t seed);
+double LeaveOneSetupOut(const Readings& data, const CalibrationOptions& options, const EffectFit& fit);
 
 // Unit directions from the fitted centre to each probed point, at the readings the fit expects
 // (r + e, as the structure analysis' other functions of r): the measured r would carry the noise
@@ -550,7 +554,94 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
   return std::sqrt(sum2 / static_cast<double>(m)) * kUmPerMm;
 }
 
+// The readings of setup `k` of `fit` (rows not in `others`) under `fit` with that setup's centre
+// refitted alone, by Gauss-Newton with a forward-difference Jacobian (the model's own residuals,
+// so every effect and the form are in it); their residuals [mm], table-indexed (the others 0).
+std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>& others,
+                                  const CalibrationOptions& options, EffectFit fit, std::size_t k) {
+  constexpr double kStepMm = 1e-6;
+  std::vector<double> e = internal::ResidualsAt(data.table, &others, options, fit, data.points.source);
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    std::vector<std::size_t> rows;
+    for (std::size_t i = 0; i < others.size(); ++i) {
+      if (!others[i]) rows.push_back(i);
+    }
+    Eigen::MatrixXd j(static_cast<Eigen::Index>(rows.size()), 3);
+    Eigen::VectorXd r(static_cast<Eigen::Index>(rows.size()));
+    for (std::size_t q = 0; q < rows.size(); ++q) r(static_cast<Eigen::Index>(q)) = e[rows[q]];
+    for (int c = 0; c < 3; ++c) {
+      EffectFit moved = fit;
+      moved.calibration.centers_mm[k](c) += kStepMm;
+      const std::vector<double> e2 = internal::ResidualsAt(data.table, &others, options, moved, data.points.source);
+      for (std::size_t q = 0; q < rows.size(); ++q) {
+        j(static_cast<Eigen::Index>(q), c) = (e2[rows[q]] - e[rows[q]]) / kStepMm;
+      }
+    }
+    const Eigen::Vector3d step = j.colPivHouseholderQr().solve(-r);
+    if (!step.allFinite()) break;
+    fit.calibration.centers_mm[k] += step;
+    e = internal::ResidualsAt(data.table, &others, options, fit, data.points.source);
+    if (step.norm() < 1e-9) break;
+  }
+  return e;
+}
+
+double LeaveOneSetupOut(const Readings& data, const CalibrationOptions& options, const EffectFit& fit) {
+  const PointsData& points = data.points;
+  const std::vector<int>& ids = fit.calibration.setup_ids;
+  if (ids.size() < 2) return std::numeric_limits<double>::quiet_NaN();
+  const std::size_t m = points.samples.size();
+  CalibrationOptions quick = options;
+  quick.analyse = false;
+  internal::LmWorkspace workspace;
+  double sum2 = 0.0;
+  std::size_t n = 0;
+  std::vector<bool> held(m), others(m);  // fitted without the setup, then predicted on it
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const auto rotation = points.header.mount_rotations.find(ids[k]);
+    if (rotation != points.header.mount_rotations.end() && !rotation->second.known()) continue;
+    for (std::size_t i = 0; i < m; ++i) {
+      held[i] = points.samples[i].setup == ids[k];
+      others[i] = !held[i];
+    }
+    // The fit without the setup has no centre for it; the prediction starts its centre where the
+    // fit of all the setups put it.
+    EffectFitStart start = EffectFitStart::From(fit);
+    start.centers_mm.erase(start.centers_mm.begin() + static_cast<std::ptrdiff_t>(k));
+    EffectFit rest;
+    try {
+      rest = internal::FitEffectsRows(points, data.table, &held, quick, fit.model, start, &workspace);
+    } catch (const Error&) {
+      continue;  // the other setups cannot be fitted without it (too few readings): not predicted
+    }
+    EffectFit predict = rest;
+    predict.calibration.setup_ids = ids;
+    predict.calibration.centers_mm = fit.calibration.centers_mm;
+    for (std::size_t j = 0; j < rest.calibration.setup_ids.size(); ++j) {
+      const auto at = std::find(ids.begin(), ids.end(), rest.calibration.setup_ids[j]);
+      predict.calibration.centers_mm[static_cast<std::size_t>(at - ids.begin())] = rest.calibration.centers_mm[j];
+    }
+    const std::vector<double> e = WithOwnCentre(data, others, options, predict, k);
+    for (std::size_t i = 0; i < m; ++i) {
+      if (!held[i]) continue;
+      sum2 += e[i] * e[i];
+      ++n;
+    }
+  }
+  return n == 0 ? std::numeric_limits<double>::quiet_NaN() : std::sqrt(sum2 / static_cast<double>(n)) * kUmPerMm;
+}
+
+// The leave-one-setup-out rms of the model before and after, on the readings they were fitted to.
+void TransferTest(const Readings& data, const CalibrationOptions& options, TraceResult& r) {
+  r.before.loso_rms_um = LeaveOneSetupOut(data, options, r.before.fit);
+  r.after.loso_rms_um = LeaveOneSetupOut(data, options, r.after.fit);
+}
+
 }  // namespace
+
+double LeaveOneSetupOutRms(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
+  return LeaveOneSetupOut(Readings(points), options, fit);
+}
 
 double CrossValidatedRms(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
                          const EffectFitStart& start, int folds, std::uint64_t seed) {
@@ -952,6 +1043,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
   }
   RemoveUnneeded(data, options, trace, current, r);
   r.after = std::move(current);
+  TransferTest(data, options, r);
   RejudgeOutliers(all, options, base, trace, r.after);
   r.unexplained = RemainingStructure(r.after.structure, trace);
   return r;
@@ -973,6 +1065,7 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
   r.after = Analysed(
       internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(r.before.fit)),
       data, options, trace);
+  TransferTest(data, options, r);
   RejudgeOutliers(all, options, base, trace, r.after);
   r.unexplained = RemainingStructure(r.after.structure, trace);
   return r;

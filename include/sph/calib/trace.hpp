@@ -157,6 +157,11 @@ struct TracedFit {
   StructureFactor factor;                   ///< what the residual analyses of this fit are computed from
   ResidualStructure structure;
   double cv_rms_um = 0.0;
+  /// The transfer test of a file with two or more setups: each setup of known orientation predicted
+  /// by the model fitted to the others, with only its own centre refitted; the rms over those
+  /// setups' readings [um]. A form that turns with the sphere transfers, a form mistaken for a
+  /// machine error does not. NaN with fewer than two setups (LeaveOneSetupOutRms()).
+  double loso_rms_um = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct TraceResult {
@@ -183,6 +188,14 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
 TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options,
                             const CalibrationResult& base, const std::vector<Effect>& effects,
                             const TraceOptions& trace);
+
+/// The leave-one-setup-out RMS [um] of `fit` (a fit of `points`, TracedFit::loso_rms_um): for each
+/// setup of known orientation, `fit`'s model is fitted to the other setups' readings, from `fit`,
+/// and the setup's readings are predicted with only its centre refitted (Gauss-Newton). A setup
+/// of unknown orientation is not predicted (its form is its own), but its readings take part in
+/// the other fits; nor is a setup without which the others cannot be fitted (too few readings).
+/// NaN when no setup is predicted (one setup, or none of known orientation).
+double LeaveOneSetupOutRms(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);
 
 /// The cross-validated RMS [um] of `model` on `points`: `folds` random folds (seeded), each fitted
 /// from `start` without its points and then predicted.
