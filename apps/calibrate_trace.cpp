@@ -64,7 +64,6 @@ json FitJson(const TracedFit& f) {
           {"bic", f.fit.Bic()}};
 }
 
-
 json SphereFormJson(const SphereFormResult& f) {
   json terms = json::array();
   for (const FormTermValue& t : f.terms) {
@@ -249,9 +248,10 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   out << Format("  %-34s %10.4f %10.4f %10.4f %12.2g\n", ("after" + (added.empty() ? "" : " (+ " + added + ")")).c_str(),
                 a.fit.calibration.rms_um, a.fit.calibration.pv_um, a.cv_rms_um, a.structure.all.p_value);
   if (std::isfinite(b.loso_rms_um) && std::isfinite(a.loso_rms_um)) {
-    out << Format("  leave one setup out (each setup of known orientation predicted from the others, its centre "
-                  "refitted): rms %.4f um before, %.4f um after\n",
-                  b.loso_rms_um, a.loso_rms_um);
+    out << Format(
+        "  leave one setup out (each setup of known orientation predicted from the others, its centre "
+        "refitted): rms %.4f um before, %.4f um after\n",
+        b.loso_rms_um, a.loso_rms_um);
   }
   out << "  structure before, by variable (F test against white noise):\n";
   for (const StructureGroup& g : b.structure.groups) {

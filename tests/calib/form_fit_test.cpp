@@ -326,8 +326,8 @@ TEST(LeaveOneSetupOut, TheChosenModelTransfersWhereTheDesignSeparatesTheForm) {
   spec.seed = 3;
   spec.centers_mm = std::vector<Eigen::Vector3d>(5, Eigen::Vector3d(2.0, 0.0, 0.0));
   spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {0, 0, 180}}, {3, {90, 0, 0}}, {4, {0, 90, 0}}};
-  spec.scan_orders = {{1, ScanOrder::kSerpentine}, {2, ScanOrder::kColumns}, {3, ScanOrder::kReversed},
-                      {4, ScanOrder::kShuffled}};
+  spec.scan_orders = {
+      {1, ScanOrder::kSerpentine}, {2, ScanOrder::kColumns}, {3, ScanOrder::kReversed}, {4, ScanOrder::kShuffled}};
   spec.effects.model.terms = {{Effect::kThetaEncoder, {{3, 0, false}}}, {Effect::kProbeDrift, {{1, 0, false}}}};
   spec.effects.values = {{5 * kRadPerArcsec}, {0.4 * kMmPerUm}};
   spec.effects.form = {{2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043},
