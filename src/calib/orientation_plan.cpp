@@ -22,7 +22,6 @@ PointsData DesignOf(const SimulationSpec& design, const std::vector<Eigen::Vecto
     spec.mount_rotations_deg[static_cast<int>(k)] = rotations_deg[k];
   }
   spec.effects = SimulatedEffects{};
-  spec.noise_r_um = spec.noise_theta_arcsec = spec.noise_phi_arcsec = 0.0;
   PointsData points = SimulateExact(spec);
   points.source = "the planned design";
   return points;

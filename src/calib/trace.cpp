@@ -560,12 +560,12 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
 std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>& others,
                                   const CalibrationOptions& options, EffectFit fit, std::size_t k) {
   constexpr double kStepMm = 1e-6;
+  std::vector<std::size_t> rows;
+  for (std::size_t i = 0; i < others.size(); ++i) {
+    if (!others[i]) rows.push_back(i);
+  }
   std::vector<double> e = internal::ResidualsAt(data.table, &others, options, fit, data.points.source);
   for (int iteration = 0; iteration < 10; ++iteration) {
-    std::vector<std::size_t> rows;
-    for (std::size_t i = 0; i < others.size(); ++i) {
-      if (!others[i]) rows.push_back(i);
-    }
     Eigen::MatrixXd j(static_cast<Eigen::Index>(rows.size()), 3);
     Eigen::VectorXd r(static_cast<Eigen::Index>(rows.size()));
     for (std::size_t q = 0; q < rows.size(); ++q) r(static_cast<Eigen::Index>(q)) = e[rows[q]];
@@ -834,17 +834,17 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
 // form of some degree explains as well turns with the sphere in this design: a probe polynomial,
 // for one, when the eccentricity points the same way on the sphere's body in every setup. `full`
 // is the current model with that form (fitted once per round); *delta_ebic gets the candidate's
-// score beside it.
+// score beside it (NaN where it is not separable from that form).
 bool ShownBeyondForm(const Readings& data, const CalibrationOptions& options, const CandidateScore& c,
                      const EffectFit& full, const TraceOptions& trace, double* delta_ebic) {
+  // A fit that does not settle, the form's alone or with the candidate: not separable from it.
+  *delta_ebic = std::numeric_limits<double>::quiet_NaN();
+  if (!full.calibration.converged) return false;
   EffectModel model = full.model;
   model.terms.push_back(c.term);
   const EffectFit with =
       internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(full));
-  if (!with.calibration.converged) {  // a fit that does not settle beside that form: not separable from it
-    *delta_ebic = std::numeric_limits<double>::quiet_NaN();
-    return false;
-  }
+  if (!with.calibration.converged) return false;
   *delta_ebic = with.Bic() - full.Bic() + SearchPenalty(c.term, trace);
   if (!(*delta_ebic <= -trace.min_delta_bic)) return false;
   // Its components must stay separable from that form, as FitCandidate() asks (that one of them
@@ -883,7 +883,7 @@ int BestBesideForm(const Readings& data, const CalibrationOptions& options, cons
   const EffectFit full = FullForm(data, options, current, r.form);
   std::map<Effect, double> beyond;  // the candidates tried: their extended BIC beside that form
   const int best = BestAdmissible(tried, current, trace, [&](const CandidateScore& c) {
-    return full.calibration.converged && ShownBeyondForm(data, options, c, full, trace, &beyond[c.effect]);
+    return ShownBeyondForm(data, options, c, full, trace, &beyond[c.effect]);
   });
   const double cur_rms = current.fit.calibration.rms_um, full_rms = full.calibration.rms_um;
   for (auto& [c, fit] : tried) {
