@@ -25,6 +25,7 @@
 #include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
+#include "study_designs.hpp"
 
 namespace {
 
@@ -75,13 +76,6 @@ std::vector<Case> Cases() {
   return cases;
 }
 
-const std::vector<sph::FormComponent>& Form28() {
-  static const std::vector<sph::FormComponent> form{
-      {2, 0, 0.062}, {2, 2, -0.049}, {3, 1, 0.049}, {3, -3, 0.037}, {4, 0, -0.043}, {4, 2, 0.031}, {5, -2, 0.037},
-      {5, 4, -0.025}, {6, 1, 0.031}, {6, -5, 0.025}, {7, 3, -0.025}, {8, 0, 0.025}, {8, -6, 0.019}};
-  return form;
-}
-
 // The designs: "one", the paper's pattern at (2, 0, 0) mm; "three", the sphere also turned by 90
 // deg about z and tilted by 90 deg about x about its own centre (so that the eccentricity points
 // another way on its body in each), each setup in another scan order; "five", three more
@@ -117,7 +111,7 @@ sph::SimulationSpec Design(const Case& c, bool form, Setups setups, double noise
     spec.effects.model.terms.push_back({s.effect, {s.component}});
     spec.effects.values.push_back({s.value});
   }
-  if (form) spec.effects.form = Form28();
+  if (form) spec.effects.form = sph::bench::Form28();
   return spec;
 }
 

@@ -7,6 +7,7 @@
 #include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
+#include "study_designs.hpp"
 
 namespace {
 
@@ -85,9 +86,7 @@ void BM_Trace1440FiveOrientations(benchmark::State& state) {
   spec.effects.model.terms = {{sph::Effect::kThetaEncoder, {{3, 0, false}}},
                               {sph::Effect::kProbeDrift, {{1, 0, false}}}};
   spec.effects.values = {{5 * sph::kRadPerArcsec}, {0.4 * sph::kMmPerUm}};
-  spec.effects.form = {{2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043},
-                       {4, 2, 0.031},  {5, -2, 0.037}, {5, 4, -0.025}, {6, 1, 0.031},  {6, -5, 0.025},
-                       {7, 3, -0.025}, {8, 0, 0.025},  {8, -6, 0.019}};
+  spec.effects.form = sph::bench::Form28();
   const sph::PointsData data = sph::Simulate(spec);
   const sph::CalibrationOptions o = Options();
   sph::TraceOptions trace;

@@ -20,6 +20,7 @@
 #include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
+#include "study_designs.hpp"
 
 namespace {
 
@@ -61,14 +62,6 @@ std::pair<double, double> ClopperPearson(int k, int n) {
   return {lo, hi};
 }
 
-const std::vector<sph::FormComponent>& Form28() {
-  // 0.050 um rms of degrees 2..8 (bench/separation_study.sh's form28).
-  static const std::vector<sph::FormComponent> form{
-      {2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043}, {4, 2, 0.031}, {5, -2, 0.037},
-      {5, 4, -0.025}, {6, 1, 0.031},  {6, -5, 0.025}, {7, 3, -0.025}, {8, 0, 0.025},  {8, -6, 0.019}};
-  return form;
-}
-
 int FalseAdditions(int runs, const sph::CalibrationOptions& o) {
   struct Clean {
     const char* name;
@@ -89,7 +82,7 @@ int FalseAdditions(int runs, const sph::CalibrationOptions& o) {
     for (int seed = 1; seed <= runs; ++seed) {
       sph::SimulationSpec spec;
       spec.seed = static_cast<std::uint64_t>(1000 + seed);
-      if (c.form) spec.effects.form = Form28();
+      if (c.form) spec.effects.form = sph::bench::Form28();
       if (c.turned) {
         spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(2, 0, 0)};
         spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {90, 0, 0}}};

@@ -216,6 +216,12 @@ TraceOptions FewCandidates() {
   return t;
 }
 
+// A form of 0.050 um rms of degrees 2..8 (the studies' form28).
+std::vector<FormComponent> Form28() {
+  return {{2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043}, {4, 2, 0.031}, {5, -2, 0.037},
+          {5, 4, -0.025}, {6, 1, 0.031},  {6, -5, 0.025}, {7, 3, -0.025}, {8, 0, 0.025},  {8, -6, 0.019}};
+}
+
 // The sphere at (2, 0, 0) mm, turned by 90 deg about z at (0, 2, 0) mm and tilted by 90 deg about x
 // at (2, 0, 0) mm, each setup in another scan order: the eccentricity points along the body's x
 // axis in every setup.
@@ -275,9 +281,7 @@ TEST(TraceWithForm, OnePlacementAddsNoEffectForAForm) {
 TEST(TraceWithForm, AddsNoProbeTermThatAFormOfAHigherDegreeExplains) {
   SimulationSpec spec = TurnedAndTilted();
   spec.seed = 1050;
-  spec.effects.form = {{2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043},
-                       {4, 2, 0.031},  {5, -2, 0.037}, {5, 4, -0.025}, {6, 1, 0.031},  {6, -5, 0.025},
-                       {7, 3, -0.025}, {8, 0, 0.025},  {8, -6, 0.019}};
+  spec.effects.form = Form28();
   const PointsData points = Simulate(spec);
   const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
   ASSERT_TRUE(r.form.separable) << r.form.design;
@@ -330,9 +334,7 @@ TEST(LeaveOneSetupOut, TheChosenModelTransfersWhereTheDesignSeparatesTheForm) {
       {1, ScanOrder::kSerpentine}, {2, ScanOrder::kColumns}, {3, ScanOrder::kReversed}, {4, ScanOrder::kShuffled}};
   spec.effects.model.terms = {{Effect::kThetaEncoder, {{3, 0, false}}}, {Effect::kProbeDrift, {{1, 0, false}}}};
   spec.effects.values = {{5 * kRadPerArcsec}, {0.4 * kMmPerUm}};
-  spec.effects.form = {{2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043},
-                       {4, 2, 0.031},  {5, -2, 0.037}, {5, 4, -0.025}, {6, 1, 0.031},  {6, -5, 0.025},
-                       {7, 3, -0.025}, {8, 0, 0.025},  {8, -6, 0.019}};
+  spec.effects.form = Form28();
   const PointsData points = Simulate(spec);
   const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
   ASSERT_EQ(std::set<Effect>(r.added.begin(), r.added.end()),
