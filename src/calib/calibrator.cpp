@@ -122,9 +122,16 @@ std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOpt
                                  const std::vector<bool>* left_out) {
   const StartPoints point(table, options);
   std::vector<Sphere> spheres;
-  for (const std::vector<std::uint32_t>& rows : AllRows(table, left_out)) {
+  const RowsOfSetup all = AllRows(table, left_out);
+  std::vector<Eigen::Vector3d> points;  // each computed once: the fit reads them twice
+  std::size_t most = 0;
+  for (const std::vector<std::uint32_t>& rows : all) most = std::max(most, rows.size());
+  points.reserve(most);
+  for (const std::vector<std::uint32_t>& rows : all) {
+    points.clear();
+    for (std::uint32_t row : rows) points.push_back(point(row));
     spheres.push_back(FitSphereAlgebraic(static_cast<Eigen::Index>(rows.size()),
-                                         [&](Eigen::Index i) { return point(rows[static_cast<std::size_t>(i)]); }));
+                                         [&](Eigen::Index i) { return points[static_cast<std::size_t>(i)]; }));
   }
   return spheres;
 }
