@@ -99,6 +99,29 @@ UncertaintyStatement Combine(std::vector<BudgetInput> inputs, const CoverageSpec
 
 // ---- JCGM 101: propagation of distributions ---------------------------------------------------
 
+/// The 64-bit Mersenne Twister of the C++ standard ([rand.predef] mt19937_64): the same numbers
+/// as std::mt19937_64 for the same seed (tested), with a state refill written so that the compiler
+/// vectorises it. The Monte Carlo studies draw about four numbers per reading, and with the
+/// standard library's refill that was a fifth of a study's time.
+class MersenneTwister64 {
+ public:
+  static constexpr int kStateWords = 312;
+  explicit MersenneTwister64(std::uint64_t seed);
+  std::uint64_t operator()() {
+    if (next_ == kStateWords) Refill();
+    std::uint64_t z = state_[next_++];
+    z ^= (z >> 29) & 0x5555555555555555ULL;
+    z ^= (z << 17) & 0x71d67fffeda60000ULL;
+    z ^= (z << 37) & 0xfff7eee000000000ULL;
+    return z ^ (z >> 43);
+  }
+
+ private:
+  void Refill();
+  std::uint64_t state_[kStateWords];
+  int next_ = kStateWords;
+};
+
 /// Uniform and normal variates from the 64-bit Mersenne Twister (see the file comment).
 class Random {
  public:
@@ -118,7 +141,7 @@ class Random {
   }
 
  private:
-  std::mt19937_64 engine_;
+  MersenneTwister64 engine_;
   bool have_spare_ = false;
   double spare_ = 0.0;
 };

@@ -72,7 +72,7 @@ bool ScanOrderFromName(std::string_view name, ScanOrder* order);
 const char* ScanOrderNames();
 
 /// `pattern` in the time order `order`: a permutation of it. kShuffled draws a Fisher-Yates
-/// shuffle from std::mt19937_64(seed) (the same permutation on every platform).
+/// shuffle from the 64-bit Mersenne Twister of seed (gum::Random: the same permutation on every platform).
 std::vector<AnglePair> InScanOrder(const std::vector<AnglePair>& pattern, ScanOrder order, std::uint64_t seed);
 
 /// One spherical-harmonic component of the sphere's form error, on its body frame: the surface
