@@ -15,13 +15,14 @@ namespace {
 
 constexpr int kRows = SphereFitProblem::kBlockRows;
 
-// The two kernels that take most of a calibration's time, compiled twice on x86-64 (GCC and Clang
-// on ELF): for AVX2 and for the baseline, the one to run chosen once by the CPU at load time. AVX2
-// without FMA: the same operations, rounded the same, so results do not depend on the CPU. (On the
-// baseline's 16 SSE registers the Gram kernel's tile spills and runs about as fast as a plain loop.)
+// The kernels that take most of a calibration's time are also compiled for AVX2 on x86-64 (GCC
+// and Clang on ELF), and the CPU chooses at run time. AVX2 without FMA: the same operations,
+// rounded the same, so results do not depend on the CPU.
 #if defined(__x86_64__) && defined(__ELF__) && (defined(__clang__) ? __clang_major__ >= 14 : __GNUC__ >= 6)
+#define SPH_X86_64_CLONES 1
 #define SPH_HOT_KERNEL __attribute__((target_clones("avx2", "default")))
 #else
+#define SPH_X86_64_CLONES 0
 #define SPH_HOT_KERNEL
 #endif
 
@@ -138,21 +139,36 @@ void AddScaled(const ResidualGradient& d, double k, ResidualGradient* result) {
 // Dot products in four lanes: lane l sums the products of rows l, l + 4, l + 8, ... and the lanes
 // are added as ((l0 + l1) + (l2 + l3)). Each lane is its own accumulator, so the sum vectorises
 // without reassociating (a strict in-order sum does not), and the result is the same on every
-// instruction set. (GCC's and Clang's vector extension: two SSE2 operations or one AVX2 each.)
-typedef double Lanes __attribute__((vector_size(4 * sizeof(double))));
+// instruction set: AVX2 holds the four lanes in one register (FourLanes), the baseline's SSE2 in
+// two (TwoPairs); the same operations in the same order. (GCC's and Clang's vector extension.)
+template <int kSize>
+using Vector [[gnu::vector_size(kSize * sizeof(double))]] = double;
+template <int kSize>  // kSize values at p, which need only be aligned as a double (and may alias doubles)
+using VectorAt [[gnu::vector_size(kSize * sizeof(double)), gnu::aligned(alignof(double)), gnu::may_alias]] = double;
 constexpr int kLanes = 4;
 
-// Four values at p, which need only be aligned as a double (and may alias doubles).
-typedef double UnalignedLanes __attribute__((vector_size(4 * sizeof(double)), aligned(alignof(double)), __may_alias__));
-#define SPH_LANES_AT(p) (*reinterpret_cast<const UnalignedLanes*>(p))
+struct FourLanes {
+  Vector<4> s = {};
+  [[gnu::always_inline]] void Add(const double* x, const double* y) {
+    s += *reinterpret_cast<const VectorAt<4>*>(x) * *reinterpret_cast<const VectorAt<4>*>(y);
+  }
+  [[gnu::always_inline]] double Sum() const { return (s[0] + s[1]) + (s[2] + s[3]); }
+};
 
-// (By reference: a vector's ABI by value would depend on the instruction set.)
-inline double SumLanes(const Lanes& s) { return (s[0] + s[1]) + (s[2] + s[3]); }
+struct TwoPairs {
+  Vector<2> lo = {}, hi = {};
+  [[gnu::always_inline]] void Add(const double* x, const double* y) {
+    lo += *reinterpret_cast<const VectorAt<2>*>(x) * *reinterpret_cast<const VectorAt<2>*>(y);
+    hi += *reinterpret_cast<const VectorAt<2>*>(x + 2) * *reinterpret_cast<const VectorAt<2>*>(y + 2);
+  }
+  [[gnu::always_inline]] double Sum() const { return (lo[0] + lo[1]) + (hi[0] + hi[1]); }
+};
 
 // gram (n x n, column-major, lower triangle) += C^T C over `count` rows of the column-major C
 // (leading dimension ld), in 2 x 2 tiles so that each loaded pair of columns serves four products.
 // The rows past `count` up to the next multiple of four must be zero.
-SPH_HOT_KERNEL void AddGram(const double* c, int ld, int n, int count, double* gram) {
+template <typename Lanes>
+[[gnu::always_inline]] inline void AddGramIn(const double* c, int ld, int n, int count, double* gram) {
   const int end = (count + kLanes - 1) / kLanes * kLanes;
   int a = 0;
   for (; a + 1 < n; a += 2) {
@@ -161,40 +177,51 @@ SPH_HOT_KERNEL void AddGram(const double* c, int ld, int n, int count, double* g
     for (int b = 0; b < a; b += 2) {
       const double* y0 = c + b * ld;
       const double* y1 = y0 + ld;
-      Lanes s00 = {}, s01 = {}, s10 = {}, s11 = {};
+      Lanes s00, s01, s10, s11;
       for (int i = 0; i < end; i += kLanes) {
-        const Lanes u0 = SPH_LANES_AT(x0 + i), u1 = SPH_LANES_AT(x1 + i);
-        const Lanes v0 = SPH_LANES_AT(y0 + i), v1 = SPH_LANES_AT(y1 + i);
-        s00 += u0 * v0;
-        s01 += u0 * v1;
-        s10 += u1 * v0;
-        s11 += u1 * v1;
+        s00.Add(x0 + i, y0 + i);
+        s01.Add(x0 + i, y1 + i);
+        s10.Add(x1 + i, y0 + i);
+        s11.Add(x1 + i, y1 + i);
       }
-      gram[b * n + a] += SumLanes(s00);
-      gram[(b + 1) * n + a] += SumLanes(s01);
-      gram[b * n + a + 1] += SumLanes(s10);
-      gram[(b + 1) * n + a + 1] += SumLanes(s11);
+      gram[b * n + a] += s00.Sum();
+      gram[(b + 1) * n + a] += s01.Sum();
+      gram[b * n + a + 1] += s10.Sum();
+      gram[(b + 1) * n + a + 1] += s11.Sum();
     }
-    Lanes s00 = {}, s10 = {}, s11 = {};
+    Lanes s00, s10, s11;
     for (int i = 0; i < end; i += kLanes) {
-      const Lanes u0 = SPH_LANES_AT(x0 + i), u1 = SPH_LANES_AT(x1 + i);
-      s00 += u0 * u0;
-      s10 += u1 * u0;
-      s11 += u1 * u1;
+      s00.Add(x0 + i, x0 + i);
+      s10.Add(x1 + i, x0 + i);
+      s11.Add(x1 + i, x1 + i);
     }
-    gram[a * n + a] += SumLanes(s00);
-    gram[a * n + a + 1] += SumLanes(s10);
-    gram[(a + 1) * n + a + 1] += SumLanes(s11);
+    gram[a * n + a] += s00.Sum();
+    gram[a * n + a + 1] += s10.Sum();
+    gram[(a + 1) * n + a + 1] += s11.Sum();
   }
   if (a < n) {  // an odd last column
     const double* x0 = c + a * ld;
     for (int b = 0; b <= a; ++b) {
       const double* y0 = c + b * ld;
-      Lanes s = {};
-      for (int i = 0; i < end; i += kLanes) s += SPH_LANES_AT(x0 + i) * SPH_LANES_AT(y0 + i);
-      gram[b * n + a] += SumLanes(s);
+      Lanes s;
+      for (int i = 0; i < end; i += kLanes) s.Add(x0 + i, y0 + i);
+      gram[b * n + a] += s.Sum();
     }
   }
+}
+
+#if SPH_X86_64_CLONES
+[[gnu::target("avx2")]] void AddGramAvx2(const double* c, int ld, int n, int count, double* gram) {
+  AddGramIn<FourLanes>(c, ld, n, count, gram);
+}
+#endif
+
+void AddGram(const double* c, int ld, int n, int count, double* gram) {
+#if SPH_X86_64_CLONES
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (avx2) return AddGramAvx2(c, ld, n, count, gram);
+#endif
+  AddGramIn<TwoPairs>(c, ld, n, count, gram);
 }
 
 // The seven-error residuals of `count` gathered readings and their Jacobian (columns g0..g6,
