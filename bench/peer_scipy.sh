@@ -30,6 +30,7 @@ echo "machine: $(nproc) cores, $(sed -n 's/^model name[[:space:]]*: //p' /proc/c
 echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo
 
+scipy288=
 for grid in "24 12" "96 48"; do
   set -- $grid
   points="$work/points_$1x$2.txt"
@@ -41,6 +42,7 @@ for grid in "24 12" "96 48"; do
   [ "$n" -gt 1000 ] && reps=10
   "$py" "$here/peer_scipy.py" "$points" --repetitions "$reps" >"$work/peer.txt"
   field() { awk -v k="$1" '$1 == k { printf "%.3g", $2 }' "$work/peer.txt"; }
+  [ "$n" -eq 288 ] && scipy288=$(field scipy_median_ms)
   echo "calibration of $n points (solve, same file), medians: sph ${ours% *} ms wall, ${ours#* } ms CPU;" \
     "scipy $(field scipy_median_ms) ms wall, $(field scipy_cpu_median_ms) ms CPU ($(field scipy_nfev) model" \
     "evaluations); ratio $(awk -v a="$(field scipy_median_ms)" -v b="${ours% *}" 'BEGIN { printf "%.0f", a / b }')x wall," \
@@ -50,14 +52,13 @@ echo "numpy $(awk '$1 == "numpy_version" { print $2 }' "$work/peer.txt"), BLAS/L
   "$(awk '$1 == "numpy_blas" { print $2 }' "$work/peer.txt")"
 echo
 
-# The paper's study: 4 x 1000 calibrations of 288 points, on 2 threads; scipy's figure is 4000
-# times its median above (the same calibration, other noise), not a run of 4000 fits.
-study=$("$build/bench/montecarlo_bench" --benchmark_filter='^BM_DefaultStudy/2/' 2>/dev/null |
-  awk '$1 ~ /^BM_DefaultStudy\/2/ { print $2, $0 }')
+# The paper's study: 4 x 1000 calibrations of 288 points, on 2 threads, the median of 5 runs;
+# scipy's figure is 4000 times its median on 288 points above (the same calibration, other noise),
+# not a run of 4000 fits.
+study=$("$build/bench/montecarlo_bench" --benchmark_filter='^BM_DefaultStudy/2/' --benchmark_repetitions=5 \
+  --benchmark_report_aggregates_only=true 2>/dev/null | awk '$1 ~ /^BM_DefaultStudy\/2\/.*_median$/ { print $2, $0 }')
 study_ms=$(echo "$study" | cut -d' ' -f1)
 study_rss=$(echo "$study" | sed -n 's/.*peak_rss_MB=\([0-9.]*[kM]*\).*/\1/p')
-scipy288=$("$py" "$here/peer_scipy.py" "$work/points_24x12.txt" --repetitions 50 |
-  awk '$1 == "scipy_median_ms" { printf "%.3g", $2 }')
 echo "Monte Carlo study 4 x 1000 x 288 points, 2 threads: sph $study_ms ms wall (peak RSS $study_rss MB);" \
   "scipy 4000 x $scipy288 ms = $(awk -v a="$scipy288" 'BEGIN { printf "%.1f", 4 * a }') s on one thread," \
   "ratio $(awk -v a="$scipy288" -v b="$study_ms" 'BEGIN { printf "%.0f", 4000 * a / b }')x"

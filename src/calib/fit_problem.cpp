@@ -216,12 +216,41 @@ template <typename Lanes>
 }
 #endif
 
+// Zeros the rows `count` up to the next multiple of four of the n columns at c (leading dimension
+// kRows), which AddGram() reads.
+void PadToLanes(double* c, int n, int count) {
+  for (int column = 0; column < n; ++column) std::fill_n(c + column * kRows + count, (kLanes - count % kLanes) % kLanes, 0.0);
+}
+
 void AddGram(const double* c, int ld, int n, int count, double* gram) {
 #if SPH_X86_64_CLONES
   static const bool avx2 = __builtin_cpu_supports("avx2");
   if (avx2) return AddGramAvx2(c, ld, n, count, gram);
 #endif
   AddGramIn<TwoPairs>(c, ld, n, count, gram);
+}
+
+// The seven-error residuals of `count` gathered readings alone: SevenErrorRows() with the Jacobian
+// unused, which the compiler then leaves out (the same e, bit for bit).
+SPH_HOT_KERNEL void SevenErrorResiduals(const double* g, const ScmsErrorTrig<double> et, double d_plus_dprime,
+                                        const double* center, double radius_mm, int count,
+                                        const double* __restrict ct, const double* __restrict st,
+                                        const double* __restrict cp, const double* __restrict sp,
+                                        const double* __restrict r, double* __restrict e) {
+  double geometry[kNumScmsParams];
+  std::copy(g, g + kNumScmsParams, geometry);
+  const double c[3] = {center[0], center[1], center[2]};
+  for (int i = 0; i < count; ++i) {
+    ResidualInputs in;
+    in.theta.sin = st[i];
+    in.theta.cos = ct[i];
+    in.phi.sin = sp[i];
+    in.phi.cos = cp[i];
+    in.z = r[i] - d_plus_dprime;
+    ResidualGradient out;
+    SphereResidualGradient(geometry, et, in, c, radius_mm, &out);
+    e[i] = out.e;
+  }
 }
 
 // The seven-error residuals of `count` gathered readings and their Jacobian (columns g0..g6,
@@ -711,9 +740,12 @@ void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, boo
         s.r[i] = r_offset ? table_.r_mm[row] + r_offset[row] : table_.r_mm[row];
       }
       if (model_.terms.empty() && num_form_terms_ == 0) {
-        // The Jacobian comes with the residuals: cheaper than a second loop.
-        SevenErrorRows(g, et, d_plus_dprime, center, sphere_radius_mm_, count, s.ct, s.st, s.cp, s.sp, s.r, e,
-                       s.cols.data());
+        if (jacobian) {
+          SevenErrorRows(g, et, d_plus_dprime, center, sphere_radius_mm_, count, s.ct, s.st, s.cp, s.sp, s.r, e,
+                         cols);
+        } else {
+          SevenErrorResiduals(g, et, d_plus_dprime, center, sphere_radius_mm_, count, s.ct, s.st, s.cp, s.sp, s.r, e);
+        }
       } else {
         EffectRows(x, et, d_plus_dprime, static_cast<int>(k), idx, count, e, cols);
       }
@@ -760,13 +792,30 @@ bool SphereFitProblem::Evaluate(const double* x, NormalEquations* ne) const {
       std::fill(s.gram.begin(), s.gram.end(), 0.0);
       current = block.setup;
     }
-    for (int column = 0; column < n; ++column) {  // AddGram() reads whole groups of four rows
-      std::fill_n(s.cols.data() + column * kRows + block.count, (kLanes - block.count % kLanes) % kLanes, 0.0);
-    }
+    PadToLanes(s.cols.data(), n, block.count);
     AddGram(s.cols.data(), kRows, n, block.count, s.gram.data());
   });
   flush();
   return std::isfinite(ne->cost);
+}
+
+bool SphereFitProblem::EvaluateCost(const double* x, double* cost) const {
+  // Summed as Evaluate() sums e^T e (AddGram's lanes, per setup), so that both give the same cost.
+  *cost = 0.0;
+  int current = -1;
+  double sum = 0.0;
+  ForEachBlock(x, nullptr, false, [&](const RowBlock& block) {
+    if (block.setup != current) {
+      if (current >= 0) *cost += 0.5 * sum;
+      sum = 0.0;
+      current = block.setup;
+    }
+    double* e = scratch_->cols.data() + num_local_ * kRows;
+    PadToLanes(e, 1, block.count);
+    AddGram(e, kRows, 1, block.count, &sum);
+  });
+  if (current >= 0) *cost += 0.5 * sum;
+  return std::isfinite(*cost);
 }
 
 void SphereFitProblem::Residuals(const double* x, double* out) const {

@@ -13,7 +13,8 @@
 // one pass over its residuals (streamed, no Jacobian held), and the step comes from a Cholesky
 // factorisation of the small damped normal matrix (tens of columns). A candidate's normal equations
 // are computed together with its cost; a step is taken far more often than not, and the pass
-// then serves the next step.
+// then serves the next step. Only the last step, the one the linear model already predicts to
+// change the cost by less than the function tolerance, is tried on its cost alone first.
 #ifndef SPH_SRC_CALIB_LEVENBERG_MARQUARDT_HPP_
 #define SPH_SRC_CALIB_LEVENBERG_MARQUARDT_HPP_
 
@@ -68,6 +69,7 @@ struct LmWorkspace {
 /// Minimises the cost of `problem` from `x` (updated in place). `Problem` provides
 ///   Eigen::Index NumParams() const;
 ///   bool Evaluate(const double* x, NormalEquations* ne) const;   // false: not evaluable there
+///   bool EvaluateCost(const double* x, double* cost) const;       // the same cost, bit for bit
 /// filling ne completely (J^T J symmetric, both triangles).
 template <typename Problem>
 LmSummary SolveLevenbergMarquardt(const Problem& problem, Eigen::VectorXd& x, const LmOptions& options,
@@ -76,6 +78,7 @@ LmSummary SolveLevenbergMarquardt(const Problem& problem, Eigen::VectorXd& x, co
   constexpr double kMinRelativeDecrease = 1e-3;
   constexpr double kMaxRadius = 1e16, kMinRadius = 1e-32;
   constexpr int kMaxConsecutiveInvalidSteps = 5;
+  constexpr double kProbeCostOnly = 2.0;
   const Eigen::Index n = problem.NumParams();
   LmSummary summary;
   if (!problem.Evaluate(x.data(), &w.at_x)) {
@@ -134,15 +137,24 @@ LmSummary SolveLevenbergMarquardt(const Problem& problem, Eigen::VectorXd& x, co
       return summary;
     }
     w.candidate = x + w.step;
-    const bool evaluated = problem.Evaluate(w.candidate.data(), &w.at_candidate);
-    const double cost_change = evaluated ? w.at_x.cost - w.at_candidate.cost : -HUGE_VAL;
-    if (evaluated && std::abs(cost_change) <= options.function_tolerance * w.at_x.cost) {
+    auto function_tolerance_met = [&](double candidate_cost) {
+      const double cost_change = std::abs(w.at_x.cost - candidate_cost);
+      if (!(cost_change <= options.function_tolerance * w.at_x.cost)) return false;
       summary.converged = true;
       summary.message = Format("Function tolerance reached. |cost_change|/cost: %e <= %e",
-                               std::abs(cost_change) / w.at_x.cost, options.function_tolerance);
+                               cost_change / w.at_x.cost, options.function_tolerance);
       --summary.iterations;
-      return summary;
+      return true;
+    };
+    // Where the linear model predicts a change within the function tolerance, the step most likely
+    // ends the solve, and its cost alone decides that first: J^T J there would go unused.
+    if (model_decrease <= kProbeCostOnly * options.function_tolerance * w.at_x.cost) {
+      double cost = 0.0;
+      if (problem.EvaluateCost(w.candidate.data(), &cost) && function_tolerance_met(cost)) return summary;
     }
+    const bool evaluated = problem.Evaluate(w.candidate.data(), &w.at_candidate);
+    if (evaluated && function_tolerance_met(w.at_candidate.cost)) return summary;
+    const double cost_change = evaluated ? w.at_x.cost - w.at_candidate.cost : -HUGE_VAL;
     const double rho = cost_change / model_decrease;
     if (evaluated && rho > kMinRelativeDecrease) {
       x.swap(w.candidate);
