@@ -185,21 +185,36 @@ void MersenneTwister64::Refill() {
   next_ = 0;
 }
 
+Random::DiscPoint Random::DrawDiscPoint() {
+  DiscPoint p;
+  do {
+    p.u = 2.0 * Uniform() - 1.0;
+    p.v = 2.0 * Uniform() - 1.0;
+    p.s = p.u * p.u + p.v * p.v;
+  } while (p.s >= 1.0 || p.s == 0.0);
+  return p;
+}
+
 double Random::Normal() {
   if (have_spare_) {
     have_spare_ = false;
-    return spare_;
+    return spare_computed_ ? spare_ : spare_point_.v * PolarFactor(spare_point_.s);
   }
-  double u, v, s;
-  do {
-    u = 2.0 * Uniform() - 1.0;
-    v = 2.0 * Uniform() - 1.0;
-    s = u * u + v * v;
-  } while (s >= 1.0 || s == 0.0);
-  const double f = std::sqrt(-2.0 * std::log(s) / s);
-  spare_ = v * f;
+  const DiscPoint p = DrawDiscPoint();
+  const double f = PolarFactor(p.s);
+  spare_ = p.v * f;
+  spare_computed_ = have_spare_ = true;
+  return p.u * f;
+}
+
+void Random::SkipNormal() {
+  if (have_spare_) {
+    have_spare_ = false;
+    return;
+  }
+  spare_point_ = DrawDiscPoint();
+  spare_computed_ = false;
   have_spare_ = true;
-  return u * f;
 }
 
 double Distribution::Mean() const {

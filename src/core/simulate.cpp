@@ -536,11 +536,19 @@ void AddReadingNoise(PointsData& data, const SimulationSpec& spec) {
   const double sigma_r_mm = spec.noise_r_um * kMmPerUm;
   const double sigma_theta_deg = spec.noise_theta_arcsec / 3600.0;
   const double sigma_phi_deg = spec.noise_phi_arcsec / 3600.0;
+  // Three normals per reading, r, theta, phi, whether their sigma is zero or not, so that the
+  // noise of r is the same with and without noise on the angles.
+  auto add = [&rng](double sigma, double& value) {
+    if (sigma == 0.0) {
+      rng.SkipNormal();
+    } else {
+      value += sigma * rng.Normal();
+    }
+  };
   for (Sample& s : data.samples) {
-    const double n_r = rng.Normal(), n_t = rng.Normal(), n_p = rng.Normal();
-    s.r_mm += sigma_r_mm * n_r;
-    s.theta_deg += sigma_theta_deg * n_t;
-    s.phi_deg += sigma_phi_deg * n_p;
+    add(sigma_r_mm, s.r_mm);
+    add(sigma_theta_deg, s.theta_deg);
+    add(sigma_phi_deg, s.phi_deg);
   }
   if (spec.effects.outlier_fraction > 0.0) {
     gum::Random gross(spec.seed ^ 0x6f75746c69657273ULL);  // its own stream: the noise above stays the same

@@ -177,6 +177,28 @@ TEST(Random, TheStreamIsPinned) {
   for (const double x : normals) EXPECT_NEAR(n.Normal(), x, 4e-16 * std::abs(x));
 }
 
+// A skipped normal leaves every other draw as it was, bit for bit: whether the pair it belongs to is
+// drawn by it or by the Normal() before it, and whether the pair's other value is used or not.
+TEST(Random, SkippedNormalsLeaveTheOthersAsTheyWere) {
+  for (int pattern = 0; pattern < 3; ++pattern) {
+    Random all(7), some(7), skips(11);
+    int compared = 0, differ = 0;
+    for (int i = 0; i < 3000; ++i) {
+      const double x = all.Normal();
+      const bool skip = pattern == 0 ? i % 3 != 0 : pattern == 1 ? i % 2 == 1 : skips.Uniform() < 0.5;
+      if (skip) {
+        some.SkipNormal();
+      } else {
+        differ += some.Normal() != x;
+        ++compared;
+      }
+    }
+    EXPECT_EQ(differ, 0) << "pattern " << pattern;
+    EXPECT_GT(compared, 900);
+    EXPECT_EQ(all.Uniform(), some.Uniform()) << "pattern " << pattern;  // the streams end level
+  }
+}
+
 // The project's engine against the standard library's over many refills of its state, for seeds
 // that set the high, the low and no bits.
 TEST(MersenneTwister64, GivesTheNumbersOfTheStandardEngine) {

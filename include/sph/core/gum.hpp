@@ -22,6 +22,7 @@
 #ifndef SPH_CORE_GUM_HPP_
 #define SPH_CORE_GUM_HPP_
 
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -130,6 +131,10 @@ class Random {
   double Uniform();
   /// Standard normal (the polar method of Marsaglia).
   double Normal();
+  /// Advances the stream past one Normal() without computing it: the draws that follow are those
+  /// that follow a Normal(). (The polar method draws normals in pairs; a pair whose values are both
+  /// skipped costs its uniforms only, not its logarithm and square root.)
+  void SkipNormal();
   /// `items` in an order drawn by Fisher-Yates from the engine's outputs (j = output mod (i + 1),
   /// a bias below 1e-13 for any size that fits in memory). std::shuffle's algorithm is the
   /// standard library's choice, and its orders differ between libraries.
@@ -142,8 +147,18 @@ class Random {
 
  private:
   MersenneTwister64 engine_;
+  // The point (u, v) of the unit disc the polar method accepted, s = u^2 + v^2.
+  struct DiscPoint {
+    double u, v, s;
+  };
+  DiscPoint DrawDiscPoint();
+  static double PolarFactor(double s) { return std::sqrt(-2.0 * std::log(s) / s); }
+  // The second normal of the last pair: v * PolarFactor(s) of spare_point_, computed (spare_) when
+  // the first was.
   bool have_spare_ = false;
+  bool spare_computed_ = false;
   double spare_ = 0.0;
+  DiscPoint spare_point_{0.0, 0.0, 0.0};
 };
 
 /// The distribution assigned to an input quantity (JCGM 101 6.4).
