@@ -120,18 +120,23 @@ Eigen::Vector3d StartPoints::operator()(std::size_t i) const {
 
 std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOptions& options,
                                  const std::vector<bool>* left_out) {
+  // The fit reads each point twice (for the centroid, then for the sphere): a setup of up to
+  // kBuffered rows has them computed once into a buffer, a larger one computes them twice rather
+  // than hold them (24 bytes a row). The same points either way.
+  constexpr std::size_t kBuffered = 1 << 16;
   const StartPoints point(table, options);
   std::vector<Sphere> spheres;
-  const RowsOfSetup all = AllRows(table, left_out);
-  std::vector<Eigen::Vector3d> points;  // each computed once: the fit reads them twice
-  std::size_t most = 0;
-  for (const std::vector<std::uint32_t>& rows : all) most = std::max(most, rows.size());
-  points.reserve(most);
-  for (const std::vector<std::uint32_t>& rows : all) {
-    points.clear();
-    for (std::uint32_t row : rows) points.push_back(point(row));
-    spheres.push_back(FitSphereAlgebraic(static_cast<Eigen::Index>(rows.size()),
-                                         [&](Eigen::Index i) { return points[static_cast<std::size_t>(i)]; }));
+  std::vector<Eigen::Vector3d> buffer;
+  for (const std::vector<std::uint32_t>& rows : AllRows(table, left_out)) {
+    const auto n = static_cast<Eigen::Index>(rows.size());
+    if (rows.size() > kBuffered) {
+      spheres.push_back(FitSphereAlgebraic(n, [&](Eigen::Index i) { return point(rows[static_cast<std::size_t>(i)]); }));
+      continue;
+    }
+    buffer.clear();
+    buffer.reserve(rows.size());
+    for (std::uint32_t row : rows) buffer.push_back(point(row));
+    spheres.push_back(FitSphereAlgebraic(n, [&](Eigen::Index i) { return buffer[static_cast<std::size_t>(i)]; }));
   }
   return spheres;
 }
