@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <limits>
 
+#include "sph/core/gum.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/row_qr.hpp"
 #include "sph/model/spherical_harmonics.hpp"
@@ -23,43 +24,6 @@ constexpr int kSphereDegree = 5;
 // A function whose remainder off the Jacobian (and the functions kept before it) is below this
 // fraction of itself is dropped (see Regress()).
 constexpr double kMinRemainder = 1e-2;
-
-// Continued fraction of the regularised incomplete beta function (modified Lentz).
-double BetaContinuedFraction(double a, double b, double x) {
-  constexpr double kTiny = 1e-300;
-  double c = 1.0, d = 1.0 - (a + b) * x / (a + 1.0);
-  if (std::abs(d) < kTiny) d = kTiny;
-  d = 1.0 / d;
-  double h = d;
-  for (int m = 1; m <= 500; ++m) {
-    const double m2 = 2.0 * m;
-    double aa = m * (b - m) * x / ((a - 1.0 + m2) * (a + m2));
-    d = 1.0 + aa * d;
-    d = std::abs(d) < kTiny ? 1.0 / kTiny : 1.0 / d;
-    c = 1.0 + aa / c;
-    if (std::abs(c) < kTiny) c = kTiny;
-    h *= d * c;
-    aa = -(a + m) * (a + b + m) * x / ((a + m2) * (a + 1.0 + m2));
-    d = 1.0 + aa * d;
-    d = std::abs(d) < kTiny ? 1.0 / kTiny : 1.0 / d;
-    c = 1.0 + aa / c;
-    if (std::abs(c) < kTiny) c = kTiny;
-    const double del = d * c;
-    h *= del;
-    if (std::abs(del - 1.0) < 1e-15) break;
-  }
-  return h;
-}
-
-// I_x(a, b).
-double IncompleteBeta(double a, double b, double x) {
-  if (x <= 0.0) return 0.0;
-  if (x >= 1.0) return 1.0;
-  const double front =
-      std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x));
-  if (x < (a + 1.0) / (a + b + 2.0)) return front * BetaContinuedFraction(a, b, x) / a;
-  return 1.0 - front * BetaContinuedFraction(b, a, 1.0 - x) / b;
-}
 
 // One group of functions as the regression sees it: its columns (of R, see the header) and names.
 struct Basis {
@@ -127,7 +91,7 @@ StructureGroup Regress(const Basis& basis, const Eigen::MatrixXd& q, const Eigen
 
 double FUpperTail(double f, double d1, double d2) {
   if (!(f > 0.0)) return 1.0;
-  return IncompleteBeta(d2 / 2.0, d1 / 2.0, d2 / (d2 + d1 * f));
+  return gum::RegularizedBeta(d2 / (d2 + d1 * f), d2 / 2.0, d1 / 2.0);
 }
 
 int ResidualStructure::Strongest() const {

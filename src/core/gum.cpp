@@ -45,16 +45,6 @@ double BetaContinuedFraction(double x, double a, double b) {
   return f;
 }
 
-// I_x(a, b), the regularised incomplete beta function.
-double RegularizedBeta(double x, double a, double b) {
-  if (x <= 0.0) return 0.0;
-  if (x >= 1.0) return 1.0;
-  const double log_front = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
-  const double front = std::exp(log_front);
-  if (x < (a + 1.0) / (a + b + 2.0)) return front * BetaContinuedFraction(x, a, b) / a;
-  return 1.0 - front * BetaContinuedFraction(1.0 - x, b, a) / b;
-}
-
 double StudentTPdf(double t, double dof) {
   const double log_c = std::lgamma(0.5 * (dof + 1.0)) - std::lgamma(0.5 * dof) - 0.5 * std::log(dof * kPi);
   return std::exp(log_c - 0.5 * (dof + 1.0) * std::log1p(t * t / dof));
@@ -64,6 +54,15 @@ double StudentTPdf(double t, double dof) {
 constexpr double kNormalDof = 1e12;
 
 }  // namespace
+
+double RegularizedBeta(double x, double a, double b) {
+  if (x <= 0.0) return 0.0;
+  if (x >= 1.0) return 1.0;
+  const double log_front = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
+  const double front = std::exp(log_front);
+  if (x < (a + 1.0) / (a + b + 2.0)) return front * BetaContinuedFraction(x, a, b) / a;
+  return 1.0 - front * BetaContinuedFraction(1.0 - x, b, a) / b;
+}
 
 double NormalQuantile(double p) {
   if (!(p > 0.0 && p < 1.0)) throw Error("NormalQuantile: p must lie in (0, 1)");

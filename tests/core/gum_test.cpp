@@ -37,6 +37,26 @@ TEST(Quantiles, NormalAndStudentTMatchTheTables) {
   EXPECT_NEAR(StudentTCdf(2.228138851986, 10), 0.975, 1e-12);
 }
 
+// Closed forms of I_x(a, b): x^a for b = 1, 1 - (1 - x)^b for a = 1, 1/2 at x = 1/2 when a = b,
+// and the symmetry I_x(a, b) = 1 - I_{1-x}(b, a), on both sides of the continued fraction's switch.
+// x is dyadic, so that 1 - x is exact. The front factor exp(lgamma(a + b) - lgamma(a) - lgamma(b)
+// + ...) carries the rounding of its logarithm, about 2.2e-16 times the size of its terms: the
+// tolerance scales with lgamma(a + b).
+TEST(RegularizedBeta, ClosedForms) {
+  auto tolerance = [](double a, double b) { return 4e-16 * (10.0 + std::abs(std::lgamma(a + b))); };
+  for (const double x : {0x1p-20, 0.03125, 0.3125, 0.5, 0.6875, 0.96875, 1.0 - 0x1p-20}) {
+    for (const double a : {0.5, 1.0, 2.5, 7.0, 40.0}) {
+      EXPECT_NEAR(RegularizedBeta(x, a, 1.0), std::pow(x, a), tolerance(a, 1.0)) << x << " " << a;
+      EXPECT_NEAR(RegularizedBeta(x, 1.0, a), 1.0 - std::pow(1.0 - x, a), tolerance(a, 1.0)) << x << " " << a;
+      EXPECT_NEAR(RegularizedBeta(x, a, 3.5) + RegularizedBeta(1.0 - x, 3.5, a), 1.0, 2.0 * tolerance(a, 3.5))
+          << x << " " << a;
+    }
+  }
+  for (const double a : {0.5, 3.0, 250.0}) EXPECT_NEAR(RegularizedBeta(0.5, a, a), 0.5, tolerance(a, a)) << a;
+  EXPECT_EQ(RegularizedBeta(0.0, 2.0, 3.0), 0.0);
+  EXPECT_EQ(RegularizedBeta(1.0, 2.0, 3.0), 1.0);
+}
+
 TEST(Quantiles, CoverageFactorsOfGumTableG2) {
   // JCGM 100:2008 Table G.2, p = 95.45 % (the k = 2 of the normal distribution), two decimals.
   const double p = 0.9545;

@@ -37,6 +37,9 @@ inline constexpr double kInfiniteDof = std::numeric_limits<double>::infinity();
 
 /// The p-quantile of the standard normal distribution (0 < p < 1), to about 1e-15.
 double NormalQuantile(double p);
+/// I_x(a, b), the regularised incomplete beta function (a, b > 0; 0 outside x > 0, 1 for x >= 1),
+/// by its continued fraction: the distribution functions of Student's t and of the F distribution.
+double RegularizedBeta(double x, double a, double b);
 /// The distribution function of Student's t distribution with `dof` (> 0, may be infinite)
 /// degrees of freedom.
 double StudentTCdf(double t, double dof);
