@@ -230,62 +230,59 @@ void AddGram(const double* c, int ld, int n, int count, double* gram) {
   AddGramIn<TwoPairs>(c, ld, n, count, gram);
 }
 
-// The seven-error residuals of `count` gathered readings alone: SevenErrorRows() with the Jacobian
-// unused, which the compiler then leaves out (the same e, bit for bit).
-SPH_HOT_KERNEL void SevenErrorResiduals(const double* g, const ScmsErrorTrig<double> et, double d_plus_dprime,
-                                        const double* center, double radius_mm, int count,
-                                        const double* __restrict ct, const double* __restrict st,
-                                        const double* __restrict cp, const double* __restrict sp,
-                                        const double* __restrict r, double* __restrict e) {
-  double geometry[kNumScmsParams];
-  std::copy(g, g + kNumScmsParams, geometry);
-  const double c[3] = {center[0], center[1], center[2]};
-  for (int i = 0; i < count; ++i) {
-    ResidualInputs in;
-    in.theta.sin = st[i];
-    in.theta.cos = ct[i];
-    in.phi.sin = sp[i];
-    in.phi.cos = cp[i];
-    in.z = r[i] - d_plus_dprime;
-    ResidualGradient out;
-    SphereResidualGradient(geometry, et, in, c, radius_mm, &out);
-    e[i] = out.e;
-  }
-}
+// The gathered readings of one block: the sines and cosines of the axis readings and the probe
+// readings of `count` rows.
+struct GatheredReadings {
+  const double* __restrict ct;
+  const double* __restrict st;
+  const double* __restrict cp;
+  const double* __restrict sp;
+  const double* __restrict r;
+  int count;
+};
 
-// The seven-error residuals of `count` gathered readings and their Jacobian (columns g0..g6,
-// centre x, y, z; leading dimension kRows). The loop is straight-line code over arrays: the compiler
-// vectorises it (one call site, so that the gradient is inlined into it).
-SPH_HOT_KERNEL void SevenErrorRows(const double* g, const ScmsErrorTrig<double> et, double d_plus_dprime,
-                                   const double* center, double radius_mm, int count, const double* __restrict ct,
-                                   const double* __restrict st, const double* __restrict cp,
-                                   const double* __restrict sp, const double* __restrict r, double* __restrict e,
-                                   double* __restrict cols) {
+// The seven-error residuals of a block into e and, with kJacobian, their Jacobian into cols
+// (columns g0..g6, centre x, y, z; leading dimension kRows). The loop is straight-line code over
+// arrays: the compiler vectorises it, and without kJacobian it leaves the gradient out (the same e,
+// bit for bit).
+template <bool kJacobian>
+[[gnu::always_inline]] inline void SevenErrorBlock(const double* g, const ScmsErrorTrig<double>& et,
+                                                   double d_plus_dprime, const double* center, double radius_mm,
+                                                   const GatheredReadings& in_rows, double* __restrict e,
+                                                   double* __restrict cols) {
   // Local copies: the compiler then knows that the stores below leave them unchanged.
   double geometry[kNumScmsParams];
   std::copy(g, g + kNumScmsParams, geometry);
   const double c[3] = {center[0], center[1], center[2]};
-  for (int i = 0; i < count; ++i) {
+  const GatheredReadings rows = in_rows;
+  for (int i = 0; i < rows.count; ++i) {
     ResidualInputs in;
-    in.theta.sin = st[i];
-    in.theta.cos = ct[i];
-    in.phi.sin = sp[i];
-    in.phi.cos = cp[i];
-    in.z = r[i] - d_plus_dprime;
+    in.theta.sin = rows.st[i];
+    in.theta.cos = rows.ct[i];
+    in.phi.sin = rows.sp[i];
+    in.phi.cos = rows.cp[i];
+    in.z = rows.r[i] - d_plus_dprime;
     ResidualGradient out;
     SphereResidualGradient(geometry, et, in, c, radius_mm, &out);
     e[i] = out.e;
-    cols[0 * kRows + i] = out.geometry[0];
-    cols[1 * kRows + i] = out.geometry[1];
-    cols[2 * kRows + i] = out.geometry[2];
-    cols[3 * kRows + i] = out.geometry[3];
-    cols[4 * kRows + i] = out.geometry[4];
-    cols[5 * kRows + i] = out.geometry[5];
-    cols[6 * kRows + i] = out.geometry[6];
-    cols[7 * kRows + i] = out.center[0];
-    cols[8 * kRows + i] = out.center[1];
-    cols[9 * kRows + i] = out.center[2];
+    if constexpr (kJacobian) {
+      for (int k = 0; k < kNumScmsParams; ++k) cols[k * kRows + i] = out.geometry[k];
+      for (int k = 0; k < 3; ++k) cols[(kNumScmsParams + k) * kRows + i] = out.center[k];
+    }
   }
+}
+
+// The two instances, each compiled also for AVX2 (target_clones cannot take a template).
+SPH_HOT_KERNEL void SevenErrorResiduals(const double* g, const ScmsErrorTrig<double>& et, double d_plus_dprime,
+                                        const double* center, double radius_mm, const GatheredReadings& rows,
+                                        double* e) {
+  SevenErrorBlock<false>(g, et, d_plus_dprime, center, radius_mm, rows, e, nullptr);
+}
+
+SPH_HOT_KERNEL void SevenErrorRows(const double* g, const ScmsErrorTrig<double>& et, double d_plus_dprime,
+                                   const double* center, double radius_mm, const GatheredReadings& rows, double* e,
+                                   double* cols) {
+  SevenErrorBlock<true>(g, et, d_plus_dprime, center, radius_mm, rows, e, cols);
 }
 
 // out[2 (k - 1) kRows ...] = cos k x, then sin k x, for k = 1..orders, from cos x and sin x of
@@ -740,11 +737,11 @@ void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, boo
         s.r[i] = r_offset ? table_.r_mm[row] + r_offset[row] : table_.r_mm[row];
       }
       if (model_.terms.empty() && num_form_terms_ == 0) {
+        const GatheredReadings gathered{s.ct, s.st, s.cp, s.sp, s.r, count};
         if (jacobian) {
-          SevenErrorRows(g, et, d_plus_dprime, center, sphere_radius_mm_, count, s.ct, s.st, s.cp, s.sp, s.r, e,
-                         cols);
+          SevenErrorRows(g, et, d_plus_dprime, center, sphere_radius_mm_, gathered, e, cols);
         } else {
-          SevenErrorResiduals(g, et, d_plus_dprime, center, sphere_radius_mm_, count, s.ct, s.st, s.cp, s.sp, s.r, e);
+          SevenErrorResiduals(g, et, d_plus_dprime, center, sphere_radius_mm_, gathered, e);
         }
       } else {
         EffectRows(x, et, d_plus_dprime, static_cast<int>(k), idx, count, e, cols);
