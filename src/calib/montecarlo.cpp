@@ -60,82 +60,97 @@ std::uint64_t TrialSeed(std::uint64_t seed, std::size_t k, std::size_t t) {
   return SplitMix64(SplitMix64(SplitMix64(seed) + k) + t);
 }
 
-MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<void(long, long)>& progress) {
-  if (spec.trials < 2) throw Error("Monte Carlo: at least 2 trials are needed");
-  if (spec.setups < 1) throw Error("Monte Carlo: at least one setup per trial is needed");
-  if (spec.eccentricities_mm.empty()) throw Error("Monte Carlo: no eccentricity given");
-  if (!spec.random_direction && !(spec.direction.norm() > 0.0)) throw Error("Monte Carlo: the direction is zero");
-  const std::size_t n_ecc = spec.eccentricities_mm.size();
-  const std::size_t n_trials = static_cast<std::size_t>(spec.trials);
-  const long total = static_cast<long>(n_ecc * n_trials);
+namespace {
 
+// What one trial leaves for the statistics.
+struct Trial {
+  ScmsGeometry geometry{};
+  bool converged = false;
+  // Random directions: this trial's predicted std and bias (its own design).
+  std::array<double, kNumScmsParams> crlb{}, bias{};
+};
+
+// The exact readings of each eccentricity, when every trial measures the same placements (empty
+// readings with random directions, where each trial has its own).
+std::vector<PointsData> ExactReadings(const MonteCarloSpec& spec) {
+  std::vector<PointsData> exact(spec.eccentricities_mm.size());
+  if (spec.random_direction) return exact;
+  for (std::size_t k = 0; k < exact.size(); ++k) {
+    SimulationSpec s = spec.base;
+    s.centers_mm = PlacementCenters(spec, spec.eccentricities_mm[k]);
+    exact[k] = SimulateExact(s);
+  }
+  return exact;
+}
+
+// What a thread keeps from trial to trial: the readings' table of each eccentricity (with fixed
+// placements and no noise on the angles only r changes, so its sines and cosines are kept) and
+// the solver's scratch.
+struct TrialScratch {
+  explicit TrialScratch(std::size_t n_ecc) : tables(n_ecc) {}
+  std::vector<std::unique_ptr<internal::ReadingTable>> tables;
+  internal::LmWorkspace workspace;
+};
+
+// Trial t of eccentricity index k: its noisy readings, calibrated. `exact`: ExactReadings().
+Trial RunTrial(const MonteCarloSpec& spec, std::size_t k, std::size_t t, const std::vector<PointsData>& exact,
+               TrialScratch& scratch) {
   CalibrationOptions copts;
   copts.sphere_radius_mm = spec.base.sphere_radius_mm;
   copts.probe_offset_mm = spec.base.probe_offset_mm;
   copts.analyse = false;
-
-  // Exact readings per eccentricity, when every trial measures the same placements.
-  std::vector<PointsData> exact(n_ecc);
-  if (!spec.random_direction) {
-    for (std::size_t k = 0; k < n_ecc; ++k) {
-      SimulationSpec s = spec.base;
-      s.centers_mm = PlacementCenters(spec, spec.eccentricities_mm[k]);
-      exact[k] = SimulateExact(s);
-    }
-  }
-
-  struct Trial {
-    ScmsGeometry geometry{};
-    bool converged = false;
-    // Random directions: this trial's predicted std and bias (its own design).
-    std::array<double, kNumScmsParams> crlb{}, bias{};
-  };
-  std::vector<Trial> trials(static_cast<std::size_t>(total));
-  std::atomic<long> next{0};
-  std::atomic<long> done{0};
-  std::mutex progress_mutex;
-  std::mutex error_mutex;
-  std::string error;
-  const long step = std::max(1L, total / 100);
-
-  // With the placements fixed and no noise on the angles only r changes from trial to trial: each
-  // thread keeps the readings' sines and cosines of each eccentricity and the solver's scratch.
   const bool fixed_angles =
       !spec.random_direction && spec.base.noise_theta_arcsec == 0.0 && spec.base.noise_phi_arcsec == 0.0;
+  SimulationSpec s = spec.base;
+  s.seed = TrialSeed(spec.seed, k, t);
+  PointsData data;
+  if (spec.random_direction) {
+    s.centers_mm = Centers(spec, spec.eccentricities_mm[k], s.seed);
+    data = SimulateExact(s);
+  } else {
+    data = exact[k];
+  }
+  AddReadingNoise(data, s);
+  std::unique_ptr<internal::ReadingTable>& table = scratch.tables[k];
+  if (!fixed_angles || !table) {
+    table = std::make_unique<internal::ReadingTable>(data);
+  } else {
+    table->SetReadings(data);
+  }
+  const CalibrationResult r = internal::CalibrateTable(data, *table, copts, &scratch.workspace);
+  Trial trial;
+  trial.geometry = r.geometry;
+  trial.converged = r.converged;
+  if (spec.random_direction) {
+    const PredictedUncertainty predicted = PredictUncertainty(s);
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      trial.crlb[static_cast<std::size_t>(p)] = predicted.std(p);
+      trial.bias[static_cast<std::size_t>(p)] = predicted.bias(p);
+    }
+  }
+  return trial;
+}
+
+// Every trial of the study (eccentricity after eccentricity, trial after trial) on a pool of
+// threads. Each trial's noise comes from its own seed, so the result does not depend on the
+// threads; the first error stops nothing but is thrown at the end.
+std::vector<Trial> RunTrials(const MonteCarloSpec& spec, const std::function<void(long, long)>& progress) {
+  const std::size_t n_ecc = spec.eccentricities_mm.size();
+  const std::size_t n_trials = static_cast<std::size_t>(spec.trials);
+  const long total = static_cast<long>(n_ecc * n_trials);
+  const std::vector<PointsData> exact = ExactReadings(spec);
+  std::vector<Trial> trials(static_cast<std::size_t>(total));
+  std::atomic<long> next{0}, done{0};
+  std::mutex progress_mutex, error_mutex;
+  std::string error;
+  const long step = std::max(1L, total / 100);
   auto worker = [&]() {
-    std::vector<std::unique_ptr<internal::ReadingTable>> tables(n_ecc);
-    internal::LmWorkspace workspace;
+    TrialScratch scratch(n_ecc);
     for (long i = next++; i < total; i = next++) {
-      const std::size_t k = static_cast<std::size_t>(i) / n_trials;
-      const std::size_t t = static_cast<std::size_t>(i) % n_trials;
       try {
-        SimulationSpec s = spec.base;
-        s.seed = TrialSeed(spec.seed, k, t);
-        PointsData data;
-        if (spec.random_direction) {
-          s.centers_mm = Centers(spec, spec.eccentricities_mm[k], s.seed);
-          data = SimulateExact(s);
-        } else {
-          data = exact[k];
-        }
-        AddReadingNoise(data, s);
-        std::unique_ptr<internal::ReadingTable>& table = tables[k];
-        if (!fixed_angles || !table) {
-          table = std::make_unique<internal::ReadingTable>(data);
-        } else {
-          table->SetReadings(data);
-        }
-        const CalibrationResult r = internal::CalibrateTable(data, *table, copts, &workspace);
-        Trial& trial = trials[static_cast<std::size_t>(i)];
-        trial.geometry = r.geometry;
-        trial.converged = r.converged;
-        if (spec.random_direction) {
-          const PredictedUncertainty predicted = PredictUncertainty(s);
-          for (int p = 0; p < kNumScmsParams; ++p) {
-            trial.crlb[static_cast<std::size_t>(p)] = predicted.std(p);
-            trial.bias[static_cast<std::size_t>(p)] = predicted.bias(p);
-          }
-        }
+        trials[static_cast<std::size_t>(i)] =
+            RunTrial(spec, static_cast<std::size_t>(i) / n_trials, static_cast<std::size_t>(i) % n_trials, exact,
+                     scratch);
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(error_mutex);
         if (error.empty()) error = e.what();
@@ -154,70 +169,95 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
   worker();
   for (auto& th : pool) th.join();
   if (!error.empty()) throw Error("Monte Carlo: " + error);
+  return trials;
+}
 
+// The statistics of parameter p over the converged trials of one eccentricity (row.estimates;
+// `trials`: all of that eccentricity's, in trial order). crlb2_sum, bias_sum: sums over the
+// converged trials of their own predicted variance and bias (random directions); fixed: the
+// prediction of the one design (fixed placements).
+ParameterStats StatsOf(const MonteCarloSpec& spec, const EccentricityResult& row, const Trial* trials, int p,
+                       const std::array<double, kNumScmsParams>& crlb2_sum,
+                       const std::array<double, kNumScmsParams>& bias_sum, const PredictedUncertainty& fixed) {
+  ParameterStats st;
+  const auto q = static_cast<std::size_t>(p);
+  const double n = static_cast<double>(row.estimates.size());
+  st.truth = spec.base.truth[q];
+  if (spec.random_direction) {
+    st.crlb = n > 0 ? std::sqrt(crlb2_sum[q] / n) : std::nan("");
+    st.bias = n > 0 ? bias_sum[q] / n : std::nan("");
+  } else {
+    st.crlb = fixed.std(p);
+    st.bias = fixed.bias(p);
+  }
+  if (row.estimates.size() < 2) return st;
+  double sum = 0.0;
+  for (const auto& g : row.estimates) sum += g[q];
+  st.mean = sum / n;
+  double ss = 0.0;
+  for (const auto& g : row.estimates) ss += (g[q] - st.mean) * (g[q] - st.mean);
+  st.std = std::sqrt(ss / (n - 1.0));
+  if (spec.random_direction) {
+    std::vector<double> z;
+    for (int t = 0; t < row.trials; ++t) {
+      const Trial& tr = trials[t];
+      if (tr.converged) z.push_back((tr.geometry[q] - st.truth) / tr.crlb[q]);
+    }
+    double zm = 0.0, zss = 0.0;
+    for (double v : z) zm += v / n;
+    for (double v : z) zss += (v - zm) * (v - zm);
+    st.std_over_crlb = std::sqrt(zss / (n - 1.0));
+  } else {
+    st.std_over_crlb = st.std / st.crlb;
+  }
+  st.se = st.std / std::sqrt(n);
+  st.z = st.se > 0.0 ? (st.mean - st.truth) / st.se : 0.0;
+  st.z_bias = st.se > 0.0 ? (st.mean - st.truth - st.bias) / st.se : 0.0;
+  return st;
+}
+
+// The row of eccentricity index k from its spec.trials trials (in trial order).
+EccentricityResult Summarise(const MonteCarloSpec& spec, std::size_t k, const Trial* trials) {
+  EccentricityResult row;
+  row.eccentricity_mm = spec.eccentricities_mm[k];
+  row.trials = spec.trials;
+  std::array<double, kNumScmsParams> crlb2_sum{}, bias_sum{};
+  for (int t = 0; t < spec.trials; ++t) {
+    const Trial& tr = trials[t];
+    if (!tr.converged) {
+      row.not_converged.push_back(t);
+      continue;
+    }
+    ++row.converged;
+    row.estimates.push_back(tr.geometry);
+    for (std::size_t p = 0; p < kNumScmsParams; ++p) {
+      crlb2_sum[p] += tr.crlb[p] * tr.crlb[p];
+      bias_sum[p] += tr.bias[p];
+    }
+  }
+  PredictedUncertainty fixed;
+  if (!spec.random_direction) {
+    SimulationSpec at_truth = spec.base;
+    at_truth.centers_mm = PlacementCenters(spec, row.eccentricity_mm);
+    fixed = PredictUncertainty(at_truth);
+  }
+  for (int p = 0; p < kNumScmsParams; ++p) {
+    row.params[static_cast<std::size_t>(p)] = StatsOf(spec, row, trials, p, crlb2_sum, bias_sum, fixed);
+  }
+  return row;
+}
+
+}  // namespace
+
+MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<void(long, long)>& progress) {
+  if (spec.trials < 2) throw Error("Monte Carlo: at least 2 trials are needed");
+  if (spec.setups < 1) throw Error("Monte Carlo: at least one setup per trial is needed");
+  if (spec.eccentricities_mm.empty()) throw Error("Monte Carlo: no eccentricity given");
+  if (!spec.random_direction && !(spec.direction.norm() > 0.0)) throw Error("Monte Carlo: the direction is zero");
+  const std::vector<Trial> trials = RunTrials(spec, progress);
   MonteCarloResult result;
-  for (std::size_t k = 0; k < n_ecc; ++k) {
-    EccentricityResult row;
-    row.eccentricity_mm = spec.eccentricities_mm[k];
-    row.trials = spec.trials;
-    std::array<double, kNumScmsParams> crlb2_sum{}, bias_sum{};
-    for (std::size_t t = 0; t < n_trials; ++t) {
-      const Trial& tr = trials[k * n_trials + t];
-      if (!tr.converged) {
-        row.not_converged.push_back(static_cast<int>(t));
-        continue;
-      }
-      ++row.converged;
-      row.estimates.push_back(tr.geometry);
-      for (std::size_t p = 0; p < kNumScmsParams; ++p) {
-        crlb2_sum[p] += tr.crlb[p] * tr.crlb[p];
-        bias_sum[p] += tr.bias[p];
-      }
-    }
-    const double n = static_cast<double>(row.estimates.size());
-    PredictedUncertainty fixed;
-    if (!spec.random_direction) {
-      SimulationSpec at_truth = spec.base;
-      at_truth.centers_mm = PlacementCenters(spec, row.eccentricity_mm);
-      fixed = PredictUncertainty(at_truth);
-    }
-    for (int p = 0; p < kNumScmsParams; ++p) {
-      ParameterStats& st = row.params[static_cast<std::size_t>(p)];
-      const auto q = static_cast<std::size_t>(p);
-      st.truth = spec.base.truth[q];
-      if (spec.random_direction) {
-        st.crlb = n > 0 ? std::sqrt(crlb2_sum[q] / n) : std::nan("");
-        st.bias = n > 0 ? bias_sum[q] / n : std::nan("");
-      } else {
-        st.crlb = fixed.std(p);
-        st.bias = fixed.bias(p);
-      }
-      if (row.estimates.size() < 2) continue;
-      double sum = 0.0;
-      for (const auto& g : row.estimates) sum += g[static_cast<std::size_t>(p)];
-      st.mean = sum / n;
-      double ss = 0.0;
-      for (const auto& g : row.estimates)
-        ss += (g[static_cast<std::size_t>(p)] - st.mean) * (g[static_cast<std::size_t>(p)] - st.mean);
-      st.std = std::sqrt(ss / (n - 1.0));
-      if (spec.random_direction) {
-        std::vector<double> z;
-        for (std::size_t t = 0; t < n_trials; ++t) {
-          const Trial& tr = trials[k * n_trials + t];
-          if (tr.converged) z.push_back((tr.geometry[q] - st.truth) / tr.crlb[q]);
-        }
-        double zm = 0.0, zss = 0.0;
-        for (double v : z) zm += v / n;
-        for (double v : z) zss += (v - zm) * (v - zm);
-        st.std_over_crlb = std::sqrt(zss / (n - 1.0));
-      } else {
-        st.std_over_crlb = st.std / st.crlb;
-      }
-      st.se = st.std / std::sqrt(n);
-      st.z = st.se > 0.0 ? (st.mean - st.truth) / st.se : 0.0;
-      st.z_bias = st.se > 0.0 ? (st.mean - st.truth - st.bias) / st.se : 0.0;
-    }
-    result.rows.push_back(std::move(row));
+  for (std::size_t k = 0; k < spec.eccentricities_mm.size(); ++k) {
+    result.rows.push_back(Summarise(spec, k, trials.data() + k * static_cast<std::size_t>(spec.trials)));
   }
   return result;
 }
