@@ -115,145 +115,178 @@ PointsData ReadPointsFile(const std::string& path) {
   return ParsePoints(in, path);
 }
 
-PointsData ParsePoints(std::istream& in, const std::string& source) {
-  PointsData data;
-  data.source = source;
-  std::set<std::string> seen_keys;
-  std::map<int, long> mount_lines;  // the header line of each setup's mount rotation
-  std::vector<long> key_lines;
-  std::array<int, kNumColumns> index{};  // file column index of each known column, -1 if absent
-  index.fill(-1);
-  bool columns_fixed = false;  // set at the first sample
-  bool header_done = false;
-  std::size_t n_columns = 0;
-  std::string line;
-  long line_no = 0;
+namespace {
+
+// Reads a points file line by line: the header's format line and keys until the first sample,
+// then samples (comments between them skipped). Each method throws "<source>:<line>: <what>".
+class PointsParser {
+ public:
+  explicit PointsParser(const std::string& source) {
+    data_.source = source;
+    index_.fill(-1);
+  }
+
+  // One line (trimmed; empty lines skipped), number `line_no`.
+  void Line(const std::string& text, long line_no, const LineError& fail) {
+    line_no_ = line_no;
+    if (text.empty()) return;
+    if (text[0] != '#') return SampleLine(text, fail);
+    if (!header_done_) HeaderLine(Trim(text.substr(1)), text, fail);  // comments between samples are skipped
+  }
+
+  // The data, once every line was read.
+  PointsData Finish() {
+    if (data_.samples.empty()) {
+      throw Error(data_.source + ": no samples (the file has " + std::to_string(line_no_) +
+                  " lines, none of them a sample)");
+    }
+    CheckMountRotations();
+    return std::move(data_);
+  }
+
+ private:
+  // A header line: `body` after its '#', `text` the whole line.
+  void HeaderLine(const std::string& body, const std::string& text, const LineError& fail) {
+    if (body.rfind("sph-points", 0) == 0) return FormatLine(body, text, fail);
+    const auto colon = body.find(':');
+    if (colon == std::string::npos) return;  // a plain comment
+    const std::string key = Trim(body.substr(0, colon));
+    if (!IsHeaderKey(key)) return;  // prose that happens to contain a colon
+    const std::string value = Trim(body.substr(colon + 1));
+    if (!seen_keys_.insert(key).second) fail("header key " + Quoted(key) + " is given twice");
+    const auto at = key.find('@');
+    if (key.substr(0, at) == kMountRotationKey) return MountRotationLine(key, at, value, fail);
+    if (key == kRadiusKey || key == kProbeOffsetKey) return LengthLine(key, value, fail);
+    if (key == kColumnsKey) {
+      data_.header.columns = SplitWhitespace(value);
+      if (data_.header.columns.empty()) fail("the columns line names no columns");
+      return FixColumns(fail);
+    }
+    for (const ConditionField& c : kConditionFields) {
+      if (key != c.key) continue;
+      const double v = ParseNumber(value, key, fail.where());
+      if (!(v >= c.min && v <= c.max)) {
+        fail(key + " must be within [" + internal::Format("%g", c.min) + ", " + internal::Format("%g", c.max) + "] " +
+             c.unit + ", got " + Quoted(value));
+      }
+    }
+    data_.header.metadata.emplace_back(key, value);
+  }
+
+  static void FormatLine(const std::string& body, const std::string& text, const LineError& fail) {
+    const auto words = SplitWhitespace(body);
+    if (words.size() != 2 || words[0] != "sph-points") fail("malformed format line " + Quoted(text));
+    if (words[1] != std::to_string(kPointsFormatVersion)) {
+      fail("format " + Quoted("sph-points " + words[1]) + " is not supported (this program reads sph-points " +
+           std::to_string(kPointsFormatVersion) + ")");
+    }
+  }
+
+  // mount_rotation_deg@<setup>: the key's '@' at `at`.
+  void MountRotationLine(const std::string& key, std::size_t at, const std::string& value, const LineError& fail) {
+    if (at == std::string::npos) {
+      fail(std::string(kMountRotationKey) + " belongs to one setup: write '" + kMountRotationKey +
+           "@<setup>: rx ry rz'");
+    }
+    const int setup = ParseInteger(key.substr(at + 1), key + ": setup id", fail.where());
+    const auto [it, inserted] = mount_lines_.emplace(setup, line_no_);
+    if (!inserted) {
+      fail("the mount rotation of setup " + std::to_string(setup) + " is given twice (first at line " +
+           std::to_string(it->second) + ")");
+    }
+    data_.header.mount_rotations[setup] = ParseMountRotation(value, key, fail.where());
+  }
+
+  // sphere_radius_mm or probe_offset_mm.
+  void LengthLine(const std::string& key, const std::string& value, const LineError& fail) {
+    const double v = ParseNumber(value, key, fail.where());
+    const double max = key == kRadiusKey ? kMaxSphereRadiusMm : kMaxProbeOffsetMm;
+    if (!(v > 0.0)) fail(key + " must be positive, got " + Quoted(value));
+    if (v > max) fail(key + " must be at most " + internal::Format("%g", max) + " mm, got " + Quoted(value));
+    (key == kRadiusKey ? data_.header.sphere_radius_mm : data_.header.probe_offset_mm) = v;
+  }
 
   // Checks the columns (those of the columns line, at its own line, or the default ones).
-  auto fix_columns = [&](const LineError& fail) {
-    if (data.header.columns.empty()) data.header.columns = {"theta_deg", "phi_deg", "r_mm"};
-    for (std::size_t i = 0; i < data.header.columns.size(); ++i) {
-      const std::string& name = data.header.columns[i];
+  void FixColumns(const LineError& fail) {
+    if (data_.header.columns.empty()) data_.header.columns = {"theta_deg", "phi_deg", "r_mm"};
+    for (std::size_t i = 0; i < data_.header.columns.size(); ++i) {
+      const std::string& name = data_.header.columns[i];
       const auto it = std::find(kColumnNames.begin(), kColumnNames.end(), name);
       if (it == kColumnNames.end()) {
         fail("unknown column name " + Quoted(name) + " (known: theta_deg phi_deg r_mm t_s setup)");
       }
       const auto k = static_cast<std::size_t>(it - kColumnNames.begin());
-      if (index[k] >= 0) fail("column '" + name + "' is named twice");
-      index[k] = static_cast<int>(i);
+      if (index_[k] >= 0) fail("column '" + name + "' is named twice");
+      index_[k] = static_cast<int>(i);
     }
     for (int k : {kTheta, kPhi, kR}) {
-      if (index[static_cast<std::size_t>(k)] < 0) {
+      if (index_[static_cast<std::size_t>(k)] < 0) {
         fail(std::string("required column '") + kColumnNames[static_cast<std::size_t>(k)] + "' is missing");
       }
     }
-    data.has_time = index[kTime] >= 0;
-    data.has_setup = index[kSetup] >= 0;
-    n_columns = data.header.columns.size();
-    columns_fixed = true;
-  };
+    data_.has_time = index_[kTime] >= 0;
+    data_.has_setup = index_[kSetup] >= 0;
+    columns_fixed_ = true;
+  }
 
-  TextLines lines(in, source, "a points file");
-  while (lines.Next(line)) {
-    line_no = lines.line_no();
-    const LineError fail(lines.Where());
-    const std::string text = Trim(line);
-    if (text.empty()) continue;
-    if (text[0] == '#') {
-      if (header_done) continue;  // comments between samples
-      const std::string body = Trim(text.substr(1));
-      if (body.rfind("sph-points", 0) == 0) {
-        const auto words = SplitWhitespace(body);
-        if (words.size() != 2 || words[0] != "sph-points") fail("malformed format line " + Quoted(text));
-        if (words[1] != std::to_string(kPointsFormatVersion)) {
-          fail("format " + Quoted("sph-points " + words[1]) + " is not supported (this program reads sph-points " +
-               std::to_string(kPointsFormatVersion) + ")");
-        }
-        continue;
-      }
-      const auto colon = body.find(':');
-      if (colon == std::string::npos) continue;  // a plain comment
-      const std::string key = Trim(body.substr(0, colon));
-      if (!IsHeaderKey(key)) continue;  // prose that happens to contain a colon
-      const std::string value = Trim(body.substr(colon + 1));
-      if (!seen_keys.insert(key).second) fail("header key " + Quoted(key) + " is given twice");
-      const auto at = key.find('@');
-      const std::string name = key.substr(0, at);
-      if (name == kMountRotationKey) {
-        if (at == std::string::npos) {
-          fail(std::string(kMountRotationKey) + " belongs to one setup: write '" + kMountRotationKey +
-               "@<setup>: rx ry rz'");
-        }
-        const int setup = ParseInteger(key.substr(at + 1), key + ": setup id", fail.where());
-        const auto [it, inserted] = mount_lines.emplace(setup, line_no);
-        if (!inserted) {
-          fail("the mount rotation of setup " + std::to_string(setup) + " is given twice (first at line " +
-               std::to_string(it->second) + ")");
-        }
-        data.header.mount_rotations[setup] = ParseMountRotation(value, key, fail.where());
-      } else if (key == kRadiusKey || key == kProbeOffsetKey) {
-        const double v = ParseNumber(value, key, fail.where());
-        const double max = key == kRadiusKey ? kMaxSphereRadiusMm : kMaxProbeOffsetMm;
-        if (!(v > 0.0)) fail(key + " must be positive, got " + Quoted(value));
-        if (v > max) fail(key + " must be at most " + internal::Format("%g", max) + " mm, got " + Quoted(value));
-        (key == kRadiusKey ? data.header.sphere_radius_mm : data.header.probe_offset_mm) = v;
-      } else if (key == kColumnsKey) {
-        data.header.columns = SplitWhitespace(value);
-        if (data.header.columns.empty()) fail("the columns line names no columns");
-        fix_columns(fail);
-      } else {
-        for (const ConditionField& c : kConditionFields) {
-          if (key != c.key) continue;
-          const double v = ParseNumber(value, key, fail.where());
-          if (!(v >= c.min && v <= c.max)) {
-            fail(key + " must be within [" + internal::Format("%g", c.min) + ", " + internal::Format("%g", c.max) +
-                 "] " + c.unit + ", got " + Quoted(value));
-          }
-        }
-        data.header.metadata.emplace_back(key, value);
-      }
-      continue;
-    }
-
-    // A sample.
-    if (!columns_fixed) fix_columns(fail);
-    header_done = true;
+  void SampleLine(const std::string& text, const LineError& fail) {
+    if (!columns_fixed_) FixColumns(fail);
+    header_done_ = true;
     const auto tokens = SplitWhitespace(text);
+    const std::size_t n_columns = data_.header.columns.size();
     if (tokens.size() != n_columns) {
       std::string names;
-      for (const auto& c : data.header.columns) names += (names.empty() ? "" : " ") + c;
+      for (const auto& c : data_.header.columns) names += (names.empty() ? "" : " ") + c;
       fail("expected " + std::to_string(n_columns) + " columns (" + names + "), found " +
            std::to_string(tokens.size()));
     }
     Sample s;
-    auto col = [&](int k) { return tokens[static_cast<std::size_t>(index[static_cast<std::size_t>(k)])]; };
+    auto col = [&](int k) { return tokens[static_cast<std::size_t>(index_[static_cast<std::size_t>(k)])]; };
     auto name = [&](int k) { return std::string("column ") + kColumnNames[static_cast<std::size_t>(k)]; };
     s.theta_deg = ParseNumber(col(kTheta), name(kTheta), fail.where());
     s.phi_deg = ParseNumber(col(kPhi), name(kPhi), fail.where());
     s.r_mm = ParseNumber(col(kR), name(kR), fail.where());
-    s.t_s =
-        data.has_time ? ParseNumber(col(kTime), name(kTime), fail.where()) : static_cast<double>(data.samples.size());
-    s.setup = data.has_setup ? ParseInteger(col(kSetup), name(kSetup), fail.where()) : 0;
-    data.samples.push_back(s);
-    data.sample_lines.push_back(line_no);
+    s.t_s = data_.has_time ? ParseNumber(col(kTime), name(kTime), fail.where())
+                           : static_cast<double>(data_.samples.size());
+    s.setup = data_.has_setup ? ParseInteger(col(kSetup), name(kSetup), fail.where()) : 0;
+    data_.samples.push_back(s);
+    data_.sample_lines.push_back(line_no_);
   }
-  if (data.samples.empty())
-    throw Error(source + ": no samples (the file has " + std::to_string(line_no) + " lines, none of them a sample)");
-  // A mount rotation of a setup that has no samples: a typo in the setup id, or a setup whose rows went missing.
-  if (!mount_lines.empty()) {
-    const std::vector<int> ids = data.SetupIds();
-    for (const auto& [setup, header_line] : mount_lines) {
+
+  // A mount rotation of a setup that has no samples: a typo in the setup id, or a setup whose rows
+  // went missing.
+  void CheckMountRotations() const {
+    if (mount_lines_.empty()) return;
+    const std::vector<int> ids = data_.SetupIds();
+    for (const auto& [setup, header_line] : mount_lines_) {
       if (std::binary_search(ids.begin(), ids.end(), setup)) continue;
       std::string have;
       for (int id : ids) have += (have.empty() ? "" : " ") + std::to_string(id);
-      throw Error(source + ":" + std::to_string(header_line) + ": " + MountRotationKey(setup) + ": setup " +
+      throw Error(data_.source + ":" + std::to_string(header_line) + ": " + MountRotationKey(setup) + ": setup " +
                   std::to_string(setup) + " has no samples (" +
-                  (data.has_setup ? "the file's setups: " + have
-                                  : std::string("the file has no setup column: all its samples are setup 0")) +
+                  (data_.has_setup ? "the file's setups: " + have
+                                   : std::string("the file has no setup column: all its samples are setup 0")) +
                   ")");
     }
   }
-  return data;
+
+  PointsData data_;
+  std::set<std::string> seen_keys_;
+  std::map<int, long> mount_lines_;       // the header line of each setup's mount rotation
+  std::array<int, kNumColumns> index_{};  // file column index of each known column, -1 if absent
+  bool columns_fixed_ = false;            // set at the columns line or the first sample
+  bool header_done_ = false;              // set at the first sample
+  long line_no_ = 0;
+};
+
+}  // namespace
+
+PointsData ParsePoints(std::istream& in, const std::string& source) {
+  PointsParser parser(source);
+  TextLines lines(in, source, "a points file");
+  std::string line;
+  while (lines.Next(line)) parser.Line(Trim(line), lines.line_no(), LineError(lines.Where()));
+  return parser.Finish();
 }
 
 std::vector<std::string> PlausibilityWarnings(const PointsData& data) {
