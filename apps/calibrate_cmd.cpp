@@ -129,6 +129,76 @@ std::optional<CalibrationBudget> BudgetOf(const PointsData& points, const Calibr
   }
 }
 
+// The calibration's settings from the options and the points file's header (the options win);
+// `inputs` gets the measuring conditions of both.
+CalibrationOptions SettingsOf(const CalibrateOptions& o, const PointsData& points, CalibrationInputs* inputs) {
+  const auto radius = o.sphere_radius_mm ? o.sphere_radius_mm : points.header.sphere_radius_mm;
+  const auto offset = o.probe_offset_mm ? o.probe_offset_mm : points.header.probe_offset_mm;
+  if (!radius) {
+    throw Error(o.points_path +
+                ": the reference sphere radius R0 is not given: add a header line "
+                "'# sphere_radius_mm: <R0>' to the file or pass --sphere-radius-mm");
+  }
+  if (!offset) {
+    throw Error(o.points_path +
+                ": the nominal probe zero distance d is not given: add a header line "
+                "'# probe_offset_mm: <d>' to the file or pass --probe-offset-mm");
+  }
+  *inputs = CalibrationInputs().With(ConditionsOf(points.header)).With(o.conditions);
+  if (o.coverage) inputs->coverage.probability = *o.coverage;
+  CalibrationOptions copts;
+  copts.sphere_radius_mm = inputs->RadiusAtTemperatureMm(*radius);
+  copts.probe_offset_mm = *offset;
+  copts.max_std_um = o.max_std_um;
+  copts.max_iterations = o.max_iterations;
+  return copts;
+}
+
+// The residual traced to further effects (or the effects of --effects fitted), from the seven-error
+// fit `base`.
+TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const CalibrationOptions& copts,
+                    const CalibrationResult& base, Progress& progress) {
+  TraceOptions topts;
+  topts.harmonics = o.harmonics;
+  topts.drift_order = o.drift_order;
+  topts.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
+  topts.probe_range_mm =
+      o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
+  topts.seed = o.seed;
+  topts.progress = [&](int round, int done, int total) {
+    progress.Update("tracing the residual, round " + std::to_string(round) + ": candidates", done, total);
+  };
+  if (o.effects.empty()) return TraceResidual(points, copts, base, topts);
+  std::vector<Effect> fixed;
+  for (const std::string& id : o.effects) {
+    Effect e;
+    EffectFromId(id, &e);  // checked by the option's validator
+    if (std::find(fixed.begin(), fixed.end(), e) == fixed.end()) fixed.push_back(e);
+  }
+  return FitFixedEffects(points, copts, base, fixed, topts);
+}
+
+// The calibration file of `result` (with the trace's effects when `extended`) staged to o.output_path,
+// or the reason it is not written on err.
+void StageCalibrationFile(const CalibrateOptions& o, const CalibrationResult& result, const ReportContext& ctx,
+                          const EffectFit* extended, const CalibrationBudget* budget, OutputFiles& files,
+                          std::ostream& err) {
+  const std::string prog = "sph_calibrate";
+  if (!result.Usable()) {
+    err << prog << ": not writing " << o.output_path << ": the calibration is not usable\n";
+    return;
+  }
+  CalibrationFile file = MakeCalibrationFile(result, ctx);
+  if (extended && AddEffectsToCalibrationFile(*extended, file)) {
+    err << prog << ": note: " << o.output_path << " leaves out probe_drift: a drift belongs to the run it was measured in\n";
+  }
+  std::vector<int> columns;
+  for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
+  if (extended) columns = AppliedColumns(*extended);
+  AddCovarianceToCalibrationFile(columns, result, budget, file);
+  files.Stage(o.output_path, [&](std::ostream& f) { WriteCalibration(f, file); });
+}
+
 }  // namespace
 
 int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err) {
@@ -148,25 +218,8 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     Progress progress(prog, err, o.progress);
     progress.Stage("reading " + o.points_path);
     const PointsData points = ReadPointsFile(o.points_path);
-    CalibrationOptions copts;
-    const auto radius = o.sphere_radius_mm ? o.sphere_radius_mm : points.header.sphere_radius_mm;
-    const auto offset = o.probe_offset_mm ? o.probe_offset_mm : points.header.probe_offset_mm;
-    if (!radius) {
-      throw Error(o.points_path +
-                  ": the reference sphere radius R0 is not given: add a header line "
-                  "'# sphere_radius_mm: <R0>' to the file or pass --sphere-radius-mm");
-    }
-    if (!offset) {
-      throw Error(o.points_path +
-                  ": the nominal probe zero distance d is not given: add a header line "
-                  "'# probe_offset_mm: <d>' to the file or pass --probe-offset-mm");
-    }
-    CalibrationInputs inputs = CalibrationInputs().With(ConditionsOf(points.header)).With(o.conditions);
-    if (o.coverage) inputs.coverage.probability = *o.coverage;
-    copts.sphere_radius_mm = inputs.RadiusAtTemperatureMm(*radius);
-    copts.probe_offset_mm = *offset;
-    copts.max_std_um = o.max_std_um;
-    copts.max_iterations = o.max_iterations;
+    CalibrationInputs inputs;
+    const CalibrationOptions copts = SettingsOf(o, points, &inputs);
     // Readings that parse but look wrong: said first, on stderr, whatever the report's form.
     progress.Stage("checking " + std::to_string(points.samples.size()) + " samples");
     const std::vector<std::string> warnings = PlausibilityWarnings(points);
@@ -177,28 +230,8 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     std::optional<TraceResult> trace;
     std::optional<Validation> validation;
     if (!o.no_extend) {
-      TraceOptions topts;
-      topts.harmonics = o.harmonics;
-      topts.drift_order = o.drift_order;
-      topts.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
-      topts.probe_range_mm =
-          o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
-      topts.seed = o.seed;
-      topts.progress = [&](int round, int done, int total) {
-        progress.Update("tracing the residual, round " + std::to_string(round) + ": candidates", done, total);
-      };
-      if (o.effects.empty()) {
-        trace = TraceResidual(points, copts, base, topts);
-      } else {
-        std::vector<Effect> fixed;
-        for (const std::string& id : o.effects) {
-          Effect e;
-          EffectFromId(id, &e);  // checked by the option's validator
-          if (std::find(fixed.begin(), fixed.end(), e) == fixed.end()) fixed.push_back(e);
-        }
-        trace = FitFixedEffects(points, copts, base, fixed, topts);
-      }
-      if (!o.validate_path.empty()) validation = Validate(o.validate_path, *offset, *trace);
+      trace = TraceOf(o, points, copts, base, progress);
+      if (!o.validate_path.empty()) validation = Validate(o.validate_path, copts.probe_offset_mm, *trace);
     }
     progress.Finish();  // the report follows on stdout, maybe the same terminal
     // The calibration reported: the seven errors of the final model, fitted with its effects and
@@ -214,7 +247,7 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     ctx.program = prog + " " SPH_VERSION;
     ctx.points_path = o.points_path;
     ctx.sphere_radius_mm = copts.sphere_radius_mm;
-    ctx.probe_offset_mm = *offset;
+    ctx.probe_offset_mm = copts.probe_offset_mm;
     ctx.max_std_um = o.max_std_um;
     ctx.metadata = points.header.metadata;
     OutputFiles files(out);
@@ -225,20 +258,8 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       files.Stage(o.json_path, [&](std::ostream& f) { f << json; });
     }
     if (!o.output_path.empty()) {
-      if (result.Usable()) {
-        CalibrationFile file = MakeCalibrationFile(result, ctx);
-        if (extended && AddEffectsToCalibrationFile(trace->after.fit, file)) {
-          err << prog << ": note: " << o.output_path
-              << " leaves out probe_drift: a drift belongs to the run it was measured in\n";
-        }
-        std::vector<int> columns;
-        for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
-        if (extended) columns = AppliedColumns(trace->after.fit);
-        AddCovarianceToCalibrationFile(columns, result, budget ? &*budget : nullptr, file);
-        files.Stage(o.output_path, [&](std::ostream& f) { WriteCalibration(f, file); });
-      } else {
-        err << prog << ": not writing " << o.output_path << ": the calibration is not usable\n";
-      }
+      StageCalibrationFile(o, result, ctx, extended ? &trace->after.fit : nullptr, budget ? &*budget : nullptr, files,
+                           err);
     }
     if (trace && !o.plot_dir.empty()) PlotTrace(o.plot_dir, points, copts, *trace, files);
     if (text) {
