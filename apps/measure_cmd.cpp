@@ -62,23 +62,131 @@ json Vec3Json(const Eigen::Vector3d& v, double scale = 1.0) {
   return json::array({v.x() * scale, v.y() * scale, v.z() * scale});
 }
 
-Input ReadInput(const MeasureOptions& o) {
-  Input in;
-  if (o.xyz) {
-    if (!o.calibration_path.empty()) {
-      throw Error("--calibration compensates readings (theta, phi, r); " + o.points_path +
-                  " is read as x y z coordinates (--xyz), which need none");
-    }
-    if (o.setup) throw Error("--setup selects a setup of a points file of readings, not of x y z coordinates (--xyz)");
-    in.points_mm = ReadXyzFile(o.points_path);
-    in.description = std::to_string(in.points_mm.size()) + " points (x y z)";
-    return in;
+// x y z points, which need no calibration.
+Input ReadXyzInput(const MeasureOptions& o) {
+  if (!o.calibration_path.empty()) {
+    throw Error("--calibration compensates readings (theta, phi, r); " + o.points_path +
+                " is read as x y z coordinates (--xyz), which need none");
   }
+  if (o.setup) throw Error("--setup selects a setup of a points file of readings, not of x y z coordinates (--xyz)");
+  Input in;
+  in.points_mm = ReadXyzFile(o.points_path);
+  in.description = std::to_string(in.points_mm.size()) + " points (x y z)";
+  return in;
+}
+
+// The setup to evaluate: --setup, else the file's only one (none when the file has no setup column).
+std::optional<int> SelectedSetup(const MeasureOptions& o, const PointsData& data) {
+  const std::vector<int> ids = data.SetupIds();
+  if (o.setup) {
+    if (std::find(ids.begin(), ids.end(), *o.setup) == ids.end()) {
+      throw Error(o.points_path + ": there is no setup " + std::to_string(*o.setup));
+    }
+    return o.setup;
+  }
+  if (ids.size() > 1) {
+    std::string list;
+    for (const int id : ids) list += (list.empty() ? "" : " ") + std::to_string(id);
+    throw Error(o.points_path + ": the file holds several setups (" + list +
+                "), each a placement of a sphere: choose one with --setup");
+  }
+  if (data.has_setup) return ids.front();
+  return std::nullopt;
+}
+
+// probe_incidence of `cal`, folded into the readings of `in` and taken out of `cal`, so that the
+// calibration's draws compensate them alike. Its angle needs the sphere's centre: that of the
+// points without it, then again.
+void FoldProbeIncidence(const MeasureOptions& o, int term, Calibration& cal, Input& in) {
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  for (int pass = 0; pass < 2; ++pass) {
+    const LeastSquaresSphere fit = FitSphereLeastSquares(in.points_mm);
+    if (!fit.sphere.ok) throw Error(o.points_path + ": the compensated points determine no sphere");
+    center = fit.sphere.center;
+    in.points_mm = CompensateAll(cal, in.readings, center);
+  }
+  std::vector<const double*> blocks;
+  for (const auto& v : cal.effect_values) blocks.push_back(v.data());
+  const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());
+  for (RawReading& r : in.readings) {
+    r.r_mm += ProbeIncidenceError(cal.geometry.data(), trig, cal.effects, blocks.data(),
+                                  EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), cal.probe_offset_mm,
+                                  center.data());
+  }
+  cal.effects.terms.erase(cal.effects.terms.begin() + term);
+  cal.effect_values.erase(cal.effect_values.begin() + term);
+  in.points_mm = CompensateAll(cal, in.readings);
+}
+
+// What the report says of the calibration sphere's form the file holds (empty: none).
+std::string FormNote(const MeasureOptions& o, const CalibrationFile& file) {
+  if (file.form_terms.empty()) return "";
+  int l_max = 0;
+  for (const FormTerm& t : file.form_terms) l_max = std::max(l_max, t.l);
+  return Format("the calibration sphere's form (degrees 2..%d, rms %.4f um over the whole sphere) ", l_max,
+                FormRms(file.form_terms, file.form_values_mm) * kUmPerMm) +
+         (o.subtract_sphere_form ? "is taken off the points (--subtract-sphere-form)"
+                                 : "is in the calibration file; --subtract-sphere-form takes it off when "
+                                   "these points are of that sphere");
+}
+
+// --subtract-sphere-form: the calibration sphere's form, turned as the sphere was mounted in the
+// setup measured, taken off the points of `in` about their least-squares centre.
+void TakeOffSphereForm(const MeasureOptions& o, const CalibrationFile& file, const PointsData& data,
+                       AppliedCalibration& applied, Input& in) {
+  if (file.form_terms.empty()) {
+    throw Error(o.calibration_path +
+                ": holds no form of the calibration sphere (sph_calibrate stores one when the sphere was measured "
+                "in at least two known orientations on its mount), which --subtract-sphere-form takes off");
+  }
+  const int id = in.setup.value_or(0);
+  const auto it = data.header.mount_rotations.find(id);
+  if (it != data.header.mount_rotations.end()) {
+    if (!it->second.known()) {
+      throw Error(o.points_path + ": the mount rotation of setup " + std::to_string(id) +
+                  " is unknown: the sphere's form cannot be taken off in an orientation nobody measured");
+    }
+    applied.form.rotation = MountRotationMatrix(*it->second.rotation_deg);
+  }
+  const LeastSquaresSphere ls = FitSphereLeastSquares(in.points_mm);
+  if (!ls.sphere.ok) throw Error(o.points_path + ": the compensated points determine no sphere");
+  applied.form.center_mm = ls.sphere.center;  // the form's directions are taken from here
+  in.points_mm = ApplyCalibration(applied, in.readings);
+}
+
+// What of the calibration goes without its uncertainty (empty: nothing).
+std::string CovarianceNote(const MeasureOptions& o, const AppliedCalibration& applied, const Calibration& cal) {
+  std::vector<std::string> without;
+  if (applied.covariance.size() > 0 && !applied.effects_in_covariance && !cal.effects.Empty()) {
+    without.push_back("its effects are applied without their uncertainty");
+  }
+  if (applied.covariance.size() > 0 && !applied.form.Empty() && !applied.form_in_covariance) {
+    without.push_back("the form is taken off without its uncertainty");
+  }
+  if (without.empty()) return "";
+  return o.calibration_path + " holds the covariance of the seven errors alone: " + without.front() +
+         (without.size() > 1 ? ", and " + without.back() : std::string());
+}
+
+// The calibration file's source.fit_rms_um, when it is a positive number.
+std::optional<double> FitRmsOf(const CalibrationFile& file) {
+  std::optional<double> rms;
+  for (const auto& [key, value] : file.source) {
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (key == "fit_rms_um" && end != value.c_str() && *end == '\0' && v > 0.0 && std::isfinite(v)) rms = v;
+  }
+  return rms;
+}
+
+Input ReadInput(const MeasureOptions& o) {
+  if (o.xyz) return ReadXyzInput(o);
   if (o.calibration_path.empty()) {
     throw Error(o.points_path +
                 ": readings (theta, phi, r) need a calibration to become points: pass "
                 "--calibration FILE, or --xyz when the file holds x y z coordinates");
   }
+  Input in;
   const PointsData data = ReadPointsFile(o.points_path);
   in.warnings = PlausibilityWarnings(data);
   const CalibrationFile file = ReadCalibrationFile(o.calibration_path);
@@ -89,46 +197,12 @@ Input ReadInput(const MeasureOptions& o) {
                 Format("%.9g", cal.probe_offset_mm) + " (" + o.calibration_path +
                 "): the calibration belongs to another probe set-up");
   }
-  const std::vector<int> ids = data.SetupIds();
-  if (o.setup) {
-    if (std::find(ids.begin(), ids.end(), *o.setup) == ids.end()) {
-      throw Error(o.points_path + ": there is no setup " + std::to_string(*o.setup));
-    }
-    in.setup = o.setup;
-  } else if (ids.size() > 1) {
-    std::string list;
-    for (const int id : ids) list += (list.empty() ? "" : " ") + std::to_string(id);
-    throw Error(o.points_path + ": the file holds several setups (" + list +
-                "), each a placement of a sphere: choose one with --setup");
-  } else if (data.has_setup) {
-    in.setup = ids.front();
-  }
+  in.setup = SelectedSetup(o, data);
   for (const Sample& s : data.samples) {
     if (!in.setup || s.setup == *in.setup) in.readings.push_back({s.theta_deg, s.phi_deg, s.r_mm});
   }
   in.points_mm = CompensateAll(cal, in.readings);
-  if (const int t = cal.effects.Find(Effect::kProbeIncidence); t >= 0) {
-    // Its angle needs the sphere's centre: that of the points without it, then again. The error
-    // is then folded into the readings, so that the calibration's draws compensate them alike.
-    Eigen::Vector3d center = Eigen::Vector3d::Zero();
-    for (int pass = 0; pass < 2; ++pass) {
-      const LeastSquaresSphere fit = FitSphereLeastSquares(in.points_mm);
-      if (!fit.sphere.ok) throw Error(o.points_path + ": the compensated points determine no sphere");
-      center = fit.sphere.center;
-      in.points_mm = CompensateAll(cal, in.readings, center);
-    }
-    std::vector<const double*> blocks;
-    for (const auto& v : cal.effect_values) blocks.push_back(v.data());
-    const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());
-    for (RawReading& r : in.readings) {
-      r.r_mm +=
-          ProbeIncidenceError(cal.geometry.data(), trig, cal.effects, blocks.data(),
-                              EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), cal.probe_offset_mm, center.data());
-    }
-    cal.effects.terms.erase(cal.effects.terms.begin() + t);
-    cal.effect_values.erase(cal.effect_values.begin() + t);
-    in.points_mm = CompensateAll(cal, in.readings);
-  }
+  if (const int t = cal.effects.Find(Effect::kProbeIncidence); t >= 0) FoldProbeIncidence(o, t, cal, in);
   if (const std::size_t n = ProbeExtrapolations(cal, in.readings); n > 0) {
     const EffectReference& ref = cal.effects.reference;
     in.warnings.push_back(
@@ -136,55 +210,12 @@ Input ReadInput(const MeasureOptions& o) {
                "fitted over (r_mm %.6f to %.6f): the probe polynomial is extrapolated there",
                n, in.readings.size(), ref.FitMin(), ref.FitMax()));
   }
-  if (!file.form_terms.empty()) {
-    int l_max = 0;
-    for (const FormTerm& t : file.form_terms) l_max = std::max(l_max, t.l);
-    in.form_note = Format("the calibration sphere's form (degrees 2..%d, rms %.4f um over the whole sphere) ", l_max,
-                          FormRms(file.form_terms, file.form_values_mm) * kUmPerMm) +
-                   (o.subtract_sphere_form ? "is taken off the points (--subtract-sphere-form)"
-                                           : "is in the calibration file; --subtract-sphere-form takes it off when "
-                                             "these points are of that sphere");
-  }
+  in.form_note = FormNote(o, file);
   AppliedCalibration applied = AppliedCalibration::Of(file, o.subtract_sphere_form);
-  if (o.subtract_sphere_form) {
-    if (file.form_terms.empty()) {
-      throw Error(o.calibration_path +
-                  ": holds no form of the calibration sphere (sph_calibrate stores one when the sphere was measured "
-                  "in at least two known orientations on its mount), which --subtract-sphere-form takes off");
-    }
-    const int id = in.setup.value_or(0);
-    const auto it = data.header.mount_rotations.find(id);
-    if (it != data.header.mount_rotations.end()) {
-      if (!it->second.known()) {
-        throw Error(o.points_path + ": the mount rotation of setup " + std::to_string(id) +
-                    " is unknown: the sphere's form cannot be taken off in an orientation nobody measured");
-      }
-      applied.form.rotation = MountRotationMatrix(*it->second.rotation_deg);
-    }
-    const LeastSquaresSphere ls = FitSphereLeastSquares(in.points_mm);
-    if (!ls.sphere.ok) throw Error(o.points_path + ": the compensated points determine no sphere");
-    applied.form.center_mm = ls.sphere.center;  // the form's directions are taken from here
-    in.points_mm = ApplyCalibration(applied, in.readings);
-  }
-  std::vector<std::string> without;
-  if (applied.covariance.size() > 0 && !applied.effects_in_covariance && !cal.effects.Empty()) {
-    without.push_back("its effects are applied without their uncertainty");
-  }
-  if (applied.covariance.size() > 0 && !applied.form.Empty() && !applied.form_in_covariance) {
-    without.push_back("the form is taken off without its uncertainty");
-  }
-  if (!without.empty()) {
-    in.covariance_note = o.calibration_path + " holds the covariance of the seven errors alone: " + without.front() +
-                         (without.size() > 1 ? ", and " + without.back() : std::string());
-  }
+  if (o.subtract_sphere_form) TakeOffSphereForm(o, file, data, applied, in);
+  in.covariance_note = CovarianceNote(o, applied, cal);
   in.applied = std::move(applied);
-  for (const auto& [key, value] : file.source) {
-    char* end = nullptr;
-    const double v = std::strtod(value.c_str(), &end);
-    if (key == "fit_rms_um" && end != value.c_str() && *end == '\0' && v > 0.0 && std::isfinite(v)) {
-      in.calibration_fit_rms_um = v;
-    }
-  }
+  in.calibration_fit_rms_um = FitRmsOf(file);
   in.header_radius_mm = data.header.sphere_radius_mm;
   in.description = std::to_string(in.readings.size()) + " readings" +
                    (in.setup ? " (setup " + std::to_string(*in.setup) + ")" : "") + ", compensated with " +
