@@ -18,7 +18,9 @@ constexpr int kRows = SphereFitProblem::kBlockRows;
 // The kernels that take most of a calibration's time are also compiled for AVX2 on x86-64 (GCC
 // and Clang on ELF), and the CPU chooses at run time. AVX2 without FMA: the same operations,
 // rounded the same, so results do not depend on the CPU.
-#if defined(__x86_64__) && defined(__ELF__) && (defined(__clang__) ? __clang_major__ >= 14 : __GNUC__ >= 6)
+// (target_clones needs the C library's ifunc: glibc has it, musl does not.)
+#if defined(__x86_64__) && defined(__ELF__) && defined(__GLIBC__) && \
+    (defined(__clang__) ? __clang_major__ >= 14 : __GNUC__ >= 6)
 #define SPH_X86_64_CLONES 1
 #define SPH_HOT_KERNEL __attribute__((target_clones("avx2", "default")))
 #else
@@ -146,6 +148,7 @@ using Vector [[gnu::vector_size(kSize * sizeof(double))]] = double;
 template <int kSize>  // kSize values at p, which need only be aligned as a double (and may alias doubles)
 using VectorAt [[gnu::vector_size(kSize * sizeof(double)), gnu::aligned(alignof(double)), gnu::may_alias]] = double;
 constexpr int kLanes = 4;
+static_assert(kRows % kLanes == 0, "AddGram() reads whole groups of four rows of a block's columns");
 
 struct FourLanes {
   Vector<4> s = {};
@@ -662,16 +665,18 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
     }
     in.z = (s.r[i] + (s.target[kDr][i] + incidence.dr_mm)) - d_plus_dprime;
     ResidualGradient out;
-    // The gradient of e (centre o) with the chain through the incidence angle.
+    // The gradient of e (centre o) with the chain through the incidence angle; returns the unit
+    // normal n = (p - o) / |p - o| = -de/do of |p - o| alone (before that chain, which adds to de/do).
     auto gradient = [&](const double* o, ResidualGradient* result) {
       GradientAt(s.wobble, s.tilt, g, et, in, o, sphere_radius_mm_, result);
+      const Eigen::Vector3d normal(-result->center[0], -result->center[1], -result->center[2]);
       if (s.incidence >= 0 && cols != nullptr) AddScaled(incidence.dc, result->z * incidence.de_dc_per_de_dz, result);
+      return normal;
     };
-    gradient(center, &out);
+    const Eigen::Vector3d n = gradient(center, &out);
     e[i] = out.e;
     if (form) {
       // See the header: e -= F(R^T n), and the gradient along t = dF/dp taken off.
-      const Eigen::Vector3d n(-out.center[0], -out.center[1], -out.center[2]);
       const double dist = out.e + sphere_radius_mm_;
       const Eigen::Vector3d body = rotation.transpose() * n;
       s.harmonics->Evaluate(body.x(), body.y(), body.z(), s.harmonic_values.data(),

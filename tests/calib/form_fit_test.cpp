@@ -75,7 +75,9 @@ TEST(FormFit, GroupsOfTheSetups) {
 // point by EffectScmsPoint() and the form by FormValue(): another code path. The form is large
 // (micrometres) so that its tangential part, about l F / R0 of the columns, is far above the
 // tolerance.
-TEST(FormFit, JacobianMatchesCentralDifferences) {
+// with_incidence: probe_incidence beside the form. Its chain through the incidence angle adds to
+// de/dO, and the form must still be taken at the unit normal, not at -de/dO.
+void CheckFormJacobian(bool with_incidence) {
   SimulationSpec spec;
   spec.pattern = GridPattern(12, 6);
   spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, -1.5, 0.5), Eigen::Vector3d(-1, 0, 0)};
@@ -86,15 +88,20 @@ TEST(FormFit, JacobianMatchesCentralDifferences) {
   model.terms.push_back(DefaultTerm(Effect::kThetaEncoder, 2));
   model.terms.push_back(DefaultTerm(Effect::kPhiWobble, 1));
   model.terms.push_back(DefaultTerm(Effect::kProbeGain));
+  if (with_incidence) model.terms.push_back(DefaultTerm(Effect::kProbeIncidence));
   model.reference = EffectReferenceOf(points.samples);
   model.form = FormModelOf(points, FormTermsOfDegrees(2, 4));
   ASSERT_EQ(model.form.NumGroups(), 2);
   CalibrationOptions o = PaperOptions();
   o.max_iterations = 1;
   EffectFit fit = FitEffects(points, o, model, EffectFitStart::From(Calibrate(points, PaperOptions())));
-  // Parameters away from zero, the form of a few micrometres.
-  for (auto& block : fit.values) {
-    for (std::size_t i = 0; i < block.size(); ++i) block[i] = 2e-5 * (1.0 + 0.3 * static_cast<double>(i));
+  // Parameters away from zero, the form of a few micrometres; an incidence error of micrometres, so
+  // that its chain is far above the tolerance.
+  for (std::size_t t = 0; t < fit.values.size(); ++t) {
+    const double size = fit.model.terms[t].effect == Effect::kProbeIncidence ? 3e-3 : 2e-5;
+    for (std::size_t i = 0; i < fit.values[t].size(); ++i) {
+      fit.values[t][i] = size * (1.0 + 0.3 * static_cast<double>(i));
+    }
   }
   for (std::size_t g = 0; g < fit.form_values.size(); ++g) {
     for (std::size_t k = 0; k < fit.form_values[g].size(); ++k) {
@@ -143,6 +150,10 @@ TEST(FormFit, JacobianMatchesCentralDifferences) {
       (jacobian.leftCols(kNumScmsParams + 9) - plain.leftCols(kNumScmsParams + 9)).cwiseAbs().maxCoeff();
   EXPECT_GT(largest_tangential, 1e-4);
 }
+
+TEST(FormFit, JacobianMatchesCentralDifferences) { CheckFormJacobian(false); }
+
+TEST(FormFit, JacobianWithProbeIncidenceMatchesCentralDifferences) { CheckFormJacobian(true); }
 
 // Ray-traced by the simulator (code of its own): the sphere in three orientations (two known, one
 // unknown), a form of 0.05 um RMS of degrees 2 to 4 and a Theta encoder error of 5" at 3 per turn,
