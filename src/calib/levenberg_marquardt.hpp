@@ -13,8 +13,8 @@
 // one pass over its residuals (streamed, no Jacobian held), and the step comes from a Cholesky
 // factorisation of the small damped normal matrix (tens of columns). A candidate's normal equations
 // are computed together with its cost; a step is taken far more often than not, and the pass
-// then serves the next step. Only the last step, the one the linear model already predicts to
-// change the cost by less than the function tolerance, is tried on its cost alone first.
+// then serves the next step. A step the linear model predicts to change the cost by less than twice
+// the function tolerance, most likely the last, is tried on its cost alone first.
 #ifndef SPH_SRC_CALIB_LEVENBERG_MARQUARDT_HPP_
 #define SPH_SRC_CALIB_LEVENBERG_MARQUARDT_HPP_
 
@@ -146,8 +146,9 @@ LmSummary SolveLevenbergMarquardt(const Problem& problem, Eigen::VectorXd& x, co
       --summary.iterations;
       return true;
     };
-    // Where the linear model predicts a change within the function tolerance, the step most likely
-    // ends the solve, and its cost alone decides that first: J^T J there would go unused.
+    // Where the linear model predicts a change within twice the function tolerance, the step most
+    // likely ends the solve, and its cost alone decides that first: J^T J there would go unused. If
+    // it does not end it, Evaluate() follows (the same cost, and what follows as before).
     if (model_decrease <= kProbeCostOnly * options.function_tolerance * w.at_x.cost) {
       double cost = 0.0;
       if (problem.EvaluateCost(w.candidate.data(), &cost) && function_tolerance_met(cost)) return summary;
