@@ -236,7 +236,11 @@ Validation Validate(const std::string& path, double probe_offset_mm, const Trace
   return v;
 }
 
-void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* validation) {
+namespace {
+
+// The rms, peak to valley, cross-validated rms and structure p before and after, and the
+// leave-one-setup-out rms.
+void WriteTraceSummary(std::ostream& out, const TraceResult& r) {
   const TracedFit& b = r.before;
   const TracedFit& a = r.after;
   out << "\nclosing the loop (residual traced to effects the seven-error model lacks)\n";
@@ -253,6 +257,11 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
         "refitted): rms %.4f um before, %.4f um after\n",
         b.loso_rms_um, a.loso_rms_um);
   }
+}
+
+// The structure of the residual before the trace, by variable and in harmonics of theta.
+void WriteStructure(std::ostream& out, const TraceResult& r) {
+  const TracedFit& b = r.before;
   out << "  structure before, by variable (F test against white noise):\n";
   for (const StructureGroup& g : b.structure.groups) {
     out << Format("    %-7s explains %.4f um rms, p = %.2g, strongest %s (%.4f um rms alone)\n", g.variable.c_str(),
@@ -262,13 +271,24 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   for (std::size_t k = 0; k < b.structure.theta_harmonics_um.size(); ++k) {
     out << Format(" %zu: %.4f", k + 1, b.structure.theta_harmonics_um[k]);
   }
-  out << "\n  candidates (delta BIC < 0 is better; added when <= -10 with a lower cv rms):\n";
+  out << "\n";
+}
+
+// Each candidate of each round, its score and what became of it.
+void WriteCandidates(std::ostream& out, const TraceResult& r) {
+  out << "  candidates (delta BIC < 0 is better; added when <= -10 with a lower cv rms):\n";
   for (const CandidateScore& c : r.candidates) {
     const std::string bic = std::isfinite(c.delta_bic) ? Format("%9.1f", c.delta_bic) : "        -";
     const std::string cv = std::isfinite(c.cv_rms_um) ? Format("%.4f um", c.cv_rms_um) : "      -   ";
     out << Format("    round %d %-20s delta BIC %s  cv rms %s  %s%s\n", c.round, c.Id().c_str(), bic.c_str(), cv.c_str(),
                   c.added ? "ADDED" : "", c.note.empty() ? "" : ("  (" + c.note + ")").c_str());
   }
+}
+
+// The effects of the final model with their values and standard uncertainties, and those the
+// backward step removed.
+void WriteEffectValues(std::ostream& out, const TraceResult& r) {
+  const TracedFit& a = r.after;
   const ObservabilityReport& rep = a.fit.calibration.analysis;
   for (std::size_t t = 0; t < a.fit.model.terms.size(); ++t) {
     const EffectTerm& term = a.fit.model.terms[t];
@@ -285,6 +305,12 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
     out << Format("  removed in the backward step: %s (the final model without it: delta BIC %+.1f)\n", InfoOf(e).id,
                   cost);
   }
+}
+
+// The sphere form: what the design separates, the degree chosen, the form found, the reference of
+// the probe and time terms.
+void WriteForm(std::ostream& out, const TraceResult& r) {
+  const TracedFit& a = r.after;
   out << "  sphere form: " << r.form.design << "\n";
   for (const std::string& c : r.form.confounded) out << "    confounded by the design: " << c << "\n";
   if (r.form.separable) {
@@ -299,6 +325,10 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
     out << Format("  reference: u = (r - %.6f mm) / %.6f mm, tau = (t - %.6g s) / %.6g s\n", ref.r_ref_mm,
                   ref.r_half_range_mm, ref.t_start_s, ref.t_span_s);
   }
+}
+
+// The explanations the data cannot tell apart, and the structure nothing explains.
+void WriteAmbiguities(std::ostream& out, const TraceResult& r) {
   for (const Ambiguity& x : r.ambiguous) {
     if (x.chosen == "sphere_form" && x.form_turns_with_sphere) {
       out << "  two explanations, neither added: the sphere's own form, turning with it, of a higher degree"
@@ -329,39 +359,47 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
     out << "  unexplained: " << u.description << Format(" (p = %.2g)", u.p_value) << "\n";
   }
   if (r.unexplained.empty()) out << "  no significant structure remains\n";
-  if (validation) {
-    const RmsComparison& c = validation->rms;
-    out << Format("  validation on %s (%d points): least-squares sphericity %.4f um before, %.4f um after%s\n",
-                  validation->path.c_str(), validation->n_points, validation->before_um, validation->after_um,
-                  validation->setups.size() > 1 ? " (worst setup)" : "");
-    out << Format(
-        "    rms about the least-squares sphere %.4f +- %.4f um before, %.4f +- %.4f um after (standard "
-        "uncertainties): the difference %.4f +- %.4f um is %s\n",
-        c.before_um, c.before_u_um, c.after_um, c.after_u_um, c.difference_um, c.difference_u_um,
-        c.inside_noise ? "inside the noise (within twice its uncertainty): the validation shows no change"
-                       : "beyond the noise (more than twice its uncertainty)");
-    out << "    (a peak to valley is an extreme of the noise: compare before and after by the rms)\n";
-    if (validation->setups.size() > 1) {
-      for (const ValidationSetup& s : validation->setups) {
-        out << Format("    setup %d (%d points): %.4f um before, %.4f um after; rms %.4f um before, %.4f um after\n",
-                      s.setup, s.n_points, s.before_um, s.after_um, s.before_rms_um, s.after_rms_um);
-      }
-    }
-    if (!validation->note.empty()) out << "    " << validation->note << "\n";
-  }
 }
 
-void AddTraceJson(json& report, const TraceResult& r, const Validation* validation) {
-  json added = json::array();
-  for (Effect e : r.added) added.push_back(InfoOf(e).id);
-  report["effects_added"] = added;
-  json removed = json::array();
-  for (const auto& [e, cost] : r.removed) removed.push_back({{"id", InfoOf(e).id}, {"delta_bic", cost}});
-  report["effects_removed"] = removed;
-  report["before"] = FitJson(r.before);
-  report["after"] = FitJson(r.after);
+// The validation on another points file.
+void WriteValidation(std::ostream& out, const Validation* validation) {
+  const RmsComparison& c = validation->rms;
+  out << Format("  validation on %s (%d points): least-squares sphericity %.4f um before, %.4f um after%s\n",
+                validation->path.c_str(), validation->n_points, validation->before_um, validation->after_um,
+                validation->setups.size() > 1 ? " (worst setup)" : "");
+  out << Format(
+      "    rms about the least-squares sphere %.4f +- %.4f um before, %.4f +- %.4f um after (standard "
+      "uncertainties): the difference %.4f +- %.4f um is %s\n",
+      c.before_um, c.before_u_um, c.after_um, c.after_u_um, c.difference_um, c.difference_u_um,
+      c.inside_noise ? "inside the noise (within twice its uncertainty): the validation shows no change"
+                     : "beyond the noise (more than twice its uncertainty)");
+  out << "    (a peak to valley is an extreme of the noise: compare before and after by the rms)\n";
+  if (validation->setups.size() > 1) {
+    for (const ValidationSetup& s : validation->setups) {
+      out << Format("    setup %d (%d points): %.4f um before, %.4f um after; rms %.4f um before, %.4f um after\n",
+                    s.setup, s.n_points, s.before_um, s.after_um, s.before_rms_um, s.after_rms_um);
+    }
+  }
+  if (!validation->note.empty()) out << "    " << validation->note << "\n";
+}
+
+}  // namespace
+
+void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* validation) {
+  WriteTraceSummary(out, r);
+  WriteStructure(out, r);
+  WriteCandidates(out, r);
+  WriteEffectValues(out, r);
+  WriteForm(out, r);
+  WriteAmbiguities(out, r);
+  if (validation) WriteValidation(out, validation);
+}
+
+namespace {
+
+// The effects of the final model with their values and standard uncertainties.
+json EffectsJson(const EffectFit& a) {
   json effects = json::array();
-  const EffectFit& a = r.after.fit;
   const ObservabilityReport& rep = a.calibration.analysis;
   for (std::size_t t = 0; t < a.model.terms.size(); ++t) {
     const EffectTerm& term = a.model.terms[t];
@@ -379,49 +417,56 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
                        {"description", term.info().description},
                        {"parameters", params}});
   }
-  report["effects"] = effects;
-  const EffectReference& ref = a.model.reference;
-  report["effect_reference"] = {{"r_ref_mm", ref.r_ref_mm},
-                                {"r_half_range_mm", ref.r_half_range_mm},
-                                {"t_start_s", ref.t_start_s},
-                                {"t_span_s", ref.t_span_s}};
+  return effects;
+}
+
+json CandidatesJson(const TraceResult& r) {
   json candidates = json::array();
   for (const CandidateScore& c : r.candidates) {
     json kept = json::array();
     for (std::size_t i = 0; i < c.term.components.size(); ++i) kept.push_back(c.term.ParamName(i));
-    auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
     candidates.push_back({{"id", c.Id()},
                           {"round", c.round},
-                          {"delta_bic", number(c.delta_bic)},
+                          {"delta_bic", NumberOrNull(c.delta_bic)},
                           {"rms_um", c.rms_um},
-                          {"cv_rms_um", number(c.cv_rms_um)},
+                          {"cv_rms_um", NumberOrNull(c.cv_rms_um)},
                           {"components", kept},
                           {"sphere_fraction", c.sphere_fraction},
                           {"added", c.added},
                           {"note", c.note}});
   }
-  report["candidates"] = candidates;
+  return candidates;
+}
+
+json AmbiguousJson(const TraceResult& r) {
   json ambiguous = json::array();
   for (const Ambiguity& x : r.ambiguous) {
-    ambiguous.push_back(
-        {{"chosen", x.chosen},
-         {"other", x.other},
-         {"delta_bic_chosen", NumberOrNull(x.delta_bic_chosen)},
-         {"delta_bic_other", std::isfinite(x.delta_bic_other) ? json(x.delta_bic_other) : json(nullptr)},
-         {"sphere_fraction", x.sphere_fraction},
-         {"chosen_rms_um", NumberOrNull(x.chosen_rms_um)},
-         {"other_rms_um", NumberOrNull(x.other_rms_um)},
-         {"form_turns_with_sphere", x.form_turns_with_sphere},
-         {"separate_by", x.separate_by}});
+    ambiguous.push_back({{"chosen", x.chosen},
+                         {"other", x.other},
+                         {"delta_bic_chosen", NumberOrNull(x.delta_bic_chosen)},
+                         {"delta_bic_other", NumberOrNull(x.delta_bic_other)},
+                         {"sphere_fraction", x.sphere_fraction},
+                         {"chosen_rms_um", NumberOrNull(x.chosen_rms_um)},
+                         {"other_rms_um", NumberOrNull(x.other_rms_um)},
+                         {"form_turns_with_sphere", x.form_turns_with_sphere},
+                         {"separate_by", x.separate_by}});
   }
-  report["ambiguous"] = ambiguous;
+  return ambiguous;
+}
+
+json UnexplainedJson(const TraceResult& r) {
   json unexplained = json::array();
   for (const Unexplained& u : r.unexplained) {
     unexplained.push_back(
         {{"follows", u.variable}, {"rms_um", u.rms_um}, {"p_value", u.p_value}, {"description", u.description}});
   }
-  report["unexplained"] = unexplained;
-  const std::vector<SphereFormResult> forms = SphereFormOf(a);
+  return unexplained;
+}
+
+// "sphere_form": the form found (of the setups of known orientation), what the design separates,
+// the extended BIC of each degree, and the form of each setup of unknown orientation.
+json TraceFormJson(const TraceResult& r) {
+  const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
   json form = forms.empty() ? json{{"degree_max", 0}, {"terms", json::array()}, {"confounded", json::array()}}
                             : SphereFormJson(forms.front());
   json scores = json::array();
@@ -437,32 +482,57 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
     unknown.push_back(f);
   }
   form["unknown_orientation"] = unknown;
-  report["sphere_form"] = form;
-  if (validation) {
-    json setups = json::array();
-    for (const ValidationSetup& s : validation->setups) {
-      setups.push_back({{"setup", s.setup},
-                        {"n_points", s.n_points},
-                        {"before_ls_sphericity_um", s.before_um},
-                        {"after_ls_sphericity_um", s.after_um},
-                        {"before_rms_um", s.before_rms_um},
-                        {"after_rms_um", s.after_rms_um}});
-    }
-    const RmsComparison& c = validation->rms;
-    report["validation"] = {{"points_file", validation->path},
-                            {"n_points", validation->n_points},
-                            {"before_ls_sphericity_um", validation->before_um},
-                            {"after_ls_sphericity_um", validation->after_um},
-                            {"before_rms_um", c.before_um},
-                            {"before_rms_u_um", c.before_u_um},
-                            {"after_rms_um", c.after_um},
-                            {"after_rms_u_um", c.after_u_um},
-                            {"rms_difference_um", c.difference_um},
-                            {"rms_difference_u_um", c.difference_u_um},
-                            {"rms_difference_inside_noise", c.inside_noise},
-                            {"setups", setups},
-                            {"note", validation->note}};
+  return form;
+}
+
+json ValidationJson(const Validation& validation) {
+  json setups = json::array();
+  for (const ValidationSetup& s : validation.setups) {
+    setups.push_back({{"setup", s.setup},
+                      {"n_points", s.n_points},
+                      {"before_ls_sphericity_um", s.before_um},
+                      {"after_ls_sphericity_um", s.after_um},
+                      {"before_rms_um", s.before_rms_um},
+                      {"after_rms_um", s.after_rms_um}});
   }
+  const RmsComparison& c = validation.rms;
+  return {{"points_file", validation.path},
+          {"n_points", validation.n_points},
+          {"before_ls_sphericity_um", validation.before_um},
+          {"after_ls_sphericity_um", validation.after_um},
+          {"before_rms_um", c.before_um},
+          {"before_rms_u_um", c.before_u_um},
+          {"after_rms_um", c.after_um},
+          {"after_rms_u_um", c.after_u_um},
+          {"rms_difference_um", c.difference_um},
+          {"rms_difference_u_um", c.difference_u_um},
+          {"rms_difference_inside_noise", c.inside_noise},
+          {"setups", setups},
+          {"note", validation.note}};
+}
+
+}  // namespace
+
+void AddTraceJson(json& report, const TraceResult& r, const Validation* validation) {
+  json added = json::array();
+  for (Effect e : r.added) added.push_back(InfoOf(e).id);
+  report["effects_added"] = added;
+  json removed = json::array();
+  for (const auto& [e, cost] : r.removed) removed.push_back({{"id", InfoOf(e).id}, {"delta_bic", cost}});
+  report["effects_removed"] = removed;
+  report["before"] = FitJson(r.before);
+  report["after"] = FitJson(r.after);
+  report["effects"] = EffectsJson(r.after.fit);
+  const EffectReference& ref = r.after.fit.model.reference;
+  report["effect_reference"] = {{"r_ref_mm", ref.r_ref_mm},
+                                {"r_half_range_mm", ref.r_half_range_mm},
+                                {"t_start_s", ref.t_start_s},
+                                {"t_span_s", ref.t_span_s}};
+  report["candidates"] = CandidatesJson(r);
+  report["ambiguous"] = AmbiguousJson(r);
+  report["unexplained"] = UnexplainedJson(r);
+  report["sphere_form"] = TraceFormJson(r);
+  if (validation) report["validation"] = ValidationJson(*validation);
 }
 
 void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
