@@ -59,8 +59,8 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
   app.set_config("--config", "", "Read options from this file (TOML/INI, 'name = value'; see data/sph_acquired.conf)");
   UseStrictConfig(app, "sph_acquired", &o.config_path);
   auto* iface = app.add_option("-i,--iface", o.iface, "CAN interface to acquire from (live)")->check(InterfaceName());
-  auto* replay = app.add_option("--replay", o.replay_path, "Candump log to replay instead of a live interface")
-                     ->excludes(iface);
+  auto* replay =
+      app.add_option("--replay", o.replay_path, "Candump log to replay instead of a live interface")->excludes(iface);
   iface->excludes(replay);
   app.add_option("-o,--output", o.output_path, "Points file (sph-points 1); appended, never overwritten")->required();
   app.add_option("--can-log", o.can_log_path, "Also append every frame to this candump log");

@@ -9,12 +9,12 @@
 #ifndef SPH_APPS_ACQUIRE_CMD_HPP_
 #define SPH_APPS_ACQUIRE_CMD_HPP_
 
-#include "cli_fwd.hpp"
 #include <csignal>
 #include <cstdint>
 #include <optional>
 #include <ostream>
 #include <string>
+#include "cli_fwd.hpp"
 
 #include "can_options.hpp"
 #include "sph/can/master.hpp"
@@ -30,12 +30,12 @@ enum AcquireExit : int {
 };
 
 struct AcquireOptions {
-  std::string iface;             ///< live: CAN interface
-  std::string replay_path;       ///< offline: candump log
-  std::string output_path;       ///< points file (appended)
-  std::string can_log_path;      ///< candump log of every frame (appended); empty: none
-  std::string config_path;       ///< the --config file read (an input: never an output)
-  std::string mode = "stream";   ///< stream | points
+  std::string iface;            ///< live: CAN interface
+  std::string replay_path;      ///< offline: candump log
+  std::string output_path;      ///< points file (appended)
+  std::string can_log_path;     ///< candump log of every frame (appended); empty: none
+  std::string config_path;      ///< the --config file read (an input: never an output)
+  std::string mode = "stream";  ///< stream | points
   int setup = 0;
   std::optional<double> sphere_radius_mm;
   std::optional<double> probe_offset_mm;
@@ -46,9 +46,9 @@ struct AcquireOptions {
   double dwell_s = 0.2;
   double average_s = 0.0;
   int min_samples = 3;
-  double duration_s = 0.0;        ///< live: stop after this long; 0: until a signal
-  double replay_speed = 0.0;      ///< replay: 1 = real time; 0: as fast as possible
-  double reopen_interval_s = 0.5; ///< live: retry period while the interface is down
+  double duration_s = 0.0;         ///< live: stop after this long; 0: until a signal
+  double replay_speed = 0.0;       ///< replay: 1 = real time; 0: as fast as possible
+  double reopen_interval_s = 0.5;  ///< live: retry period while the interface is down
   int rcvbuf_bytes = 0;
   std::string log_level = "info";
   int verbose = 0;

@@ -170,7 +170,8 @@ int RunReplay(AcquireContext& ctx) {
         first_frame_ns = r.frame.t_ns;
         start_mono_ns = MonotonicNs();
       } else {
-        const auto due = start_mono_ns + static_cast<std::int64_t>(static_cast<double>(r.frame.t_ns - first_frame_ns) / speed);
+        const auto due =
+            start_mono_ns + static_cast<std::int64_t>(static_cast<double>(r.frame.t_ns - first_frame_ns) / speed);
         if (due > MonotonicNs()) {
           session.FlushOutputs();  // idle anyway: make what we have visible
           SleepUntil(due);

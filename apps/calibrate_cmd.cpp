@@ -190,7 +190,8 @@ void StageCalibrationFile(const CalibrateOptions& o, const CalibrationResult& re
   }
   CalibrationFile file = MakeCalibrationFile(result, ctx);
   if (extended && AddEffectsToCalibrationFile(*extended, file)) {
-    err << prog << ": note: " << o.output_path << " leaves out probe_drift: a drift belongs to the run it was measured in\n";
+    err << prog << ": note: " << o.output_path
+        << " leaves out probe_drift: a drift belongs to the run it was measured in\n";
   }
   std::vector<int> columns;
   for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);

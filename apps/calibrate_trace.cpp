@@ -13,9 +13,9 @@
 #include "sph/calib/form_report.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/model/units.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
-#include "sph/model/units.hpp"
 
 namespace sph::apps {
 namespace {
@@ -41,10 +41,14 @@ std::pair<double, double> LsSphericityUm(const std::vector<Eigen::Vector3d>& poi
 }
 
 json GroupJson(const StructureGroup& g) {
-  return {{"functions", g.description},   {"rank", g.rank},
-          {"explained_rms_um", g.explained_rms_um}, {"f", g.f},
-          {"p_value", g.p_value},          {"strongest", g.strongest},
-          {"strongest_rms_um", g.strongest_rms_um}, {"delta_bic", g.delta_bic}};
+  return {{"functions", g.description},
+          {"rank", g.rank},
+          {"explained_rms_um", g.explained_rms_um},
+          {"f", g.f},
+          {"p_value", g.p_value},
+          {"strongest", g.strongest},
+          {"strongest_rms_um", g.strongest_rms_um},
+          {"delta_bic", g.delta_bic}};
 }
 
 json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
@@ -69,8 +73,8 @@ json SphereFormJson(const SphereFormResult& f) {
   for (const FormTermValue& t : f.terms) {
     terms.push_back({{"l", t.l}, {"m", t.m}, {"value_um", t.value_um}, {"std_um", NumberOrNull(t.std_um)}});
   }
-  return {{"degree_max", f.degree_max}, {"rms_um", f.rms_um},  {"rms_std_um", NumberOrNull(f.rms_std_um)},
-          {"pv_um", f.pv_um},           {"terms", terms},      {"confounded", f.confounded}};
+  return {{"degree_max", f.degree_max}, {"rms_um", f.rms_um}, {"rms_std_um", NumberOrNull(f.rms_std_um)},
+          {"pv_um", f.pv_um},           {"terms", terms},     {"confounded", f.confounded}};
 }
 
 void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
@@ -249,8 +253,9 @@ void WriteTraceSummary(std::ostream& out, const TraceResult& r) {
                 b.fit.calibration.pv_um, b.cv_rms_um, b.structure.all.p_value);
   std::string added;
   for (Effect e : r.added) added += (added.empty() ? "" : " + ") + std::string(InfoOf(e).id);
-  out << Format("  %-34s %10.4f %10.4f %10.4f %12.2g\n", ("after" + (added.empty() ? "" : " (+ " + added + ")")).c_str(),
-                a.fit.calibration.rms_um, a.fit.calibration.pv_um, a.cv_rms_um, a.structure.all.p_value);
+  out << Format("  %-34s %10.4f %10.4f %10.4f %12.2g\n",
+                ("after" + (added.empty() ? "" : " (+ " + added + ")")).c_str(), a.fit.calibration.rms_um,
+                a.fit.calibration.pv_um, a.cv_rms_um, a.structure.all.p_value);
   if (std::isfinite(b.loso_rms_um) && std::isfinite(a.loso_rms_um)) {
     out << Format(
         "  leave one setup out (each setup of known orientation predicted from the others, its centre "
@@ -280,8 +285,8 @@ void WriteCandidates(std::ostream& out, const TraceResult& r) {
   for (const CandidateScore& c : r.candidates) {
     const std::string bic = std::isfinite(c.delta_bic) ? Format("%9.1f", c.delta_bic) : "        -";
     const std::string cv = std::isfinite(c.cv_rms_um) ? Format("%.4f um", c.cv_rms_um) : "      -   ";
-    out << Format("    round %d %-20s delta BIC %s  cv rms %s  %s%s\n", c.round, c.Id().c_str(), bic.c_str(), cv.c_str(),
-                  c.added ? "ADDED" : "", c.note.empty() ? "" : ("  (" + c.note + ")").c_str());
+    out << Format("    round %d %-20s delta BIC %s  cv rms %s  %s%s\n", c.round, c.Id().c_str(), bic.c_str(),
+                  cv.c_str(), c.added ? "ADDED" : "", c.note.empty() ? "" : ("  (" + c.note + ")").c_str());
   }
 }
 
@@ -341,7 +346,8 @@ void WriteAmbiguities(std::ostream& out, const TraceResult& r) {
                     x.chosen_rms_um, x.other.c_str(), x.other_rms_um)
           << "to separate them: " << x.separate_by << "\n";
     } else if (x.other == "sphere_form" && std::isfinite(x.other_rms_um)) {
-      out << "  two explanations: " << x.chosen << Format(" (%.4f um rms, added: its own variable shows it)", x.chosen_rms_um)
+      out << "  two explanations: " << x.chosen
+          << Format(" (%.4f um rms, added: its own variable shows it)", x.chosen_rms_um)
           << Format(" or a pattern fixed on the sphere, the sphere's own form (%.4f um rms); ", x.other_rms_um)
           << "to separate them: " << x.separate_by << "\n";
     } else if (x.other == "sphere_form") {
@@ -548,7 +554,8 @@ void PlotTrace(const std::string& dir, const PointsData& points, const Calibrati
     f << "# theta_deg phi_deg t_s residual_before_um residual_after_um\n";
     for (std::size_t i = 0; i < points.samples.size(); ++i) {
       const Sample& s = points.samples[i];
-      f << Format("%.6f %.6f %.6f %.6f %.6f\n", s.theta_deg, s.phi_deg, s.t_s, before[i] * kUmPerMm, after[i] * kUmPerMm);
+      f << Format("%.6f %.6f %.6f %.6f %.6f\n", s.theta_deg, s.phi_deg, s.t_s, before[i] * kUmPerMm,
+                  after[i] * kUmPerMm);
     }
   });
   // The colour scale of the readings the seven-error fit used (at least 1 nm).

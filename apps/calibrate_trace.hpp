@@ -82,7 +82,7 @@ void WriteTraceText(std::ostream& out, const TraceResult& trace, const Validatio
 void AddTraceJson(nlohmann::json& report, const TraceResult& trace, const Validation* validation);
 
 /// The files PlotTrace() writes into its folder.
-inline const std::vector<std::string> kTracePlotFiles = {"residual_map.png", "residual_time.png", "residuals.dat",
+inline const std::vector<std::string> kTracePlotFiles = {"residual_map.png", "residual_time.png",   "residuals.dat",
                                                          "residuals.gp",     "sphere_form_map.png", "sphere_form.dat",
                                                          "sphere_form.gp"};
 

@@ -100,19 +100,25 @@ void AddEncoder(CLI::App& app, const std::string& name, EncoderOptions& e) {
       ->check(CLI::Range(0, 127))
       ->group(g);
   app.add_option("--" + name + "-cob-id", e.cob_id, axis + " encoder: TPDO COB-ID carrying the position (0x6004)")
-      ->check(CLI::Range(1, 0x7FF))->group(g);
+      ->check(CLI::Range(1, 0x7FF))
+      ->group(g);
   app.add_option("--" + name + "-offset-byte", e.offset_byte, axis + " encoder: first byte of the position in the PDO")
-      ->check(CLI::Range(0, 7))->group(g);
+      ->check(CLI::Range(0, 7))
+      ->group(g);
   app.add_option("--" + name + "-width-bytes", e.width_bytes, axis + " encoder: bytes of the position value")
-      ->check(CLI::Range(1, 8))->group(g);
+      ->check(CLI::Range(1, 8))
+      ->group(g);
   app.add_option("--" + name + "-counts-per-rev", e.counts_per_rev, axis + " encoder: counts per revolution")
       ->check(InRange(kCountsPerRev))
       ->group(g);
   app.add_option("--" + name + "-direction", e.direction, axis + " encoder: counting direction, 1 or -1")
-      ->check(CLI::IsMember({1, -1}))->group(g);
-  app.add_option("--" + name + "-zero-counts", e.zero_counts, axis + " encoder: raw value at angle 0 [counts]")->group(g);
+      ->check(CLI::IsMember({1, -1}))
+      ->group(g);
+  app.add_option("--" + name + "-zero-counts", e.zero_counts, axis + " encoder: raw value at angle 0 [counts]")
+      ->group(g);
   app.add_flag("--" + name + "-multi-turn", e.multi_turn,
-               axis + " encoder: multi-turn (angles beyond 360 deg) instead of single-turn [0, 360)")->group(g);
+               axis + " encoder: multi-turn (angles beyond 360 deg) instead of single-turn [0, 360)")
+      ->group(g);
   app.add_option("--" + name + "-tpdo", e.tpdo,
                  axis +
                      " encoder: number of the TPDO carrying the position (objects 1800h/1A00h + n - 1); 0: from "
@@ -184,9 +190,11 @@ void AddDeviceOptions(CLI::App& app, DeviceOptions& o, bool period_may_be_unknow
       ->group(g);
   app.add_flag("--probe-extended-id", o.probe_extended_id, "Probe: the id is a 29-bit (extended) id")->group(g);
   app.add_option("--probe-offset-byte", o.probe_offset_byte, "Probe: first byte of the reading")
-      ->check(CLI::Range(0, 7))->group(g);
+      ->check(CLI::Range(0, 7))
+      ->group(g);
   app.add_option("--probe-width-bytes", o.probe_width_bytes, "Probe: bytes of the reading")
-      ->check(CLI::Range(1, 8))->group(g);
+      ->check(CLI::Range(1, 8))
+      ->group(g);
   app.add_flag("--probe-unsigned", o.probe_unsigned, "Probe: the reading is unsigned (default: signed)")->group(g);
   app.add_flag("--probe-big-endian", o.probe_big_endian, "Probe: the reading is big endian (default: little)")
       ->group(g);
@@ -203,14 +211,17 @@ void AddDeviceOptions(CLI::App& app, DeviceOptions& o, bool period_may_be_unknow
       ->check(InRange(kValueOffsetMm))
       ->group(g);
   app.add_option("--probe-over-range-raw", o.probe_over_range_raw, "Probe: raw value meaning 'over range'")->group(g);
-  app.add_option("--probe-under-range-raw", o.probe_under_range_raw, "Probe: raw value meaning 'under range'")->group(g);
+  app.add_option("--probe-under-range-raw", o.probe_under_range_raw, "Probe: raw value meaning 'under range'")
+      ->group(g);
   app.add_flag("--probe-no-range-codes", o.probe_no_range_codes, "Probe: no raw value means out of range")->group(g);
   app.add_option("--probe-error-raw", o.probe_error_raw, "Probe: a raw value meaning 'no valid reading' (repeatable)")
       ->group(g);
   app.add_option("--probe-status-byte", o.probe_status_byte, "Probe: byte with status bits; -1: none")
-      ->check(CLI::Range(-1, 7))->group(g);
+      ->check(CLI::Range(-1, 7))
+      ->group(g);
   app.add_option("--probe-status-error-mask", o.probe_status_error_mask, "Probe: status bits that mean an error")
-      ->check(CLI::Range(1, 255))->group(g);
+      ->check(CLI::Range(1, 255))
+      ->group(g);
   app.add_option("--probe-tpdo", o.probe_tpdo, "Probe: number of the TPDO carrying the reading; 0: from the COB-ID")
       ->check(CLI::Range(0, 512))
       ->group(g);
@@ -221,7 +232,8 @@ void AddDeviceOptions(CLI::App& app, DeviceOptions& o, bool period_may_be_unknow
   app.add_option("--sync-cob-id", o.sync_cob_id, "SYNC COB-ID")->check(CLI::Range(1, 0x7FF))->group(g);
   app.add_option("--sync-counter-max", o.sync_counter_max,
                  "SYNC counter overflow value (2..240; the SYNC carries a counter byte); 0: no counter")
-      ->check(CLI::Range(0, 240))->group(g);
+      ->check(CLI::Range(0, 240))
+      ->group(g);
   if (period_may_be_unknown) {
     app.add_option("--sync-period-ms", o.sync_period_ms,
                    "SYNC period [ms]: produced at this period, or expected from the external producer (gap "

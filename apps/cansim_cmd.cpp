@@ -295,9 +295,10 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
 }  // namespace
 
 void SetupCansimApp(CLI::App& app, CansimOptions& o) {
-  app.description("Simulate an SCMS measuring a reference sphere (stop-and-go) as CANopen traffic: SYNC, CiA 406 "
-                  "encoder TPDOs, the probe TPDO and heartbeats, with faults on demand; into a candump log or onto "
-                  "a CAN interface.");
+  app.description(
+      "Simulate an SCMS measuring a reference sphere (stop-and-go) as CANopen traffic: SYNC, CiA 406 "
+      "encoder TPDOs, the probe TPDO and heartbeats, with faults on demand; into a candump log or onto "
+      "a CAN interface.");
   app.option_defaults()->always_capture_default();
   app.set_config("--config", "", "Read options from this file (the device options of sph_acquired's config fit)");
   UseStrictConfig(app, "sph_cansim", &o.config_path, AcquiredOptionNames());

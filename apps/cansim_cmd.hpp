@@ -16,18 +16,18 @@
 namespace sph::apps {
 
 struct CansimOptions {
-  std::string output_path;            ///< candump log ("-": stdout)
-  std::string config_path;            ///< the --config file read (an input: never an output)
-  std::string iface;                  ///< live: CAN interface, paced in real time
-  std::string log_iface = "can0";     ///< interface name written into the log
+  std::string output_path;               ///< candump log ("-": stdout)
+  std::string config_path;               ///< the --config file read (an input: never an output)
+  std::string iface;                     ///< live: CAN interface, paced in real time
+  std::string log_iface = "can0";        ///< interface name written into the log
   std::string sync_source = "internal";  ///< internal: the simulator sends SYNC; external: answers SYNC
-  MachineOptions machine;             ///< truth, sphere, pattern, noise (as sph_simulate)
+  MachineOptions machine;                ///< truth, sphere, pattern, noise (as sph_simulate)
   std::string center_mm = "2,0,0";
   std::uint64_t seed = 1;
   double move_s = 0.5;
   double stop_s = 1.0;
   double heartbeat_period_s = 1.0;
-  double start_time_s = 1.7e9;        ///< log mode: time of the first SYNC
+  double start_time_s = 1.7e9;  ///< log mode: time of the first SYNC
   // faults
   double drop_probability = 0.0;
   double short_probability = 0.0;

@@ -43,7 +43,7 @@ const char* const kProgram = "sph_measure";
 /// What was read: the points to evaluate and, for readings, what compensated them.
 struct Input {
   std::vector<Eigen::Vector3d> points_mm;
-  std::vector<RawReading> readings;  ///< empty for x y z input
+  std::vector<RawReading> readings;           ///< empty for x y z input
   std::optional<AppliedCalibration> applied;  ///< what compensated them, with its covariance
   std::string covariance_note;                ///< what of the calibration goes without its uncertainty
   std::optional<int> setup;
@@ -109,9 +109,9 @@ void FoldProbeIncidence(const MeasureOptions& o, int term, Calibration& cal, Inp
   for (const auto& v : cal.effect_values) blocks.push_back(v.data());
   const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());
   for (RawReading& r : in.readings) {
-    r.r_mm += ProbeIncidenceError(cal.geometry.data(), trig, cal.effects, blocks.data(),
-                                  EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), cal.probe_offset_mm,
-                                  center.data());
+    r.r_mm +=
+        ProbeIncidenceError(cal.geometry.data(), trig, cal.effects, blocks.data(),
+                            EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), cal.probe_offset_mm, center.data());
   }
   cal.effects.terms.erase(cal.effects.terms.begin() + term);
   cal.effect_values.erase(cal.effect_values.begin() + term);

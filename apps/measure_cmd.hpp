@@ -18,8 +18,8 @@
 namespace sph::apps {
 
 struct MeasureOptions {
-  std::string points_path;          ///< sph-points 1 readings, or x y z coordinates with xyz
-  bool xyz = false;                 ///< points_path holds x y z [mm] (plain or NIST .ds)
+  std::string points_path;  ///< sph-points 1 readings, or x y z coordinates with xyz
+  bool xyz = false;         ///< points_path holds x y z [mm] (plain or NIST .ds)
   /// The points are of the calibration sphere itself: its form, which the calibration file holds,
   /// is taken off each point along the radius before the sphere is evaluated.
   bool subtract_sphere_form = false;

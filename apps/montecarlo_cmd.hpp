@@ -32,9 +32,9 @@ struct MonteCarloOptions {
   std::string json_path;
   std::string csv_path;
   std::string plot_dir;
-  bool plan = false;                     ///< predict only, no simulation
-  std::optional<double> target_std_um;   ///< with plan: search the smallest eccentricity
-  bool progress = true;                  ///< progress bar on stderr when it is a terminal
+  bool plan = false;                    ///< predict only, no simulation
+  std::optional<double> target_std_um;  ///< with plan: search the smallest eccentricity
+  bool progress = true;                 ///< progress bar on stderr when it is a terminal
   /// --plan-orientations: the mount orientations that separate the sphere's form from the machine.
   bool plan_orientations = false;
   std::vector<std::string> effects;              ///< the machine's effects (ids); empty: the whole library

@@ -13,7 +13,8 @@ void AddProgressOptions(CLI::App& app, ProgressMode& mode) {
       "--progress", [&mode] { mode = ProgressMode::kAlways; },
       "Show progress on stderr from the start, even when it is not a terminal (default: on a terminal, once "
       "the run takes longer than a second)");
-  app.add_flag_callback("--no-progress", [&mode] { mode = ProgressMode::kNever; }, "No progress on stderr")
+  app.add_flag_callback(
+         "--no-progress", [&mode] { mode = ProgressMode::kNever; }, "No progress on stderr")
       ->excludes(always);
 }
 

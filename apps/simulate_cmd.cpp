@@ -169,12 +169,14 @@ void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& ef
   CheckedValue(value, unit == Quantity::kAngle ? ranges::kEffectArcsec : ranges::kEffectUm, opt + " " + text,
                value_text);
   EffectComponent comp;
-  if (!FindComponent(e, text.substr(0, eq), &comp)) throw Error(opt + " " + text + ": " + id + " has no parameter '" + param + "'");
+  if (!FindComponent(e, text.substr(0, eq), &comp))
+    throw Error(opt + " " + text + ": " + id + " has no parameter '" + param + "'");
   int t = effects.model.Find(e);
   if (t >= 0) {
     const EffectTerm& term = effects.model.terms[static_cast<std::size_t>(t)];
     for (std::size_t i = 0; i < term.components.size(); ++i) {
-      if (term.ParamName(i) == text.substr(0, eq)) throw Error(opt + " " + text + ": " + text.substr(0, eq) + " is given twice");
+      if (term.ParamName(i) == text.substr(0, eq))
+        throw Error(opt + " " + text + ": " + text.substr(0, eq) + " is given twice");
     }
   }
   if (t < 0) {
@@ -188,8 +190,9 @@ void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& ef
 }
 
 void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
-  app.description("Simulate the readings of an SCMS measuring a reference sphere, by intersecting the probe ray "
-                  "with the sphere. Defaults are the paper's study (Table 1 truth, 24 x 12 grid, 2 mm eccentricity).");
+  app.description(
+      "Simulate the readings of an SCMS measuring a reference sphere, by intersecting the probe ray "
+      "with the sphere. Defaults are the paper's study (Table 1 truth, 24 x 12 grid, 2 mm eccentricity).");
   app.option_defaults()->always_capture_default();
   app.add_option("-o,--output", o.output_path, "Points file to write ('-' for stdout)");
   app.add_option("--truth", o.truth_path, "Also write the truth (JSON) to this file");

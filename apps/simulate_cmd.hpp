@@ -16,8 +16,8 @@ namespace sph::apps {
 
 struct SimulateOptions {
   std::string output_path = "-";
-  std::string truth_path;                 ///< JSON truth file, empty: none
-  MachineOptions machine;                 ///< truth, sphere, pattern, noise
+  std::string truth_path;                        ///< JSON truth file, empty: none
+  MachineOptions machine;                        ///< truth, sphere, pattern, noise
   std::vector<std::string> centers_mm{"2,0,0"};  ///< "x,y,z" per setup
   std::uint64_t seed = 1;
   double sample_period_s = 1.0;

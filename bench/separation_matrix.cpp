@@ -67,8 +67,8 @@ struct Case {
 std::vector<Case> Cases() {
   std::vector<Case> cases;
   for (const auto& [e, s] : Library()) cases.push_back({"single", {e}});
-  const std::vector<Effect> six{Effect::kThetaEncoder, Effect::kPhiEncoder,  Effect::kThetaRadialMotion,
-                                Effect::kProbeDrift,   Effect::kProbeGain,   Effect::kProbeNonlinearity};
+  const std::vector<Effect> six{Effect::kThetaEncoder, Effect::kPhiEncoder, Effect::kThetaRadialMotion,
+                                Effect::kProbeDrift,   Effect::kProbeGain,  Effect::kProbeNonlinearity};
   for (std::size_t i = 0; i < six.size(); ++i) {
     for (std::size_t j = i + 1; j < six.size(); ++j) cases.push_back({"pair", {six[i], six[j]}});
   }
@@ -142,10 +142,11 @@ int main(int argc, char** argv) {
   o.probe_offset_mm = 25.0;
   sph::TraceOptions trace;
   trace.phi_wobble_pivot_mm = kPivotMm;
-  std::printf("separation matrix: %d runs per cell (seeds 1..%d), the paper's pattern at 2 mm; form: 0.050 um rms of\n"
-              "degrees 2..8; three: the sphere also turned by 90 deg about z and tilted by 90 deg about x; five: and\n"
-              "at other eccentricities, azimuths and a height (bench/separation_matrix.cpp, Design())\n",
-              runs, runs);
+  std::printf(
+      "separation matrix: %d runs per cell (seeds 1..%d), the paper's pattern at 2 mm; form: 0.050 um rms of\n"
+      "degrees 2..8; three: the sphere also turned by 90 deg about z and tilted by 90 deg about x; five: and\n"
+      "at other eccentricities, azimuths and a height (bench/separation_matrix.cpp, Design())\n",
+      runs, runs);
   std::printf("%-52s %-5s %-6s %5s %5s %6s %6s %8s %8s  %s\n", "effects", "form", "setup", "sigma", "runs", "right",
               "wrong", "form_r", "cv/sig", "effects added (count)");
   std::map<std::string, Tally> summary;  // by group, form, design, sigma
@@ -176,11 +177,11 @@ int main(int argc, char** argv) {
           std::string list;
           for (const auto& [id, k] : counts) list += id + " " + std::to_string(k) + "  ";
           std::printf("%-52s %-5s %-6s %5.2f %5d %6d %6d %8.3f %8.3f  %s\n", Name(c.effects).c_str(),
-                      form ? "yes" : "no", SetupsName(setups), noise, t.runs, t.right, t.wrong,
-                      Median(t.form_ratio), Median(t.cv_over_sigma), list.c_str());
+                      form ? "yes" : "no", SetupsName(setups), noise, t.runs, t.right, t.wrong, Median(t.form_ratio),
+                      Median(t.cv_over_sigma), list.c_str());
           std::fflush(stdout);
-          Tally& s = summary[c.group + (form ? " form " : " - ") + SetupsName(setups) +
-                             (noise < 0.04 ? " 0.03" : " 0.05")];
+          Tally& s =
+              summary[c.group + (form ? " form " : " - ") + SetupsName(setups) + (noise < 0.04 ? " 0.03" : " 0.05")];
           s.runs += t.runs;
           s.right += t.right;
           s.wrong += t.wrong;

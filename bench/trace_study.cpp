@@ -128,8 +128,9 @@ int main(int argc, char** argv) {
       {"form S(5,3)", Effect::kProbeGain, {}, 0.0, "0.3 um", {{5, 3, 0.3}}},
   };
   const sph::CalibrationOptions& o = paper;
-  std::printf("the paper's set-up (one position at 2 mm, 24 x 12 points, sigma_r 0.05 um), one effect at a time;\n"
-              "'form': the reference sphere's own form error, which no effect of the library is\n");
+  std::printf(
+      "the paper's set-up (one position at 2 mm, 24 x 12 points, sigma_r 0.05 um), one effect at a time;\n"
+      "'form': the reference sphere's own form error, which no effect of the library is\n");
   std::printf("%-18s %-16s %7s %9s %9s %11s %12s  %s\n", "effect", "size", "trials", "added", "it alone", "ambiguous",
               "unexplained", "effects added (count)");
   for (const Case& c : cases) {

@@ -14,8 +14,8 @@
 #include <sstream>
 #include <string>
 
-#include <Eigen/Core>
 #include <gtest/gtest.h>
+#include <Eigen/Core>
 
 namespace sph::testing {
 
@@ -32,7 +32,10 @@ template <typename A, typename B>
   std::ostringstream os;
   os.precision(17);
   os << a_expr << " and " << b_expr << " differ by " << err << " > " << tol << "\n"
-     << a_expr << " =\n" << a << "\n" << b_expr << " =\n" << b << "\ndifference =\n"
+     << a_expr << " =\n"
+     << a << "\n"
+     << b_expr << " =\n"
+     << b << "\ndifference =\n"
      << (a.template cast<double>() - b.template cast<double>());
   return ::testing::AssertionFailure() << os.str();
 }

@@ -130,7 +130,8 @@ std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOpt
   for (const std::vector<std::uint32_t>& rows : AllRows(table, left_out)) {
     const auto n = static_cast<Eigen::Index>(rows.size());
     if (rows.size() > kBuffered) {
-      spheres.push_back(FitSphereAlgebraic(n, [&](Eigen::Index i) { return point(rows[static_cast<std::size_t>(i)]); }));
+      spheres.push_back(
+          FitSphereAlgebraic(n, [&](Eigen::Index i) { return point(rows[static_cast<std::size_t>(i)]); }));
       continue;
     }
     buffer.clear();

@@ -146,9 +146,9 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   SetResidualStatistics(result);
   if (!options.analyse) return fit;
 
-  result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples),
-                               fit.rss_mm2, ParameterDescriptions(result.setup_ids, model, options.sphere_radius_mm),
-                               options.max_std_um);
+  result.analysis =
+      AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples), fit.rss_mm2,
+                 ParameterDescriptions(result.setup_ids, model, options.sphere_radius_mm), options.max_std_um);
   return fit;
 }
 

@@ -222,7 +222,8 @@ template <typename Lanes>
 // Zeros the rows `count` up to the next multiple of four of the n columns at c (leading dimension
 // kRows), which AddGram() reads.
 void PadToLanes(double* c, int n, int count) {
-  for (int column = 0; column < n; ++column) std::fill_n(c + column * kRows + count, (kLanes - count % kLanes) % kLanes, 0.0);
+  for (int column = 0; column < n; ++column)
+    std::fill_n(c + column * kRows + count, (kLanes - count % kLanes) % kLanes, 0.0);
 }
 
 void AddGram(const double* c, int ld, int n, int count, double* gram) {

@@ -45,9 +45,9 @@ double FormIdentifiability::MaxVarianceInflation() const {
   return variance_inflation.empty() ? 0.0 : *std::max_element(variance_inflation.begin(), variance_inflation.end());
 }
 
-FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOptions& options,
-                                 const EffectModel& model, const EffectFitStart& at,
-                                 const std::vector<FormTerm>& form_terms, double max_singular_value) {
+FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
+                                 const EffectFitStart& at, const std::vector<FormTerm>& form_terms,
+                                 double max_singular_value) {
   FormIdentifiability out;
   if (form_terms.empty()) return out;
   EffectFit fit;

@@ -141,8 +141,8 @@ LmSummary SolveLevenbergMarquardt(const Problem& problem, Eigen::VectorXd& x, co
       const double cost_change = std::abs(w.at_x.cost - candidate_cost);
       if (!(cost_change <= options.function_tolerance * w.at_x.cost)) return false;
       summary.converged = true;
-      summary.message = Format("Function tolerance reached. |cost_change|/cost: %e <= %e",
-                               cost_change / w.at_x.cost, options.function_tolerance);
+      summary.message = Format("Function tolerance reached. |cost_change|/cost: %e <= %e", cost_change / w.at_x.cost,
+                               options.function_tolerance);
       --summary.iterations;
       return true;
     };

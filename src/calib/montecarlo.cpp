@@ -148,9 +148,8 @@ std::vector<Trial> RunTrials(const MonteCarloSpec& spec, const std::function<voi
     TrialScratch scratch(n_ecc);
     for (long i = next++; i < total; i = next++) {
       try {
-        trials[static_cast<std::size_t>(i)] =
-            RunTrial(spec, static_cast<std::size_t>(i) / n_trials, static_cast<std::size_t>(i) % n_trials, exact,
-                     scratch);
+        trials[static_cast<std::size_t>(i)] = RunTrial(spec, static_cast<std::size_t>(i) / n_trials,
+                                                       static_cast<std::size_t>(i) % n_trials, exact, scratch);
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(error_mutex);
         if (error.empty()) error = e.what();

@@ -48,7 +48,8 @@ inline std::vector<ParameterDescription> BaseParameterDescriptions(const std::ve
   for (const auto& info : kScmsParamInfo) desc.push_back({info.name, info.quantity, sphere_radius_mm});
   for (int id : setup_ids) {
     const std::string suffix = setup_ids.size() > 1 ? "@" + std::to_string(id) : "";
-    for (const char* axis : {"center_x", "center_y", "center_z"}) desc.push_back({axis + suffix, Quantity::kLength, 1.0});
+    for (const char* axis : {"center_x", "center_y", "center_z"})
+      desc.push_back({axis + suffix, Quantity::kLength, 1.0});
   }
   return desc;
 }

@@ -9,31 +9,67 @@ bool IsPlainSff(const CanFrame& f) { return !f.IsExtended() && !f.IsRemote() && 
 
 const char* EmergencyClass(std::uint16_t code) {
   switch (code & 0xFFF0) {  // the specific codes the devices of an SCMS send
-    case 0x8110: return "communication: CAN overrun (objects lost)";
-    case 0x8120: return "communication: CAN in error passive mode";
-    case 0x8130: return "communication: life guard or heartbeat error";
-    case 0x8140: return "communication: recovered from bus off";
-    case 0x8150: return "communication: CAN-ID collision";
-    case 0x8210: return "protocol: PDO not processed due to length error";
-    case 0x8220: return "protocol: PDO length exceeded";
-    case 0x8240: return "protocol: unexpected SYNC data length";
-    case 0x8250: return "protocol: RPDO timeout";
-    default: break;
+    case 0x8110:
+      return "communication: CAN overrun (objects lost)";
+    case 0x8120:
+      return "communication: CAN in error passive mode";
+    case 0x8130:
+      return "communication: life guard or heartbeat error";
+    case 0x8140:
+      return "communication: recovered from bus off";
+    case 0x8150:
+      return "communication: CAN-ID collision";
+    case 0x8210:
+      return "protocol: PDO not processed due to length error";
+    case 0x8220:
+      return "protocol: PDO length exceeded";
+    case 0x8240:
+      return "protocol: unexpected SYNC data length";
+    case 0x8250:
+      return "protocol: RPDO timeout";
+    default:
+      break;
   }
   switch (code >> 8) {
-    case 0x00: return "error reset or no error";
-    case 0x10: return "generic error";
-    case 0x20: case 0x21: case 0x22: case 0x23: return "current";
-    case 0x30: case 0x31: case 0x32: case 0x33: return "voltage";
-    case 0x40: case 0x41: case 0x42: return "temperature";
-    case 0x50: return "device hardware";
-    case 0x60: case 0x61: case 0x62: case 0x63: return "device software";
-    case 0x70: return "additional modules";
-    case 0x80: case 0x81: case 0x82: return "monitoring";
-    case 0x90: return "external error";
-    case 0xF0: return "additional functions";
-    case 0xFF: return "device specific";
-    default: return "unknown class";
+    case 0x00:
+      return "error reset or no error";
+    case 0x10:
+      return "generic error";
+    case 0x20:
+    case 0x21:
+    case 0x22:
+    case 0x23:
+      return "current";
+    case 0x30:
+    case 0x31:
+    case 0x32:
+    case 0x33:
+      return "voltage";
+    case 0x40:
+    case 0x41:
+    case 0x42:
+      return "temperature";
+    case 0x50:
+      return "device hardware";
+    case 0x60:
+    case 0x61:
+    case 0x62:
+    case 0x63:
+      return "device software";
+    case 0x70:
+      return "additional modules";
+    case 0x80:
+    case 0x81:
+    case 0x82:
+      return "monitoring";
+    case 0x90:
+      return "external error";
+    case 0xF0:
+      return "additional functions";
+    case 0xFF:
+      return "device specific";
+    default:
+      return "unknown class";
   }
 }
 
@@ -41,10 +77,14 @@ const char* EmergencyClass(std::uint16_t code) {
 
 std::string NmtStateName(std::uint8_t state) {
   switch (static_cast<NmtState>(state)) {
-    case NmtState::kBootUp: return "boot-up";
-    case NmtState::kStopped: return "stopped";
-    case NmtState::kOperational: return "operational";
-    case NmtState::kPreOperational: return "pre-operational";
+    case NmtState::kBootUp:
+      return "boot-up";
+    case NmtState::kStopped:
+      return "stopped";
+    case NmtState::kOperational:
+      return "operational";
+    case NmtState::kPreOperational:
+      return "pre-operational";
   }
   return internal::Format("unknown state 0x%02X", state);
 }
@@ -148,8 +188,8 @@ CanFrame EncodeEmergency(const Emergency& e) {
 }
 
 std::string DescribeEmergency(const Emergency& e) {
-  return internal::Format("node %d: EMCY 0x%04X (%s), error register 0x%02X, data %02X %02X %02X %02X %02X",
-                          e.node_id, e.error_code, EmergencyClass(e.error_code), e.error_register, e.manufacturer[0],
+  return internal::Format("node %d: EMCY 0x%04X (%s), error register 0x%02X, data %02X %02X %02X %02X %02X", e.node_id,
+                          e.error_code, EmergencyClass(e.error_code), e.error_register, e.manufacturer[0],
                           e.manufacturer[1], e.manufacturer[2], e.manufacturer[3], e.manufacturer[4]);
 }
 

@@ -1,7 +1,7 @@
 // PDO fields, CiA 406 position values and the probe value.
 #include <algorithm>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "sph/can/canopen.hpp"
@@ -30,10 +30,14 @@ std::int64_t PositiveMod(std::int64_t x, std::int64_t m) {
 
 const char* ToString(DecodeStatus status) {
   switch (status) {
-    case DecodeStatus::kOk: return "ok";
-    case DecodeStatus::kShort: return "frame too short";
-    case DecodeStatus::kOutOfRange: return "out of range";
-    case DecodeStatus::kDeviceError: return "device error";
+    case DecodeStatus::kOk:
+      return "ok";
+    case DecodeStatus::kShort:
+      return "frame too short";
+    case DecodeStatus::kOutOfRange:
+      return "out of range";
+    case DecodeStatus::kDeviceError:
+      return "device error";
   }
   return "?";
 }
@@ -56,8 +60,8 @@ void ValidateLayout(const FieldLayout& l, const std::string& what) {
     throw Error(what + ": width must be 1..8 bytes, got " + std::to_string(l.width_bytes));
   }
   if (l.offset_byte < 0 || l.offset_byte + l.width_bytes > kMaxDataBytes) {
-    throw Error(what + ": a " + std::to_string(l.width_bytes) + "-byte value at byte " +
-                std::to_string(l.offset_byte) + " does not fit in 8 data bytes");
+    throw Error(what + ": a " + std::to_string(l.width_bytes) + "-byte value at byte " + std::to_string(l.offset_byte) +
+                " does not fit in 8 data bytes");
   }
   const std::uint32_t id = l.can_id & ~kEffFlag;
   if ((l.can_id & (kRtrFlag | kErrFlag)) != 0 || id > ((l.can_id & kEffFlag) ? kEffMask : kSffMask)) {
@@ -75,7 +79,8 @@ std::optional<std::int64_t> ExtractField(const CanFrame& frame, const FieldLayou
   }
   std::uint64_t v = 0;
   for (int i = 0; i < l.width_bytes; ++i) {
-    const int byte = l.big_endian ? l.offset_byte + i : l.offset_byte + l.width_bytes - 1 - i;  // most significant first
+    const int byte =
+        l.big_endian ? l.offset_byte + i : l.offset_byte + l.width_bytes - 1 - i;  // most significant first
     v = (v << 8) | frame.data[static_cast<std::size_t>(byte)];
   }
   const int bits = 8 * l.width_bytes;
@@ -95,8 +100,10 @@ void InsertField(CanFrame& frame, const FieldLayout& l, std::int64_t value) {
 
 void ValidateEncoder(const EncoderConfig& c, const std::string& what) {
   ValidateLayout(c.field, what);
-  if (c.counts_per_rev == 0 || c.counts_per_rev > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
-    throw Error(what + ": counts per revolution must be 1..9223372036854775807, got " + std::to_string(c.counts_per_rev));
+  if (c.counts_per_rev == 0 ||
+      c.counts_per_rev > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
+    throw Error(what + ": counts per revolution must be 1..9223372036854775807, got " +
+                std::to_string(c.counts_per_rev));
   }
   if (c.direction != 1 && c.direction != -1) throw Error(what + ": direction must be 1 or -1");
   if (c.node_id < 0 || c.node_id > 127) throw Error(what + ": node id must be 0..127");

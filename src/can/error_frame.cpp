@@ -12,7 +12,8 @@ void Append(std::string& text, const std::string& item) {
 }
 
 // "name{a,b}" from the bits of `byte` that have names.
-std::string WithDetails(const char* name, std::uint8_t byte, std::initializer_list<std::pair<std::uint8_t, const char*>> bits) {
+std::string WithDetails(const char* name, std::uint8_t byte,
+                        std::initializer_list<std::pair<std::uint8_t, const char*>> bits) {
   std::string details;
   for (const auto& [bit, label] : bits) {
     if ((byte & bit) != 0) details += (details.empty() ? "" : ",") + std::string(label);
@@ -38,15 +39,24 @@ std::optional<ErrorFrameInfo> DecodeErrorFrame(const CanFrame& f) {
     e.error_passive = (c & 0x30) != 0;
     e.controller_overflow = (c & 0x03) != 0;
     Append(e.text, WithDetails("controller-problem", c,
-                               {{0x01, "rx-overflow"}, {0x02, "tx-overflow"}, {0x04, "rx-error-warning"},
-                                {0x08, "tx-error-warning"}, {0x10, "rx-error-passive"}, {0x20, "tx-error-passive"},
+                               {{0x01, "rx-overflow"},
+                                {0x02, "tx-overflow"},
+                                {0x04, "rx-error-warning"},
+                                {0x08, "tx-error-warning"},
+                                {0x10, "rx-error-passive"},
+                                {0x20, "tx-error-passive"},
                                 {0x40, "back-to-error-active"}}));
   }
   if (e.classes & kErrProtocol) {
     std::string p = WithDetails("protocol-violation", byte(2),
-                                {{0x01, "single-bit-error"}, {0x02, "frame-format-error"}, {0x04, "bit-stuffing-error"},
-                                 {0x08, "dominant-bit-error"}, {0x10, "recessive-bit-error"}, {0x20, "bus-overload"},
-                                 {0x40, "active-error-announcement"}, {0x80, "error-on-tx"}});
+                                {{0x01, "single-bit-error"},
+                                 {0x02, "frame-format-error"},
+                                 {0x04, "bit-stuffing-error"},
+                                 {0x08, "dominant-bit-error"},
+                                 {0x10, "recessive-bit-error"},
+                                 {0x20, "bus-overload"},
+                                 {0x40, "active-error-announcement"},
+                                 {0x80, "error-on-tx"}});
     char buf[32];
     std::snprintf(buf, sizeof buf, "{location 0x%02X}", byte(3));
     Append(e.text, p + buf);

@@ -11,31 +11,35 @@
 namespace sph::can {
 namespace {
 
-std::string TimeText(std::int64_t t_ns) {
-  return internal::Format("%.6f", static_cast<double>(t_ns) * 1e-9);
-}
+std::string TimeText(std::int64_t t_ns) { return internal::Format("%.6f", static_cast<double>(t_ns) * 1e-9); }
 
-std::string Hex(std::uint32_t id) {
-  return internal::Format("0x%X", id & ~kEffFlag);
-}
+std::string Hex(std::uint32_t id) { return internal::Format("0x%X", id & ~kEffFlag); }
 
 }  // namespace
 
 const char* DeviceName(int device) {
   switch (device) {
-    case kTheta: return "theta";
-    case kPhi: return "phi";
-    case kProbe: return "probe";
-    default: return "?";
+    case kTheta:
+      return "theta";
+    case kPhi:
+      return "phi";
+    case kProbe:
+      return "probe";
+    default:
+      return "?";
   }
 }
 
 const char* ToString(LogLevel level) {
   switch (level) {
-    case LogLevel::kError: return "error";
-    case LogLevel::kWarning: return "warning";
-    case LogLevel::kInfo: return "info";
-    case LogLevel::kDebug: return "debug";
+    case LogLevel::kError:
+      return "error";
+    case LogLevel::kWarning:
+      return "warning";
+    case LogLevel::kInfo:
+      return "info";
+    case LogLevel::kDebug:
+      return "debug";
   }
   return "?";
 }
@@ -46,14 +50,16 @@ void PipelineConfig::Validate() const {
   ValidateProbe(probe, "probe");
   const std::uint32_t ids[] = {theta.field.can_id, phi.field.can_id, probe.field.can_id};
   for (int i = 0; i < kNumDevices; ++i) {
-    if (ids[i] == sync_cob_id) throw Error(std::string(DeviceName(i)) + ": its PDO id " + Hex(ids[i]) + " is the SYNC id");
+    if (ids[i] == sync_cob_id)
+      throw Error(std::string(DeviceName(i)) + ": its PDO id " + Hex(ids[i]) + " is the SYNC id");
     for (int j = i + 1; j < kNumDevices; ++j) {
       if (ids[i] == ids[j]) {
         throw Error(std::string(DeviceName(i)) + " and " + DeviceName(j) + " use the same CAN id " + Hex(ids[i]));
       }
     }
   }
-  if (sync_counter_max == 1 || sync_counter_max > 240) throw Error("the SYNC counter overflow value must be 2..240 (0: none)");
+  if (sync_counter_max == 1 || sync_counter_max > 240)
+    throw Error("the SYNC counter overflow value must be 2..240 (0: none)");
   if (sync_period_s < 0.0 || heartbeat_timeout_s < 0.0) throw Error("periods and timeouts must not be negative");
   const FieldLayout* fields[] = {&theta.field, &phi.field, &probe.field};
   for (int i = 0; i < kNumDevices; ++i) {

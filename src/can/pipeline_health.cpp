@@ -37,8 +37,9 @@ bool AcquisitionPipeline::OnHealthFrame(const CanFrame& frame) {
       const auto hb = DecodeHeartbeat(frame);
       if (!hb) {
         ++counts_.malformed_other;
-        LogLimited(counts_.malformed_other, LogLevel::kWarning, "malformed heartbeat of node " +
-                   std::to_string(n.node_id) + " (" + n.name + "): " + ToString(frame));
+        LogLimited(
+            counts_.malformed_other, LogLevel::kWarning,
+            "malformed heartbeat of node " + std::to_string(n.node_id) + " (" + n.name + "): " + ToString(frame));
         return true;
       }
       if (n.lost) {
@@ -63,8 +64,8 @@ bool AcquisitionPipeline::OnHealthFrame(const CanFrame& frame) {
       const auto e = DecodeEmergency(frame);
       if (!e) {
         ++counts_.malformed_other;
-        LogLimited(counts_.malformed_other, LogLevel::kWarning, "malformed EMCY of node " +
-                   std::to_string(n.node_id) + " (" + n.name + "): " + ToString(frame));
+        LogLimited(counts_.malformed_other, LogLevel::kWarning,
+                   "malformed EMCY of node " + std::to_string(n.node_id) + " (" + n.name + "): " + ToString(frame));
         return true;
       }
       ++counts_.emergencies;
@@ -103,9 +104,9 @@ void AcquisitionPipeline::CheckHeartbeats(std::int64_t now_ns) {
     if (n.lost || now_ns - since <= timeout_ns) continue;
     n.lost = true;
     ++counts_.heartbeats_lost;
-    const std::string text = "node " + std::to_string(n.node_id) + " (" + n.name + "): heartbeat lost (" +
-                             (n.seen ? "none for " + Seconds(static_cast<double>(now_ns - since) * 1e-9)
-                                     : std::string("never seen")) + ")";
+    const std::string text =
+        "node " + std::to_string(n.node_id) + " (" + n.name + "): heartbeat lost (" +
+        (n.seen ? "none for " + Seconds(static_cast<double>(now_ns - since) * 1e-9) : std::string("never seen")) + ")";
     Log(LogLevel::kWarning, text);
   }
 }

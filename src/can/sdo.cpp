@@ -70,9 +70,7 @@ std::string FrameText(const CanFrame& f) { return ToString(f); }
 
 }  // namespace
 
-std::string ToString(const ObjectAddress& o) {
-  return internal::Format("0x%04X:%02X", o.index, o.subindex);
-}
+std::string ToString(const ObjectAddress& o) { return internal::Format("0x%04X:%02X", o.index, o.subindex); }
 
 const char* SdoAbortName(std::uint32_t code) {
   switch (code) {  // CiA 301 §7.2.4.3.17, Table 22

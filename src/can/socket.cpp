@@ -41,9 +41,12 @@ std::int64_t NowNs() {
 
 const char* ToString(TimestampSource s) {
   switch (s) {
-    case TimestampSource::kHardware: return "hardware";
-    case TimestampSource::kKernel: return "kernel";
-    case TimestampSource::kUser: return "user space";
+    case TimestampSource::kHardware:
+      return "hardware";
+    case TimestampSource::kKernel:
+      return "kernel";
+    case TimestampSource::kUser:
+      return "user space";
   }
   return "?";
 }
@@ -103,7 +106,10 @@ CanSocket::~CanSocket() {
 }
 
 CanSocket::CanSocket(CanSocket&& other) noexcept
-    : fd_(other.fd_), iface_(std::move(other.iface_)), ts_mode_(other.ts_mode_), timestamping_(other.timestamping_),
+    : fd_(other.fd_),
+      iface_(std::move(other.iface_)),
+      ts_mode_(other.ts_mode_),
+      timestamping_(other.timestamping_),
       last_drops_(other.last_drops_) {
   other.fd_ = -1;
 }
@@ -125,8 +131,8 @@ RxResult CanSocket::Receive() {
   RxResult r;
   can_frame cf{};
   iovec iov{&cf, sizeof cf};
-  alignas(cmsghdr) char control[CMSG_SPACE(3 * sizeof(timespec)) + CMSG_SPACE(sizeof(timeval)) +
-                                CMSG_SPACE(sizeof(std::uint32_t))];
+  alignas(cmsghdr) char
+      control[CMSG_SPACE(3 * sizeof(timespec)) + CMSG_SPACE(sizeof(timeval)) + CMSG_SPACE(sizeof(std::uint32_t))];
   msghdr msg{};
   msg.msg_iov = &iov;
   msg.msg_iovlen = 1;
@@ -208,7 +214,7 @@ std::uint64_t CanSocket::TakeDrops() {
 }
 
 std::uint64_t AdvanceDropCounter(std::uint32_t* last, std::uint32_t counter) {
-  const std::uint32_t diff = counter - *last;  // the kernel counter wraps at 2^32
+  const std::uint32_t diff = counter - *last;     // the kernel counter wraps at 2^32
   if (diff == 0 || diff > 0x7fffffffU) return 0;  // unchanged, or an older reading
   *last = counter;
   return diff;

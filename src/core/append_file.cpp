@@ -138,8 +138,8 @@ void AppendFile::Append(std::string_view records) {
       // Never leave part of a record behind: cut back to the size before this call (a device
       // or a pipe holds nothing to cut).
       if (regular_ && ::ftruncate(fd_, static_cast<off_t>(size_)) != 0) {
-        throw Error(path_ + ": cannot write: " + Why(err) + "; cutting off the partial record failed too: " +
-                    Why(errno));
+        throw Error(path_ + ": cannot write: " + Why(err) +
+                    "; cutting off the partial record failed too: " + Why(errno));
       }
       throw Error(path_ + ": cannot write: " + Why(err));
     }
@@ -149,8 +149,10 @@ void AppendFile::Append(std::string_view records) {
   size_ += records.size();
   if (!dirty_) first_unsynced_ = std::chrono::steady_clock::now();
   dirty_ = true;
-  if (fsync_interval_s_ == 0.0) Sync();
-  else SyncIfDue();
+  if (fsync_interval_s_ == 0.0)
+    Sync();
+  else
+    SyncIfDue();
 }
 
 void AppendFile::SyncIfDue() {

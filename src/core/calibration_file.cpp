@@ -21,7 +21,9 @@ namespace {
 using internal::Format;
 using nlohmann::json;
 
-const char* UnitOf(int p) { return kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle ? "deg" : "mm"; }
+const char* UnitOf(int p) {
+  return kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle ? "deg" : "mm";
+}
 
 const json& Field(const json& obj, const char* key, const std::string& where, const std::string& path) {
   if (!obj.is_object() || !obj.contains(key)) throw Error(path + ": missing field '" + where + key + "'");
@@ -49,14 +51,16 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
       throw Error(path + ": field '" + where + "id': unknown effect " + id.dump());
     }
     if (e == Effect::kProbeDrift) {
-      throw Error(path + ": field '" + where + "id': probe_drift belongs to the run it was measured in and cannot be "
+      throw Error(path + ": field '" + where +
+                  "id': probe_drift belongs to the run it was measured in and cannot be "
                   "applied to other measurements");
     }
     if (cal.effects.Find(e) >= 0) throw Error(path + ": field '" + where + "id': " + InfoOf(e).id + " is listed twice");
     EffectTerm term{e, {}};
     std::vector<double> values;
     const json& params = Field(effects[k], "parameters", where, path);
-    if (!params.is_array() || params.empty()) throw Error(path + ": field '" + where + "parameters' must be a non-empty array");
+    if (!params.is_array() || params.empty())
+      throw Error(path + ": field '" + where + "parameters' must be a non-empty array");
     for (std::size_t i = 0; i < params.size(); ++i) {
       const std::string pw = where + "parameters[" + std::to_string(i) + "].";
       const json& name = Field(params[i], "name", pw, path);
@@ -65,7 +69,8 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
         throw Error(path + ": field '" + pw + "name': " + name.dump() + " is no parameter of " + InfoOf(e).id);
       }
       for (std::size_t q = 0; q < term.components.size(); ++q) {
-        if (term.ParamName(q) == name.get<std::string>()) throw Error(path + ": field '" + pw + "name': " + name.dump() + " is listed twice");
+        if (term.ParamName(q) == name.get<std::string>())
+          throw Error(path + ": field '" + pw + "name': " + name.dump() + " is listed twice");
       }
       term.components.push_back(c);
       if (Field(params[i], "unit", pw, path) != EffectUnit(term)) {
@@ -427,7 +432,8 @@ CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
   ParseSphereForm(j, path, cal);
   if (j.contains("covariance")) ParseCovariance(j["covariance"], path, cal);
   if (j.contains("source") && j["source"].is_object()) {
-    for (const auto& [k, v] : j["source"].items()) cal.source.emplace_back(k, v.is_string() ? v.get<std::string>() : v.dump());
+    for (const auto& [k, v] : j["source"].items())
+      cal.source.emplace_back(k, v.is_string() ? v.get<std::string>() : v.dump());
   }
   return cal;
 }

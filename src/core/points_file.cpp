@@ -246,8 +246,8 @@ class PointsParser {
     s.theta_deg = ParseNumber(col(kTheta), name(kTheta), fail.where());
     s.phi_deg = ParseNumber(col(kPhi), name(kPhi), fail.where());
     s.r_mm = ParseNumber(col(kR), name(kR), fail.where());
-    s.t_s = data_.has_time ? ParseNumber(col(kTime), name(kTime), fail.where())
-                           : static_cast<double>(data_.samples.size());
+    s.t_s =
+        data_.has_time ? ParseNumber(col(kTime), name(kTime), fail.where()) : static_cast<double>(data_.samples.size());
     s.setup = data_.has_setup ? ParseInteger(col(kSetup), name(kSetup), fail.where()) : 0;
     data_.samples.push_back(s);
     data_.sample_lines.push_back(line_no_);

@@ -52,8 +52,8 @@ double TermValue(const EffectTerm& term, const std::vector<double>& values, int 
     const EffectComponent& c = term.components[i];
     if (c.axis != axis) continue;
     const double basis = !term.info().harmonic ? std::pow(x, c.order)
-                         : c.sine             ? std::sin(c.order * x)
-                                              : std::cos(c.order * x);
+                         : c.sine              ? std::sin(c.order * x)
+                                               : std::cos(c.order * x);
     sum += values[i] * basis;
   }
   return sum;
@@ -68,8 +68,8 @@ double EffectValue(const SimulatedEffects& e, Effect which, int axis, double x) 
 }
 
 // First intersection of the ray origin + s dir (unit) with the sphere |p - O| = radius.
-std::optional<double> RaySphere(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, const Eigen::Vector3d& center,
-                                double radius) {
+std::optional<double> RaySphere(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
+                                const Eigen::Vector3d& center, double radius) {
   // |origin + s dir - O|^2 = R^2  ->  s^2 + 2 s dir.(origin - O) + |origin - O|^2 - R^2 = 0
   const Eigen::Vector3d w = origin - center;
   const double half_b = dir.dot(w);
@@ -393,7 +393,7 @@ std::optional<double> TrueProbeDistance(const ScmsGeometry& g, const SimulatedEf
   const Eigen::Affine3d T_sphere_probe = T_theta_phi * T_phi_probe;
   const double zero_z = -(probe_offset_mm + g[kDPrime]);
   const Vector3d origin = T_sphere_probe * Vector3d(0.0, 0.0, zero_z);  // probe zero point
-  const Vector3d dir = T_sphere_probe.linear() * Vector3d::UnitZ();      // unit: rotations only
+  const Vector3d dir = T_sphere_probe.linear() * Vector3d::UnitZ();     // unit: rotations only
   const std::optional<double> hit = e.HasForm() ? RaySurface(origin, dir, center_mm, sphere_radius_mm, e, body_to_theta)
                                                 : RaySphere(origin, dir, center_mm, sphere_radius_mm);
   if (hit && sin2_incidence) {

@@ -277,10 +277,10 @@ SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, c
         ev.coverage.cap_half_angle_deg, ev.radius_dilution, ev.center_dilution, options.max_dilution));
   }
   if (ev.n_points <= 5) {
-    ev.warnings.push_back(Format(
-        "only %d points: a sphere has 4 parameters and a minimum zone 5 contact points, so the sphericity says "
-        "little about the form",
-        ev.n_points));
+    ev.warnings.push_back(
+        Format("only %d points: a sphere has 4 parameters and a minimum zone 5 contact points, so the sphericity says "
+               "little about the form",
+               ev.n_points));
   }
   if (!ev.ls.converged) ev.warnings.push_back("the least-squares fit did not converge");
   if (!ev.mz.ok || !ev.mz.converged) ev.warnings.push_back("the minimum-zone search did not converge");
@@ -288,8 +288,8 @@ SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, c
     ev.warnings.push_back(Format(
         "the minimum zone has several local minima for this coverage: searched from %zu starts, it reached widths "
         "from %.4f to %.4f um with centres up to %.4g um apart; the narrowest is reported (sphericity_mz_um)",
-        ev.mz.starts.size(), ev.mz.width * kUmPerMm,
-        (ev.mz.width + ev.mz.StartWidthSpread()) * kUmPerMm, ev.mz.StartCenterSpread() * kUmPerMm));
+        ev.mz.starts.size(), ev.mz.width * kUmPerMm, (ev.mz.width + ev.mz.StartWidthSpread()) * kUmPerMm,
+        ev.mz.StartCenterSpread() * kUmPerMm));
   }
   return ev;
 }

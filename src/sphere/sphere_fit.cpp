@@ -31,7 +31,8 @@ Sphere FitSphereAlgebraic(const std::vector<Eigen::Vector3d>& points) {
 }
 
 double LeastSquaresSphere::CenterDilution() const {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(normal_inverse.topLeftCorner<3, 3>(), Eigen::EigenvaluesOnly);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(normal_inverse.topLeftCorner<3, 3>(),
+                                                           Eigen::EigenvaluesOnly);
   return std::sqrt(n_points * std::max(eig.eigenvalues()(2), 0.0) / 3.0);
 }
 

@@ -5,9 +5,9 @@
 #include <fstream>
 #include <sstream>
 
-#include <CLI/CLI.hpp>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "app_common.hpp"
@@ -15,9 +15,9 @@
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/form_model.hpp"
+#include "sph/model/units.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
-#include "sph/model/units.hpp"
 #include "test_util.hpp"
 
 namespace sph::apps {
@@ -112,10 +112,10 @@ TEST_F(CalibrateCmd, ProgressOnRequestNamesEachStageAndEveryRoundOfTheTrace) {
   o.progress = ProgressMode::kAlways;
   const RunOutput r = Calibrate(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
-  for (const std::string& s : std::vector<std::string>{"sph_calibrate: reading " + o.points_path + "\n",
-                                                        "sph_calibrate: checking 288 samples\n",
-                                                        "sph_calibrate: calibrating the seven errors\n",
-                                                        "sph_calibrate: tracing the residual, round 1: candidates 100% ("}) {
+  for (const std::string& s : std::vector<std::string>{
+           "sph_calibrate: reading " + o.points_path + "\n", "sph_calibrate: checking 288 samples\n",
+           "sph_calibrate: calibrating the seven errors\n",
+           "sph_calibrate: tracing the residual, round 1: candidates 100% ("}) {
     EXPECT_THAT(r.err, HasSubstr(s));
   }
 }

@@ -9,9 +9,9 @@
 
 #include <sys/stat.h>
 
-#include <CLI/CLI.hpp>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "app_common.hpp"
@@ -553,7 +553,7 @@ TEST_F(MeasureCmd, ProgressOnRequestNamesEachStageAndEveryDrawByDefaultNone) {
   o.points_path = Simulated("progress.txt", {Eigen::Vector3d(1.0, 1.0, 0.5)});
   o.calibration_path = Calibration();
   o.uncertainty_samples = 20;
-  o.mc_max_trials = 0;  // the budget's Monte Carlo check is not what this test is about
+  o.mc_max_trials = 0;                 // the budget's Monte Carlo check is not what this test is about
   const RunOutput quiet = Measure(o);  // stderr is no terminal here: nothing by default
   ASSERT_EQ(quiet.code, kExitOk) << quiet.err;
   EXPECT_THAT(quiet.err, Not(HasSubstr("sph_measure: reading")));

@@ -23,7 +23,8 @@ using sph::testing::PaperOptions;
 PointsData Design(const std::vector<Eigen::Vector3d>& rotations_deg) {
   SimulationSpec spec;
   spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(-2, 0, 0)};
-  for (std::size_t k = 0; k < rotations_deg.size(); ++k) spec.mount_rotations_deg[static_cast<int>(k)] = rotations_deg[k];
+  for (std::size_t k = 0; k < rotations_deg.size(); ++k)
+    spec.mount_rotations_deg[static_cast<int>(k)] = rotations_deg[k];
   spec.noise_r_um = 0.0;
   return Simulate(spec);
 }
@@ -49,8 +50,9 @@ EffectModel PhiEffects(const PointsData& points) {
 TEST(IdentifyForm, TurnsOnTheThetaTableAreOnePlacementToAThetaFreeMachine) {
   const PointsData turned = Design({Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0, 0, 90), Eigen::Vector3d(0, 0, 180)});
   PointsData one = turned;
-  one.samples.erase(std::remove_if(one.samples.begin(), one.samples.end(), [](const Sample& s) { return s.setup != 0; }),
-                    one.samples.end());
+  one.samples.erase(
+      std::remove_if(one.samples.begin(), one.samples.end(), [](const Sample& s) { return s.setup != 0; }),
+      one.samples.end());
   one.header.mount_rotations.clear();
   const std::vector<FormTerm> terms = FormTermsOfDegrees(2, 4);
   const FormIdentifiability a = IdentifyForm(turned, PaperOptions(), PhiEffects(turned), At(turned), terms);
@@ -78,8 +80,9 @@ TEST(IdentifyForm, UnknownOrientationsTieNothingToTheSphere) {
   PointsData points = Design({});
   for (const int id : points.SetupIds()) points.header.mount_rotations[id] = MountRotation::Unknown();
   PointsData one = points;
-  one.samples.erase(std::remove_if(one.samples.begin(), one.samples.end(), [](const Sample& s) { return s.setup != 0; }),
-                    one.samples.end());
+  one.samples.erase(
+      std::remove_if(one.samples.begin(), one.samples.end(), [](const Sample& s) { return s.setup != 0; }),
+      one.samples.end());
   one.header.mount_rotations.clear();
   const std::vector<FormTerm> terms = FormTermsOfDegrees(2, 3);
   const FormIdentifiability all = IdentifyForm(points, PaperOptions(), PhiEffects(points), At(points), terms);

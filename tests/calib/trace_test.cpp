@@ -59,7 +59,8 @@ std::string Describe(const TraceResult& r) {
          " cv " + std::to_string(c.cv_rms_um) + " sphere " + std::to_string(c.sphere_fraction) + " " + c.note;
   }
   for (const Unexplained& u : r.unexplained) s += "\nunexplained: " + u.description;
-  for (const Ambiguity& a : r.ambiguous) s += "\nambiguous: " + a.chosen + " / " + a.other + " " + std::to_string(a.sphere_fraction);
+  for (const Ambiguity& a : r.ambiguous)
+    s += "\nambiguous: " + a.chosen + " / " + a.other + " " + std::to_string(a.sphere_fraction);
   return s;
 }
 
@@ -136,8 +137,8 @@ TEST(TraceResidual, SaysWhenAnEncoderErrorAndASpindleMotionCannotBeTold) {
   EXPECT_NE(pair->separate_by.find("second sphere position"), std::string::npos) << pair->separate_by;
   // With one sphere position, most of what either explains is also a pattern fixed on the sphere
   // (72 % with this seed).
-  const auto form = std::find_if(r.ambiguous.begin(), r.ambiguous.end(),
-                                 [](const Ambiguity& a) { return a.other == "sphere_form"; });
+  const auto form =
+      std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [](const Ambiguity& a) { return a.other == "sphere_form"; });
   ASSERT_NE(form, r.ambiguous.end()) << Describe(r);
   EXPECT_GE(form->sphere_fraction, 0.5);
   EXPECT_LT(r.after.fit.calibration.rms_um, NoiseRmsUm()) << Describe(r);
@@ -247,8 +248,7 @@ TEST(TraceResidual, ReadingsLeftOutByTheSevenErrorFitComeBackUnderTheFinalModel)
   const PointsData points = Simulate(spec);
   const CalibrationResult base = Calibrate(points, PaperOptions());
   ASSERT_FALSE(base.outliers.empty()) << "the seven-error fit is expected to reject the range ends here";
-  const TraceResult r =
-      FitFixedEffects(points, PaperOptions(), base, {Effect::kProbeNonlinearity}, TraceOptions{});
+  const TraceResult r = FitFixedEffects(points, PaperOptions(), base, {Effect::kProbeNonlinearity}, TraceOptions{});
   const CalibrationResult& after = r.after.fit.calibration;
   EXPECT_TRUE(after.outliers.empty());
   EXPECT_EQ(after.n_points, static_cast<int>(points.samples.size()));
@@ -284,7 +284,8 @@ TEST(FitEffects, ProbeGainOfExactDataIsTheSimulatedOne) {
   const PointsData points = Simulate(spec);
   EffectModel model = spec.effects.model;
   model.reference = EffectReferenceOf(points.samples);  // what a calibration computes
-  const EffectFit fit = FitEffects(points, PaperOptions(), model, EffectFitStart::From(Calibrate(points, PaperOptions())));
+  const EffectFit fit =
+      FitEffects(points, PaperOptions(), model, EffectFitStart::From(Calibrate(points, PaperOptions())));
   EXPECT_NEAR(fit.values[0][0], 2.0 * kMmPerUm, 1e-6 * 2.0 * kMmPerUm);
 }
 

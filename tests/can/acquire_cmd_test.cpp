@@ -15,9 +15,9 @@
 #include <sstream>
 #include <thread>
 
-#include <CLI/CLI.hpp>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <CLI/CLI.hpp>
 
 #include "app_common.hpp"
 #include "cansim_cmd.hpp"
@@ -90,11 +90,10 @@ TEST(Acquire, EveryFaultIsCountedReportedAndTheFileStaysReadable) {
   std::ostringstream err;
   EXPECT_EQ(RunAcquire(o, err), kExitSamplesLost) << err.str();
   const std::string e = err.str();
-  for (const char* expected :
-       {"error frame: controller-problem{rx-error-warning}", "error frame: bus-off", "node 3 (probe): heartbeat lost",
-        "theta node 1: EMCY 0x8130", "malformed probe PDO", "probe reports out of range",
-        "SYNC cycle missing (never received)", "malformed input: " , "sim.log:", ": CAN FD frames ('##') are not supported",
-        "samples were lost"}) {
+  for (const char* expected : {"error frame: controller-problem{rx-error-warning}", "error frame: bus-off",
+                               "node 3 (probe): heartbeat lost", "theta node 1: EMCY 0x8130", "malformed probe PDO",
+                               "probe reports out of range", "SYNC cycle missing (never received)", "malformed input: ",
+                               "sim.log:", ": CAN FD frames ('##') are not supported", "samples were lost"}) {
     EXPECT_NE(e.find(expected), std::string::npos) << "missing '" << expected << "' in:\n" << e;
   }
   const PointsData d = ReadPointsFile(dir + "/p.txt");
@@ -194,7 +193,8 @@ TEST(Acquire, HexIdsOnTheCommandLine) {
   CLI::App app;
   AcquireOptions o;
   SetupAcquireApp(app, o);
-  ASSERT_NO_THROW(app.parse(std::vector<std::string>{"0x1A5", "--probe-cob-id", "o.txt", "-o", "0x8A", "--theta-cob-id"}));
+  ASSERT_NO_THROW(
+      app.parse(std::vector<std::string>{"0x1A5", "--probe-cob-id", "o.txt", "-o", "0x8A", "--theta-cob-id"}));
   EXPECT_EQ(o.devices.theta.cob_id, 0x8AU);
   EXPECT_EQ(o.devices.probe_cob_id, 0x1A5U);
 }
@@ -341,7 +341,9 @@ TEST(AcquireProcess, BrokenReplayLogsAreBadInputAndMakeNoFile) {
       {dir + "/missing.log", dir + "/missing.log: cannot open for reading: No such file or directory"},
       {WriteBytes(dir + "/empty.log", ""), dir + "/empty.log: empty: no CAN frame to replay"},
       {WriteBytes(dir + "/blank.log", "\n\n  \n"), dir + "/blank.log: no CAN frame to replay, only blank lines"},
-      {WriteBytes(dir + "/binary.log", std::string("\x7f" "ELF\x02\x01\x01\0\0\n\xff\xfe(\0)\n", 16)),
+      {WriteBytes(dir + "/binary.log", std::string("\x7f"
+                                                   "ELF\x02\x01\x01\0\0\n\xff\xfe(\0)\n",
+                                                   16)),
        dir + "/binary.log: no CAN frame in its 2 lines: not a candump log (first: " + dir +
            "/binary.log:1: expected '(seconds.microseconds)' at the start)"},
       {WriteBytes(dir + "/points.log", "# sph-points 1\n# columns: theta_deg phi_deg r_mm\n0 7.5 4.9\n"),

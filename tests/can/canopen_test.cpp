@@ -140,9 +140,9 @@ TEST(Encoder, MultiTurnIsContinuousAcrossTheCounterWrap) {
   EXPECT_DOUBLE_EQ(DecodePosition(c, PositionFrame(c, 65000)).value, 0.0);
   EXPECT_DOUBLE_EQ(DecodePosition(c, PositionFrame(c, 464)).value, 360.0 * 1000 / 1024);  // past the wrap
   EXPECT_DOUBLE_EQ(DecodePosition(c, PositionFrame(c, 64000)).value, -360.0 * 1000 / 1024);
-  EXPECT_DOUBLE_EQ(DecodePosition(Encoder(1024, 1, 0, true), PositionFrame(Encoder(1024, 1, 0, true), 3 * 1024 + 256))
-                       .value,
-                   3 * 360.0 + 90.0);
+  EXPECT_DOUBLE_EQ(
+      DecodePosition(Encoder(1024, 1, 0, true), PositionFrame(Encoder(1024, 1, 0, true), 3 * 1024 + 256)).value,
+      3 * 360.0 + 90.0);
 }
 
 TEST(Encoder, ShortFrameIsMalformed) {
@@ -151,8 +151,8 @@ TEST(Encoder, ShortFrameIsMalformed) {
 }
 
 TEST(Encoder, EncodeIsTheInverseOfDecode) {
-  for (const auto& c : {Encoder(1U << 24, 1, 12345, false), Encoder(1U << 24, -1, 777, false),
-                        Encoder(1U << 20, -1, 5, true)}) {
+  for (const auto& c :
+       {Encoder(1U << 24, 1, 12345, false), Encoder(1U << 24, -1, 777, false), Encoder(1U << 20, -1, 5, true)}) {
     for (double a : {0.0, 7.5, 172.5, 345.0}) {
       const double back = DecodePosition(c, PositionFrame(c, EncodePositionRaw(c, a))).value;
       EXPECT_NEAR(back, a, 0.5 * 360.0 / static_cast<double>(c.counts_per_rev)) << a;
@@ -174,7 +174,8 @@ TEST(Encoder, SixtyFourBitFieldsAtTheirExtremes) {
   // Multi-turn, reversed: -(-2^63) is -2^63 on a 64-bit counter.
   const auto multi = Encoder(1U << 20, -1, 0, true, 8);
   EXPECT_DOUBLE_EQ(DecodePosition(multi, PositionFrame(multi, kMin)).value, 360.0 * -0x1p63 / 0x1p20);
-  EXPECT_DOUBLE_EQ(DecodePosition(multi, PositionFrame(multi, kMax)).value, 360.0 * -static_cast<double>(kMax) / 0x1p20);
+  EXPECT_DOUBLE_EQ(DecodePosition(multi, PositionFrame(multi, kMax)).value,
+                   360.0 * -static_cast<double>(kMax) / 0x1p20);
   const auto multi_zero = Encoder(1U << 20, -1, kMin, true, 8);
   EXPECT_DOUBLE_EQ(DecodePosition(multi_zero, PositionFrame(multi_zero, kMax)).value, 360.0 / 0x1p20);
   // Encoding from a zero offset at the end of the range wraps like the counter.

@@ -88,10 +88,12 @@ TEST(Pipeline, IncompleteCyclesAreCountedAndNotedNeverFilled) {
   EXPECT_EQ(p.counts().missing[kTheta], 1U);
   EXPECT_EQ(p.counts().Losses(), 3U);
   ASSERT_EQ(sink.notes.size(), 2U);  // the two probe cycles in one note
-  EXPECT_EQ(sink.notes[0], "2 incomplete SYNC cycles from t_s 1700000000.001000 to 1700000000.002000 (no sample "
-                           "written): probe no frame");
-  EXPECT_EQ(sink.notes[1], "1 incomplete SYNC cycle from t_s 1700000000.003000 to 1700000000.003000 (no sample "
-                           "written): theta no frame");
+  EXPECT_EQ(sink.notes[0],
+            "2 incomplete SYNC cycles from t_s 1700000000.001000 to 1700000000.002000 (no sample "
+            "written): probe no frame");
+  EXPECT_EQ(sink.notes[1],
+            "1 incomplete SYNC cycle from t_s 1700000000.003000 to 1700000000.003000 (no sample "
+            "written): theta no frame");
 }
 
 // The last cycle's PDOs may have come after the end (a stop, the end of a log): it is noted as
@@ -185,8 +187,9 @@ TEST(Pipeline, MissedSyncsByTimeGap) {
   EXPECT_EQ(p.counts().missed_syncs, 3U);
   EXPECT_EQ(p.counts().samples, 3U);
   ASSERT_EQ(sink.notes.size(), 1U);
-  EXPECT_EQ(sink.notes[0], "3 SYNC cycles missing (never received) between t_s 1700000000.001000 and "
-                           "1700000000.005000");
+  EXPECT_EQ(sink.notes[0],
+            "3 SYNC cycles missing (never received) between t_s 1700000000.001000 and "
+            "1700000000.005000");
 }
 
 TEST(Pipeline, HeartbeatLossStateChangesEmcyAndErrorFrames) {

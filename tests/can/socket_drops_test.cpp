@@ -27,7 +27,7 @@ TEST(DropCounter, OlderReadingAfterQueryCountsNothing) {
   EXPECT_EQ(AdvanceDropCounter(&last, 0), 0U);      // a frame queued before the flood
   EXPECT_EQ(AdvanceDropCounter(&last, 120), 0U);    // a frame queued during it
   EXPECT_EQ(last, 300U);
-  EXPECT_EQ(AdvanceDropCounter(&last, 301), 1U);    // a later drop
+  EXPECT_EQ(AdvanceDropCounter(&last, 301), 1U);  // a later drop
 }
 
 TEST(DropCounter, WrapsAt32Bits) {

@@ -13,7 +13,7 @@ TEST(Standstill, DwellExcludesSettlingAndScatterIsTheSampleSd) {
   for (int k = 0; k <= 30; ++k) EXPECT_FALSE(d.Add(At(10.0, 20.0, k < 10 ? 9.0 : (k % 2 ? 1.0 : 3.0), k * 0.01)));
   p = d.Add(At(11.0, 20.0, 0.0, 0.31));  // moved: the stop ends
   ASSERT_TRUE(p.has_value());
-  EXPECT_EQ(p->n, 21);                    // t = 0.10 .. 0.30
+  EXPECT_EQ(p->n, 21);  // t = 0.10 .. 0.30
   EXPECT_NEAR(p->mean.r_mm, (11 * 3.0 + 10 * 1.0) / 21, 1e-12);
   EXPECT_NEAR(p->sd_r_mm, std::sqrt(21.0 / 20.0 * (1.0 - std::pow((11 * 3.0 + 10 * 1.0) / 21 - 2.0, 2))), 1e-12);
   EXPECT_NEAR(p->mean.t_s, 0.20, 1e-12);

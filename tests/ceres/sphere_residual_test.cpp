@@ -80,7 +80,8 @@ TEST(EffectScmsPointJet, ValuePartEqualsTheDoubleResult) {
       for (int k = 0; k < 3; ++k) EXPECT_EQ(pj[k].a, pd[k]);
       // The precomputed basis gives the same point.
       const std::vector<double> basis = EffectBasisOf(model, x);
-      const Vec3<Jet> pb = EffectScmsPoint(gj.data(), ErrorTrigOf(gj.data()), model, blocks.data(), x, kD, basis.data());
+      const Vec3<Jet> pb =
+          EffectScmsPoint(gj.data(), ErrorTrigOf(gj.data()), model, blocks.data(), x, kD, basis.data());
       for (int k = 0; k < 3; ++k) {
         EXPECT_EQ(pb[k].a, pj[k].a);
         EXPECT_PRED_FORMAT3(MatrixNear, pb[k].v, pj[k].v, 0.0);
@@ -156,7 +157,8 @@ TEST(SphereResidualBatch, EqualsThePerReadingCostFunctions) {
     ASSERT_TRUE(singles[static_cast<std::size_t>(i)]->Evaluate(params, &e, sj));
     EXPECT_EQ(res[static_cast<std::size_t>(i)], e);
     EXPECT_EQ(res_only[static_cast<std::size_t>(i)], e);
-    for (int k = 0; k < kNumScmsParams; ++k) EXPECT_NEAR(jg[static_cast<std::size_t>(i * kNumScmsParams + k)], sg[k], 1e-14);
+    for (int k = 0; k < kNumScmsParams; ++k)
+      EXPECT_NEAR(jg[static_cast<std::size_t>(i * kNumScmsParams + k)], sg[k], 1e-14);
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(jc[static_cast<std::size_t>(i * 3 + k)], sc[k], 1e-15);
   }
   // A block held constant: Ceres passes a null Jacobian for it.

@@ -127,7 +127,8 @@ TEST(CalibrationFile, EffectsGoThroughTheFileAndIntoCompensation) {
   EXPECT_DOUBLE_EQ(cal.effects.reference.r_half_range_mm, 2.1);
   // Compensation applies them: the point is EffectScmsPoint's, and differs from the seven errors' alone.
   const Eigen::Vector3d p = Compensate(cal, 30.0, 60.0, 5.1);
-  const Eigen::Vector3d q = EffectScmsPoint(cal.geometry, cal.effects, cal.effect_values, EffectReading(30.0, 60.0, 5.1, 0.0), 25.0);
+  const Eigen::Vector3d q =
+      EffectScmsPoint(cal.geometry, cal.effects, cal.effect_values, EffectReading(30.0, 60.0, 5.1, 0.0), 25.0);
   EXPECT_EQ(p, q);
   EXPECT_GT((p - ScmsPoint(cal.geometry, 30 * kRadPerDeg, 60 * kRadPerDeg, 5.1, 25.0)).norm(), 1e-5);
   // An invalid calibration (a block missing) compensates to NaN rather than reading out of range.
@@ -182,27 +183,34 @@ TEST(CalibrationFile, NamesEveryMissingOrWrongField) {
        "missing field 'geometry.d_prime.value'"},
       {{R"("beta": {"value": 0.02, "unit": "deg"})", R"("beta": {"value": 0.02, "unit": "rad"})"},
        "field 'geometry.beta.unit' must be \"deg\""},
-      {{R"("beta": {"value": 0.02, "unit": "deg"})", R"("beta": {"value": 0.02})"}, "missing field 'geometry.beta.unit'"},
+      {{R"("beta": {"value": 0.02, "unit": "deg"})", R"("beta": {"value": 0.02})"},
+       "missing field 'geometry.beta.unit'"},
       {{R"("parameters": ["alpha", "a", "beta", "b")", R"("parameters": ["a", "alpha", "beta", "b")"},
        "field 'covariance.parameters' must be [\"alpha\",\"a\",\"beta\",\"b\",\"epsilon\",\"c\",\"d_prime\"]"},
       {{R"("units": ["deg", "mm")", R"("units": ["rad", "mm")"}, "field 'covariance.units' must be"},
       {{R"("units": [)", R"("unit": [)"}, "missing field 'covariance.units'"},
       {{R"([0, 0, 0, 0, 0, 0, 1e-12]]})", R"([0, 0, 0, 0, 0, 0]]})"}, "covariance.matrix must be 7 x 7"},
       {{R"(,
-    "effects": [])", ""}, "missing field 'effects'"},
+    "effects": [])",
+        ""},
+       "missing field 'effects'"},
       {{R"("effects": [])", R"("effects": [{"name": "encoder"}])"}, "missing field 'effects[0].id'"},
       {{R"("effects": [])", R"("effects": [{"id": "encoder"}])"}, "field 'effects[0].id': unknown effect \"encoder\""},
       {{R"("effects": [])", R"("effects": [{"id": "probe_drift", "parameters": []}])"},
        "field 'effects[0].id': probe_drift belongs to the run it was measured in"},
       {{R"("effects": [])", R"("effects": [{"id": "probe_gain", "parameters": []}])"},
        "field 'effects[0].parameters' must be a non-empty array"},
-      {{R"("effects": [])", R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.c2", "value": 1, "unit": "um"}]}])"},
+      {{R"("effects": [])",
+        R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.c2", "value": 1, "unit": "um"}]}])"},
        "field 'effects[0].parameters[0].name': \"probe_gain.c2\" is no parameter of probe_gain"},
-      {{R"("effects": [])", R"("effects": [{"id": "theta_encoder", "parameters": [{"name": "theta_encoder.c2", "value": 1, "unit": "um"}]}])"},
+      {{R"("effects": [])",
+        R"("effects": [{"id": "theta_encoder", "parameters": [{"name": "theta_encoder.c2", "value": 1, "unit": "um"}]}])"},
        "field 'effects[0].parameters[0].unit' must be \"arcsec\""},
-      {{R"("effects": [])", R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.u1", "value": 1, "unit": "um"}]}])"},
+      {{R"("effects": [])",
+        R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.u1", "value": 1, "unit": "um"}]}])"},
        "missing field 'effect_reference'"},
-      {{R"("effects": [])", R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.u1", "value": 1, "unit": "um"}]}],
+      {{R"("effects": [])",
+        R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.u1", "value": 1, "unit": "um"}]}],
         "effect_reference": {"r_ref_mm": 5, "r_half_range_mm": 1e-300, "t_start_s": 0, "t_span_s": 1})"},
        "field 'effect_reference': r_half_range_mm must be at least"},
   };

@@ -30,8 +30,7 @@ std::string ErrorOf(const std::string& text) {
   return "";
 }
 
-constexpr const char* kHeader =
-    "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
+constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
 
 TEST(PointsFile, ReadsHeaderColumnsAndSamples) {
   const PointsData d = Parse(std::string(kHeader) +
@@ -113,7 +112,8 @@ TEST(PointsFile, WritesTheLargestFiniteValuesWhole) {
 }
 
 TEST(PointsFile, ErrorsNameFileLineAndProblem) {
-  EXPECT_THAT(ErrorOf(std::string(kHeader) + "1 2\n"), HasSubstr("pts.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 2"));
+  EXPECT_THAT(ErrorOf(std::string(kHeader) + "1 2\n"),
+              HasSubstr("pts.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 2"));
   EXPECT_THAT(ErrorOf("1 2 x5\n"), HasSubstr("pts.txt:1: column r_mm: 'x5' is not a number"));
   EXPECT_THAT(ErrorOf("1 2 3\n1 nan 3\n"), HasSubstr("pts.txt:2: column phi_deg: 'nan' is not a finite number"));
   EXPECT_THAT(ErrorOf("inf 2 3\n"), HasSubstr("pts.txt:1: column theta_deg: 'inf' is not a finite number"));

@@ -142,7 +142,10 @@ TEST(PointsWriter, WritesTheMountRotationsAndContinuesOnlyAFileOfTheSame) {
 
 TEST(PointsWriter, AnIncompleteLastLineIsCutOff) {
   const std::string path = sph::testing::MakeTempDir("pw_tail") + "/p.txt";
-  { PointsWriter w(path, Header(), WithSetup()); w.Write({1.0, 2.0, 3.0, 4.0, 0}); }
+  {
+    PointsWriter w(path, Header(), WithSetup());
+    w.Write({1.0, 2.0, 3.0, 4.0, 0});
+  }
   { std::ofstream(path, std::ios::app) << "5.0 6.0 7."; }  // a machine crash mid-record
   {
     PointsWriter w(path, Header(), WithSetup());

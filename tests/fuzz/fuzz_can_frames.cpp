@@ -96,21 +96,37 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::uint64_t samples = 0;
   PipelineCounts counts;
   try {
-    AcquisitionPipeline pipeline(c, {[&](const sph::Sample&) { ++samples; }, [](const std::string&) {},
-                                     [](LogLevel, const std::string&) {}});
+    AcquisitionPipeline pipeline(
+        c, {[&](const sph::Sample&) { ++samples; }, [](const std::string&) {}, [](LogLevel, const std::string&) {}});
     std::int64_t t_ns = 1700000000LL * 1000000000LL;
     while (in.Left() > 0) {
       const std::uint8_t which = in.Next();
       CanFrame f;
       switch (which & 7) {
-        case 0: f.id = c.sync_cob_id; break;
-        case 1: f.id = c.theta.field.can_id; break;
-        case 2: f.id = c.phi.field.can_id; break;
-        case 3: f.id = c.probe.field.can_id; break;
-        case 4: f.id = kHeartbeatBase + (which >> 3); break;
-        case 5: f.id = kEmcyBase + (which >> 3); break;
-        case 6: f.id = kErrFlag | (in.Next32() & kErrMask); break;
-        default: f.id = in.Next32(); break;
+        case 0:
+          f.id = c.sync_cob_id;
+          break;
+        case 1:
+          f.id = c.theta.field.can_id;
+          break;
+        case 2:
+          f.id = c.phi.field.can_id;
+          break;
+        case 3:
+          f.id = c.probe.field.can_id;
+          break;
+        case 4:
+          f.id = kHeartbeatBase + (which >> 3);
+          break;
+        case 5:
+          f.id = kEmcyBase + (which >> 3);
+          break;
+        case 6:
+          f.id = kErrFlag | (in.Next32() & kErrMask);
+          break;
+        default:
+          f.id = in.Next32();
+          break;
       }
       const std::uint8_t len = in.Next();
       f.len = static_cast<std::uint8_t>(len % 9);

@@ -40,8 +40,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const sph::Sample& a = parsed.samples[i];
     const sph::Sample& b = again.samples[i];
     // Written with 10 decimals (angles, r) and 6 (t_s): rounding of half the last decimal.
-    if (!Close(a.theta_deg, b.theta_deg, 5e-11) || !Close(a.phi_deg, b.phi_deg, 5e-11) || !Close(a.r_mm, b.r_mm, 5e-11) ||
-        (parsed.has_time && !Close(a.t_s, b.t_s, 5e-7)) || a.setup != b.setup) {
+    if (!Close(a.theta_deg, b.theta_deg, 5e-11) || !Close(a.phi_deg, b.phi_deg, 5e-11) ||
+        !Close(a.r_mm, b.r_mm, 5e-11) || (parsed.has_time && !Close(a.t_s, b.t_s, 5e-7)) || a.setup != b.setup) {
       std::abort();
     }
   }

@@ -1,7 +1,7 @@
 #include "sph/model/dh.hpp"
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "test_util.hpp"
 
@@ -33,9 +33,8 @@ TYPED_TEST(DhTransformTyped, ZeroAnglesIsPureTranslation) {
 TYPED_TEST(DhTransformTyped, EqualsComposedElementaryTransforms) {
   using T = TypeParam;
   const double theta = 0.7, d = -1.3, a = 4.2, alpha = -2.1;
-  const Eigen::Affine3d composed = Eigen::AngleAxisd(theta, Eigen::Vector3d::UnitZ()) *
-                                   Eigen::Translation3d(0, 0, d) * Eigen::Translation3d(a, 0, 0) *
-                                   Eigen::AngleAxisd(alpha, Eigen::Vector3d::UnitX());
+  const Eigen::Affine3d composed = Eigen::AngleAxisd(theta, Eigen::Vector3d::UnitZ()) * Eigen::Translation3d(0, 0, d) *
+                                   Eigen::Translation3d(a, 0, 0) * Eigen::AngleAxisd(alpha, Eigen::Vector3d::UnitX());
   const Mat4<T> m = DhTransform(T(theta), T(d), T(a), T(alpha));
   EXPECT_PRED_FORMAT3(MatrixNear, m, composed.matrix(), Tol<T>());
 }

@@ -64,7 +64,8 @@ TEST(EffectScmsPoint, SpindleMotionsMoveTheSphereInTheMachineFrame) {
   // x_c2 = A at theta = 0: the sphere moves by +A along machine x, so the point relative to it by -A.
   const double a = 0.3e-3;
   const Eigen::Vector3d p = PointWith(Effect::kThetaRadialMotion, {2, 0, false}, a, 0.0, 70.0, 5.0);
-  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, Nominal(0.0, 70 * kRadPerDeg, 20.0) - Eigen::Vector3d(a, 0, 0), kTol);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, Nominal(0.0, 70 * kRadPerDeg, 20.0) - Eigen::Vector3d(a, 0, 0),
+                      kTol);
   // y_s3 at theta = 30 deg (sin 90 deg = 1): machine y, turned by theta into the sphere frame.
   const double th = 30 * kRadPerDeg;
   const Eigen::Vector3d q = PointWith(Effect::kThetaRadialMotion, {3, 1, true}, a, 30.0, 70.0, 5.0);
@@ -72,7 +73,8 @@ TEST(EffectScmsPoint, SpindleMotionsMoveTheSphereInTheMachineFrame) {
                       Nominal(th, 70 * kRadPerDeg, 20.0) - a * Eigen::Vector3d(-std::sin(th), std::cos(th), 0), kTol);
   // Axial c1 = A at theta = 0: along the Theta axis.
   const Eigen::Vector3d z = PointWith(Effect::kThetaAxialMotion, {1, 0, false}, a, 0.0, 70.0, 5.0);
-  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, z, Nominal(0.0, 70 * kRadPerDeg, 20.0) - Eigen::Vector3d(0, 0, a), kTol);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, z, Nominal(0.0, 70 * kRadPerDeg, 20.0) - Eigen::Vector3d(0, 0, a),
+                      kTol);
 }
 
 TEST(EffectScmsPoint, PhiWobbleTiltsThePhiFrame) {

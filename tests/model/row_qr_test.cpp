@@ -2,8 +2,8 @@
 
 #include <random>
 
-#include <Eigen/QR>
 #include <gtest/gtest.h>
+#include <Eigen/QR>
 
 #include "test_util.hpp"
 

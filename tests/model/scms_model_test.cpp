@@ -59,7 +59,8 @@ TEST(ScmsPoint, ProbeZeroErrorScalesTheRadius) {
 TEST(ScmsPoint, AxisOffsetShiftsAlongTheRotatedX) {
   // a only: Rz(theta) (Rx(pi/2) s + [a, 0, 0]) = nominal + a (cos theta, sin theta, 0).
   const double a = 0.002;
-  const Eigen::Vector3d expected = Nominal(kTheta, kPhi, kR, kD) + a * Eigen::Vector3d(std::cos(kTheta), std::sin(kTheta), 0);
+  const Eigen::Vector3d expected =
+      Nominal(kTheta, kPhi, kR, kD) + a * Eigen::Vector3d(std::cos(kTheta), std::sin(kTheta), 0);
   EXPECT_PRED_FORMAT3(MatrixNear, ScmsPoint(Only(kA, a), kTheta, kPhi, kR, kD), expected, kTolerance);
 }
 
@@ -87,7 +88,8 @@ TEST(ScmsPoint, AxisAngleErrorTiltsTheSwingPlane) {
   // z cos phi sin alpha, -z cos phi cos alpha]; then Rz(theta).
   const double alpha = 0.01;
   const double z = kR - kD;
-  const Eigen::Vector3d s(-z * std::sin(kPhi), z * std::cos(kPhi) * std::sin(alpha), -z * std::cos(kPhi) * std::cos(alpha));
+  const Eigen::Vector3d s(-z * std::sin(kPhi), z * std::cos(kPhi) * std::sin(alpha),
+                          -z * std::cos(kPhi) * std::cos(alpha));
   const Eigen::Vector3d expected(std::cos(kTheta) * s.x() - std::sin(kTheta) * s.y(),
                                  std::sin(kTheta) * s.x() + std::cos(kTheta) * s.y(), s.z());
   EXPECT_PRED_FORMAT3(MatrixNear, ScmsPoint(Only(kAlpha, alpha), kTheta, kPhi, kR, kD), expected, kTolerance);

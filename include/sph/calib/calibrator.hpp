@@ -39,8 +39,8 @@ struct CalibrationOptions {
 
 /// A reading left out of the fit as an outlier.
 struct Outlier {
-  std::size_t sample = 0;   ///< index in the points file's samples (0-based, file order)
-  double residual_um = 0.0; ///< its residual under the final fit
+  std::size_t sample = 0;    ///< index in the points file's samples (0-based, file order)
+  double residual_um = 0.0;  ///< its residual under the final fit
 };
 
 /// The outcome of one calibration.
@@ -55,7 +55,7 @@ struct CalibrationResult {
   std::vector<Outlier> outliers;            ///< readings left out, in file order
   int iterations = 0;
   bool converged = false;
-  std::string solver_message;               ///< the solver's termination message
+  std::string solver_message;  ///< the solver's termination message
   /// Uncertainties, correlations and identifiability; parameters in the order: the seven errors,
   /// then center_x, center_y, center_z of each setup. Empty when options.analyse is false.
   ObservabilityReport analysis;

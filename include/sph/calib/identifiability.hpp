@@ -46,8 +46,8 @@ struct ConfoundedCombination {
 
 /// The form terms of a design that its readings separate from the machine, and those they do not.
 struct FormIdentifiability {
-  std::vector<FormTerm> separable;   ///< in the order of the terms asked about
-  std::vector<FormTerm> confounded;  ///< the others
+  std::vector<FormTerm> separable;                  ///< in the order of the terms asked about
+  std::vector<FormTerm> confounded;                 ///< the others
   std::vector<ConfoundedCombination> combinations;  ///< weakest first
   /// Each term's variance inflation against the determinable machine and the other form terms, in
   /// the order of the terms asked about (confounded above 1 / max_singular_value^2; +inf when
@@ -65,9 +65,8 @@ inline constexpr double kConfoundedSingularValue = 1e-2;
 /// setup of unknown orientation: FormModelOf) the readings of `points` separate from the seven
 /// errors, the centres and the effects of `model` (its form is replaced), linearised at `at` (the
 /// form at zero). Nothing is fitted. Throws sph::Error as FitEffects() for an unusable design.
-FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOptions& options,
-                                 const EffectModel& model, const EffectFitStart& at,
-                                 const std::vector<FormTerm>& form_terms,
+FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
+                                 const EffectFitStart& at, const std::vector<FormTerm>& form_terms,
                                  double max_singular_value = kConfoundedSingularValue);
 
 }  // namespace sph

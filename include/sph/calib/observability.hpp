@@ -37,16 +37,16 @@ struct WeakCombination {
 
 struct ObservabilityReport {
   std::vector<ParameterDescription> parameters;
-  Eigen::VectorXd std;          ///< standard uncertainty, internal units; +inf in the null space
-  Eigen::MatrixXd covariance;   ///< internal units (rad, mm); rows of null-space parameters are NaN
+  Eigen::VectorXd std;         ///< standard uncertainty, internal units; +inf in the null space
+  Eigen::MatrixXd covariance;  ///< internal units (rad, mm); rows of null-space parameters are NaN
   Eigen::MatrixXd correlation;
   std::vector<bool> determined;
   /// Variance inflation factor of each parameter: its variance over what it would be were its
   /// column of the Jacobian orthogonal to all others (1: independent; +inf: in the null space).
   /// 1 - 1/vif is the squared multiple correlation with the other parameters.
   Eigen::VectorXd vif;
-  double residual_sigma_mm = 0.0;  ///< s = sqrt(sum e^2 / (m - n))
-  double condition_number = 0.0;   ///< of the column-equilibrated Jacobian
+  double residual_sigma_mm = 0.0;     ///< s = sqrt(sum e^2 / (m - n))
+  double condition_number = 0.0;      ///< of the column-equilibrated Jacobian
   std::vector<WeakCombination> weak;  ///< weakest first
 
   bool Empty() const { return parameters.empty(); }

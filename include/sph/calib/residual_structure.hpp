@@ -31,13 +31,13 @@ namespace sph {
 
 /// The regression of the residuals on one group of functions.
 struct StructureGroup {
-  std::string variable;        ///< "theta", "phi", "r", "t", "sphere" or "all"
-  std::string description;     ///< the functions, in words
-  int rank = 0;                ///< independent columns after projection
+  std::string variable;           ///< "theta", "phi", "r", "t", "sphere" or "all"
+  std::string description;        ///< the functions, in words
+  int rank = 0;                   ///< independent columns after projection
   double explained_rms_um = 0.0;  ///< RMS of the part of the residuals the group explains
-  double f = 0.0;              ///< the F statistic
-  double p_value = 1.0;        ///< P(F(r, m - n - r) >= f)
-  std::string strongest;       ///< the single function that explains most, e.g. "cos(2 theta)"
+  double f = 0.0;                 ///< the F statistic
+  double p_value = 1.0;           ///< P(F(r, m - n - r) >= f)
+  std::string strongest;          ///< the single function that explains most, e.g. "cos(2 theta)"
   double strongest_rms_um = 0.0;  ///< RMS of what it explains alone [um]
   /// The change of the BIC if the group's functions were added to the fit (linearised):
   /// m ln((RSS - explained) / RSS) + rank ln m.
@@ -45,8 +45,8 @@ struct StructureGroup {
 };
 
 struct ResidualStructure {
-  std::vector<StructureGroup> groups;  ///< theta, phi, r, t, sphere
-  StructureGroup all;                  ///< every function together: the test of remaining structure
+  std::vector<StructureGroup> groups;      ///< theta, phi, r, t, sphere
+  StructureGroup all;                      ///< every function together: the test of remaining structure
   std::vector<double> theta_harmonics_um;  ///< amplitude of harmonic k = 1.. of theta, fitted alone [um]
   /// The group with the smallest p-value (index into groups), or -1 when none.
   int Strongest() const;
@@ -110,7 +110,7 @@ ResidualStructure AnalyseResidualStructure(const FitResiduals& fit);
 struct SpherePattern {
   double delta_bic = 0.0;  ///< extended BIC of adding the chosen functions (0: none chosen)
   double explained_rms_um = 0.0;
-  std::vector<std::string> functions;   ///< e.g. "S(3,2)", in the order chosen
+  std::vector<std::string> functions;  ///< e.g. "S(3,2)", in the order chosen
 };
 SpherePattern BestSpherePattern(const StructureFactor& factor);
 SpherePattern BestSpherePattern(const FitResiduals& fit);

@@ -96,18 +96,18 @@ struct CandidateScore {
   bool sphere_form = false;  ///< the competitor, not an effect
   /// "sphere_form" or the effect's id.
   std::string Id() const { return sphere_form ? "sphere_form" : InfoOf(effect).id; }
-  int round = 0;             ///< 1 for the first round, ...
-  EffectTerm term;           ///< the components kept (empty: nothing the data determine)
+  int round = 0;    ///< 1 for the first round, ...
+  EffectTerm term;  ///< the components kept (empty: nothing the data determine)
   /// Extended BIC with it minus without: the BIC's change plus SubsetSearchPenalty() of the
   /// components kept of those searched; NaN when nothing of it was left to fit.
   double delta_bic = 0.0;
-  double rms_um = 0.0;       ///< fit RMS with it
-  double cv_rms_um = 0.0;    ///< cross-validated RMS with it; NaN when the BIC does not admit it (not needed, so not
-                             ///< computed) and for sphere_form (not fitted)
-  bool determined = false;   ///< every parameter of the model with it is determined
+  double rms_um = 0.0;      ///< fit RMS with it
+  double cv_rms_um = 0.0;   ///< cross-validated RMS with it; NaN when the BIC does not admit it (not needed, so not
+                            ///< computed) and for sphere_form (not fitted)
+  bool determined = false;  ///< every parameter of the model with it is determined
   bool added = false;
   double sphere_fraction = 0.0;  ///< of the added effect's signal (SpherePatternFraction); 0 when not added
-  std::string note;          ///< why it was not added, or what was left out
+  std::string note;              ///< why it was not added, or what was left out
 };
 
 /// Two explanations of the residual that the data cannot tell apart: an effect added and another
@@ -165,9 +165,9 @@ struct TracedFit {
 };
 
 struct TraceResult {
-  TracedFit before;                 ///< seven errors only
-  TracedFit after;                  ///< with the effects added
-  std::vector<Effect> added;        ///< in the order added (less those removed)
+  TracedFit before;           ///< seven errors only
+  TracedFit after;            ///< with the effects added
+  std::vector<Effect> added;  ///< in the order added (less those removed)
   /// Effects removed by the backward step, with the BIC without them minus with them.
   std::vector<std::pair<Effect, double>> removed;
   std::vector<CandidateScore> candidates;  ///< every candidate of every round
@@ -185,9 +185,8 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
 
 /// Fits a fixed model: the seven errors and the default terms of `effects` (no selection, nothing
 /// left out), with the same residual analysis and cross-validation; `after` holds the fit.
-TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options,
-                            const CalibrationResult& base, const std::vector<Effect>& effects,
-                            const TraceOptions& trace);
+TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
+                            const std::vector<Effect>& effects, const TraceOptions& trace);
 
 /// The leave-one-setup-out RMS [um] of `fit` (a fit of `points`, TracedFit::loso_rms_um): for each
 /// setup of known orientation, `fit`'s model is fitted to the other setups' readings, from `fit`,

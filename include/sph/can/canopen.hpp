@@ -111,11 +111,11 @@ std::string DescribeEmergency(const Emergency& emcy);
 // ------------------------------------------------------------------------------ PDO fields
 /// Where a value sits in a frame.
 struct FieldLayout {
-  std::uint32_t can_id = 0;   ///< identifier with flags: kEffFlag for 29-bit ids
-  int offset_byte = 0;        ///< first byte of the value, 0..7
-  int width_bytes = 4;        ///< 1..8
-  bool is_signed = false;     ///< two's complement
-  bool big_endian = false;    ///< CANopen is little endian
+  std::uint32_t can_id = 0;  ///< identifier with flags: kEffFlag for 29-bit ids
+  int offset_byte = 0;       ///< first byte of the value, 0..7
+  int width_bytes = 4;       ///< 1..8
+  bool is_signed = false;    ///< two's complement
+  bool big_endian = false;   ///< CANopen is little endian
 };
 
 /// The TPDO number (1..4) whose predefined COB-ID (CiA 301 predefined connection set: 0x180,
@@ -140,11 +140,11 @@ void InsertField(CanFrame& frame, const FieldLayout& layout, std::int64_t value)
 ///   multi-turn:  counts is taken modulo 2^(8 * width_bytes) as a signed number (so a counter that
 ///                wraps at its full range stays continuous), angle_deg = 360 * counts / counts_per_rev
 struct EncoderConfig {
-  int node_id = 1;                         ///< for heartbeat and EMCY; 0 = not a CANopen node
+  int node_id = 1;  ///< for heartbeat and EMCY; 0 = not a CANopen node
   FieldLayout field{0x181, 0, 4, false, false};
   std::uint64_t counts_per_rev = 1U << 24;  ///< steps per revolution
-  int direction = 1;                       ///< +1 or -1
-  std::int64_t zero_offset_counts = 0;     ///< raw value at angle 0
+  int direction = 1;                        ///< +1 or -1
+  std::int64_t zero_offset_counts = 0;      ///< raw value at angle 0
   bool multi_turn = false;
   int tpdo = 0;  ///< the TPDO's number (objects 1800h/1A00h + tpdo - 1); 0: PredefinedTpdo() or 1
 };

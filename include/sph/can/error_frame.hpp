@@ -48,8 +48,8 @@ inline constexpr std::uint32_t kDefaultErrorMask = kErrTxTimeout | kErrControlle
 struct ErrorFrameInfo {
   std::uint32_t classes = 0;  ///< ErrorClass bits
   bool bus_off = false;
-  bool error_passive = false;  ///< controller: RX or TX passive
-  bool controller_overflow = false;  ///< controller: RX or TX buffer overflow
+  bool error_passive = false;                    ///< controller: RX or TX passive
+  bool controller_overflow = false;              ///< controller: RX or TX buffer overflow
   std::optional<std::uint8_t> tx_error_counter;  ///< with kErrCounters
   std::optional<std::uint8_t> rx_error_counter;
   std::string text;  ///< "bus-off", "controller-problem{rx-error-warning}", ... joined by ", "

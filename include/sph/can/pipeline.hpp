@@ -55,17 +55,17 @@ const char* ToString(LogLevel level);
 struct PipelineConfig {
   EncoderConfig theta{1, {0x181, 0, 4, false, false}, 1U << 24, 1, 0, false};
   EncoderConfig phi{2, {0x182, 0, 4, false, false}, 1U << 24, 1, 0, false};
-  ProbeConfig probe;                     ///< node 3, TPDO 0x183 by default
+  ProbeConfig probe;  ///< node 3, TPDO 0x183 by default
   std::uint32_t sync_cob_id = kSyncCobId;
-  std::uint8_t sync_counter_max = 0;     ///< SYNC counter overflow value (2..240); 0: no counter
-  double sync_period_s = 0.0;            ///< expected SYNC period for gap detection; 0: unknown
-  double heartbeat_timeout_s = 0.0;      ///< a node silent longer than this is lost; 0: not watched
+  std::uint8_t sync_counter_max = 0;  ///< SYNC counter overflow value (2..240); 0: no counter
+  double sync_period_s = 0.0;         ///< expected SYNC period for gap detection; 0: unknown
+  double heartbeat_timeout_s = 0.0;   ///< a node silent longer than this is lost; 0: not watched
   /// Per device: the PDO byte that holds the counter of the SYNC it answers (the device maps it);
   /// -1: none. Needs sync_counter_max.
   std::array<int, kNumDevices> sync_counter_byte{-1, -1, -1};
   Mode mode = Mode::kStream;
   StandstillConfig standstill;
-  int setup = 0;                         ///< sphere placement id written with each sample
+  int setup = 0;  ///< sphere placement id written with each sample
 
   /// Throws sph::Error on an inconsistent configuration (bad layouts, two devices on one id).
   void Validate() const;
@@ -74,32 +74,32 @@ struct PipelineConfig {
 /// Everything the pipeline counted. A sample is lost only if it is in incomplete_cycles or
 /// missed_syncs; the other counts explain why.
 struct PipelineCounts {
-  std::uint64_t frames = 0;              ///< every frame given to OnFrame
+  std::uint64_t frames = 0;  ///< every frame given to OnFrame
   std::uint64_t sync_frames = 0;
-  std::uint64_t cycles = 0;              ///< SYNC cycles closed
-  std::uint64_t samples = 0;             ///< complete cycles (stream mode: rows written)
+  std::uint64_t cycles = 0;   ///< SYNC cycles closed
+  std::uint64_t samples = 0;  ///< complete cycles (stream mode: rows written)
   std::uint64_t incomplete_cycles = 0;
-  std::uint64_t missed_syncs = 0;        ///< SYNCs that never arrived (counter or time gaps)
-  std::uint64_t recovered = 0;           ///< of those, cycles whose PDOs all came: samples
-  std::uint64_t counter_jumps = 0;       ///< SYNC counters that jumped further than the time allows
-  std::array<std::uint64_t, kNumDevices> missing{};   ///< cycles without a frame from the device
-  std::array<std::uint64_t, kNumDevices> flagged{};   ///< values out of range or device errors
-  std::array<std::uint64_t, kNumDevices> malformed{}; ///< frames too short for the configured field
-  std::uint64_t duplicates = 0;                       ///< a second PDO of one device in one cycle (neither used)
-  std::uint64_t unplaced = 0;                         ///< PDOs after lost frames, or of a SYNC outside the window
-  std::uint64_t outside_cycle = 0;       ///< PDOs before the first SYNC
-  std::uint64_t malformed_other = 0;     ///< bad SYNC, heartbeat or EMCY frames, unparsable log lines
+  std::uint64_t missed_syncs = 0;                      ///< SYNCs that never arrived (counter or time gaps)
+  std::uint64_t recovered = 0;                         ///< of those, cycles whose PDOs all came: samples
+  std::uint64_t counter_jumps = 0;                     ///< SYNC counters that jumped further than the time allows
+  std::array<std::uint64_t, kNumDevices> missing{};    ///< cycles without a frame from the device
+  std::array<std::uint64_t, kNumDevices> flagged{};    ///< values out of range or device errors
+  std::array<std::uint64_t, kNumDevices> malformed{};  ///< frames too short for the configured field
+  std::uint64_t duplicates = 0;                        ///< a second PDO of one device in one cycle (neither used)
+  std::uint64_t unplaced = 0;                          ///< PDOs after lost frames, or of a SYNC outside the window
+  std::uint64_t outside_cycle = 0;                     ///< PDOs before the first SYNC
+  std::uint64_t malformed_other = 0;                   ///< bad SYNC, heartbeat or EMCY frames, unparsable log lines
   std::uint64_t error_frames = 0;
   std::uint64_t bus_off = 0;
   std::uint64_t emergencies = 0;
   std::uint64_t heartbeats_lost = 0;
-  std::uint64_t not_operational = 0;     ///< a node's heartbeat left the operational state
-  std::uint64_t reboots = 0;             ///< boot-up messages of the devices' nodes (gap marks)
-  std::uint64_t rx_overflow_drops = 0;   ///< frames the kernel dropped (SO_RXQ_OVFL)
-  std::uint64_t other_frames = 0;        ///< frames of no configured device
-  std::uint64_t points = 0;              ///< points mode: averaged points written
-  std::uint64_t short_stops = 0;         ///< points mode: stops too short to average
-  std::uint64_t cut_by_stop = 0;         ///< the last cycle, unfinished at the end of the acquisition
+  std::uint64_t not_operational = 0;    ///< a node's heartbeat left the operational state
+  std::uint64_t reboots = 0;            ///< boot-up messages of the devices' nodes (gap marks)
+  std::uint64_t rx_overflow_drops = 0;  ///< frames the kernel dropped (SO_RXQ_OVFL)
+  std::uint64_t other_frames = 0;       ///< frames of no configured device
+  std::uint64_t points = 0;             ///< points mode: averaged points written
+  std::uint64_t short_stops = 0;        ///< points mode: stops too short to average
+  std::uint64_t cut_by_stop = 0;        ///< the last cycle, unfinished at the end of the acquisition
 
   /// incomplete_cycles + missed_syncs - recovered + rx_overflow_drops: nonzero means samples are
   /// missing.

@@ -29,8 +29,8 @@ struct CanSocketOptions {
   /// (CAN_RAW_FILTER); empty: every frame.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> filters;
   std::uint32_t error_mask = kDefaultErrorMask;  ///< CAN_RAW_ERR_FILTER classes; 0: no error frames
-  bool receive_own = false;  ///< CAN_RAW_RECV_OWN_MSGS: our own frames come back (with their time)
-  int rcvbuf_bytes = 0;      ///< SO_RCVBUF; 0: the kernel's default
+  bool receive_own = false;                      ///< CAN_RAW_RECV_OWN_MSGS: our own frames come back (with their time)
+  int rcvbuf_bytes = 0;                          ///< SO_RCVBUF; 0: the kernel's default
 };
 
 /// Where a frame's time came from.
@@ -47,9 +47,9 @@ enum class RxStatus {
 struct RxResult {
   RxStatus status = RxStatus::kNone;
   CanFrame frame;
-  int error = 0;                  ///< errno for kDown
-  bool own = false;               ///< a frame this socket sent (MSG_CONFIRM)
-  std::uint64_t new_drops = 0;    ///< frames the kernel dropped since the last report (SO_RXQ_OVFL)
+  int error = 0;                ///< errno for kDown
+  bool own = false;             ///< a frame this socket sent (MSG_CONFIRM)
+  std::uint64_t new_drops = 0;  ///< frames the kernel dropped since the last report (SO_RXQ_OVFL)
   TimestampSource source = TimestampSource::kUser;
 };
 

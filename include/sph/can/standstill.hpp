@@ -22,12 +22,12 @@ struct StandstillConfig {
 
 /// One averaged point and its scatter: sample standard deviations (n - 1) of the samples.
 struct StopPoint {
-  Sample mean;             ///< t_s is the mean time of the averaged samples
-  int n = 0;               ///< samples averaged
+  Sample mean;  ///< t_s is the mean time of the averaged samples
+  int n = 0;    ///< samples averaged
   double sd_theta_deg = 0.0;
   double sd_phi_deg = 0.0;
   double sd_r_mm = 0.0;
-  double duration_s = 0.0; ///< first to last averaged sample
+  double duration_s = 0.0;  ///< first to last averaged sample
 };
 
 /// Detects stops in a stream of samples.

@@ -56,7 +56,8 @@ class SphereResidualBatch final : public ceres::CostFunction {
       residuals[i] = e.a;
       // Jacobians are row-major, one row per residual.
       if (jacobians[0] != nullptr) {
-        for (int k = 0; k < kNumScmsParams; ++k) jacobians[0][i * kNumScmsParams + static_cast<std::size_t>(k)] = e.v[k];
+        for (int k = 0; k < kNumScmsParams; ++k)
+          jacobians[0][i * kNumScmsParams + static_cast<std::size_t>(k)] = e.v[k];
       }
       if (jacobians[1] != nullptr) {
         for (int k = 0; k < 3; ++k) jacobians[1][i * 3 + static_cast<std::size_t>(k)] = e.v[kNumScmsParams + k];

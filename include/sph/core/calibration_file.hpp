@@ -59,12 +59,12 @@ inline constexpr int kCalibrationFormatVersion = 1;
 
 /// Contents of a calibration file, in internal units (rad, mm).
 struct CalibrationFile {
-  ScmsGeometry geometry{};                  ///< the seven errors (rad, mm)
-  double probe_offset_mm = 0.0;             ///< nominal d
-  std::optional<double> sphere_radius_mm;   ///< R0 of the calibration sphere
+  ScmsGeometry geometry{};                 ///< the seven errors (rad, mm)
+  double probe_offset_mm = 0.0;            ///< nominal d
+  std::optional<double> sphere_radius_mm;  ///< R0 of the calibration sphere
   /// Covariance of the seven errors (rad, mm), when the calibration computed one.
   std::optional<Eigen::Matrix<double, kNumScmsParams, kNumScmsParams>> covariance;
-  EffectModel effects;                          ///< further effects (no probe_drift), with their reference
+  EffectModel effects;                             ///< further effects (no probe_drift), with their reference
   std::vector<std::vector<double>> effect_values;  ///< one block per term (rad, mm)
   /// The calibration sphere's own form on its body frame, when the calibration separated it from
   /// the machine (sph/model/form_model.hpp): Schmidt semi-normalised harmonics and their values.

@@ -14,9 +14,9 @@
 namespace sph {
 
 struct PointsWriterOptions {
-  bool has_time = true;          ///< write the t_s column
-  bool has_setup = false;        ///< write the setup column
-  double fsync_interval_s = 1.0; ///< see AppendFile: 0 every record, < 0 only at Close()
+  bool has_time = true;           ///< write the t_s column
+  bool has_setup = false;         ///< write the setup column
+  double fsync_interval_s = 1.0;  ///< see AppendFile: 0 every record, < 0 only at Close()
 };
 
 /// Appends samples to a points file, each row written (one write()) before Write() returns.

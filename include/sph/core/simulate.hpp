@@ -161,12 +161,12 @@ struct SimulationSpec {
   std::vector<AnglePair> pattern = GridPattern(24, 12);  ///< measured at every setup
   ScanOrder scan_order = ScanOrder::kRings;              ///< the time order of the pattern in every setup ...
   std::map<int, ScanOrder> scan_orders;                  ///< ... but these (by setup id)
-  double noise_r_um = 0.05;          ///< sigma of Gaussian noise on r [um]
-  double noise_theta_arcsec = 0.0;   ///< sigma of the theta reading noise [arcsec]
-  double noise_phi_arcsec = 0.0;     ///< sigma of the phi reading noise [arcsec]
+  double noise_r_um = 0.05;                              ///< sigma of Gaussian noise on r [um]
+  double noise_theta_arcsec = 0.0;                       ///< sigma of the theta reading noise [arcsec]
+  double noise_phi_arcsec = 0.0;                         ///< sigma of the phi reading noise [arcsec]
   std::uint64_t seed = 1;
-  double sample_period_s = 1.0;      ///< t_s of row i is i * sample_period_s
-  SimulatedEffects effects;          ///< none by default
+  double sample_period_s = 1.0;  ///< t_s of row i is i * sample_period_s
+  SimulatedEffects effects;      ///< none by default
   /// The probe's measuring range, readings 0 to it [mm]: when given, the probe's gain and
   /// nonlinearity are normalised by it (WithProbeRange()), a property of the probe; otherwise by
   /// the range of the readings, as a calibration without it normalises them.

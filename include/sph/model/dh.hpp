@@ -77,10 +77,7 @@ template <typename T>
 Mat4<T> RotZ(const T& angle) {
   const SinCos<T> t = SinCosOf(angle);
   Mat4<T> m;
-  m << t.cos, -t.sin, T(0), T(0),
-       t.sin, t.cos, T(0), T(0),
-       T(0), T(0), T(1), T(0),
-       T(0), T(0), T(0), T(1);
+  m << t.cos, -t.sin, T(0), T(0), t.sin, t.cos, T(0), T(0), T(0), T(0), T(1), T(0), T(0), T(0), T(0), T(1);
   return m;
 }
 
@@ -90,10 +87,8 @@ Mat4<T> DhTransform(const T& theta, const T& d, const T& a, const T& alpha) {
   const SinCos<T> t = SinCosOf(theta);
   const SinCos<T> al = SinCosOf(alpha);
   Mat4<T> m;
-  m << t.cos, -t.sin * al.cos, t.sin * al.sin, a * t.cos,
-       t.sin, t.cos * al.cos, -t.cos * al.sin, a * t.sin,
-       T(0), al.sin, al.cos, d,
-       T(0), T(0), T(0), T(1);
+  m << t.cos, -t.sin * al.cos, t.sin * al.sin, a * t.cos, t.sin, t.cos * al.cos, -t.cos * al.sin, a * t.sin, T(0),
+      al.sin, al.cos, d, T(0), T(0), T(0), T(1);
   return m;
 }
 

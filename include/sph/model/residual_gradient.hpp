@@ -38,13 +38,13 @@ namespace sph {
 
 /// What one reading's residual depends on besides the seven errors and the centre.
 struct ResidualInputs {
-  SinCos<double> theta{0.0, 1.0};      ///< of theta' = theta reading + encoder error
-  SinCos<double> phi{0.0, 1.0};        ///< of phi' = phi reading + encoder error
-  double z = 0.0;                      ///< r_true - (d + d') [mm]: the probe point on the probe line
-  double motion[3] = {0.0, 0.0, 0.0};  ///< Theta spindle displacement in the machine frame [mm]
-  SinCos<double> wobble_x{0.0, 1.0};   ///< of the Phi axis tilt wx (used when kWobble)
-  SinCos<double> wobble_y{0.0, 1.0};   ///< of wy
-  double pivot_mm = 0.0;               ///< L: where the Phi axis pivots, along it (used when kWobble)
+  SinCos<double> theta{0.0, 1.0};          ///< of theta' = theta reading + encoder error
+  SinCos<double> phi{0.0, 1.0};            ///< of phi' = phi reading + encoder error
+  double z = 0.0;                          ///< r_true - (d + d') [mm]: the probe point on the probe line
+  double motion[3] = {0.0, 0.0, 0.0};      ///< Theta spindle displacement in the machine frame [mm]
+  SinCos<double> wobble_x{0.0, 1.0};       ///< of the Phi axis tilt wx (used when kWobble)
+  SinCos<double> wobble_y{0.0, 1.0};       ///< of wy
+  double pivot_mm = 0.0;                   ///< L: where the Phi axis pivots, along it (used when kWobble)
   double phi_motion[3] = {0.0, 0.0, 0.0};  ///< Phi axis displacement in its own frame [mm]
   SinCos<double> tilt_x{0.0, 1.0};         ///< of the Theta spindle tilt tx (used when kTilt)
   SinCos<double> tilt_y{0.0, 1.0};         ///< of ty

@@ -161,8 +161,7 @@ Vec3<T> ScmsPoint(const T* g, const T& theta, const T& phi, const T& r, const T&
 }
 
 /// ScmsPoint() for a ScmsGeometry in double; readings in rad and mm.
-inline Eigen::Vector3d ScmsPoint(const ScmsGeometry& g, double theta_rad, double phi_rad, double r_mm,
-                                 double d_mm) {
+inline Eigen::Vector3d ScmsPoint(const ScmsGeometry& g, double theta_rad, double phi_rad, double r_mm, double d_mm) {
   return ScmsPoint(g.data(), theta_rad, phi_rad, r_mm, d_mm);
 }
 
