@@ -15,17 +15,19 @@ namespace {
 
 constexpr int kRows = SphereFitProblem::kBlockRows;
 
-// The kernels that take most of a calibration's time are also compiled for AVX2 on x86-64 (GCC
-// and Clang on ELF), and the CPU chooses at run time. AVX2 without FMA: the same operations,
-// rounded the same, so results do not depend on the CPU.
-// (target_clones needs the C library's ifunc: glibc has it, musl does not.)
-#if defined(__x86_64__) && defined(__ELF__) && defined(__GLIBC__) && \
-    (defined(__clang__) ? __clang_major__ >= 14 : __GNUC__ >= 6)
-#define SPH_X86_64_CLONES 1
-#define SPH_HOT_KERNEL __attribute__((target_clones("avx2", "default")))
+// The kernels that take most of a calibration's time (the Gram matrix, the seven-error block) are
+// also compiled for AVX2 on x86-64, and the CPU chooses at run time (HasAvx2()). AVX2 without FMA,
+// and this file compiled without FMA contraction: the same operations, rounded the same, so results
+// do not depend on the CPU. (A plain run-time test, not target_clones: that needs the C library's
+// ifunc, which musl lacks, and cannot clone a template.)
+#if defined(__x86_64__) && defined(__GNUC__)
+#define SPH_AVX2_DISPATCH 1
+bool HasAvx2() {
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  return avx2;
+}
 #else
-#define SPH_X86_64_CLONES 0
-#define SPH_HOT_KERNEL
+#define SPH_AVX2_DISPATCH 0
 #endif
 
 // Where an effect component enters the residual (ResidualInputs).
@@ -213,7 +215,7 @@ template <typename Lanes>
   }
 }
 
-#if SPH_X86_64_CLONES
+#if SPH_AVX2_DISPATCH
 [[gnu::target("avx2")]] void AddGramAvx2(const double* c, int ld, int n, int count, double* gram) {
   AddGramIn<FourLanes>(c, ld, n, count, gram);
 }
@@ -227,9 +229,8 @@ void PadToLanes(double* c, int n, int count) {
 }
 
 void AddGram(const double* c, int ld, int n, int count, double* gram) {
-#if SPH_X86_64_CLONES
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  if (avx2) return AddGramAvx2(c, ld, n, count, gram);
+#if SPH_AVX2_DISPATCH
+  if (HasAvx2()) return AddGramAvx2(c, ld, n, count, gram);
 #endif
   AddGramIn<TwoPairs>(c, ld, n, count, gram);
 }
@@ -276,17 +277,23 @@ template <bool kJacobian>
   }
 }
 
-// The two instances, each compiled also for AVX2 (target_clones cannot take a template).
-SPH_HOT_KERNEL void SevenErrorResiduals(const double* g, const ScmsErrorTrig<double>& et, double d_plus_dprime,
-                                        const double* center, double radius_mm, const GatheredReadings& rows,
-                                        double* e) {
-  SevenErrorBlock<false>(g, et, d_plus_dprime, center, radius_mm, rows, e, nullptr);
+#if SPH_AVX2_DISPATCH
+template <bool kJacobian>
+[[gnu::target("avx2")]] void SevenErrorBlockAvx2(const double* g, const ScmsErrorTrig<double>& et, double d_plus_dprime,
+                                                 const double* center, double radius_mm, const GatheredReadings& rows,
+                                                 double* e, double* cols) {
+  SevenErrorBlock<kJacobian>(g, et, d_plus_dprime, center, radius_mm, rows, e, cols);
 }
+#endif
 
-SPH_HOT_KERNEL void SevenErrorRows(const double* g, const ScmsErrorTrig<double>& et, double d_plus_dprime,
-                                   const double* center, double radius_mm, const GatheredReadings& rows, double* e,
-                                   double* cols) {
-  SevenErrorBlock<true>(g, et, d_plus_dprime, center, radius_mm, rows, e, cols);
+// SevenErrorBlock() on the widest instruction set of the CPU (cols: null without kJacobian).
+template <bool kJacobian>
+void SevenErrors(const double* g, const ScmsErrorTrig<double>& et, double d_plus_dprime, const double* center,
+                 double radius_mm, const GatheredReadings& rows, double* e, double* cols) {
+#if SPH_AVX2_DISPATCH
+  if (HasAvx2()) return SevenErrorBlockAvx2<kJacobian>(g, et, d_plus_dprime, center, radius_mm, rows, e, cols);
+#endif
+  SevenErrorBlock<kJacobian>(g, et, d_plus_dprime, center, radius_mm, rows, e, cols);
 }
 
 // out[2 (k - 1) kRows ...] = cos k x, then sin k x, for k = 1..orders, from cos x and sin x of
@@ -745,9 +752,9 @@ void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, boo
       if (model_.terms.empty() && num_form_terms_ == 0) {
         const GatheredReadings gathered{s.ct, s.st, s.cp, s.sp, s.r, count};
         if (jacobian) {
-          SevenErrorRows(g, et, d_plus_dprime, center, sphere_radius_mm_, gathered, e, cols);
+          SevenErrors<true>(g, et, d_plus_dprime, center, sphere_radius_mm_, gathered, e, cols);
         } else {
-          SevenErrorResiduals(g, et, d_plus_dprime, center, sphere_radius_mm_, gathered, e);
+          SevenErrors<false>(g, et, d_plus_dprime, center, sphere_radius_mm_, gathered, e, nullptr);
         }
       } else {
         EffectRows(x, et, d_plus_dprime, static_cast<int>(k), idx, count, e, cols);
