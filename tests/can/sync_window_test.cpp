@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <random>
 
 #include "sim_bus.hpp"
 #include "sph/can/device_sim.hpp"
