@@ -65,9 +65,11 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("--plot-dir", o.plot_dir,
                  "Write residual_map.png and residual_time.png (gnuplot) with their data into this folder")
       ->excludes(no_extend);
-  app.add_option("--harmonics", o.harmonics, "Highest harmonic order of the harmonic effects")
+  app.add_option("--harmonics", o.harmonics,
+                 "Highest harmonic order searched of the harmonic effects; 0: on each axis, what the pattern "
+                 "resolves ((n - 1) / 2 for n distinct angles, at most 12)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 12));
+      ->check(CLI::Range(0, 12));
   app.add_option("--phi-wobble-pivot-mm", o.phi_wobble_pivot_mm,
                  "Distance along the Phi axis from its frame's origin to the bearing it tilts about (phi_wobble), "
                  "from the machine's drawing [mm]")
@@ -159,7 +161,7 @@ CalibrationOptions SettingsOf(const CalibrateOptions& o, const PointsData& point
 TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const CalibrationOptions& copts,
                     const CalibrationResult& base, Progress& progress) {
   TraceOptions topts;
-  topts.harmonics = o.harmonics;
+  topts.harmonics = {o.harmonics, o.harmonics};
   topts.drift_order = o.drift_order;
   topts.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
   topts.probe_range_mm =

@@ -28,7 +28,7 @@ struct CalibrateOptions {
   std::vector<std::string> effects;             ///< a fixed model: these effects, no selection
   std::string validate_path;                    ///< another sphere measured on the same machine
   std::string plot_dir;                         ///< residual plots (PNG, gnuplot) into this folder
-  int harmonics = 4;                            ///< highest harmonic order of the harmonic effects
+  int harmonics = 0;                            ///< highest harmonic order searched; 0: what the pattern resolves
   int drift_order = 2;                          ///< highest power of time of probe_drift
   double phi_wobble_pivot_mm = 0.0;             ///< where the Phi axis pivots, along it (the drawing's) [mm]
   std::uint64_t seed = 1;                       ///< of the cross-validation folds

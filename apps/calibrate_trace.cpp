@@ -282,6 +282,8 @@ void WriteStructure(std::ostream& out, const TraceResult& r) {
 // Each candidate of each round, its score and what became of it.
 void WriteCandidates(std::ostream& out, const TraceResult& r) {
   out << "  candidates (delta BIC < 0 is better; added when <= -10 with a lower cv rms):\n";
+  out << Format("    harmonic effects searched up to order %d of theta and %d of phi\n", r.harmonics.theta,
+                r.harmonics.phi);
   for (const CandidateScore& c : r.candidates) {
     const std::string bic = std::isfinite(c.delta_bic) ? Format("%9.1f", c.delta_bic) : "        -";
     const std::string cv = std::isfinite(c.cv_rms_um) ? Format("%.4f um", c.cv_rms_um) : "      -   ";
@@ -534,6 +536,7 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
                                 {"r_half_range_mm", ref.r_half_range_mm},
                                 {"t_start_s", ref.t_start_s},
                                 {"t_span_s", ref.t_span_s}};
+  report["harmonic_orders_searched"] = {{"theta", r.harmonics.theta}, {"phi", r.harmonics.phi}};
   report["candidates"] = CandidatesJson(r);
   report["ambiguous"] = AmbiguousJson(r);
   report["unexplained"] = UnexplainedJson(r);

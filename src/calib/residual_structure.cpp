@@ -268,6 +268,11 @@ ResidualStructure AnalyseResidualStructure(const StructureFactor& factor) {
     const Eigen::MatrixXd two = factor.r.middleCols(n + 2 * k - 2, 2);
     const Eigen::Vector2d coef = two.colPivHouseholderQr().solve(e);
     out.theta_harmonics_um.push_back(coef.norm() * kUmPerMm);
+    out.theta_harmonic_p.push_back(Regress({"theta", "", two, {"cos", "sin"}}, q, e, n_fit, m).p_value);
+  }
+  for (int k = 1; k <= kPhiTerms; ++k) {
+    const Eigen::MatrixXd one = factor.r.middleCols(n + 2 * kThetaHarmonics + k - 1, 1);
+    out.phi_cos_p.push_back(Regress({"phi", "", one, {"cos"}}, q, e, n_fit, m).p_value);
   }
   return out;
 }

@@ -190,6 +190,15 @@ std::vector<Drop> Eliminate(const ObservabilityReport& rep, std::vector<double> 
   return drops;
 }
 
+// `names` separated by spaces; past the first eight, their count ("... and 13 more").
+std::string Listed(const std::vector<std::string>& names) {
+  constexpr std::size_t kNamed = 8;
+  std::string s;
+  for (std::size_t i = 0; i < std::min(names.size(), kNamed); ++i) s += (i == 0 ? "" : " ") + names[i];
+  if (names.size() > kNamed) s += " and " + std::to_string(names.size() - kNamed) + " more";
+  return s;
+}
+
 // The model of `current` with `term` added, fitted; components that the data cannot separate or
 // do not show are left out (Eliminate(): after each fit, all that the rule drops at it, then
 // refitted). The last term of the returned fit is the candidate (absent when nothing of it is left).
@@ -246,15 +255,9 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
                   static_cast<double>(data.points.samples.size()), trace);
     if (drops.empty()) {
       *note = "";
-      if (!left_out_vif.empty()) {
-        std::string s;
-        for (const auto& n : left_out_vif) s += (s.empty() ? "" : " ") + n;
-        *note += "left out, not separable from the other parameters: " + s;
-      }
+      if (!left_out_vif.empty()) *note += "left out, not separable from the other parameters: " + Listed(left_out_vif);
       if (!left_out_t.empty()) {
-        std::string s;
-        for (const auto& n : left_out_t) s += (s.empty() ? "" : " ") + n;
-        *note += std::string(note->empty() ? "" : "; ") + "left out, not significant: " + s;
+        *note += std::string(note->empty() ? "" : "; ") + "left out, not significant: " + Listed(left_out_t);
       }
       return fit;
     }
@@ -1011,14 +1014,68 @@ void RemoveUnneeded(const Readings& data, const CalibrationOptions& options, con
   }
 }
 
+// The number of distinct angles among `angles_deg` (to 1e-6 deg), taken modulo a full turn.
+int DistinctAngles(std::vector<double> angles_deg) {
+  constexpr double kSameDeg = 1e-6;
+  for (double& a : angles_deg) {
+    a = std::fmod(a, 360.0);
+    if (a < 0.0) a += 360.0;
+  }
+  std::sort(angles_deg.begin(), angles_deg.end());
+  int n = 0;
+  for (std::size_t i = 0; i < angles_deg.size(); ++i) {
+    if (i == 0 || angles_deg[i] - angles_deg[i - 1] > kSameDeg) ++n;
+  }
+  if (n > 1 && angles_deg.front() + 360.0 - angles_deg.back() <= kSameDeg) --n;  // 0 and 360 - tiny
+  return n;
+}
+
+int ResolvedOrder(int distinct) { return std::clamp((distinct - 1) / 2, 0, kMaxEffectHarmonic); }
+
+// The highest order searched on one axis when the options leave it to the data: 4, or one above
+// the highest order of the residual's own harmonics of that axis that is significant (its p-value
+// below `p` shared among the orders tested): an error of order k shows at k - 1 and k + 1 through
+// the eccentricity. At most what the pattern resolves.
+int SearchedOrder(const std::vector<double>& order_p, double p, int pattern) {
+  constexpr int kShortest = 4;
+  int highest = 0;
+  for (std::size_t k = 0; k < order_p.size(); ++k) {
+    if (order_p[k] < p / static_cast<double>(order_p.size())) highest = static_cast<int>(k) + 1;
+  }
+  return std::min(std::max(kShortest, highest + 1), pattern);
+}
+
+// `trace` with the highest harmonic orders it leaves to the data (0) chosen by SearchedOrder()
+// from the seven-error fit's residual structure `before`.
+TraceOptions WithSearchedOrders(const TraceOptions& trace, const PointsData& points, const ResidualStructure& before) {
+  TraceOptions t = trace;
+  const HarmonicOrders pattern = PatternOrders(points);
+  if (t.harmonics.theta <= 0) t.harmonics.theta = SearchedOrder(before.theta_harmonic_p, t.structure_p, pattern.theta);
+  if (t.harmonics.phi <= 0) t.harmonics.phi = SearchedOrder(before.phi_cos_p, t.structure_p, pattern.phi);
+  return t;
+}
+
 }  // namespace
 
+HarmonicOrders PatternOrders(const PointsData& points) {
+  std::vector<double> theta_deg, phi_deg;
+  theta_deg.reserve(points.samples.size());
+  phi_deg.reserve(points.samples.size());
+  for (const Sample& s : points.samples) {
+    theta_deg.push_back(s.theta_deg);
+    phi_deg.push_back(s.phi_deg);
+  }
+  return {ResolvedOrder(DistinctAngles(std::move(theta_deg))), ResolvedOrder(DistinctAngles(std::move(phi_deg)))};
+}
+
 TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-                          const TraceOptions& trace) {
+                          const TraceOptions& asked) {
   TraceResult r;
   const Readings data(WithoutOutliers(all, base));  // what the seven-error fit used
-  const EffectReference reference = ReferenceOf(all, trace);
-  r.before = Analysed(FitNone(data, options, base, reference, trace), data, options, trace);
+  const EffectReference reference = ReferenceOf(all, asked);
+  r.before = Analysed(FitNone(data, options, base, reference, asked), data, options, asked);
+  const TraceOptions trace = WithSearchedOrders(asked, data.points, r.before.structure);
+  r.harmonics = trace.harmonics;
   std::vector<Effect> pool = trace.candidates;
   if (pool.empty()) {
     for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
@@ -1050,11 +1107,13 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
 }
 
 TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-                            const std::vector<Effect>& effects, const TraceOptions& trace) {
+                            const std::vector<Effect>& effects, const TraceOptions& asked) {
   TraceResult r;
   const Readings data(WithoutOutliers(all, base));
-  const EffectReference reference = ReferenceOf(all, trace);
-  r.before = Analysed(FitNone(data, options, base, reference, trace), data, options, trace);
+  const EffectReference reference = ReferenceOf(all, asked);
+  r.before = Analysed(FitNone(data, options, base, reference, asked), data, options, asked);
+  const TraceOptions trace = WithSearchedOrders(asked, data.points, r.before.structure);
+  r.harmonics = trace.harmonics;
   EffectModel model;
   model.reference = reference;
   model.phi_wobble_pivot_mm = trace.phi_wobble_pivot_mm;

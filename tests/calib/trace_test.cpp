@@ -320,6 +320,55 @@ const Ambiguity* Between(const TraceResult& r, const std::string& a, const std::
 
 const std::vector<Eigen::Vector3d> kAt2mm{Eigen::Vector3d(2.0, 0.0, 0.0)};
 
+// The highest harmonic order a pattern resolves: (n - 1) / 2 for n distinct angles, 0 and 360 deg
+// one angle, at most kMaxEffectHarmonic.
+TEST(PatternOrders, CountsDistinctAnglesModuloATurn) {
+  PointsData points;
+  for (int i = 0; i <= 24; ++i) {  // 0, 15, ..., 360: 24 distinct theta
+    for (int j = 0; j < 12; ++j) points.samples.push_back({15.0 * i, 7.5 + 15.0 * j, 25.0, 0.0, 0});
+  }
+  EXPECT_EQ(PatternOrders(points).theta, 11);
+  EXPECT_EQ(PatternOrders(points).phi, 5);
+  for (Sample& s : points.samples) s.theta_deg -= 360.0;  // a turn lower: the same angles
+  EXPECT_EQ(PatternOrders(points).theta, 11);
+  PointsData scan;
+  for (int i = 0; i < 3600; ++i) scan.samples.push_back({0.1 * i, 0.05 * i, 25.0, 0.0, 0});
+  EXPECT_EQ(PatternOrders(scan).theta, kMaxEffectHarmonic);
+  EXPECT_EQ(PatternOrders(scan).phi, kMaxEffectHarmonic);
+}
+
+// A Theta encoder error of order 5 on an eccentric sphere shows in the residual at orders 4 and 6:
+// the search reaches order 7, and the trace finds c5 alone (with the search fixed at order 4, the
+// nearest effect it could offer was a radial motion of orders 2..4).
+TEST(TraceResidual, ChoosesTheHarmonicOrdersItSearchesFromTheData) {
+  const double c5 = 10 * kRadPerArcsec;
+  const PointsData points = Placed({Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, 2.0, 0.0)},
+                                   Effect::kThetaEncoder, {{5, 0, false}}, {c5});
+  const TraceResult r = TraceWith(points, TraceOptions{});
+  EXPECT_GE(r.harmonics.theta, 6);
+  EXPECT_EQ(r.harmonics.phi, 4);
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kThetaEncoder}) << Describe(r);
+  const EffectFit& fit = r.after.fit;
+  // Every component kept is the truth within 4 std: c5, and zero for any other.
+  bool has_c5 = false;
+  for (std::size_t j = 0; j < fit.model.terms[0].components.size(); ++j) {
+    const bool is_c5 = fit.model.terms[0].ParamName(j) == "theta_encoder.c5";
+    has_c5 = has_c5 || is_c5;
+    const double std = fit.calibration.analysis.std(fit.TermOffset(0) + static_cast<int>(j));
+    EXPECT_NEAR(fit.values[0][j], is_c5 ? c5 : 0.0, 4 * std) << fit.model.terms[0].ParamName(j);
+  }
+  EXPECT_TRUE(has_c5) << Describe(r);
+  EXPECT_TRUE(r.unexplained.empty()) << Describe(r);
+
+  TraceOptions fixed;
+  fixed.harmonics = {4, 4};
+  const TraceResult at4 = TraceWith(points, fixed);
+  EXPECT_EQ(at4.harmonics.theta, 4);
+  for (const EffectTerm& t : at4.after.fit.model.terms) {
+    for (const EffectComponent& c : t.components) EXPECT_LE(c.order, 4);
+  }
+}
+
 // A two-lobe radial motion of the Phi axis moves the probe along its beam: one placement shows it.
 TEST(TraceResidual, FindsARadialMotionOfThePhiAxisInOnePlacement) {
   const TraceResult r = Trace(Placed(kAt2mm, Effect::kPhiRadialMotion, {{2, 0, false}}, {0.3 * kMmPerUm}));

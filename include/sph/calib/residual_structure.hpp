@@ -48,6 +48,10 @@ struct ResidualStructure {
   std::vector<StructureGroup> groups;      ///< theta, phi, r, t, sphere
   StructureGroup all;                      ///< every function together: the test of remaining structure
   std::vector<double> theta_harmonics_um;  ///< amplitude of harmonic k = 1.. of theta, fitted alone [um]
+  /// The F test of harmonic k = 1.. of theta (cos and sin) alone against white noise, off the fit's
+  /// Jacobian as the groups: its p-value (1 when the fit absorbs it).
+  std::vector<double> theta_harmonic_p;
+  std::vector<double> phi_cos_p;  ///< the same for cos(k phi), k = 1..
   /// The group with the smallest p-value (index into groups), or -1 when none.
   int Strongest() const;
 };

@@ -60,7 +60,14 @@ namespace sph {
 
 struct TraceOptions {
   std::vector<Effect> candidates;  ///< effects to try; empty: the whole library
-  int harmonics = 4;               ///< highest harmonic order of the harmonic effects
+  /// Highest harmonic order searched of the harmonic effects of Theta and of Phi; 0: chosen by the
+  /// data on that axis: 4, or one above the highest of the seven-error residual's own harmonics of
+  /// that axis that is significant (p below structure_p shared among the orders the analysis
+  /// tests: 8 of theta, 6 of phi; an error of order k shows at k +- 1 through the eccentricity),
+  /// at most what the pattern resolves (PatternOrders()). Which orders up to it an effect keeps is
+  /// also the data's choice: components that are not separable or not significant are left out,
+  /// and the extended BIC charges the choice among all those searched.
+  HarmonicOrders harmonics{0, 0};
   int drift_order = 2;             ///< highest power of time of probe_drift
   int folds = 5;                   ///< cross-validation folds
   std::uint64_t seed = 1;          ///< of the fold assignment
@@ -174,7 +181,14 @@ struct TraceResult {
   std::vector<Ambiguity> ambiguous;
   std::vector<Unexplained> unexplained;
   FormSelection form;
+  HarmonicOrders harmonics;  ///< the highest harmonic orders searched (TraceOptions::harmonics resolved)
 };
+
+/// The highest harmonic order the pattern of `points` resolves on each axis: with n distinct
+/// readings of the angle (to 1e-6 deg, a full turn apart counted once), the harmonics of orders
+/// k <= (n - 1) / 2 are independent functions on them, and higher ones alias onto those; at most
+/// kMaxEffectHarmonic (a scan with a reading per SYNC has thousands of distinct angles).
+HarmonicOrders PatternOrders(const PointsData& points);
 
 /// Traces the residual of `points` (see the file comment). `base` is the seven-error calibration
 /// of the same points and options; the readings it left out as outliers are left out of the

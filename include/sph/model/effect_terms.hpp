@@ -54,6 +54,7 @@
 #include <cstddef>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "sph/model/scms_model.hpp"
@@ -164,17 +165,27 @@ struct EffectTerm {
   }
 };
 
-/// The default term of an effect: harmonics k = EffectInfo::first_order..harmonics (2 for the
-/// radial motions and the Theta tilt, see the file comment), cos and sin, every axis; probe_gain
-/// u^1; probe_nonlinearity u^2 and u^3; probe_incidence sin^2 psi (i1); probe_drift
-/// tau^1..tau^drift_order.
-inline EffectTerm DefaultTerm(Effect e, int harmonics = 4, int drift_order = 1) {
+/// The highest harmonic order of the harmonic effects of each axis: of theta for theta_encoder,
+/// the Theta spindle's motions; of phi for phi_encoder, phi_wobble and the Phi axis' motions.
+struct HarmonicOrders {
+  int theta = 4;
+  int phi = 4;
+  /// The highest order of an effect whose terms are functions of `info.variable`.
+  int Of(const EffectInfo& info) const { return std::string_view(info.variable) == "phi" ? phi : theta; }
+};
+
+/// The default term of an effect: harmonics k = EffectInfo::first_order..the highest order of its
+/// axis (the first order 2 for the radial motions and the Theta tilt, see the file comment), cos
+/// and sin, every axis; probe_gain u^1; probe_nonlinearity u^2 and u^3; probe_incidence sin^2 psi
+/// (i1); probe_drift tau^1..tau^drift_order.
+inline EffectTerm DefaultTerm(Effect e, HarmonicOrders harmonics, int drift_order = 1) {
   EffectTerm t;
   t.effect = e;
   const EffectInfo& info = InfoOf(e);
   if (info.harmonic) {
+    const int highest = harmonics.Of(info);
     for (int axis = 0; axis < info.axes; ++axis) {
-      for (int k = info.first_order; k <= harmonics; ++k) {
+      for (int k = info.first_order; k <= highest; ++k) {
         t.components.push_back({k, axis, false});
         t.components.push_back({k, axis, true});
       }
@@ -190,6 +201,11 @@ inline EffectTerm DefaultTerm(Effect e, int harmonics = 4, int drift_order = 1) 
     for (int k = 1; k <= drift_order; ++k) t.components.push_back({k, 0, false});
   }
   return t;
+}
+
+/// DefaultTerm() with the same highest harmonic order on both axes.
+inline EffectTerm DefaultTerm(Effect e, int harmonics = 4, int drift_order = 1) {
+  return DefaultTerm(e, HarmonicOrders{harmonics, harmonics}, drift_order);
 }
 
 /// Highest harmonic order and highest power of time that parameter names may carry.
