@@ -71,6 +71,10 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
       ->check(InRange(ranges::kSphereRadiusMm));
   app.add_option("--probe-offset-mm", o.probe_offset_mm, "Header: nominal probe zero distance d [mm]")
       ->check(InRange(ranges::kProbeOffsetMm));
+  app.add_option("--mount-rotation-deg", o.mount_rotation_deg,
+                 "Header: the sphere's orientation on its mount in this setup, rx,ry,rz (rotation vector, axis times "
+                 "angle [deg], each " +
+                     ranges::kMountRotationDeg.Text() + ") or unknown (remounted at an unknown orientation)");
   app.add_option("--fsync-interval-s", o.fsync_interval_s,
                  "fsync the output at most this long after a record [s]; 0: every record; -1: only at the end")
       ->check(CLI::Validator(
@@ -208,6 +212,7 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
   try {
     config = MakePipelineConfig(o);
     master = MakeMasterConfig(o, config);
+    AcquireHeader(o);  // a bad mount rotation is bad input, before any file is made
   } catch (const std::exception& e) {
     log(can::LogLevel::kError, e.what());
     return kExitBadInput;
@@ -232,10 +237,7 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
   try {
     // The outputs as they are now, before the devices are started: a file that this run may not
     // continue stays as it is.
-    PointsHeader header;
-    header.sphere_radius_mm = o.sphere_radius_mm;
-    header.probe_offset_mm = o.probe_offset_mm;
-    PointsWriter::CheckContinuable(o.output_path, header, AcquirePointsOptions(o));
+    PointsWriter::CheckContinuable(o.output_path, AcquireHeader(o), AcquirePointsOptions(o));
     if (!o.can_log_path.empty()) can::CandumpWriter::CheckContinuable(o.can_log_path);
   } catch (const std::exception& e) {
     log(can::LogLevel::kError, e.what());

@@ -39,6 +39,9 @@ struct AcquireOptions {
   int setup = 0;
   std::optional<double> sphere_radius_mm;
   std::optional<double> probe_offset_mm;
+  /// Header: the sphere's orientation on its mount in this setup, "rx,ry,rz" (rotation vector,
+  /// deg) or "unknown"; empty: none (the reference orientation).
+  std::string mount_rotation_deg;
   double fsync_interval_s = 1.0;
   std::string sync_mode = "produce";  ///< produce | follow
   double heartbeat_timeout_s = 0.0;

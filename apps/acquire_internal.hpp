@@ -34,6 +34,9 @@ int RunLive(AcquireContext& context);
 int RunReplay(AcquireContext& context);
 /// How sph_acquired writes its points file.
 PointsWriterOptions AcquirePointsOptions(const AcquireOptions& options);
+/// The points file's header of the options: R0, d and the setup's mount rotation (no metadata);
+/// throws sph::Error naming --mount-rotation-deg when it is not "rx,ry,rz" or "unknown".
+PointsHeader AcquireHeader(const AcquireOptions& options);
 /// Why `path` cannot be replayed ("log.txt: cannot open for reading: ...", "log.txt: no CAN frame
 /// in its 12 lines: ...", "log.txt:9: the time 1700000000.010000 s is before the 1700000000.020000 s of
 /// line 8: a candump log is in time order"), or "" when it can be opened, holds at least one frame

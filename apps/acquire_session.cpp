@@ -6,6 +6,8 @@
 #include <ctime>
 
 #include "acquire_internal.hpp"
+#include "app_common.hpp"
+#include "sph/internal/format.hpp"
 
 namespace sph::apps {
 namespace {
@@ -74,6 +76,20 @@ PointsWriterOptions AcquirePointsOptions(const AcquireOptions& o) {
   return wo;
 }
 
+PointsHeader AcquireHeader(const AcquireOptions& o) {
+  PointsHeader header;
+  header.sphere_radius_mm = o.sphere_radius_mm;
+  header.probe_offset_mm = o.probe_offset_mm;
+  if (o.mount_rotation_deg == "unknown") {
+    header.mount_rotations[o.setup] = MountRotation::Unknown();
+  } else if (!o.mount_rotation_deg.empty()) {
+    header.mount_rotations[o.setup] = MountRotation::Known(
+        ParseRotationDeg(o.mount_rotation_deg, "--mount-rotation-deg " + internal::Quoted(o.mount_rotation_deg),
+                         "rx,ry,rz (a rotation vector in deg, axis times angle) or unknown"));
+  }
+  return header;
+}
+
 // The outputs, opened together: the frame log first (opening writes nothing), then the points
 // file, which writes its header. A file this run created is removed again when the other cannot
 // be opened, so that a failed start leaves no header-only file behind; a file that was there is
@@ -87,9 +103,7 @@ bool AcquireSession::OpenOutputs() {
       frame_log_ =
           std::make_unique<can::CandumpWriter>(o.can_log_path, o.iface.empty() ? "can0" : o.iface, o.fsync_interval_s);
     }
-    PointsHeader header;
-    header.sphere_radius_mm = o.sphere_radius_mm;
-    header.probe_offset_mm = o.probe_offset_mm;
+    PointsHeader header = AcquireHeader(o);
     header.metadata = {
         {"generator", "sph_acquired " SPH_VERSION}, {"source", source_}, {"mode", o.mode}, {"started", UtcNow()}};
     const auto devices = master_.HeaderFields();

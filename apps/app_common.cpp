@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -41,6 +43,13 @@ std::vector<AnglePair> ReadAngles(const std::string& path) {
   }
   if (out.empty()) throw Error(path + ": no angles");
   return out;
+}
+
+// A direction of three parsed values, refused when it has no length.
+Eigen::Vector3d Direction(const std::vector<double>& v, std::size_t first, const std::string& what) {
+  const Eigen::Vector3d d(v[first], v[first + 1], v[first + 2]);
+  if (!(d.norm() > 0.0)) throw Error(what + ": the direction nx,ny,nz has no length");
+  return d;
 }
 
 }  // namespace
@@ -94,6 +103,58 @@ std::vector<double> ParseFields(const std::string& text, const std::string& what
     values.push_back(CheckedValue(v, fields[i].range, what + ": " + fields[i].name, parts[i]));
   }
   return values;
+}
+
+void AddFormOptions(CLI::App& app, FormOptions& o, const std::string& group) {
+  app.add_option(
+         "--form-um", o.harmonics_um,
+         "Form error on the body frame: l,m,amplitude [um] of a Schmidt semi-normalised real spherical harmonic "
+         "(|S_lm| <= 1, mean square 1/(2l+1); amplitude " +
+             ranges::kEffectUm.Text() + "); repeatable")
+      ->group(group);
+  app.add_option("--form-flat-um", o.flats_um,
+                 "A flat: depth,nx,ny,nz, the sphere cut by a plane at R0 - depth along the body direction n (depth " +
+                     ranges::kFormDepthUm.Text() + "); repeatable")
+      ->group(group);
+  app.add_option("--form-bump-um", o.bumps_um,
+                 "A Gaussian bump: height,width_deg,nx,ny,nz, of that height (" + ranges::kEffectUm.Text() +
+                     ", negative: a dent) and angular standard deviation (" + ranges::kFormWidthDeg.Text() +
+                     ") about the body direction n; repeatable")
+      ->group(group);
+}
+
+void AddForm(const FormOptions& o, double sphere_radius_mm, SimulatedEffects& effects) {
+  for (const std::string& f : o.harmonics_um) {
+    FormComponent c;
+    char tail = 0;
+    if (std::sscanf(f.c_str(), "%d,%d,%lf%c", &c.l, &c.m, &c.amplitude_um, &tail) != 3 || c.l < 0 || c.l > 20 ||
+        std::abs(c.m) > c.l) {
+      throw Error("--form-um " + f + ": expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l");
+    }
+    CheckedValue(c.amplitude_um, ranges::kEffectUm, "--form-um " + f, Format("%g", c.amplitude_um));
+    effects.form.push_back(c);
+  }
+  for (const std::string& text : o.flats_um) {
+    const std::string what = "--form-flat-um " + Quoted(text);
+    const std::vector<double> v = ParseFields(text, what, "depth_um,nx,ny,nz",
+                                              {{"depth_um", ranges::kFormDepthUm},
+                                               {"nx", ranges::kDirection},
+                                               {"ny", ranges::kDirection},
+                                               {"nz", ranges::kDirection}});
+    if (!(v[0] * kMmPerUm < sphere_radius_mm))
+      throw Error(what + ": the depth must be smaller than the sphere's radius");
+    effects.flats.push_back({v[0], Direction(v, 1, what)});
+  }
+  for (const std::string& text : o.bumps_um) {
+    const std::string what = "--form-bump-um " + Quoted(text);
+    const std::vector<double> v = ParseFields(text, what, "height_um,width_deg,nx,ny,nz",
+                                              {{"height_um", ranges::kEffectUm},
+                                               {"width_deg", ranges::kFormWidthDeg},
+                                               {"nx", ranges::kDirection},
+                                               {"ny", ranges::kDirection},
+                                               {"nz", ranges::kDirection}});
+    effects.bumps.push_back({v[0], v[1], Direction(v, 2, what)});
+  }
 }
 
 Eigen::Vector3d ParseRotationDeg(const std::string& text, const std::string& what, const std::string& expected) {

@@ -123,6 +123,21 @@ struct Field {
 std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,
                                 const std::vector<Field>& fields);
 
+/// A form error of the sphere on its body frame, as options: harmonics "l,m,amplitude_um", flats
+/// "depth_um,nx,ny,nz" and bumps "height_um,width_deg,nx,ny,nz", each.
+struct FormOptions {
+  std::vector<std::string> harmonics_um;
+  std::vector<std::string> flats_um;
+  std::vector<std::string> bumps_um;
+};
+
+/// Adds --form-um, --form-flat-um and --form-bump-um, listed under `group`.
+void AddFormOptions(CLI::App& app, FormOptions& o, const std::string& group);
+
+/// The form of the options into `effects` (form, flats, bumps) of a sphere of radius
+/// `sphere_radius_mm`; throws sph::Error naming the option and its value.
+void AddForm(const FormOptions& o, double sphere_radius_mm, SimulatedEffects& effects);
+
 /// "rx,ry,rz": a rotation vector [deg] (axis times angle), each component within
 /// ranges::kMountRotationDeg; messages as ParseFields().
 Eigen::Vector3d ParseRotationDeg(const std::string& text, const std::string& what, const std::string& expected);

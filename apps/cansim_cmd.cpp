@@ -313,6 +313,13 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
   const std::string m = "Machine";
   AddMachineOptions(app, o.machine, m);
   app.add_option("--center-mm", o.center_mm, "Sphere centre x,y,z [mm]")->group(m);
+  app.add_option("--mount-rotation-deg", o.mount_rotation_deg,
+                 "rx,ry,rz: the rotation vector (axis times angle) [deg] that takes the sphere's body frame into the "
+                 "frame turning with Theta (each " +
+                     ranges::kMountRotationDeg.Text() +
+                     "); the form below turns with it (give it to sph_acquired for the points file's header)")
+      ->group(m);
+  AddFormOptions(app, o.form, m);
   app.add_option("--seed", o.seed, "Random seed")->group(m);
   app.add_option("--move-s", o.move_s, "Time to move between pattern points [s]")->check(InRange(kStepTimeS))->group(m);
   app.add_option("--stop-s", o.stop_s, "Standstill at each pattern point [s]")->check(InRange(kStepTimeS))->group(m);
@@ -379,6 +386,12 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
   c.spec = ToSimulationSpec(o.machine);
   c.spec.centers_mm = {ParseVector3(o.center_mm, "--center-mm")};
   c.spec.seed = o.seed;
+  if (!o.mount_rotation_deg.empty()) {
+    c.spec.mount_rotations_deg[0] =
+        ParseRotationDeg(o.mount_rotation_deg, "--mount-rotation-deg " + internal::Quoted(o.mount_rotation_deg),
+                         "rx,ry,rz (a rotation vector in deg, axis times angle)");
+  }
+  AddForm(o.form, c.spec.sphere_radius_mm, c.spec.effects);
   ApplyDeviceOptions(o.devices, c.devices);
   c.sync_period_s = o.devices.sync_period_ms * 1e-3;
   c.move_s = o.move_s;

@@ -23,6 +23,8 @@ struct CansimOptions {
   std::string sync_source = "internal";  ///< internal: the simulator sends SYNC; external: answers SYNC
   MachineOptions machine;                ///< truth, sphere, pattern, noise (as sph_simulate)
   std::string center_mm = "2,0,0";
+  std::string mount_rotation_deg;  ///< "rx,ry,rz": the sphere's body frame on its mount (deg); empty: none
+  FormOptions form;                ///< the sphere's form error on its body frame
   std::uint64_t seed = 1;
   double move_s = 0.5;
   double stop_s = 1.0;

@@ -27,13 +27,6 @@ using internal::Quoted;
 
 namespace {
 
-// A direction of three parsed values, refused when it has no length.
-Eigen::Vector3d Direction(const std::vector<double>& v, std::size_t first, const std::string& what) {
-  const Eigen::Vector3d d(v[first], v[first + 1], v[first + 2]);
-  if (!(d.norm() > 0.0)) throw Error(what + ": the direction nx,ny,nz has no length");
-  return d;
-}
-
 // A setup id of an option's value; `what` names the option and its value.
 int ParseSetup(const std::string& text, const std::string& what, int n_setups) {
   const int setup = ParseInteger(text, "setup", what + ": ");
@@ -66,28 +59,6 @@ void AddSphereOptions(const SimulateOptions& o, SimulationSpec& spec) {
   for (const std::string& text : o.mount_unknown) {
     const std::string what = "--mount-unknown " + Quoted(text);
     if (!spec.mount_unknown.insert(ParseSetup(text, what, n)).second) throw Error(what + ": the setup is given twice");
-  }
-  for (const std::string& text : o.form_flats_um) {
-    const std::string what = "--form-flat-um " + Quoted(text);
-    const std::vector<double> v = ParseFields(text, what, "depth_um,nx,ny,nz",
-                                              {{"depth_um", ranges::kFormDepthUm},
-                                               {"nx", ranges::kDirection},
-                                               {"ny", ranges::kDirection},
-                                               {"nz", ranges::kDirection}});
-    if (!(v[0] * kMmPerUm < spec.sphere_radius_mm)) {
-      throw Error(what + ": the depth must be smaller than the sphere's radius");
-    }
-    spec.effects.flats.push_back({v[0], Direction(v, 1, what)});
-  }
-  for (const std::string& text : o.form_bumps_um) {
-    const std::string what = "--form-bump-um " + Quoted(text);
-    const std::vector<double> v = ParseFields(text, what, "height_um,width_deg,nx,ny,nz",
-                                              {{"height_um", ranges::kEffectUm},
-                                               {"width_deg", ranges::kFormWidthDeg},
-                                               {"nx", ranges::kDirection},
-                                               {"ny", ranges::kDirection},
-                                               {"nz", ranges::kDirection}});
-    spec.effects.bumps.push_back({v[0], v[1], Direction(v, 2, what)});
   }
   bool order_for_all = false;
   for (const std::string& text : o.scan_orders) {
@@ -225,21 +196,7 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
   app.add_option("--mount-unknown", o.mount_unknown,
                  "SETUP: the header says 'unknown' for that setup's rotation (simulated as given); repeatable")
       ->group(sphere);
-  app.add_option(
-         "--form-um", o.form_um,
-         "Form error on the body frame: l,m,amplitude [um] of a Schmidt semi-normalised real spherical harmonic "
-         "(|S_lm| <= 1, mean square 1/(2l+1); amplitude " +
-             ranges::kEffectUm.Text() + "); repeatable")
-      ->group(sphere);
-  app.add_option("--form-flat-um", o.form_flats_um,
-                 "A flat: depth,nx,ny,nz, the sphere cut by a plane at R0 - depth along the body direction n (depth " +
-                     ranges::kFormDepthUm.Text() + "); repeatable")
-      ->group(sphere);
-  app.add_option("--form-bump-um", o.form_bumps_um,
-                 "A Gaussian bump: height,width_deg,nx,ny,nz, of that height (" + ranges::kEffectUm.Text() +
-                     ", negative: a dent) and angular standard deviation (" + ranges::kFormWidthDeg.Text() +
-                     ") about the body direction n; repeatable")
-      ->group(sphere);
+  AddFormOptions(app, o.form, sphere);
   app.add_option("--scan-order", o.scan_orders,
                  std::string("ORDER or SETUP:ORDER: the time order of the pattern (") + ScanOrderNames() +
                      "; default rings: phi ring by ring, theta within); repeatable")
@@ -267,16 +224,7 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
     for (const auto& e : o.effects_um) AddEffectValue(e, Quantity::kLength, spec.effects);
     spec.effects.model.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
     spec.probe_range_mm = o.probe_range_mm;
-    for (const auto& f : o.form_um) {
-      FormComponent c;
-      char tail = 0;
-      if (std::sscanf(f.c_str(), "%d,%d,%lf%c", &c.l, &c.m, &c.amplitude_um, &tail) != 3 || c.l < 0 || c.l > 20 ||
-          std::abs(c.m) > c.l) {
-        throw Error("--form-um " + f + ": expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l");
-      }
-      CheckedValue(c.amplitude_um, ranges::kEffectUm, "--form-um " + f, Format("%g", c.amplitude_um));
-      spec.effects.form.push_back(c);
-    }
+    AddForm(o.form, spec.sphere_radius_mm, spec.effects);
     AddSphereOptions(o, spec);
     spec.effects.outlier_fraction = o.outlier_fraction;
     spec.effects.outlier_um = o.outlier_um;

@@ -28,11 +28,7 @@ struct SimulateOptions {
   /// The sphere's orientation on its mount, "SETUP:rx,ry,rz" (rotation vector, deg) each.
   std::vector<std::string> mount_rotations_deg;
   std::vector<std::string> mount_unknown;  ///< setup ids whose header says "unknown"
-  /// Form error of the sphere on its body frame: harmonics "l,m,amplitude_um", flats
-  /// "depth_um,nx,ny,nz" and bumps "height_um,width_deg,nx,ny,nz", each.
-  std::vector<std::string> form_um;
-  std::vector<std::string> form_flats_um;
-  std::vector<std::string> form_bumps_um;
+  FormOptions form;                        ///< the sphere's form error on its body frame
   std::vector<std::string> scan_orders;  ///< "ORDER" (every setup) or "SETUP:ORDER"
   double outlier_fraction = 0.0;
   double outlier_um = 0.0;

@@ -107,6 +107,8 @@ DeviceSimulator::DeviceSimulator(const DeviceSimConfig& config) : config_(config
   config_.Validate();
   if (config_.spec.pattern.empty()) throw Error("device simulator: the pattern is empty");
   if (config_.spec.centers_mm.empty()) throw Error("device simulator: no sphere centre");
+  const auto mount = config_.spec.mount_rotations_deg.find(0);
+  if (mount != config_.spec.mount_rotations_deg.end()) body_to_theta_ = RotationOfVectorDeg(mount->second);
   if (!(config_.sync_period_s > 0.0)) throw Error("device simulator: the SYNC period must be positive");
   if (config_.stop_s < 0.0 || config_.move_s < 0.0 || config_.stop_s + config_.move_s <= 0.0) {
     throw Error("device simulator: stop and move times must not be negative, and not both zero");
@@ -346,9 +348,9 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> coun
   const double n_theta = rng_.Normal(), n_phi = rng_.Normal(), n_r = rng_.Normal();
   const double theta_deg = axes.theta_deg + config_.spec.noise_theta_arcsec / 3600.0 * n_theta;
   const double phi_deg = axes.phi_deg + config_.spec.noise_phi_arcsec / 3600.0 * n_phi;
-  const auto r =
-      ProbeReading(config_.spec.truth, axes.theta_deg * kRadPerDeg, axes.phi_deg * kRadPerDeg,
-                   config_.spec.probe_offset_mm, config_.spec.centers_mm.front(), config_.spec.sphere_radius_mm);
+  const auto r = TrueProbeDistance(config_.spec.truth, config_.spec.effects, axes.theta_deg * kRadPerDeg,
+                                   axes.phi_deg * kRadPerDeg, config_.spec.probe_offset_mm,
+                                   config_.spec.centers_mm.front(), config_.spec.sphere_radius_mm, body_to_theta_);
   SimCycleRecord rec;
   rec.sync_ns = t_ns;
   rec.counter = counter;

@@ -131,7 +131,15 @@ class PointsParser {
     line_no_ = line_no;
     if (text.empty()) return;
     if (text[0] != '#') return SampleLine(text, fail);
-    if (!header_done_) HeaderLine(Trim(text.substr(1)), text, fail);  // comments between samples are skipped
+    // Between samples, comments are skipped, but for the mount rotation of a setup that a later
+    // run appended to the file.
+    if (!header_done_) return HeaderLine(Trim(text.substr(1)), text, fail);
+    const std::string body = Trim(text.substr(1));
+    const auto colon = body.find(':');
+    if (body.rfind(std::string(kMountRotationKey) + "@", 0) != 0 || colon == std::string::npos) return;
+    const std::string key = Trim(body.substr(0, colon));
+    if (!IsHeaderKey(key)) return;
+    MountRotationLine(key, key.find('@'), Trim(body.substr(colon + 1)), fail);
   }
 
   // The data, once every line was read.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -61,6 +62,21 @@ std::map<std::string, std::string> HeaderFields(const std::string& text) {
   return fields;
 }
 
+// The mount rotations written anywhere in the file at `path` ("mount_rotation_deg@<setup>" to its
+// value): in its header, or between samples where an appending run wrote that of a new setup.
+std::map<std::string, std::string> MountRotationFields(const std::string& path) {
+  std::map<std::string, std::string> fields;
+  std::ifstream in(path);
+  const std::string prefix = std::string("# ") + kMountRotationKey + "@";
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind(prefix, 0) != 0) continue;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    fields.emplace(Trim(std::string_view(line).substr(2, colon - 2)), Trim(std::string_view(line).substr(colon + 1)));
+  }
+  return fields;
+}
+
 void CheckSameNumber(const std::string& path, const std::map<std::string, std::string>& fields, const char* key,
                      const std::optional<double>& ours) {
   const auto it = fields.find(key);
@@ -95,10 +111,11 @@ void PointsWriter::CheckContinuable(const std::string& path, const PointsHeader&
     }
     CheckSameNumber(path, fields, kRadiusKey, header.sphere_radius_mm);
     CheckSameNumber(path, fields, kProbeOffsetKey, header.probe_offset_mm);
+    const auto rotations = header.mount_rotations.empty() ? fields : MountRotationFields(path);
     for (const auto& [setup, ours] : header.mount_rotations) {
       const std::string key = MountRotationKey(setup);
-      const auto field = fields.find(key);
-      if (field == fields.end()) continue;
+      const auto field = rotations.find(key);
+      if (field == rotations.end()) continue;  // a new setup: written before its first row
       if (ParseMountRotation(field->second, key, path + ": ") != ours) {
         throw Error(path + ": has " + key + " " + field->second + " but this run writes " + MountRotationValue(ours) +
                     ": use another file");
@@ -122,6 +139,15 @@ PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, 
   const std::string columns = ColumnsOf(options);
   if (file_.had_content()) {
     resumed_ = true;
+    // The mount rotation of a setup the file does not hold yet, before its first row.
+    if (header.mount_rotations.empty()) return;
+    const auto in_file = MountRotationFields(path);
+    std::string lines;
+    for (const auto& [setup, rotation] : header.mount_rotations) {
+      const std::string key = MountRotationKey(setup);
+      if (in_file.count(key) == 0) lines += "# " + key + ": " + MountRotationValue(rotation) + "\n";
+    }
+    if (!lines.empty()) file_.Append(lines);
     return;
   }
   std::string head = "# sph-points " + std::to_string(kPointsFormatVersion) + "\n";

@@ -77,7 +77,7 @@ TEST(SimulateCmd, EffectsGoIntoTheReadingsAndTheTruthButNotTheFile) {
   o.truth_path = dir + "/truth.json";
   o.effects_arcsec = {"theta_encoder.c2=6", "theta_encoder.s3=-4"};
   o.effects_um = {"probe_drift.t1=0.6"};
-  o.form_um = {"3,2,0.1"};
+  o.form.harmonics_um = {"3,2,0.1"};
   std::ostringstream err;
   ASSERT_EQ(RunSimulate(o, err), kExitOk) << err.str();
   const std::string text = sph::testing::ReadWholeFile(o.output_path);
@@ -100,9 +100,9 @@ TEST(SimulateCmd, MountRotationsFormsAndScanOrders) {
   o.centers_mm = {"2,0,0", "0,2,0", "2,0,0"};
   o.mount_rotations_deg = {"1:0,0,90", "2:90,0,0"};
   o.mount_unknown = {"2"};
-  o.form_um = {"3,2,0.1"};
-  o.form_flats_um = {"0.5,0,0,-2"};
-  o.form_bumps_um = {"-0.2,3,1,1,0"};
+  o.form.harmonics_um = {"3,2,0.1"};
+  o.form.flats_um = {"0.5,0,0,-2"};
+  o.form.bumps_um = {"-0.2,3,1,1,0"};
   o.scan_orders = {"serpentine", "1:shuffled"};
   o.machine.noise_r_um = 0.0;
   std::ostringstream err;
@@ -151,8 +151,9 @@ TEST(SimulateCmd, TheSeparationExampleIsWhatItsCommandMakes) {
   o.centers_mm = {"2,0,0", "0,2,0", "-2,0,0", "2,0,0"};
   o.mount_rotations_deg = {"1:0,0,90", "2:0,0,180", "3:90,0,0"};
   o.scan_orders = {"1:serpentine", "2:columns", "3:shuffled"};
-  o.form_um = {"2,0,0.062",  "2,2,-0.049", "3,1,0.049",  "3,-3,0.037", "4,0,-0.043", "4,2,0.031", "5,-2,0.037",
-               "5,4,-0.025", "6,1,0.031",  "6,-5,0.025", "7,3,-0.025", "8,0,0.025",  "8,-6,0.019"};
+  o.form.harmonics_um = {"2,0,0.062",  "2,2,-0.049", "3,1,0.049",  "3,-3,0.037", "4,0,-0.043",
+                         "4,2,0.031",  "5,-2,0.037", "5,4,-0.025", "6,1,0.031",  "6,-5,0.025",
+                         "7,3,-0.025", "8,0,0.025",  "8,-6,0.019"};
   o.effects_arcsec = {"theta_encoder.c3=5"};
   o.effects_um = {"probe_drift.t1=0.4"};
   o.seed = 11;
@@ -185,12 +186,12 @@ TEST(SimulateCmd, BadSphereOptionsNameTheOption) {
          o.mount_unknown = {"0", "0"};
        },
        "--mount-unknown '0': the setup is given twice"},
-      {[](SimulateOptions& o) { o.form_flats_um = {"30000,1,0,0"}; },
+      {[](SimulateOptions& o) { o.form.flats_um = {"30000,1,0,0"}; },
        "--form-flat-um '30000,1,0,0': depth_um: must be > 0 and <= 1000 um, got 30000"},
       {[](SimulateOptions& o) {
          o.machine.sphere_radius_mm = 0.5;
          o.machine.probe_offset_mm = 5.0;
-         o.form_flats_um = {"600,1,0,0"};
+         o.form.flats_um = {"600,1,0,0"};
        },
        "--form-flat-um '600,1,0,0': the depth must be smaller than the sphere's radius"},
       {[](SimulateOptions& o) {

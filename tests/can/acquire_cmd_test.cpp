@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <thread>
 
@@ -240,6 +241,91 @@ TEST(EndToEnd, SimulatorLogDaemonPointsFileCalibratesLikeSphSimulate) {
   }
 }
 
+// A sphere with a form, turned on its mount: the simulator ray-traces the turned form, and the
+// daemon writes the turn into the points file's header for the calibrator.
+TEST(EndToEnd, ASphereTurnedOnItsMountWithAFormReachesThePointsFile) {
+  const std::string dir = sph::testing::MakeTempDir("acq_form");
+  const std::string log = MakeLog(dir, "sim.log", [](CansimOptions& c) {
+    c.mount_rotation_deg = "0,90,0";
+    c.form.harmonics_um = {"3,2,0.2"};
+    c.form.bumps_um = {"0.1,10,1,0,0"};
+  });
+  AcquireOptions o = ReplayOptions(log, dir + "/p.txt");
+  o.mode = "points";
+  o.mount_rotation_deg = "0,90,0";
+  std::ostringstream err;
+  ASSERT_EQ(RunAcquire(o, err), kExitOk) << err.str();
+  const PointsData daemon = ReadPointsFile(dir + "/p.txt");
+  ASSERT_EQ(daemon.samples.size(), 288U);
+  ASSERT_EQ(daemon.header.mount_rotations.count(0), 1U);
+  ASSERT_TRUE(daemon.header.mount_rotations.at(0).known());
+  EXPECT_EQ(*daemon.header.mount_rotations.at(0).rotation_deg, Eigen::Vector3d(0.0, 90.0, 0.0));
+
+  // The exact readings of the same sphere, turned and not, by the ray tracer.
+  SimulationSpec spec;
+  spec.effects.form = {{3, 2, 0.2}};
+  spec.effects.bumps = {{0.1, 10.0, Eigen::Vector3d(1.0, 0.0, 0.0)}};
+  const PointsData unturned = SimulateExact(spec);
+  spec.mount_rotations_deg[0] = Eigen::Vector3d(0.0, 90.0, 0.0);
+  const PointsData turned = SimulateExact(spec);
+  auto key = [](const Sample& s) {
+    return std::make_pair(std::lround(s.theta_deg * 1e3), std::lround(s.phi_deg * 1e3));
+  };
+  std::map<std::pair<long, long>, std::pair<double, double>> exact;
+  for (std::size_t i = 0; i < turned.samples.size(); ++i) {
+    exact[key(turned.samples[i])] = {turned.samples[i].r_mm, unturned.samples[i].r_mm};
+  }
+  double worst_um = 0.0, turn_shows_um = 0.0;
+  for (const Sample& s : daemon.samples) {
+    const auto it = exact.find(key(s));
+    ASSERT_NE(it, exact.end()) << s.theta_deg << " " << s.phi_deg;
+    worst_um = std::max(worst_um, std::abs(s.r_mm - it->second.first) * kUmPerMm);
+    turn_shows_um = std::max(turn_shows_um, std::abs(it->second.first - it->second.second) * kUmPerMm);
+  }
+  // Each point averages about 100 readings of 0.05 um noise: 0.005 um; the turn moves the form by
+  // up to tenths of a micrometre.
+  EXPECT_LT(worst_um, 0.03);
+  EXPECT_GT(turn_shows_um, 0.1);
+}
+
+// One sphere in two orientations, acquired by two runs into one file: the second run's rotation is
+// written before its setup's first row, and a run that contradicts it is refused.
+TEST(Acquire, ARunAppendingANewOrientationWritesItsMountRotation) {
+  const std::string dir = sph::testing::MakeTempDir("acq_turns");
+  const std::string log = MakeLog(dir, "sim.log");
+  AcquireOptions o = ReplayOptions(log, dir + "/p.txt");
+  o.mode = "points";
+  o.mount_rotation_deg = "0,0,0";
+  std::ostringstream err;
+  ASSERT_EQ(RunAcquire(o, err), kExitOk) << err.str();
+  o.setup = 1;
+  o.mount_rotation_deg = "0,90,0";
+  ASSERT_EQ(RunAcquire(o, err), kExitOk) << err.str();
+  const PointsData both = ReadPointsFile(dir + "/p.txt");
+  ASSERT_EQ(both.samples.size(), 576U);
+  ASSERT_EQ(both.header.mount_rotations.size(), 2U);
+  EXPECT_EQ(*both.header.mount_rotations.at(0).rotation_deg, Eigen::Vector3d::Zero());
+  EXPECT_EQ(*both.header.mount_rotations.at(1).rotation_deg, Eigen::Vector3d(0.0, 90.0, 0.0));
+  o.mount_rotation_deg = "0,0,90";
+  std::ostringstream refused;
+  EXPECT_EQ(RunAcquire(o, refused), kExitOutputError);
+  EXPECT_NE(refused.str().find("has mount_rotation_deg@1 0 90 0 but this run writes 0 0 90"), std::string::npos)
+      << refused.str();
+  EXPECT_EQ(ReadPointsFile(dir + "/p.txt").samples.size(), 576U);
+}
+
+// A mount rotation that is neither rx,ry,rz nor "unknown" is bad input, and makes no file.
+TEST(Acquire, ABadMountRotationIsBadInput) {
+  const std::string dir = sph::testing::MakeTempDir("acq_mount");
+  const std::string log = MakeLog(dir, "sim.log");
+  AcquireOptions o = ReplayOptions(log, dir + "/p.txt");
+  o.mount_rotation_deg = "0,90";
+  std::ostringstream err;
+  EXPECT_EQ(RunAcquire(o, err), kExitBadInput);
+  EXPECT_NE(err.str().find("--mount-rotation-deg '0,90'"), std::string::npos) << err.str();
+  EXPECT_NE(::access((dir + "/p.txt").c_str(), F_OK), 0);
+}
+
 // The installed program under signals.
 pid_t Spawn(const std::vector<std::string>& args, const std::string& stderr_path) {
   const pid_t pid = fork();
@@ -447,6 +533,10 @@ TEST(CansimCmd, BadOptionsAndUnwritableLogsFailAndLeaveNothing) {
        "device simulator: reboot of node 9, which no device is"},
       {[](CansimOptions& o) { o.faults = {"reboot:theta@-1"}; }, kExitBadInput,
        "--fault 'reboot:theta@-1': T: must be >= 0 and <= 1e+08 s, got -1"},
+      {[](CansimOptions& o) { o.mount_rotation_deg = "0,x,0"; }, kExitBadInput,
+       "--mount-rotation-deg '0,x,0': ry: 'x' is not a number"},
+      {[](CansimOptions& o) { o.form.flats_um = {"1,0,0,0"}; }, kExitBadInput,
+       "--form-flat-um '1,0,0,0': the direction nx,ny,nz has no length"},
       {[](CansimOptions& o) { o.output_path += "/no/such/dir/sim.log"; }, kExitOutputError, "sim.log"},
   };
   for (const auto& [edit, exit, message] : cases) {

@@ -74,7 +74,10 @@ struct SimFaults {
 };
 
 struct DeviceSimConfig {
-  SimulationSpec spec;     ///< truth, sphere, pattern, noise (spec.centers_mm[0] is used)
+  /// Truth, sphere, pattern, noise; spec.centers_mm[0] is used, with spec.mount_rotations_deg of
+  /// setup 0 (if any), the form and the effects on the ray (the probe's own errors, which act on
+  /// the reading, are not simulated here).
+  SimulationSpec spec;
   PipelineConfig devices;  ///< ids, layouts, scales: what the daemon is configured with
   double sync_period_s = 0.001;
   double move_s = 0.5;                ///< time from one pattern point to the next
@@ -167,6 +170,7 @@ class DeviceSimulator {
 
   DeviceSimConfig config_;
   gum::Random rng_;  // the same numbers with every standard library
+  Eigen::Matrix3d body_to_theta_ = Eigen::Matrix3d::Identity();  // the sphere's mount rotation
   std::vector<std::unique_ptr<Node>> nodes_;
   std::int64_t start_ns_ = 0;
   std::uint64_t cycle_ = 0;
