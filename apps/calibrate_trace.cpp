@@ -438,6 +438,8 @@ json CandidatesJson(const TraceResult& r) {
                           {"delta_bic", NumberOrNull(c.delta_bic)},
                           {"rms_um", c.rms_um},
                           {"cv_rms_um", NumberOrNull(c.cv_rms_um)},
+                          {"loso_rms_um", NumberOrNull(c.loso_rms_um)},
+                          {"loso_t", NumberOrNull(c.loso_t)},
                           {"components", kept},
                           {"sphere_fraction", c.sphere_fraction},
                           {"added", c.added},

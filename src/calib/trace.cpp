@@ -92,7 +92,9 @@ struct Readings {
 
 double CrossValidated(const Readings& data, const CalibrationOptions& options, const EffectModel& model,
                       const EffectFitStart& start, int folds, std::uint64_t seed);
-double LeaveOneSetupOut(const Readings& data, const CalibrationOptions& options, const EffectFit& fit);
+std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
+                                           const EffectFit& fit);
+double RmsUmOf(const std::vector<double>& errors_mm);
 
 // Unit directions from the fitted centre to each probed point, at the readings the fit expects
 // (r + e, as the structure analysis' other functions of r): the measured r would carry the noise
@@ -121,6 +123,8 @@ TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions
   t.factor = FactorResidualStructure(ResidualsOfTraced(data, t, jacobian));
   t.structure = AnalyseResidualStructure(t.factor);
   t.cv_rms_um = CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace.folds, trace.seed);
+  t.loso_errors_mm = LeaveOneSetupOutErrors(data, options, t.fit);
+  t.loso_rms_um = RmsUmOf(t.loso_errors_mm);
   return t;
 }
 
@@ -589,16 +593,18 @@ std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>&
   return e;
 }
 
-double LeaveOneSetupOut(const Readings& data, const CalibrationOptions& options, const EffectFit& fit) {
+// Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
+// NaN for a reading not predicted; empty with fewer than two setups.
+std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
+                                           const EffectFit& fit) {
   const PointsData& points = data.points;
   const std::vector<int>& ids = fit.calibration.setup_ids;
-  if (ids.size() < 2) return std::numeric_limits<double>::quiet_NaN();
+  if (ids.size() < 2) return {};
   const std::size_t m = points.samples.size();
   CalibrationOptions quick = options;
   quick.analyse = false;
   internal::LmWorkspace workspace;
-  double sum2 = 0.0;
-  std::size_t n = 0;
+  std::vector<double> errors(points.samples.size(), std::numeric_limits<double>::quiet_NaN());
   std::vector<bool> held(m), others(m);  // fitted without the setup, then predicted on it
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const auto rotation = points.header.mount_rotations.find(ids[k]);
@@ -626,24 +632,48 @@ double LeaveOneSetupOut(const Readings& data, const CalibrationOptions& options,
     }
     const std::vector<double> e = WithOwnCentre(data, others, options, predict, k);
     for (std::size_t i = 0; i < m; ++i) {
-      if (!held[i]) continue;
-      sum2 += e[i] * e[i];
-      ++n;
+      if (held[i]) errors[i] = e[i];
     }
+  }
+  return errors;
+}
+
+// The rms [um] of the finite `errors_mm`; NaN when none is.
+double RmsUmOf(const std::vector<double>& errors_mm) {
+  double sum2 = 0.0;
+  std::size_t n = 0;
+  for (const double e : errors_mm) {
+    if (!std::isfinite(e)) continue;
+    sum2 += e * e;
+    ++n;
   }
   return n == 0 ? std::numeric_limits<double>::quiet_NaN() : std::sqrt(sum2 / static_cast<double>(n)) * kUmPerMm;
 }
 
-// The leave-one-setup-out rms of the model before and after, on the readings they were fitted to.
-void TransferTest(const Readings& data, const CalibrationOptions& options, TraceResult& r) {
-  r.before.loso_rms_um = LeaveOneSetupOut(data, options, r.before.fit);
-  r.after.loso_rms_um = LeaveOneSetupOut(data, options, r.after.fit);
+// Student's t of the mean of e_with^2 - e_without^2 over the readings both predict: how clearly
+// the model with a candidate predicts the setups left out worse (> 0) or better (< 0) than the
+// model without it. NaN when fewer than two readings are predicted by both.
+double PairedTransferT(const std::vector<double>& with_mm, const std::vector<double>& without_mm) {
+  double sum = 0.0, sum2 = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < std::min(with_mm.size(), without_mm.size()); ++i) {
+    if (!std::isfinite(with_mm[i]) || !std::isfinite(without_mm[i])) continue;
+    const double d = (with_mm[i] * with_mm[i] - without_mm[i] * without_mm[i]) * kUmPerMm * kUmPerMm;
+    sum += d;
+    sum2 += d * d;
+    ++n;
+  }
+  if (n < 2) return std::numeric_limits<double>::quiet_NaN();
+  const double mean = sum / static_cast<double>(n);
+  const double var = (sum2 - sum * mean) / static_cast<double>(n - 1);
+  if (!(var > 0.0)) return mean > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+  return mean / std::sqrt(var / static_cast<double>(n));
 }
 
 }  // namespace
 
 double LeaveOneSetupOutRms(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
-  return LeaveOneSetupOut(Readings(points), options, fit);
+  return RmsUmOf(LeaveOneSetupOutErrors(Readings(points), options, fit));
 }
 
 double CrossValidatedRms(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
@@ -689,6 +719,12 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
         c.cv_rms_um = c.determined && c.delta_bic <= -trace.min_delta_bic
                           ? CrossValidated(data, options, fit.model, EffectFitStart::From(fit), trace.folds, trace.seed)
                           : std::numeric_limits<double>::quiet_NaN();
+        // So does the transfer test, with two or more setups: `folds` more fits at most.
+        if (c.cv_rms_um < current.cv_rms_um && std::isfinite(current.loso_rms_um)) {
+          const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, fit);
+          c.loso_rms_um = RmsUmOf(errors);
+          c.loso_t = PairedTransferT(errors, current.loso_errors_mm);
+        }
       }
       tried[i].second = std::move(fit);
     } catch (...) {
@@ -721,9 +757,14 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
 
 // Whether a candidate may be added to `current`: a term with something to fit, every parameter
 // determined, a BIC lower by trace.min_delta_bic and a lower cross-validated RMS.
+// Whether `c`, with two or more setups, predicts the setups left out worse than the model without
+// it: what a form or another function of the sphere's direction fitted as a machine error does
+// (it turns with the sphere, a machine error does not).
+bool Untransferred(const CandidateScore& c, const TraceOptions& trace) { return c.loso_t > trace.min_t; }
+
 bool Admissible(const CandidateScore& c, const TracedFit& current, const TraceOptions& trace) {
   return !c.term.components.empty() && c.determined && c.delta_bic <= -trace.min_delta_bic &&
-         c.cv_rms_um < current.cv_rms_um;
+         c.cv_rms_um < current.cv_rms_um && !Untransferred(c, trace);
 }
 
 // The admissible candidate of `tried` with the lowest delta BIC among those `also` accepts; -1:
@@ -769,7 +810,7 @@ std::string SphereCompetitorNote(const SpherePattern& sphere, bool form_better, 
 
 // Why candidate c was not added, appended to its note. `best`: the candidate added, if any.
 void NoteWhyNotAdded(CandidateScore& c, bool admissible, bool form_wins, const CandidateScore* best,
-                     const TraceOptions& trace) {
+                     const TracedFit& current, const TraceOptions& trace) {
   if (c.added) return;
   std::string why;
   if (admissible && form_wins) {
@@ -777,9 +818,16 @@ void NoteWhyNotAdded(CandidateScore& c, bool admissible, bool form_wins, const C
   } else if (admissible && best != nullptr) {
     why = "qualifies; " + best->Id() + Format(" scored better (delta BIC %.1f)", best->delta_bic);
   } else if (!c.term.components.empty() && c.determined) {
-    why = c.delta_bic > -trace.min_delta_bic
-              ? "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")"
-              : "no lower cross-validated RMS";
+    if (c.delta_bic > -trace.min_delta_bic) {
+      why = "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")";
+    } else if (!(c.cv_rms_um < current.cv_rms_um)) {
+      why = "no lower cross-validated RMS";
+    } else {
+      why = Format(
+          "does not transfer between setups: each predicted from the others %.4f um rms with it, %.4f um "
+          "without (paired t %.1f)",
+          c.loso_rms_um, current.loso_rms_um, c.loso_t);
+    }
   }
   if (!why.empty()) c.note += std::string(c.note.empty() ? "" : "; ") + why;
 }
@@ -974,7 +1022,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   }
   for (auto& [c, fit] : tried) {
     if (not_beyond_form.count(c.effect) == 0) {
-      NoteWhyNotAdded(c, Admissible(c, current, trace), form_wins, chosen, trace);
+      NoteWhyNotAdded(c, Admissible(c, current, trace), form_wins, chosen, current, trace);
     }
     r.candidates.push_back(c);
   }
@@ -1100,7 +1148,6 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
   }
   RemoveUnneeded(data, options, trace, current, r);
   r.after = std::move(current);
-  TransferTest(data, options, r);
   RejudgeOutliers(all, options, base, trace, r.after);
   r.unexplained = RemainingStructure(r.after.structure, trace);
   return r;
@@ -1124,7 +1171,6 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
   r.after = Analysed(
       internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(r.before.fit)),
       data, options, trace);
-  TransferTest(data, options, r);
   RejudgeOutliers(all, options, base, trace, r.after);
   r.unexplained = RemainingStructure(r.after.structure, trace);
   return r;

@@ -359,14 +359,32 @@ TEST(TraceResidual, ChoosesTheHarmonicOrdersItSearchesFromTheData) {
   }
   EXPECT_TRUE(has_c5) << Describe(r);
   EXPECT_TRUE(r.unexplained.empty()) << Describe(r);
+}
 
+// The same data with the search fixed at order 4: a radial motion of the Theta spindle of orders
+// 2..4 lowers the BIC and the k-fold cross-validated RMS, but fitted to one setup it predicts the
+// other worse than the seven errors do (the encoder error shows through each setup's own
+// eccentricity): the transfer test keeps it out, and the structure is reported as unexplained.
+TEST(TraceResidual, AddsNoEffectThatDoesNotTransferBetweenSetups) {
+  const PointsData points = Placed({Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, 2.0, 0.0)},
+                                   Effect::kThetaEncoder, {{5, 0, false}}, {10 * kRadPerArcsec});
   TraceOptions fixed;
   fixed.harmonics = {4, 4};
-  const TraceResult at4 = TraceWith(points, fixed);
-  EXPECT_EQ(at4.harmonics.theta, 4);
-  for (const EffectTerm& t : at4.after.fit.model.terms) {
+  const TraceResult r = TraceWith(points, fixed);
+  EXPECT_EQ(r.harmonics.theta, 4);
+  EXPECT_EQ(std::count(r.added.begin(), r.added.end(), Effect::kThetaRadialMotion), 0) << Describe(r);
+  const auto radial = std::find_if(r.candidates.begin(), r.candidates.end(), [](const CandidateScore& c) {
+    return c.round == 1 && c.effect == Effect::kThetaRadialMotion && !c.sphere_form;
+  });
+  ASSERT_NE(radial, r.candidates.end());
+  EXPECT_LE(radial->delta_bic, -10.0) << Describe(r);
+  EXPECT_LT(radial->cv_rms_um, r.before.cv_rms_um) << Describe(r);
+  EXPECT_GT(radial->loso_rms_um, r.before.loso_rms_um) << Describe(r);
+  EXPECT_NE(radial->note.find("does not transfer between setups"), std::string::npos) << radial->note;
+  for (const EffectTerm& t : r.after.fit.model.terms) {
     for (const EffectComponent& c : t.components) EXPECT_LE(c.order, 4);
   }
+  EXPECT_FALSE(r.unexplained.empty()) << Describe(r);
 }
 
 // A two-lobe radial motion of the Phi axis moves the probe along its beam: one placement shows it.

@@ -10,12 +10,14 @@
 //    SubsetSearchPenalty(), so that the best of many noise components does not pass for an
 //    effect) and by k-fold cross-validated RMS (folds within each setup; each fitted without its
 //    points, then predicted). The best candidate is added when delta_bic <= -min_delta_bic
-//    (strong evidence), its cross-validated RMS is lower, every parameter of the model stays
-//    determined, and a pattern fixed on the sphere (spherical harmonics of degree 2..5 of the
-//    direction from the centre, the reference sphere's own form error or an effect outside the
-//    library; its choice of harmonics charged in the same way) does not explain the residual
-//    better or about as well (within ambiguity_bic: the machine effect is the claim that must be
-//    shown). Repeat until none is.
+//    (strong evidence), its cross-validated RMS is lower, with two or more setups it does not
+//    predict each setup from the others clearly worse than the model without it (LeaveOneSetupOutRms():
+//    the transfer test, which a form fitted as a machine error fails, for the form turns with the
+//    sphere; "clearly": the paired t of the squared errors above min_t, CandidateScore::loso_t), every
+//    parameter of the model stays determined, and a pattern fixed on the sphere (spherical harmonics of degree 2..5 of
+//    the direction from the centre, the reference sphere's own form error or an effect outside the library; its choice
+//    of harmonics charged in the same way) does not explain the residual better or about as well (within ambiguity_bic:
+//    the machine effect is the claim that must be shown). Repeat until none is.
 // The sphere's own form. When the design separates it (the sphere measured in at least two known
 // orientations on its mount), the form is no competitor but a component of the model: spherical
 // harmonics of degree 2..L in the sphere's body frame, fitted jointly with the seven errors, the
@@ -111,6 +113,13 @@ struct CandidateScore {
   double rms_um = 0.0;      ///< fit RMS with it
   double cv_rms_um = 0.0;   ///< cross-validated RMS with it; NaN when the BIC does not admit it (not needed, so not
                             ///< computed) and for sphere_form (not fitted)
+  /// Leave-one-setup-out RMS with it (TracedFit::loso_rms_um), the transfer test; NaN when not
+  /// computed: one setup, or the BIC and the cross-validated RMS do not admit it.
+  double loso_rms_um = std::numeric_limits<double>::quiet_NaN();
+  /// How clearly it predicts the setups left out worse than the model without it: Student's t of
+  /// the mean of the squared prediction errors with it minus without, over the readings (NaN as
+  /// loso_rms_um). Above TraceOptions::min_t it is not added: it does not transfer.
+  double loso_t = std::numeric_limits<double>::quiet_NaN();
   bool determined = false;  ///< every parameter of the model with it is determined
   bool added = false;
   double sphere_fraction = 0.0;  ///< of the added effect's signal (SpherePatternFraction); 0 when not added
@@ -169,6 +178,8 @@ struct TracedFit {
   /// setups' readings [um]. A form that turns with the sphere transfers, a form mistaken for a
   /// machine error does not. NaN with fewer than two setups (LeaveOneSetupOutRms()).
   double loso_rms_um = std::numeric_limits<double>::quiet_NaN();
+  /// Each reading's error in that test [mm], NaN where not predicted; empty with one setup.
+  std::vector<double> loso_errors_mm;
 };
 
 struct TraceResult {
