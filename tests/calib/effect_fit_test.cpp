@@ -262,5 +262,54 @@ TEST(FitEffects, ProbeGainInTheProbesRangeIsTheSameAtAnyEccentricity) {
   }
 }
 
+// The same over many noise seeds: the difference of the gains at 1 and 2 mm, in units of their
+// combined standard uncertainty, is a standard normal variable when the gain is one constant of
+// the probe and the uncertainties are honest: mean 0, standard deviation 1, about 68 % of the pairs
+// within one combined std and 95 % within two.
+TEST(FitEffects, ProbeGainsAtTwoEccentricitiesAgreeWithinTheirCombinedStd) {
+  constexpr int kSeeds = 200;
+  constexpr double kRangeMm = 10.0, kGainMm = 10e-3;
+  std::vector<double> z;
+  for (int seed = 0; seed < kSeeds; ++seed) {
+    double gain[2], gain_std[2];
+    for (int k = 0; k < 2; ++k) {
+      SimulationSpec spec;
+      spec.centers_mm = {Eigen::Vector3d(1.0 + k, 0.0, 0.0)};
+      spec.seed = 1000 + 2 * static_cast<std::uint64_t>(seed) + static_cast<std::uint64_t>(k);
+      spec.probe_range_mm = kRangeMm;
+      spec.effects.model.terms = {DefaultTerm(Effect::kProbeGain)};
+      spec.effects.values = {{kGainMm}};
+      const PointsData points = Simulate(spec);
+      EffectModel model;
+      model.terms = {DefaultTerm(Effect::kProbeGain)};
+      model.reference = WithProbeRange(EffectReferenceOf(points.samples), kRangeMm);
+      const EffectFit fit =
+          FitEffects(points, PaperOptions(), model, EffectFitStart::From(Calibrate(points, PaperOptions())));
+      ASSERT_TRUE(fit.calibration.converged) << fit.calibration.solver_message;
+      gain[k] = fit.values[0][0];
+      gain_std[k] = fit.calibration.analysis.std(fit.TermOffset(0));
+    }
+    z.push_back((gain[0] - gain[1]) / std::hypot(gain_std[0], gain_std[1]));
+  }
+  double mean = 0.0, within1 = 0.0, within2 = 0.0;
+  for (const double v : z) {
+    mean += v / kSeeds;
+    within1 += std::abs(v) <= 1.0 ? 1.0 / kSeeds : 0.0;
+    within2 += std::abs(v) <= 2.0 ? 1.0 / kSeeds : 0.0;
+  }
+  double var = 0.0;
+  for (const double v : z) var += (v - mean) * (v - mean) / (kSeeds - 1);
+  RecordProperty("z_mean", std::to_string(mean));
+  RecordProperty("z_sd", std::to_string(std::sqrt(var)));
+  std::cout << "z over " << kSeeds << " seeds: mean " << mean << ", sd " << std::sqrt(var) << ", within 1: " << within1
+            << ", within 2: " << within2 << "\n";
+  // Bounds of about 4 standard errors: the mean's 1/sqrt(200) = 0.071, the sd's 0.05, the shares'
+  // sqrt(p (1 - p) / 200) = 0.033 and 0.015.
+  EXPECT_LT(std::abs(mean), 0.28);
+  EXPECT_NEAR(std::sqrt(var), 1.0, 0.2);
+  EXPECT_NEAR(within1, 0.683, 0.13);
+  EXPECT_NEAR(within2, 0.954, 0.06);
+}
+
 }  // namespace
 }  // namespace sph
