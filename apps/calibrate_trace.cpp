@@ -361,6 +361,7 @@ void WriteAmbiguities(std::ostream& out, const TraceResult& r) {
       out << "  ambiguous: " << x.other << " explains the residual about as well as " << x.chosen
           << Format(" (delta BIC %.1f against %.1f); to separate them: ", x.delta_bic_other, x.delta_bic_chosen)
           << x.separate_by << "\n";
+      if (!x.checked.empty()) out << "    checked on this design: " << x.checked << "\n";
     }
   }
   for (const Unexplained& u : r.unexplained) {
@@ -459,7 +460,8 @@ json AmbiguousJson(const TraceResult& r) {
                          {"chosen_rms_um", NumberOrNull(x.chosen_rms_um)},
                          {"other_rms_um", NumberOrNull(x.other_rms_um)},
                          {"form_turns_with_sphere", x.form_turns_with_sphere},
-                         {"separate_by", x.separate_by}});
+                         {"separate_by", x.separate_by},
+                         {"checked", x.checked}});
   }
   return ambiguous;
 }

@@ -16,6 +16,7 @@
 
 #include "effect_fit_rows.hpp"
 #include "fit_problem.hpp"
+#include "pair_separation.hpp"
 #include "sph/calib/identifiability.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/gum.hpp"
@@ -834,6 +835,25 @@ void NoteWhyNotAdded(CandidateScore& c, bool admissible, bool form_wins, const C
 
 // The ambiguities of the effect chosen in a round: the other admissible candidates that scored
 // almost as well, and the sphere's form where it explains the same change of the residual.
+// Whether one more placement would tell apart the candidates last in `a` and `b` (fits of the
+// model of `current` with each added), in words.
+std::string CheckedSeparation(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
+                              const EffectFit& a, const EffectFit& b) {
+  const internal::PairSeparation p = internal::CheckPairSeparation(
+      data.points, options, current, a.model.terms.back(), a.values.back(), b.model.terms.back(), b.values.back());
+  if (!p.placement.empty()) {
+    return Format(
+        "%s tells them apart (largest variance inflation of their terms fitted together %.3g now, %.3g "
+        "with it)",
+        p.placement.c_str(), p.vif_now, p.vif_with);
+  }
+  return Format(
+      "none of these tells them apart: %s (largest variance inflation of their terms fitted together %.3g "
+      "now, at best %.3g with one of them; at most %.3g would): a sphere of another radius, or one of the "
+      "two measured on its own",
+      p.tried.c_str(), p.vif_now, p.vif_with, internal::kSeparatedVif);
+}
+
 void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
                        const Tried& tried, std::size_t best, const SpherePattern& sphere, bool form_better,
                        bool form_separable, const TraceOptions& trace, CandidateScore& chosen,
@@ -842,8 +862,10 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
     const CandidateScore& c = tried[i].first;
     if (i == best || !Admissible(c, current, trace)) continue;
     if (c.delta_bic - chosen.delta_bic < trace.ambiguity_bic) {
-      ambiguous->push_back({InfoOf(chosen.effect).id, InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
-                            SeparateBy(chosen.effect, c.effect)});
+      Ambiguity a{InfoOf(chosen.effect).id,           InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
+                  SeparateBy(chosen.effect, c.effect)};
+      a.checked = CheckedSeparation(data, options, current.fit, tried[best].second, tried[i].second);
+      ambiguous->push_back(a);
     }
   }
   // What the effect explains: the change of the residual. When that is mostly a pattern fixed on

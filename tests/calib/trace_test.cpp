@@ -135,6 +135,10 @@ TEST(TraceResidual, SaysWhenAnEncoderErrorAndASpindleMotionCannotBeTold) {
   });
   ASSERT_NE(pair, r.ambiguous.end()) << Describe(r);
   EXPECT_NE(pair->separate_by.find("second sphere position"), std::string::npos) << pair->separate_by;
+  // The advice checked on the design's Jacobian: a second placement at another azimuth or
+  // eccentricity tells them apart.
+  EXPECT_NE(pair->checked.find("eccentricity"), std::string::npos) << pair->checked;
+  EXPECT_NE(pair->checked.find("tells them apart"), std::string::npos) << pair->checked;
   // With one sphere position, most of what either explains is also a pattern fixed on the sphere
   // (72 % with this seed).
   const auto form =
@@ -385,6 +389,20 @@ TEST(TraceResidual, AddsNoEffectThatDoesNotTransferBetweenSetups) {
     for (const EffectComponent& c : t.components) EXPECT_LE(c.order, 4);
   }
   EXPECT_FALSE(r.unexplained.empty()) << Describe(r);
+}
+
+// A Phi encoder error once per turn and a radial motion of the Phi axis explain one placement's
+// residual about equally. The height the advice names must be large: checked on the design, 5 mm
+// (a quarter of the radius) is not enough, 15 mm is.
+TEST(TraceResidual, ChecksWhichPlacementSeparatesAPhiEncoderErrorFromAPhiRadialMotion) {
+  const TraceResult r = Trace(WithEffect(Effect::kPhiEncoder, {{1, 0, false}}, {10 * kRadPerArcsec}));
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kPhiEncoder}) << Describe(r);
+  const Ambiguity* pair = Between(r, "phi_encoder", "phi_radial_motion");
+  ASSERT_NE(pair, nullptr) << Describe(r);
+  EXPECT_NE(pair->separate_by.find("another height along the Theta axis"), std::string::npos) << pair->separate_by;
+  EXPECT_NE(pair->checked.find("a second placement 15 mm higher along the Theta axis tells them apart"),
+            std::string::npos)
+      << pair->checked;
 }
 
 // A two-lobe radial motion of the Phi axis moves the probe along its beam: one placement shows it.

@@ -142,6 +142,10 @@ struct Ambiguity {
   /// "sphere_form" is the form of a design that separates it, at the highest degree searched (it
   /// turns with the sphere), not a pattern fixed on the sphere in one placement.
   bool form_turns_with_sphere = false;
+  /// For two effects: separate_by checked on this design, from its Jacobian (no fit), in words:
+  /// which placement of the sphere added to the file's would tell them apart, or that none of
+  /// those tried would; empty for the form.
+  std::string checked = "";
 };
 
 /// How the trace treated the sphere's form.

@@ -1,0 +1,106 @@
+#include "pair_separation.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "effect_fit_rows.hpp"
+#include "sph/core/simulate.hpp"
+#include "sph/internal/format.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph::internal {
+namespace {
+
+// The largest variance inflation of the columns of the last two terms of `fit` on `points`.
+double PairVif(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
+  const NormalInverse inv = NormalInverseAt(ReadingTable(points), options, fit);
+  const std::size_t n_terms = fit.model.terms.size();
+  const int first = fit.TermOffset(n_terms - 2);
+  const int last = fit.TermOffset(n_terms - 1) + fit.model.terms.back().size();
+  double worst = 0.0;
+  for (int j = first; j < last; ++j) {
+    const auto col = static_cast<Eigen::Index>(j);
+    const double vif = inv.in_null[static_cast<std::size_t>(j)]
+                           ? std::numeric_limits<double>::infinity()
+                           : inv.inverse(col, col) / (inv.scale(col) * inv.scale(col));
+    worst = std::max(worst, std::isnan(vif) ? std::numeric_limits<double>::infinity() : vif);
+  }
+  return worst;
+}
+
+// A placement of the sphere to try: its centre and what it is, in words.
+struct Placement {
+  Eigen::Vector3d center_mm;
+  std::string words;
+};
+
+std::vector<Placement> PlacementsToTry(const Eigen::Vector3d& c0, double sphere_radius_mm) {
+  const double e = std::hypot(c0.x(), c0.y());
+  std::vector<Placement> out;
+  if (e >= 0.5) {
+    const Eigen::Vector3d half(0.5 * c0.x(), 0.5 * c0.y(), c0.z());
+    out.push_back({half, Format("a second placement at half the eccentricity (%.3g mm)", 0.5 * e)});
+  } else {
+    out.push_back({Eigen::Vector3d(2.0, 0.0, c0.z()), "a second placement at 2 mm eccentricity"});
+  }
+  out.push_back({Eigen::Vector3d(-c0.y(), c0.x(), c0.z()),
+                 "a second placement at the same eccentricity, 90 deg further round the Theta axis"});
+  for (const double fraction : {0.25, 0.75}) {  // of the sphere's radius
+    const double up_mm = fraction * sphere_radius_mm;
+    out.push_back({c0 + Eigen::Vector3d(0.0, 0.0, up_mm),
+                   Format("a second placement %.3g mm higher along the Theta axis", up_mm)});
+  }
+  return out;
+}
+
+// `points` with the rows of its first setup read once more with the sphere centred at `center_mm`
+// (setup id one above the highest), at the fitted geometry of `fit`; nothing when a ray misses.
+bool WithPlacement(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                   const Eigen::Vector3d& center_mm, PointsData* out, int* setup) {
+  *out = points;
+  const std::vector<int>& ids = fit.calibration.setup_ids;
+  *setup = ids.back() + 1;
+  for (const Sample& s : points.samples) {
+    if (s.setup != ids.front()) continue;
+    const std::optional<double> r =
+        ProbeReading(fit.calibration.geometry, s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg,
+                     options.probe_offset_mm, center_mm, options.sphere_radius_mm);
+    if (!r) return false;
+    out->samples.push_back({s.theta_deg, s.phi_deg, *r, s.t_s, *setup});
+  }
+  out->has_setup = true;
+  return true;
+}
+
+}  // namespace
+
+PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOptions& options,
+                                   const EffectFit& current, const EffectTerm& a, const std::vector<double>& a_values,
+                                   const EffectTerm& b, const std::vector<double>& b_values) {
+  EffectFit both = current;
+  both.model.terms.push_back(a);
+  both.model.terms.push_back(b);
+  both.values.push_back(a_values);
+  both.values.push_back(b_values);
+  both.n_params += a.size() + b.size();
+  PairSeparation out;
+  out.vif_now = PairVif(points, options, both);
+  for (const Placement& p : PlacementsToTry(current.calibration.centers_mm.front(), options.sphere_radius_mm)) {
+    out.tried += (out.tried.empty() ? "" : "; ") + p.words;
+    PointsData more;
+    int setup = 0;
+    if (!WithPlacement(points, options, current, p.center_mm, &more, &setup)) continue;
+    EffectFit with = both;
+    with.calibration.setup_ids.push_back(setup);
+    with.calibration.centers_mm.push_back(p.center_mm);
+    with.n_params += 3;
+    const double vif = PairVif(more, options, with);
+    if (vif < out.vif_with) {
+      out.vif_with = vif;
+      if (vif <= kSeparatedVif) out.placement = p.words;
+    }
+  }
+  return out;
+}
+
+}  // namespace sph::internal
