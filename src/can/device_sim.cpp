@@ -327,6 +327,45 @@ bool DeviceSimulator::NextCycle(std::vector<CanFrame>& frames) {
   return true;
 }
 
+// Whether node n's TPDO goes out at this SYNC by its transmission type: synchronous (every
+// type-th SYNC; counted here) or acyclic (only a changed value), and valid.
+bool DeviceSimulator::TransmitsAtSync(Node& n) {
+  if (n.st != Node::St::kOperational) return false;
+  const std::uint64_t tt = n.od.Unsigned({n.Comm(), 2});
+  const std::uint64_t cob = n.od.Unsigned({n.Comm(), 1});
+  if (tt > 240 || (cob & 0x80000000U) != 0) return false;  // not synchronous, or the PDO is not valid
+  if (tt >= 1) return n.syncs_seen++ % tt == 0;
+  return !(n.last_sent_raw && *n.last_sent_raw == n.raw);  // acyclic: only a changed value
+}
+
+// Node n's TPDO with COB-ID `cob`, as its mapping lays it out.
+CanFrame DeviceSimulator::MappedPdo(const Node& n, std::uint64_t cob) const {
+  CanFrame pdo;
+  pdo.id = (cob & 0x20000000U) ? ((cob & kEffMask) | kEffFlag) : (cob & kSffMask);
+  int bit = 0;
+  const std::uint64_t count = n.od.Unsigned({n.Map(), 0});
+  for (std::uint64_t sub = 1; sub <= count && bit < 64; ++sub) {
+    const std::uint64_t e = n.od.Unsigned({n.Map(), static_cast<std::uint8_t>(sub)});
+    const ObjectAddress o{static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>((e >> 8) & 0xFF)};
+    const int bytes = static_cast<int>(e & 0xFF) / 8;
+    if (bytes < 1 || bit / 8 + bytes > kMaxDataBytes) break;
+    FieldLayout l{pdo.id, bit / 8, bytes, false, false};
+    std::int64_t v = 0;
+    if (o == ObjectAddress{0x2000, 0}) {
+      l.is_signed = config_.devices.probe.field.is_signed;
+      l.big_endian = config_.devices.probe.field.big_endian;
+      v = n.raw;
+    } else if (o == ObjectAddress{0x6004, 0}) {
+      v = n.raw;
+    } else if (!IsDummy(o.index)) {
+      v = static_cast<std::int64_t>(n.od.Unsigned(o));
+    }
+    InsertField(pdo, l, v);
+    bit += 8 * bytes;
+  }
+  return pdo;
+}
+
 void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> counter, std::vector<CanFrame>& out) {
   if (finished()) return;
   const SimFaults& f = config_.faults;
@@ -372,15 +411,8 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> coun
       e->value = LittleEndianBytes(static_cast<std::uint64_t>(n.raw), static_cast<int>(e->value.size()));
     }
     if (auto* e = n.od.Find({0x2010, 0})) e->value = {counter.value_or(0)};
-    if (n.st != Node::St::kOperational) continue;
-    const std::uint64_t tt = n.od.Unsigned({n.Comm(), 2});
+    if (!TransmitsAtSync(n)) continue;
     const std::uint64_t cob = n.od.Unsigned({n.Comm(), 1});
-    if (tt > 240 || (cob & 0x80000000U) != 0) continue;  // not synchronous, or the PDO is not valid
-    if (tt >= 1) {
-      if (n.syncs_seen++ % tt != 0) continue;
-    } else if (n.last_sent_raw && *n.last_sent_raw == n.raw) {
-      continue;  // acyclic: only a changed value
-    }
     if (Silent(dev, t_rel)) {
       ++injected_.silent_cycles[d];
       continue;
@@ -389,30 +421,7 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> coun
       ++injected_.dropped[d];
       continue;
     }
-    // The PDO as its mapping lays it out.
-    CanFrame pdo;
-    pdo.id = (cob & 0x20000000U) ? ((cob & kEffMask) | kEffFlag) : (cob & kSffMask);
-    int bit = 0;
-    const std::uint64_t count = n.od.Unsigned({n.Map(), 0});
-    for (std::uint64_t sub = 1; sub <= count && bit < 64; ++sub) {
-      const std::uint64_t e = n.od.Unsigned({n.Map(), static_cast<std::uint8_t>(sub)});
-      const ObjectAddress o{static_cast<std::uint16_t>(e >> 16), static_cast<std::uint8_t>((e >> 8) & 0xFF)};
-      const int bytes = static_cast<int>(e & 0xFF) / 8;
-      if (bytes < 1 || bit / 8 + bytes > kMaxDataBytes) break;
-      FieldLayout l{pdo.id, bit / 8, bytes, false, false};
-      std::int64_t v = 0;
-      if (o == ObjectAddress{0x2000, 0}) {
-        l.is_signed = config_.devices.probe.field.is_signed;
-        l.big_endian = config_.devices.probe.field.big_endian;
-        v = n.raw;
-      } else if (o == ObjectAddress{0x6004, 0}) {
-        v = n.raw;
-      } else if (!IsDummy(o.index)) {
-        v = static_cast<std::int64_t>(n.od.Unsigned(o));
-      }
-      InsertField(pdo, l, v);
-      bit += 8 * bytes;
-    }
+    CanFrame pdo = MappedPdo(n, cob);
     if (dev == kProbe && out_of_range) ++injected_.probe_out_of_range;
     if (f.short_probability > 0.0 && u_short < f.short_probability && pdo.len > 0) {
       pdo.len = static_cast<std::uint8_t>(pdo.len - 1);

@@ -163,6 +163,8 @@ class DeviceSimulator {
  private:
   struct Node;
   void OnSync(std::int64_t t_ns, std::optional<std::uint8_t> counter, std::vector<CanFrame>& out);
+  bool TransmitsAtSync(Node& n);
+  CanFrame MappedPdo(const Node& n, std::uint64_t cob) const;
   void Boot(Node& n, std::int64_t t_ns);
   bool Silent(int device, double t_rel_s) const;
   double RelS(std::int64_t t_ns) const;
