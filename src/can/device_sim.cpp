@@ -40,6 +40,29 @@ std::uint32_t MapEntry(ObjectAddress o, int bits) {
          static_cast<std::uint32_t>(bits);
 }
 
+// The default mapping of a device's TPDO: the value at its byte, the probe's status byte
+// (`status`, -1: none), the SYNC counter byte (`counter`, -1: none), dummies (UNSIGNED8) before them.
+std::vector<std::uint32_t> DefaultMapping(const FieldLayout& field, ObjectAddress value_obj, int status, int counter) {
+  std::vector<std::uint32_t> entries;
+  const int end = std::max({field.offset_byte + field.width_bytes, status + 1, counter + 1});
+  for (int b = 0; b < end;) {
+    if (b == field.offset_byte) {
+      entries.push_back(MapEntry(value_obj, 8 * field.width_bytes));
+      b += field.width_bytes;
+    } else if (b == status) {
+      entries.push_back(MapEntry({0x2001, 0}, 8));
+      ++b;
+    } else if (b == counter) {
+      entries.push_back(MapEntry({0x2010, 0}, 8));
+      ++b;
+    } else {
+      entries.push_back(MapEntry({0x0005, 0}, 8));
+      ++b;
+    }
+  }
+  return entries;
+}
+
 }  // namespace
 
 struct DeviceSimulator::Node {
@@ -196,6 +219,37 @@ std::uint8_t DeviceSimulator::NodeState(int node_id) const {
 }
 
 // A node (re)starts: the object dictionary at its defaults, pre-operational.
+// The abort code of an SDO write of `v` to `o` of node n's TPDO communication or mapping
+// parameters (0: accepted), as a CiA 301 device checks them.
+std::uint32_t DeviceSimulator::CheckPdoWrite(const Node& n, ObjectAddress o, const std::vector<std::uint8_t>& v) {
+  const bool comm = o.index == n.Comm(), map = o.index == n.Map();
+  if (!comm && !map) return std::uint32_t{0};
+  if (n.st == Node::St::kOperational) return kAbortDeviceState;
+  const std::uint64_t value = LittleEndianValue(v);
+  if (comm && o.subindex == 1) {
+    const std::uint64_t old = n.od.Unsigned(o);
+    const bool old_valid = (old & 0x80000000U) == 0, new_valid = (value & 0x80000000U) == 0;
+    if (old_valid && new_valid && (old & 0x3FFFFFFFU) != (value & 0x3FFFFFFFU)) return kAbortInvalidValue;
+  } else if (comm && o.subindex == 2) {
+    if (value >= 241 && value <= 251) return kAbortInvalidValue;
+  } else if (map && o.subindex == 0) {
+    if (value > 8) return kAbortPdoLength;
+    int bits = 0;
+    for (std::uint64_t sub = 1; sub <= value; ++sub)
+      bits += static_cast<int>(n.od.Unsigned({o.index, static_cast<std::uint8_t>(sub)}) & 0xFF);
+    if (bits > 64) return kAbortPdoLength;
+  } else if (map) {
+    if (n.od.Unsigned({o.index, 0}) != 0) return kAbortUnsupportedAccess;
+    const ObjectAddress target{static_cast<std::uint16_t>(value >> 16), static_cast<std::uint8_t>((value >> 8) & 0xFF)};
+    const int bits = static_cast<int>(value & 0xFF);
+    if (IsDummy(target.index)) return bits == DummyBits(target.index) ? std::uint32_t{0} : kAbortNotMappable;
+    const ObjectDictionary::Entry* e = n.od.Find(target);
+    if (e == nullptr) return kAbortNoObject;
+    if (!e->mappable || static_cast<int>(8 * e->value.size()) != bits) return kAbortNotMappable;
+  }
+  return std::uint32_t{0};
+}
+
 void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
   using A = ObjectDictionary::Access;
   ObjectDictionary& od = n.od;
@@ -235,60 +289,15 @@ void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
         e.multi_turn ? std::min<std::uint64_t>(e.counts_per_rev * 4096, 0xFFFFFFFFU) : e.counts_per_rev;
     od.SetUnsigned({0x6002, 0}, total, 4);
   }
-  // The default mapping: the value at its byte, the probe's status byte, the SYNC counter byte,
-  // dummies (UNSIGNED8) before them.
-  std::vector<std::uint32_t> entries;
   const int status = d == kProbe ? config_.devices.probe.status_offset_byte : -1;
-  const int counter = config_.devices.sync_counter_byte[static_cast<std::size_t>(d)];
-  const int end = std::max({field.offset_byte + field.width_bytes, status + 1, counter + 1});
-  for (int b = 0; b < end;) {
-    if (b == field.offset_byte) {
-      entries.push_back(MapEntry(value_obj, 8 * field.width_bytes));
-      b += field.width_bytes;
-    } else if (b == status) {
-      entries.push_back(MapEntry({0x2001, 0}, 8));
-      ++b;
-    } else if (b == counter) {
-      entries.push_back(MapEntry({0x2010, 0}, 8));
-      ++b;
-    } else {
-      entries.push_back(MapEntry({0x0005, 0}, 8));
-      ++b;
-    }
-  }
+  const std::vector<std::uint32_t> entries =
+      DefaultMapping(field, value_obj, status, config_.devices.sync_counter_byte[static_cast<std::size_t>(d)]);
   od.SetUnsigned({n.Map(), 0}, entries.size(), 1, A::kReadWrite);
   for (std::size_t i = 0; i < 8; ++i) {
     od.SetUnsigned({n.Map(), static_cast<std::uint8_t>(i + 1)}, i < entries.size() ? entries[i] : 0, 4, A::kReadWrite);
   }
-  n.server = std::make_unique<SdoServer>(n.node_id, &n.od, [&n](ObjectAddress o, const std::vector<std::uint8_t>& v) {
-    const bool comm = o.index == n.Comm(), map = o.index == n.Map();
-    if (!comm && !map) return std::uint32_t{0};
-    if (n.st == Node::St::kOperational) return kAbortDeviceState;
-    const std::uint64_t value = LittleEndianValue(v);
-    if (comm && o.subindex == 1) {
-      const std::uint64_t old = n.od.Unsigned(o);
-      const bool old_valid = (old & 0x80000000U) == 0, new_valid = (value & 0x80000000U) == 0;
-      if (old_valid && new_valid && (old & 0x3FFFFFFFU) != (value & 0x3FFFFFFFU)) return kAbortInvalidValue;
-    } else if (comm && o.subindex == 2) {
-      if (value >= 241 && value <= 251) return kAbortInvalidValue;
-    } else if (map && o.subindex == 0) {
-      if (value > 8) return kAbortPdoLength;
-      int bits = 0;
-      for (std::uint64_t sub = 1; sub <= value; ++sub)
-        bits += static_cast<int>(n.od.Unsigned({o.index, static_cast<std::uint8_t>(sub)}) & 0xFF);
-      if (bits > 64) return kAbortPdoLength;
-    } else if (map) {
-      if (n.od.Unsigned({o.index, 0}) != 0) return kAbortUnsupportedAccess;
-      const ObjectAddress target{static_cast<std::uint16_t>(value >> 16),
-                                 static_cast<std::uint8_t>((value >> 8) & 0xFF)};
-      const int bits = static_cast<int>(value & 0xFF);
-      if (IsDummy(target.index)) return bits == DummyBits(target.index) ? std::uint32_t{0} : kAbortNotMappable;
-      const ObjectDictionary::Entry* e = n.od.Find(target);
-      if (e == nullptr) return kAbortNoObject;
-      if (!e->mappable || static_cast<int>(8 * e->value.size()) != bits) return kAbortNotMappable;
-    }
-    return std::uint32_t{0};
-  });
+  n.server = std::make_unique<SdoServer>(
+      n.node_id, &n.od, [&n](ObjectAddress o, const std::vector<std::uint8_t>& v) { return CheckPdoWrite(n, o, v); });
   n.st = Node::St::kPreOp;
   n.boot_at = kNever;
   n.syncs_seen = 0;

@@ -35,6 +35,7 @@
 
 #include "sph/can/frame.hpp"
 #include "sph/can/pipeline.hpp"
+#include "sph/can/sdo.hpp"
 #include "sph/core/gum.hpp"
 #include "sph/core/simulate.hpp"
 
@@ -166,6 +167,7 @@ class DeviceSimulator {
   bool TransmitsAtSync(Node& n);
   CanFrame MappedPdo(const Node& n, std::uint64_t cob) const;
   void Boot(Node& n, std::int64_t t_ns);
+  static std::uint32_t CheckPdoWrite(const Node& n, ObjectAddress o, const std::vector<std::uint8_t>& v);
   bool Silent(int device, double t_rel_s) const;
   double RelS(std::int64_t t_ns) const;
   std::int64_t GridNs(double at_s, double offset_us) const;
