@@ -273,15 +273,10 @@ void AcquisitionPipeline::CloseGaps(const std::array<Slot, kNumDevices>& slots, 
   }
 }
 
-void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bool last) {
-  if (!window_.open) return;
-  window_.open = false;
-  ++counts_.cycles;
-  const std::uint64_t spans = std::min<std::uint64_t>(missed, kMaxRecovered) + 1;
-  const double period = static_cast<double>(next_ns - window_.t_ns) / static_cast<double>(missed + 1);
-  const bool placeable = config_.sync_period_s > 0.0 || (config_.sync_counter_max != 0 && window_.counter);
-  std::vector<std::array<Slot, kNumDevices>>& cycles = scratch_;  // reused: no allocation per SYNC
-  cycles.assign(static_cast<std::size_t>(spans), std::array<Slot, kNumDevices>{});
+// Each PDO of the window into the cycle of the SYNC it answers: by its SYNC counter where the
+// devices send one, else by its time within the missed SYNCs' periods.
+void AcquisitionPipeline::PlaceArrivals(std::uint64_t missed, double period, bool placeable, Cycles& cycles) {
+  const auto spans = static_cast<std::uint64_t>(cycles.size());
   for (int d = 0; d < kNumDevices; ++d) {
     const auto di = static_cast<std::size_t>(d);
     const auto& list = window_.pdos[di];
@@ -314,6 +309,10 @@ void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bo
       if (window_.tainted && !placeable) s.lost = true;
     }
   }
+}
+
+// Two or more PDOs of one device in one cycle: none is used, and each extra one is counted.
+void AcquisitionPipeline::CountDuplicates(const Cycles& cycles) {
   for (std::size_t k = 0; k < cycles.size(); ++k) {
     for (int d = 0; d < kNumDevices; ++d) {
       const Slot& s = cycles[k][static_cast<std::size_t>(d)];
@@ -324,11 +323,14 @@ void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bo
                      TimeText(window_.t_ns) + ": none is used (one may answer a SYNC that never arrived)");
     }
   }
-  // The cycle of the SYNC received.
-  CloseGaps(cycles[0], window_.t_ns);
-  const std::string why = Reason(cycles[0]);
+}
+
+// The cycle of the SYNC received: a sample, or why not.
+void AcquisitionPipeline::ResolveReceived(const std::array<Slot, kNumDevices>& slots, bool last) {
+  CloseGaps(slots, window_.t_ns);
+  const std::string why = Reason(slots);
   if (why.empty()) {
-    EmitCycle(cycles[0], window_.t_ns);
+    EmitCycle(slots, window_.t_ns);
   } else if (last) {
     ++counts_.cut_by_stop;
     FlushIncomplete();
@@ -338,11 +340,16 @@ void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bo
   } else {
     ++counts_.incomplete_cycles;
     for (int d = 0; d < kNumDevices; ++d) {
-      if (cycles[0][static_cast<std::size_t>(d)].count == 0) ++counts_.missing[static_cast<std::size_t>(d)];
+      if (slots[static_cast<std::size_t>(d)].count == 0) ++counts_.missing[static_cast<std::size_t>(d)];
     }
     NoteIncomplete(why, window_.t_ns);
   }
-  if (missed == 0) return;
+}
+
+// The cycles of the `missed` SYNCs that never arrived before the one at `next_ns`: samples where
+// their PDOs make one, and a note of them.
+void AcquisitionPipeline::ResolveMissed(const Cycles& cycles, std::uint64_t missed, std::int64_t next_ns,
+                                        double period) {
   // The cycles of the SYNCs that never arrived.
   counts_.missed_syncs += missed;
   std::uint64_t recovered = 0, with_pdos = 0;
@@ -375,6 +382,21 @@ void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bo
     CloseGaps(cycles[k], t);
     if (Reason(cycles[k]).empty()) EmitCycle(cycles[k], t);
   }
+}
+
+void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bool last) {
+  if (!window_.open) return;
+  window_.open = false;
+  ++counts_.cycles;
+  const std::uint64_t spans = std::min<std::uint64_t>(missed, kMaxRecovered) + 1;
+  const double period = static_cast<double>(next_ns - window_.t_ns) / static_cast<double>(missed + 1);
+  const bool placeable = config_.sync_period_s > 0.0 || (config_.sync_counter_max != 0 && window_.counter);
+  std::vector<std::array<Slot, kNumDevices>>& cycles = scratch_;  // reused: no allocation per SYNC
+  cycles.assign(static_cast<std::size_t>(spans), std::array<Slot, kNumDevices>{});
+  PlaceArrivals(missed, period, placeable, cycles);
+  CountDuplicates(cycles);
+  ResolveReceived(cycles[0], last);
+  if (missed > 0) ResolveMissed(cycles, missed, next_ns, period);
 }
 
 void AcquisitionPipeline::EmitCycle(const std::array<Slot, kNumDevices>& slots, std::int64_t t_ns) {

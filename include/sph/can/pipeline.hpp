@@ -184,6 +184,11 @@ class AcquisitionPipeline {
   /// Resolves the open window into 1 + `missed` cycles; `next_ns` is the next SYNC's time. With
   /// `last` (the end) an incomplete cycle is cut, not counted as incomplete.
   void Resolve(std::uint64_t missed, std::int64_t next_ns, bool last = false);
+  using Cycles = std::vector<std::array<Slot, kNumDevices>>;
+  void PlaceArrivals(std::uint64_t missed, double period, bool placeable, Cycles& cycles);
+  void CountDuplicates(const Cycles& cycles);
+  void ResolveReceived(const std::array<Slot, kNumDevices>& slots, bool last);
+  void ResolveMissed(const Cycles& cycles, std::uint64_t missed, std::int64_t next_ns, double period);
   /// SYNCs missed before `frame` (see the file comment); remembers the period it observes.
   std::uint64_t MissedBefore(const CanFrame& frame, const SyncInfo& sync);
   /// Why a cycle with these slots is no sample ("theta no frame, probe 2 PDOs"); "" for a sample.
