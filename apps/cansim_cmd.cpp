@@ -173,10 +173,10 @@ LogTarget OpenLogTarget(const std::string& path, OutputFiles& files) {
 // Plays the devices on a CAN interface in real time: they answer SYNC, NMT and SDO frames from
 // the bus and send heartbeats and boot-ups on their own; with the internal SYNC source the
 // simulator is also the SYNC producer.
-int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::DeviceSimConfig& c, std::ostream& err) {
+// The CAN socket of a live play: the frames the devices listen to (SYNC, NMT, their SDO requests).
+can::CanSocketOptions LiveSocketOptions(const CansimOptions& o, const can::DeviceSimConfig& c) {
   can::CanSocketOptions so;
   so.iface = o.iface;
-  const bool external = o.sync_source == "external";
   const std::uint32_t sff = can::kEffFlag | can::kRtrFlag | can::kSffMask;
   so.filters.emplace_back(o.devices.sync_cob_id, sff);
   so.filters.emplace_back(can::kNmtCobId, sff);
@@ -184,111 +184,162 @@ int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::Devic
     if (node != 0) so.filters.emplace_back(can::kSdoRequestBase + static_cast<std::uint32_t>(node), sff);
   }
   so.error_mask = 0;
+  return so;
+}
+
+// The devices on a live interface, paced in real time: frames planned by the simulator are sent
+// at their times; a synchronous PDO remembers its SYNC, because it must not go out once its
+// synchronous window has closed (CiA 301, object 1007h): when the next SYNC came first, or half a
+// period after its own. A real device drops it then; a simulator slowed down (an emulated machine)
+// would otherwise answer one SYNC after the next.
+class LivePlay {
+ public:
+  LivePlay(const CansimOptions& o, can::DeviceSimulator& sim, const can::DeviceSimConfig& c, can::CanSocket& sock)
+      : o_(o),
+        sim_(sim),
+        c_(c),
+        sock_(sock),
+        external_(o.sync_source == "external"),
+        period_ns_(static_cast<std::int64_t>(std::llround(c.sync_period_s * 1e9))),
+        // The synchronous window (1007h): half a period, so that a SYNC of a producer that is late
+        // by less than that, and the early one after it, still find each PDO in its own period.
+        window_ns_(period_ns_ / 2),
+        start_ns_(static_cast<std::int64_t>(std::llround(c.start_time_s * 1e9))),
+        end_ns_(o.duration_s > 0.0 ? start_ns_ + static_cast<std::int64_t>(o.duration_s * 1e9)
+                                   : std::numeric_limits<std::int64_t>::max()),
+        next_sync_(external_ ? std::numeric_limits<std::int64_t>::max() : start_ns_),
+        pdo_ids_{c.devices.theta.field.can_id, c.devices.phi.field.can_id, c.devices.probe.field.can_id} {}
+
+  void Run() {
+    while (!ProcessSignals().stop) {
+      // Take every frame queued first: a SYNC waiting in the queue closes the window before.
+      for (int i = 0; i < 64; ++i) {
+        const can::RxResult r = sock_.Receive();
+        if (r.status != can::RxStatus::kFrame) break;
+        Deliver(r.frame);
+      }
+      const std::int64_t now = RealtimeNs();
+      if (now >= end_ns_ || (sim_.finished() && pending_.empty())) break;
+      SendDue(now);
+      if (!external_ && now >= next_sync_ && !sim_.finished()) {
+        SendSync();
+        continue;
+      }
+      Wait(now);
+    }
+  }
+
+  void Summarise(std::ostream& err) const {
+    if (late_ > 0) {
+      err << "sph_cansim: " << late_
+          << " PDOs not sent: their synchronous window had closed (the simulator was late)\n";
+    }
+    err << "sph_cansim: " << o_.iface << ": sent " << sent_ << " frames, " << failed_ << " failed\n";
+  }
+
+ private:
+  struct Planned {
+    can::CanFrame frame;
+    std::int64_t sync_ns = 0;  // the SYNC a synchronous PDO answers; 0: not one
+  };
+
+  // The devices take `frame` (received, or the simulator's own SYNC); their answers are planned.
+  void Deliver(const can::CanFrame& frame) {
+    out_.clear();
+    sim_.AdvanceTo(frame.t_ns, out_);
+    const bool sync = can::DecodeSync(frame, c_.devices.sync_cob_id).has_value();
+    if (sync) last_sync_ = frame.t_ns;
+    const std::size_t before = out_.size();
+    sim_.OnFrame(frame, out_);
+    for (std::size_t i = 0; i < out_.size(); ++i) {
+      const bool pdo =
+          i >= before && sync && std::find(std::begin(pdo_ids_), std::end(pdo_ids_), out_[i].id) != std::end(pdo_ids_);
+      pending_.push_back({out_[i], pdo ? frame.t_ns : 0});
+    }
+  }
+
+  // Sends the planned frames due at `now`, in time order, but a synchronous PDO whose window closed.
+  void SendDue(std::int64_t now) {
+    std::stable_sort(pending_.begin(), pending_.end(),
+                     [](const Planned& a, const Planned& b) { return a.frame.t_ns < b.frame.t_ns; });
+    std::size_t k = 0;
+    arrived_.clear();
+    for (; k < pending_.size() && pending_[k].frame.t_ns <= now; ++k) {
+      const Planned& p = pending_[k];
+      if (p.sync_ns != 0) {
+        // Just before a synchronous PDO: a SYNC queued meanwhile closes its window.
+        for (int i = 0; i < 64; ++i) {
+          const can::RxResult r = sock_.Receive();
+          if (r.status != can::RxStatus::kFrame) break;
+          arrived_.push_back(r.frame);
+          if (can::DecodeSync(r.frame, c_.devices.sync_cob_id)) last_sync_ = std::max(last_sync_, r.frame.t_ns);
+        }
+        if (p.sync_ns < last_sync_ || RealtimeNs() - p.sync_ns > window_ns_) {
+          ++late_;
+          continue;
+        }
+      }
+      if (sock_.Send(p.frame) == can::TxStatus::kOk) {
+        ++sent_;
+      } else {
+        ++failed_;
+      }
+    }
+    pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(k));
+    for (const can::CanFrame& f : arrived_) Deliver(f);
+  }
+
+  // The simulator's own SYNC, at its time.
+  void SendSync() {
+    can::CanFrame sync = can::EncodeSync(
+        c_.devices.sync_counter_max != 0
+            ? std::optional<std::uint8_t>(counter_ = can::NextSyncCounter(counter_, c_.devices.sync_counter_max))
+            : std::nullopt,
+        c_.devices.sync_cob_id);
+    sync.t_ns = next_sync_;
+    pending_.push_back({sync, 0});
+    Deliver(sync);
+    next_sync_ += period_ns_;
+  }
+
+  // Plans what the devices send on their own, then waits for a frame until the next thing to do.
+  void Wait(std::int64_t now) {
+    out_.clear();
+    sim_.AdvanceTo(now, out_);
+    for (const can::CanFrame& f : out_) pending_.push_back({f, 0});
+    std::int64_t wake = std::min({sim_.NextEventNs(), next_sync_, end_ns_});
+    for (const Planned& p : pending_) wake = std::min(wake, p.frame.t_ns);
+    const std::int64_t wait_ns = std::max<std::int64_t>(0, std::min<std::int64_t>(wake - now, 200000000));
+    const can::RxResult r = sock_.Receive(static_cast<int>((wait_ns + 999999) / 1000000));
+    if (r.status == can::RxStatus::kFrame) Deliver(r.frame);
+  }
+
+  const CansimOptions& o_;
+  can::DeviceSimulator& sim_;
+  const can::DeviceSimConfig& c_;
+  can::CanSocket& sock_;
+  const bool external_;
+  const std::int64_t period_ns_, window_ns_, start_ns_, end_ns_;
+  std::int64_t next_sync_;
+  const std::uint32_t pdo_ids_[3];
+  std::vector<Planned> pending_;
+  std::vector<can::CanFrame> out_, arrived_;
+  std::uint64_t sent_ = 0, failed_ = 0, late_ = 0;
+  std::int64_t last_sync_ = 0;
+  std::uint8_t counter_ = 0;
+};
+
+int PlayLive(const CansimOptions& o, can::DeviceSimulator& sim, const can::DeviceSimConfig& c, std::ostream& err) {
   std::optional<can::CanSocket> sock;
   try {
-    sock.emplace(so);
+    sock.emplace(LiveSocketOptions(o, c));
   } catch (const std::exception& e) {
     err << "sph_cansim: error: " << e.what() << "\n";
     return kExitInterfaceError;
   }
-  // Planned frames, sent at their times; a synchronous PDO remembers its SYNC, because it must
-  // not go out once its synchronous window has closed (CiA 301, object 1007h): when the next
-  // SYNC came first, or half a period after its own. A real device drops it then; a simulator
-  // slowed down (an emulated machine) would otherwise answer one SYNC after the next.
-  struct Planned {
-    can::CanFrame frame;
-    std::int64_t sync_ns = 0;
-  };
-  std::vector<Planned> pending;
-  std::vector<can::CanFrame> out, arrived;
-  std::uint64_t sent = 0, failed = 0, late = 0;
-  const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(c.sync_period_s * 1e9));
-  // The synchronous window (1007h): half a period, so that a SYNC of a producer that is late by
-  // less than that, and the early one after it, still find each PDO in its own period.
-  const std::int64_t window_ns = period_ns / 2;
-  const std::int64_t start_ns = static_cast<std::int64_t>(std::llround(c.start_time_s * 1e9));
-  std::int64_t next_sync = external ? std::numeric_limits<std::int64_t>::max() : start_ns;
-  std::int64_t last_sync = 0;
-  std::uint8_t counter = 0;
-  const std::int64_t end_ns = o.duration_s > 0.0 ? start_ns + static_cast<std::int64_t>(o.duration_s * 1e9)
-                                                 : std::numeric_limits<std::int64_t>::max();
-  const std::uint32_t pdo_ids[] = {c.devices.theta.field.can_id, c.devices.phi.field.can_id,
-                                   c.devices.probe.field.can_id};
-  // The devices take `frame` (received, or the simulator's own SYNC); their answers are planned.
-  auto deliver = [&](const can::CanFrame& frame) {
-    out.clear();
-    sim.AdvanceTo(frame.t_ns, out);
-    const bool sync = can::DecodeSync(frame, c.devices.sync_cob_id).has_value();
-    if (sync) last_sync = frame.t_ns;
-    const std::size_t before = out.size();
-    sim.OnFrame(frame, out);
-    for (std::size_t i = 0; i < out.size(); ++i) {
-      const bool pdo =
-          i >= before && sync && std::find(std::begin(pdo_ids), std::end(pdo_ids), out[i].id) != std::end(pdo_ids);
-      pending.push_back({out[i], pdo ? frame.t_ns : 0});
-    }
-  };
-  auto by_time = [](const Planned& a, const Planned& b) { return a.frame.t_ns < b.frame.t_ns; };
-  while (!ProcessSignals().stop) {
-    // Take every frame queued first: a SYNC waiting in the queue closes the window before.
-    for (int i = 0; i < 64; ++i) {
-      const can::RxResult r = sock->Receive();
-      if (r.status != can::RxStatus::kFrame) break;
-      deliver(r.frame);
-    }
-    const std::int64_t now = RealtimeNs();
-    if (now >= end_ns || (sim.finished() && pending.empty())) break;
-    std::stable_sort(pending.begin(), pending.end(), by_time);
-    std::size_t k = 0;
-    arrived.clear();
-    for (; k < pending.size() && pending[k].frame.t_ns <= now; ++k) {
-      const Planned& p = pending[k];
-      if (p.sync_ns != 0) {
-        // Just before a synchronous PDO: a SYNC queued meanwhile closes its window.
-        for (int i = 0; i < 64; ++i) {
-          const can::RxResult r = sock->Receive();
-          if (r.status != can::RxStatus::kFrame) break;
-          arrived.push_back(r.frame);
-          if (can::DecodeSync(r.frame, c.devices.sync_cob_id)) last_sync = std::max(last_sync, r.frame.t_ns);
-        }
-        if (p.sync_ns < last_sync || RealtimeNs() - p.sync_ns > window_ns) {
-          ++late;
-          continue;
-        }
-      }
-      if (sock->Send(p.frame) == can::TxStatus::kOk) {
-        ++sent;
-      } else {
-        ++failed;
-      }
-    }
-    pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(k));
-    for (const can::CanFrame& f : arrived) deliver(f);
-    if (!external && now >= next_sync && !sim.finished()) {
-      can::CanFrame sync = can::EncodeSync(
-          c.devices.sync_counter_max != 0
-              ? std::optional<std::uint8_t>(counter = can::NextSyncCounter(counter, c.devices.sync_counter_max))
-              : std::nullopt,
-          c.devices.sync_cob_id);
-      sync.t_ns = next_sync;
-      pending.push_back({sync, 0});
-      deliver(sync);
-      next_sync += period_ns;
-      continue;
-    }
-    out.clear();
-    sim.AdvanceTo(now, out);
-    for (const can::CanFrame& f : out) pending.push_back({f, 0});
-    std::int64_t wake = std::min({sim.NextEventNs(), next_sync, end_ns});
-    for (const Planned& p : pending) wake = std::min(wake, p.frame.t_ns);
-    const std::int64_t wait_ns = std::max<std::int64_t>(0, std::min<std::int64_t>(wake - now, 200000000));
-    const can::RxResult r = sock->Receive(static_cast<int>((wait_ns + 999999) / 1000000));
-    if (r.status == can::RxStatus::kFrame) deliver(r.frame);
-  }
-  if (late > 0) {
-    err << "sph_cansim: " << late << " PDOs not sent: their synchronous window had closed (the simulator was late)\n";
-  }
-  err << "sph_cansim: " << o.iface << ": sent " << sent << " frames, " << failed << " failed\n";
+  LivePlay play(o, sim, c, *sock);
+  play.Run();
+  play.Summarise(err);
   return kExitOk;
 }
 
