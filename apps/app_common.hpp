@@ -62,8 +62,7 @@ inline constexpr ValidRange kProbeOffsetMm{0.0, kMaxProbeOffsetMm, "mm", true};
 /// The seven errors: kScmsParamInfo's bounds, in deg or mm (and |d'| < d).
 constexpr ValidRange ErrorRange(int p) {
   return {-kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report,
-          kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report,
-          kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle ? "deg" : "mm"};
+          kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report, ReportUnitsOf(p).coarse};
 }
 inline constexpr ValidRange kNoiseUm{0.0, 1000.0, "um"};
 inline constexpr ValidRange kNoiseArcsec{0.0, 3600.0, "arcsec"};

@@ -33,18 +33,6 @@ constexpr double kPaperBeforeUm[10] = {1.786, 1.796, 1.811, 1.828, 1.842, 2.641,
 constexpr double kPaperAfterUm[10] = {0.00529, 0.00541, 0.00541, 0.00558, 0.00606,
                                       0.01656, 0.02519, 0.02927, 0.03838, 0.04541};
 
-struct Unit {
-  const char* coarse;  // deg or mm (the paper's)
-  const char* fine;    // urad or um
-  double to_coarse;
-  double to_fine;
-};
-Unit UnitOf(int p) {
-  return kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle
-             ? Unit{"deg", "urad", kDegPerRad, kUradPerRad}
-             : Unit{"mm", "um", 1.0, kUmPerMm};
-}
-
 MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
   MonteCarloSpec spec;
   spec.base = ToSimulationSpec(o.machine);
@@ -97,7 +85,7 @@ void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloO
   for (const auto& row : r.rows) out << Format("%12s", Format("e=%g mm", row.eccentricity_mm).c_str());
   out << "\n";
   for (int p = 0; p < kNumScmsParams; ++p) {
-    const Unit u = UnitOf(p);
+    const ReportUnits u = ReportUnitsOf(p);
     out << Format("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name) << Format(" %-4s", u.coarse)
         << Format(" %12.6f", r.rows.front().params[static_cast<std::size_t>(p)].truth * u.to_coarse);
     for (const auto& row : r.rows) out << Format(" %11.6f", row.params[static_cast<std::size_t>(p)].mean * u.to_coarse);
@@ -121,7 +109,7 @@ void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloO
     out << Format("%-9s %14s %14s %10s %9s %9s %10s %9s %9s %9s\n", "param", "true", "mean", "std", "SE", "(m-t)/SE",
                   "CRLB", "std/CRLB", "bias2", "(m-t-b)/SE");
     for (int p = 0; p < kNumScmsParams; ++p) {
-      const Unit u = UnitOf(p);
+      const ReportUnits u = ReportUnitsOf(p);
       const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
       out << Format("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name)
           << Format(" %10.6f ", s.truth * u.to_coarse) << Format("%-3s", u.coarse)
@@ -138,7 +126,7 @@ json StudyJson(const MonteCarloResult& r) {
   for (const auto& row : r.rows) {
     json params = json::object();
     for (int p = 0; p < kNumScmsParams; ++p) {
-      const Unit u = UnitOf(p);
+      const ReportUnits u = ReportUnitsOf(p);
       const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
       params[kScmsParamInfo[static_cast<std::size_t>(p)].name] = {{"unit", u.coarse},
                                                                   {"true", s.truth * u.to_coarse},
@@ -167,7 +155,7 @@ void WriteCsv(const std::string& path, const MonteCarloResult& r, OutputFiles& f
     f << "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials\n";
     for (const auto& row : r.rows) {
       for (int p = 0; p < kNumScmsParams; ++p) {
-        const Unit u = UnitOf(p);
+        const ReportUnits u = ReportUnitsOf(p);
         const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
         f << row.eccentricity_mm << "," << kScmsParamInfo[static_cast<std::size_t>(p)].name << "," << u.coarse << ","
           << s.truth * u.to_coarse << "," << s.mean * u.to_coarse << "," << s.std * u.to_coarse << ","
@@ -309,8 +297,8 @@ int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream
       << ", sigma_r " << o.machine.noise_r_um << " um, " << spec.setups << " setup(s)\n";
   out << Format("%-8s", "e_mm");
   for (int p = 0; p < kNumScmsParams; ++p) {
-    out << Format(" %12s",
-                  (std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_" + UnitOf(p).fine).c_str());
+    out << Format(
+        " %12s", (std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_" + ReportUnitsOf(p).fine).c_str());
   }
   out << Format(" %12s\n", "worst_um");
   json rows = json::array();
@@ -321,9 +309,9 @@ int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream
     out << Format("%-8g", e);
     json row = {{"eccentricity_mm", e}};
     for (int p = 0; p < kNumScmsParams; ++p) {
-      out << Format(" %12.4f", u.std(p) * UnitOf(p).to_fine);
-      row[std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_std_" + UnitOf(p).fine] =
-          u.std(p) * UnitOf(p).to_fine;
+      out << Format(" %12.4f", u.std(p) * ReportUnitsOf(p).to_fine);
+      row[std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_std_" + ReportUnitsOf(p).fine] =
+          u.std(p) * ReportUnitsOf(p).to_fine;
     }
     out << Format(" %12.4f\n", u.WorstErrorStdUm());
     row["worst_std_um"] = u.WorstErrorStdUm();

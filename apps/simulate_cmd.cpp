@@ -243,7 +243,7 @@ int RunSimulate(const SimulateOptions& o, std::ostream& err) {
       for (int p = 0; p < kNumScmsParams; ++p) {
         const ScmsParamInfo& info = kScmsParamInfo[static_cast<std::size_t>(p)];
         geometry[info.name] = {{"value", ToReportUnits(p, spec.truth[static_cast<std::size_t>(p)])},
-                               {"unit", info.quantity == Quantity::kAngle ? "deg" : "mm"}};
+                               {"unit", ReportUnitsOf(p).coarse}};
       }
       t["geometry"] = geometry;
       nlohmann::json centers = nlohmann::json::array(), setups = nlohmann::json::array();

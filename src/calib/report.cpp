@@ -16,17 +16,6 @@ using gum::UncertaintyStatement;
 using internal::Format;
 using nlohmann::json;
 
-struct Units {
-  const char* report;  // deg or mm
-  const char* fine;    // urad or um
-  double to_report;    // from internal units
-  double to_fine;
-};
-
-Units UnitsOf(Quantity q) {
-  return q == Quantity::kAngle ? Units{"deg", "urad", kDegPerRad, kUradPerRad} : Units{"mm", "um", 1.0, kUmPerMm};
-}
-
 double ParamValue(const CalibrationResult& r, std::size_t i) {
   if (i < kNumScmsParams) return r.geometry[i];
   const std::size_t k = (i - kNumScmsParams) / 3;
@@ -51,7 +40,7 @@ void WriteBudgetText(std::ostream& out, const CalibrationResult& r, const Calibr
   out << Format(" %10s %8s %5s %10s %-4s\n", "u", "nu_eff", "k", "U", "unit");
   for (std::size_t i = 0; i < kNumScmsParams && i < b.statements.size(); ++i) {
     const UncertaintyStatement& st = b.statements[i];
-    const Units u = UnitsOf(kScmsParamInfo[i].quantity);
+    const ReportUnits u = ReportUnitsOf(kScmsParamInfo[i].quantity);
     const std::string name = r.analysis.Empty() ? kScmsParamInfo[i].name : r.analysis.parameters[i].name;
     if (st.inputs.empty()) {
       out << Format("%-12s %10s\n", name.c_str(), "undetermined");
@@ -108,7 +97,7 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
     const std::string name =
         analysed ? rep.parameters[i].name : (i < kNumScmsParams ? kScmsParamInfo[i].name : "center");
     const Quantity q = i < kNumScmsParams ? kScmsParamInfo[i].quantity : Quantity::kLength;
-    const Units u = UnitsOf(q);
+    const ReportUnits u = ReportUnitsOf(q);
     const double value = ParamValue(r, i);
     if (analysed && !rep.determined[i]) {
       const double disp = rep.StdAsDisplacementUm(static_cast<int>(i));
@@ -117,8 +106,8 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
       continue;
     }
     const double sd = analysed ? rep.std(static_cast<Eigen::Index>(i)) : std::nan("");
-    out << Format("%-12s %15.9f %12.9f %-4s | %12.4f %10.4f %-4s\n", name.c_str(), value * u.to_report,
-                  sd * u.to_report, u.report, value * u.to_fine, sd * u.to_fine, u.fine);
+    out << Format("%-12s %15.9f %12.9f %-4s | %12.4f %10.4f %-4s\n", name.c_str(), value * u.to_coarse,
+                  sd * u.to_coarse, u.coarse, value * u.to_fine, sd * u.to_fine, u.fine);
   }
   out << "\n";
   if (ctx.budget != nullptr) WriteBudgetText(out, r, *ctx.budget);
@@ -172,19 +161,19 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
     const std::string name =
         rep.Empty() ? std::string(i < kNumScmsParams ? kScmsParamInfo[i].name : "center") : rep.parameters[i].name;
     const Quantity q = i < kNumScmsParams ? kScmsParamInfo[i].quantity : Quantity::kLength;
-    const Units u = UnitsOf(q);
+    const ReportUnits u = ReportUnitsOf(q);
     json p;
-    p["value"] = ParamValue(r, i) * u.to_report;
-    p["unit"] = u.report;
+    p["value"] = ParamValue(r, i) * u.to_coarse;
+    p["unit"] = u.coarse;
     if (i < kNumScmsParams) p["iso_name"] = kScmsParamInfo[i].iso_name;
     if (!rep.Empty()) {
       const double sd = rep.std(static_cast<Eigen::Index>(i));
-      p["std"] = std::isfinite(sd) ? json(sd * u.to_report) : json(nullptr);
+      p["std"] = std::isfinite(sd) ? json(sd * u.to_coarse) : json(nullptr);
       p["determined"] = static_cast<bool>(rep.determined[i]);
       if (!rep.determined[i]) undetermined.push_back(name);
     }
     if (ctx.budget != nullptr && i < ctx.budget->statements.size() && !ctx.budget->statements[i].inputs.empty()) {
-      p.update(BudgetJson(ctx.budget->statements[i], u.to_report, u.report));
+      p.update(BudgetJson(ctx.budget->statements[i], u.to_coarse, u.coarse));
     }
     params[name] = p;
     order.push_back(name);

@@ -21,9 +21,7 @@ namespace {
 using internal::Format;
 using nlohmann::json;
 
-const char* UnitOf(int p) {
-  return kScmsParamInfo[static_cast<std::size_t>(p)].quantity == Quantity::kAngle ? "deg" : "mm";
-}
+const char* UnitOf(int p) { return ReportUnitsOf(p).coarse; }
 
 const json& Field(const json& obj, const char* key, const std::string& where, const std::string& path) {
   if (!obj.is_object() || !obj.contains(key)) throw Error(path + ": missing field '" + where + key + "'");

@@ -67,14 +67,29 @@ inline constexpr std::array<ScmsParamInfo, kNumScmsParams> kScmsParamInfo{{
 /// The seven geometric errors in internal units (rad, mm), in ScmsParam order.
 using ScmsGeometry = std::array<double, kNumScmsParams>;
 
+/// The units a quantity is reported in: coarse (deg or mm, the paper's and the files') and fine
+/// (urad or um), with the factors from internal units (rad or mm). The one table of report units.
+struct ReportUnits {
+  const char* coarse;
+  const char* fine;
+  double to_coarse;
+  double to_fine;
+};
+constexpr ReportUnits ReportUnitsOf(Quantity q) {
+  return q == Quantity::kAngle ? ReportUnits{"deg", "urad", kDegPerRad, kUradPerRad}
+                               : ReportUnits{"mm", "um", 1.0, kUmPerMm};
+}
+/// The report units of geometry parameter `param`.
+constexpr ReportUnits ReportUnitsOf(int param) {
+  return ReportUnitsOf(kScmsParamInfo[static_cast<std::size_t>(param)].quantity);
+}
+
 /// Converts a parameter from report units (deg or mm) to internal units (rad or mm).
 inline double FromReportUnits(int param, double value) {
   return kScmsParamInfo[param].quantity == Quantity::kAngle ? value * kRadPerDeg : value;
 }
 /// Converts a parameter from internal units (rad or mm) to report units (deg or mm).
-inline double ToReportUnits(int param, double value) {
-  return kScmsParamInfo[param].quantity == Quantity::kAngle ? value * kDegPerRad : value;
-}
+inline double ToReportUnits(int param, double value) { return value * ReportUnitsOf(param).to_coarse; }
 
 /// Eq. (1) literally, as a product of 4x4 transforms. Clear, and the reference for ScmsPoint();
 /// ScmsPoint() is the same function written as successive operations on one point (faster).
