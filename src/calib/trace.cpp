@@ -594,6 +594,25 @@ std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>&
   return e;
 }
 
+// Whether `rest`, the model of `fit` fitted without one of its setups, still determines the effects
+// and the form: none of their standard uncertainties is more than 10 times that of `fit` (all the
+// setups). A combination the other setups leave loose (a probe polynomial beside a form seen in
+// two orientations only) would predict the setup left out from the noise, metres wrong; fewer
+// setups alone widen them by sqrt(n / (n - 1)) or so. True when either is not analysed.
+bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
+  constexpr double kMaxWidening = 10.0;
+  const ObservabilityReport& a = rest.calibration.analysis;
+  const ObservabilityReport& b = fit.calibration.analysis;
+  if (a.Empty() || b.Empty()) return true;
+  const int first_rest = kNumScmsParams + 3 * static_cast<int>(rest.calibration.setup_ids.size());
+  const int first_all = kNumScmsParams + 3 * static_cast<int>(fit.calibration.setup_ids.size());
+  for (int j = 0; first_rest + j < rest.n_params && first_all + j < fit.n_params; ++j) {
+    const double wide = a.std(first_rest + j), narrow = b.std(first_all + j);
+    if (!(wide <= kMaxWidening * narrow)) return false;
+  }
+  return true;
+}
+
 // Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
 // NaN for a reading not predicted; empty with fewer than two setups.
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
@@ -602,8 +621,9 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
   const std::vector<int>& ids = fit.calibration.setup_ids;
   if (ids.size() < 2) return {};
   const std::size_t m = points.samples.size();
-  CalibrationOptions quick = options;
-  quick.analyse = false;
+  // The fits without a setup are analysed when `fit` is, to see whether the others determine it.
+  CalibrationOptions rest_options = options;
+  rest_options.analyse = !fit.calibration.analysis.Empty();
   internal::LmWorkspace workspace;
   std::vector<double> errors(points.samples.size(), std::numeric_limits<double>::quiet_NaN());
   std::vector<bool> held(m), others(m);  // fitted without the setup, then predicted on it
@@ -620,10 +640,11 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
     start.centers_mm.erase(start.centers_mm.begin() + static_cast<std::ptrdiff_t>(k));
     EffectFit rest;
     try {
-      rest = internal::FitEffectsRows(points, data.table, &held, quick, fit.model, start, &workspace);
+      rest = internal::FitEffectsRows(points, data.table, &held, rest_options, fit.model, start, &workspace);
     } catch (const Error&) {
       continue;  // the other setups cannot be fitted without it (too few readings): not predicted
     }
+    if (!DeterminedWithout(rest, fit)) continue;  // their prediction would be the noise's
     EffectFit predict = rest;
     predict.calibration.setup_ids = ids;
     predict.calibration.centers_mm = fit.calibration.centers_mm;
