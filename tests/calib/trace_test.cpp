@@ -391,6 +391,29 @@ TEST(TraceResidual, AddsNoEffectThatDoesNotTransferBetweenSetups) {
   EXPECT_FALSE(r.unexplained.empty()) << Describe(r);
 }
 
+// The transfer test predicts a setup only when the others determine the model: with the sphere in
+// three orientations at one eccentricity, a probe nonlinearity beside a form of degrees 2..8 fitted
+// to two of them is loose (the probe reading is a function of the direction there), and its
+// prediction of the third, micrometres wrong, must not turn a true effect away.
+TEST(TraceResidual, TheTransferTestDoesNotJudgeBySetupsThatLeaveTheModelLoose) {
+  SimulationSpec spec;
+  spec.seed = 1;
+  spec.noise_r_um = 0.03;
+  spec.centers_mm.assign(3, Eigen::Vector3d(2.0, 0.0, 0.0));
+  spec.mount_rotations_deg = {{1, Eigen::Vector3d(0.0, 0.0, 90.0)}, {2, Eigen::Vector3d(90.0, 0.0, 0.0)}};
+  spec.scan_orders = {{1, ScanOrder::kSerpentine}, {2, ScanOrder::kColumns}};
+  spec.effects.form = {{2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043},
+                       {4, 2, 0.031},  {5, -2, 0.037}, {5, 4, -0.025}, {6, 1, 0.031},  {6, -5, 0.025},
+                       {7, 3, -0.025}, {8, 0, 0.025},  {8, -6, 0.019}};
+  spec.effects.model.terms = {{Effect::kProbeNonlinearity, {{3, 0, false}}}};
+  spec.effects.values = {{0.15 * kMmPerUm}};
+  const TraceResult r = TraceWith(Simulate(spec), TraceOptions{});
+  ASSERT_EQ(r.added, std::vector<Effect>{Effect::kProbeNonlinearity}) << Describe(r);
+  const EffectFit& fit = r.after.fit;
+  ASSERT_EQ(fit.model.terms[0].ParamName(0), "probe_nonlinearity.u3") << Describe(r);
+  EXPECT_NEAR(fit.values[0][0], 0.15 * kMmPerUm, 4 * fit.calibration.analysis.std(fit.TermOffset(0)));
+}
+
 // A Phi encoder error once per turn and a radial motion of the Phi axis explain one placement's
 // residual about equally. The height the advice names must be large: checked on the design, 5 mm
 // (a quarter of the radius) is not enough, 15 mm is.
