@@ -674,18 +674,26 @@ double RmsUmOf(const std::vector<double>& errors_mm) {
 
 // Student's t of the mean of e_with^2 - e_without^2 over the readings both predict: how clearly
 // the model with a candidate predicts the setups left out worse (> 0) or better (< 0) than the
-// model without it. NaN when fewer than two readings are predicted by both.
-double PairedTransferT(const std::vector<double>& with_mm, const std::vector<double>& without_mm) {
+// model without it. The readings of one setup are not independent (a misprediction is smooth over
+// the setup), so a clearly worse prediction must also be worse in every setup predicted: 0 when
+// one setup is predicted better. NaN when fewer than two readings are predicted by both.
+double PairedTransferT(const std::vector<double>& with_mm, const std::vector<double>& without_mm,
+                       const PointsData& points) {
   double sum = 0.0, sum2 = 0.0;
   std::size_t n = 0;
+  std::map<int, double> by_setup;  // the sum of d over each setup's readings
   for (std::size_t i = 0; i < std::min(with_mm.size(), without_mm.size()); ++i) {
     if (!std::isfinite(with_mm[i]) || !std::isfinite(without_mm[i])) continue;
     const double d = (with_mm[i] * with_mm[i] - without_mm[i] * without_mm[i]) * kUmPerMm * kUmPerMm;
     sum += d;
     sum2 += d * d;
+    by_setup[points.samples[i].setup] += d;
     ++n;
   }
   if (n < 2) return std::numeric_limits<double>::quiet_NaN();
+  for (const auto& [setup, d] : by_setup) {
+    if (d <= 0.0) return 0.0;
+  }
   const double mean = sum / static_cast<double>(n);
   const double var = (sum2 - sum * mean) / static_cast<double>(n - 1);
   if (!(var > 0.0)) return mean > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
@@ -745,7 +753,7 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
         if (c.cv_rms_um < current.cv_rms_um && std::isfinite(current.loso_rms_um)) {
           const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, fit);
           c.loso_rms_um = RmsUmOf(errors);
-          c.loso_t = PairedTransferT(errors, current.loso_errors_mm);
+          c.loso_t = PairedTransferT(errors, current.loso_errors_mm, data.points);
         }
       }
       tried[i].second = std::move(fit);
