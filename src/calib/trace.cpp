@@ -94,8 +94,9 @@ struct Readings {
 double CrossValidated(const Readings& data, const CalibrationOptions& options, const EffectModel& model,
                       const EffectFitStart& start, int folds, std::uint64_t seed);
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
-                                           const EffectFit& fit);
+                                           const EffectFit& fit, std::set<int>* loose = nullptr);
 double RmsUmOf(const std::vector<double>& errors_mm);
+std::vector<double> WithoutSetups(std::vector<double> errors_mm, const std::set<int>& setups, const PointsData& points);
 
 // Unit directions from the fitted centre to each probed point, at the readings the fit expects
 // (r + e, as the structure analysis' other functions of r): the measured r would carry the noise
@@ -124,8 +125,10 @@ TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions
   t.factor = FactorResidualStructure(ResidualsOfTraced(data, t, jacobian));
   t.structure = AnalyseResidualStructure(t.factor);
   t.cv_rms_um = CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace.folds, trace.seed);
-  t.loso_errors_mm = LeaveOneSetupOutErrors(data, options, t.fit);
-  t.loso_rms_um = RmsUmOf(t.loso_errors_mm);
+  std::set<int> loose;
+  const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, t.fit, &loose);
+  t.loso_rms_um = RmsUmOf(errors);
+  t.loso_errors_mm = WithoutSetups(errors, loose, data.points);
   return t;
 }
 
@@ -614,16 +617,17 @@ bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
 }
 
 // Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
-// NaN for a reading not predicted; empty with fewer than two setups.
+// NaN for a reading not predicted; empty with fewer than two setups. `loose`, when given, receives
+// the setups whose prediction came from fits that do not determine the model (DeterminedWithout()).
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
-                                           const EffectFit& fit) {
+                                           const EffectFit& fit, std::set<int>* loose) {
   const PointsData& points = data.points;
   const std::vector<int>& ids = fit.calibration.setup_ids;
   if (ids.size() < 2) return {};
   const std::size_t m = points.samples.size();
   // The fits without a setup are analysed when `fit` is, to see whether the others determine it.
   CalibrationOptions rest_options = options;
-  rest_options.analyse = !fit.calibration.analysis.Empty();
+  rest_options.analyse = loose != nullptr && !fit.calibration.analysis.Empty();
   internal::LmWorkspace workspace;
   std::vector<double> errors(points.samples.size(), std::numeric_limits<double>::quiet_NaN());
   std::vector<bool> held(m), others(m);  // fitted without the setup, then predicted on it
@@ -644,7 +648,7 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
     } catch (const Error&) {
       continue;  // the other setups cannot be fitted without it (too few readings): not predicted
     }
-    if (!DeterminedWithout(rest, fit)) continue;  // their prediction would be the noise's
+    if (loose != nullptr && !DeterminedWithout(rest, fit)) loose->insert(ids[k]);
     EffectFit predict = rest;
     predict.calibration.setup_ids = ids;
     predict.calibration.centers_mm = fit.calibration.centers_mm;
@@ -658,6 +662,16 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
     }
   }
   return errors;
+}
+
+// `errors_mm` with the readings of `setups` NaN: what the transfer test judges by.
+std::vector<double> WithoutSetups(std::vector<double> errors_mm, const std::set<int>& setups,
+                                  const PointsData& points) {
+  if (setups.empty()) return errors_mm;
+  for (std::size_t i = 0; i < errors_mm.size(); ++i) {
+    if (setups.count(points.samples[i].setup) != 0) errors_mm[i] = std::numeric_limits<double>::quiet_NaN();
+  }
+  return errors_mm;
 }
 
 // The rms [um] of the finite `errors_mm`; NaN when none is.
@@ -751,9 +765,10 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
                           : std::numeric_limits<double>::quiet_NaN();
         // So does the transfer test, with two or more setups: `folds` more fits at most.
         if (c.cv_rms_um < current.cv_rms_um && std::isfinite(current.loso_rms_um)) {
-          const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, fit);
+          std::set<int> loose;
+          const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, fit, &loose);
           c.loso_rms_um = RmsUmOf(errors);
-          c.loso_t = PairedTransferT(errors, current.loso_errors_mm, data.points);
+          c.loso_t = PairedTransferT(WithoutSetups(errors, loose, data.points), current.loso_errors_mm, data.points);
         }
       }
       tried[i].second = std::move(fit);

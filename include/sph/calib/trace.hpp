@@ -182,7 +182,8 @@ struct TracedFit {
   /// setups' readings [um]. A form that turns with the sphere transfers, a form mistaken for a
   /// machine error does not. NaN with fewer than two setups (LeaveOneSetupOutRms()).
   double loso_rms_um = std::numeric_limits<double>::quiet_NaN();
-  /// Each reading's error in that test [mm], NaN where not predicted; empty with one setup.
+  /// Each reading's error in that test [mm], NaN where not predicted and where the other setups
+  /// do not determine the model (what the selection judges by); empty with one setup.
   std::vector<double> loso_errors_mm;
 };
 
