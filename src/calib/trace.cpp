@@ -800,13 +800,14 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
   return tried;
 }
 
-// Whether a candidate may be added to `current`: a term with something to fit, every parameter
-// determined, a BIC lower by trace.min_delta_bic and a lower cross-validated RMS.
-// Whether `c`, with two or more setups, predicts the setups left out worse than the model without
-// it: what a form or another function of the sphere's direction fitted as a machine error does
-// (it turns with the sphere, a machine error does not).
+// Whether `c`, with two or more setups, predicts the setups left out clearly worse than the model
+// without it (CandidateScore::loso_t): what a form or another function of the sphere's direction
+// fitted as a machine error does (it turns with the sphere, a machine error does not).
 bool Untransferred(const CandidateScore& c, const TraceOptions& trace) { return c.loso_t > trace.min_t; }
 
+// Whether a candidate may be added to `current`: a term with something to fit, every parameter
+// determined, a BIC lower by trace.min_delta_bic, a lower cross-validated RMS, and, with two or
+// more setups, not Untransferred().
 bool Admissible(const CandidateScore& c, const TracedFit& current, const TraceOptions& trace) {
   return !c.term.components.empty() && c.determined && c.delta_bic <= -trace.min_delta_bic &&
          c.cv_rms_um < current.cv_rms_um && !Untransferred(c, trace);
@@ -877,8 +878,6 @@ void NoteWhyNotAdded(CandidateScore& c, bool admissible, bool form_wins, const C
   if (!why.empty()) c.note += std::string(c.note.empty() ? "" : "; ") + why;
 }
 
-// The ambiguities of the effect chosen in a round: the other admissible candidates that scored
-// almost as well, and the sphere's form where it explains the same change of the residual.
 // Whether one more placement would tell apart the candidates last in `a` and `b` (fits of the
 // model of `current` with each added), in words.
 std::string CheckedSeparation(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
@@ -898,6 +897,8 @@ std::string CheckedSeparation(const Readings& data, const CalibrationOptions& op
       p.tried.c_str(), p.vif_now, p.vif_with, internal::kSeparatedVif);
 }
 
+// The ambiguities of the effect chosen in a round: the other admissible candidates that scored
+// almost as well, and the sphere's form where it explains the same change of the residual.
 void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
                        const Tried& tried, std::size_t best, const SpherePattern& sphere, bool form_better,
                        bool form_separable, const TraceOptions& trace, CandidateScore& chosen,

@@ -75,6 +75,14 @@ bool IsHeaderKey(std::string_view key) {
   return !setup.empty() && setup.find_first_of(" \t\r") == std::string_view::npos;
 }
 
+std::optional<HeaderField> HeaderFieldOf(std::string_view body) {
+  const auto colon = body.find(':');
+  if (colon == std::string_view::npos) return std::nullopt;
+  HeaderField f{Trim(std::string(body.substr(0, colon))), Trim(std::string(body.substr(colon + 1)))};
+  if (!IsHeaderKey(f.key)) return std::nullopt;
+  return f;
+}
+
 std::string MountRotationKey(int setup) { return std::string(kMountRotationKey) + "@" + std::to_string(setup); }
 
 std::string MountRotationValue(const MountRotation& rotation) {
@@ -134,12 +142,10 @@ class PointsParser {
     // Between samples, comments are skipped, but for the mount rotation of a setup that a later
     // run appended to the file.
     if (!header_done_) return HeaderLine(Trim(text.substr(1)), text, fail);
-    const std::string body = Trim(text.substr(1));
-    const auto colon = body.find(':');
-    if (body.rfind(std::string(kMountRotationKey) + "@", 0) != 0 || colon == std::string::npos) return;
-    const std::string key = Trim(body.substr(0, colon));
-    if (!IsHeaderKey(key)) return;
-    MountRotationLine(key, key.find('@'), Trim(body.substr(colon + 1)), fail);
+    const std::optional<HeaderField> f = HeaderFieldOf(text.substr(1));
+    const auto at = f ? f->key.find('@') : std::string::npos;
+    if (at != std::string::npos && f->key.substr(0, at) == kMountRotationKey)
+      MountRotationLine(f->key, at, f->value, fail);
   }
 
   // The data, once every line was read.
@@ -156,11 +162,10 @@ class PointsParser {
   // A header line: `body` after its '#', `text` the whole line.
   void HeaderLine(const std::string& body, const std::string& text, const LineError& fail) {
     if (body.rfind("sph-points", 0) == 0) return FormatLine(body, text, fail);
-    const auto colon = body.find(':');
-    if (colon == std::string::npos) return;  // a plain comment
-    const std::string key = Trim(body.substr(0, colon));
-    if (!IsHeaderKey(key)) return;  // prose that happens to contain a colon
-    const std::string value = Trim(body.substr(colon + 1));
+    const std::optional<HeaderField> f = HeaderFieldOf(body);
+    if (!f) return;  // a plain comment, or prose that happens to contain a colon
+    const std::string& key = f->key;
+    const std::string& value = f->value;
     if (!seen_keys_.insert(key).second) fail("header key " + Quoted(key) + " is given twice");
     const auto at = key.find('@');
     if (key.substr(0, at) == kMountRotationKey) return MountRotationLine(key, at, value, fail);

@@ -22,9 +22,7 @@ std::string Trim(std::string_view s) {
 
 // Whether "# <body>" would be read as a header field (or the format line).
 bool LooksLikeHeaderField(const std::string& body) {
-  if (body.rfind("sph-points", 0) == 0) return true;
-  const auto colon = body.find(':');
-  return colon != std::string::npos && IsHeaderKey(Trim(body.substr(0, colon)));
+  return body.rfind("sph-points", 0) == 0 || HeaderFieldOf(body).has_value();
 }
 
 std::string OneLine(std::string_view text) {
@@ -53,11 +51,7 @@ std::map<std::string, std::string> HeaderFields(const std::string& text) {
     const std::string line = Trim(std::string_view(text).substr(begin, end - begin));
     if (line.empty()) continue;
     if (line[0] != '#') break;  // the first sample ends the header
-    const std::string body = Trim(std::string_view(line).substr(1));
-    const auto colon = body.find(':');
-    if (colon == std::string::npos) continue;
-    const std::string key = Trim(body.substr(0, colon));
-    if (IsHeaderKey(key)) fields.emplace(key, Trim(body.substr(colon + 1)));
+    if (auto f = HeaderFieldOf(std::string_view(line).substr(1))) fields.emplace(f->key, f->value);
   }
   return fields;
 }
@@ -67,12 +61,12 @@ std::map<std::string, std::string> HeaderFields(const std::string& text) {
 std::map<std::string, std::string> MountRotationFields(const std::string& path) {
   std::map<std::string, std::string> fields;
   std::ifstream in(path);
-  const std::string prefix = std::string("# ") + kMountRotationKey + "@";
+  const std::string name = std::string(kMountRotationKey) + "@";
   for (std::string line; std::getline(in, line);) {
-    if (line.rfind(prefix, 0) != 0) continue;
-    const auto colon = line.find(':');
-    if (colon == std::string::npos) continue;
-    fields.emplace(Trim(std::string_view(line).substr(2, colon - 2)), Trim(std::string_view(line).substr(colon + 1)));
+    const std::string text = Trim(line);
+    if (text.empty() || text[0] != '#') continue;
+    const std::optional<HeaderField> f = HeaderFieldOf(std::string_view(text).substr(1));
+    if (f && f->key.rfind(name, 0) == 0) fields.emplace(f->key, f->value);
   }
   return fields;
 }

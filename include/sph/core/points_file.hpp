@@ -165,6 +165,16 @@ inline constexpr const char* kMountRotationKey = "mount_rotation_deg";
 /// before a colon is prose in a comment.
 bool IsHeaderKey(std::string_view key);
 
+/// A header field: its key and value.
+struct HeaderField {
+  std::string key, value;
+};
+
+/// The header field of a comment line, given as `body`, the text after its '#': "key: value" with
+/// key and value trimmed and a valid key (IsHeaderKey()); nothing for a plain comment or prose
+/// that happens to hold a colon. The one reading of a field, for the reader and the writer.
+std::optional<HeaderField> HeaderFieldOf(std::string_view body);
+
 /// The header key of the mount rotation of `setup`: "mount_rotation_deg@1".
 std::string MountRotationKey(int setup);
 
