@@ -5,16 +5,15 @@
 #include <algorithm>
 #include <optional>
 
-#include <nlohmann/json.hpp>
-
 #include <CLI/CLI.hpp>
 
 #include "app_common.hpp"
-#include "calibrate_trace.hpp"
+#include "calibrate_plots.hpp"
 #include "sph/calib/budget.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/report.hpp"
 #include "sph/calib/trace.hpp"
+#include "sph/calib/trace_report.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
@@ -253,11 +252,11 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     ctx.probe_offset_mm = copts.probe_offset_mm;
     ctx.max_std_um = o.max_std_um;
     ctx.metadata = points.header.metadata;
+    ctx.trace = trace ? &*trace : nullptr;
+    ctx.validation = validation ? &*validation : nullptr;
     OutputFiles files(out);
     if (!o.json_path.empty()) {
-      nlohmann::json report = nlohmann::json::parse(JsonReport(result, ctx));
-      if (trace) AddTraceJson(report, *trace, validation ? &*validation : nullptr);
-      const std::string json = report.dump(2) + "\n";
+      const std::string json = JsonReport(result, ctx);
       files.Stage(o.json_path, [&](std::ostream& f) { f << json; });
     }
     if (!o.output_path.empty()) {
@@ -267,7 +266,6 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     if (trace && !o.plot_dir.empty()) PlotTrace(o.plot_dir, points, copts, *trace, files);
     if (text) {
       WriteTextReport(out, result, ctx);
-      if (trace) WriteTraceText(out, *trace, validation ? &*validation : nullptr);
     }
     if (o.quiet) {
       for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";

@@ -4,8 +4,10 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "sph/calib/trace_report.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
+#include "trace_json.hpp"
 
 namespace sph {
 namespace {
@@ -141,6 +143,7 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
     for (const auto& w : r.warnings) out << "  - " << w << "\n";
   }
   out << "\nresult: " << (r.Usable() ? "usable calibration" : "NOT a usable calibration") << "\n";
+  if (ctx.trace != nullptr) WriteTraceText(out, *ctx.trace, ctx.validation);
 }
 
 std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
@@ -228,6 +231,7 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   for (const Outlier& o : r.outliers) outliers.push_back({{"sample", o.sample + 1}, {"residual_um", o.residual_um}});
   j["outliers"] = outliers;
   j["warnings"] = r.warnings;
+  if (ctx.trace != nullptr) internal::AddTraceJson(j, *ctx.trace, ctx.validation);
   return j.dump(2) + "\n";
 }
 
@@ -254,6 +258,80 @@ CalibrationFile MakeCalibrationFile(const CalibrationResult& r, const ReportCont
   }
   for (const auto& kv : ctx.metadata) cal.source.push_back(kv);
   return cal;
+}
+
+bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
+  bool drift = false;
+  file.effects.reference = fit.model.reference;
+  file.effects.phi_wobble_pivot_mm = fit.model.phi_wobble_pivot_mm;
+  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
+    if (fit.model.terms[t].effect == Effect::kProbeDrift) {
+      drift = true;
+      continue;
+    }
+    file.effects.terms.push_back(fit.model.terms[t]);
+    file.effect_values.push_back(fit.values[t]);
+  }
+  // The form of the setups of known orientation: the calibration sphere's, on its body frame.
+  if (!fit.model.form.Empty()) {
+    const ObservabilityReport& rep = fit.calibration.analysis;
+    file.form_terms = fit.model.form.terms;
+    file.form_values_mm = fit.form_values[0];
+    file.form_std_mm.clear();
+    for (std::size_t k = 0; k < file.form_terms.size() && !rep.Empty(); ++k) {
+      file.form_std_mm.push_back(rep.std(fit.FormOffset(0) + static_cast<int>(k)));
+    }
+    bool finite = true;
+    for (const double v : file.form_std_mm) finite &= std::isfinite(v);
+    if (!finite) file.form_std_mm.clear();
+  }
+  return drift;
+}
+
+std::vector<int> AppliedColumns(const EffectFit& fit) {
+  std::vector<int> columns;
+  for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
+  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
+    if (fit.model.terms[t].effect == Effect::kProbeDrift) continue;
+    for (int i = 0; i < fit.model.terms[t].size(); ++i) columns.push_back(fit.TermOffset(t) + i);
+  }
+  if (!fit.model.form.Empty()) {
+    for (std::size_t k = 0; k < fit.model.form.terms.size(); ++k)
+      columns.push_back(fit.FormOffset(0) + static_cast<int>(k));
+  }
+  return columns;
+}
+
+void AddCovarianceToCalibrationFile(const std::vector<int>& columns, const CalibrationResult& result,
+                                    const CalibrationBudget* budget, CalibrationFile& file) {
+  if (result.analysis.Empty()) return;
+  const Eigen::MatrixXd& all = budget != nullptr ? budget->covariance : result.analysis.covariance;
+  const auto n = static_cast<Eigen::Index>(columns.size());
+  Eigen::MatrixXd c(n, n);
+  for (Eigen::Index p = 0; p < n; ++p) {
+    for (Eigen::Index q = 0; q < n; ++q)
+      c(p, q) = all(columns[static_cast<std::size_t>(p)], columns[static_cast<std::size_t>(q)]);
+  }
+  if (!c.allFinite()) return;  // a parameter the data do not determine: the seven errors' block alone
+  file.covariance = c.topLeftCorner<kNumScmsParams, kNumScmsParams>();
+  if (n > kNumScmsParams) file.parameter_covariance = c;
+  file.covariance_type_a_dof =
+      budget != nullptr ? budget->type_a_dof
+                        : static_cast<double>(result.n_points) - static_cast<double>(result.analysis.parameters.size());
+  if (budget == nullptr) return;
+  for (const BudgetSensitivity& s : budget->inputs) {
+    CalibrationFile::CovarianceInput in{s.input, s.unit, s.u, Eigen::VectorXd(n)};
+    for (Eigen::Index p = 0; p < n; ++p) in.per_unit(p) = s.per_unit(columns[static_cast<std::size_t>(p)]);
+    file.covariance_inputs.push_back(in);
+  }
+}
+
+Calibration CompensationOf(const EffectFit& fit, double probe_offset_mm) {
+  CalibrationFile file;
+  file.geometry = fit.calibration.geometry;
+  file.probe_offset_mm = probe_offset_mm;
+  AddEffectsToCalibrationFile(fit, file);
+  return ToCalibration(file);
 }
 
 }  // namespace sph

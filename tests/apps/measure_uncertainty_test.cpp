@@ -9,8 +9,8 @@
 
 #include <gtest/gtest.h>
 
-#include "calibrate_trace.hpp"
 #include "sph/calib/effect_fit.hpp"
+#include "sph/calib/report.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/core/sphere_measurement.hpp"

@@ -9,9 +9,14 @@
 
 #include "sph/calib/budget.hpp"
 #include "sph/calib/calibrator.hpp"
+#include "sph/calib/effect_fit.hpp"
 #include "sph/core/calibration_file.hpp"
+#include "sph/model/compensation.hpp"
 
 namespace sph {
+
+struct TraceResult;  // sph/calib/trace.hpp
+struct Validation;   // sph/calib/trace_report.hpp
 
 /// What the report says about where the data came from.
 struct ReportContext {
@@ -23,10 +28,14 @@ struct ReportContext {
   std::vector<std::pair<std::string, std::string>> metadata;  ///< the points file's extra header fields
   /// The uncertainty budget of the result's parameters (GUM), when made; not owned.
   const CalibrationBudget* budget = nullptr;
+  /// The residual traced to further effects, when traced, and its validation on another sphere
+  /// (sph/calib/trace_report.hpp): both reports then carry them. Not owned.
+  const TraceResult* trace = nullptr;
+  const Validation* validation = nullptr;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,
-/// correlations, conditioning and warnings.
+/// correlations, conditioning and warnings; then the trace, when ctx.trace is set.
 void WriteTextReport(std::ostream& out, const CalibrationResult& result, const ReportContext& ctx);
 
 /// The same as JSON (format described in README.md, "sph_calibrate --json").
@@ -34,6 +43,28 @@ std::string JsonReport(const CalibrationResult& result, const ReportContext& ctx
 
 /// The calibration file for compensation: the seven errors, their covariance, d and R0.
 CalibrationFile MakeCalibrationFile(const CalibrationResult& result, const ReportContext& ctx);
+
+/// Puts the effects of `fit` into a calibration file, except probe_drift (it belongs to the run).
+/// Returns whether a probe_drift was left out.
+bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file);
+
+/// The columns of the fit's analysis (its parameter order) of what AddEffectsToCalibrationFile()
+/// puts into the file, in the file's covariance order: the seven errors, every effect parameter
+/// but probe_drift's, then the form's coefficients of the setups of known orientation.
+std::vector<int> AppliedColumns(const EffectFit& fit);
+
+/// Puts the covariance of the parameters `columns` of the fit's analysis (in the file's order,
+/// AppliedColumns(); the seven errors' alone without effects) into the file: `covariance` (their
+/// 7 x 7 block) and `parameter_covariance`, the budget's combined one when given (else the fit's),
+/// with each Type B input's share and the Type A degrees of freedom. Nothing when a parameter is
+/// undetermined.
+void AddCovarianceToCalibrationFile(const std::vector<int>& columns, const CalibrationResult& result,
+                                    const CalibrationBudget* budget, CalibrationFile& file);
+
+/// The calibration that compensates with `fit`'s model as its calibration file carries it: the
+/// seven errors and every effect but probe_drift (what AddEffectsToCalibrationFile() writes, read
+/// back as sph_measure reads it).
+Calibration CompensationOf(const EffectFit& fit, double probe_offset_mm);
 
 }  // namespace sph
 

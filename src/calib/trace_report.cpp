@@ -1,23 +1,24 @@
-#include "calibrate_trace.hpp"
+#include "sph/calib/trace_report.hpp"
 
+#include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
 #include <map>
-#include <sstream>
 #include <tuple>
 #include <utility>
 
-#include "gnuplot.hpp"
+#include <nlohmann/json.hpp>
+
 #include "sph/calib/form_report.hpp"
+#include "sph/calib/report.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/model/compensation.hpp"
 #include "sph/model/units.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
+#include "trace_json.hpp"
 
-namespace sph::apps {
+namespace sph {
 namespace {
 
 using internal::Format;
@@ -99,121 +100,34 @@ void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
 
 }  // namespace
 
-bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
-  bool drift = false;
-  file.effects.reference = fit.model.reference;
-  file.effects.phi_wobble_pivot_mm = fit.model.phi_wobble_pivot_mm;
-  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
-    if (fit.model.terms[t].effect == Effect::kProbeDrift) {
-      drift = true;
-      continue;
-    }
-    file.effects.terms.push_back(fit.model.terms[t]);
-    file.effect_values.push_back(fit.values[t]);
-  }
-  // The form of the setups of known orientation: the calibration sphere's, on its body frame.
-  if (!fit.model.form.Empty()) {
-    const ObservabilityReport& rep = fit.calibration.analysis;
-    file.form_terms = fit.model.form.terms;
-    file.form_values_mm = fit.form_values[0];
-    file.form_std_mm.clear();
-    for (std::size_t k = 0; k < file.form_terms.size() && !rep.Empty(); ++k) {
-      file.form_std_mm.push_back(rep.std(fit.FormOffset(0) + static_cast<int>(k)));
-    }
-    bool finite = true;
-    for (const double v : file.form_std_mm) finite &= std::isfinite(v);
-    if (!finite) file.form_std_mm.clear();
-  }
-  return drift;
-}
-
-std::vector<int> AppliedColumns(const EffectFit& fit) {
-  std::vector<int> columns;
-  for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
-  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
-    if (fit.model.terms[t].effect == Effect::kProbeDrift) continue;
-    for (int i = 0; i < fit.model.terms[t].size(); ++i) columns.push_back(fit.TermOffset(t) + i);
-  }
-  if (!fit.model.form.Empty()) {
-    for (std::size_t k = 0; k < fit.model.form.terms.size(); ++k)
-      columns.push_back(fit.FormOffset(0) + static_cast<int>(k));
-  }
-  return columns;
-}
-
-void AddCovarianceToCalibrationFile(const std::vector<int>& columns, const CalibrationResult& result,
-                                    const CalibrationBudget* budget, CalibrationFile& file) {
-  if (result.analysis.Empty()) return;
-  const Eigen::MatrixXd& all = budget != nullptr ? budget->covariance : result.analysis.covariance;
-  const auto n = static_cast<Eigen::Index>(columns.size());
-  Eigen::MatrixXd c(n, n);
-  for (Eigen::Index p = 0; p < n; ++p) {
-    for (Eigen::Index q = 0; q < n; ++q)
-      c(p, q) = all(columns[static_cast<std::size_t>(p)], columns[static_cast<std::size_t>(q)]);
-  }
-  if (!c.allFinite()) return;  // a parameter the data do not determine: the seven errors' block alone
-  file.covariance = c.topLeftCorner<kNumScmsParams, kNumScmsParams>();
-  if (n > kNumScmsParams) file.parameter_covariance = c;
-  file.covariance_type_a_dof =
-      budget != nullptr ? budget->type_a_dof
-                        : static_cast<double>(result.n_points) - static_cast<double>(result.analysis.parameters.size());
-  if (budget == nullptr) return;
-  for (const BudgetSensitivity& s : budget->inputs) {
-    CalibrationFile::CovarianceInput in{s.input, s.unit, s.u, Eigen::VectorXd(n)};
-    for (Eigen::Index p = 0; p < n; ++p) in.per_unit(p) = s.per_unit(columns[static_cast<std::size_t>(p)]);
-    file.covariance_inputs.push_back(in);
-  }
-}
-
 Validation Validate(const std::string& path, double probe_offset_mm, const TraceResult& trace) {
   const PointsData data = ReadPointsFile(path);
   Validation v;
   v.path = path;
   v.n_points = static_cast<int>(data.samples.size());
-  // The machine's model without probe_drift, which belongs to the calibration run.
-  const EffectFit& after = trace.after.fit;
-  EffectModel model;
-  model.reference = after.model.reference;
-  model.phi_wobble_pivot_mm = after.model.phi_wobble_pivot_mm;
-  std::vector<std::vector<double>> values;
-  for (std::size_t t = 0; t < after.model.terms.size(); ++t) {
-    if (after.model.terms[t].effect == Effect::kProbeDrift) {
-      v.note = "probe_drift is not applied: a drift belongs to the run it was measured in";
-      continue;
-    }
-    model.terms.push_back(after.model.terms[t]);
-    values.push_back(after.values[t]);
+  if (trace.after.fit.model.Find(Effect::kProbeDrift) >= 0) {
+    v.note = "probe_drift is not applied: a drift belongs to the run it was measured in";
   }
+  const Calibration before = CompensationOf(trace.before.fit, probe_offset_mm);
+  const Calibration after = CompensationOf(trace.after.fit, probe_offset_mm);
   // Each setup is a sphere position of its own: one least-squares sphere each.
-  std::map<int, std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>>> points;
-  std::map<int, std::vector<EffectReading>> readings;
-  const ScmsGeometry& g0 = trace.before.fit.calibration.geometry;
-  for (const Sample& s : data.samples) {
-    const EffectReading x(s.theta_deg, s.phi_deg, s.r_mm, s.t_s);
-    auto& [before_pts, after_pts] = points[s.setup];
-    before_pts.push_back(ScmsPoint(g0, x.theta_rad, x.phi_rad, s.r_mm, probe_offset_mm));
-    after_pts.push_back(EffectScmsPoint(after.calibration.geometry, model, values, x, probe_offset_mm));
-    readings[s.setup].push_back(x);
-  }
-  // A probe_incidence term needs the sphere's centre: that of the points without it, then again.
-  for (int pass = 0; pass < 2 && model.Find(Effect::kProbeIncidence) >= 0; ++pass) {
-    for (auto& [setup, pts] : points) {
-      const LeastSquaresSphere fit = FitSphereLeastSquares(pts.second);
+  std::map<int, std::vector<Sample>> setups;
+  for (const Sample& s : data.samples) setups[s.setup].push_back(s);
+  for (const auto& [setup, samples] : setups) {
+    const std::vector<Eigen::Vector3d> before_pts = CompensateAll(before, samples);
+    std::vector<Eigen::Vector3d> after_pts = CompensateAll(after, samples);
+    // A probe_incidence term needs the sphere's centre: that of the points without it, then again.
+    for (int pass = 0; pass < 2 && after.effects.Find(Effect::kProbeIncidence) >= 0; ++pass) {
+      const LeastSquaresSphere fit = FitSphereLeastSquares(after_pts);
       if (!fit.sphere.ok) break;
-      const std::vector<EffectReading>& xs = readings[setup];
-      for (std::size_t i = 0; i < xs.size(); ++i) {
-        pts.second[i] =
-            EffectScmsPoint(after.calibration.geometry, model, values, xs[i], probe_offset_mm, &fit.sphere.center);
-      }
+      after_pts = CompensateAll(after, samples, fit.sphere.center);
     }
-  }
-  for (const auto& [setup, pts] : points) {
     ValidationSetup vs;
     vs.setup = setup;
-    vs.n_points = static_cast<int>(pts.first.size());
+    vs.n_points = static_cast<int>(samples.size());
     try {
-      std::tie(vs.before_um, vs.before_rms_um) = LsSphericityUm(pts.first);
-      std::tie(vs.after_um, vs.after_rms_um) = LsSphericityUm(pts.second);
+      std::tie(vs.before_um, vs.before_rms_um) = LsSphericityUm(before_pts);
+      std::tie(vs.after_um, vs.after_rms_um) = LsSphericityUm(after_pts);
     } catch (const Error& e) {
       throw Error(path + ": setup " + std::to_string(setup) + ": " + e.what());
     }
@@ -239,7 +153,6 @@ Validation Validate(const std::string& path, double probe_offset_mm, const Trace
   c.inside_noise = std::abs(c.difference_um) <= 2.0 * c.difference_u_um;
   return v;
 }
-
 namespace {
 
 // The rms, peak to valley, cross-validated rms and structure p before and after, and the
@@ -403,7 +316,6 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   WriteAmbiguities(out, r);
   if (validation) WriteValidation(out, validation);
 }
-
 namespace {
 
 // The effects of the final model with their values and standard uncertainties.
@@ -525,6 +437,8 @@ json ValidationJson(const Validation& validation) {
 
 }  // namespace
 
+namespace internal {
+
 void AddTraceJson(json& report, const TraceResult& r, const Validation* validation) {
   json added = json::array();
   for (Effect e : r.added) added.push_back(InfoOf(e).id);
@@ -548,96 +462,6 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
   if (validation) report["validation"] = ValidationJson(*validation);
 }
 
-void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
-               const TraceResult& r, OutputFiles& files) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
-  const std::string folder = dir + "/";
-  // Every reading under each model (outliers too: they show at the end of the colour scale).
-  const std::vector<double> before = EffectResiduals(points, options, r.before.fit);
-  const std::vector<double> after = EffectResiduals(points, options, r.after.fit);
-  files.Stage(folder + "residuals.dat", [&](std::ostream& f) {
-    f << "# theta_deg phi_deg t_s residual_before_um residual_after_um\n";
-    for (std::size_t i = 0; i < points.samples.size(); ++i) {
-      const Sample& s = points.samples[i];
-      f << Format("%.6f %.6f %.6f %.6f %.6f\n", s.theta_deg, s.phi_deg, s.t_s, before[i] * kUmPerMm,
-                  after[i] * kUmPerMm);
-    }
-  });
-  // The colour scale of the readings the seven-error fit used (at least 1 nm).
-  double lim = 1e-3;
-  for (double e : r.before.fit.calibration.residuals_mm) lim = std::max(lim, std::abs(e) * kUmPerMm);
-  std::string added;
-  for (Effect e : r.added) added += (added.empty() ? " + " : ", ") + std::string(InfoOf(e).id);
-  std::ostringstream script;
-  script << "# Residual plots of sph_calibrate; rerun with: gnuplot residuals.gp (in this folder)\n"
-         << "if (!exists(\"data\")) data = 'residuals.dat'\n"
-         << "if (!exists(\"map_png\")) map_png = 'residual_map.png'\n"
-         << "if (!exists(\"time_png\")) time_png = 'residual_time.png'\n"
-         << "set terminal pngcairo size 1400,560 noenhanced font ',11'\n"
-         << "set output map_png\n"
-         << "set multiplot layout 1,2 title 'Residual |p - O| - R0 [um] over theta and phi'\n"
-         << "set xlabel 'theta [deg]'\nset ylabel 'phi [deg]'\nset xrange [0:360]\nset yrange [180:0]\n"
-         << "set palette defined (-1 'blue', 0 'white', 1 'red')\n"
-         << Format("set cbrange [%.6f:%.6f]\n", -lim, lim) << "set cblabel 'um'\n"
-         << Format("set title 'before: seven errors, rms %.4f um'\n", r.before.fit.calibration.rms_um)
-         << "plot data using 1:2:4 with points pt 5 ps 2.2 lc palette notitle\n"
-         << "set title "
-         << GnuplotQuoted(Format("after: seven errors%s, rms %.4f um", added.c_str(), r.after.fit.calibration.rms_um))
-         << "\n"
-         << "plot data using 1:2:5 with points pt 5 ps 2.2 lc palette notitle\n"
-         << "unset multiplot\n"
-         << "set output time_png\nset size 1,1\nset autoscale\nset yrange [*:*]\n"
-         << "set title 'Residual against acquisition time'\nset xlabel 't [s]'\nset ylabel 'residual [um]'\n"
-         << "set key top left\n"
-         << "plot data using 3:4 with points pt 7 ps 0.6 lc rgb '#c03030' title 'before', "
-            "data using 3:5 with points pt 7 ps 0.6 lc rgb '#3050c0' title 'after'\n";
-  files.Stage(folder + "residuals.gp", [&](std::ostream& f) { f << script.str(); });
-  // gnuplot reads the staged data and draws into the staged images, by their names in the folder.
-  const auto name_in_folder = [](const std::string& path) { return path.substr(path.find_last_of('/') + 1); };
-  GnuplotRun run;
-  run.folder = dir;
-  run.script = script.str();
-  run.description = "the residual plots";
-  run.variables = {{"data", name_in_folder(files.StagedName(folder + "residuals.dat"))},
-                   {"map_png", name_in_folder(files.StageProduced(folder + "residual_map.png"))},
-                   {"time_png", name_in_folder(files.StageProduced(folder + "residual_time.png"))}};
-  RunGnuplot(run, "--plot-dir " + dir);
-  // The sphere's form, when the trace separated it: a map over its body frame.
-  const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
-  if (forms.empty()) return;
-  const SphereFormResult& form = forms.front();
-  const std::vector<std::array<double, 3>> map = FormMap(r.after.fit, 0, 1.0);
-  double form_lim = 1e-6;
-  for (const auto& row : map) form_lim = std::max(form_lim, std::abs(row[2]));
-  files.Stage(folder + "sphere_form.dat", [&](std::ostream& f) {
-    f << "# the calibration sphere's form on its body frame: longitude_deg polar_deg form_um\n";
-    for (const auto& row : map) f << Format("%.1f %.1f %.6f\n", row[1], row[0], row[2]);
-  });
-  std::ostringstream form_script;
-  form_script << "# The sphere's form map of sph_calibrate; rerun with: gnuplot sphere_form.gp (in this folder)\n"
-              << "if (!exists(\"data\")) data = 'sphere_form.dat'\n"
-              << "if (!exists(\"png\")) png = 'sphere_form_map.png'\n"
-              << "set terminal pngcairo size 1100,600 noenhanced font ',11'\nset output png\n"
-              << "set title "
-              << GnuplotQuoted(Format("Form of the calibration sphere on its body frame, degrees 2..%d: rms %.4f +- "
-                                      "%.4f um, peak to valley %.4f um",
-                                      form.degree_max, form.rms_um, form.rms_std_um, form.pv_um))
-              << "\n"
-              << "set xlabel 'longitude [deg] (from the body x axis)'\nset ylabel 'polar angle [deg] (from the body z "
-                 "axis)'\n"
-              << "set xrange [0:360]\nset yrange [180:0]\nset palette defined (-1 'blue', 0 'white', 1 'red')\n"
-              << Format("set cbrange [%.6f:%.6f]\n", -form_lim, form_lim)
-              << "set cblabel 'radial form [um]'\nplot data using 1:2:3 with image notitle\n";
-  files.Stage(folder + "sphere_form.gp", [&](std::ostream& f) { f << form_script.str(); });
-  GnuplotRun form_run;
-  form_run.folder = dir;
-  form_run.script = form_script.str();
-  form_run.description = "the sphere's form map";
-  form_run.variables = {{"data", name_in_folder(files.StagedName(folder + "sphere_form.dat"))},
-                        {"png", name_in_folder(files.StageProduced(folder + "sphere_form_map.png"))}};
-  RunGnuplot(form_run, "--plot-dir " + dir);
-}
+}  // namespace internal
 
-}  // namespace sph::apps
+}  // namespace sph

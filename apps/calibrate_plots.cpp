@@ -1,0 +1,110 @@
+#include "calibrate_plots.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include "gnuplot.hpp"
+#include "sph/calib/form_report.hpp"
+#include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph::apps {
+
+using internal::Format;
+
+void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
+               const TraceResult& r, OutputFiles& files) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+  const std::string folder = dir + "/";
+  // Every reading under each model (outliers too: they show at the end of the colour scale).
+  const std::vector<double> before = EffectResiduals(points, options, r.before.fit);
+  const std::vector<double> after = EffectResiduals(points, options, r.after.fit);
+  files.Stage(folder + "residuals.dat", [&](std::ostream& f) {
+    f << "# theta_deg phi_deg t_s residual_before_um residual_after_um\n";
+    for (std::size_t i = 0; i < points.samples.size(); ++i) {
+      const Sample& s = points.samples[i];
+      f << Format("%.6f %.6f %.6f %.6f %.6f\n", s.theta_deg, s.phi_deg, s.t_s, before[i] * kUmPerMm,
+                  after[i] * kUmPerMm);
+    }
+  });
+  // The colour scale of the readings the seven-error fit used (at least 1 nm).
+  double lim = 1e-3;
+  for (double e : r.before.fit.calibration.residuals_mm) lim = std::max(lim, std::abs(e) * kUmPerMm);
+  std::string added;
+  for (Effect e : r.added) added += (added.empty() ? " + " : ", ") + std::string(InfoOf(e).id);
+  std::ostringstream script;
+  script << "# Residual plots of sph_calibrate; rerun with: gnuplot residuals.gp (in this folder)\n"
+         << "if (!exists(\"data\")) data = 'residuals.dat'\n"
+         << "if (!exists(\"map_png\")) map_png = 'residual_map.png'\n"
+         << "if (!exists(\"time_png\")) time_png = 'residual_time.png'\n"
+         << "set terminal pngcairo size 1400,560 noenhanced font ',11'\n"
+         << "set output map_png\n"
+         << "set multiplot layout 1,2 title 'Residual |p - O| - R0 [um] over theta and phi'\n"
+         << "set xlabel 'theta [deg]'\nset ylabel 'phi [deg]'\nset xrange [0:360]\nset yrange [180:0]\n"
+         << "set palette defined (-1 'blue', 0 'white', 1 'red')\n"
+         << Format("set cbrange [%.6f:%.6f]\n", -lim, lim) << "set cblabel 'um'\n"
+         << Format("set title 'before: seven errors, rms %.4f um'\n", r.before.fit.calibration.rms_um)
+         << "plot data using 1:2:4 with points pt 5 ps 2.2 lc palette notitle\n"
+         << "set title "
+         << GnuplotQuoted(Format("after: seven errors%s, rms %.4f um", added.c_str(), r.after.fit.calibration.rms_um))
+         << "\n"
+         << "plot data using 1:2:5 with points pt 5 ps 2.2 lc palette notitle\n"
+         << "unset multiplot\n"
+         << "set output time_png\nset size 1,1\nset autoscale\nset yrange [*:*]\n"
+         << "set title 'Residual against acquisition time'\nset xlabel 't [s]'\nset ylabel 'residual [um]'\n"
+         << "set key top left\n"
+         << "plot data using 3:4 with points pt 7 ps 0.6 lc rgb '#c03030' title 'before', "
+            "data using 3:5 with points pt 7 ps 0.6 lc rgb '#3050c0' title 'after'\n";
+  files.Stage(folder + "residuals.gp", [&](std::ostream& f) { f << script.str(); });
+  // gnuplot reads the staged data and draws into the staged images, by their names in the folder.
+  const auto name_in_folder = [](const std::string& path) { return path.substr(path.find_last_of('/') + 1); };
+  GnuplotRun run;
+  run.folder = dir;
+  run.script = script.str();
+  run.description = "the residual plots";
+  run.variables = {{"data", name_in_folder(files.StagedName(folder + "residuals.dat"))},
+                   {"map_png", name_in_folder(files.StageProduced(folder + "residual_map.png"))},
+                   {"time_png", name_in_folder(files.StageProduced(folder + "residual_time.png"))}};
+  RunGnuplot(run, "--plot-dir " + dir);
+  // The sphere's form, when the trace separated it: a map over its body frame.
+  const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
+  if (forms.empty()) return;
+  const SphereFormResult& form = forms.front();
+  const std::vector<std::array<double, 3>> map = FormMap(r.after.fit, 0, 1.0);
+  double form_lim = 1e-6;
+  for (const auto& row : map) form_lim = std::max(form_lim, std::abs(row[2]));
+  files.Stage(folder + "sphere_form.dat", [&](std::ostream& f) {
+    f << "# the calibration sphere's form on its body frame: longitude_deg polar_deg form_um\n";
+    for (const auto& row : map) f << Format("%.1f %.1f %.6f\n", row[1], row[0], row[2]);
+  });
+  std::ostringstream form_script;
+  form_script << "# The sphere's form map of sph_calibrate; rerun with: gnuplot sphere_form.gp (in this folder)\n"
+              << "if (!exists(\"data\")) data = 'sphere_form.dat'\n"
+              << "if (!exists(\"png\")) png = 'sphere_form_map.png'\n"
+              << "set terminal pngcairo size 1100,600 noenhanced font ',11'\nset output png\n"
+              << "set title "
+              << GnuplotQuoted(Format("Form of the calibration sphere on its body frame, degrees 2..%d: rms %.4f +- "
+                                      "%.4f um, peak to valley %.4f um",
+                                      form.degree_max, form.rms_um, form.rms_std_um, form.pv_um))
+              << "\n"
+              << "set xlabel 'longitude [deg] (from the body x axis)'\nset ylabel 'polar angle [deg] (from the body z "
+                 "axis)'\n"
+              << "set xrange [0:360]\nset yrange [180:0]\nset palette defined (-1 'blue', 0 'white', 1 'red')\n"
+              << Format("set cbrange [%.6f:%.6f]\n", -form_lim, form_lim)
+              << "set cblabel 'radial form [um]'\nplot data using 1:2:3 with image notitle\n";
+  files.Stage(folder + "sphere_form.gp", [&](std::ostream& f) { f << form_script.str(); });
+  GnuplotRun form_run;
+  form_run.folder = dir;
+  form_run.script = form_script.str();
+  form_run.description = "the sphere's form map";
+  form_run.variables = {{"data", name_in_folder(files.StagedName(folder + "sphere_form.dat"))},
+                        {"png", name_in_folder(files.StageProduced(folder + "sphere_form_map.png"))}};
+  RunGnuplot(form_run, "--plot-dir " + dir);
+}
+
+}  // namespace sph::apps

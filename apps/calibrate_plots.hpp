@@ -1,0 +1,28 @@
+// sph_calibrate's residual plots of a trace (before and after, over the sphere and against time)
+// and the map of the sphere's form, drawn by gnuplot.
+#ifndef SPH_APPS_CALIBRATE_PLOTS_HPP_
+#define SPH_APPS_CALIBRATE_PLOTS_HPP_
+
+#include <string>
+#include <vector>
+
+#include "sph/calib/trace.hpp"
+#include "sph/core/output_files.hpp"
+#include "sph/core/points_file.hpp"
+
+namespace sph::apps {
+
+/// The files PlotTrace() writes into its folder.
+inline const std::vector<std::string> kTracePlotFiles = {"residual_map.png", "residual_time.png",   "residuals.dat",
+                                                         "residuals.gp",     "sphere_form_map.png", "sphere_form.dat",
+                                                         "sphere_form.gp"};
+
+/// Stages residual_map.png (over theta and phi, before and after) and residual_time.png (against
+/// t), drawn now, with their gnuplot script and data, in `dir` (created when missing).
+/// `points`: every reading of the calibration (outliers too).
+void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
+               const TraceResult& trace, OutputFiles& files);
+
+}  // namespace sph::apps
+
+#endif  // SPH_APPS_CALIBRATE_PLOTS_HPP_
