@@ -7,13 +7,13 @@
 #include <limits>
 #include <memory>
 #include <mutex>
-#include <thread>
 
 #include "calibrate_rows.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/gum.hpp"
+#include "sph/internal/parallel.hpp"
 #include "sph/model/units.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
@@ -140,16 +140,14 @@ std::vector<Trial> RunTrials(const MonteCarloSpec& spec, const std::function<voi
   const long total = static_cast<long>(n_ecc * n_trials);
   const std::vector<PointsData> exact = ExactReadings(spec);
   std::vector<Trial> trials(static_cast<std::size_t>(total));
-  std::atomic<long> next{0}, done{0};
+  std::atomic<long> done{0};
   std::mutex progress_mutex, error_mutex;
   std::string error;
   const long step = std::max(1L, total / 100);
-  auto worker = [&]() {
-    TrialScratch scratch(n_ecc);
-    for (long i = next++; i < total; i = next++) {
+  internal::ParallelFor(static_cast<std::size_t>(total), spec.threads, [&] {
+    return [&, scratch = TrialScratch(n_ecc)](std::size_t i) mutable {
       try {
-        trials[static_cast<std::size_t>(i)] = RunTrial(spec, static_cast<std::size_t>(i) / n_trials,
-                                                       static_cast<std::size_t>(i) % n_trials, exact, scratch);
+        trials[i] = RunTrial(spec, i / n_trials, i % n_trials, exact, scratch);
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(error_mutex);
         if (error.empty()) error = e.what();
@@ -159,14 +157,8 @@ std::vector<Trial> RunTrials(const MonteCarloSpec& spec, const std::function<voi
         std::lock_guard<std::mutex> lock(progress_mutex);
         progress(d, total);
       }
-    }
-  };
-  unsigned n_threads = spec.threads > 0 ? static_cast<unsigned>(spec.threads) : std::thread::hardware_concurrency();
-  n_threads = std::max(1u, std::min<unsigned>(n_threads, static_cast<unsigned>(total)));
-  std::vector<std::thread> pool;
-  for (unsigned w = 1; w < n_threads; ++w) pool.emplace_back(worker);
-  worker();
-  for (auto& th : pool) th.join();
+    };
+  });
   if (!error.empty()) throw Error("Monte Carlo: " + error);
   return trials;
 }

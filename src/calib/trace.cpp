@@ -1,7 +1,6 @@
 #include "sph/calib/trace.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -10,7 +9,6 @@
 #include <numeric>
 #include <set>
 #include <system_error>
-#include <thread>
 
 #include <Eigen/QR>
 
@@ -21,6 +19,7 @@
 #include "sph/core/error.hpp"
 #include "sph/core/gum.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/internal/parallel.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"
 
@@ -28,6 +27,7 @@ namespace sph {
 namespace {
 
 using internal::Format;
+using internal::ParallelFor;
 
 bool IsThetaMachine(Effect e) {
   return e == Effect::kThetaEncoder || e == Effect::kThetaRadialMotion || e == Effect::kThetaAxialMotion ||
@@ -779,21 +779,7 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
     const std::lock_guard<std::mutex> lock(progress_mutex);
     trace.progress(round, ++scored, static_cast<int>(todo.size()));
   };
-  const unsigned threads =
-      trace.threads > 0 ? static_cast<unsigned>(trace.threads) : std::max(1u, std::thread::hardware_concurrency());
-  std::atomic<std::size_t> next{0};
-  std::vector<std::thread> workers;
-  for (unsigned w = 1; w < std::min<std::size_t>(threads, todo.size()); ++w) {
-    try {
-      workers.emplace_back([&] {
-        for (std::size_t i; (i = next++) < todo.size();) score(i);
-      });
-    } catch (const std::system_error&) {
-      break;  // no more threads to be had: this one scores the rest
-    }
-  }
-  for (std::size_t i; (i = next++) < todo.size();) score(i);
-  for (std::thread& t : workers) t.join();
+  ParallelFor(todo.size(), trace.threads, [&] { return score; });
   for (const std::exception_ptr& f : failures) {
     if (f) std::rethrow_exception(f);
   }

@@ -1,25 +1,25 @@
 #include "sph/core/sphere_measurement.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <exception>
 #include <limits>
 #include <mutex>
 #include <stdexcept>
 #include <system_error>
-#include <thread>
 
 #include <Eigen/Eigenvalues>
 
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/internal/parallel.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
 
 using internal::Format;
+using internal::ParallelFor;
 
 // The readings' sines and cosines, once for all evaluations.
 std::vector<EffectReading> FixedReadings(const std::vector<RawReading>& readings) {
@@ -342,15 +342,12 @@ CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawRead
     Eigen::Vector3d center = Eigen::Vector3d::Zero();
   };
   std::vector<Outcome> outcomes(draws.size());
-  std::atomic<std::size_t> next{0};
   std::size_t done = 0;
   std::mutex progress_mutex;
-  std::exception_ptr failure;  // the first exception of a worker, rethrown here
-  auto work = [&] {
-    MovedCalibration moved(applied, readings);
-    SphereFitOptions ls_options;
-    ls_options.start = nominal.ls.sphere;  // each draw's sphere is near the nominal one
-    for (std::size_t s; (s = next++) < draws.size();) {
+  SphereFitOptions ls_options;
+  ls_options.start = nominal.ls.sphere;  // each draw's sphere is near the nominal one
+  ParallelFor(draws.size(), options.threads, [&] {
+    return [&, moved = MovedCalibration(applied, readings)](std::size_t s) mutable {
       const std::vector<Eigen::Vector3d>& points = moved.Points(&draws[s], scales[s]);
       const LeastSquaresSphere ls = FitSphereLeastSquares(points, ls_options);
       Outcome& o = outcomes[s];
@@ -375,31 +372,8 @@ CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawRead
       const std::lock_guard<std::mutex> lock(progress_mutex);  // counted and told in order
       ++done;
       if (options.progress) options.progress(static_cast<int>(done), options.samples);
-    }
-  };
-  auto worker = [&] {
-    try {
-      work();
-    } catch (...) {
-      const std::lock_guard<std::mutex> lock(progress_mutex);
-      if (!failure) failure = std::current_exception();
-      next = draws.size();  // the others stop after their current draw
-    }
-  };
-  unsigned n_threads =
-      options.threads > 0 ? static_cast<unsigned>(options.threads) : std::thread::hardware_concurrency();
-  n_threads = std::max(1u, std::min<unsigned>(n_threads, static_cast<unsigned>(draws.size())));
-  std::vector<std::thread> pool;
-  for (unsigned w = 1; w < n_threads; ++w) {
-    try {
-      pool.emplace_back(worker);
-    } catch (const std::system_error&) {
-      break;  // no more threads to be had: this one does the rest
-    }
-  }
-  worker();
-  for (std::thread& t : pool) t.join();
-  if (failure) std::rethrow_exception(failure);
+    };
+  });
 
   std::vector<double> radius, pv_ls, pv_mz, form;
   std::vector<Eigen::Vector3d> center;
