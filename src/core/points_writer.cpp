@@ -87,14 +87,19 @@ void CheckSameNumber(const std::string& path, const std::map<std::string, std::s
 
 void PointsWriter::CheckContinuable(const std::string& path, const PointsHeader& header,
                                     const PointsWriterOptions& options) {
+  Continuable(path, header, options);
+}
+
+PointsWriter::RotationFields PointsWriter::Continuable(const std::string& path, const PointsHeader& header,
+                                                       const PointsWriterOptions& options) {
   AppendFile::CheckTarget(path);
   const std::string text = AppendFile::ReadStart(path, 1 << 20);
-  if (text.empty()) return;
+  if (text.empty()) return {};
   const std::string format_line = "# sph-points " + std::to_string(kPointsFormatVersion);
   const std::size_t newline = text.find('\n');
   if (newline == std::string::npos) {
     // A header cut short by a crash of an earlier run is cut off and written again.
-    if (format_line.rfind(text, 0) == 0) return;
+    if (format_line.rfind(text, 0) == 0) return {};
   } else if (Trim(std::string_view(text).substr(0, newline)) == format_line) {
     const auto fields = HeaderFields(text);
     const auto it = fields.find(kColumnsKey);
@@ -105,7 +110,8 @@ void PointsWriter::CheckContinuable(const std::string& path, const PointsHeader&
     }
     CheckSameNumber(path, fields, kRadiusKey, header.sphere_radius_mm);
     CheckSameNumber(path, fields, kProbeOffsetKey, header.probe_offset_mm);
-    const auto rotations = header.mount_rotations.empty() ? fields : MountRotationFields(path);
+    if (header.mount_rotations.empty()) return {};
+    const RotationFields rotations = MountRotationFields(path);
     for (const auto& [setup, ours] : header.mount_rotations) {
       const std::string key = MountRotationKey(setup);
       const auto field = rotations.find(key);
@@ -115,27 +121,22 @@ void PointsWriter::CheckContinuable(const std::string& path, const PointsHeader&
                     ": use another file");
       }
     }
-    return;
+    return rotations;
   }
   throw Error(path + ": is not a points file (its first line is not '" + format_line +
               "'): refusing to append to it; use another file");
 }
 
-namespace {
-const std::string& Checked(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options) {
-  PointsWriter::CheckContinuable(path, header, options);
-  return path;
-}
-}  // namespace
-
 PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options)
-    : file_(Checked(path, header, options), options.fsync_interval_s), options_(options) {
+    : PointsWriter(path, header, options, Continuable(path, header, options)) {}
+
+PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options,
+                           const RotationFields& in_file)
+    : file_(path, options.fsync_interval_s), options_(options) {
   const std::string columns = ColumnsOf(options);
   if (file_.had_content()) {
     resumed_ = true;
     // The mount rotation of a setup the file does not hold yet, before its first row.
-    if (header.mount_rotations.empty()) return;
-    const auto in_file = MountRotationFields(path);
     std::string lines;
     for (const auto& [setup, rotation] : header.mount_rotations) {
       const std::string key = MountRotationKey(setup);

@@ -4,6 +4,7 @@
 #define SPH_CORE_POINTS_WRITER_HPP_
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -60,6 +61,15 @@ class PointsWriter {
   static std::string FormatRow(const Sample& sample, bool has_time, bool has_setup);
 
  private:
+  /// The mount-rotation fields ("mount_rotation_deg@<setup>" to its value) the file at `path`
+  /// holds anywhere (header, or between samples where an appending run wrote a new setup's), read
+  /// only when `header` has rotations to check; throws as CheckContinuable() says.
+  using RotationFields = std::map<std::string, std::string>;
+  static RotationFields Continuable(const std::string& path, const PointsHeader& header,
+                                    const PointsWriterOptions& options);
+  PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options,
+               const RotationFields& in_file);
+
   AppendFile file_;
   PointsWriterOptions options_;
   bool resumed_ = false;
