@@ -5,10 +5,16 @@
 // at two noise levels. A study
 // program, run by hand (README.md, "Closing the loop"):
 //
-//   build/bench/separation_matrix [RUNS]      (default 5 runs per cell, seeds 1..RUNS)
+//   build/bench/separation_matrix [RUNS] [FILTER...]   (default 5 runs per cell, seeds 1..RUNS)
+//
+// Each FILTER narrows the cells run: "one", "three" or "five" (the design), "form" or "noform",
+// "0.03" or "0.05" (sigma), or any other word, which the effects' names must contain (e.g.
+// "phi_encoder+probe_gain"). "-v" prints each run's effects added and its candidates' notes.
 //
 // Prints a row per cell (right: exactly the simulated effects added; wrong: an effect added that
-// was not simulated; form ratio: the form rms found over the simulated one, median; cv/sigma:
+// was not simulated; flagged: of the wrong runs, those whose every wrong effect the report names as
+// an explanation it cannot tell from a simulated effect (ambiguous, with the measurement that
+// would separate them); form ratio: the form rms found over the simulated one, median; cv/sigma:
 // the cross-validated rms over the noise, median; the effects added with their counts), then a
 // summary per group of cases.
 #include <algorithm>
@@ -130,13 +136,51 @@ std::string Name(const std::vector<Effect>& effects) {
 
 struct Tally {
   int runs = 0, right = 0, wrong = 0;
+  int flagged = 0;  // runs with a wrong effect, each of which the trace named as ambiguous with a simulated one
   std::vector<double> form_ratio, cv_over_sigma;
 };
+
+// The cells asked for on the command line.
+struct Filter {
+  std::set<std::string> setups, forms, sigmas;
+  std::vector<std::string> names;
+  bool verbose = false;
+
+  bool Wants(const Case& c, Setups setups_, bool form, double noise) const {
+    const auto in = [](const std::set<std::string>& s, const std::string& v) { return s.empty() || s.count(v) > 0; };
+    const std::string name = Name(c.effects);
+    for (const std::string& n : names) {
+      if (name.find(n) == std::string::npos) return false;
+    }
+    return in(setups, SetupsName(setups_)) && in(forms, form ? "form" : "noform") &&
+           in(sigmas, noise < 0.04 ? "0.03" : "0.05");
+  }
+};
+
+Filter FilterOf(int argc, char** argv) {
+  Filter f;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "one" || a == "three" || a == "five") {
+      f.setups.insert(a);
+    } else if (a == "form" || a == "noform") {
+      f.forms.insert(a);
+    } else if (a == "0.03" || a == "0.05") {
+      f.sigmas.insert(a);
+    } else if (a == "-v") {
+      f.verbose = true;
+    } else {
+      f.names.push_back(a);
+    }
+  }
+  return f;
+}
 
 }  // namespace
 
 int main(int argc, char** argv) {
   const int runs = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
+  const Filter filter = FilterOf(argc, argv);
   sph::CalibrationOptions o;
   o.sphere_radius_mm = 20.0;
   o.probe_offset_mm = 25.0;
@@ -147,13 +191,14 @@ int main(int argc, char** argv) {
       "degrees 2..8; three: the sphere also turned by 90 deg about z and tilted by 90 deg about x; five: and\n"
       "at other eccentricities, azimuths and a height (bench/separation_matrix.cpp, Design())\n",
       runs, runs);
-  std::printf("%-52s %-5s %-6s %5s %5s %6s %6s %8s %8s  %s\n", "effects", "form", "setup", "sigma", "runs", "right",
-              "wrong", "form_r", "cv/sig", "effects added (count)");
+  std::printf("%-52s %-5s %-6s %5s %5s %6s %6s %7s %8s %8s  %s\n", "effects", "form", "setup", "sigma", "runs", "right",
+              "wrong", "flagged", "form_r", "cv/sig", "effects added (count)");
   std::map<std::string, Tally> summary;  // by group, form, design, sigma
   for (const Case& c : Cases()) {
     for (const double noise : {0.03, 0.05}) {
       for (const Setups setups : {Setups::kOne, Setups::kThree, Setups::kFive}) {
         for (const bool form : {false, true}) {
+          if (!filter.Wants(c, setups, form, noise)) continue;
           Tally t;
           std::map<std::string, int> counts;
           const std::set<Effect> expected(c.effects.begin(), c.effects.end());
@@ -164,8 +209,33 @@ int main(int argc, char** argv) {
             const std::set<Effect> added(r.added.begin(), r.added.end());
             ++t.runs;
             t.right += added == expected;
-            t.wrong += std::any_of(added.begin(), added.end(), [&](Effect e) { return expected.count(e) == 0; });
+            const auto is_wrong = [&](Effect e) { return expected.count(e) == 0; };
+            t.wrong += std::any_of(added.begin(), added.end(), is_wrong);
+            // A wrong effect the report names, with a simulated one, as an explanation it cannot tell apart.
+            const auto flagged = [&](Effect e) {
+              return std::any_of(r.ambiguous.begin(), r.ambiguous.end(), [&](const sph::Ambiguity& a) {
+                const std::string id = sph::InfoOf(e).id;
+                for (const Effect x : expected) {
+                  const std::string truth = sph::InfoOf(x).id;
+                  if ((a.chosen == id && a.other == truth) || (a.chosen == truth && a.other == id)) return true;
+                }
+                return false;
+              });
+            };
+            t.flagged += std::any_of(added.begin(), added.end(), is_wrong) &&
+                         std::all_of(added.begin(), added.end(), [&](Effect e) { return !is_wrong(e) || flagged(e); });
             for (const Effect e : added) counts[sph::InfoOf(e).id]++;
+            if (filter.verbose) {
+              std::printf("  seed %d: added %s; cv/sigma %.3f\n", seed, Name(r.added).c_str(),
+                          r.after.cv_rms_um / noise);
+              for (const sph::CandidateScore& cs : r.candidates) {
+                std::printf("    round %d %-20s dBIC %8.1f %s%s\n", cs.round, cs.Id().c_str(), cs.delta_bic,
+                            cs.added ? "ADDED " : "", cs.note.c_str());
+              }
+              for (const sph::Ambiguity& a : r.ambiguous) {
+                std::printf("    ambiguous: %s / %s\n", a.chosen.c_str(), a.other.c_str());
+              }
+            }
             t.cv_over_sigma.push_back(r.after.cv_rms_um / noise);
             if (form && r.form.degree_max > 0) {
               const std::vector<sph::SphereFormResult> found = sph::SphereFormOf(r.after.fit);
@@ -176,25 +246,26 @@ int main(int argc, char** argv) {
           }
           std::string list;
           for (const auto& [id, k] : counts) list += id + " " + std::to_string(k) + "  ";
-          std::printf("%-52s %-5s %-6s %5.2f %5d %6d %6d %8.3f %8.3f  %s\n", Name(c.effects).c_str(),
-                      form ? "yes" : "no", SetupsName(setups), noise, t.runs, t.right, t.wrong, Median(t.form_ratio),
-                      Median(t.cv_over_sigma), list.c_str());
+          std::printf("%-52s %-5s %-6s %5.2f %5d %6d %6d %7d %8.3f %8.3f  %s\n", Name(c.effects).c_str(),
+                      form ? "yes" : "no", SetupsName(setups), noise, t.runs, t.right, t.wrong, t.flagged,
+                      Median(t.form_ratio), Median(t.cv_over_sigma), list.c_str());
           std::fflush(stdout);
           Tally& s =
               summary[c.group + (form ? " form " : " - ") + SetupsName(setups) + (noise < 0.04 ? " 0.03" : " 0.05")];
           s.runs += t.runs;
           s.right += t.right;
           s.wrong += t.wrong;
+          s.flagged += t.flagged;
           s.form_ratio.insert(s.form_ratio.end(), t.form_ratio.begin(), t.form_ratio.end());
           s.cv_over_sigma.insert(s.cv_over_sigma.end(), t.cv_over_sigma.begin(), t.cv_over_sigma.end());
         }
       }
     }
   }
-  std::printf("\nsummary: group form setup sigma | runs right wrong | median form ratio, cv/sigma\n");
+  std::printf("\nsummary: group form setup sigma | runs right wrong flagged | median form ratio, cv/sigma\n");
   for (const auto& [key, s] : summary) {
-    std::printf("%-26s %5d %6d %6d %8.3f %8.3f\n", key.c_str(), s.runs, s.right, s.wrong, Median(s.form_ratio),
-                Median(s.cv_over_sigma));
+    std::printf("%-26s %5d %6d %6d %7d %8.3f %8.3f\n", key.c_str(), s.runs, s.right, s.wrong, s.flagged,
+                Median(s.form_ratio), Median(s.cv_over_sigma));
   }
   return 0;
 }

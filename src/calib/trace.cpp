@@ -396,13 +396,26 @@ EffectFit SelectFormDegree(const Readings& data, const CalibrationOptions& optio
   return best;
 }
 
+// Whether the sphere sat in one place for every setup (their centres within 10 um): the probe
+// reading is then, like the time of a single pass, a function of the direction on the sphere, and
+// a smooth one (to first order e . n, e the eccentricity).
+bool OnePlacement(const EffectFit& fit) {
+  const std::vector<Eigen::Vector3d>& c = fit.calibration.centers_mm;
+  return std::all_of(c.begin(), c.end(), [&](const Eigen::Vector3d& x) { return (x - c.front()).norm() <= 0.010; });
+}
+
 // Whether the candidate follows a variable that a pattern fixed on the sphere is not (the time for
 // probe_drift, the probe reading for the probe terms) and the residual shows its functions of that
 // variable beyond any form of degree 2..5: the linearised BIC of J, every such harmonic and the
-// term's powers against J and the harmonics alone falls by at least min_delta_bic.
-bool ShownBeyondSphere(const CandidateScore& c, const StructureFactor& factor, const TraceOptions& trace) {
+// term's powers against J and the harmonics alone falls by at least min_delta_bic. Never for a
+// probe term with the sphere in one placement: a power of the reading is then a form of low degree
+// (u^k of degree about k), and what it shows beyond degrees 2..5 is a higher degree of the form
+// (the sphere's own, of degree 6 and more) that the reading's small higher terms happen to follow.
+bool ShownBeyondSphere(const CandidateScore& c, const StructureFactor& factor, bool one_placement,
+                       const TraceOptions& trace) {
   const std::string v = InfoOf(c.effect).variable;
   if ((v != "t" && v != "r") || c.term.components.empty()) return false;
+  if (v == "r" && one_placement) return false;
   std::vector<int> functions;
   for (const EffectComponent& comp : c.term.components) functions.push_back(comp.order - 1);
   return DeltaBicBeyondSphere(factor, v, functions) <= -trace.min_delta_bic;
@@ -1043,8 +1056,9 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   // A pattern on the sphere never blocks an effect that its own variable shows: the best such
   // candidate is added, and both explanations are reported.
   if (form_better && best >= 0) {
-    best = BestAdmissible(tried, current, trace,
-                          [&](const CandidateScore& c) { return ShownBeyondSphere(c, current.factor, trace); });
+    best = BestAdmissible(tried, current, trace, [&](const CandidateScore& c) {
+      return ShownBeyondSphere(c, current.factor, OnePlacement(current.fit), trace);
+    });
   }
   const bool form_wins = form_better && best < 0;
   form.note = SphereCompetitorNote(sphere, form_better, form_wins);

@@ -283,6 +283,36 @@ TEST(TraceWithForm, OnePlacementAddsNoEffectForAForm) {
   EXPECT_TRUE(r.added.empty()) << InfoOf(r.added.front()).id;
 }
 
+// One placement, a form of degrees 2..8 and a Phi encoder error of 10 arcsec at one per turn. A
+// power of the probe reading is then a form of low degree, and what probe_nonlinearity showed
+// beyond the degrees 2..5 of the pattern it competes with was the form's degrees 6..8 (it was added
+// in every one of 5 seeds before the probe terms were held to that): no probe term is added, and
+// the two explanations, a pattern on the sphere or a probe term, are reported with their sizes and
+// the measurement that tells them apart.
+TEST(TraceWithForm, OnePlacementAddsNoProbeTermForTheFormsHigherDegrees) {
+  for (const std::uint64_t seed : {1, 2, 3}) {
+    SimulationSpec spec;
+    spec.noise_r_um = 0.03;
+    spec.seed = seed;
+    spec.effects.form = Form28();
+    spec.effects.model.terms = {{Effect::kPhiEncoder, {{1, 0, false}}}};
+    spec.effects.values = {{10 * kRadPerArcsec}};
+    const PointsData points = Simulate(spec);
+    const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
+    ASSERT_FALSE(r.form.separable);
+    for (const Effect e : r.added) {
+      EXPECT_NE(InfoOf(e).variable, std::string("r")) << "seed " << seed << ": " << InfoOf(e).id;
+    }
+    const auto two = std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [](const Ambiguity& a) {
+      return a.chosen == "sphere_form" && InfoOf(Effect::kProbeNonlinearity).id == a.other;
+    });
+    ASSERT_NE(two, r.ambiguous.end()) << "seed " << seed;
+    EXPECT_GT(two->chosen_rms_um, 0.0);
+    EXPECT_GT(two->other_rms_um, 0.0);
+    EXPECT_NE(two->separate_by.find("eccentricity"), std::string::npos) << two->separate_by;
+  }
+}
+
 // Turned and tilted (TurnedAndTilted()): the probe reading is then a function of the body's
 // direction, and its polynomial is one more form turning with the sphere. A form of degrees 2..8
 // and no machine effect; with this seed the trace's form of degrees 2..3 leaves enough of it that
