@@ -430,7 +430,10 @@ double ProbeReadingOfDistance(const SimulatedEffects& e, double distance_mm, dou
   return r;
 }
 
-PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference) {
+namespace {
+
+// Throws unless the sphere, the probe, the centres, the pattern and the effects' values can be simulated.
+void CheckSpec(const SimulationSpec& spec) {
   if (!(spec.sphere_radius_mm > 0.0)) throw Error("simulation: the sphere radius must be positive");
   if (!(spec.probe_offset_mm > 0.0)) throw Error("simulation: the probe offset must be positive");
   if (spec.centers_mm.empty()) throw Error("simulation: no sphere centre given");
@@ -444,7 +447,11 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
                   std::to_string(spec.effects.model.terms[i].size()) + " values");
     }
   }
-  CheckForm(spec.effects, spec.sphere_radius_mm);
+}
+
+// Throws when a mount rotation, an unknown mount or a scan order is given for a setup that does not
+// exist, or a mount rotation is not finite.
+void CheckSetupOptions(const SimulationSpec& spec) {
   const int n_setups = static_cast<int>(spec.centers_mm.size());
   const auto check_setup = [&](int setup, const char* what) {
     if (setup < 0 || setup >= n_setups) {
@@ -459,7 +466,10 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
   }
   for (int setup : spec.mount_unknown) check_setup(setup, "an unknown mount rotation");
   for (const auto& entry : spec.scan_orders) check_setup(entry.first, "a scan order");
+}
 
+// The header of the simulated points, before any sample.
+PointsData EmptyPointsData(const SimulationSpec& spec) {
   PointsData data;
   data.source = "simulation";
   data.header.sphere_radius_mm = spec.sphere_radius_mm;
@@ -467,40 +477,97 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
   data.has_time = true;
   data.has_setup = spec.centers_mm.size() > 1;
   data.samples.reserve(spec.centers_mm.size() * spec.pattern.size());
-  std::vector<double> sin2_incidence;  // of each sample's beam against the surface
-  for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
-    const int setup = static_cast<int>(k);
-    const auto rotation = spec.mount_rotations_deg.find(setup);
-    const Eigen::Matrix3d body_to_theta = rotation == spec.mount_rotations_deg.end()
-                                              ? Eigen::Matrix3d::Identity()
-                                              : RotationOfVectorDeg(rotation->second);
-    if (spec.mount_unknown.count(setup)) {
-      data.header.mount_rotations[setup] = MountRotation::Unknown();
-    } else if (rotation != spec.mount_rotations_deg.end()) {
-      data.header.mount_rotations[setup] = MountRotation::Known(rotation->second);
-    }
-    const auto order = spec.scan_orders.find(setup);
-    const std::vector<AnglePair> scan = InScanOrder(
-        spec.pattern, order == spec.scan_orders.end() ? spec.scan_order : order->second, ScanSeed(spec.seed, k));
-    for (const AnglePair& a : scan) {
-      double sin2 = 0.0;
-      const auto r =
-          TrueProbeDistance(spec.truth, spec.effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg,
-                            spec.probe_offset_mm, spec.centers_mm[k], spec.sphere_radius_mm, body_to_theta, &sin2);
-      sin2_incidence.push_back(sin2);
-      if (!r) {
-        throw Error("simulation: the probe ray misses the sphere at theta " + std::to_string(a.theta_deg) +
-                    " deg, phi " + std::to_string(a.phi_deg) + " deg (setup " + std::to_string(k) + ")");
-      }
-      Sample s;
-      s.theta_deg = a.theta_deg;
-      s.phi_deg = a.phi_deg;
-      s.r_mm = *r;
-      s.t_s = static_cast<double>(data.samples.size()) * spec.sample_period_s;
-      s.setup = static_cast<int>(k);
-      data.samples.push_back(s);
-    }
+  return data;
+}
+
+// The rotation that takes the sphere's body frame into the frame turning with Theta in `setup`.
+Eigen::Matrix3d BodyToTheta(const SimulationSpec& spec, int setup) {
+  const auto rotation = spec.mount_rotations_deg.find(setup);
+  return rotation == spec.mount_rotations_deg.end() ? Eigen::Matrix3d::Identity()
+                                                    : RotationOfVectorDeg(rotation->second);
+}
+
+// Writes the mount rotation of `setup` into the header: unknown, known, or (without one) nothing.
+void RecordMountRotation(const SimulationSpec& spec, int setup, PointsHeader& header) {
+  const auto rotation = spec.mount_rotations_deg.find(setup);
+  if (spec.mount_unknown.count(setup)) {
+    header.mount_rotations[setup] = MountRotation::Unknown();
+  } else if (rotation != spec.mount_rotations_deg.end()) {
+    header.mount_rotations[setup] = MountRotation::Known(rotation->second);
   }
+}
+
+// The measuring pattern in the scan order of setup k.
+std::vector<AnglePair> ScanOfSetup(const SimulationSpec& spec, std::size_t k) {
+  const auto order = spec.scan_orders.find(static_cast<int>(k));
+  return InScanOrder(spec.pattern, order == spec.scan_orders.end() ? spec.scan_order : order->second,
+                     ScanSeed(spec.seed, k));
+}
+
+// Appends the exact probe distances of setup k, in its scan order, to `data`, and the sin^2 of each
+// beam's incidence on the surface to `sin2_incidence`; throws when a beam misses the sphere.
+void AppendSetupDistances(const SimulationSpec& spec, std::size_t k, PointsData& data,
+                          std::vector<double>& sin2_incidence) {
+  const Eigen::Matrix3d body_to_theta = BodyToTheta(spec, static_cast<int>(k));
+  for (const AnglePair& a : ScanOfSetup(spec, k)) {
+    double sin2 = 0.0;
+    const auto r =
+        TrueProbeDistance(spec.truth, spec.effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg,
+                          spec.probe_offset_mm, spec.centers_mm[k], spec.sphere_radius_mm, body_to_theta, &sin2);
+    sin2_incidence.push_back(sin2);
+    if (!r) {
+      throw Error("simulation: the probe ray misses the sphere at theta " + std::to_string(a.theta_deg) + " deg, phi " +
+                  std::to_string(a.phi_deg) + " deg (setup " + std::to_string(k) + ")");
+    }
+    Sample s;
+    s.theta_deg = a.theta_deg;
+    s.phi_deg = a.phi_deg;
+    s.r_mm = *r;
+    s.t_s = static_cast<double>(data.samples.size()) * spec.sample_period_s;
+    s.setup = static_cast<int>(k);
+    data.samples.push_back(s);
+  }
+}
+
+// Sets each reading in `samples` to the probe's reading of the distance in `distances` under `effects`.
+void ReadDistances(const SimulatedEffects& effects, const std::vector<Sample>& distances,
+                   const std::vector<double>& sin2_incidence, std::vector<Sample>& samples) {
+  for (std::size_t i = 0; i < distances.size(); ++i) {
+    samples[i].r_mm = ProbeReadingOfDistance(effects, distances[i].r_mm, distances[i].t_s, sin2_incidence[i]);
+  }
+}
+
+// The readings with the probe's errors normalised by its range `probe_range_mm`; the reference's fit
+// span is the readings' own.
+void ReadWithProbeRange(double probe_range_mm, const std::vector<Sample>& distances,
+                        const std::vector<double>& sin2_incidence, SimulatedEffects& effects,
+                        std::vector<Sample>& samples) {
+  effects.model.reference = WithProbeRange(effects.model.reference, probe_range_mm);
+  ReadDistances(effects, distances, sin2_incidence, samples);
+  // The data's span as a calibration records it; the normalisation stays the probe's.
+  const EffectReference of_readings = EffectReferenceOf(samples);
+  effects.model.reference.r_fit_min_mm = of_readings.r_fit_min_mm;
+  effects.model.reference.r_fit_max_mm = of_readings.r_fit_max_mm;
+}
+
+// The readings with the probe's errors normalised by the readings themselves: the reference and the
+// readings iterated to their common fixed point.
+void ReadToFixedPoint(const std::vector<Sample>& distances, const std::vector<double>& sin2_incidence,
+                      SimulatedEffects& effects, std::vector<Sample>& samples) {
+  for (int it = 0; it < 20; ++it) {
+    ReadDistances(effects, distances, sin2_incidence, samples);
+    const EffectReference next = EffectReferenceOf(samples);
+    const bool settled = next.r_ref_mm == effects.model.reference.r_ref_mm &&
+                         next.r_half_range_mm == effects.model.reference.r_half_range_mm;
+    effects.model.reference = next;
+    if (settled) break;
+  }
+}
+
+// Turns the exact distances in `data` into the probe's readings of them; returns the reference that
+// normalises the probe's errors.
+EffectReference ApplyProbeErrors(const SimulationSpec& spec, const std::vector<double>& sin2_incidence,
+                                 PointsData& data) {
   // The probe's own errors act on the reading, normalised by the range and run of the readings
   // themselves, as a calibration normalises them: the reference and the readings are iterated to
   // their common fixed point (the errors are tiny against the range, so two or three steps do).
@@ -508,26 +575,27 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
   const std::vector<Sample> distances = data.samples;
   effects.model.reference = EffectReferenceOf(distances);
   if (spec.probe_range_mm) {
-    effects.model.reference = WithProbeRange(effects.model.reference, *spec.probe_range_mm);
-    for (std::size_t i = 0; i < distances.size(); ++i) {
-      data.samples[i].r_mm = ProbeReadingOfDistance(effects, distances[i].r_mm, distances[i].t_s, sin2_incidence[i]);
-    }
-    // The data's span as a calibration records it; the normalisation stays the probe's.
-    const EffectReference of_readings = EffectReferenceOf(data.samples);
-    effects.model.reference.r_fit_min_mm = of_readings.r_fit_min_mm;
-    effects.model.reference.r_fit_max_mm = of_readings.r_fit_max_mm;
+    ReadWithProbeRange(*spec.probe_range_mm, distances, sin2_incidence, effects, data.samples);
+  } else {
+    ReadToFixedPoint(distances, sin2_incidence, effects, data.samples);
   }
-  for (int it = 0; it < 20 && !spec.probe_range_mm; ++it) {
-    for (std::size_t i = 0; i < distances.size(); ++i) {
-      data.samples[i].r_mm = ProbeReadingOfDistance(effects, distances[i].r_mm, distances[i].t_s, sin2_incidence[i]);
-    }
-    const EffectReference next = EffectReferenceOf(data.samples);
-    const bool settled = next.r_ref_mm == effects.model.reference.r_ref_mm &&
-                         next.r_half_range_mm == effects.model.reference.r_half_range_mm;
-    effects.model.reference = next;
-    if (settled) break;
+  return effects.model.reference;
+}
+
+}  // namespace
+
+PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference) {
+  CheckSpec(spec);
+  CheckForm(spec.effects, spec.sphere_radius_mm);
+  CheckSetupOptions(spec);
+  PointsData data = EmptyPointsData(spec);
+  std::vector<double> sin2_incidence;  // of each sample's beam against the surface
+  for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
+    RecordMountRotation(spec, static_cast<int>(k), data.header);
+    AppendSetupDistances(spec, k, data, sin2_incidence);
   }
-  if (reference) *reference = effects.model.reference;
+  const EffectReference probe_reference = ApplyProbeErrors(spec, sin2_incidence, data);
+  if (reference) *reference = probe_reference;
   return data;
 }
 
