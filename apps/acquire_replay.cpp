@@ -96,55 +96,114 @@ MasterTraffic ScanForMaster(const std::string& path, const can::MasterConfig& ma
   return t;
 }
 
-int RunReplay(AcquireContext& ctx) {
-  std::unique_ptr<can::CandumpReader> reader;
+namespace {
+
+// The master's configuration for the log: as with --no-nmt when the log holds no NMT command, as
+// with --no-sdo when it holds no SDO request.
+can::MasterConfig MasterForLog(const AcquireContext& ctx, const MasterTraffic& traffic) {
   can::MasterConfig master = ctx.master_config;
-  MasterTraffic traffic;
-  try {
-    traffic = ScanForMaster(ctx.options.replay_path, master);
-    if (master.nmt && !traffic.nmt) {
-      ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no NMT command in it: replayed as with --no-nmt");
-      master.nmt = false;
-      master.configure_pdo = false;
-      master.reset_communication = false;
-    }
-    if (master.sdo && !traffic.sdo) {
-      ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no SDO request in it: replayed as with --no-sdo");
-      master.sdo = false;
-      master.configure_pdo = false;
-    }
-    reader = std::make_unique<can::CandumpReader>(ctx.options.replay_path);
-  } catch (const std::exception& e) {
-    ctx.log(can::LogLevel::kError, e.what());
-    return kExitBadInput;
+  if (master.nmt && !traffic.nmt) {
+    ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no NMT command in it: replayed as with --no-nmt");
+    master.nmt = false;
+    master.configure_pdo = false;
+    master.reset_communication = false;
   }
-  ctx.session = std::make_unique<AcquireSession>(ctx.options, ctx.pipeline_config, master, ctx.log,
-                                                 "replay of " + ctx.options.replay_path);
-  AcquireSession& session = *ctx.session;
-  const double speed = ctx.options.replay_speed;
+  if (master.sdo && !traffic.sdo) {
+    ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no SDO request in it: replayed as with --no-sdo");
+    master.sdo = false;
+    master.configure_pdo = false;
+  }
+  return master;
+}
+
+// The time of the first frame replayed. The daemon that recorded the log began just before its
+// first request; a log that another program (candump) began earlier holds frames the daemon never
+// saw: they are left out.
+std::int64_t ReplayBeginNs(const can::MasterConfig& master, const MasterTraffic& traffic) {
+  const bool uses_master = master.nmt || master.sdo;
+  return uses_master && traffic.first_ns ? *traffic.first_ns - 10000000 : std::numeric_limits<std::int64_t>::min();
+}
+
+// How far the replay is: the frames given to the session and those left out before them, the last
+// frame's time, and the log's and the monotonic clock's time of the first frame (for the pace).
+struct ReplayProgress {
   std::int64_t first_frame_ns = 0, start_mono_ns = 0, last_ns = 0;
   std::uint64_t n = 0, before = 0;
-  // The daemon that recorded the log began just before its first request; a log that another
-  // program (candump) began earlier holds frames the daemon never saw: they are left out.
-  const bool uses_master = master.nmt || master.sdo;
-  const std::int64_t begin_ns =
-      uses_master && traffic.first_ns ? *traffic.first_ns - 10000000 : std::numeric_limits<std::int64_t>::min();
+};
+
+// Whether a stop was requested (and logged); prints the summary when it was asked for.
+bool StopRequested(AcquireContext& ctx) {
+  if (ctx.signals.stop) {
+    ctx.log(can::LogLevel::kInfo, "stop requested: ending the replay");
+    return true;
+  }
+  if (ctx.signals.summary) {
+    ctx.signals.summary = 0;
+    ctx.print_summary();
+  }
+  return false;
+}
+
+// Begins the session at the first frame replayed, after logging how many frames were left out.
+void BeginReplay(AcquireContext& ctx, std::int64_t t_ns, std::uint64_t before) {
+  if (before > 0) {
+    ctx.log(can::LogLevel::kInfo, ctx.options.replay_path + ": " + std::to_string(before) +
+                                      " frames before the daemon's first request are left out");
+  }
+  ctx.session->Begin(t_ns);
+}
+
+// Waits until the frame at `t_ns` is due at `speed` times the log's pace; the first frame sets the
+// clocks.
+void KeepPace(AcquireSession& session, double speed, std::int64_t t_ns, ReplayProgress& p) {
+  if (p.n == 0) {
+    p.first_frame_ns = t_ns;
+    p.start_mono_ns = MonotonicNs();
+    return;
+  }
+  const auto due = p.start_mono_ns + static_cast<std::int64_t>(static_cast<double>(t_ns - p.first_frame_ns) / speed);
+  if (due > MonotonicNs()) {
+    session.FlushOutputs();  // idle anyway: make what we have visible
+    SleepUntil(due);
+  }
+}
+
+// Gives one frame to the session (at the log's pace with a --replay-speed), flushing the outputs
+// every 4096 frames.
+void ReplayFrame(AcquireContext& ctx, const can::CanFrame& frame, ReplayProgress& p) {
+  AcquireSession& session = *ctx.session;
+  if (p.n == 0) BeginReplay(ctx, frame.t_ns, p.before);
+  if (ctx.options.replay_speed > 0.0) KeepPace(session, ctx.options.replay_speed, frame.t_ns, p);
+  session.OnTime(frame.t_ns);
+  session.OnFrame(frame);
+  p.last_ns = frame.t_ns;
+  if ((++p.n & 0xFFF) == 0) session.FlushOutputs();
+}
+
+// After the last frame: a start the log ends in the middle of has its timeouts run out, and an
+// acquiring session's outputs are flushed.
+void FinishReplay(AcquireContext& ctx, std::int64_t last_ns) {
+  AcquireSession& session = *ctx.session;
+  if (session.state() == AcquireSession::State::kStarting && !ctx.signals.stop) {
+    session.OnTime(last_ns + 3600LL * 1000000000LL);
+  }
+  if (session.state() == AcquireSession::State::kAcquiring) session.FlushOutputs();
+}
+
+// Replays the frames of `reader` from `begin_ns` on into the session until the log ends, a stop is
+// requested or the session can go no further; returns the exit code.
+int ReplayFrames(AcquireContext& ctx, can::CandumpReader& reader, std::int64_t begin_ns) {
+  AcquireSession& session = *ctx.session;
+  ReplayProgress p;
   for (;;) {
     if (session.state() == AcquireSession::State::kStartRefused ||
         session.state() == AcquireSession::State::kOutputFailed) {
       return kExitOk;
     }
-    if (ctx.signals.stop) {
-      ctx.log(can::LogLevel::kInfo, "stop requested: ending the replay");
-      break;
-    }
-    if (ctx.signals.summary) {
-      ctx.signals.summary = 0;
-      ctx.print_summary();
-    }
+    if (StopRequested(ctx)) break;
     can::CandumpReader::Result r;
     try {
-      r = reader->Next();
+      r = reader.Next();
     } catch (const std::exception& e) {
       ctx.log(can::LogLevel::kError, e.what());
       return kExitBadInput;
@@ -155,40 +214,32 @@ int RunReplay(AcquireContext& ctx) {
       continue;
     }
     if (r.frame.t_ns < begin_ns) {
-      ++before;
+      ++p.before;
       continue;
     }
-    if (n == 0) {
-      if (before > 0) {
-        ctx.log(can::LogLevel::kInfo, ctx.options.replay_path + ": " + std::to_string(before) +
-                                          " frames before the daemon's first request are left out");
-      }
-      session.Begin(r.frame.t_ns);
-    }
-    if (speed > 0.0) {
-      if (n == 0) {
-        first_frame_ns = r.frame.t_ns;
-        start_mono_ns = MonotonicNs();
-      } else {
-        const auto due =
-            start_mono_ns + static_cast<std::int64_t>(static_cast<double>(r.frame.t_ns - first_frame_ns) / speed);
-        if (due > MonotonicNs()) {
-          session.FlushOutputs();  // idle anyway: make what we have visible
-          SleepUntil(due);
-        }
-      }
-    }
-    session.OnTime(r.frame.t_ns);
-    session.OnFrame(r.frame);
-    last_ns = r.frame.t_ns;
-    if ((++n & 0xFFF) == 0) session.FlushOutputs();
+    ReplayFrame(ctx, r.frame, p);
   }
-  // A start the log ends in the middle of: its timeouts run out.
-  if (session.state() == AcquireSession::State::kStarting && !ctx.signals.stop) {
-    session.OnTime(last_ns + 3600LL * 1000000000LL);
-  }
-  if (session.state() == AcquireSession::State::kAcquiring) session.FlushOutputs();
+  FinishReplay(ctx, p.last_ns);
   return kExitOk;
+}
+
+}  // namespace
+
+int RunReplay(AcquireContext& ctx) {
+  std::unique_ptr<can::CandumpReader> reader;
+  can::MasterConfig master;
+  MasterTraffic traffic;
+  try {
+    traffic = ScanForMaster(ctx.options.replay_path, ctx.master_config);
+    master = MasterForLog(ctx, traffic);
+    reader = std::make_unique<can::CandumpReader>(ctx.options.replay_path);
+  } catch (const std::exception& e) {
+    ctx.log(can::LogLevel::kError, e.what());
+    return kExitBadInput;
+  }
+  ctx.session = std::make_unique<AcquireSession>(ctx.options, ctx.pipeline_config, master, ctx.log,
+                                                 "replay of " + ctx.options.replay_path);
+  return ReplayFrames(ctx, *reader, ReplayBeginNs(master, traffic));
 }
 
 }  // namespace sph::apps
