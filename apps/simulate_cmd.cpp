@@ -209,88 +209,132 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
       ->group("Effects (not declared in the points file)");
 }
 
+namespace {
+
+// The simulation the options describe: the machine, the centres, the effects, the sphere's form
+// and mounts, and the outliers.
+SimulationSpec SpecOfOptions(const SimulateOptions& o) {
+  SimulationSpec spec = ToSimulationSpec(o.machine);
+  spec.centers_mm.clear();
+  for (const auto& c : o.centers_mm) spec.centers_mm.push_back(ParseVector3(c, "--center-mm"));
+  spec.seed = o.seed;
+  spec.sample_period_s = o.sample_period_s;
+  for (const auto& e : o.effects_arcsec) AddEffectValue(e, Quantity::kAngle, spec.effects);
+  for (const auto& e : o.effects_um) AddEffectValue(e, Quantity::kLength, spec.effects);
+  spec.effects.model.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
+  spec.probe_range_mm = o.probe_range_mm;
+  AddForm(o.form, spec.sphere_radius_mm, spec.effects);
+  AddSphereOptions(o, spec);
+  spec.effects.outlier_fraction = o.outlier_fraction;
+  spec.effects.outlier_um = o.outlier_um;
+  return spec;
+}
+
+// The points file's metadata: the generator, the seed and the probe's range.
+void AddMetadata(const SimulateOptions& o, PointsHeader& header) {
+  header.metadata.emplace_back("generator", "sph_simulate " SPH_VERSION);
+  header.metadata.emplace_back("seed", std::to_string(o.seed));
+  if (o.probe_range_mm) header.metadata.emplace_back("probe_range_mm", Format("%.17g", *o.probe_range_mm));
+}
+
+// The truth's seven geometric errors, each in its report unit.
+nlohmann::json GeometryTruth(const SimulationSpec& spec) {
+  nlohmann::json geometry = nlohmann::json::object();
+  for (int p = 0; p < kNumScmsParams; ++p) {
+    const ScmsParamInfo& info = kScmsParamInfo[static_cast<std::size_t>(p)];
+    geometry[info.name] = {{"value", ToReportUnits(p, spec.truth[static_cast<std::size_t>(p)])},
+                           {"unit", ReportUnitsOf(p).coarse}};
+  }
+  return geometry;
+}
+
+// The sphere's centre in each setup.
+nlohmann::json CentersTruth(const SimulationSpec& spec) {
+  nlohmann::json centers = nlohmann::json::array();
+  for (const Eigen::Vector3d& c : spec.centers_mm) centers.push_back(Vector(c));
+  return centers;
+}
+
+// Each setup: its centre, mount rotation, what the header says of the rotation, and scan order.
+nlohmann::json SetupsTruth(const SimulationSpec& spec) {
+  nlohmann::json setups = nlohmann::json::array();
+  for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
+    const int id = static_cast<int>(k);
+    const auto rotation = spec.mount_rotations_deg.find(id);
+    const auto order = spec.scan_orders.find(id);
+    setups.push_back(
+        {{"setup", id},
+         {"center_mm", Vector(spec.centers_mm[k])},
+         {"mount_rotation_deg",
+          Vector(rotation == spec.mount_rotations_deg.end() ? Eigen::Vector3d::Zero() : rotation->second)},
+         {"header", spec.mount_unknown.count(id)                 ? "unknown"
+                    : rotation != spec.mount_rotations_deg.end() ? "rotation"
+                                                                 : "none"},
+         {"scan_order", ScanOrderName(order == spec.scan_orders.end() ? spec.scan_order : order->second)}});
+  }
+  return setups;
+}
+
+// The effects of the simulation, each parameter in arcsec or um.
+nlohmann::json EffectsTruth(const SimulationSpec& spec) {
+  nlohmann::json effects = nlohmann::json::array();
+  for (std::size_t k = 0; k < spec.effects.model.terms.size(); ++k) {
+    const EffectTerm& term = spec.effects.model.terms[k];
+    const bool angle = term.info().quantity == Quantity::kAngle;
+    nlohmann::json params = nlohmann::json::object();
+    for (std::size_t i = 0; i < term.components.size(); ++i) {
+      params[term.ParamName(i)] = {{"value", spec.effects.values[k][i] / (angle ? kRadPerArcsec : kMmPerUm)},
+                                   {"unit", angle ? "arcsec" : "um"}};
+    }
+    nlohmann::json entry = {{"id", term.info().id}, {"iso_name", term.info().iso_name}, {"parameters", params}};
+    if (term.effect == Effect::kPhiWobble) entry["pivot_mm"] = spec.effects.model.phi_wobble_pivot_mm;
+    effects.push_back(entry);
+  }
+  return effects;
+}
+
+// The truth file (JSON) of a simulation: everything the points were made of.
+nlohmann::json Truth(const SimulateOptions& o, const SimulationSpec& spec, const EffectReference& reference,
+                     const PointsData& data) {
+  nlohmann::json t;
+  t["format"] = "sph-truth";
+  t["generator"] = "sph_simulate " SPH_VERSION;
+  t["geometry"] = GeometryTruth(spec);
+  t["centers_mm"] = CentersTruth(spec);
+  t["setups"] = SetupsTruth(spec);
+  t["sphere_radius_mm"] = o.machine.sphere_radius_mm;
+  t["probe_offset_mm"] = o.machine.probe_offset_mm;
+  t["noise"] = {{"r_um", o.machine.noise_r_um},
+                {"theta_arcsec", o.machine.noise_theta_arcsec},
+                {"phi_arcsec", o.machine.noise_phi_arcsec}};
+  t["seed"] = o.seed;
+  t["effects"] = EffectsTruth(spec);
+  t["effect_reference"] = {{"r_ref_mm", reference.r_ref_mm},
+                           {"r_half_range_mm", reference.r_half_range_mm},
+                           {"t_start_s", reference.t_start_s},
+                           {"t_span_s", reference.t_span_s}};
+  t["form"] = FormTruth(spec);
+  t["outliers"] = {{"fraction", o.outlier_fraction}, {"size_um", o.outlier_um}};
+  t["n_points"] = data.samples.size();
+  return t;
+}
+
+}  // namespace
+
 int RunSimulate(const SimulateOptions& o, std::ostream& err) {
   try {
     RunPaths()
         .Input("--angles", o.machine.angles_path)
         .Output("--output", o.output_path)
         .Output("--truth", o.truth_path);
-    SimulationSpec spec = ToSimulationSpec(o.machine);
-    spec.centers_mm.clear();
-    for (const auto& c : o.centers_mm) spec.centers_mm.push_back(ParseVector3(c, "--center-mm"));
-    spec.seed = o.seed;
-    spec.sample_period_s = o.sample_period_s;
-    for (const auto& e : o.effects_arcsec) AddEffectValue(e, Quantity::kAngle, spec.effects);
-    for (const auto& e : o.effects_um) AddEffectValue(e, Quantity::kLength, spec.effects);
-    spec.effects.model.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
-    spec.probe_range_mm = o.probe_range_mm;
-    AddForm(o.form, spec.sphere_radius_mm, spec.effects);
-    AddSphereOptions(o, spec);
-    spec.effects.outlier_fraction = o.outlier_fraction;
-    spec.effects.outlier_um = o.outlier_um;
+    const SimulationSpec spec = SpecOfOptions(o);
     EffectReference reference;
     PointsData data = Simulate(spec, &reference);
-    data.header.metadata.emplace_back("generator", "sph_simulate " SPH_VERSION);
-    data.header.metadata.emplace_back("seed", std::to_string(o.seed));
-    if (o.probe_range_mm) data.header.metadata.emplace_back("probe_range_mm", Format("%.17g", *o.probe_range_mm));
+    AddMetadata(o, data.header);
 
     OutputFiles files;
     if (!o.truth_path.empty()) {
-      nlohmann::json t;
-      t["format"] = "sph-truth";
-      t["generator"] = "sph_simulate " SPH_VERSION;
-      nlohmann::json geometry = nlohmann::json::object();
-      for (int p = 0; p < kNumScmsParams; ++p) {
-        const ScmsParamInfo& info = kScmsParamInfo[static_cast<std::size_t>(p)];
-        geometry[info.name] = {{"value", ToReportUnits(p, spec.truth[static_cast<std::size_t>(p)])},
-                               {"unit", ReportUnitsOf(p).coarse}};
-      }
-      t["geometry"] = geometry;
-      nlohmann::json centers = nlohmann::json::array(), setups = nlohmann::json::array();
-      for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) {
-        const int id = static_cast<int>(k);
-        centers.push_back(Vector(spec.centers_mm[k]));
-        const auto rotation = spec.mount_rotations_deg.find(id);
-        const auto order = spec.scan_orders.find(id);
-        setups.push_back(
-            {{"setup", id},
-             {"center_mm", Vector(spec.centers_mm[k])},
-             {"mount_rotation_deg",
-              Vector(rotation == spec.mount_rotations_deg.end() ? Eigen::Vector3d::Zero() : rotation->second)},
-             {"header", spec.mount_unknown.count(id)                 ? "unknown"
-                        : rotation != spec.mount_rotations_deg.end() ? "rotation"
-                                                                     : "none"},
-             {"scan_order", ScanOrderName(order == spec.scan_orders.end() ? spec.scan_order : order->second)}});
-      }
-      t["centers_mm"] = centers;
-      t["setups"] = setups;
-      t["sphere_radius_mm"] = o.machine.sphere_radius_mm;
-      t["probe_offset_mm"] = o.machine.probe_offset_mm;
-      t["noise"] = {{"r_um", o.machine.noise_r_um},
-                    {"theta_arcsec", o.machine.noise_theta_arcsec},
-                    {"phi_arcsec", o.machine.noise_phi_arcsec}};
-      t["seed"] = o.seed;
-      nlohmann::json effects = nlohmann::json::array();
-      for (std::size_t k = 0; k < spec.effects.model.terms.size(); ++k) {
-        const EffectTerm& term = spec.effects.model.terms[k];
-        const bool angle = term.info().quantity == Quantity::kAngle;
-        nlohmann::json params = nlohmann::json::object();
-        for (std::size_t i = 0; i < term.components.size(); ++i) {
-          params[term.ParamName(i)] = {{"value", spec.effects.values[k][i] / (angle ? kRadPerArcsec : kMmPerUm)},
-                                       {"unit", angle ? "arcsec" : "um"}};
-        }
-        nlohmann::json entry = {{"id", term.info().id}, {"iso_name", term.info().iso_name}, {"parameters", params}};
-        if (term.effect == Effect::kPhiWobble) entry["pivot_mm"] = spec.effects.model.phi_wobble_pivot_mm;
-        effects.push_back(entry);
-      }
-      t["effects"] = effects;
-      t["effect_reference"] = {{"r_ref_mm", reference.r_ref_mm},
-                               {"r_half_range_mm", reference.r_half_range_mm},
-                               {"t_start_s", reference.t_start_s},
-                               {"t_span_s", reference.t_span_s}};
-      t["form"] = FormTruth(spec);
-      t["outliers"] = {{"fraction", o.outlier_fraction}, {"size_um", o.outlier_um}};
-      t["n_points"] = data.samples.size();
+      const nlohmann::json t = Truth(o, spec, reference, data);
       files.Stage(o.truth_path, [&](std::ostream& f) { f << t.dump(2) << "\n"; });
     }
     files.Stage(o.output_path, [&](std::ostream& f) { WritePoints(f, data); });
