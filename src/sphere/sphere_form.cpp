@@ -40,131 +40,168 @@ double PeakToValley(const std::vector<double>& values) {
 
 namespace {
 
+using Vec5 = Eigen::Matrix<double, 5, 1>;
+using Rows5 = Eigen::Matrix<double, Eigen::Dynamic, 5>;
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+/// The minimum zone's iteration: the points q_i relative to the start centre, the centre c reached
+/// (relative to it too), the distances d_i = |q_i - c| with the farthest and the nearest point, the
+/// zone's width f there, and the buffers of the steps.
+struct ZoneIteration {
+  std::vector<Eigen::Vector3d> q;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  std::vector<double> d, d_new;
+  std::size_t i_max = 0, i_min = 0;
+  double f = 0.0;
+  Rows5 a;
+  Eigen::VectorXd h;
+  std::vector<int> working;
+};
+
+/// The distances of the points `q` from `centre` into *dist, the farthest and the nearest into
+/// *imax and *imin; returns the zone's width.
+double Distances(const std::vector<Eigen::Vector3d>& q, const Eigen::Vector3d& centre, std::vector<double>* dist,
+                 std::size_t* imax, std::size_t* imin) {
+  *imax = *imin = 0;
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    (*dist)[i] = (q[i] - centre).norm();
+    if ((*dist)[i] > (*dist)[*imax]) *imax = i;
+    if ((*dist)[i] < (*dist)[*imin]) *imin = i;
+  }
+  return (*dist)[*imax] - (*dist)[*imin];
+}
+
+/// The rows of the LP at c over the box |delta_k| <= box into z.a and z.h: outer rows
+/// [-u_i, -1, 0] x <= -d_i, inner rows [u_i, 0, 1] x <= d_i (of the points that can still become
+/// the farthest or the nearest), and the box. Returns the rows of the farthest and the nearest point.
+std::pair<int, int> BuildStepLp(ZoneIteration& z, double box) {
+  const std::size_t n = z.q.size();
+  const double reach = 2.0 * std::sqrt(3.0) * box;
+  const double outer_from = z.d[z.i_max] - reach;
+  const double inner_to = z.d[z.i_min] + reach;
+  std::size_t rows = 6;
+  for (std::size_t i = 0; i < n; ++i) rows += (z.d[i] >= outer_from ? 1 : 0) + (z.d[i] <= inner_to ? 1 : 0);
+  z.a.resize(static_cast<Eigen::Index>(rows), 5);
+  z.h.resize(static_cast<Eigen::Index>(rows));
+  Eigen::Index row = 0;
+  int start_outer = -1, start_inner = -1;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d u = z.d[i] > 0.0 ? Eigen::Vector3d((z.q[i] - z.c) / z.d[i]) : Eigen::Vector3d::Zero();
+    if (z.d[i] >= outer_from) {
+      if (i == z.i_max) start_outer = static_cast<int>(row);
+      z.a.row(row) << -u.transpose(), -1.0, 0.0;
+      z.h(row++) = -z.d[i];
+    }
+    if (z.d[i] <= inner_to) {
+      if (i == z.i_min) start_inner = static_cast<int>(row);
+      z.a.row(row) << u.transpose(), 0.0, 1.0;
+      z.h(row++) = z.d[i];
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    z.a.row(row).setZero();
+    z.a(row, k) = 1.0;
+    z.h(row++) = box;
+    z.a.row(row).setZero();
+    z.a(row, k) = -1.0;
+    z.h(row++) = box;
+  }
+  return {start_outer, start_inner};
+}
+
+/// The LP at c over the box |delta_k| <= box (BuildStepLp), started at the farthest and the
+/// nearest point's rows; its optimum goes to *x and its iterations add to mz->lp_iterations. False
+/// when it has none.
+bool SolveStepLp(ZoneIteration& z, double box, const MinimumZoneOptions& options, MinimumZoneSphere* mz, Vec5* x) {
+  Vec5 objective;
+  objective << 0.0, 0.0, 0.0, 1.0, -1.0;
+  const auto [start_outer, start_inner] = BuildStepLp(z, box);
+  *x << 0.0, 0.0, 0.0, z.d[z.i_max], z.d[z.i_min];
+  z.working.assign({start_outer, start_inner});
+  return internal::SolveInequalityLp<5>(z.a, z.h, objective, options.max_lp_iterations, x, &z.working,
+                                        &mz->lp_iterations) == internal::LpStatus::kOptimal;
+}
+
+/// Moves the centre by `delta` when that narrows the zone; returns the trust region's next radius,
+/// from how much of the `predicted` decrease came true.
+double TakeStep(ZoneIteration& z, const Eigen::Vector3d& delta, double predicted, double radius) {
+  std::size_t new_max = 0, new_min = 0;
+  const double f_new = Distances(z.q, z.c + delta, &z.d_new, &new_max, &new_min);
+  const double ratio = (z.f - f_new) / predicted;
+  if (f_new < z.f) {
+    z.c += delta;
+    z.d.swap(z.d_new);
+    z.i_max = new_max;
+    z.i_min = new_min;
+    z.f = f_new;
+  }
+  const double step = delta.lpNorm<Eigen::Infinity>();
+  if (ratio < 0.25) {
+    return 0.25 * step;
+  } else if (ratio > 0.75) {
+    // A good model: allow four times the step (which also keeps the LP small as steps shrink).
+    return 4.0 * step;
+  }
+  return radius;
+}
+
+/// The trust-region steps from the start until the LP predicts no further decrease, no move is
+/// resolvable any more or the iterations run out; `scale` is the largest distance at the start.
+/// Returns whether the last LP was solved at the final c (and certifies it).
+bool Iterate(ZoneIteration& z, double scale, const MinimumZoneOptions& options, MinimumZoneSphere* mz) {
+  const double rounding = 16.0 * kEps * scale;
+  double radius = z.f;              // trust region: the zone width is the scale of the centre's move
+  mz->converged = z.f <= rounding;  // on a sphere already (e.g. four points)
+  for (int it = 0; it < options.max_iterations && !mz->converged; ++it) {
+    mz->iterations = it + 1;
+    Vec5 x;
+    if (!SolveStepLp(z, radius, options, mz, &x)) break;
+    const double predicted = z.f - (x(3) - x(4));
+    if (predicted <= options.tolerance * z.f + rounding) {
+      mz->converged = true;
+      mz->lp_box = radius;
+      mz->lp_decrease = std::max(predicted, 0.0);
+      return true;
+    }
+    radius = TakeStep(z, x.head<3>(), predicted, radius);
+    if (radius <= kEps * scale) {  // no move is resolvable any more: stationary to rounding
+      mz->converged = true;
+      break;
+    }
+  }
+  return false;
+}
+
 /// The minimum zone of all `points` at once (FitSphereMinimumZone() without candidates).
 MinimumZoneSphere MinimumZoneOfAll(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& start_center,
                                    const MinimumZoneOptions& options) {
-  using Vec5 = Eigen::Matrix<double, 5, 1>;
-  using Rows5 = Eigen::Matrix<double, Eigen::Dynamic, 5>;
-  constexpr double kEps = std::numeric_limits<double>::epsilon();
   MinimumZoneSphere mz;
   const std::size_t n = points.size();
   if (n < 4 || !start_center.allFinite()) return mz;
 
   // Work relative to the start centre: distances are then about R, and the offsets small.
-  std::vector<Eigen::Vector3d> q(n);
-  for (std::size_t i = 0; i < n; ++i) q[i] = points[i] - start_center;
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  std::vector<double> d(n);
-  std::size_t i_max = 0, i_min = 0;
-  auto evaluate = [&](const Eigen::Vector3d& centre, std::vector<double>* dist, std::size_t* imax, std::size_t* imin) {
-    *imax = *imin = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      (*dist)[i] = (q[i] - centre).norm();
-      if ((*dist)[i] > (*dist)[*imax]) *imax = i;
-      if ((*dist)[i] < (*dist)[*imin]) *imin = i;
-    }
-    return (*dist)[*imax] - (*dist)[*imin];
-  };
-  double f = evaluate(c, &d, &i_max, &i_min);
-  if (!std::isfinite(f)) return mz;
-  const double scale = d[i_max];
-  const double rounding = 16.0 * kEps * scale;
-
-  double radius = f;  // trust region: the zone width is the scale of the centre's move
-  Rows5 a;
-  Eigen::VectorXd h;
-  std::vector<int> working;
-  Vec5 objective;
-  objective << 0.0, 0.0, 0.0, 1.0, -1.0;
-  // The LP at c over the box |delta_k| <= box: outer rows [-u_i, -1, 0] x <= -d_i, inner rows
-  // [u_i, 0, 1] x <= d_i, and the box. Its optimum goes to *x; false when it has none.
-  auto solve_lp = [&](double box, Vec5* x) {
-    const double reach = 2.0 * std::sqrt(3.0) * box;
-    const double outer_from = d[i_max] - reach;
-    const double inner_to = d[i_min] + reach;
-    std::size_t rows = 6;
-    for (std::size_t i = 0; i < n; ++i) rows += (d[i] >= outer_from ? 1 : 0) + (d[i] <= inner_to ? 1 : 0);
-    a.resize(static_cast<Eigen::Index>(rows), 5);
-    h.resize(static_cast<Eigen::Index>(rows));
-    Eigen::Index row = 0;
-    int start_outer = -1, start_inner = -1;
-    for (std::size_t i = 0; i < n; ++i) {
-      const Eigen::Vector3d u = d[i] > 0.0 ? Eigen::Vector3d((q[i] - c) / d[i]) : Eigen::Vector3d::Zero();
-      if (d[i] >= outer_from) {
-        if (i == i_max) start_outer = static_cast<int>(row);
-        a.row(row) << -u.transpose(), -1.0, 0.0;
-        h(row++) = -d[i];
-      }
-      if (d[i] <= inner_to) {
-        if (i == i_min) start_inner = static_cast<int>(row);
-        a.row(row) << u.transpose(), 0.0, 1.0;
-        h(row++) = d[i];
-      }
-    }
-    for (int k = 0; k < 3; ++k) {
-      a.row(row).setZero();
-      a(row, k) = 1.0;
-      h(row++) = box;
-      a.row(row).setZero();
-      a(row, k) = -1.0;
-      h(row++) = box;
-    }
-    *x << 0.0, 0.0, 0.0, d[i_max], d[i_min];
-    working.assign({start_outer, start_inner});
-    return internal::SolveInequalityLp<5>(a, h, objective, options.max_lp_iterations, x, &working, &mz.lp_iterations) ==
-           internal::LpStatus::kOptimal;
-  };
-  std::vector<double> d_new(n);
-  mz.converged = f <= rounding;  // on a sphere already (e.g. four points)
-  bool certified = false;        // the last LP was solved at the final c
-  for (int it = 0; it < options.max_iterations && !mz.converged; ++it) {
-    mz.iterations = it + 1;
-    Vec5 x;
-    if (!solve_lp(radius, &x)) break;
-    const double predicted = f - (x(3) - x(4));
-    if (predicted <= options.tolerance * f + rounding) {
-      mz.converged = certified = true;
-      mz.lp_box = radius;
-      mz.lp_decrease = std::max(predicted, 0.0);
-      break;
-    }
-    const Eigen::Vector3d delta = x.head<3>();
-    std::size_t new_max = 0, new_min = 0;
-    const double f_new = evaluate(c + delta, &d_new, &new_max, &new_min);
-    const double ratio = (f - f_new) / predicted;
-    if (f_new < f) {
-      c += delta;
-      d.swap(d_new);
-      i_max = new_max;
-      i_min = new_min;
-      f = f_new;
-    }
-    const double step = delta.lpNorm<Eigen::Infinity>();
-    if (ratio < 0.25) {
-      radius = 0.25 * step;
-    } else if (ratio > 0.75) {
-      // A good model: allow four times the step (which also keeps the LP small as steps shrink).
-      radius = 4.0 * step;
-    }
-    if (radius <= kEps * scale) {  // no move is resolvable any more: stationary to rounding
-      mz.converged = true;
-      break;
-    }
-  }
-  if (mz.converged && f > 0.0 && !(certified && mz.lp_box >= f)) {
+  ZoneIteration z;
+  z.q.resize(n);
+  for (std::size_t i = 0; i < n; ++i) z.q[i] = points[i] - start_center;
+  z.d.resize(n);
+  z.f = Distances(z.q, z.c, &z.d, &z.i_max, &z.i_min);
+  if (!std::isfinite(z.f)) return mz;
+  z.d_new.resize(n);
+  const bool certified = Iterate(z, z.d[z.i_max], options, &mz);
+  if (mz.converged && z.f > 0.0 && !(certified && mz.lp_box >= z.f)) {
     // The trust region shrinks with the steps, and bound (2) grows as rho / Delta beyond the box:
     // one LP at the final centre over a box of the zone's width makes the certificate (whatever
     // decrease it still predicts, e.g. after a stop by rounding).
     Vec5 x;
-    if (solve_lp(f, &x)) {
-      mz.lp_box = f;
-      mz.lp_decrease = std::max(f - (x(3) - x(4)), 0.0);
+    if (SolveStepLp(z, z.f, options, &mz, &x)) {
+      mz.lp_box = z.f;
+      mz.lp_decrease = std::max(z.f - (x(3) - x(4)), 0.0);
     }
   }
-  mz.center = start_center + c;
-  mz.outer_radius = d[i_max];
-  mz.inner_radius = d[i_min];
-  mz.width = f;
+  mz.center = start_center + z.c;
+  mz.outer_radius = z.d[z.i_max];
+  mz.inner_radius = z.d[z.i_min];
+  mz.width = z.f;
   mz.ok = true;
   return mz;
 }
