@@ -1031,6 +1031,53 @@ int BestBesideForm(const Readings& data, const CalibrationOptions& options, cons
   return best;
 }
 
+// Whether two terms have the same components (in any order).
+bool SameComponents(const EffectTerm& a, const EffectTerm& b) {
+  const auto key = [](const EffectTerm& t) {
+    std::vector<std::tuple<int, int, bool>> k;
+    for (const EffectComponent& c : t.components) k.emplace_back(c.order, c.axis, c.sine);
+    std::sort(k.begin(), k.end());
+    return k;
+  };
+  return a.effect == b.effect && key(a) == key(b);
+}
+
+// The components of the effects already in the model chosen again beside the one just added (the
+// last term). A term's components were chosen when it joined the model, against the residual of
+// that model: a large effect not yet fitted can hide a component of it (a probe gain of 10 um hides
+// the linear part of a drift fitted before it, and a Theta encoder's c1 then takes the drift's
+// place). Each earlier term is fitted again from all of its components, beside every other term,
+// with FitCandidate()'s rule, and taken when the extended BIC falls.
+void RefreshComponents(const Readings& data, const CalibrationOptions& options, const TraceOptions& trace,
+                       TracedFit& current) {
+  for (std::size_t t = 0; t + 1 < current.fit.model.terms.size(); ++t) {
+    const EffectTerm& term = current.fit.model.terms[t];
+    const EffectTerm full = DefaultTerm(term.effect, trace.harmonics, trace.drift_order);
+    if (SameComponents(term, full)) continue;
+    EffectModel model = current.fit.model;
+    model.terms.erase(model.terms.begin() + static_cast<std::ptrdiff_t>(t));
+    EffectFitStart start = EffectFitStart::From(current.fit);
+    start.values.erase(start.values.begin() + static_cast<std::ptrdiff_t>(t));
+    const EffectFit without = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
+    if (!without.calibration.converged) continue;
+    std::string note;
+    EffectFit again = FitCandidate(data, options, without, full, trace, &note);
+    if (again.model.terms.size() != current.fit.model.terms.size() || !again.calibration.converged) continue;
+    const EffectTerm& chosen = again.model.terms.back();
+    if (SameComponents(chosen, term)) continue;
+    const double change = again.Bic() + SearchPenalty(chosen, trace) - current.fit.Bic() - SearchPenalty(term, trace);
+    if (!(change < 0.0)) continue;
+    // The term moves to the end of the model; the one just added stays last.
+    EffectFit reordered = std::move(again);
+    std::rotate(reordered.model.terms.end() - 2, reordered.model.terms.end() - 1, reordered.model.terms.end());
+    std::rotate(reordered.values.end() - 2, reordered.values.end() - 1, reordered.values.end());
+    reordered = internal::FitEffectsRows(data.points, data.table, nullptr, options, reordered.model,
+                                         EffectFitStart::From(reordered));
+    current = Analysed(std::move(reordered), data, options, trace);
+    --t;  // the term now at index t is the next one to look at
+  }
+}
+
 // One forward round: every effect of `pool` not yet in the model scored against `current`; the
 // best admissible one is added (true), or none is and the search ends (false). The round's scores
 // and ambiguities go into `r`.
@@ -1097,6 +1144,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   if (chosen == nullptr) return false;
   r.added.push_back(chosen->effect);
   current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), data, options, trace);
+  RefreshComponents(data, options, trace, current);
   return true;
 }
 
