@@ -181,15 +181,8 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
   Eigen::VectorXd x = problem.Pack(result.geometry, result.centers_mm, {});
   LmWorkspace local;
   LmWorkspace& lm = workspace ? *workspace : local;
-  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(options.max_iterations), lm);
+  SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
   problem.Unpack(x, &result.geometry, &result.centers_mm, nullptr);
-  result.converged = summary.converged;
-  result.iterations = summary.iterations;
-  result.solver_message = summary.message;
-  result.n_points = static_cast<int>(n_samples);
-  if (!result.converged) {
-    result.warnings.push_back("the solver did not converge: " + summary.message);
-  }
   if (!options.analyse) return result;
 
   // Residuals in file order; the Jacobian's triangular factor at the solution, parameters in report order.

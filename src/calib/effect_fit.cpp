@@ -128,13 +128,8 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   Eigen::VectorXd x = problem.Pack(start.geometry, start.centers_mm, values, start.form_values);
   LmWorkspace local;
   LmWorkspace& lm = workspace ? *workspace : local;
-  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(options.max_iterations), lm);
+  SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
   problem.Unpack(x, &result.geometry, &result.centers_mm, &fit.values, &fit.form_values);
-  result.converged = summary.converged;
-  result.iterations = summary.iterations;
-  result.solver_message = summary.message;
-  result.n_points = static_cast<int>(n_samples);
-  if (!result.converged) result.warnings.push_back("the solver did not converge: " + summary.message);
   std::vector<double> all(table.size(), 0.0);
   problem.Residuals(x.data(), all.data());
   result.residuals_mm.reserve(n_samples);

@@ -29,6 +29,19 @@ inline LmOptions CalibrationSolverOptions(int max_iterations) {
   return o;
 }
 
+/// Solves `problem` from x (in place) with CalibrationSolverOptions() in the workspace `lm`, and
+/// records the run in `result`: converged, iterations, the solver's message, the number of
+/// samples, and a warning when it did not converge.
+inline void SolveCalibration(const SphereFitProblem& problem, Eigen::VectorXd& x, int max_iterations,
+                             std::size_t n_samples, LmWorkspace& lm, CalibrationResult& result) {
+  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(max_iterations), lm);
+  result.converged = summary.converged;
+  result.iterations = summary.iterations;
+  result.solver_message = summary.message;
+  result.n_points = static_cast<int>(n_samples);
+  if (!result.converged) result.warnings.push_back("the solver did not converge: " + summary.message);
+}
+
 /// (J^T J)^-1 at the solution x of a Levenberg-Marquardt run (whose workspace holds J^T J there):
 /// from the normal equations when J is well conditioned, else from the Jacobian's triangular
 /// factor (another pass over the rows).
