@@ -145,20 +145,13 @@ std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOpt
 CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
                                 const CalibrationOptions& options, LmWorkspace* workspace,
                                 const std::vector<Sphere>* start_spheres) {
-  const std::string& src = points.source;
-  if (!(options.sphere_radius_mm > 0.0)) throw Error(src + ": the sphere radius must be positive");
-  if (!(options.probe_offset_mm > 0.0)) throw Error(src + ": the probe offset must be positive");
-
+  CheckFitOptions(points.source, options);
   RowsOfSetup rows = AllRows(table, left_out);
   CalibrationResult result;
   const std::size_t n_samples = SetupsWithRows(table, rows, &result.setup_ids);
   const std::size_t n_setups = result.setup_ids.size();
-  const std::size_t n_params = kNumScmsParams + 3 * n_setups;
-  if (n_samples <= n_params) {
-    throw Error(src + ": " + std::to_string(n_samples) + " samples are too few to fit " + std::to_string(n_params) +
-                " parameters (7 errors and 3 centre coordinates for each of " + std::to_string(n_setups) +
-                " setup(s))");
-  }
+  CheckEnoughSamples(points.source, n_samples, kNumScmsParams + 3 * n_setups,
+                     "7 errors and 3 centre coordinates for each of " + std::to_string(n_setups) + " setup(s)");
 
   // Initial values: the errors as given (zero by default), each centre from an algebraic sphere
   // fit of its setup's points computed with those errors (given when the caller has them).
@@ -168,7 +161,8 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
     if (rows[k].empty()) continue;
     const Sphere& fit = spheres[k];
     if (!fit.ok) {
-      throw Error(src + ": the points of setup " + std::to_string(result.setup_ids[result.centers_mm.size()]) +
+      throw Error(points.source + ": the points of setup " +
+                  std::to_string(result.setup_ids[result.centers_mm.size()]) +
                   " do not determine a sphere (fewer than four, or all on one plane or line)");
     }
     result.centers_mm.push_back(fit.center);

@@ -15,17 +15,11 @@
 namespace sph {
 namespace {
 
-std::map<int, std::size_t> IndexOfSetups(const std::vector<int>& ids) {
-  std::map<int, std::size_t> index;
-  for (std::size_t k = 0; k < ids.size(); ++k) index[ids[k]] = k;
-  return index;
-}
-
 // The centre of each setup of `table` that has rows, from a fit over the setups `fit_ids`.
 std::vector<Eigen::Vector3d> CentersFor(const internal::ReadingTable& table, const internal::RowsOfSetup& rows,
                                         const std::vector<int>& fit_ids, const std::vector<Eigen::Vector3d>& centers,
                                         const std::string& source) {
-  const std::map<int, std::size_t> index = IndexOfSetups(fit_ids);
+  const std::map<int, std::size_t> index = internal::IndexOfSetups(fit_ids);
   std::vector<Eigen::Vector3d> out;
   for (std::size_t k = 0; k < rows.size(); ++k) {
     if (rows[k].empty()) continue;
@@ -101,8 +95,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
                          const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start,
                          LmWorkspace* workspace) {
   const std::string& src = points.source;
-  if (!(options.sphere_radius_mm > 0.0)) throw Error(src + ": the sphere radius must be positive");
-  if (!(options.probe_offset_mm > 0.0)) throw Error(src + ": the probe offset must be positive");
+  CheckFitOptions(src, options);
   EffectFit fit;
   fit.model = model;
   CalibrationResult& result = fit.calibration;
@@ -111,10 +104,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   const std::size_t n_setups = result.setup_ids.size();
   if (start.centers_mm.size() != n_setups) throw Error(src + ": the start needs one centre per setup");
   fit.n_params = kNumScmsParams + 3 * static_cast<int>(n_setups) + model.NumParams() + model.form.NumParams();
-  if (n_samples <= static_cast<std::size_t>(fit.n_params)) {
-    throw Error(src + ": " + std::to_string(n_samples) + " samples are too few to fit " + std::to_string(fit.n_params) +
-                " parameters");
-  }
+  CheckEnoughSamples(src, n_samples, static_cast<std::size_t>(fit.n_params), "");
   std::vector<std::vector<double>> values(model.terms.size());
   for (std::size_t t = 0; t < model.terms.size(); ++t) {
     const auto size = static_cast<std::size_t>(model.terms[t].size());
@@ -212,7 +202,7 @@ EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options
 
 std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const CalibrationOptions& options,
                                                const EffectFit& fit) {
-  const std::map<int, std::size_t> setup_index = IndexOfSetups(fit.calibration.setup_ids);
+  const std::map<int, std::size_t> setup_index = internal::IndexOfSetups(fit.calibration.setup_ids);
   const CalibrationResult& cal = fit.calibration;
   std::vector<const double*> blocks;
   for (const auto& v : fit.values) blocks.push_back(v.data());

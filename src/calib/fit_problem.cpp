@@ -352,8 +352,7 @@ ReadingTable::ReadingTable(const PointsData& points) {
   for (auto* v : {&theta_rad, &phi_rad, &cos_theta, &sin_theta, &cos_phi, &sin_phi, &r_mm, &t_s}) v->resize(m);
   setup.resize(m);
   setup_ids = points.SetupIds();
-  std::map<int, int> index;
-  for (std::size_t k = 0; k < setup_ids.size(); ++k) index[setup_ids[k]] = static_cast<int>(k);
+  const std::map<int, std::size_t> index = IndexOfSetups(setup_ids);
   for (std::size_t i = 0; i < m; ++i) {
     const Sample& s = points.samples[i];
     theta_rad[i] = s.theta_deg * kRadPerDeg;
@@ -365,7 +364,7 @@ ReadingTable::ReadingTable(const PointsData& points) {
     sin_phi[i] = p.sin;
     r_mm[i] = s.r_mm;
     t_s[i] = s.t_s;
-    setup[i] = index.size() == 1 ? 0 : index.at(s.setup);
+    setup[i] = index.size() == 1 ? 0 : static_cast<int>(index.at(s.setup));
   }
 }
 

@@ -30,6 +30,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -40,6 +41,13 @@
 #include "sph/model/row_qr.hpp"
 
 namespace sph::internal {
+
+/// Each setup id of `ids` to its index there.
+inline std::map<int, std::size_t> IndexOfSetups(const std::vector<int>& ids) {
+  std::map<int, std::size_t> index;
+  for (std::size_t k = 0; k < ids.size(); ++k) index[ids[k]] = k;
+  return index;
+}
 
 /// The samples of a points file as the fits read them, one array per quantity, in file order.
 struct ReadingTable {

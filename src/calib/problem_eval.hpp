@@ -14,6 +14,7 @@
 #include "levenberg_marquardt.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/observability.hpp"
+#include "sph/core/error.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::internal {
@@ -27,6 +28,22 @@ inline LmOptions CalibrationSolverOptions(int max_iterations) {
   o.gradient_tolerance = 1e-16;
   o.parameter_tolerance = 1e-12;
   return o;
+}
+
+/// Throws sph::Error naming `source` when the options cannot be fitted: the sphere radius or the
+/// probe offset not positive.
+inline void CheckFitOptions(const std::string& source, const CalibrationOptions& options) {
+  if (!(options.sphere_radius_mm > 0.0)) throw Error(source + ": the sphere radius must be positive");
+  if (!(options.probe_offset_mm > 0.0)) throw Error(source + ": the probe offset must be positive");
+}
+
+/// Throws sph::Error naming `source` when n_samples do not exceed the n_params fitted (`which`:
+/// what they are, in words, or empty).
+inline void CheckEnoughSamples(const std::string& source, std::size_t n_samples, std::size_t n_params,
+                               const std::string& which) {
+  if (n_samples > n_params) return;
+  throw Error(source + ": " + std::to_string(n_samples) + " samples are too few to fit " + std::to_string(n_params) +
+              " parameters" + (which.empty() ? "" : " (" + which + ")"));
 }
 
 /// Solves `problem` from x (in place) with CalibrationSolverOptions() in the workspace `lm`, and
