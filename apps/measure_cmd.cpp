@@ -109,9 +109,8 @@ void FoldProbeIncidence(const MeasureOptions& o, int term, Calibration& cal, Inp
   for (const auto& v : cal.effect_values) blocks.push_back(v.data());
   const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());
   for (RawReading& r : in.readings) {
-    r.r_mm +=
-        ProbeIncidenceError(cal.geometry.data(), trig, cal.effects, blocks.data(),
-                            EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), cal.probe_offset_mm, center.data());
+    r.r_mm += ProbeIncidenceError(cal.geometry.data(), trig, cal.effects, blocks.data(), EffectReading(r, 0.0),
+                                  cal.probe_offset_mm, center.data());
   }
   cal.effects.terms.erase(cal.effects.terms.begin() + term);
   cal.effect_values.erase(cal.effect_values.begin() + term);

@@ -20,7 +20,7 @@ ReadingSlopes Slopes(const ScmsGeometry& g, const Sample& s, double d_mm, const 
   auto e = [&](double theta_rad, double phi_rad, double r_mm) {
     return (ScmsPoint(g, theta_rad, phi_rad, r_mm, d_mm) - c).norm() - radius_mm;
   };
-  const double t = s.theta_deg * kRadPerDeg, p = s.phi_deg * kRadPerDeg, r = s.r_mm;
+  const double t = s.theta_rad(), p = s.phi_rad(), r = s.r_mm;
   const double h = 1e-6;
   return {(e(t, p, r + h) - e(t, p, r - h)) / (2 * h), (e(t + h, p, r) - e(t - h, p, r)) / (2 * h),
           (e(t, p + h, r) - e(t, p - h, r)) / (2 * h)};

@@ -216,8 +216,7 @@ std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const C
     }
     const Eigen::Vector3d& center = cal.centers_mm[it->second];
     const Eigen::Vector3d p = EffectScmsPoint(cal.geometry.data(), trig, fit.model, blocks.data(),
-                                              EffectReading(s.theta_deg, s.phi_deg, s.r_mm, s.t_s),
-                                              options.probe_offset_mm, nullptr, center.data());
+                                              EffectReading(s, s.t_s), options.probe_offset_mm, nullptr, center.data());
     out.push_back(p - center);
   }
   return out;

@@ -355,8 +355,8 @@ ReadingTable::ReadingTable(const PointsData& points) {
   const std::map<int, std::size_t> index = IndexOfSetups(setup_ids);
   for (std::size_t i = 0; i < m; ++i) {
     const Sample& s = points.samples[i];
-    theta_rad[i] = s.theta_deg * kRadPerDeg;
-    phi_rad[i] = s.phi_deg * kRadPerDeg;
+    theta_rad[i] = s.theta_rad();
+    phi_rad[i] = s.phi_rad();
     const SinCos<double> t = SinCosOf(theta_rad[i]), p = SinCosOf(phi_rad[i]);
     cos_theta[i] = t.cos;
     sin_theta[i] = t.sin;

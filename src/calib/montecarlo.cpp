@@ -261,8 +261,7 @@ double EvaluatedSphericityUm(const SimulationSpec& base, const Eigen::Vector3d& 
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(exact.samples.size());
   for (const Sample& smp : exact.samples) {
-    pts.push_back(
-        ScmsPoint(geometry, smp.theta_deg * kRadPerDeg, smp.phi_deg * kRadPerDeg, smp.r_mm, s.probe_offset_mm));
+    pts.push_back(ScmsPoint(geometry, smp.theta_rad(), smp.phi_rad(), smp.r_mm, s.probe_offset_mm));
   }
   const LeastSquaresSphere fit = FitSphereLeastSquares(pts);
   if (!fit.sphere.ok) throw Error("sphericity: the evaluated points determine no sphere");

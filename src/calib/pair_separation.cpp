@@ -62,9 +62,8 @@ bool WithPlacement(const PointsData& points, const CalibrationOptions& options, 
   *setup = ids.back() + 1;
   for (const Sample& s : points.samples) {
     if (s.setup != ids.front()) continue;
-    const std::optional<double> r =
-        ProbeReading(fit.calibration.geometry, s.theta_deg * kRadPerDeg, s.phi_deg * kRadPerDeg,
-                     options.probe_offset_mm, center_mm, options.sphere_radius_mm);
+    const std::optional<double> r = ProbeReading(fit.calibration.geometry, s.theta_rad(), s.phi_rad(),
+                                                 options.probe_offset_mm, center_mm, options.sphere_radius_mm);
     if (!r) return false;
     out->samples.push_back({s.theta_deg, s.phi_deg, *r, s.t_s, *setup});
   }

@@ -168,13 +168,13 @@ void FunctionsAt(const Sample& s, double e, const EffectReference& ref, const Ei
     }
   };
   double cos_k[kThetaHarmonics], sin_k[kThetaHarmonics];
-  harmonics(s.theta_deg * kRadPerDeg, kThetaHarmonics, cos_k, sin_k);
+  harmonics(s.theta_rad(), kThetaHarmonics, cos_k, sin_k);
   for (int k = 1; k <= kThetaHarmonics; ++k) {
     out[2 * k - 2] = cos_k[k - 1];
     out[2 * k - 1] = sin_k[k - 1];
   }
   double* phi = out + 2 * kThetaHarmonics;
-  harmonics(s.phi_deg * kRadPerDeg, kPhiTerms, phi, sin_k);
+  harmonics(s.phi_rad(), kPhiTerms, phi, sin_k);
   const double u = (s.r_mm + e - ref.r_ref_mm) / ref.r_half_range_mm;
   const double tau = (s.t_s - ref.t_start_s) / ref.t_span_s;
   double* powers = phi + kPhiTerms;

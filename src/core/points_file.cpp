@@ -312,9 +312,9 @@ std::vector<std::string> PlausibilityWarnings(const PointsData& data) {
       p_lo = std::min(p_lo, s.phi_deg);
       p_hi = std::max(p_hi, s.phi_deg);
     }
-    constexpr double kTwoPi = 6.2832, kPi = 3.1416;
+    constexpr double kTurnRad = 6.2832, kHalfTurnRad = 3.1416;  // rounded up
     // A measurement in degrees turns Theta through far more than 6.3 deg; one in radians stays within it.
-    if (t_hi - t_lo > 1.0 && t_lo >= -kTwoPi && t_hi <= kTwoPi && p_lo >= -0.01 && p_hi <= kPi) {
+    if (t_hi - t_lo > 1.0 && t_lo >= -kTurnRad && t_hi <= kTurnRad && p_lo >= -0.01 && p_hi <= kHalfTurnRad) {
       char buf[256];
       std::snprintf(buf, sizeof buf,
                     "theta_deg spans only %.4g..%.4g and phi_deg %.4g..%.4g: are the angles in radians? The "

@@ -25,7 +25,7 @@ using internal::ParallelFor;
 std::vector<EffectReading> FixedReadings(const std::vector<RawReading>& readings) {
   std::vector<EffectReading> fixed;
   fixed.reserve(readings.size());
-  for (const RawReading& r : readings) fixed.emplace_back(r.theta_deg, r.phi_deg, r.r_mm, 0.0);
+  for (const RawReading& r : readings) fixed.emplace_back(r, 0.0);
   return fixed;
 }
 

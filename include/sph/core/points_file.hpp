@@ -25,16 +25,16 @@
 
 #include <Eigen/Core>
 
+#include "sph/model/reading.hpp"
+
 namespace sph {
 
 /// Format version this library reads and writes.
 inline constexpr int kPointsFormatVersion = 1;
 
-/// One reading of the three axes.
-struct Sample {
-  double theta_deg = 0.0;  ///< Theta axis reading [deg]
-  double phi_deg = 0.0;    ///< Phi axis reading [deg]
-  double r_mm = 0.0;       ///< probe reading [mm]
+/// One row of a points file: a reading of the three axes (theta_deg, phi_deg, r_mm), when it was
+/// taken and in which setup.
+struct Sample : RawReading {
   double t_s = 0.0;        ///< acquisition time [s]; the row index when the file has no t_s column
   int setup = 0;           ///< sphere placement id; 0 when the file has no setup column
 };

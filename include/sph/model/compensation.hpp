@@ -29,6 +29,7 @@
 #include <Eigen/Core>
 
 #include "sph/model/effects.hpp"
+#include "sph/model/reading.hpp"
 #include "sph/model/scms_model.hpp"
 #include "sph/model/units.hpp"
 
@@ -78,13 +79,6 @@ struct Calibration {
     }
     return !covariance || covariance->allFinite();
   }
-};
-
-/// One raw reading as the machine gives it.
-struct RawReading {
-  double theta_deg = 0.0;  ///< Theta axis reading [deg]
-  double phi_deg = 0.0;    ///< Phi axis reading [deg]
-  double r_mm = 0.0;       ///< probe reading [mm]
 };
 
 namespace internal {

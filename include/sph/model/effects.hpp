@@ -27,6 +27,7 @@
 
 #include "sph/model/effect_terms.hpp"
 #include "sph/model/form_model.hpp"
+#include "sph/model/reading.hpp"
 #include "sph/model/scms_model.hpp"
 #include "sph/model/units.hpp"
 
@@ -69,14 +70,17 @@ struct EffectReading {
   SinCos<double> phi{0.0, 1.0};
 
   EffectReading() = default;
-  /// From the readings as a points file holds them: axis angles in deg, probe in mm, time in s.
-  EffectReading(double theta_deg, double phi_deg, double probe_mm, double time_s)
-      : theta_rad(theta_deg * kRadPerDeg),
-        phi_rad(phi_deg * kRadPerDeg),
-        r_mm(probe_mm),
+  /// From a reading as the machine gives it (a points file's row is one) and its time [s].
+  EffectReading(const RawReading& reading, double time_s)
+      : theta_rad(reading.theta_rad()),
+        phi_rad(reading.phi_rad()),
+        r_mm(reading.r_mm),
         t_s(time_s),
         theta(SinCosOf(theta_rad)),
         phi(SinCosOf(phi_rad)) {}
+  /// The same from its parts: axis angles in deg, probe in mm, time in s.
+  EffectReading(double theta_deg, double phi_deg, double probe_mm, double time_s)
+      : EffectReading(RawReading{theta_deg, phi_deg, probe_mm}, time_s) {}
 };
 
 /// The value of component `c` of a term of effect `e` at reading x: cos(k x) or sin(k x) of the
