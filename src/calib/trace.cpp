@@ -428,6 +428,11 @@ std::string SeparateFromForm(Effect e) {
     return "the pattern measured a second time in another order (reversed or shuffled), so that time is no "
            "function of the direction on the sphere, or the sphere turned on its mount";
   }
+  const std::string v = InfoOf(e).variable;
+  if (v != "r" && v != "t") {
+    return "the sphere turned on its mount (a form turns with the sphere, an error of the machine stays with the "
+           "machine), or a second setup at another eccentricity";
+  }
   return "a second setup at another eccentricity (the probe then works over another range) or with the sphere turned "
          "on its mount (a form turns with the sphere)";
 }
@@ -1090,6 +1095,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   Tried tried = ScoreCandidates(data, options, current, todo, round, trace);
   const auto any = [](const CandidateScore&) { return true; };
   int best = BestAdmissible(tried, current, trace, any);
+  const int best_any = best;
   // With a design that separates the form, it is in the model and no competitor. When the
   // competitor explains the residual better than the best effect, or about as well, no effect is
   // added.
@@ -1116,11 +1122,12 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   const CandidateScore* chosen = nullptr;
   if (best < 0 || form_wins) {
     // An effect of the time or the probe reading that its variable shows, but no more than a form
-    // would: both explanations, neither added.
-    for (const auto& [c, fit] : tried) {
-      if (!form_wins || !Admissible(c, current, trace) || !ShownByItsVariable(c.effect, current.structure, trace)) {
-        continue;
-      }
+    // would, and the best effect of the machine: both explanations, neither added.
+    for (std::size_t i = 0; i < tried.size(); ++i) {
+      const CandidateScore& c = tried[i].first;
+      const bool shown = ShownByItsVariable(c.effect, current.structure, trace);
+      const bool best_machine = static_cast<int>(i) == best_any && !shown;
+      if (!form_wins || !Admissible(c, current, trace) || !(shown || best_machine)) continue;
       const double cur_rms = current.fit.calibration.rms_um;
       Ambiguity a{"sphere_form", c.Id(), sphere.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};
       a.chosen_rms_um = sphere.explained_rms_um;

@@ -562,3 +562,31 @@ TEST(TraceResidual, ChoosesAnEffectsComponentsAgainOnceALargerEffectIsFitted) {
 
 }  // namespace
 }  // namespace sph
+
+namespace sph {
+namespace {
+
+// One placement, a Theta radial motion of 0.3 um at 2 per turn and a Phi encoder error of 10
+// arcsec at 1 per turn: with the sphere in one place both are patterns fixed on it, and a pattern
+// on the sphere explains the residual as well as any effect. Nothing is added; the report names
+// the best effect of the machine beside the form as the second explanation, with the
+// measurement that separates them (the sphere turned on its mount), and never a probe term in
+// their place.
+TEST(TraceResidual, NamesTheMachineErrorThatAPatternOnTheSphereCannotBeToldFromInOnePlacement) {
+  SimulationSpec spec;
+  spec.seed = 1;
+  spec.noise_r_um = 0.03;
+  spec.effects.model.terms = {{Effect::kThetaRadialMotion, {{2, 0, false}}}, {Effect::kPhiEncoder, {{1, 0, false}}}};
+  spec.effects.values = {{0.3 * kMmPerUm}, {10 * kRadPerArcsec}};
+  const TraceResult r = Trace(Simulate(spec));
+  EXPECT_TRUE(r.added.empty()) << Describe(r);
+  const auto machine = std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [](const Ambiguity& a) {
+    return a.chosen == "sphere_form" && a.other == InfoOf(Effect::kThetaRadialMotion).id;
+  });
+  ASSERT_NE(machine, r.ambiguous.end()) << Describe(r);
+  EXPECT_NE(machine->separate_by.find("turned on its mount"), std::string::npos) << machine->separate_by;
+  EXPECT_GT(machine->other_rms_um, 0.1);
+}
+
+}  // namespace
+}  // namespace sph
