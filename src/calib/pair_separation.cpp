@@ -73,15 +73,32 @@ bool WithPlacement(const PointsData& points, const CalibrationOptions& options, 
 
 }  // namespace
 
-PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOptions& options,
-                                   const EffectFit& current, const EffectTerm& a, const std::vector<double>& a_values,
-                                   const EffectTerm& b, const std::vector<double>& b_values) {
+namespace {
+
+// `current` with the terms a and b added last, at their values.
+EffectFit WithPair(const EffectFit& current, const EffectTerm& a, const std::vector<double>& a_values,
+                   const EffectTerm& b, const std::vector<double>& b_values) {
   EffectFit both = current;
   both.model.terms.push_back(a);
   both.model.terms.push_back(b);
   both.values.push_back(a_values);
   both.values.push_back(b_values);
   both.n_params += a.size() + b.size();
+  return both;
+}
+
+}  // namespace
+
+double PairVifNow(const PointsData& points, const CalibrationOptions& options, const EffectFit& current,
+                  const EffectTerm& a, const std::vector<double>& a_values, const EffectTerm& b,
+                  const std::vector<double>& b_values) {
+  return PairVif(points, options, WithPair(current, a, a_values, b, b_values));
+}
+
+PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOptions& options,
+                                   const EffectFit& current, const EffectTerm& a, const std::vector<double>& a_values,
+                                   const EffectTerm& b, const std::vector<double>& b_values) {
+  const EffectFit both = WithPair(current, a, a_values, b, b_values);
   PairSeparation out;
   out.vif_now = PairVif(points, options, both);
   for (const Placement& p : PlacementsToTry(current.calibration.centers_mm.front(), options.sphere_radius_mm)) {

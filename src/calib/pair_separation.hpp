@@ -30,6 +30,13 @@ struct PairSeparation {
   std::string tried;  ///< the placements tried, in words
 };
 
+/// The largest variance inflation of the components of a (with a_values) and b (with b_values),
+/// both beside the model of `current`, on the readings `points` as measured: CheckPairSeparation()'s
+/// vif_now alone, without the placements it tries.
+double PairVifNow(const PointsData& points, const CalibrationOptions& options, const EffectFit& current,
+                  const EffectTerm& a, const std::vector<double>& a_values, const EffectTerm& b,
+                  const std::vector<double>& b_values);
+
 /// Checks the pair (a with a_values, b with b_values) beside the model of `current` (a fit of
 /// `points`): first on the readings as they are, then with one more setup, the pattern of the first
 /// setup read once more with the sphere at another eccentricity, azimuth, or a quarter and three

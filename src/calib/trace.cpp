@@ -901,8 +901,25 @@ std::string CheckedSeparation(const Readings& data, const CalibrationOptions& op
       p.tried.c_str(), p.vif_now, p.vif_with, internal::kSeparatedVif);
 }
 
+// Whether the design cannot tell candidate c (fitted in `c_fit`) from the chosen effect (in
+// `chosen_fit`), though c scored clearly worse: c explains at least half as much (its delta BIC at
+// least half the chosen one's) and, with both beside the current model, a component of the two
+// has a variance inflation above internal::kSeparatedVif on the readings as measured. A BIC gap
+// between two such terms comes from which components each kept, not from the data telling them
+// apart.
+bool ConfoundedByDesign(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
+                        const CandidateScore& c, const EffectFit& c_fit, const CandidateScore& chosen,
+                        const EffectFit& chosen_fit) {
+  if (!(c.delta_bic <= 0.5 * chosen.delta_bic) || c_fit.model.terms.size() != current.model.terms.size() + 1) {
+    return false;
+  }
+  return internal::PairVifNow(data.points, options, current, chosen_fit.model.terms.back(), chosen_fit.values.back(),
+                              c_fit.model.terms.back(), c_fit.values.back()) > internal::kSeparatedVif;
+}
+
 // The ambiguities of the effect chosen in a round: the other admissible candidates that scored
-// almost as well, and the sphere's form where it explains the same change of the residual.
+// almost as well or that the design cannot tell from it, and the sphere's form where it explains
+// the same change of the residual.
 void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
                        const Tried& tried, std::size_t best, const SpherePattern& sphere, bool form_better,
                        bool form_separable, const TraceOptions& trace, CandidateScore& chosen,
@@ -910,7 +927,8 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
   for (std::size_t i = 0; i < tried.size(); ++i) {
     const CandidateScore& c = tried[i].first;
     if (i == best || !Admissible(c, current, trace)) continue;
-    if (c.delta_bic - chosen.delta_bic < trace.ambiguity_bic) {
+    if (c.delta_bic - chosen.delta_bic < trace.ambiguity_bic ||
+        ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second)) {
       Ambiguity a{InfoOf(chosen.effect).id,           InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
                   SeparateBy(chosen.effect, c.effect)};
       a.checked = CheckedSeparation(data, options, current.fit, tried[best].second, tried[i].second);
