@@ -927,10 +927,11 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
   for (std::size_t i = 0; i < tried.size(); ++i) {
     const CandidateScore& c = tried[i].first;
     if (i == best || !Admissible(c, current, trace)) continue;
-    if (c.delta_bic - chosen.delta_bic < trace.ambiguity_bic ||
-        ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second)) {
+    const bool close = c.delta_bic - chosen.delta_bic < trace.ambiguity_bic;
+    if (close || ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second)) {
       Ambiguity a{InfoOf(chosen.effect).id,           InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
                   SeparateBy(chosen.effect, c.effect)};
+      a.by_design = !close;
       a.checked = CheckedSeparation(data, options, current.fit, tried[best].second, tried[i].second);
       ambiguous->push_back(a);
     }

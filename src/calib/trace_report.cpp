@@ -275,9 +275,17 @@ void WriteAmbiguities(std::ostream& out, const TraceResult& r) {
              "well; to separate them: "
           << x.separate_by << "\n";
     } else {
-      out << "  ambiguous: " << x.other << " explains the residual about as well as " << x.chosen
-          << Format(" (delta BIC %.1f against %.1f); to separate them: ", x.delta_bic_other, x.delta_bic_chosen)
-          << x.separate_by << "\n";
+      if (x.by_design) {
+        out << "  ambiguous: " << x.other << " cannot be told from " << x.chosen
+            << " by this design (their terms fitted together have a variance inflation above 100), though it "
+               "explains less"
+            << Format(" (delta BIC %.1f against %.1f); to separate them: ", x.delta_bic_other, x.delta_bic_chosen)
+            << x.separate_by << "\n";
+      } else {
+        out << "  ambiguous: " << x.other << " explains the residual about as well as " << x.chosen
+            << Format(" (delta BIC %.1f against %.1f); to separate them: ", x.delta_bic_other, x.delta_bic_chosen)
+            << x.separate_by << "\n";
+      }
       if (!x.checked.empty()) out << "    checked on this design: " << x.checked << "\n";
     }
   }
@@ -377,7 +385,8 @@ json AmbiguousJson(const TraceResult& r) {
                          {"other_rms_um", NumberOrNull(x.other_rms_um)},
                          {"form_turns_with_sphere", x.form_turns_with_sphere},
                          {"separate_by", x.separate_by},
-                         {"checked", x.checked}});
+                         {"checked", x.checked},
+                         {"by_design", x.by_design}});
   }
   return ambiguous;
 }

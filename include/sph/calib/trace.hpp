@@ -146,6 +146,10 @@ struct Ambiguity {
   /// which placement of the sphere added to the file's would tell them apart, or that none of
   /// those tried would; empty for the form.
   std::string checked = "";
+  /// For two effects: named because the design cannot tell them apart (a variance inflation of
+  /// their terms fitted together above 100) though the other scored clearly worse, rather than
+  /// because both scored about as well.
+  bool by_design = false;
 };
 
 /// How the trace treated the sphere's form.
