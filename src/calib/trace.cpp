@@ -428,8 +428,7 @@ std::string SeparateFromForm(Effect e) {
     return "the pattern measured a second time in another order (reversed or shuffled), so that time is no "
            "function of the direction on the sphere, or the sphere turned on its mount";
   }
-  const std::string v = InfoOf(e).variable;
-  if (v != "r" && v != "t") {
+  if (InfoOf(e).harmonic) {  // an error of the machine's axes
     return "the sphere turned on its mount (a form turns with the sphere, an error of the machine stays with the "
            "machine), or a second setup at another eccentricity";
   }
@@ -1114,7 +1113,6 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   Tried tried = ScoreCandidates(data, options, current, todo, round, trace);
   const auto any = [](const CandidateScore&) { return true; };
   int best = BestAdmissible(tried, current, trace, any);
-  const int best_any = best;
   // With a design that separates the form, it is in the model and no competitor. When the
   // competitor explains the residual better than the best effect, or about as well, no effect is
   // added.
@@ -1128,8 +1126,9 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   // A pattern on the sphere never blocks an effect that its own variable shows: the best such
   // candidate is added, and both explanations are reported.
   if (form_better && best >= 0) {
+    const bool one_placement = OnePlacement(current.fit);
     best = BestAdmissible(tried, current, trace, [&](const CandidateScore& c) {
-      return ShownBeyondSphere(c, current.factor, OnePlacement(current.fit), trace);
+      return ShownBeyondSphere(c, current.factor, one_placement, trace);
     });
   }
   const bool form_wins = form_better && best < 0;
@@ -1142,11 +1141,14 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   if (best < 0 || form_wins) {
     // An effect of the time or the probe reading that its variable shows, but no more than a form
     // would, and the best effect of the machine: both explanations, neither added.
+    const int best_machine =
+        form_wins
+            ? BestAdmissible(tried, current, trace, [](const CandidateScore& c) { return InfoOf(c.effect).harmonic; })
+            : -1;
     for (std::size_t i = 0; i < tried.size(); ++i) {
       const CandidateScore& c = tried[i].first;
       const bool shown = ShownByItsVariable(c.effect, current.structure, trace);
-      const bool best_machine = static_cast<int>(i) == best_any && !shown;
-      if (!form_wins || !Admissible(c, current, trace) || !(shown || best_machine)) continue;
+      if (!form_wins || !Admissible(c, current, trace) || !(shown || static_cast<int>(i) == best_machine)) continue;
       const double cur_rms = current.fit.calibration.rms_um;
       Ambiguity a{"sphere_form", c.Id(), sphere.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};
       a.chosen_rms_um = sphere.explained_rms_um;
