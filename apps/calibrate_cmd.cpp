@@ -149,6 +149,9 @@ CalibrationOptions SettingsOf(const CalibrateOptions& o, const PointsData& point
   if (o.coverage) inputs->coverage.probability = *o.coverage;
   CalibrationOptions copts;
   copts.sphere_radius_mm = inputs->RadiusAtTemperatureMm(*radius);
+  for (const auto& [setup, radius_mm] : points.header.sphere_radii_mm) {
+    copts.sphere_radii_mm[setup] = inputs->RadiusAtTemperatureMm(radius_mm);  // the same temperature and CTE
+  }
   copts.probe_offset_mm = *offset;
   copts.max_std_um = o.max_std_um;
   copts.max_iterations = o.max_iterations;
@@ -249,6 +252,7 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     ctx.program = prog + " " SPH_VERSION;
     ctx.points_path = o.points_path;
     ctx.sphere_radius_mm = copts.sphere_radius_mm;
+    ctx.sphere_radii_mm = copts.sphere_radii_mm;
     ctx.probe_offset_mm = copts.probe_offset_mm;
     ctx.max_std_um = o.max_std_um;
     ctx.metadata = points.header.metadata;

@@ -60,6 +60,17 @@ void AddSphereOptions(const SimulateOptions& o, SimulationSpec& spec) {
     const std::string what = "--mount-unknown " + Quoted(text);
     if (!spec.mount_unknown.insert(ParseSetup(text, what, n)).second) throw Error(what + ": the setup is given twice");
   }
+  for (const std::string& text : o.sphere_radii_mm) {
+    const std::string what = "--other-sphere-radius-mm " + Quoted(text);
+    const auto [setup, rest] = SplitSetup(text, what, "SETUP:R (a setup id and a radius in mm)", n);
+    const double radius_mm = ParseNumber(rest, "radius", what + ": ");
+    if (!(radius_mm > 0.0 && radius_mm <= kMaxSphereRadiusMm)) {
+      throw Error(what + ": the radius must be in (0, " + Format("%g", kMaxSphereRadiusMm) + "] mm");
+    }
+    if (!spec.sphere_radii_mm.emplace(setup, radius_mm).second) {
+      throw Error(what + ": setup " + std::to_string(setup) + " is given twice");
+    }
+  }
   bool order_for_all = false;
   for (const std::string& text : o.scan_orders) {
     const std::string what = "--scan-order " + Quoted(text);
@@ -196,6 +207,10 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
   app.add_option("--mount-unknown", o.mount_unknown,
                  "SETUP: the header says 'unknown' for that setup's rotation (simulated as given); repeatable")
       ->group(sphere);
+  app.add_option("--other-sphere-radius-mm", o.sphere_radii_mm,
+                 "SETUP:R: that setup measures another sphere, of radius R [mm], perfect (the form options shape the "
+                 "reference sphere); written into the file's header as sphere_radius_mm@SETUP; repeatable")
+      ->group(sphere);
   AddFormOptions(app, o.form, sphere);
   app.add_option("--scan-order", o.scan_orders,
                  std::string("ORDER or SETUP:ORDER: the time order of the pattern (") + ScanOrderNames() +
@@ -271,6 +286,8 @@ nlohmann::json SetupsTruth(const SimulationSpec& spec) {
                     : rotation != spec.mount_rotations_deg.end() ? "rotation"
                                                                  : "none"},
          {"scan_order", ScanOrderName(order == spec.scan_orders.end() ? spec.scan_order : order->second)}});
+    const auto other = spec.sphere_radii_mm.find(id);
+    if (other != spec.sphere_radii_mm.end()) setups.back()["sphere_radius_mm"] = other->second;
   }
   return setups;
 }

@@ -28,6 +28,7 @@ struct SimulateOptions {
   /// The sphere's orientation on its mount, "SETUP:rx,ry,rz" (rotation vector, deg) each.
   std::vector<std::string> mount_rotations_deg;
   std::vector<std::string> mount_unknown;  ///< setup ids whose header says "unknown"
+  std::vector<std::string> sphere_radii_mm;  ///< "SETUP:R": that setup measures another sphere
   FormOptions form;                        ///< the sphere's form error on its body frame
   std::vector<std::string> scan_orders;  ///< "ORDER" (every setup) or "SETUP:ORDER"
   double outlier_fraction = 0.0;

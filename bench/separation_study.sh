@@ -25,6 +25,10 @@ turned="--center-mm 2,0,0 --center-mm 0,2,0 --center-mm 2,0,0 --mount-rotation-d
 
 heights="--center-mm 2,0,0 --center-mm 0,2,3"
 eccentricities="--center-mm 2,0,0 --center-mm 0,1,0"
+two_spheres="--center-mm 2,0,0 --center-mm 2,0,0 --other-sphere-radius-mm 1:10"
+# after $turned: a second sphere (R 10 mm) as setups 3 and 4, turned by 90 deg about z between them
+second_turned="--center-mm 2,0,0 --center-mm 2,0,0 --other-sphere-radius-mm 3:10 --other-sphere-radius-mm 4:10 \
+--mount-rotation-deg 4:0,0,90"
 pivot="--phi-wobble-pivot-mm 80"
 
 # name | expected effects (comma-separated ids, or -) | sph_simulate arguments | strip t_s (yes/no)
@@ -44,7 +48,13 @@ theta_tilt_10|theta_tilt_motion|--effect-arcsec theta_tilt_motion.x_c2=10|no|
 heights+theta_tilt_10|theta_tilt_motion|$heights --effect-arcsec theta_tilt_motion.x_c2=10|no|
 wobble_L80_2|phi_wobble|$pivot --effect-arcsec phi_wobble.x_c2=2|no|$pivot
 incidence_30|probe_incidence|--effect-um probe_incidence.i1=30|no|
-eccentricities+incidence_30|probe_incidence|$eccentricities --effect-um probe_incidence.i1=30|no|"
+eccentricities+incidence_30|probe_incidence|$eccentricities --effect-um probe_incidence.i1=30|no|
+gain_10|probe_gain|--effect-um probe_gain.u1=10|no|
+two_spheres+gain_10|probe_gain|$two_spheres --effect-um probe_gain.u1=10|no|
+two_spheres+incidence_30|probe_incidence|$two_spheres --effect-um probe_incidence.i1=30|no|
+turned+form28+gain_10|probe_gain|$turned $form28 --effect-um probe_gain.u1=10|no|
+turned+second_turned+form28+gain_10|probe_gain|$turned $second_turned $form28 --effect-um probe_gain.u1=10|no|
+turned+second_turned+form28+incidence_30|probe_incidence|$turned $second_turned $form28 --effect-um probe_incidence.i1=30|no|"
 
 printf '%-30s %5s %7s %7s %12s %10s  %s\n' case runs right wrong form_ratio cv/sigma 'effects added (count)'
 echo "$cases" | while IFS='|' read -r name expected args strip cal_args; do

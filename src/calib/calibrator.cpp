@@ -97,8 +97,7 @@ Eigen::MatrixXd ResidualJacobian(const PointsData& points, const CalibrationOpti
                                  const ScmsGeometry& geometry, const std::vector<Eigen::Vector3d>& centers_mm) {
   const internal::ReadingTable table(points);
   if (centers_mm.size() != table.setup_ids.size()) throw Error(points.source + ": one centre per setup is needed");
-  const internal::SphereFitProblem problem(table, internal::AllRows(table), EffectModel{}, options.probe_offset_mm,
-                                           options.sphere_radius_mm);
+  const internal::SphereFitProblem problem(table, internal::AllRows(table), EffectModel{}, options);
   const Eigen::VectorXd x = problem.Pack(geometry, centers_mm, {});
   return problem.DenseJacobian(x.data());
 }
@@ -145,7 +144,7 @@ std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOpt
 CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
                                 const CalibrationOptions& options, LmWorkspace* workspace,
                                 const std::vector<Sphere>* start_spheres) {
-  CheckFitOptions(points.source, options);
+  CheckFitOptions(points, options);
   RowsOfSetup rows = AllRows(table, left_out);
   CalibrationResult result;
   const std::size_t n_samples = SetupsWithRows(table, rows, &result.setup_ids);
@@ -170,8 +169,7 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
 
   // One residual per sample (sph/ceres/sphere_residual.hpp), the gradient derived by hand
   // (sph/model/residual_gradient.hpp), Levenberg-Marquardt on the normal equations.
-  const SphereFitProblem problem(table, std::move(rows), EffectModel{}, options.probe_offset_mm,
-                                 options.sphere_radius_mm);
+  const SphereFitProblem problem(table, std::move(rows), EffectModel{}, options);
   Eigen::VectorXd x = problem.Pack(result.geometry, result.centers_mm, {});
   LmWorkspace local;
   LmWorkspace& lm = workspace ? *workspace : local;
@@ -221,8 +219,7 @@ std::vector<double> ResidualsOf(const internal::ReadingTable& table, const Calib
     }
     centers.push_back(r.centers_mm[static_cast<std::size_t>(it - r.setup_ids.begin())]);
   }
-  const internal::SphereFitProblem problem(table, std::move(rows), EffectModel{}, options.probe_offset_mm,
-                                           options.sphere_radius_mm);
+  const internal::SphereFitProblem problem(table, std::move(rows), EffectModel{}, options);
   std::vector<double> out(table.size(), 0.0);
   problem.Residuals(problem.Pack(r.geometry, centers, {}).data(), out.data());
   return out;

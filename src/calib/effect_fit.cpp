@@ -67,14 +67,19 @@ int EffectFit::FormOffset(int group) const {
 FormModel FormModelOf(const PointsData& points, const std::vector<FormTerm>& terms) {
   FormModel form;
   form.terms = terms;
+  std::map<std::string, int> group_of{{"", 0}};  // by PointsHeader::FormKey()
   for (const int id : points.SetupIds()) {
-    const auto it = points.header.mount_rotations.find(id);
     FormSetup fs;
-    if (it != points.header.mount_rotations.end() && !it->second.known()) {
-      fs.group = form.NumGroups();
+    const auto [it, is_new] = group_of.emplace(points.header.FormKey(id), form.NumGroups());
+    fs.group = it->second;
+    if (is_new) {
       form.group_names.push_back("@" + std::to_string(id));
-    } else if (it != points.header.mount_rotations.end()) {
-      fs.rotation = MountRotationMatrix(*it->second.rotation_deg);
+    } else if (fs.group > 0) {
+      form.group_names[static_cast<std::size_t>(fs.group)] += "," + std::to_string(id);
+    }
+    const auto rotation = points.header.mount_rotations.find(id);
+    if (rotation != points.header.mount_rotations.end() && rotation->second.known()) {
+      fs.rotation = MountRotationMatrix(*rotation->second.rotation_deg);
     }
     form.setups[id] = fs;
   }
@@ -95,7 +100,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
                          const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start,
                          LmWorkspace* workspace) {
   const std::string& src = points.source;
-  CheckFitOptions(src, options);
+  CheckFitOptions(points, options);
   EffectFit fit;
   fit.model = model;
   CalibrationResult& result = fit.calibration;
@@ -114,7 +119,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
       values[t].assign(size, 0.0);
     }
   }
-  const SphereFitProblem problem(table, std::move(rows), model, options.probe_offset_mm, options.sphere_radius_mm);
+  const SphereFitProblem problem(table, std::move(rows), model, options);
   Eigen::VectorXd x = problem.Pack(start.geometry, start.centers_mm, values, start.form_values);
   LmWorkspace local;
   LmWorkspace& lm = workspace ? *workspace : local;
@@ -145,7 +150,7 @@ struct ProblemAt {
   Eigen::VectorXd x;
   ProblemAt(const ReadingTable& table, const std::vector<bool>* left_out, const CalibrationOptions& options,
             const EffectFit& fit, const std::string& source)
-      : problem(table, AllRows(table, left_out), fit.model, options.probe_offset_mm, options.sphere_radius_mm) {
+      : problem(table, AllRows(table, left_out), fit.model, options) {
     RowsOfSetup rows = AllRows(table, left_out);
     x = problem.Pack(fit.calibration.geometry,
                      CentersFor(table, rows, fit.calibration.setup_ids, fit.calibration.centers_mm, source), fit.values,
@@ -156,7 +161,7 @@ struct ProblemAt {
 }  // namespace
 
 StructureJacobian::StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit)
-    : problem_(table, AllRows(table), fit.model, options.probe_offset_mm, options.sphere_radius_mm) {
+    : problem_(table, AllRows(table), fit.model, options) {
   x_ = problem_.Pack(fit.calibration.geometry,
                      CentersFor(table, AllRows(table), fit.calibration.setup_ids, fit.calibration.centers_mm, ""),
                      fit.values, fit.form_values);
@@ -226,7 +231,8 @@ std::vector<double> EffectResiduals(const PointsData& points, const CalibrationO
   std::vector<double> out;
   const std::vector<Eigen::Vector3d> offsets = OffsetsFromCentre(points, options, fit);
   for (std::size_t i = 0; i < offsets.size(); ++i) {
-    out.push_back(offsets[i].norm() - options.sphere_radius_mm - FormAt(fit, points.samples[i].setup, offsets[i]));
+    out.push_back(offsets[i].norm() - options.SphereRadiusMm(points.samples[i].setup) -
+                  FormAt(fit, points.samples[i].setup, offsets[i]));
   }
   return out;
 }

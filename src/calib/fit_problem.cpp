@@ -414,17 +414,14 @@ struct SphereFitProblem::Scratch {
 };
 
 SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, const EffectModel& model,
-                                   double probe_offset_mm, double sphere_radius_mm)
-    : table_(table),
-      model_(model),
-      probe_offset_mm_(probe_offset_mm),
-      sphere_radius_mm_(sphere_radius_mm),
-      scratch_(std::make_unique<Scratch>()) {
+                                   const CalibrationOptions& options)
+    : table_(table), model_(model), probe_offset_mm_(options.probe_offset_mm), scratch_(std::make_unique<Scratch>()) {
   for (std::size_t k = 0; k < rows.size(); ++k) {
     if (rows[k].empty()) continue;
     num_rows_ += rows[k].size();
     setups_.push_back(static_cast<int>(k));
     rows_.push_back(std::move(rows[k]));
+    radius_mm_.push_back(options.SphereRadiusMm(table.setup_ids[k]));
   }
   num_effect_params_ = model.NumParams();
   first_effect_ = kNumScmsParams + 3 * static_cast<Eigen::Index>(setups_.size());
@@ -589,14 +586,15 @@ void SphereFitProblem::SumTerms(const double* effect_values, int count) const {
 // reverse sweep at z0 along gc, the second that along n0 at z0 + 1 less that at z0 (p is affine in
 // z, so the difference is n0 . dB/dx exactly), and dc/dO = -gc.
 SphereFitProblem::Incidence SphereFitProblem::IncidenceAt(const double* g, const ScmsErrorTrig<double>& et,
-                                                          const double* center, const double* effect_values,
-                                                          ResidualInputs in0, int i, bool jacobian) const {
+                                                          const double* center, double radius_mm,
+                                                          const double* effect_values, ResidualInputs in0, int i,
+                                                          bool jacobian) const {
   Scratch& s = *scratch_;
   Incidence result;
   ResidualGradient at0;
-  GradientAt(s.wobble, s.tilt, g, et, in0, center, sphere_radius_mm_, &at0);
+  GradientAt(s.wobble, s.tilt, g, et, in0, center, radius_mm, &at0);
   const Eigen::Vector3d n0(-at0.center[0], -at0.center[1], -at0.center[2]);
-  const double dist0 = at0.e + sphere_radius_mm_;
+  const double dist0 = at0.e + radius_mm;
   const Eigen::Vector3d p0 = Eigen::Map<const Eigen::Vector3d>(center) + dist0 * n0;
   const Eigen::Vector3d beam = BeamAt(s.wobble, s.tilt, et, in0);
   const double c = beam.dot(n0), sin2 = 1.0 - c * c;
@@ -619,14 +617,14 @@ SphereFitProblem::Incidence SphereFitProblem::IncidenceAt(const double* g, const
   if (gc_norm > 0.0) {
     const Eigen::Vector3d behind = p0 - gc / gc_norm;
     ResidualGradient along_gc;
-    GradientAt(s.wobble, s.tilt, g, et, in0, behind.data(), sphere_radius_mm_, &along_gc);
+    GradientAt(s.wobble, s.tilt, g, et, in0, behind.data(), radius_mm, &along_gc);
     AddScaled(along_gc, gc_norm, &dc);
   }
   ResidualInputs in1 = in0;
   in1.z = in0.z + 1.0;
   const Eigen::Vector3d behind1 = (p0 + beam) - n0;
   ResidualGradient at1;
-  GradientAt(s.wobble, s.tilt, g, et, in1, behind1.data(), sphere_radius_mm_, &at1);
+  GradientAt(s.wobble, s.tilt, g, et, in1, behind1.data(), radius_mm, &at1);
   AddScaled(at1, 1.0, &dc);
   AddScaled(at0, -1.0, &dc);
   for (int j = 0; j < 3; ++j) dc.center[j] = -gc[j];
@@ -640,6 +638,7 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
   const bool form = num_form_terms_ > 0;
   const double* form_values = x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_;
   const Eigen::Matrix3d& rotation = form_rotation_[static_cast<std::size_t>(setup)];
+  const double radius_mm = radius_mm_[static_cast<std::size_t>(setup)];
   const double* g = x;
   const double* effect_values = x + first_effect_;
   BlockBasis(idx, count);
@@ -668,14 +667,14 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
     if (s.incidence >= 0) {
       ResidualInputs in0 = in;
       in0.z = s.r[i] - d_plus_dprime;
-      incidence = IncidenceAt(g, et, center, effect_values, in0, i, cols != nullptr);
+      incidence = IncidenceAt(g, et, center, radius_mm, effect_values, in0, i, cols != nullptr);
     }
     in.z = (s.r[i] + (s.target[kDr][i] + incidence.dr_mm)) - d_plus_dprime;
     ResidualGradient out;
     // The gradient of e (centre o) with the chain through the incidence angle; returns the unit
     // normal n = (p - o) / |p - o| = -de/do of |p - o| alone (before that chain, which adds to de/do).
     auto gradient = [&](const double* o, ResidualGradient* result) {
-      GradientAt(s.wobble, s.tilt, g, et, in, o, sphere_radius_mm_, result);
+      GradientAt(s.wobble, s.tilt, g, et, in, o, radius_mm, result);
       const Eigen::Vector3d normal(-result->center[0], -result->center[1], -result->center[2]);
       if (s.incidence >= 0 && cols != nullptr) AddScaled(incidence.dc, result->z * incidence.de_dc_per_de_dz, result);
       return normal;
@@ -684,7 +683,7 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
     e[i] = out.e;
     if (form) {
       // See the header: e -= F(R^T n), and the gradient along t = dF/dp taken off.
-      const double dist = out.e + sphere_radius_mm_;
+      const double dist = out.e + radius_mm;
       const Eigen::Vector3d body = rotation.transpose() * n;
       s.harmonics->Evaluate(body.x(), body.y(), body.z(), s.harmonic_values.data(),
                             cols == nullptr ? nullptr : s.harmonic_gradients.data());
@@ -751,9 +750,9 @@ void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, boo
       if (model_.terms.empty() && num_form_terms_ == 0) {
         const GatheredReadings gathered{s.ct, s.st, s.cp, s.sp, s.r, count};
         if (jacobian) {
-          SevenErrors<true>(g, et, d_plus_dprime, center, sphere_radius_mm_, gathered, e, cols);
+          SevenErrors<true>(g, et, d_plus_dprime, center, radius_mm_[k], gathered, e, cols);
         } else {
-          SevenErrors<false>(g, et, d_plus_dprime, center, sphere_radius_mm_, gathered, e, nullptr);
+          SevenErrors<false>(g, et, d_plus_dprime, center, radius_mm_[k], gathered, e, nullptr);
         }
       } else {
         EffectRows(x, et, d_plus_dprime, static_cast<int>(k), idx, count, e, cols);

@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "levenberg_marquardt.hpp"
+#include "sph/calib/calibrator.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/model/effects.hpp"
 #include "sph/model/residual_gradient.hpp"
@@ -89,10 +90,11 @@ class SphereFitProblem {
  public:
   static constexpr int kBlockRows = 128;
 
-  /// The problem over `rows` of `table` (which must outlive it) with the effects of `model`.
-  /// Setups without rows have no centre.
-  SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, const EffectModel& model, double probe_offset_mm,
-                   double sphere_radius_mm);
+  /// The problem over `rows` of `table` (which must outlive it) with the effects of `model`, the
+  /// probe offset and the sphere radius of each setup from `options`. Setups without rows have no
+  /// centre.
+  SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, const EffectModel& model,
+                   const CalibrationOptions& options);
   ~SphereFitProblem();
   SphereFitProblem(const SphereFitProblem&) = delete;
   SphereFitProblem& operator=(const SphereFitProblem&) = delete;
@@ -164,14 +166,14 @@ class SphereFitProblem {
     double de_dc_per_de_dz = 0.0;  // its derivative with respect to c = B . n0, per de/dz
     ResidualGradient dc;           // dc/dx (its e and z unused)
   };
-  Incidence IncidenceAt(const double* g, const ScmsErrorTrig<double>& et, const double* center,
+  Incidence IncidenceAt(const double* g, const ScmsErrorTrig<double>& et, const double* center, double radius_mm,
                         const double* effect_values, ResidualInputs in0, int i, bool jacobian) const;
   const ReadingTable& table_;
   RowsOfSetup rows_;         // per problem setup
   std::vector<int> setups_;  // table setup index per problem setup
   EffectModel model_;
   double probe_offset_mm_;
-  double sphere_radius_mm_;
+  std::vector<double> radius_mm_;  // the sphere's radius per problem setup
   std::size_t num_rows_ = 0;
   Eigen::Index num_params_ = 0;
   Eigen::Index first_effect_ = 0;

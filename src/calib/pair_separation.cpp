@@ -28,13 +28,18 @@ double PairVif(const PointsData& points, const CalibrationOptions& options, cons
   return worst;
 }
 
-// A placement of the sphere to try: its centre and what it is, in words.
+// A placement to try: the sphere's centre, what it is in words, and the radius of another sphere
+// measured there (0: the same sphere).
 struct Placement {
   Eigen::Vector3d center_mm;
   std::string words;
+  double other_radius_mm = 0.0;
 };
 
-std::vector<Placement> PlacementsToTry(const Eigen::Vector3d& c0, double sphere_radius_mm) {
+// Other placements of the sphere and, where the fit has no form of the sphere (another sphere has
+// a form of its own, which this check does not model), a sphere of half the radius in its place:
+// a probe's gain and its incidence error differ on a sphere only as 1/R against 1/R^2.
+std::vector<Placement> PlacementsToTry(const Eigen::Vector3d& c0, double sphere_radius_mm, bool with_form) {
   const double e = std::hypot(c0.x(), c0.y());
   std::vector<Placement> out;
   if (e >= 0.5) {
@@ -50,20 +55,33 @@ std::vector<Placement> PlacementsToTry(const Eigen::Vector3d& c0, double sphere_
     out.push_back({c0 + Eigen::Vector3d(0.0, 0.0, up_mm),
                    Format("a second placement %.3g mm higher along the Theta axis", up_mm)});
   }
+  if (!with_form) {
+    const double half_mm = 0.5 * sphere_radius_mm;
+    out.push_back({c0,
+                   Format("a second sphere, of radius %.3g mm, in the same place (sphere_radius_mm@<setup>)", half_mm),
+                   half_mm});
+  }
   return out;
 }
 
-// `points` with the rows of its first setup read once more with the sphere centred at `center_mm`
-// (setup id one above the highest), at the fitted geometry of `fit`; nothing when a ray misses.
+// `points` with the rows of its first setup read once more at placement `p` (setup id one above
+// the highest), at the fitted geometry of `fit`, and `options` with the radius of its sphere;
+// false when a ray misses.
 bool WithPlacement(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
-                   const Eigen::Vector3d& center_mm, PointsData* out, int* setup) {
+                   const Placement& p, PointsData* out, CalibrationOptions* out_options, int* setup) {
   *out = points;
+  *out_options = options;
   const std::vector<int>& ids = fit.calibration.setup_ids;
   *setup = ids.back() + 1;
+  const double radius_mm = p.other_radius_mm > 0.0 ? p.other_radius_mm : options.sphere_radius_mm;
+  if (p.other_radius_mm > 0.0) {
+    out->header.sphere_radii_mm[*setup] = radius_mm;
+    out_options->sphere_radii_mm[*setup] = radius_mm;
+  }
   for (const Sample& s : points.samples) {
     if (s.setup != ids.front()) continue;
     const std::optional<double> r = ProbeReading(fit.calibration.geometry, s.theta_rad(), s.phi_rad(),
-                                                 options.probe_offset_mm, center_mm, options.sphere_radius_mm);
+                                                 options.probe_offset_mm, p.center_mm, radius_mm);
     if (!r) return false;
     out->samples.push_back({s.theta_deg, s.phi_deg, *r, s.t_s, *setup});
   }
@@ -101,16 +119,18 @@ PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOp
   const EffectFit both = WithPair(current, a, a_values, b, b_values);
   PairSeparation out;
   out.vif_now = PairVif(points, options, both);
-  for (const Placement& p : PlacementsToTry(current.calibration.centers_mm.front(), options.sphere_radius_mm)) {
+  const Eigen::Vector3d& c0 = current.calibration.centers_mm.front();
+  for (const Placement& p : PlacementsToTry(c0, options.sphere_radius_mm, !current.model.form.Empty())) {
     out.tried += (out.tried.empty() ? "" : "; ") + p.words;
     PointsData more;
+    CalibrationOptions more_options;
     int setup = 0;
-    if (!WithPlacement(points, options, current, p.center_mm, &more, &setup)) continue;
+    if (!WithPlacement(points, options, current, p, &more, &more_options, &setup)) continue;
     EffectFit with = both;
     with.calibration.setup_ids.push_back(setup);
     with.calibration.centers_mm.push_back(p.center_mm);
     with.n_params += 3;
-    const double vif = PairVif(more, options, with);
+    const double vif = PairVif(more, more_options, with);
     if (vif < out.vif_with) {
       out.vif_with = vif;
       if (vif <= kSeparatedVif) out.placement = p.words;

@@ -30,11 +30,24 @@ inline LmOptions CalibrationSolverOptions(int max_iterations) {
   return o;
 }
 
-/// Throws sph::Error naming `source` when the options cannot be fitted: the sphere radius or the
-/// probe offset not positive.
-inline void CheckFitOptions(const std::string& source, const CalibrationOptions& options) {
+/// Throws sph::Error naming the points' source when the options cannot fit them: a sphere radius
+/// or the probe offset not positive, a setup that the header says measured another sphere without
+/// its radius in the options.
+inline void CheckFitOptions(const PointsData& points, const CalibrationOptions& options) {
+  const std::string& source = points.source;
   if (!(options.sphere_radius_mm > 0.0)) throw Error(source + ": the sphere radius must be positive");
   if (!(options.probe_offset_mm > 0.0)) throw Error(source + ": the probe offset must be positive");
+  for (const auto& [setup, radius_mm] : options.sphere_radii_mm) {
+    if (!(radius_mm > 0.0)) {
+      throw Error(source + ": the radius of the sphere of setup " + std::to_string(setup) + " must be positive");
+    }
+  }
+  for (const auto& [setup, radius_mm] : points.header.sphere_radii_mm) {
+    if (options.sphere_radii_mm.count(setup) == 0) {
+      throw Error(source + ": setup " + std::to_string(setup) + " measured another sphere (" + SphereRadiusKey(setup) +
+                  "), but the fit was given no radius for it");
+    }
+  }
 }
 
 /// Throws sph::Error naming `source` when n_samples do not exceed the n_params fitted (`which`:

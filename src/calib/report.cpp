@@ -88,8 +88,11 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
   const ObservabilityReport& rep = r.analysis;
   out << ctx.program << ": " << ctx.points_path << "\n";
   out << "  " << r.n_points << " points, " << r.setup_ids.size() << (r.setup_ids.size() == 1 ? " setup" : " setups")
-      << ", R0 = " << Format("%.6g", ctx.sphere_radius_mm) << " mm, d = " << Format("%.6g", ctx.probe_offset_mm)
-      << " mm\n";
+      << ", R0 = " << Format("%.6g", ctx.sphere_radius_mm) << " mm";
+  for (const auto& [setup, radius_mm] : ctx.sphere_radii_mm) {
+    out << " (setup " << setup << ": another sphere, R = " << Format("%.6g", radius_mm) << " mm)";
+  }
+  out << ", d = " << Format("%.6g", ctx.probe_offset_mm) << " mm\n";
   for (const auto& [k, v] : ctx.metadata) out << "  " << k << ": " << v << "\n";
   out << "\n";
   out << Format("%-12s %15s %12s %-4s | %12s %10s %-4s\n", "parameter", "value", "std", "unit", "value", "std", "unit");
@@ -152,6 +155,11 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   j["program"] = ctx.program;
   j["points_file"] = ctx.points_path;
   j["sphere_radius_mm"] = ctx.sphere_radius_mm;
+  if (!ctx.sphere_radii_mm.empty()) {
+    json radii = json::object();
+    for (const auto& [setup, radius_mm] : ctx.sphere_radii_mm) radii[std::to_string(setup)] = radius_mm;
+    j["sphere_radii_mm"] = radii;
+  }
   j["probe_offset_mm"] = ctx.probe_offset_mm;
   json meta = json::object();
   for (const auto& [k, v] : ctx.metadata) meta[k] = v;

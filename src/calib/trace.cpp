@@ -47,6 +47,10 @@ std::string SeparateBy(Effect a, Effect b) {
     return "repeated reference points: return to one position at the start, middle and end of the run, or measure "
            "the pattern in another order (drift follows time, the other follows the position)";
   }
+  if (IsPair(a, b, Effect::kProbeIncidence, Effect::kProbeGain)) {
+    return "a second sphere of another radius (sphere_radius_mm@<setup>): at any eccentricity e both leave a term "
+           "in sin^2 of the angle on the sphere proportional to e^2, the gain's as 1/R, the incidence's as 1/R^2";
+  }
   if (a == Effect::kProbeIncidence || b == Effect::kProbeIncidence) {
     return "a second sphere position at another eccentricity: the probe's incidence error grows with its square "
            "(sin psi reaches about e / R0), a machine error's signal on the sphere in proportion to it or not at all";
@@ -297,13 +301,13 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
 FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
   FormSelection f;
   std::vector<Eigen::Matrix3d> orientations;
-  int unknown = 0;
+  int own = 0;  // setups whose form is not the reference sphere's in a known orientation
   for (const int id : points.SetupIds()) {
-    const auto it = points.header.mount_rotations.find(id);
-    if (it != points.header.mount_rotations.end() && !it->second.known()) {
-      ++unknown;
+    if (!points.header.FormKey(id).empty()) {
+      ++own;
       continue;
     }
+    const auto it = points.header.mount_rotations.find(id);
     const Eigen::Matrix3d r = it == points.header.mount_rotations.end() ? Eigen::Matrix3d::Identity()
                                                                         : MountRotationMatrix(*it->second.rotation_deg);
     bool seen = false;
@@ -323,8 +327,9 @@ FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
   f.degree_limit = std::min(trace.form_degree_max, resolved);
   f.separable = orientations.size() >= 2 && f.degree_limit >= 2;
   const std::string unknown_note =
-      unknown > 0 ? "; " + std::to_string(unknown) + " setup(s) of unknown orientation, each with a form of its own"
-                  : "";
+      own > 0 ? "; " + std::to_string(own) +
+                    " setup(s) of unknown orientation or on another sphere, with forms of their own"
+              : "";
   if (f.separable) {
     f.design = "the sphere measured in " + std::to_string(orientations.size()) +
                " known orientations on its mount: its form (turning with it) is fitted with the machine, degrees 2 "
@@ -895,9 +900,9 @@ std::string CheckedSeparation(const Readings& data, const CalibrationOptions& op
   }
   return Format(
       "none of these tells them apart: %s (largest variance inflation of their terms fitted together %.3g "
-      "now, at best %.3g with one of them; at most %.3g would): a sphere of another radius, or one of the "
-      "two measured on its own",
-      p.tried.c_str(), p.vif_now, p.vif_with, internal::kSeparatedVif);
+      "now, at best %.3g with one of them; at most %.3g would): %sone of the two measured on its own",
+      p.tried.c_str(), p.vif_now, p.vif_with, internal::kSeparatedVif,
+      current.model.form.Empty() ? "" : "a sphere of another radius (not checked beside the form), or ");
 }
 
 // Whether the design cannot tell candidate c (fitted in `c_fit`) from the chosen effect (in

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <sstream>
 #include <tuple>
 #include <utility>
 
@@ -79,7 +80,8 @@ json SphereFormJson(const SphereFormResult& f) {
 }
 
 void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
-  const std::string which = f.setups.empty() ? "" : " of setup " + f.setups.substr(1) + " (unknown orientation)";
+  const std::string which =
+      f.setups.empty() ? "" : " of setup(s) " + f.setups.substr(1) + " (unknown orientation or another sphere)";
   out << Format("  sphere form%s: degrees 2..%d, rms %.4f +- %.4f um, peak to valley %.4f um over the whole sphere\n",
                 which.c_str(), f.degree_max, f.rms_um, f.rms_std_um, f.pv_um);
   out << "    (Schmidt semi-normalised harmonics S(l,m) of the sphere's body frame, |S| <= 1, mean square 1/(2l+1); "
@@ -400,7 +402,8 @@ json UnexplainedJson(const TraceResult& r) {
 }
 
 // "sphere_form": the form found (of the setups of known orientation), what the design separates,
-// the extended BIC of each degree, and the form of each setup of unknown orientation.
+// the extended BIC of each degree, and the form of its own of each setup of unknown orientation or on
+// another sphere.
 json TraceFormJson(const TraceResult& r) {
   const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
   json form = forms.empty() ? json{{"degree_max", 0}, {"terms", json::array()}, {"confounded", json::array()}}
@@ -414,10 +417,13 @@ json TraceFormJson(const TraceResult& r) {
   json unknown = json::array();
   for (std::size_t k = 1; k < forms.size(); ++k) {
     json f = SphereFormJson(forms[k]);
-    f["setup"] = std::stoi(forms[k].setups.substr(1));
+    json setups = json::array();
+    std::istringstream ids(forms[k].setups.substr(1));
+    for (std::string id; std::getline(ids, id, ',');) setups.push_back(std::stoi(id));
+    f["setups"] = setups;
     unknown.push_back(f);
   }
-  form["unknown_orientation"] = unknown;
+  form["own_form"] = unknown;
   return form;
 }
 

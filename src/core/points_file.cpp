@@ -85,6 +85,15 @@ std::optional<HeaderField> HeaderFieldOf(std::string_view body) {
 
 std::string MountRotationKey(int setup) { return std::string(kMountRotationKey) + "@" + std::to_string(setup); }
 
+std::string SphereRadiusKey(int setup) { return std::string(kRadiusKey) + "@" + std::to_string(setup); }
+
+std::string PointsHeader::FormKey(int setup) const {
+  const auto rotation = mount_rotations.find(setup);
+  if (rotation != mount_rotations.end() && !rotation->second.known()) return "unknown@" + std::to_string(setup);
+  const auto other = sphere_radii_mm.find(setup);
+  return other == sphere_radii_mm.end() ? "" : std::string(kRadiusKey) + " " + internal::Shortest(other->second);
+}
+
 std::string MountRotationValue(const MountRotation& rotation) {
   if (!rotation.known()) return "unknown";
   const Eigen::Vector3d& v = *rotation.rotation_deg;
@@ -139,13 +148,12 @@ class PointsParser {
     line_no_ = line_no;
     if (text.empty()) return;
     if (text[0] != '#') return SampleLine(text, fail);
-    // Between samples, comments are skipped, but for the mount rotation of a setup that a later
-    // run appended to the file.
+    // Between samples, comments are skipped, but for the fields of a setup that a later run
+    // appended to the file (its mount rotation, its sphere's radius).
     if (!header_done_) return HeaderLine(Trim(text.substr(1)), text, fail);
     const std::optional<HeaderField> f = HeaderFieldOf(text.substr(1));
     const auto at = f ? f->key.find('@') : std::string::npos;
-    if (at != std::string::npos && f->key.substr(0, at) == kMountRotationKey)
-      MountRotationLine(f->key, at, f->value, fail);
+    if (at != std::string::npos) SetupLine(f->key, at, f->value, fail);
   }
 
   // The data, once every line was read.
@@ -154,7 +162,7 @@ class PointsParser {
       throw Error(data_.source + ": no samples (the file has " + std::to_string(line_no_) +
                   " lines, none of them a sample)");
     }
-    CheckMountRotations();
+    CheckSetupFields();
     return std::move(data_);
   }
 
@@ -168,7 +176,7 @@ class PointsParser {
     const std::string& value = f->value;
     if (!seen_keys_.insert(key).second) fail("header key " + Quoted(key) + " is given twice");
     const auto at = key.find('@');
-    if (key.substr(0, at) == kMountRotationKey) return MountRotationLine(key, at, value, fail);
+    if (SetupLine(key, at, value, fail)) return;
     if (key == kRadiusKey || key == kProbeOffsetKey) return LengthLine(key, value, fail);
     if (key == kColumnsKey) {
       data_.header.columns = SplitWhitespace(value);
@@ -195,28 +203,43 @@ class PointsParser {
     }
   }
 
-  // mount_rotation_deg@<setup>: the key's '@' at `at`.
-  void MountRotationLine(const std::string& key, std::size_t at, const std::string& value, const LineError& fail) {
+  // A field of one setup (mount_rotation_deg@<setup>, sphere_radius_mm@<setup>; the key's '@' at
+  // `at`, or npos): false for a key that is none.
+  bool SetupLine(const std::string& key, std::size_t at, const std::string& value, const LineError& fail) {
+    const std::string name = key.substr(0, at);
+    const bool rotation = name == kMountRotationKey;
+    if (!rotation && !(name == kRadiusKey && at != std::string::npos)) return false;
     if (at == std::string::npos) {
       fail(std::string(kMountRotationKey) + " belongs to one setup: write '" + kMountRotationKey +
            "@<setup>: rx ry rz'");
     }
     const int setup = ParseInteger(key.substr(at + 1), key + ": setup id", fail.where());
-    const auto [it, inserted] = mount_lines_.emplace(setup, line_no_);
+    const auto [it, inserted] = setup_lines_.emplace(std::make_pair(name, setup), line_no_);
     if (!inserted) {
-      fail("the mount rotation of setup " + std::to_string(setup) + " is given twice (first at line " +
-           std::to_string(it->second) + ")");
+      fail(std::string(rotation ? "the mount rotation" : "the sphere radius") + " of setup " + std::to_string(setup) +
+           " is given twice (first at line " + std::to_string(it->second) + ")");
     }
-    data_.header.mount_rotations[setup] = ParseMountRotation(value, key, fail.where());
+    if (rotation) {
+      data_.header.mount_rotations[setup] = ParseMountRotation(value, key, fail.where());
+    } else {
+      data_.header.sphere_radii_mm[setup] = PositiveMm(key, value, kMaxSphereRadiusMm, fail);
+    }
+    return true;
   }
 
   // sphere_radius_mm or probe_offset_mm.
   void LengthLine(const std::string& key, const std::string& value, const LineError& fail) {
-    const double v = ParseNumber(value, key, fail.where());
     const double max = key == kRadiusKey ? kMaxSphereRadiusMm : kMaxProbeOffsetMm;
+    (key == kRadiusKey ? data_.header.sphere_radius_mm : data_.header.probe_offset_mm) =
+        PositiveMm(key, value, max, fail);
+  }
+
+  // A length field's value: a positive number of mm, at most max_mm.
+  static double PositiveMm(const std::string& key, const std::string& value, double max_mm, const LineError& fail) {
+    const double v = ParseNumber(value, key, fail.where());
     if (!(v > 0.0)) fail(key + " must be positive, got " + Quoted(value));
-    if (v > max) fail(key + " must be at most " + internal::Format("%g", max) + " mm, got " + Quoted(value));
-    (key == kRadiusKey ? data_.header.sphere_radius_mm : data_.header.probe_offset_mm) = v;
+    if (v > max_mm) fail(key + " must be at most " + internal::Format("%g", max_mm) + " mm, got " + Quoted(value));
+    return v;
   }
 
   // Checks the columns (those of the columns line, at its own line, or the default ones).
@@ -266,17 +289,18 @@ class PointsParser {
     data_.sample_lines.push_back(line_no_);
   }
 
-  // A mount rotation of a setup that has no samples: a typo in the setup id, or a setup whose rows
-  // went missing.
-  void CheckMountRotations() const {
-    if (mount_lines_.empty()) return;
+  // A field of a setup that has no samples: a typo in the setup id, or a setup whose rows went
+  // missing.
+  void CheckSetupFields() const {
+    if (setup_lines_.empty()) return;
     const std::vector<int> ids = data_.SetupIds();
-    for (const auto& [setup, header_line] : mount_lines_) {
+    for (const auto& [field, header_line] : setup_lines_) {
+      const auto& [name, setup] = field;
       if (std::binary_search(ids.begin(), ids.end(), setup)) continue;
       std::string have;
       for (int id : ids) have += (have.empty() ? "" : " ") + std::to_string(id);
-      throw Error(data_.source + ":" + std::to_string(header_line) + ": " + MountRotationKey(setup) + ": setup " +
-                  std::to_string(setup) + " has no samples (" +
+      throw Error(data_.source + ":" + std::to_string(header_line) + ": " + name + "@" + std::to_string(setup) +
+                  ": setup " + std::to_string(setup) + " has no samples (" +
                   (data_.has_setup ? "the file's setups: " + have
                                    : std::string("the file has no setup column: all its samples are setup 0")) +
                   ")");
@@ -285,7 +309,7 @@ class PointsParser {
 
   PointsData data_;
   std::set<std::string> seen_keys_;
-  std::map<int, long> mount_lines_;       // the header line of each setup's mount rotation
+  std::map<std::pair<std::string, int>, long> setup_lines_;  // the header line of each (field, setup)
   std::array<int, kNumColumns> index_{};  // file column index of each known column, -1 if absent
   bool columns_fixed_ = false;            // set at the columns line or the first sample
   bool header_done_ = false;              // set at the first sample
@@ -342,14 +366,17 @@ std::vector<std::string> PlausibilityWarnings(const PointsData& data) {
     ++repeats;
     first = std::min<std::size_t>(first, order[j]);
   }
-  // Readings no point of the sphere can give: farther from the median reading than its diameter.
+  // Readings no point of the sphere can give: farther from the median reading than its diameter
+  // (the largest sphere's, when setups measured other spheres).
   if (data.header.sphere_radius_mm && !data.samples.empty()) {
+    double radius_mm = *data.header.sphere_radius_mm;
+    for (const auto& [setup, other_mm] : data.header.sphere_radii_mm) radius_mm = std::max(radius_mm, other_mm);
     std::vector<double> r;
     r.reserve(data.samples.size());
     for (const Sample& s : data.samples) r.push_back(s.r_mm);
     std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
     const double median = r[r.size() / 2];
-    const double limit = 2.0 * *data.header.sphere_radius_mm;
+    const double limit = 2.0 * radius_mm;
     std::vector<std::size_t> far;
     for (std::size_t i = 0; i < data.samples.size(); ++i) {
       if (std::abs(data.samples[i].r_mm - median) > limit) far.push_back(i);
@@ -397,6 +424,9 @@ void WritePoints(std::ostream& out, const PointsData& data) {
   }
   for (const auto& [setup, rotation] : data.header.mount_rotations) {
     out << "# " << MountRotationKey(setup) << ": " << MountRotationValue(rotation) << "\n";
+  }
+  for (const auto& [setup, radius_mm] : data.header.sphere_radii_mm) {
+    out << "# " << SphereRadiusKey(setup) << ": " << internal::Shortest(radius_mm) << "\n";
   }
   for (const auto& [key, value] : data.header.metadata) out << "# " << key << ": " << value << "\n";
   out << "# " << kColumnsKey << ": theta_deg phi_deg r_mm" << (data.has_time ? " t_s" : "")

@@ -465,6 +465,11 @@ void CheckSetupOptions(const SimulationSpec& spec) {
       throw Error("simulation: the mount rotation of setup " + std::to_string(setup) + " is not finite");
   }
   for (int setup : spec.mount_unknown) check_setup(setup, "an unknown mount rotation");
+  for (const auto& [setup, radius_mm] : spec.sphere_radii_mm) {
+    check_setup(setup, "another sphere");
+    if (!(radius_mm > 0.0))
+      throw Error("simulation: the radius of the sphere of setup " + std::to_string(setup) + " must be positive");
+  }
   for (const auto& entry : spec.scan_orders) check_setup(entry.first, "a scan order");
 }
 
@@ -474,6 +479,7 @@ PointsData EmptyPointsData(const SimulationSpec& spec) {
   data.source = "simulation";
   data.header.sphere_radius_mm = spec.sphere_radius_mm;
   data.header.probe_offset_mm = spec.probe_offset_mm;
+  data.header.sphere_radii_mm = spec.sphere_radii_mm;
   data.has_time = true;
   data.has_setup = spec.centers_mm.size() > 1;
   data.samples.reserve(spec.centers_mm.size() * spec.pattern.size());
@@ -509,11 +515,19 @@ std::vector<AnglePair> ScanOfSetup(const SimulationSpec& spec, std::size_t k) {
 void AppendSetupDistances(const SimulationSpec& spec, std::size_t k, PointsData& data,
                           std::vector<double>& sin2_incidence) {
   const Eigen::Matrix3d body_to_theta = BodyToTheta(spec, static_cast<int>(k));
+  const auto other = spec.sphere_radii_mm.find(static_cast<int>(k));
+  const bool reference_sphere = other == spec.sphere_radii_mm.end();
+  const double radius_mm = reference_sphere ? spec.sphere_radius_mm : other->second;
+  SimulatedEffects effects = spec.effects;
+  if (!reference_sphere) {  // another sphere: perfect
+    effects.form.clear();
+    effects.flats.clear();
+    effects.bumps.clear();
+  }
   for (const AnglePair& a : ScanOfSetup(spec, k)) {
     double sin2 = 0.0;
-    const auto r =
-        TrueProbeDistance(spec.truth, spec.effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg,
-                          spec.probe_offset_mm, spec.centers_mm[k], spec.sphere_radius_mm, body_to_theta, &sin2);
+    const auto r = TrueProbeDistance(spec.truth, effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg,
+                                     spec.probe_offset_mm, spec.centers_mm[k], radius_mm, body_to_theta, &sin2);
     sin2_incidence.push_back(sin2);
     if (!r) {
       throw Error("simulation: the probe ray misses the sphere at theta " + std::to_string(a.theta_deg) + " deg, phi " +

@@ -45,6 +45,31 @@ TEST(Calibrate, NoiseFreeDataRecoversAllTenParameters) {
   EXPECT_LT(r.rms_um, 1e-6);
 }
 
+TEST(Calibrate, ASetupOnAnotherSphereIsFittedAtThatSpheresRadius) {
+  SimulationSpec spec;
+  spec.noise_r_um = 0.0;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 1, 0)};
+  spec.sphere_radii_mm = {{1, 10.0}};
+  const PointsData points = Simulate(spec);
+  CalibrationOptions options = PaperOptions();
+  // The header names another sphere: a fit without its radius is refused, not fitted at R0.
+  try {
+    Calibrate(points, options);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("setup 1 measured another sphere (sphere_radius_mm@1), but the fit was given no "
+                                    "radius for it"));
+  }
+  options.sphere_radii_mm = points.header.sphere_radii_mm;
+  const CalibrationResult r = Calibrate(points, options);
+  EXPECT_TRUE(r.converged) << r.solver_message;
+  EXPECT_LT(r.rms_um, 1e-6);
+  ExpectRecovered(r, spec, 1e-9);
+  // Its residuals are taken against its own radius.
+  ASSERT_EQ(r.residuals_mm.size(), points.samples.size());
+  for (double e : r.residuals_mm) EXPECT_LT(std::abs(e), 1e-9);
+}
+
 TEST(Calibrate, NoiseFreeDataWithAngleErrorsFarFromTheStart) {
   SimulationSpec spec;
   spec.noise_r_um = 0.0;

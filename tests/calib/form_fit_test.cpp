@@ -70,6 +70,26 @@ TEST(FormFit, GroupsOfTheSetups) {
   EXPECT_EQ(form.ParamName(1, 0), "sphere_form@2.S(2,-2)");
 }
 
+// Another sphere has a set of its own, shared by the setups that measured it (the same radius),
+// each at its mount rotation on that sphere's body; a sphere of a third radius has its own again.
+TEST(FormFit, AnotherSphereHasASetSharedByItsSetups) {
+  PointsData points;
+  points.has_setup = true;
+  for (int id = 0; id < 5; ++id) points.samples.push_back({0.0, 7.5, 5.0, 0.0, id});
+  points.header.sphere_radii_mm = {{1, 10.0}, {3, 10.0}, {4, 12.0}};
+  points.header.mount_rotations[3] = MountRotation::Known(Eigen::Vector3d(0, 0, 90));
+  const FormModel form = FormModelOf(points, FormTermsOfDegrees(2, 2));
+  ASSERT_EQ(form.NumGroups(), 3);
+  EXPECT_EQ(form.SetupOf(0).group, 0);
+  EXPECT_EQ(form.SetupOf(2).group, 0);
+  EXPECT_EQ(form.SetupOf(1).group, 1);
+  EXPECT_EQ(form.SetupOf(3).group, 1);
+  EXPECT_EQ(form.SetupOf(4).group, 2);
+  EXPECT_NEAR((form.SetupOf(3).rotation * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-15);
+  EXPECT_EQ(form.ParamName(1, 0), "sphere_form@1,3.S(2,-2)");
+  EXPECT_EQ(form.ParamName(2, 0), "sphere_form@4.S(2,-2)");
+}
+
 // The hand-derived Jacobian with a form (the reverse sweep less the sweep along dF/dp, see
 // src/calib/fit_problem.hpp) equals central differences of EffectResiduals(), which evaluates the
 // point by EffectScmsPoint() and the form by FormValue(): another code path. The form is large

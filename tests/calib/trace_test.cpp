@@ -521,6 +521,36 @@ TEST(TraceResidual, NamesAProbeIncidenceErrorAndFindsItWhenTheProbesPolynomialIs
 namespace sph {
 namespace {
 
+// A probe's gain and its incidence error on one sphere: the gain's first-order part moves the
+// fitted centre, and what is left is a term in sin^2 of the angle on the sphere proportional to
+// e^2 / R, as the incidence error's is to e^2 / R^2, at any eccentricity e. A second sphere of
+// half the radius in the same place (ray-traced at its own radius, "sphere_radius_mm@1") tells
+// them apart, and the report of one sphere names that measurement, checked on its design.
+TEST(TraceResidual, ASecondSphereOfAnotherRadiusTellsAProbeGainFromAnIncidenceError) {
+  const TraceResult one = Trace(Placed(kAt2mm, Effect::kProbeGain, {{1, 0, false}}, {10 * kMmPerUm}));
+  const Ambiguity* pair = Between(one, "probe_gain", "probe_incidence");
+  ASSERT_NE(pair, nullptr) << Describe(one);
+  EXPECT_NE(pair->separate_by.find("another radius"), std::string::npos) << pair->separate_by;
+  EXPECT_NE(pair->checked.find("a second sphere, of radius 10 mm"), std::string::npos) << pair->checked;
+
+  for (const Effect e : {Effect::kProbeGain, Effect::kProbeIncidence}) {
+    SimulationSpec spec;
+    spec.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(2.0, 0.0, 0.0)};
+    spec.sphere_radii_mm = {{1, 10.0}};
+    const double value_mm = (e == Effect::kProbeGain ? 10 : 30) * kMmPerUm;
+    spec.effects.model.terms = {{e, {{1, 0, false}}}};
+    spec.effects.values = {{value_mm}};
+    const PointsData points = Simulate(spec);
+    CalibrationOptions options = PaperOptions();
+    options.sphere_radii_mm = points.header.sphere_radii_mm;
+    const TraceResult r = TraceResidual(points, options, Calibrate(points, options), TraceOptions{});
+    ASSERT_EQ(r.added, std::vector<Effect>{e}) << Describe(r);
+    EXPECT_EQ(Between(r, "probe_gain", "probe_incidence"), nullptr) << Describe(r);
+    const EffectFit& fit = r.after.fit;
+    EXPECT_NEAR(fit.values[0][0], value_mm, 4 * fit.calibration.analysis.std(fit.TermOffset(0))) << InfoOf(e).id;
+  }
+}
+
 // A probe gain of 10 um and a linear drift of 0.4 um over the run, ray-traced, the sphere in five
 // placements and orientations (the separation matrix's "five": bench/separation_matrix.cpp). The drift is added first,
 // while the gain is not yet fitted, and the gain's residual hides the drift's linear part: its t1 is left out. Once the

@@ -2,6 +2,7 @@
 
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include <gmock/gmock.h>
@@ -274,6 +275,59 @@ TEST(PointsFile, MountRotationsRoundTripExactly) {
                         "# mount_rotation_deg@1: unknown\n# mount_rotation_deg@7: 0 -0 359.99999999999994\n"));
   const PointsData back = Parse(out.str());
   EXPECT_EQ(back.header.mount_rotations, d.header.mount_rotations);
+}
+
+// ---- another sphere in a setup: "# sphere_radius_mm@<setup>: R" ------------------------------------
+
+TEST(PointsFile, ReadsTheRadiusOfAnotherSpherePerSetup) {
+  const PointsData d = Parse(std::string(kHeader) + "# sphere_radius_mm@1:  12.5 \n" + kTwoSetups +
+                             "# sphere_radius_mm@2: 6\n30 7.5 5.3 2\n");  // a setup a later run appended
+  EXPECT_EQ(*d.header.sphere_radius_mm, 20.0);                            // the reference sphere's R0 stays apart
+  EXPECT_EQ(d.header.sphere_radii_mm, (std::map<int, double>{{1, 12.5}, {2, 6.0}}));
+  EXPECT_TRUE(Parse(kTwoSetups).header.sphere_radii_mm.empty());
+  // Which form each setup sees: the reference sphere's, another sphere's (shared by the setups that
+  // give its radius), or one of its own at an unknown orientation.
+  const PointsData f = Parse(
+      "# sphere_radius_mm@1: 10\n# sphere_radius_mm@2: 10.0\n# sphere_radius_mm@3: 12\n# sphere_radius_mm@4: 10\n"
+      "# mount_rotation_deg@0: 0 0 90\n# mount_rotation_deg@2: 90 0 0\n# mount_rotation_deg@4: unknown\n"
+      "# columns: theta_deg phi_deg r_mm setup\n0 7.5 5.1 0\n0 7.5 5.1 1\n0 7.5 5.1 2\n0 7.5 5.1 3\n0 7.5 5.1 4\n");
+  EXPECT_EQ(f.header.FormKey(0), "");
+  EXPECT_EQ(f.header.FormKey(1), "sphere_radius_mm 10");
+  EXPECT_EQ(f.header.FormKey(2), f.header.FormKey(1));
+  EXPECT_EQ(f.header.FormKey(3), "sphere_radius_mm 12");
+  EXPECT_EQ(f.header.FormKey(4), "unknown@4");
+}
+
+TEST(PointsFile, BadRadiiOfSetupsAreNamedByFileLineAndProblem) {
+  const std::string h = kHeader;  // 3 lines
+  const auto with = [&](const std::string& field) { return h + "# " + field + "\n" + kTwoSetups; };
+  EXPECT_THAT(ErrorOf(with("sphere_radius_mm@1: ten")),
+              HasSubstr("pts.txt:4: sphere_radius_mm@1: 'ten' is not a number"));
+  EXPECT_THAT(ErrorOf(with("sphere_radius_mm@1: 0")), HasSubstr("pts.txt:4: sphere_radius_mm@1 must be positive"));
+  EXPECT_THAT(ErrorOf(with("sphere_radius_mm@1: -5")), HasSubstr("pts.txt:4: sphere_radius_mm@1 must be positive"));
+  EXPECT_THAT(ErrorOf(with("sphere_radius_mm@1: 1e6")),
+              HasSubstr("pts.txt:4: sphere_radius_mm@1 must be at most 1000 mm, got '1e6'"));
+  EXPECT_THAT(ErrorOf(with("sphere_radius_mm@1: 10 12")), HasSubstr("pts.txt:4: sphere_radius_mm@1: "));
+  EXPECT_THAT(ErrorOf(with("sphere_radius_mm@one: 10")),
+              HasSubstr("pts.txt:4: sphere_radius_mm@one: setup id: 'one' is not an integer"));
+  EXPECT_THAT(ErrorOf(with("sphere_radius_mm@3: 10")),
+              HasSubstr("pts.txt:4: sphere_radius_mm@3: setup 3 has no samples (the file's setups: 0 1)"));
+  EXPECT_THAT(ErrorOf(h + "# sphere_radius_mm@1: 10\n# sphere_radius_mm@01: 10\n" + kTwoSetups),
+              HasSubstr("pts.txt:5: the sphere radius of setup 1 is given twice (first at line 4)"));
+  // The mount rotation and the radius of one setup are two fields.
+  EXPECT_EQ(ErrorOf(h + "# sphere_radius_mm@1: 10\n# mount_rotation_deg@1: 0 0 90\n" + kTwoSetups), "");
+}
+
+TEST(PointsFile, RadiiOfSetupsRoundTripExactly) {
+  PointsData d;
+  d.has_setup = true;
+  d.header.sphere_radius_mm = 20.0;
+  d.samples = {{1, 2, 3, 0, 0}, {1, 2, 3, 1, 1}, {1, 2, 3, 2, 4}};
+  d.header.sphere_radii_mm = {{1, 1.0 / 3.0}, {4, 12.7}};
+  std::ostringstream out;
+  WritePoints(out, d);
+  EXPECT_THAT(out.str(), HasSubstr("# sphere_radius_mm@1: 0.3333333333333333\n# sphere_radius_mm@4: 12.7\n"));
+  EXPECT_EQ(Parse(out.str()).header.sphere_radii_mm, d.header.sphere_radii_mm);
 }
 
 TEST(IsHeaderKey, NamesAndPerSetupNames) {

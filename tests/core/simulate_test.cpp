@@ -422,6 +422,36 @@ TEST(Simulate, MountRotationsGoIntoTheHeaderAndTheReadings) {
   }
 }
 
+TEST(Simulate, AnotherSphereIsReadAtItsRadiusWithoutTheReferenceSpheresForm) {
+  SimulationSpec spec;
+  spec.noise_r_um = 0.0;
+  spec.truth = ScmsGeometry{};
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0)};
+  spec.sphere_radii_mm = {{1, 10.0}};
+  spec.pattern = {{0.0, 90.0}, {0.0, 0.0}};
+  spec.effects.form = {{2, 0, 0.5}};  // the reference sphere's
+  const PointsData d = Simulate(spec);
+  EXPECT_EQ(d.header.sphere_radii_mm, spec.sphere_radii_mm);
+  ASSERT_EQ(d.samples.size(), 4u);
+  // By hand, errors zero: at theta 0, phi 90 deg the beam runs along x to the surface at x = e + R;
+  // at the pole it hits the sphere of radius R shifted by e at height sqrt(R^2 - e^2).
+  EXPECT_NEAR(d.samples[2].r_mm, 25.0 - 12.0, 1e-12);
+  EXPECT_NEAR(d.samples[3].r_mm, 25.0 - std::sqrt(100.0 - 4.0), 1e-12);
+  // The reference sphere keeps its form: S(2,0) is 1 at the pole, -1/2 on the equator (0.5 um each).
+  EXPECT_NEAR(d.samples[0].r_mm, 25.0 - (22.0 - 0.5 * 0.5e-3), 1e-9);  // the surface 0.25 um lower
+  EXPECT_GT(std::abs(d.samples[1].r_mm - (25.0 - std::sqrt(400.0 - 4.0))), 4e-4);
+
+  spec.sphere_radii_mm = {{2, 10.0}};
+  EXPECT_THROW(Simulate(spec), Error);
+  spec.sphere_radii_mm = {{1, 0.0}};
+  try {
+    Simulate(spec);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& err) {
+    EXPECT_THAT(err.what(), ::testing::HasSubstr("the radius of the sphere of setup 1 must be positive"));
+  }
+}
+
 TEST(Simulate, ReadingsLieOnTheTurnedFormBearingSurfaceSeenThroughTheModel) {
   // Noise-free readings of the Table 1 machine, mapped back to points by the model header's
   // forward model (Eq. 1), lie on the surface of each setup: |p - O| = rho(R^T (p - O) / |p - O|),

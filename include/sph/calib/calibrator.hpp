@@ -8,6 +8,7 @@
 #define SPH_CALIB_CALIBRATOR_HPP_
 
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,12 @@ namespace sph {
 
 struct CalibrationOptions {
   double sphere_radius_mm = 0.0;  ///< R0 (required, > 0)
+  /// The setups that measured another sphere (a points file's "sphere_radius_mm@<setup>"), by
+  /// setup id: that sphere's radius [mm]. Every setup the points' header names must be here: a fit
+  /// does not take a radius from the header behind the caller's back (sph_calibrate corrects
+  /// each radius to the measuring temperature as it does R0). Two spheres of different radii tell
+  /// a probe's gain (its trace on a sphere goes as 1/R) from its incidence error (1/R^2).
+  std::map<int, double> sphere_radii_mm;
   double probe_offset_mm = 0.0;   ///< nominal d (required, > 0)
   /// A parameter whose standard uncertainty, as a displacement of the probed point (lengths as
   /// they are, angles times R0), exceeds this is reported as undetermined [um].
@@ -35,6 +42,12 @@ struct CalibrationOptions {
   /// judged at the start values, then under the fit of the readings kept, until the set of
   /// outliers no longer changes. The limit is at least 1 nm. 0 keeps every reading. Needs `analyse`.
   double outlier_sigma = 5.0;
+
+  /// The radius of the sphere measured in `setup`: its entry in sphere_radii_mm, else R0 [mm].
+  double SphereRadiusMm(int setup) const {
+    const auto it = sphere_radii_mm.find(setup);
+    return it == sphere_radii_mm.end() ? sphere_radius_mm : it->second;
+  }
 };
 
 /// A reading left out of the fit as an outlier.
@@ -48,7 +61,8 @@ struct CalibrationResult {
   ScmsGeometry geometry{};                  ///< estimated errors (rad, mm)
   std::vector<int> setup_ids;               ///< ascending; centres_mm[k] belongs to setup_ids[k]
   std::vector<Eigen::Vector3d> centers_mm;  ///< estimated sphere centre of each setup
-  std::vector<double> residuals_mm;         ///< |p - O| - R0 of each sample, in file order (outliers too)
+  /// |p - O| - R of each sample, R the radius of its setup's sphere, in file order (outliers too)
+  std::vector<double> residuals_mm;
   double rms_um = 0.0;                      ///< residual RMS of the readings fitted
   double pv_um = 0.0;                       ///< residual peak to valley of the readings fitted
   int n_points = 0;                         ///< readings fitted (outliers not counted)
@@ -66,7 +80,7 @@ struct CalibrationResult {
   bool Usable() const;
 };
 
-/// Jacobian of the residuals |p_i - O_setup(i)| - R0 with respect to the parameters, at the given
+/// Jacobian of the residuals |p_i - O_setup(i)| - R_setup(i) with respect to the parameters, at the given
 /// errors (rad, mm) and centres (one per setup, in ascending setup id order). Rows in file order;
 /// columns: the seven errors, then x, y, z of each setup's centre.
 Eigen::MatrixXd ResidualJacobian(const PointsData& points, const CalibrationOptions& options,

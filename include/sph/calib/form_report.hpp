@@ -28,7 +28,9 @@ struct FormTermValue {
 
 /// The form of one coefficient set (group) of a fit.
 struct SphereFormResult {
-  std::string setups;  ///< "" for the set of the setups of known orientation, "@<setup>" for one unknown
+  /// "" for the set of the setups of known orientation, "@<setup>" for the form of its own of one
+  /// setup of unknown orientation or on another sphere
+  std::string setups;
   int degree_max = 0;
   double rms_um = 0.0;
   double rms_std_um = 0.0;

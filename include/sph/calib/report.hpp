@@ -2,6 +2,7 @@
 #ifndef SPH_CALIB_REPORT_HPP_
 #define SPH_CALIB_REPORT_HPP_
 
+#include <map>
 #include <ostream>
 #include <string>
 #include <utility>
@@ -23,6 +24,7 @@ struct ReportContext {
   std::string program;  ///< e.g. "sph_calibrate 0.1.0"
   std::string points_path;
   double sphere_radius_mm = 0.0;
+  std::map<int, double> sphere_radii_mm;  ///< the setups that measured another sphere: its radius
   double probe_offset_mm = 0.0;
   double max_std_um = 0.0;
   std::vector<std::pair<std::string, std::string>> metadata;  ///< the points file's extra header fields

@@ -9,9 +9,9 @@
 //
 // '#' lines are comments; "# key: value" lines before the first sample are header fields, and
 // "# key@<setup>: value" ones belong to one setup (the orientation of the sphere on its mount:
-// "# mount_rotation_deg@1: 0 0 90"). Columns theta_deg, phi_deg, r_mm are required; t_s
-// (acquisition time) and setup (integer id of one placement of the sphere) are optional. Without
-// a columns line: theta_deg phi_deg r_mm.
+// "# mount_rotation_deg@1: 0 0 90"; another sphere measured in that setup: "# sphere_radius_mm@2: 10"). Columns
+// theta_deg, phi_deg, r_mm are required; t_s (acquisition time) and setup (integer id of one placement of the sphere)
+// are optional. Without a columns line: theta_deg phi_deg r_mm.
 #ifndef SPH_CORE_POINTS_FILE_HPP_
 #define SPH_CORE_POINTS_FILE_HPP_
 
@@ -61,8 +61,20 @@ struct PointsHeader {
   /// The sphere's orientation on its mount by setup id ("mount_rotation_deg@<setup>"). A setup
   /// without an entry holds the sphere in the reference orientation (R = I).
   std::map<int, MountRotation> mount_rotations;
+  /// The setups that measured another sphere than the reference one, by setup id: that sphere's
+  /// radius from its certificate ("sphere_radius_mm@<setup>") [mm]. A setup without an entry
+  /// measured the reference sphere (sphere_radius_mm); setups with the same radius measured the
+  /// same other sphere (FormKey()).
+  std::map<int, double> sphere_radii_mm;
   /// Other "key: value" header fields, in file order; copied into reports.
   std::vector<std::pair<std::string, std::string>> metadata;
+
+  /// Which form the readings of `setup` see, as a key that setups sharing one set of form
+  /// coefficients share: "" for the reference sphere in a known orientation; "unknown@<setup>"
+  /// for a sphere remounted at an unknown orientation (tied to no other setup); "sphere_radius_mm
+  /// <R>" for another sphere in a known orientation (its mount rotation then refers to that
+  /// sphere's body frame): setups that give the same radius measured the same sphere.
+  std::string FormKey(int setup) const;
 };
 
 /// What the sphere's certificate and the measuring conditions state, with their uncertainties:
@@ -124,8 +136,9 @@ struct PointsData {
 
 /// Reads a points file. Throws sph::Error with "path:line: problem" on any defect: unreadable
 /// file, unsupported format version, duplicate header key, bad or non-positive radius or offset,
-/// a bad mount rotation (not three numbers nor "unknown", a setup id that is not an integer, a
-/// setup given twice, a setup without samples: named at its header line), unknown, duplicate or
+/// a bad mount rotation (not three numbers nor "unknown") or radius of a setup's sphere, a per-setup
+/// field whose setup id is not an integer, is given twice or has no samples (named at its header
+/// line), unknown, duplicate or
 /// missing column, wrong column count, a value that is not a number or not finite, a non-integer
 /// setup id, no samples.
 PointsData ReadPointsFile(const std::string& path);
@@ -141,8 +154,8 @@ PointsData ParsePoints(std::istream& in, const std::string& source);
 std::vector<std::string> PlausibilityWarnings(const PointsData& data);
 
 /// Writes `data` in format sph-points 1 (header, then one row a sample). Columns: theta_deg
-/// phi_deg r_mm, then t_s if data.has_time, then setup if data.has_setup. Mount rotations are
-/// written with the shortest digits that read back to the same doubles.
+/// phi_deg r_mm, then t_s if data.has_time, then setup if data.has_setup. Mount rotations and the
+/// radii of setups' spheres are written with the shortest digits that read back to the same doubles.
 void WritePoints(std::ostream& out, const PointsData& data);
 
 /// WritePoints() to a file, atomically (sph/core/output_files.hpp).
@@ -177,6 +190,9 @@ std::optional<HeaderField> HeaderFieldOf(std::string_view body);
 
 /// The header key of the mount rotation of `setup`: "mount_rotation_deg@1".
 std::string MountRotationKey(int setup);
+
+/// The header key of the radius of the sphere measured in `setup`: "sphere_radius_mm@2".
+std::string SphereRadiusKey(int setup);
 
 /// The value of a mount rotation's header field: "rx ry rz" (shortest digits that read back
 /// exactly) or "unknown".

@@ -158,6 +158,9 @@ struct SimulationSpec {
   /// Setups whose header says "mount_rotation_deg@<setup>: unknown" instead of the rotation
   /// they are simulated with.
   std::set<int> mount_unknown;
+  /// Setups that measure another sphere, by setup id: its radius [mm]. That sphere is perfect (the
+  /// form of `effects` is the reference sphere's); the header says "sphere_radius_mm@<setup>".
+  std::map<int, double> sphere_radii_mm;
   std::vector<AnglePair> pattern = GridPattern(24, 12);  ///< measured at every setup
   ScanOrder scan_order = ScanOrder::kRings;              ///< the time order of the pattern in every setup ...
   std::map<int, ScanOrder> scan_orders;                  ///< ... but these (by setup id)

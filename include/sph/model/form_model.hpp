@@ -83,13 +83,16 @@ struct FormSetup {
 
 /// The sphere's form in a fit: the terms, the same for every group, and by setup id which
 /// coefficient set a setup uses and how the sphere sits on its mount there. Setups of known
-/// orientation share one set; a sphere remounted at an unknown orientation has its own. The
-/// coefficients are parameters [mm], group after group, term order within each. No terms: no form.
+/// orientation share one set; a sphere remounted at an unknown orientation has its own, and
+/// another sphere one of its own, shared by the setups that measured it in known orientations.
+/// The coefficients are parameters [mm], group after group, term order within each. No terms: no
+/// form.
 struct FormModel {
   std::vector<FormTerm> terms;
   std::map<int, FormSetup> setups;  ///< a setup absent here: group 0, reference orientation
-  /// Per group, what its parameter names carry: "" for the shared set, "@<setup>" for the set of
-  /// one setup of unknown orientation.
+  /// Per group, what its parameter names carry: "" for the reference sphere's set, "@<setup>" for
+  /// the set of one setup of unknown orientation, "@<setup>,<setup>..." for the set of another
+  /// sphere, by the setups that measured it.
   std::vector<std::string> group_names{""};
 
   bool Empty() const { return terms.empty(); }
@@ -105,7 +108,8 @@ struct FormModel {
     const auto it = setups.find(setup_id);
     return it == setups.end() ? reference : it->second;
   }
-  /// "sphere_form.S(3,-2)", or "sphere_form@2.S(3,-2)" for the set of unknown setup 2.
+  /// "sphere_form.S(3,-2)", or "sphere_form@2.S(3,-2)" for the set of setup 2 (unknown orientation
+  /// or another sphere).
   std::string ParamName(int group, std::size_t term) const {
     return "sphere_form" + group_names[static_cast<std::size_t>(group)] + ".S(" + std::to_string(terms[term].l) + "," +
            std::to_string(terms[term].m) + ")";
