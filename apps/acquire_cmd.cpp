@@ -75,6 +75,10 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
                  "Header: the sphere's orientation on its mount in this setup, rx,ry,rz (rotation vector, axis times "
                  "angle [deg], each " +
                      ranges::kMountRotationDeg.Text() + ") or unknown (remounted at an unknown orientation)");
+  app.add_option("--other-sphere-radius-mm", o.other_sphere_radius_mm,
+                 "Header: this setup measures another sphere than the reference one, of this radius [mm] "
+                 "(sphere_radius_mm@SETUP; it tells a probe's gain from its incidence error)")
+      ->check(InRange(ranges::kSphereRadiusMm));
   app.add_option("--fsync-interval-s", o.fsync_interval_s,
                  "fsync the output at most this long after a record [s]; 0: every record; -1: only at the end")
       ->check(CLI::Validator(

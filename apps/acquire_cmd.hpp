@@ -42,6 +42,8 @@ struct AcquireOptions {
   /// Header: the sphere's orientation on its mount in this setup, "rx,ry,rz" (rotation vector,
   /// deg) or "unknown"; empty: none (the reference orientation).
   std::string mount_rotation_deg;
+  /// Header: this setup measures another sphere than the reference one, of this radius [mm].
+  std::optional<double> other_sphere_radius_mm;
   double fsync_interval_s = 1.0;
   std::string sync_mode = "produce";  ///< produce | follow
   double heartbeat_timeout_s = 0.0;

@@ -87,6 +87,7 @@ PointsHeader AcquireHeader(const AcquireOptions& o) {
         ParseRotationDeg(o.mount_rotation_deg, "--mount-rotation-deg " + internal::Quoted(o.mount_rotation_deg),
                          "rx,ry,rz (a rotation vector in deg, axis times angle) or unknown"));
   }
+  if (o.other_sphere_radius_mm) header.sphere_radii_mm[o.setup] = *o.other_sphere_radius_mm;
   return header;
 }
 

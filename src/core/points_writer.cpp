@@ -56,19 +56,34 @@ std::map<std::string, std::string> HeaderFields(const std::string& text) {
   return fields;
 }
 
-// The mount rotations written anywhere in the file at `path` ("mount_rotation_deg@<setup>" to its
-// value): in its header, or between samples where an appending run wrote that of a new setup.
-std::map<std::string, std::string> MountRotationFields(const std::string& path) {
+// The per-setup fields written anywhere in the file at `path` ("mount_rotation_deg@<setup>" and
+// "sphere_radius_mm@<setup>" to their values): in its header, or between samples where an
+// appending run wrote those of a new setup.
+std::map<std::string, std::string> SetupFieldsOf(const std::string& path) {
   std::map<std::string, std::string> fields;
   std::ifstream in(path);
-  const std::string name = std::string(kMountRotationKey) + "@";
+  const std::string rotation = std::string(kMountRotationKey) + "@", radius = std::string(kRadiusKey) + "@";
   for (std::string line; std::getline(in, line);) {
     const std::string text = Trim(line);
     if (text.empty() || text[0] != '#') continue;
     const std::optional<HeaderField> f = HeaderFieldOf(std::string_view(text).substr(1));
-    if (f && f->key.rfind(name, 0) == 0) fields.emplace(f->key, f->value);
+    if (f && (f->key.rfind(rotation, 0) == 0 || f->key.rfind(radius, 0) == 0)) fields.emplace(f->key, f->value);
   }
   return fields;
+}
+
+// The header lines of the per-setup fields of `header` whose keys `in_file` does not hold.
+std::string NewSetupFields(const PointsHeader& header, const std::map<std::string, std::string>& in_file) {
+  std::string lines;
+  for (const auto& [setup, rotation] : header.mount_rotations) {
+    const std::string key = MountRotationKey(setup);
+    if (in_file.count(key) == 0) lines += "# " + key + ": " + MountRotationValue(rotation) + "\n";
+  }
+  for (const auto& [setup, radius_mm] : header.sphere_radii_mm) {
+    const std::string key = SphereRadiusKey(setup);
+    if (in_file.count(key) == 0) lines += "# " + key + ": " + internal::Shortest(radius_mm) + "\n";
+  }
+  return lines;
 }
 
 void CheckSameNumber(const std::string& path, const std::map<std::string, std::string>& fields, const char* key,
@@ -90,8 +105,8 @@ void PointsWriter::CheckContinuable(const std::string& path, const PointsHeader&
   Continuable(path, header, options);
 }
 
-PointsWriter::RotationFields PointsWriter::Continuable(const std::string& path, const PointsHeader& header,
-                                                       const PointsWriterOptions& options) {
+PointsWriter::SetupFields PointsWriter::Continuable(const std::string& path, const PointsHeader& header,
+                                                    const PointsWriterOptions& options) {
   AppendFile::CheckTarget(path);
   const std::string text = AppendFile::ReadStart(path, 1 << 20);
   if (text.empty()) return {};
@@ -110,18 +125,21 @@ PointsWriter::RotationFields PointsWriter::Continuable(const std::string& path, 
     }
     CheckSameNumber(path, fields, kRadiusKey, header.sphere_radius_mm);
     CheckSameNumber(path, fields, kProbeOffsetKey, header.probe_offset_mm);
-    if (header.mount_rotations.empty()) return {};
-    const RotationFields rotations = MountRotationFields(path);
+    if (header.mount_rotations.empty() && header.sphere_radii_mm.empty()) return {};
+    const SetupFields in_file = SetupFieldsOf(path);
     for (const auto& [setup, ours] : header.mount_rotations) {
       const std::string key = MountRotationKey(setup);
-      const auto field = rotations.find(key);
-      if (field == rotations.end()) continue;  // a new setup: written before its first row
+      const auto field = in_file.find(key);
+      if (field == in_file.end()) continue;  // a new setup: written before its first row
       if (ParseMountRotation(field->second, key, path + ": ") != ours) {
         throw Error(path + ": has " + key + " " + field->second + " but this run writes " + MountRotationValue(ours) +
                     ": use another file");
       }
     }
-    return rotations;
+    for (const auto& [setup, ours] : header.sphere_radii_mm) {
+      CheckSameNumber(path, in_file, SphereRadiusKey(setup).c_str(), ours);
+    }
+    return in_file;
   }
   throw Error(path + ": is not a points file (its first line is not '" + format_line +
               "'): refusing to append to it; use another file");
@@ -131,17 +149,13 @@ PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, 
     : PointsWriter(path, header, options, Continuable(path, header, options)) {}
 
 PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options,
-                           const RotationFields& in_file)
+                           const SetupFields& in_file)
     : file_(path, options.fsync_interval_s), options_(options) {
   const std::string columns = ColumnsOf(options);
   if (file_.had_content()) {
     resumed_ = true;
-    // The mount rotation of a setup the file does not hold yet, before its first row.
-    std::string lines;
-    for (const auto& [setup, rotation] : header.mount_rotations) {
-      const std::string key = MountRotationKey(setup);
-      if (in_file.count(key) == 0) lines += "# " + key + ": " + MountRotationValue(rotation) + "\n";
-    }
+    // The fields of a setup the file does not hold yet, before its first row.
+    const std::string lines = NewSetupFields(header, in_file);
     if (!lines.empty()) file_.Append(lines);
     return;
   }
@@ -152,9 +166,7 @@ PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, 
   if (header.probe_offset_mm) {
     head += std::string("# ") + kProbeOffsetKey + ": " + internal::Shortest(*header.probe_offset_mm) + "\n";
   }
-  for (const auto& [setup, rotation] : header.mount_rotations) {
-    head += "# " + MountRotationKey(setup) + ": " + MountRotationValue(rotation) + "\n";
-  }
+  head += NewSetupFields(header, {});
   for (const auto& [key, value] : header.metadata) {
     if (!IsHeaderKey(key)) throw Error(path + ": '" + key + "' is not a valid header key");
     const std::string name = key.substr(0, key.find('@'));

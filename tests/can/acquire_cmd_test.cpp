@@ -312,6 +312,14 @@ TEST(Acquire, ARunAppendingANewOrientationWritesItsMountRotation) {
   EXPECT_NE(refused.str().find("has mount_rotation_deg@1 0 90 0 but this run writes 0 0 90"), std::string::npos)
       << refused.str();
   EXPECT_EQ(ReadPointsFile(dir + "/p.txt").samples.size(), 576U);
+  // A third run on another sphere: its radius, for its setup, before its first row.
+  o.setup = 2;
+  o.mount_rotation_deg.clear();
+  o.other_sphere_radius_mm = 10.0;
+  ASSERT_EQ(RunAcquire(o, err), kExitOk) << err.str();
+  const PointsData three = ReadPointsFile(dir + "/p.txt");
+  EXPECT_EQ(three.samples.size(), 864U);
+  EXPECT_EQ(three.header.sphere_radii_mm, (std::map<int, double>{{2, 10.0}}));
 }
 
 // A mount rotation that is neither rx,ry,rz nor "unknown" is bad input, and makes no file.

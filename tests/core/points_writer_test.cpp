@@ -7,6 +7,7 @@
 #include <csignal>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <tuple>
 
@@ -138,6 +139,36 @@ TEST(PointsWriter, WritesTheMountRotationsAndContinuesOnlyAFileOfTheSame) {
   PointsHeader known = h;
   known.mount_rotations[2] = MountRotation::Known(Eigen::Vector3d(1, 0, 0));
   EXPECT_THROW(PointsWriter(path, known, WithSetup()), Error);
+}
+
+// A run that measures another sphere writes its radius for its setup: in the header of a new file,
+// before the setup's first row when it continues one; a file that gives that setup another radius
+// is refused.
+TEST(PointsWriter, WritesTheRadiusOfAnotherSphereAndContinuesOnlyAFileOfTheSame) {
+  const std::string path = sph::testing::MakeTempDir("pw_radius") + "/p.txt";
+  PointsHeader first = Header();
+  first.sphere_radii_mm = {{1, 10.0}};
+  {
+    PointsWriter w(path, first, WithSetup());
+    w.Write({1.0, 2.0, 3.0, 4.0, 1});
+  }
+  PointsHeader second = Header();
+  second.sphere_radii_mm = {{2, 12.5}};
+  {
+    PointsWriter w(path, second, WithSetup());
+    w.Write({1.0, 2.0, 3.0, 5.0, 2});
+  }
+  const PointsData d = ReadPointsFile(path);
+  EXPECT_EQ(d.header.sphere_radii_mm, (std::map<int, double>{{1, 10.0}, {2, 12.5}}));
+  { PointsWriter again(path, first, WithSetup()); }  // the same radius: continued
+  PointsHeader other = Header();
+  other.sphere_radii_mm = {{2, 12.0}};
+  try {
+    PointsWriter w(path, other, WithSetup());
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": has sphere_radius_mm@2 12.5 but this run writes 12: use another file");
+  }
 }
 
 TEST(PointsWriter, AnIncompleteLastLineIsCutOff) {

@@ -23,9 +23,10 @@ struct PointsWriterOptions {
 /// Appends samples to a points file, each row written (one write()) before Write() returns.
 ///
 /// A new or empty file gets the header first (format line, sphere_radius_mm, probe_offset_mm,
-/// the mount rotations, the metadata, columns). An existing file is continued, never rewritten:
-/// its header must name the same columns and, where both give them, the same radius, probe
-/// offset and mount rotation of each setup, else the
+/// the mount rotations, the radii of other spheres, the metadata, columns). An existing file is
+/// continued, never rewritten: its header must name the same columns and, where both give them,
+/// the same radius, probe offset, and mount rotation and sphere radius of each setup (the fields
+/// of a setup the file does not hold yet are written before its first row), else the
 /// constructor throws sph::Error ("points.txt: has columns 'theta_deg phi_deg r_mm' but this run
 /// writes 'theta_deg phi_deg r_mm t_s': use another file"). An incomplete last line is cut off
 /// (see AppendFile). Rows have the same 10 decimals as WritePoints() (t_s: 6).
@@ -61,14 +62,15 @@ class PointsWriter {
   static std::string FormatRow(const Sample& sample, bool has_time, bool has_setup);
 
  private:
-  /// The mount-rotation fields ("mount_rotation_deg@<setup>" to its value) the file at `path`
-  /// holds anywhere (header, or between samples where an appending run wrote a new setup's), read
-  /// only when `header` has rotations to check; throws as CheckContinuable() says.
-  using RotationFields = std::map<std::string, std::string>;
-  static RotationFields Continuable(const std::string& path, const PointsHeader& header,
-                                    const PointsWriterOptions& options);
+  /// The per-setup fields ("mount_rotation_deg@<setup>", "sphere_radius_mm@<setup>" to its
+  /// value) the file at `path` holds anywhere (header, or between samples where an appending run
+  /// wrote a new setup's), read only when `header` has such fields to check; throws as
+  /// CheckContinuable() says.
+  using SetupFields = std::map<std::string, std::string>;
+  static SetupFields Continuable(const std::string& path, const PointsHeader& header,
+                                 const PointsWriterOptions& options);
   PointsWriter(const std::string& path, const PointsHeader& header, const PointsWriterOptions& options,
-               const RotationFields& in_file);
+               const SetupFields& in_file);
 
   AppendFile file_;
   PointsWriterOptions options_;
