@@ -261,19 +261,31 @@ namespace {
 
 // Marks the samples not yet out whose residual is farther than k robust standard deviations
 // (1.4826 MAD, at least 1 nm, so that rounding-level residuals of exact data are no outliers)
-// from the median of those not out. Returns whether any was marked.
-bool MarkOutliers(const std::vector<double>& residuals, double k, std::vector<bool>& out) {
-  std::vector<double> kept;
+// from the median of those not out, each setup by its own median and MAD. Returns whether any was
+// marked. Why by setup: a gross error is a reading on its own; a whole setup off by a level or
+// with a larger pattern (another sphere, its radius off by a probe's gain, a temperature) shows a
+// model error, which the fit and the trace of its residual must see rather than lose as outliers.
+bool MarkOutliers(const std::vector<double>& residuals, const std::vector<int>& setup, double k,
+                  std::vector<bool>& out) {
+  struct Level {
+    double median = 0.0, limit = 0.0;
+  };
+  std::map<int, std::vector<double>> kept;  // by setup
   for (std::size_t i = 0; i < residuals.size(); ++i) {
-    if (!out[i]) kept.push_back(residuals[i]);
+    if (!out[i]) kept[setup[i]].push_back(residuals[i]);
   }
-  if (kept.empty()) return false;
-  const double med = Median(kept);
-  for (double& e : kept) e = std::abs(e - med);
-  const double limit = std::max(k * 1.4826 * Median(kept), 1e-6);
+  std::map<int, Level> level;
+  for (auto& [id, e] : kept) {
+    Level& l = level[id];
+    l.median = Median(e);
+    for (double& x : e) x = std::abs(x - l.median);
+    l.limit = std::max(k * 1.4826 * Median(e), 1e-6);
+  }
   bool changed = false;
   for (std::size_t i = 0; i < residuals.size(); ++i) {
-    if (!out[i] && !(std::abs(residuals[i] - med) <= limit)) out[i] = changed = true;
+    if (out[i]) continue;
+    const Level& l = level[setup[i]];
+    if (!(std::abs(residuals[i] - l.median) <= l.limit)) out[i] = changed = true;
   }
   return changed;
 }
@@ -296,9 +308,9 @@ std::vector<double> StartResiduals(const internal::ReadingTable& table, const Ca
 
 }  // namespace
 
-std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, double k) {
+std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, const std::vector<int>& setup, double k) {
   std::vector<bool> out(residuals_mm.size(), false);
-  if (k > 0.0) MarkOutliers(residuals_mm, k, out);
+  if (k > 0.0) MarkOutliers(residuals_mm, setup, k, out);
   return out;
 }
 
@@ -315,7 +327,8 @@ CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& t
   std::vector<Sphere> spheres;  // the start spheres of the readings not out, when `out` is still theirs
   bool spheres_of_out = false;
   for (int round = 0; round < 5 && !spheres_of_out; ++round) {
-    spheres_of_out = !MarkOutliers(StartResiduals(table, options, out, &spheres), options.outlier_sigma, out);
+    spheres_of_out =
+        !MarkOutliers(StartResiduals(table, options, out, &spheres), table.setup, options.outlier_sigma, out);
   }
   auto fit_kept = [&] {
     CalibrationResult r = CalibrateRows(points, table, &out, options, workspace, spheres_of_out ? &spheres : nullptr);
@@ -331,7 +344,7 @@ CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& t
   std::vector<double> residuals;
   for (int round = 0; round < 10; ++round) {
     residuals = ResidualsOf(table, options, result);
-    const std::vector<bool> judged = RobustOutliers(residuals, options.outlier_sigma);
+    const std::vector<bool> judged = RobustOutliers(residuals, table.setup, options.outlier_sigma);
     if (judged == out) break;
     out = judged;
     result = fit_kept();

@@ -499,7 +499,10 @@ EffectFit FitNone(const Readings& data, const CalibrationOptions& options, const
 
 // The readings of `all` that are outliers under `fit` (the rule of Calibrate()), as indices.
 std::vector<std::size_t> OutliersUnder(const PointsData& all, const CalibrationOptions& options, const EffectFit& fit) {
-  const std::vector<bool> out = RobustOutliers(EffectResiduals(all, options, fit), options.outlier_sigma);
+  std::vector<int> setup;
+  setup.reserve(all.samples.size());
+  for (const Sample& s : all.samples) setup.push_back(s.setup);
+  const std::vector<bool> out = RobustOutliers(EffectResiduals(all, options, fit), setup, options.outlier_sigma);
   std::vector<std::size_t> idx;
   for (std::size_t i = 0; i < out.size(); ++i) {
     if (out[i]) idx.push_back(i);

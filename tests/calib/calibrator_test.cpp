@@ -1,5 +1,6 @@
 #include "sph/calib/calibrator.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <gmock/gmock.h>

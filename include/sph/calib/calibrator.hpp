@@ -38,7 +38,9 @@ struct CalibrationOptions {
   bool analyse = true;
   ScmsGeometry initial_geometry{};  ///< start of the errors (rad, mm); the paper starts at zero
   /// A reading whose residual is farther than this many robust standard deviations (1.4826 times
-  /// the median absolute deviation) from the median residual is an outlier and is left out: first
+  /// the median absolute deviation) from the median residual, both of its setup, is an outlier
+  /// and is left out (a setup off as a whole is a model error, not outliers; RobustOutliers()):
+  /// first
   /// judged at the start values, then under the fit of the readings kept, until the set of
   /// outliers no longer changes. The limit is at least 1 nm. 0 keeps every reading. Needs `analyse`.
   double outlier_sigma = 5.0;
@@ -91,9 +93,10 @@ Eigen::MatrixXd ResidualJacobian(const PointsData& points, const CalibrationOpti
 /// setup whose points determine no centre).
 CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& options);
 
-/// The outliers among residuals (any order, mm) by the rule of CalibrationOptions::outlier_sigma:
-/// farther than k robust standard deviations (1.4826 MAD, at least 1 nm) from the median.
-std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, double k);
+/// The outliers among residuals (any order, mm; setup: the setup id of each) by the rule of
+/// CalibrationOptions::outlier_sigma: farther than k robust standard deviations (1.4826 times the
+/// median absolute deviation, at least 1 nm) from the median, each setup judged by its own.
+std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, const std::vector<int>& setup, double k);
 
 /// "sample 18 (theta 240 deg, phi 7.5 deg, residual +999 um); ...": the outliers of `points` in
 /// words, cut after about 400 characters.
