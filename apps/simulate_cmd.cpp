@@ -63,10 +63,8 @@ void AddSphereOptions(const SimulateOptions& o, SimulationSpec& spec) {
   for (const std::string& text : o.sphere_radii_mm) {
     const std::string what = "--other-sphere-radius-mm " + Quoted(text);
     const auto [setup, rest] = SplitSetup(text, what, "SETUP:R (a setup id and a radius in mm)", n);
-    const double radius_mm = ParseNumber(rest, "radius", what + ": ");
-    if (!(radius_mm > 0.0 && radius_mm <= kMaxSphereRadiusMm)) {
-      throw Error(what + ": the radius must be in (0, " + Format("%g", kMaxSphereRadiusMm) + "] mm");
-    }
+    const double radius_mm =
+        CheckedValue(ParseNumber(rest, "radius", what + ": "), ranges::kSphereRadiusMm, what + ": radius", rest);
     if (!spec.sphere_radii_mm.emplace(setup, radius_mm).second) {
       throw Error(what + ": setup " + std::to_string(setup) + " is given twice");
     }

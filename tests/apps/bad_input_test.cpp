@@ -326,7 +326,7 @@ std::vector<MatrixCase> SimulateCases() {
       {"other_sphere_radius_negative",
        {"--center-mm", "2,0,0", "--center-mm", "2,0,0", "--other-sphere-radius-mm", "1:-10"},
        2,
-       e + "--other-sphere-radius-mm '1:-10': the radius must be in (0, 1000] mm"},
+       e + "--other-sphere-radius-mm '1:-10': radius: must be > 0 and <= 1000 mm, got -10"},
       {"other_sphere_setup_missing",
        {"--other-sphere-radius-mm", "1:10"},
        2,
