@@ -41,6 +41,11 @@ std::vector<SphereFormResult> SphereFormOf(const EffectFit& fit, double max_vif)
   for (int g = 0; g < form.NumGroups(); ++g) {
     SphereFormResult r;
     r.setups = form.group_names[static_cast<std::size_t>(g)];
+    if (g > 0) {
+      for (const auto& [id, fs] : form.setups) {
+        if (fs.group == g) r.setup_ids.push_back(id);
+      }
+    }
     r.degree_max = form.MaxDegree();
     const std::vector<double>& c = fit.form_values[static_cast<std::size_t>(g)];
     r.rms_um = FormRms(form.terms, c) * kUmPerMm;

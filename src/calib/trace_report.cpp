@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <sstream>
 #include <tuple>
 #include <utility>
 
@@ -417,10 +416,7 @@ json TraceFormJson(const TraceResult& r) {
   json unknown = json::array();
   for (std::size_t k = 1; k < forms.size(); ++k) {
     json f = SphereFormJson(forms[k]);
-    json setups = json::array();
-    std::istringstream ids(forms[k].setups.substr(1));
-    for (std::string id; std::getline(ids, id, ',');) setups.push_back(std::stoi(id));
-    f["setups"] = setups;
+    f["setups"] = forms[k].setup_ids;
     unknown.push_back(f);
   }
   form["own_form"] = unknown;

@@ -31,6 +31,7 @@ struct SphereFormResult {
   /// "" for the set of the setups of known orientation, "@<setup>" for the form of its own of one
   /// setup of unknown orientation or on another sphere
   std::string setups;
+  std::vector<int> setup_ids;  ///< the setups of a set of its own (empty for the reference set)
   int degree_max = 0;
   double rms_um = 0.0;
   double rms_std_um = 0.0;
