@@ -40,8 +40,7 @@ struct CalibrationOptions {
   /// A reading whose residual is farther than this many robust standard deviations (1.4826 times
   /// the median absolute deviation) from the median residual, both of its setup, is an outlier
   /// and is left out (a setup off as a whole is a model error, not outliers; RobustOutliers()):
-  /// first
-  /// judged at the start values, then under the fit of the readings kept, until the set of
+  /// first judged at the start values, then under the fit of the readings kept, until the set of
   /// outliers no longer changes. The limit is at least 1 nm. 0 keeps every reading. Needs `analyse`.
   double outlier_sigma = 5.0;
 

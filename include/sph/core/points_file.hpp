@@ -138,9 +138,8 @@ struct PointsData {
 /// file, unsupported format version, duplicate header key, bad or non-positive radius or offset,
 /// a bad mount rotation (not three numbers nor "unknown") or radius of a setup's sphere, a per-setup
 /// field whose setup id is not an integer, is given twice or has no samples (named at its header
-/// line), unknown, duplicate or
-/// missing column, wrong column count, a value that is not a number or not finite, a non-integer
-/// setup id, no samples.
+/// line), unknown, duplicate or missing column, wrong column count, a value that is not a number
+/// or not finite, a non-integer setup id, no samples.
 PointsData ReadPointsFile(const std::string& path);
 
 /// As ReadPointsFile(), from a stream; `source` names it in messages.
