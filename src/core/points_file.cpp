@@ -87,6 +87,19 @@ std::string MountRotationKey(int setup) { return std::string(kMountRotationKey) 
 
 std::string SphereRadiusKey(int setup) { return std::string(kRadiusKey) + "@" + std::to_string(setup); }
 
+std::string SetupFieldLines(const PointsHeader& header, const std::map<std::string, std::string>& written) {
+  std::string lines;
+  for (const auto& [setup, rotation] : header.mount_rotations) {
+    const std::string key = MountRotationKey(setup);
+    if (written.count(key) == 0) lines += "# " + key + ": " + MountRotationValue(rotation) + "\n";
+  }
+  for (const auto& [setup, radius_mm] : header.sphere_radii_mm) {
+    const std::string key = SphereRadiusKey(setup);
+    if (written.count(key) == 0) lines += "# " + key + ": " + internal::Shortest(radius_mm) + "\n";
+  }
+  return lines;
+}
+
 std::string PointsHeader::FormKey(int setup) const {
   const auto rotation = mount_rotations.find(setup);
   if (rotation != mount_rotations.end() && !rotation->second.known()) return "unknown@" + std::to_string(setup);
@@ -422,12 +435,7 @@ void WritePoints(std::ostream& out, const PointsData& data) {
     std::snprintf(buf, sizeof buf, "%.17g", *data.header.probe_offset_mm);
     out << "# " << kProbeOffsetKey << ": " << buf << "\n";
   }
-  for (const auto& [setup, rotation] : data.header.mount_rotations) {
-    out << "# " << MountRotationKey(setup) << ": " << MountRotationValue(rotation) << "\n";
-  }
-  for (const auto& [setup, radius_mm] : data.header.sphere_radii_mm) {
-    out << "# " << SphereRadiusKey(setup) << ": " << internal::Shortest(radius_mm) << "\n";
-  }
+  out << SetupFieldLines(data.header);
   for (const auto& [key, value] : data.header.metadata) out << "# " << key << ": " << value << "\n";
   out << "# " << kColumnsKey << ": theta_deg phi_deg r_mm" << (data.has_time ? " t_s" : "")
       << (data.has_setup ? " setup" : "") << "\n";

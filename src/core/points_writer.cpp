@@ -72,20 +72,6 @@ std::map<std::string, std::string> SetupFieldsOf(const std::string& path) {
   return fields;
 }
 
-// The header lines of the per-setup fields of `header` whose keys `in_file` does not hold.
-std::string NewSetupFields(const PointsHeader& header, const std::map<std::string, std::string>& in_file) {
-  std::string lines;
-  for (const auto& [setup, rotation] : header.mount_rotations) {
-    const std::string key = MountRotationKey(setup);
-    if (in_file.count(key) == 0) lines += "# " + key + ": " + MountRotationValue(rotation) + "\n";
-  }
-  for (const auto& [setup, radius_mm] : header.sphere_radii_mm) {
-    const std::string key = SphereRadiusKey(setup);
-    if (in_file.count(key) == 0) lines += "# " + key + ": " + internal::Shortest(radius_mm) + "\n";
-  }
-  return lines;
-}
-
 void CheckSameNumber(const std::string& path, const std::map<std::string, std::string>& fields, const char* key,
                      const std::optional<double>& ours) {
   const auto it = fields.find(key);
@@ -155,7 +141,7 @@ PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, 
   if (file_.had_content()) {
     resumed_ = true;
     // The fields of a setup the file does not hold yet, before its first row.
-    const std::string lines = NewSetupFields(header, in_file);
+    const std::string lines = SetupFieldLines(header, in_file);
     if (!lines.empty()) file_.Append(lines);
     return;
   }
@@ -166,7 +152,7 @@ PointsWriter::PointsWriter(const std::string& path, const PointsHeader& header, 
   if (header.probe_offset_mm) {
     head += std::string("# ") + kProbeOffsetKey + ": " + internal::Shortest(*header.probe_offset_mm) + "\n";
   }
-  head += NewSetupFields(header, {});
+  head += SetupFieldLines(header);
   for (const auto& [key, value] : header.metadata) {
     if (!IsHeaderKey(key)) throw Error(path + ": '" + key + "' is not a valid header key");
     const std::string name = key.substr(0, key.find('@'));

@@ -193,6 +193,11 @@ std::string MountRotationKey(int setup);
 /// The header key of the radius of the sphere measured in `setup`: "sphere_radius_mm@2".
 std::string SphereRadiusKey(int setup);
 
+/// The per-setup header lines of `header`, "# key: value\n" each: the mount rotations, then the
+/// radii of other spheres (shortest digits that read back exactly), leaving out the keys that
+/// `written` holds (those a file already has). The one writing of these fields.
+std::string SetupFieldLines(const PointsHeader& header, const std::map<std::string, std::string>& written = {});
+
 /// The value of a mount rotation's header field: "rx ry rz" (shortest digits that read back
 /// exactly) or "unknown".
 std::string MountRotationValue(const MountRotation& rotation);
