@@ -489,12 +489,30 @@ EffectReference ReferenceOf(const PointsData& all, const TraceOptions& trace) {
   return trace.probe_range_mm ? WithProbeRange(of_data, *trace.probe_range_mm) : of_data;
 }
 
-EffectFit FitNone(const Readings& data, const CalibrationOptions& options, const CalibrationResult& base,
-                  const EffectReference& reference, const TraceOptions& trace) {
-  EffectModel none;
-  none.reference = reference;
-  none.phi_wobble_pivot_mm = trace.phi_wobble_pivot_mm;
-  return internal::FitEffectsRows(data.points, data.table, nullptr, options, none, EffectFitStart::From(base));
+// The seven-error calibration `base` as a fit with no effects over the readings it kept (`data`):
+// its solution, residuals and analysis as they are, not solved a second time.
+EffectFit FitNone(const Readings& data, const CalibrationResult& base, const EffectReference& reference,
+                  const TraceOptions& trace) {
+  EffectFit fit;
+  fit.model.reference = reference;
+  fit.model.phi_wobble_pivot_mm = trace.phi_wobble_pivot_mm;
+  fit.calibration = base;
+  CalibrationResult& kept = fit.calibration;
+  if (!base.outliers.empty()) {  // base's residuals cover every sample: keep those of `data`
+    std::vector<bool> out(base.residuals_mm.size(), false);
+    for (const Outlier& o : base.outliers) out[o.sample] = true;
+    kept.residuals_mm.clear();
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      if (!out[i]) kept.residuals_mm.push_back(base.residuals_mm[i]);
+    }
+    kept.outliers.clear();  // indices into `all`; `data` has none
+  }
+  if (kept.residuals_mm.size() != data.table.size()) {
+    throw Error(data.points.source + ": the calibration's residuals do not match its readings");
+  }
+  for (double r : kept.residuals_mm) fit.rss_mm2 += r * r;
+  fit.n_params = kNumScmsParams + 3 * static_cast<int>(kept.centers_mm.size());
+  return fit;  // rms and peak-to-valley: base's, of the readings kept
 }
 
 // The readings of `all` that are outliers under `fit` (the rule of Calibrate()), as indices.
@@ -1272,7 +1290,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
   TraceResult r;
   const Readings data(WithoutOutliers(all, base));  // what the seven-error fit used
   const EffectReference reference = ReferenceOf(all, asked);
-  r.before = Analysed(FitNone(data, options, base, reference, asked), data, options, asked);
+  r.before = Analysed(FitNone(data, base, reference, asked), data, options, asked);
   const TraceOptions trace = WithSearchedOrders(asked, data.points, r.before.structure);
   r.harmonics = trace.harmonics;
   std::vector<Effect> pool = trace.candidates;
@@ -1309,7 +1327,7 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
   TraceResult r;
   const Readings data(WithoutOutliers(all, base));
   const EffectReference reference = ReferenceOf(all, asked);
-  r.before = Analysed(FitNone(data, options, base, reference, asked), data, options, asked);
+  r.before = Analysed(FitNone(data, base, reference, asked), data, options, asked);
   const TraceOptions trace = WithSearchedOrders(asked, data.points, r.before.structure);
   r.harmonics = trace.harmonics;
   EffectModel model;

@@ -269,6 +269,34 @@ TEST(TraceResidual, ReadingsLeftOutByTheSevenErrorFitComeBackUnderTheFinalModel)
   EXPECT_LT(after.rms_um, 1e-5);
 }
 
+// The trace's starting point is the seven-error calibration it is given, not a second solve of it:
+// the same errors, centres and covariance, and the residuals of the readings it kept.
+TEST(TraceResidual, StartsFromTheSevenErrorCalibrationItIsGiven) {
+  PointsData points = WithEffect(Effect::kProbeDrift, {{1, 0, false}}, {0.4 * kMmPerUm});
+  points.samples[17].r_mm += 0.05;  // a gross error: one outlier
+  const CalibrationResult base = Calibrate(points, PaperOptions());
+  ASSERT_EQ(base.outliers.size(), 1u);
+  ASSERT_EQ(base.outliers[0].sample, 17u);
+  const TraceResult r = TraceResidual(points, PaperOptions(), base, TraceOptions{});
+  const CalibrationResult& before = r.before.fit.calibration;
+  EXPECT_EQ(before.geometry, base.geometry);
+  ASSERT_EQ(before.centers_mm.size(), base.centers_mm.size());
+  EXPECT_EQ(before.centers_mm[0], base.centers_mm[0]);
+  EXPECT_EQ(before.analysis.std, base.analysis.std);
+  ASSERT_EQ(before.residuals_mm.size(), points.samples.size() - 1);
+  double rss_mm2 = 0.0;
+  for (std::size_t i = 0, kept = 0; i < points.samples.size(); ++i) {
+    if (i == 17) continue;
+    EXPECT_EQ(before.residuals_mm[kept++], base.residuals_mm[i]) << i;
+    rss_mm2 += base.residuals_mm[i] * base.residuals_mm[i];
+  }
+  EXPECT_DOUBLE_EQ(r.before.fit.rss_mm2, rss_mm2);
+  EXPECT_EQ(r.before.fit.n_params, kNumScmsParams + 3);
+  EXPECT_TRUE(before.outliers.empty());
+  EXPECT_EQ(before.rms_um, base.rms_um);
+  EXPECT_TRUE(r.before.fit.model.terms.empty());
+}
+
 // A setup with a handful of points keeps some in every cross-validation fold.
 TEST(TraceResidual, CrossValidationKeepsEverySetupInEveryFold) {
   SimulationSpec spec;
