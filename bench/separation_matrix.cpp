@@ -91,9 +91,11 @@ std::vector<Case> Cases() {
 // 120 deg about (1, 1, 1) at (0, -1, 0) mm: other eccentricities, azimuths and a height, which
 // tell a Theta encoder error from a spindle motion and a Phi positioning error from a Phi axis
 // motion.
-// "spheres" (run only when named): the five placements and a second sphere, of radius 10 mm, at
-// (2, 0, 0) mm in two setups turned by 90 deg about y between them: a probe's gain and its
-// incidence error differ on a sphere only as 1/R against 1/R^2.
+// "spheres" (run only when named): the five placements, the last of them at (0, -6, 0) mm instead,
+// and a second sphere, of radius 10 mm, at (2, 0, 0) mm in two setups turned by 90 deg about y
+// between them: a probe's gain and its incidence error differ on a sphere only as 1/R against
+// 1/R^2, and a wobble of the Phi axis about its pivot differs from a radial motion only through the
+// lever between the pivot and the probed point, which the eccentricity changes by +-e.
 enum class Setups { kOne, kThree, kFive, kSpheres };
 const char* SetupsName(Setups s) {
   switch (s) {
@@ -127,6 +129,7 @@ sph::SimulationSpec Design(const Case& c, bool form, Setups setups, double noise
                         {3, sph::ScanOrder::kReversed},
                         {4, sph::ScanOrder::kShuffled}};
     if (setups == Setups::kSpheres) {
+      spec.centers_mm[4] = Eigen::Vector3d(0, -6, 0);
       spec.centers_mm.insert(spec.centers_mm.end(), 2, Eigen::Vector3d(2, 0, 0));
       spec.sphere_radii_mm = {{5, 10.0}, {6, 10.0}};
       spec.mount_rotations_deg[6] = {0, 90, 0};
@@ -213,8 +216,8 @@ int main(int argc, char** argv) {
   std::printf(
       "separation matrix: %d runs per cell (seeds 1..%d), the paper's pattern at 2 mm; form: 0.050 um rms of\n"
       "degrees 2..8; three: the sphere also turned by 90 deg about z and tilted by 90 deg about x; five: and\n"
-      "at other eccentricities, azimuths and a height; spheres (only when named): and a second sphere of\n"
-      "10 mm in two orientations (bench/separation_matrix.cpp, Design())\n",
+      "at other eccentricities, azimuths and a height; spheres (only when named): five, one at 6 mm, and a\n"
+      "second sphere of 10 mm in two orientations (bench/separation_matrix.cpp, Design())\n",
       runs, runs);
   std::printf("%-52s %-5s %-6s %5s %5s %6s %6s %7s %8s %8s  %s\n", "effects", "form", "setup", "sigma", "runs", "right",
               "wrong", "flagged", "form_r", "cv/sig", "effects added (count)");

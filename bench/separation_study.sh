@@ -39,6 +39,8 @@ drift+form34|probe_drift|--effect-um probe_drift.t1=0.5 $form34|no|
 theta_enc_5pt|theta_encoder|--effect-arcsec theta_encoder.c5=6|no|
 clean|-||no|
 form28_one|-|$form28|no|
+form28+drift|probe_drift|$form28 --effect-um probe_drift.t1=0.4|no|
+form28+drift_shuffled|probe_drift|$form28 --effect-um probe_drift.t1=0.4 --scan-order shuffled|no|
 turned+form28+theta_enc|theta_encoder|$turned $form28 --effect-arcsec theta_encoder.c3=5|no|
 turned+form34+drift|probe_drift|$turned $form34 --effect-um probe_drift.t1=0.4|no|
 turned+form28+drift+theta_enc|probe_drift,theta_encoder|$turned $form28 --effect-um probe_drift.t1=0.4 --effect-arcsec theta_encoder.c3=5|no|
@@ -47,6 +49,7 @@ phi_axial_2|phi_axial_motion|--effect-um phi_axial_motion.c2=2|no|
 theta_tilt_10|theta_tilt_motion|--effect-arcsec theta_tilt_motion.x_c2=10|no|
 heights+theta_tilt_10|theta_tilt_motion|$heights --effect-arcsec theta_tilt_motion.x_c2=10|no|
 wobble_L80_2|phi_wobble|$pivot --effect-arcsec phi_wobble.x_c2=2|no|$pivot
+eccentric_6+wobble_L80_2|phi_wobble|--center-mm 6,0,0 $pivot --effect-arcsec phi_wobble.x_c2=2|no|$pivot
 incidence_30|probe_incidence|--effect-um probe_incidence.i1=30|no|
 eccentricities+incidence_30|probe_incidence|$eccentricities --effect-um probe_incidence.i1=30|no|
 gain_10|probe_gain|--effect-um probe_gain.u1=10|no|
