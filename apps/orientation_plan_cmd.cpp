@@ -87,10 +87,45 @@ json Report(std::ostream& out, double e_mm, const Eigen::Vector3d& center_mm, co
         << "; still confounded: " << TermsText(last.confounded) << "\n";
     if (!last.combinations.empty()) out << "  weakest: " << last.combinations.front().words << "\n";
   }
+  json undetermined = json::array();
+  if (!plan.undetermined.empty()) {
+    out << "  effects the design does not see at all beside the seven errors, the centres and the form:";
+    for (const Effect e : plan.undetermined) {
+      out << " " << InfoOf(e).id;
+      undetermined.push_back(InfoOf(e).id);
+    }
+    out << "\n";
+  }
+  json pairs = json::array();
+  if (plan.confounded_effects.empty()) {
+    out << "  the effects are told apart from each other (no pair inflates a component's variance more than "
+        << Format("%g", kSeparatedPairInflation) << " times)\n";
+  } else {
+    out << "  effects these orientations do not tell apart (factor: the most one inflates the variance of a "
+           "component of the other; turning the sphere turns its form, not the machine):\n";
+  }
+  for (const EffectPairAdvice& a : plan.confounded_effects) {
+    const char* id_a = InfoOf(a.pair.a).id;
+    const char* id_b = InfoOf(a.pair.b).id;
+    out << Format("    %s and %s: %.3g; ", id_a, id_b, a.pair.factor)
+        << (a.placement.empty() ? Format("none of the placements tried brings it to %g (at best %.3g)",
+                                         kSeparatedPairInflation, a.factor_with)
+                                : a.placement + Format(": %.3g", a.factor_with))
+        << "\n";
+    pairs.push_back({{"a", id_a},
+                     {"b", id_b},
+                     {"factor", std::isfinite(a.pair.factor) ? json(a.pair.factor) : json(nullptr)},
+                     {"placement", a.placement.empty() ? json(nullptr) : json(a.placement)},
+                     {"factor_with", std::isfinite(a.factor_with) ? json(a.factor_with) : json(nullptr)}});
+  }
+  if (!plan.confounded_effects.empty()) out << "  placements tried: " << plan.placements_tried << "\n";
   return {{"eccentricity_mm", e_mm},
           {"center_mm", {center_mm.x(), center_mm.y(), center_mm.z()}},
           {"separable", plan.Separable()},
-          {"steps", steps}};
+          {"steps", steps},
+          {"undetermined_effects", undetermined},
+          {"confounded_effects", pairs},
+          {"placements_tried", plan.placements_tried}};
 }
 
 }  // namespace

@@ -3,47 +3,119 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <string>
 
+#include "pair_separation.hpp"
 #include "sph/core/error.hpp"
 #include "sph/model/spherical_harmonics.hpp"
 
 namespace sph {
 namespace {
 
-// The design with the sphere at the design's first centre in each of `rotations_deg` (one setup
-// each, ids 0, 1, ...), read without noise.
-PointsData DesignOf(const SimulationSpec& design, const std::vector<Eigen::Vector3d>& rotations_deg) {
+// The planned design: the sphere at the design's first centre in each of `rotations_deg` (one
+// setup each, ids 0, 1, ...) and, when given, the setups of one more placement after them, read
+// without noise; with the calibration options, the machine's model and the point to linearise at
+// (the truth: the seven errors and the centres as simulated, effects and form at 0).
+struct PlannedDesign {
+  PointsData points;
+  CalibrationOptions calibration;
+  EffectModel machine;
+  EffectFitStart at;
+};
+
+PlannedDesign DesignOf(const SimulationSpec& design, const OrientationPlanOptions& options,
+                       const std::vector<Eigen::Vector3d>& rotations_deg, const internal::Placement* more = nullptr) {
   SimulationSpec spec = design;
   spec.centers_mm.assign(rotations_deg.size(), design.centers_mm.front());
   spec.mount_rotations_deg.clear();
   spec.mount_unknown.clear();
+  spec.sphere_radii_mm.clear();
   for (std::size_t k = 0; k < rotations_deg.size(); ++k) {
     spec.mount_rotations_deg[static_cast<int>(k)] = rotations_deg[k];
   }
+  if (more != nullptr) {
+    const std::size_t n = std::max<std::size_t>(1, more->rotations_deg.size());
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto setup = static_cast<int>(spec.centers_mm.size());
+      spec.centers_mm.push_back(more->center_mm);
+      if (more->other_radius_mm > 0.0) spec.sphere_radii_mm[setup] = more->other_radius_mm;
+      if (k < more->rotations_deg.size()) spec.mount_rotations_deg[setup] = more->rotations_deg[k];
+    }
+  }
   spec.effects = SimulatedEffects{};
-  PointsData points = SimulateExact(spec);
-  points.source = "the planned design";
-  return points;
+  PlannedDesign out;
+  out.points = SimulateExact(spec);
+  out.points.source = "the planned design";
+  out.calibration.sphere_radius_mm = design.sphere_radius_mm;
+  out.calibration.sphere_radii_mm = spec.sphere_radii_mm;
+  out.calibration.probe_offset_mm = design.probe_offset_mm;
+  out.machine.reference = EffectReferenceOf(out.points.samples);
+  out.machine.phi_wobble_pivot_mm = options.phi_wobble_pivot_mm;
+  for (const Effect e : options.effects) {
+    if (out.machine.Find(e) < 0) out.machine.terms.push_back(DefaultTerm(e, options.harmonics, options.drift_order));
+  }
+  out.at.geometry = design.truth;
+  out.at.centers_mm = spec.centers_mm;
+  return out;
 }
 
 FormIdentifiability Judge(const SimulationSpec& design, const OrientationPlanOptions& options,
                           const std::vector<Eigen::Vector3d>& rotations_deg) {
-  const PointsData points = DesignOf(design, rotations_deg);
-  CalibrationOptions calibration;
-  calibration.sphere_radius_mm = design.sphere_radius_mm;
-  calibration.probe_offset_mm = design.probe_offset_mm;
-  EffectModel machine;
-  machine.reference = EffectReferenceOf(points.samples);
-  machine.phi_wobble_pivot_mm = options.phi_wobble_pivot_mm;
-  for (const Effect e : options.effects) {
-    if (machine.Find(e) < 0) machine.terms.push_back(DefaultTerm(e, options.harmonics, options.drift_order));
+  const PlannedDesign d = DesignOf(design, options, rotations_deg);
+  return IdentifyForm(d.points, d.calibration, d.machine, d.at, FormTermsOfDegrees(2, options.form_degree_max));
+}
+
+// The effects' pairs on the planned orientations (with one more placement, when given); nothing
+// when a probe ray of the placement misses its sphere.
+std::optional<EffectSeparability> JudgeEffects(const SimulationSpec& design, const OrientationPlanOptions& options,
+                                               const std::vector<Eigen::Vector3d>& rotations_deg,
+                                               const internal::Placement* more = nullptr) {
+  PlannedDesign d;
+  try {
+    d = DesignOf(design, options, rotations_deg, more);
+  } catch (const Error&) {
+    if (more == nullptr) throw;
+    return std::nullopt;
   }
-  // Linearised at the truth: the seven errors and the centres as simulated, effects and form at 0.
-  EffectFitStart at;
-  at.geometry = design.truth;
-  at.centers_mm = std::vector<Eigen::Vector3d>(rotations_deg.size(), design.centers_mm.front());
-  return IdentifyForm(points, calibration, machine, at, FormTermsOfDegrees(2, options.form_degree_max));
+  return IdentifyEffectPairs(d.points, d.calibration, d.machine, d.at, FormTermsOfDegrees(2, options.form_degree_max));
+}
+
+// The factor of the pair (a, b) in `s`, or +inf when it is not among its pairs.
+double FactorOf(const EffectSeparability& s, Effect a, Effect b) {
+  for (const EffectPairInflation& p : s.pairs) {
+    if ((p.a == a && p.b == b) || (p.a == b && p.b == a)) return p.factor;
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
+// The pairs of effects that the plan's orientations leave confounded, each with the placement of
+// internal::PlacementsToTry() that separates it best.
+void AdviseOnEffects(const SimulationSpec& design, const OrientationPlanOptions& options,
+                     const std::vector<Eigen::Vector3d>& rotations_deg, OrientationPlan* plan) {
+  const EffectSeparability now = *JudgeEffects(design, options, rotations_deg);
+  plan->undetermined = now.undetermined;
+  for (const EffectPairInflation& p : now.pairs) {
+    if (p.factor > kSeparatedPairInflation)
+      plan->confounded_effects.push_back({p, "", std::numeric_limits<double>::infinity()});
+  }
+  std::sort(plan->confounded_effects.begin(), plan->confounded_effects.end(),
+            [](const EffectPairAdvice& x, const EffectPairAdvice& y) { return x.pair.factor > y.pair.factor; });
+  if (plan->confounded_effects.empty()) return;
+  for (const internal::Placement& p :
+       internal::PlacementsToTry(design.centers_mm.front(), design.sphere_radius_mm, /*with_form=*/true)) {
+    plan->placements_tried += (plan->placements_tried.empty() ? "" : "; ") + p.words;
+    const std::optional<EffectSeparability> with = JudgeEffects(design, options, rotations_deg, &p);
+    if (!with) continue;
+    for (EffectPairAdvice& advice : plan->confounded_effects) {
+      const double factor = FactorOf(*with, advice.pair.a, advice.pair.b);
+      if (factor < advice.factor_with) {
+        advice.factor_with = factor;
+        advice.placement = factor <= kSeparatedPairInflation ? p.words : "";
+      }
+    }
+  }
 }
 
 // Fewer confounded terms first; among equals, the smaller largest variance inflation.
@@ -92,6 +164,7 @@ OrientationPlan PlanOrientations(const SimulationSpec& design, const Orientation
     chosen.push_back(candidates[static_cast<std::size_t>(best)]);
     plan.steps.push_back({chosen.back(), std::move(best_id)});
   }
+  AdviseOnEffects(design, options, chosen, &plan);
   return plan;
 }
 

@@ -28,68 +28,75 @@ double PairVif(const PointsData& points, const CalibrationOptions& options, cons
   return worst;
 }
 
-// A placement to try: the sphere's centre, what it is in words, and the radius of another sphere
-// measured there (0: the same sphere).
-struct Placement {
-  Eigen::Vector3d center_mm;
-  std::string words;
-  double other_radius_mm = 0.0;
-};
-
-// Other placements of the sphere and, where the fit has no form of the sphere (another sphere has
-// a form of its own, which this check does not model), a sphere of half the radius in its place:
-// a probe's gain and its incidence error differ on a sphere only as 1/R against 1/R^2.
-std::vector<Placement> PlacementsToTry(const Eigen::Vector3d& c0, double sphere_radius_mm, bool with_form) {
-  const double e = std::hypot(c0.x(), c0.y());
-  std::vector<Placement> out;
-  if (e >= 0.5) {
-    const Eigen::Vector3d half(0.5 * c0.x(), 0.5 * c0.y(), c0.z());
-    out.push_back({half, Format("a second placement at half the eccentricity (%.3g mm)", 0.5 * e)});
-  } else {
-    out.push_back({Eigen::Vector3d(2.0, 0.0, c0.z()), "a second placement at 2 mm eccentricity"});
-  }
-  out.push_back({Eigen::Vector3d(-c0.y(), c0.x(), c0.z()),
-                 "a second placement at the same eccentricity, 90 deg further round the Theta axis"});
-  for (const double fraction : {0.25, 0.75}) {  // of the sphere's radius
-    const double up_mm = fraction * sphere_radius_mm;
-    out.push_back({c0 + Eigen::Vector3d(0.0, 0.0, up_mm),
-                   Format("a second placement %.3g mm higher along the Theta axis", up_mm)});
-  }
-  if (!with_form) {
-    const double half_mm = 0.5 * sphere_radius_mm;
-    out.push_back({c0,
-                   Format("a second sphere, of radius %.3g mm, in the same place (sphere_radius_mm@<setup>)", half_mm),
-                   half_mm});
-  }
-  return out;
-}
-
-// `points` with the rows of its first setup read once more at placement `p` (setup id one above
-// the highest), at the fitted geometry of `fit`, and `options` with the radius of its sphere;
-// false when a ray misses.
+// `points` with the rows of its first setup read once more at placement `p` (setup ids from one
+// above the highest, one per orientation), at the fitted geometry of `fit`, and `options` with the
+// radius of its sphere; false when a ray misses. The setups' ids are appended to `setups`.
 bool WithPlacement(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
-                   const Placement& p, PointsData* out, CalibrationOptions* out_options, int* setup) {
+                   const Placement& p, PointsData* out, CalibrationOptions* out_options, std::vector<int>* setups) {
   *out = points;
   *out_options = options;
   const std::vector<int>& ids = fit.calibration.setup_ids;
-  *setup = ids.back() + 1;
   const double radius_mm = p.other_radius_mm > 0.0 ? p.other_radius_mm : options.sphere_radius_mm;
-  if (p.other_radius_mm > 0.0) {
-    out->header.sphere_radii_mm[*setup] = radius_mm;
-    out_options->sphere_radii_mm[*setup] = radius_mm;
-  }
-  for (const Sample& s : points.samples) {
-    if (s.setup != ids.front()) continue;
-    const std::optional<double> r = ProbeReading(fit.calibration.geometry, s.theta_rad(), s.phi_rad(),
-                                                 options.probe_offset_mm, p.center_mm, radius_mm);
-    if (!r) return false;
-    out->samples.push_back({s.theta_deg, s.phi_deg, *r, s.t_s, *setup});
+  const std::size_t n_setups = std::max<std::size_t>(1, p.rotations_deg.size());
+  for (std::size_t k = 0; k < n_setups; ++k) {
+    const int setup = ids.back() + 1 + static_cast<int>(k);
+    setups->push_back(setup);
+    if (p.other_radius_mm > 0.0) {
+      out->header.sphere_radii_mm[setup] = radius_mm;
+      out_options->sphere_radii_mm[setup] = radius_mm;
+    }
+    if (k < p.rotations_deg.size()) out->header.mount_rotations[setup] = MountRotation{p.rotations_deg[k]};
+    for (const Sample& s : points.samples) {
+      if (s.setup != ids.front()) continue;
+      // A perfect sphere reads alike in any orientation; the rotation turns only its form's terms.
+      const std::optional<double> r = ProbeReading(fit.calibration.geometry, s.theta_rad(), s.phi_rad(),
+                                                   options.probe_offset_mm, p.center_mm, radius_mm);
+      if (!r) return false;
+      out->samples.push_back({s.theta_deg, s.phi_deg, *r, s.t_s, setup});
+    }
   }
   out->has_setup = true;
   return true;
 }
 
 }  // namespace
+
+std::vector<Placement> PlacementsToTry(const Eigen::Vector3d& c0, double sphere_radius_mm, bool with_form) {
+  const double e = std::hypot(c0.x(), c0.y());
+  std::vector<Placement> out;
+  const auto add = [&out](const Eigen::Vector3d& center_mm, std::string words) {
+    Placement& p = out.emplace_back();
+    p.center_mm = center_mm;
+    p.words = std::move(words);
+    return &p;
+  };
+  if (e >= 0.5) {
+    add(Eigen::Vector3d(0.5 * c0.x(), 0.5 * c0.y(), c0.z()),
+        Format("a second placement at half the eccentricity (%.3g mm)", 0.5 * e));
+    add(Eigen::Vector3d(3.0 * c0.x(), 3.0 * c0.y(), c0.z()),
+        Format("a second placement at three times the eccentricity (%.3g mm)", 3.0 * e));
+  } else {
+    add(Eigen::Vector3d(2.0, 0.0, c0.z()), "a second placement at 2 mm eccentricity");
+  }
+  add(Eigen::Vector3d(-c0.y(), c0.x(), c0.z()),
+      "a second placement at the same eccentricity, 90 deg further round the Theta axis");
+  for (const double fraction : {0.25, 0.75}) {  // of the sphere's radius
+    const double up_mm = fraction * sphere_radius_mm;
+    add(c0 + Eigen::Vector3d(0.0, 0.0, up_mm), Format("a second placement %.3g mm higher along the Theta axis", up_mm));
+  }
+  const double half_mm = 0.5 * sphere_radius_mm;
+  Placement* other =
+      add(c0, with_form ? Format("a second sphere, of radius %.3g mm, in the same place, measured in two "
+                                 "orientations 90 deg apart about y (sphere_radius_mm@<setup>, "
+                                 "mount_rotation_deg@<setup>)",
+                                 half_mm)
+                        : Format("a second sphere, of radius %.3g mm, in the same place "
+                                 "(sphere_radius_mm@<setup>)",
+                                 half_mm));
+  other->other_radius_mm = half_mm;
+  if (with_form) other->rotations_deg = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, 90.0, 0.0)};
+  return out;
+}
 
 namespace {
 
@@ -124,12 +131,20 @@ PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOp
     out.tried += (out.tried.empty() ? "" : "; ") + p.words;
     PointsData more;
     CalibrationOptions more_options;
-    int setup = 0;
-    if (!WithPlacement(points, options, current, p, &more, &more_options, &setup)) continue;
+    std::vector<int> setups;
+    if (!WithPlacement(points, options, current, p, &more, &more_options, &setups)) continue;
     EffectFit with = both;
-    with.calibration.setup_ids.push_back(setup);
-    with.calibration.centers_mm.push_back(p.center_mm);
-    with.n_params += 3;
+    for (const int setup : setups) {
+      with.calibration.setup_ids.push_back(setup);
+      with.calibration.centers_mm.push_back(p.center_mm);
+      with.n_params += 3;
+    }
+    if (!with.model.form.Empty()) {  // another sphere has a form of its own: a group of its own
+      with.model.form = FormModelOf(more, with.model.form.terms);
+      const auto n_groups = static_cast<std::size_t>(with.model.form.NumGroups());
+      with.n_params += static_cast<int>((n_groups - with.form_values.size()) * with.model.form.terms.size());
+      with.form_values.resize(n_groups, std::vector<double>(with.model.form.terms.size(), 0.0));
+    }
     const double vif = PairVif(more, more_options, with);
     if (vif < out.vif_with) {
       out.vif_with = vif;

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "sph/calib/effect_fit.hpp"
 #include "sph/core/points_file.hpp"
 
@@ -16,6 +18,25 @@ namespace sph::internal {
 /// Two effects count as told apart when no component of either has a variance inflation above
 /// this with both in the model: a correlation of at most 0.995 with the rest.
 inline constexpr double kSeparatedVif = 100.0;
+
+/// One more placement of a sphere that may tell two effects apart: where its centre is, the radius
+/// of another sphere measured there (0: the same sphere), and the mount rotations it is read in,
+/// one setup each (empty: one setup in the reference orientation).
+struct Placement {
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
+  std::string words;
+  double other_radius_mm = 0.0;
+  std::vector<Eigen::Vector3d> rotations_deg;
+};
+
+/// The placements a trace checks its advice on and a plan proposes, for a design whose first
+/// sphere centre is c0: half the eccentricity (2 mm from the axis when it is below 0.5 mm), three
+/// times it (the lever of a Phi axis wobble from its pivot changes by the eccentricity), 90 deg
+/// further round the Theta axis, a quarter and three quarters of the radius higher along it, and a
+/// sphere of half the radius in the same place (a probe's gain and its incidence error differ on a
+/// sphere only as 1/R against 1/R^2); where the form of the sphere is modelled (`with_form`), the
+/// other sphere is read in two orientations, 90 deg apart about y, for it has a form of its own.
+std::vector<Placement> PlacementsToTry(const Eigen::Vector3d& c0, double sphere_radius_mm, bool with_form);
 
 /// What one more placement would do for a pair of effect terms.
 struct PairSeparation {
@@ -38,10 +59,10 @@ double PairVifNow(const PointsData& points, const CalibrationOptions& options, c
                   const std::vector<double>& b_values);
 
 /// Checks the pair (a with a_values, b with b_values) beside the model of `current` (a fit of
-/// `points`): first on the readings as they are, then with one more setup, the pattern of the first
-/// setup read once more with the sphere at another eccentricity, azimuth, or a quarter and three
-/// quarters of its radius higher (where the probe still meets it). The readings of
-/// the added setup are those of the sphere at the fitted geometry (ray-traced); nothing is fitted.
+/// `points`): first on the readings as they are, then with each of PlacementsToTry(), the pattern
+/// of the first setup read once more there (where the probe still meets the sphere). The readings
+/// of the added setups are those of the sphere at the fitted geometry (ray-traced); nothing is
+/// fitted.
 PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOptions& options,
                                    const EffectFit& current, const EffectTerm& a, const std::vector<double>& a_values,
                                    const EffectTerm& b, const std::vector<double>& b_values);

@@ -921,9 +921,8 @@ std::string CheckedSeparation(const Readings& data, const CalibrationOptions& op
   }
   return Format(
       "none of these tells them apart: %s (largest variance inflation of their terms fitted together %.3g "
-      "now, at best %.3g with one of them; at most %.3g would): %sone of the two measured on its own",
-      p.tried.c_str(), p.vif_now, p.vif_with, internal::kSeparatedVif,
-      current.model.form.Empty() ? "" : "a sphere of another radius (not checked beside the form), or ");
+      "now, at best %.3g with one of them; at most %.3g would): one of the two measured on its own",
+      p.tried.c_str(), p.vif_now, p.vif_with, internal::kSeparatedVif);
 }
 
 // Whether the design cannot tell candidate c (fitted in `c_fit`) from the chosen effect (in

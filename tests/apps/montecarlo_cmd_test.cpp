@@ -120,6 +120,34 @@ TEST(MonteCarloCmd, PlansTheOrientationsThatSeparateTheForm) {
                                    "S(2,0) S(3,0) S(4,0)"));
 }
 
+// The plan then judges the effects among themselves: a tilt of the Theta spindle and its axial
+// motion move a sphere at one eccentricity alike, and the report names the placement that tells
+// them apart, as text and JSON.
+TEST(MonteCarloCmd, PlansThePlacementThatTellsTwoEffectsApart) {
+  const std::string dir = sph::testing::MakeTempDir("mcplanfx");
+  MonteCarloOptions o;
+  o.plan_orientations = true;
+  o.eccentricities_mm = {2.0};
+  o.effects = {"theta_axial_motion", "theta_tilt_motion", "probe_drift"};
+  o.form_degree_max = 4;
+  o.json_path = dir + "/plan.json";
+  const RunOutput r = RunApp(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("effects these orientations do not tell apart"));
+  EXPECT_THAT(r.out, HasSubstr("theta_axial_motion and theta_tilt_motion: inf; a second placement at three times "
+                               "the eccentricity (6 mm): "));
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json& pairs = j["plans"][0]["confounded_effects"];
+  ASSERT_EQ(pairs.size(), 1u);
+  EXPECT_EQ(pairs[0]["a"], "theta_axial_motion");
+  EXPECT_EQ(pairs[0]["b"], "theta_tilt_motion");
+  EXPECT_TRUE(pairs[0]["factor"].is_null());  // infinite: not told apart at all
+  EXPECT_LE(pairs[0]["factor_with"].get<double>(), 100.0);
+  EXPECT_THAT(pairs[0]["placement"].get<std::string>(), HasSubstr("three times the eccentricity"));
+  EXPECT_TRUE(j["plans"][0]["undetermined_effects"].empty());
+}
+
 TEST(MonteCarloCmd, BadOptionsExitTwo) {
   MonteCarloOptions o;
   o.direction = "0,0,0";

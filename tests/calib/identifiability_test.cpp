@@ -4,6 +4,7 @@
 #include "sph/calib/orientation_plan.hpp"
 
 #include <algorithm>
+#include <map>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -149,6 +150,121 @@ TEST(PlanOrientations, RefusesAnImpossibleRequest) {
   options.form_degree_max = 4;
   options.max_orientations = 0;
   EXPECT_THROW(PlanOrientations(SimulationSpec{}, options), Error);
+}
+
+// The paper's machine and pattern with the sphere at `centers_mm` (one setup each; a radius in
+// `radii_mm` for a setup that measures another sphere), read without noise, the model of `effects`
+// on it and the factor of the pair (a, b), linearised at the truth.
+struct EffectDesign {
+  std::vector<Eigen::Vector3d> centers_mm;
+  std::map<int, double> radii_mm;
+  double phi_wobble_pivot_mm = 0.0;
+};
+
+EffectSeparability JudgeEffects(const EffectDesign& d, const std::vector<Effect>& effects) {
+  SimulationSpec spec;
+  spec.noise_r_um = 0.0;
+  spec.centers_mm = d.centers_mm;
+  spec.sphere_radii_mm = d.radii_mm;
+  const PointsData points = SimulateExact(spec);
+  CalibrationOptions options = PaperOptions();
+  options.sphere_radii_mm = d.radii_mm;
+  EffectModel model;
+  model.reference = EffectReferenceOf(points.samples);
+  model.phi_wobble_pivot_mm = d.phi_wobble_pivot_mm;
+  for (const Effect e : effects) model.terms.push_back(DefaultTerm(e));
+  EffectFitStart at;
+  at.geometry = spec.truth;
+  at.centers_mm = spec.centers_mm;
+  return IdentifyEffectPairs(points, options, model, at, {});
+}
+
+double Factor(const EffectSeparability& s, Effect a, Effect b) {
+  for (const EffectPairInflation& p : s.pairs) {
+    if ((p.a == a && p.b == b) || (p.a == b && p.b == a)) return p.factor;
+  }
+  ADD_FAILURE() << "no pair " << InfoOf(a).id << ", " << InfoOf(b).id;
+  return 0.0;
+}
+
+const Eigen::Vector3d kAt2mm(2, 0, 0);
+
+// A tilt of the Theta spindle about machine x and y through the axes' common point moves a sphere
+// centred e from the axis, at that height, along the axis by e times the tilt: at one eccentricity
+// a function of theta along z, as an axial error motion is. Its size grows with e, the axial
+// motion's does not, so a second eccentricity tells them apart.
+TEST(IdentifyEffectPairs, ASecondEccentricityTellsASpindleTiltFromAnAxialMotion) {
+  const std::vector<Effect> effects{Effect::kThetaTiltMotion, Effect::kThetaAxialMotion};
+  const EffectSeparability one = JudgeEffects({{kAt2mm}, {}, 0.0}, effects);
+  EXPECT_TRUE(one.undetermined.empty());
+  EXPECT_GT(Factor(one, effects[0], effects[1]), 1e6);
+  const EffectSeparability two = JudgeEffects({{kAt2mm, Eigen::Vector3d(6, 0, 0)}, {}, 0.0}, effects);
+  EXPECT_LE(Factor(two, effects[0], effects[1]), kSeparatedPairInflation);
+}
+
+// A tilt of the Phi axis about the probe's beam, pivoting at the bearing L along the axis, moves
+// every point of the beam by L times the tilt across it, and turns the beam about itself, which
+// moves nothing: a radial motion of the Phi axis across the beam does the same. No placement of any
+// sphere tells them apart (only the tilt across the beam also turns it).
+TEST(IdentifyEffectPairs, AWobbleAboutTheBeamIsARadialMotionOfThePhiAxisAnywhere) {
+  const std::vector<Effect> effects{Effect::kPhiWobble, Effect::kPhiRadialMotion};
+  for (const EffectDesign& d : std::vector<EffectDesign>{{{kAt2mm}, {}, 80.0},
+                                                         {{kAt2mm, Eigen::Vector3d(6, 0, 0)}, {}, 80.0},
+                                                         {{kAt2mm, Eigen::Vector3d(2, 0, 15)}, {}, 80.0},
+                                                         {{kAt2mm, kAt2mm}, {{1, 10.0}}, 80.0}}) {
+    EXPECT_GT(Factor(JudgeEffects(d, effects), effects[0], effects[1]), 1e6) << d.centers_mm.size();
+  }
+}
+
+// With the sphere centred on the Theta axis a positioning error of Theta turns it about its own
+// centre: nothing the probe reads changes, and the design does not determine the encoder error at
+// all. Its pairs are not judged.
+TEST(IdentifyEffectPairs, AnEncoderErrorOfTheAxisThroughTheSpheresCentreIsNotDetermined) {
+  const EffectSeparability s =
+      JudgeEffects({{Eigen::Vector3d::Zero()}, {}, 0.0}, {Effect::kThetaEncoder, Effect::kProbeDrift});
+  EXPECT_EQ(s.undetermined, std::vector<Effect>{Effect::kThetaEncoder});
+  EXPECT_TRUE(s.pairs.empty());
+}
+
+// The probe's gain and its incidence error are both, at first order, a quadratic of the reading
+// on one sphere (sin^2 psi = (e^2 - (rho - R0)^2) / R0^2); the gain's part goes as 1/R, the
+// incidence's as 1/R^2, so a sphere of half the radius in the same place tells them apart. An
+// encoder error of Theta and a drift of the probe are told apart by one placement.
+TEST(IdentifyEffectPairs, ASecondSphereTellsAProbeGainFromAnIncidenceError) {
+  const std::vector<Effect> effects{Effect::kProbeGain, Effect::kProbeIncidence, Effect::kThetaEncoder,
+                                    Effect::kProbeDrift};
+  const EffectSeparability one = JudgeEffects({{kAt2mm}, {}, 0.0}, effects);
+  EXPECT_GT(Factor(one, effects[0], effects[1]), 1e3);
+  EXPECT_LE(Factor(one, effects[2], effects[3]), kSeparatedPairInflation);
+  const EffectSeparability two = JudgeEffects({{kAt2mm, kAt2mm}, {{1, 10.0}}, 0.0}, effects);
+  EXPECT_LE(Factor(two, effects[0], effects[1]), kSeparatedPairInflation);
+}
+
+// The plan names, for each pair of effects its orientations leave confounded, the placement that
+// separates it, and says so when none of those it tries does.
+TEST(PlanOrientations, NamesThePlacementThatTellsTwoEffectsApart) {
+  SimulationSpec design;
+  OrientationPlanOptions options;
+  options.effects = {Effect::kThetaTiltMotion, Effect::kThetaAxialMotion, Effect::kPhiWobble, Effect::kPhiRadialMotion};
+  options.phi_wobble_pivot_mm = 80.0;
+  options.form_degree_max = 4;
+  const OrientationPlan plan = PlanOrientations(design, options);
+  ASSERT_TRUE(plan.Separable());
+  ASSERT_EQ(plan.confounded_effects.size(), 2u);
+  for (const EffectPairAdvice& a : plan.confounded_effects) {
+    EXPECT_GT(a.pair.factor, kSeparatedPairInflation);
+    if (a.pair.a == Effect::kThetaTiltMotion) {
+      EXPECT_EQ(a.pair.b, Effect::kThetaAxialMotion);
+      EXPECT_FALSE(a.placement.empty());
+      EXPECT_LE(a.factor_with, kSeparatedPairInflation);
+    } else {
+      EXPECT_EQ(a.pair.a, Effect::kPhiWobble);
+      EXPECT_EQ(a.pair.b, Effect::kPhiRadialMotion);
+      EXPECT_TRUE(a.placement.empty());
+      EXPECT_GT(a.factor_with, kSeparatedPairInflation);
+    }
+  }
+  EXPECT_NE(plan.placements_tried.find("three times the eccentricity"), std::string::npos);
 }
 
 }  // namespace

@@ -69,6 +69,42 @@ FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOpti
                                  const EffectFitStart& at, const std::vector<FormTerm>& form_terms,
                                  double max_singular_value = kConfoundedSingularValue);
 
+/// How far two effects of a model inflate each other's variance on a design: the largest factor by
+/// which the variance of a component of either grows when the other is fitted beside it, 1 / (1 -
+/// rho^2) for the partial correlation rho of that component with the other effect's components
+/// given everything else in the model.
+struct EffectPairInflation {
+  Effect a = Effect::kThetaEncoder;
+  Effect b = Effect::kThetaEncoder;
+  double factor = 1.0;  ///< +inf: the design cannot tell them apart at all
+};
+
+/// Two effects count as told apart when neither inflates the variance of a component of the other
+/// by more than this (a partial correlation of at most 0.995), the bound a trace also checks its
+/// advice against.
+inline constexpr double kSeparatedPairInflation = 100.0;
+
+/// Which of a model's effects a design tells apart from each other.
+struct EffectSeparability {
+  /// Effects of which the design determines no component beside the seven errors, the centres and
+  /// the form (a wobble of the Phi axis about the Phi frame's origin, for one).
+  std::vector<Effect> undetermined;
+  /// Every pair of the other effects, in the model's order.
+  std::vector<EffectPairInflation> pairs;
+};
+
+/// How far the readings of `points` tell the effects of `model` apart from each other, beside the
+/// seven errors, the centres and the form terms `form_terms` (shared by the setups of known
+/// orientation, one set per other sphere or unknown orientation; none: no form), linearised at `at`
+/// (effects and form at zero where it gives no values). Each effect is first reduced to the
+/// components the design determines beside those (variance inflation at most 10^4 with the
+/// effect alone in the model, the worst left out first), as a trace's candidate keeps them; a
+/// direction of the seven errors, centres and form that the design leaves open is set aside, as in
+/// IdentifyForm(). Nothing is fitted. Throws sph::Error as IdentifyForm().
+EffectSeparability IdentifyEffectPairs(const PointsData& points, const CalibrationOptions& options,
+                                       const EffectModel& model, const EffectFitStart& at,
+                                       const std::vector<FormTerm>& form_terms);
+
 }  // namespace sph
 
 #endif  // SPH_CALIB_IDENTIFIABILITY_HPP_

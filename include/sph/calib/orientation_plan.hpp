@@ -11,9 +11,16 @@
 // orientation: that is what separates the probe's own terms from the form. A greedy plan is not
 // proved the smallest; it is checked, in the same way as any design, by the last step's judgement,
 // which is returned with it.
+//
+// Then the machine's effects are judged among themselves on the planned orientations
+// (IdentifyEffectPairs()), and for each pair that stays confounded the plan tries one more
+// placement of a sphere (the placements a trace checks its advice on: another eccentricity, azimuth
+// or height, a sphere of half the radius) and names the one that separates it best.
 #ifndef SPH_CALIB_ORIENTATION_PLAN_HPP_
 #define SPH_CALIB_ORIENTATION_PLAN_HPP_
 
+#include <limits>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -40,8 +47,26 @@ struct OrientationPlanStep {
   FormIdentifiability identifiability;                     ///< of every orientation up to this one
 };
 
+/// Two of the machine's effects that the planned orientations leave confounded with each other,
+/// and what one more placement of a sphere would do for them.
+struct EffectPairAdvice {
+  EffectPairInflation pair;  ///< on the planned orientations
+  /// The placement tried that brings the factor lowest, in words, when that is
+  /// kSeparatedPairInflation or below; empty when none of those tried does.
+  std::string placement;
+  double factor_with = std::numeric_limits<double>::infinity();  ///< the lowest of those tried
+};
+
 struct OrientationPlan {
   std::vector<OrientationPlanStep> steps;  ///< the first: the reference orientation alone
+  /// The effects the planned orientations do not determine at all beside the seven errors, the
+  /// centres and the form (IdentifyEffectPairs()).
+  std::vector<Effect> undetermined;
+  /// The pairs of effects whose factor on the planned orientations exceeds
+  /// kSeparatedPairInflation, the worst first: orientations of the sphere turn its form, not the
+  /// machine, and do not tell two machine effects apart; another eccentricity, height or sphere can.
+  std::vector<EffectPairAdvice> confounded_effects;
+  std::string placements_tried;  ///< the placements tried for them, in words
   /// The last step leaves no form term confounded.
   bool Separable() const { return !steps.empty() && steps.back().identifiability.confounded.empty(); }
 };
