@@ -2,13 +2,15 @@
 // independent of the fit), for each library effect alone, every pair among six of them and three
 // at once, each with and without a form error of the sphere (0.050 um rms of degrees 2..8), in one
 // placement, with the sphere in three orientations on its mount, in five placements, in five
-// placements beside a second sphere of another radius, and in five placements of one sphere that
-// reach 15 mm up and 6 mm out (Design()), at two noise levels. A study program, run by hand
+// placements beside a second sphere of another radius, in five placements of one sphere that
+// reach 15 mm up and 6 mm out, and in one placement scanned in shuffled order (Design()), at two
+// noise levels. A study program, run by hand
 // (README.md, "Closing the loop"):
 //
 //   build/bench/separation_matrix [RUNS] [FILTER...]   (default 5 runs per cell, seeds 1..RUNS)
 //
-// Each FILTER narrows the cells run: "one", "three", "five", "spheres" or "high" (the design), "form" or "noform",
+// Each FILTER narrows the cells run: "one", "three", "five", "spheres", "high" or "shuffled" (the
+// design), "form" or "noform",
 // "0.03" or "0.05" (sigma), or any other word, which the effects' names must contain (e.g.
 // "phi_encoder+probe_gain"). "-v" prints each run's effects added and its candidates' notes.
 //
@@ -101,7 +103,9 @@ std::vector<Case> Cases() {
 // pairs that the others leave confounded: 15 mm above the axes' common point the beam meets the
 // surface far from its normal, where a probe's gain and its incidence error differ, and the probe
 // reads over a span of about 30 mm.
-enum class Setups { kOne, kThree, kFive, kSpheres, kHigh };
+// "shuffled" (run only when named): "one" scanned in shuffled order, which breaks the link between
+// the time of a reading and its direction on the sphere: a drift is then no pattern on the sphere.
+enum class Setups { kOne, kThree, kFive, kSpheres, kHigh, kShuffled };
 const char* SetupsName(Setups s) {
   switch (s) {
     case Setups::kOne:
@@ -114,6 +118,8 @@ const char* SetupsName(Setups s) {
       return "spheres";
     case Setups::kHigh:
       return "high";
+    case Setups::kShuffled:
+      return "shuffled";
   }
   return "";
 }
@@ -122,6 +128,7 @@ sph::SimulationSpec Design(const Case& c, bool form, Setups setups, double noise
   sph::SimulationSpec spec;
   spec.seed = seed;
   spec.noise_r_um = noise_um;
+  if (setups == Setups::kShuffled) spec.scan_order = sph::ScanOrder::kShuffled;
   if (setups == Setups::kThree) {
     spec.centers_mm.assign(3, Eigen::Vector3d(2, 0, 0));
     spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {90, 0, 0}}};
@@ -188,9 +195,10 @@ struct Filter {
     for (const std::string& n : names) {
       if (name.find(n) == std::string::npos) return false;
     }
-    // "spheres" and "high" run only when asked for: they are not in the README's table.
+    // "spheres", "high" and "shuffled" run only when asked for: they are not in the README's table.
     if (setups_ == Setups::kSpheres && setups.count("spheres") == 0) return false;
     if (setups_ == Setups::kHigh && setups.count("high") == 0) return false;
+    if (setups_ == Setups::kShuffled && setups.count("shuffled") == 0) return false;
     return in(setups, SetupsName(setups_)) && in(forms, form ? "form" : "noform") &&
            in(sigmas, noise < 0.04 ? "0.03" : "0.05");
   }
@@ -200,7 +208,7 @@ Filter FilterOf(int argc, char** argv) {
   Filter f;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "one" || a == "three" || a == "five" || a == "spheres" || a == "high") {
+    if (a == "one" || a == "three" || a == "five" || a == "spheres" || a == "high" || a == "shuffled") {
       f.setups.insert(a);
     } else if (a == "form" || a == "noform") {
       f.forms.insert(a);
@@ -229,14 +237,16 @@ int main(int argc, char** argv) {
       "separation matrix: %d runs per cell (seeds 1..%d), the paper's pattern at 2 mm; form: 0.050 um rms of\n"
       "degrees 2..8; three: the sphere also turned by 90 deg about z and tilted by 90 deg about x; five: and\n"
       "at other eccentricities, azimuths and a height; spheres (only when named): five, one at 6 mm, and a\n"
-      "second sphere of 10 mm in two orientations (bench/separation_matrix.cpp, Design())\n",
+      "second sphere of 10 mm in two orientations; high (only when named): five, one at 15 mm up, one at\n"
+      "6 mm; shuffled (only when named): one, scanned in shuffled order (bench/separation_matrix.cpp, Design())\n",
       runs, runs);
   std::printf("%-52s %-5s %-6s %5s %5s %6s %6s %7s %8s %8s  %s\n", "effects", "form", "setup", "sigma", "runs", "right",
               "wrong", "flagged", "form_r", "cv/sig", "effects added (count)");
   std::map<std::string, Tally> summary;  // by group, form, design, sigma
   for (const Case& c : Cases()) {
     for (const double noise : {0.03, 0.05}) {
-      for (const Setups setups : {Setups::kOne, Setups::kThree, Setups::kFive, Setups::kSpheres, Setups::kHigh}) {
+      for (const Setups setups :
+           {Setups::kOne, Setups::kThree, Setups::kFive, Setups::kSpheres, Setups::kHigh, Setups::kShuffled}) {
         for (const bool form : {false, true}) {
           if (!filter.Wants(c, setups, form, noise)) continue;
           Tally t;
