@@ -1284,14 +1284,41 @@ HarmonicOrders PatternOrders(const PointsData& points) {
   return {ResolvedOrder(DistinctAngles(std::move(theta_deg))), ResolvedOrder(DistinctAngles(std::move(phi_deg)))};
 }
 
+namespace {
+
+// What a trace and a fit of fixed effects start from: the readings the seven-error fit used, the
+// probe's reference, and the options with the harmonic orders the seven-error residual asks for;
+// the start fills in the result's fit of no effect (`before`) and its orders.
+struct TraceStart {
+  Readings data;
+  EffectReference reference;
+  TraceOptions trace;
+
+  TraceStart(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
+             const TraceOptions& asked, TraceResult* r)
+      : data(WithoutOutliers(all, base)), reference(ReferenceOf(all, asked)) {
+    r->before = Analysed(FitNone(data, base, reference, asked), data, options, asked);
+    trace = WithSearchedOrders(asked, data.points, r->before.structure);
+    r->harmonics = trace.harmonics;
+  }
+};
+
+// How both end: the outliers of the seven-error fit judged again under the final model, and the
+// structure it leaves unexplained.
+void Finish(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
+            const TraceOptions& trace, TraceResult* r) {
+  RejudgeOutliers(all, options, base, trace, r->after);
+  r->unexplained = RemainingStructure(r->after.structure, trace);
+}
+
+}  // namespace
+
 TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
                           const TraceOptions& asked) {
   TraceResult r;
-  const Readings data(WithoutOutliers(all, base));  // what the seven-error fit used
-  const EffectReference reference = ReferenceOf(all, asked);
-  r.before = Analysed(FitNone(data, base, reference, asked), data, options, asked);
-  const TraceOptions trace = WithSearchedOrders(asked, data.points, r.before.structure);
-  r.harmonics = trace.harmonics;
+  const TraceStart start(all, options, base, asked, &r);
+  const Readings& data = start.data;
+  const TraceOptions& trace = start.trace;
   std::vector<Effect> pool = trace.candidates;
   if (pool.empty()) {
     for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
@@ -1316,31 +1343,26 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
   }
   RemoveUnneeded(data, options, trace, current, r);
   r.after = std::move(current);
-  RejudgeOutliers(all, options, base, trace, r.after);
-  r.unexplained = RemainingStructure(r.after.structure, trace);
+  Finish(all, options, base, trace, &r);
   return r;
 }
 
 TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
                             const std::vector<Effect>& effects, const TraceOptions& asked) {
   TraceResult r;
-  const Readings data(WithoutOutliers(all, base));
-  const EffectReference reference = ReferenceOf(all, asked);
-  r.before = Analysed(FitNone(data, base, reference, asked), data, options, asked);
-  const TraceOptions trace = WithSearchedOrders(asked, data.points, r.before.structure);
-  r.harmonics = trace.harmonics;
+  const TraceStart start(all, options, base, asked, &r);
+  const TraceOptions& trace = start.trace;
   EffectModel model;
-  model.reference = reference;
+  model.reference = start.reference;
   model.phi_wobble_pivot_mm = trace.phi_wobble_pivot_mm;
   for (Effect e : effects) {
     if (model.Find(e) < 0) model.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
   }
   for (const EffectTerm& t : model.terms) r.added.push_back(t.effect);
-  r.after = Analysed(
-      internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(r.before.fit)),
-      data, options, trace);
-  RejudgeOutliers(all, options, base, trace, r.after);
-  r.unexplained = RemainingStructure(r.after.structure, trace);
+  r.after = Analysed(internal::FitEffectsRows(start.data.points, start.data.table, nullptr, options, model,
+                                              EffectFitStart::From(r.before.fit)),
+                     start.data, options, trace);
+  Finish(all, options, base, trace, &r);
   return r;
 }
 
