@@ -11,9 +11,10 @@
 namespace sph::internal {
 namespace {
 
-// The largest variance inflation of the columns of the last two terms of `fit` on `points`.
-double PairVif(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
-  const NormalInverse inv = NormalInverseAt(ReadingTable(points), options, fit);
+// The largest variance inflation of the columns of the last two terms of `fit` on the readings of
+// `table`.
+double PairVif(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit) {
+  const NormalInverse inv = NormalInverseAt(table, options, fit);
   const std::size_t n_terms = fit.model.terms.size();
   const int first = fit.TermOffset(n_terms - 2);
   const int last = fit.TermOffset(n_terms - 1) + fit.model.terms.back().size();
@@ -114,10 +115,10 @@ EffectFit WithPair(const EffectFit& current, const EffectTerm& a, const std::vec
 
 }  // namespace
 
-double PairVifNow(const PointsData& points, const CalibrationOptions& options, const EffectFit& current,
+double PairVifNow(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& current,
                   const EffectTerm& a, const std::vector<double>& a_values, const EffectTerm& b,
                   const std::vector<double>& b_values) {
-  return PairVif(points, options, WithPair(current, a, a_values, b, b_values));
+  return PairVif(table, options, WithPair(current, a, a_values, b, b_values));
 }
 
 PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOptions& options,
@@ -125,7 +126,7 @@ PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOp
                                    const EffectTerm& b, const std::vector<double>& b_values) {
   const EffectFit both = WithPair(current, a, a_values, b, b_values);
   PairSeparation out;
-  out.vif_now = PairVif(points, options, both);
+  out.vif_now = PairVif(ReadingTable(points), options, both);
   const Eigen::Vector3d& c0 = current.calibration.centers_mm.front();
   for (const Placement& p : PlacementsToTry(c0, options.sphere_radius_mm, !current.model.form.Empty())) {
     out.tried += (out.tried.empty() ? "" : "; ") + p.words;
@@ -145,7 +146,7 @@ PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOp
       with.n_params += static_cast<int>((n_groups - with.form_values.size()) * with.model.form.terms.size());
       with.form_values.resize(n_groups, std::vector<double>(with.model.form.terms.size(), 0.0));
     }
-    const double vif = PairVif(more, more_options, with);
+    const double vif = PairVif(ReadingTable(more), more_options, with);
     if (vif < out.vif_with) {
       out.vif_with = vif;
       if (vif <= kSeparatedVif) out.placement = p.words;

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "fit_problem.hpp"
 #include "sph/calib/effect_fit.hpp"
 #include "sph/core/points_file.hpp"
 
@@ -52,9 +53,9 @@ struct PairSeparation {
 };
 
 /// The largest variance inflation of the components of a (with a_values) and b (with b_values),
-/// both beside the model of `current`, on the readings `points` as measured: CheckPairSeparation()'s
-/// vif_now alone, without the placements it tries.
-double PairVifNow(const PointsData& points, const CalibrationOptions& options, const EffectFit& current,
+/// both beside the model of `current`, on the readings of `table` as measured:
+/// CheckPairSeparation()'s vif_now alone, without the placements it tries.
+double PairVifNow(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& current,
                   const EffectTerm& a, const std::vector<double>& a_values, const EffectTerm& b,
                   const std::vector<double>& b_values);
 

@@ -937,7 +937,7 @@ bool ConfoundedByDesign(const Readings& data, const CalibrationOptions& options,
   if (!(c.delta_bic <= 0.5 * chosen.delta_bic) || c_fit.model.terms.size() != current.model.terms.size() + 1) {
     return false;
   }
-  return internal::PairVifNow(data.points, options, current, chosen_fit.model.terms.back(), chosen_fit.values.back(),
+  return internal::PairVifNow(data.table, options, current, chosen_fit.model.terms.back(), chosen_fit.values.back(),
                               c_fit.model.terms.back(), c_fit.values.back()) > internal::kSeparatedVif;
 }
 
