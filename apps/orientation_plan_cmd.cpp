@@ -108,9 +108,11 @@ json Report(std::ostream& out, double e_mm, const Eigen::Vector3d& center_mm, co
     const char* id_a = InfoOf(a.pair.a).id;
     const char* id_b = InfoOf(a.pair.b).id;
     out << Format("    %s and %s: %.3g; ", id_a, id_b, a.pair.factor)
-        << (a.placement.empty() ? Format("none of the placements tried brings it to %g (at best %.3g)",
-                                         kSeparatedPairInflation, a.factor_with)
-                                : a.placement + Format(": %.3g", a.factor_with))
+        << (!a.placement.empty() ? a.placement + Format(": %.3g", a.factor_with)
+            : std::isfinite(a.factor_with)
+                ? Format("none of the placements tried brings it to %g (at best %.3g)", kSeparatedPairInflation,
+                         a.factor_with)
+                : Format("none of the placements tried brings it to %g", kSeparatedPairInflation))
         << "\n";
     pairs.push_back({{"a", id_a},
                      {"b", id_b},

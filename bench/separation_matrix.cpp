@@ -195,7 +195,7 @@ struct Filter {
     for (const std::string& n : names) {
       if (name.find(n) == std::string::npos) return false;
     }
-    // "spheres", "high" and "shuffled" run only when asked for: they are not in the README's table.
+    // "spheres", "high" and "shuffled" run only when asked for (the README's table lists them apart).
     if (setups_ == Setups::kSpheres && setups.count("spheres") == 0) return false;
     if (setups_ == Setups::kHigh && setups.count("high") == 0) return false;
     if (setups_ == Setups::kShuffled && setups.count("shuffled") == 0) return false;

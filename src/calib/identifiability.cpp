@@ -72,10 +72,10 @@ Eigen::MatrixXd JacobianToJudge(const PointsData& points, const CalibrationOptio
   return j;
 }
 
-// A column whose rms sensitivity, displacement-equivalent (an angle's column times its lever),
-// is below this moves no reading: what is left of it is rounding (the derivative of the distance
-// to a sphere's centre under a turn about an axis through that centre, for one), which unit
-// columns would magnify into a direction of its own.
+// A column whose rms sensitivity, displacement-equivalent (mm of reading per mm of parameter; an
+// angle's column divided by its lever), is below this moves no reading: what is left of it is rounding (the derivative
+// of the distance to a sphere's centre under a turn about an axis through that centre, for one), which unit columns
+// would magnify into a direction of its own.
 constexpr double kNoSensitivity = 1e-9;
 
 // `j` with unit columns; a column that moves no reading (kNoSensitivity) is set to zero.
@@ -106,7 +106,9 @@ Eigen::MatrixXd DeterminedBasis(const Eigen::MatrixXd& base, double max_singular
 }
 
 // The variance inflation of each column of m (the diagonal of (m^T m)^-1 for columns that were of
-// unit norm before a projection), +inf where m is singular.
+// unit norm before a projection). A column with a part in m's null space (a singular value below
+// 1e-12 of the largest) has +inf; the others keep their finite value, so that the column to leave
+// out is the one that is not determined, not the first.
 Eigen::VectorXd VarianceInflations(const Eigen::MatrixXd& m) {
   Eigen::VectorXd out = Eigen::VectorXd::Zero(m.cols());
   if (m.cols() == 0) return out;
@@ -114,9 +116,14 @@ Eigen::VectorXd VarianceInflations(const Eigen::MatrixXd& m) {
   const Eigen::VectorXd& sv = svd.singularValues();
   const Eigen::MatrixXd& v = svd.matrixV();
   const double tiny = sv(0) * 1e-12;
+  constexpr double kInNull = 1e-6;  // a column's share of a null direction that counts (as NormalInverse)
   for (Eigen::Index c = 0; c < m.cols(); ++c) {
     for (Eigen::Index k = 0; k < sv.size(); ++k) {
-      out(c) += sv(k) > tiny ? v(c, k) * v(c, k) / (sv(k) * sv(k)) : std::numeric_limits<double>::infinity();
+      if (sv(k) > tiny) {
+        out(c) += v(c, k) * v(c, k) / (sv(k) * sv(k));
+      } else if (std::abs(v(c, k)) > kInNull) {
+        out(c) = std::numeric_limits<double>::infinity();
+      }
     }
     if (std::isnan(out(c))) out(c) = std::numeric_limits<double>::infinity();
   }

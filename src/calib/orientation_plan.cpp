@@ -105,9 +105,9 @@ void AdviseOnEffects(const SimulationSpec& design, const OrientationPlanOptions&
   if (plan->confounded_effects.empty()) return;
   for (const internal::Placement& p :
        internal::PlacementsToTry(design.centers_mm.front(), design.sphere_radius_mm, /*with_form=*/true)) {
-    plan->placements_tried += (plan->placements_tried.empty() ? "" : "; ") + p.words;
     const std::optional<EffectSeparability> with = JudgeEffects(design, options, rotations_deg, &p);
-    if (!with) continue;
+    if (!with) continue;  // a probe ray misses the sphere there
+    plan->placements_tried += (plan->placements_tried.empty() ? "" : "; ") + p.words;
     for (EffectPairAdvice& advice : plan->confounded_effects) {
       const double factor = FactorOf(*with, advice.pair.a, advice.pair.b);
       if (factor < advice.factor_with) {

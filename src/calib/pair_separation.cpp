@@ -53,7 +53,10 @@ bool WithPlacement(const PointsData& points, const CalibrationOptions& options, 
       const std::optional<double> r = ProbeReading(fit.calibration.geometry, s.theta_rad(), s.phi_rad(),
                                                    options.probe_offset_mm, p.center_mm, radius_mm);
       if (!r) return false;
-      out->samples.push_back({s.theta_deg, s.phi_deg, *r, s.t_s, setup});
+      Sample again = s;
+      again.r_mm = *r;
+      again.setup = setup;
+      out->samples.push_back(again);
     }
   }
   out->has_setup = true;

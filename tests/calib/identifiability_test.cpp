@@ -161,7 +161,7 @@ struct EffectDesign {
   double phi_wobble_pivot_mm = 0.0;
 };
 
-EffectSeparability JudgeEffects(const EffectDesign& d, const std::vector<Effect>& effects) {
+EffectSeparability JudgeEffects(const EffectDesign& d, const std::vector<Effect>& effects, int harmonics = 4) {
   SimulationSpec spec;
   spec.noise_r_um = 0.0;
   spec.centers_mm = d.centers_mm;
@@ -172,7 +172,7 @@ EffectSeparability JudgeEffects(const EffectDesign& d, const std::vector<Effect>
   EffectModel model;
   model.reference = EffectReferenceOf(points.samples);
   model.phi_wobble_pivot_mm = d.phi_wobble_pivot_mm;
-  for (const Effect e : effects) model.terms.push_back(DefaultTerm(e));
+  for (const Effect e : effects) model.terms.push_back(DefaultTerm(e, harmonics));
   EffectFitStart at;
   at.geometry = spec.truth;
   at.centers_mm = spec.centers_mm;
@@ -208,11 +208,12 @@ TEST(IdentifyEffectPairs, ASecondEccentricityTellsASpindleTiltFromAnAxialMotion)
 // sphere tells them apart (only the tilt across the beam also turns it).
 TEST(IdentifyEffectPairs, AWobbleAboutTheBeamIsARadialMotionOfThePhiAxisAnywhere) {
   const std::vector<Effect> effects{Effect::kPhiWobble, Effect::kPhiRadialMotion};
-  for (const EffectDesign& d : std::vector<EffectDesign>{{{kAt2mm}, {}, 80.0},
-                                                         {{kAt2mm, Eigen::Vector3d(6, 0, 0)}, {}, 80.0},
-                                                         {{kAt2mm, Eigen::Vector3d(2, 0, 15)}, {}, 80.0},
-                                                         {{kAt2mm, kAt2mm}, {{1, 10.0}}, 80.0}}) {
-    EXPECT_GT(Factor(JudgeEffects(d, effects), effects[0], effects[1]), 1e6) << d.centers_mm.size();
+  const std::vector<EffectDesign> designs{{{kAt2mm}, {}, 80.0},
+                                          {{kAt2mm, Eigen::Vector3d(6, 0, 0)}, {}, 80.0},
+                                          {{kAt2mm, Eigen::Vector3d(2, 0, 15)}, {}, 80.0},
+                                          {{kAt2mm, kAt2mm}, {{1, 10.0}}, 80.0}};
+  for (std::size_t k = 0; k < designs.size(); ++k) {
+    EXPECT_GT(Factor(JudgeEffects(designs[k], effects), effects[0], effects[1]), 1e6) << "design " << k;
   }
 }
 
@@ -224,6 +225,16 @@ TEST(IdentifyEffectPairs, AnEncoderErrorOfTheAxisThroughTheSpheresCentreIsNotDet
       JudgeEffects({{Eigen::Vector3d::Zero()}, {}, 0.0}, {Effect::kThetaEncoder, Effect::kProbeDrift});
   EXPECT_EQ(s.undetermined, std::vector<Effect>{Effect::kThetaEncoder});
   EXPECT_TRUE(s.pairs.empty());
+}
+
+// On a grid of 24 theta steps (15 deg) sin(12 theta) is zero at every reading: that component of
+// a Theta encoder error of orders 1..12 is not seen, and only it is left out; the others stay, and
+// the effect is judged beside a drift.
+TEST(IdentifyEffectPairs, LeavesOutOnlyTheComponentThePatternDoesNotSee) {
+  const EffectSeparability s =
+      JudgeEffects({{kAt2mm}, {}, 0.0}, {Effect::kThetaEncoder, Effect::kProbeDrift}, kMaxEffectHarmonic);
+  EXPECT_TRUE(s.undetermined.empty());
+  EXPECT_LE(Factor(s, Effect::kThetaEncoder, Effect::kProbeDrift), kSeparatedPairInflation);
 }
 
 // The probe's gain and its incidence error are both, at first order, a quadratic of the reading

@@ -72,7 +72,9 @@ FormIdentifiability IdentifyForm(const PointsData& points, const CalibrationOpti
 /// How far two effects of a model inflate each other's variance on a design: the largest factor by
 /// which the variance of a component of either grows when the other is fitted beside it, 1 / (1 -
 /// rho^2) for the partial correlation rho of that component with the other effect's components
-/// given everything else in the model.
+/// given the seven errors, the centres, the form and the component's own effect. The other effects
+/// of the model are not in it: a pair names what cannot be told from what; an effect that is the
+/// sum of two others is not judged here.
 struct EffectPairInflation {
   Effect a = Effect::kThetaEncoder;
   Effect b = Effect::kThetaEncoder;

@@ -66,7 +66,7 @@ struct OrientationPlan {
   /// kSeparatedPairInflation, the worst first: orientations of the sphere turn its form, not the
   /// machine, and do not tell two machine effects apart; another eccentricity, height or sphere can.
   std::vector<EffectPairAdvice> confounded_effects;
-  std::string placements_tried;  ///< the placements tried for them, in words
+  std::string placements_tried;  ///< the placements tried for them, in words (those where the probe meets the sphere)
   /// The last step leaves no form term confounded.
   bool Separable() const { return !steps.empty() && steps.back().identifiability.confounded.empty(); }
 };
