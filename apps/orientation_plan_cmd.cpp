@@ -114,11 +114,20 @@ json Report(std::ostream& out, double e_mm, const Eigen::Vector3d& center_mm, co
                          a.factor_with)
                 : Format("none of the placements tried brings it to %g", kSeparatedPairInflation))
         << "\n";
-    pairs.push_back({{"a", id_a},
-                     {"b", id_b},
-                     {"factor", std::isfinite(a.pair.factor) ? json(a.pair.factor) : json(nullptr)},
-                     {"placement", a.placement.empty() ? json(nullptr) : json(a.placement)},
-                     {"factor_with", std::isfinite(a.factor_with) ? json(a.factor_with) : json(nullptr)}});
+    json pair = {{"a", id_a},
+                 {"b", id_b},
+                 {"factor", std::isfinite(a.pair.factor) ? json(a.pair.factor) : json(nullptr)},
+                 {"placement", a.placement.empty() ? json(nullptr) : json(a.placement)},
+                 {"factor_with", std::isfinite(a.factor_with) ? json(a.factor_with) : json(nullptr)}};
+    if (!a.placement.empty()) {  // the placement as numbers, for a script that plans the measurement
+      json rotations = json::array();
+      for (const Eigen::Vector3d& r : a.rotations_deg) rotations.push_back({r.x(), r.y(), r.z()});
+      pair["placement_center_mm"] = {a.center_mm.x(), a.center_mm.y(), a.center_mm.z()};
+      pair["placement_sphere_radius_mm"] =
+          a.other_sphere_radius_mm > 0.0 ? json(a.other_sphere_radius_mm) : json(nullptr);
+      pair["placement_mount_rotations_deg"] = rotations;
+    }
+    pairs.push_back(pair);
   }
   if (!plan.confounded_effects.empty()) out << "  placements tried: " << plan.placements_tried << "\n";
   return {{"eccentricity_mm", e_mm},

@@ -97,8 +97,7 @@ void AdviseOnEffects(const SimulationSpec& design, const OrientationPlanOptions&
   const EffectSeparability now = *JudgeEffects(design, options, rotations_deg);
   plan->undetermined = now.undetermined;
   for (const EffectPairInflation& p : now.pairs) {
-    if (p.factor > kSeparatedPairInflation)
-      plan->confounded_effects.push_back({p, "", std::numeric_limits<double>::infinity()});
+    if (p.factor > kSeparatedPairInflation) plan->confounded_effects.emplace_back().pair = p;
   }
   std::sort(plan->confounded_effects.begin(), plan->confounded_effects.end(),
             [](const EffectPairAdvice& x, const EffectPairAdvice& y) { return x.pair.factor > y.pair.factor; });
@@ -113,6 +112,9 @@ void AdviseOnEffects(const SimulationSpec& design, const OrientationPlanOptions&
       if (factor < advice.factor_with) {
         advice.factor_with = factor;
         advice.placement = factor <= kSeparatedPairInflation ? p.words : "";
+        advice.center_mm = p.center_mm;
+        advice.other_sphere_radius_mm = p.other_radius_mm;
+        advice.rotations_deg = p.rotations_deg;
       }
     }
   }

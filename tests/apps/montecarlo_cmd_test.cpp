@@ -146,6 +146,9 @@ TEST(MonteCarloCmd, PlansThePlacementThatTellsTwoEffectsApart) {
   EXPECT_TRUE(pairs[0]["factor"].is_null() || pairs[0]["factor"].get<double>() > 1e6) << pairs[0]["factor"];
   EXPECT_LE(pairs[0]["factor_with"].get<double>(), 100.0);
   EXPECT_THAT(pairs[0]["placement"].get<std::string>(), HasSubstr("three times the eccentricity"));
+  EXPECT_EQ(pairs[0]["placement_center_mm"], nlohmann::json({6.0, 0.0, 0.0}));  // the paper's centre is (2, 0, 0)
+  EXPECT_TRUE(pairs[0]["placement_sphere_radius_mm"].is_null());
+  EXPECT_TRUE(pairs[0]["placement_mount_rotations_deg"].empty());
   EXPECT_TRUE(j["plans"][0]["undetermined_effects"].empty());
 }
 

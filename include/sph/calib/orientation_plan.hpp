@@ -55,6 +55,13 @@ struct EffectPairAdvice {
   /// kSeparatedPairInflation or below; empty when none of those tried does.
   std::string placement;
   double factor_with = std::numeric_limits<double>::infinity();  ///< the lowest of those tried
+  /// Where that placement puts the sphere's centre [mm] (meaningful when `placement` is not empty).
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
+  /// The radius of another sphere measured there [mm]; 0: the planned sphere.
+  double other_sphere_radius_mm = 0.0;
+  /// The mount rotations it is read in, one setup each (rotation vectors, deg); empty: one setup
+  /// in the reference orientation.
+  std::vector<Eigen::Vector3d> rotations_deg;
 };
 
 struct OrientationPlan {
