@@ -57,6 +57,10 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
         for (const EffectInfo& e : kEffectInfo) v.emplace_back(e.id);
         return v;
       }()));
+  app.add_flag("--hold-confounded", o.hold_confounded,
+               "When the effect the trace would add cannot be told from another (by this design, or about equal "
+               "scores), add neither and report both; default: add the one that explains more and name the other")
+      ->excludes(no_extend);
   app.add_option("--validate", o.validate_path,
                  "Another points file of the same machine (another sphere or position): report its least-squares "
                  "sphericity compensated before and after")
@@ -169,6 +173,7 @@ TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const C
   topts.probe_range_mm =
       o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
   topts.seed = o.seed;
+  topts.add_confounded = !o.hold_confounded;
   topts.progress = [&](int round, int done, int total) {
     progress.Update("tracing the residual, round " + std::to_string(round) + ": candidates", done, total);
   };

@@ -13,6 +13,8 @@
 // design), "form" or "noform",
 // "0.03" or "0.05" (sigma), or any other word, which the effects' names must contain (e.g.
 // "phi_encoder+probe_gain"). "-v" prints each run's effects added and its candidates' notes.
+// "hold" runs the trace with TraceOptions::add_confounded false: of two effects it cannot tell
+// apart it adds neither.
 //
 // Prints a row per cell (right: exactly the simulated effects added; wrong: an effect added that
 // was not simulated; flagged: of the wrong runs, those whose every wrong effect the report names as
@@ -188,6 +190,7 @@ struct Filter {
   std::set<std::string> setups, forms, sigmas;
   std::vector<std::string> names;
   bool verbose = false;
+  bool hold = false;  // "hold": TraceOptions::add_confounded false
 
   bool Wants(const Case& c, Setups setups_, bool form, double noise) const {
     const auto in = [](const std::set<std::string>& s, const std::string& v) { return s.empty() || s.count(v) > 0; };
@@ -216,6 +219,8 @@ Filter FilterOf(int argc, char** argv) {
       f.sigmas.insert(a);
     } else if (a == "-v") {
       f.verbose = true;
+    } else if (a == "hold") {
+      f.hold = true;
     } else {
       f.names.push_back(a);
     }
@@ -233,6 +238,7 @@ int main(int argc, char** argv) {
   o.probe_offset_mm = 25.0;
   sph::TraceOptions trace;
   trace.phi_wobble_pivot_mm = kPivotMm;
+  trace.add_confounded = !filter.hold;
   std::printf(
       "separation matrix: %d runs per cell (seeds 1..%d), the paper's pattern at 2 mm; form: 0.050 um rms of\n"
       "degrees 2..8; three: the sphere also turned by 90 deg about z and tilted by 90 deg about x; five: and\n"
@@ -240,6 +246,7 @@ int main(int argc, char** argv) {
       "second sphere of 10 mm in two orientations; high (only when named): five, one at 15 mm up, one at\n"
       "6 mm; shuffled (only when named): one, scanned in shuffled order (bench/separation_matrix.cpp, Design())\n",
       runs, runs);
+  if (filter.hold) std::printf("hold: of two effects the trace cannot tell apart it adds neither\n");
   std::printf("%-52s %-5s %-6s %5s %5s %6s %6s %7s %8s %8s  %s\n", "effects", "form", "setup", "sigma", "runs", "right",
               "wrong", "flagged", "form_r", "cv/sig", "effects added (count)");
   std::map<std::string, Tally> summary;  // by group, form, design, sigma

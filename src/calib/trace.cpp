@@ -849,7 +849,7 @@ int BestAdmissible(const Tried& tried, const TracedFit& current, const TraceOpti
   int best = -1;
   for (std::size_t i = 0; i < tried.size(); ++i) {
     const CandidateScore& c = tried[i].first;
-    if (Admissible(c, current, trace) && also(c) &&
+    if (Admissible(c, current, trace) && !c.held && also(c) &&
         (best < 0 || c.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic)) {
       best = static_cast<int>(i);
     }
@@ -1126,6 +1126,38 @@ void RefreshComponents(const Readings& data, const CalibrationOptions& options, 
   }
 }
 
+// With TraceOptions::add_confounded false: whether the candidate `c` just chosen is confounded with
+// another library effect (an ambiguity of r.ambiguous from `first_new` on names one). Then neither
+// is added: both are held back from later rounds (a third effect chosen later is still judged
+// against them, for they are scored every round), the ambiguities say so, and what else was noted
+// of the chosen effect (its share that is a pattern on the sphere) is dropped with it.
+bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r) {
+  std::vector<std::string> partners;
+  for (std::size_t k = first_new; k < r.ambiguous.size(); ++k) {
+    Effect e{};
+    if (!EffectFromId(r.ambiguous[k].other, &e)) continue;  // "sphere_form"
+    partners.push_back(r.ambiguous[k].other);
+    if (std::find(r.held.begin(), r.held.end(), e) == r.held.end()) r.held.push_back(e);
+  }
+  if (partners.empty()) return false;
+  std::vector<Ambiguity> kept(r.ambiguous.begin(), r.ambiguous.begin() + static_cast<std::ptrdiff_t>(first_new));
+  for (std::size_t k = first_new; k < r.ambiguous.size(); ++k) {
+    Effect e{};
+    if (!EffectFromId(r.ambiguous[k].other, &e)) continue;
+    kept.push_back(r.ambiguous[k]);
+    kept.back().neither_added = true;
+  }
+  r.ambiguous = std::move(kept);
+  r.held.push_back(c.effect);
+  c.added = false;
+  c.held = true;
+  std::string list;
+  for (const std::string& p : partners) list += (list.empty() ? "" : ", ") + p;
+  c.note += std::string(c.note.empty() ? "" : "; ") + "qualifies, but held back: this design cannot tell it from " +
+            list + ", and neither is added";
+  return true;
+}
+
 // One forward round: every effect of `pool` not yet in the model scored against `current`; the
 // best admissible one is added (true), or none is and the search ends (false). The round's scores
 // and ambiguities go into `r`.
@@ -1136,6 +1168,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     if (current.fit.model.Find(e) < 0) todo.push_back(e);
   }
   Tried tried = ScoreCandidates(data, options, current, todo, round, trace);
+  for (auto& [c, fit] : tried) c.held = std::find(r.held.begin(), r.held.end(), c.effect) != r.held.end();
   const auto any = [](const CandidateScore&) { return true; };
   int best = BestAdmissible(tried, current, trace, any);
   // With a design that separates the form, it is in the model and no competitor. When the
@@ -1163,6 +1196,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     best = BestBesideForm(data, options, current, trace, tried, r, &not_beyond_form);
   }
   const CandidateScore* chosen = nullptr;
+  bool hold = false;  // the chosen one cannot be told from another effect, and neither is added
   if (best < 0 || form_wins) {
     // An effect of the time or the probe reading that its variable shows, but no more than a form
     // would, and the best effect of the machine: both explanations, neither added.
@@ -1183,17 +1217,22 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   } else {
     CandidateScore& c = tried[static_cast<std::size_t>(best)].first;
     c.added = true;
+    const std::size_t first_new = r.ambiguous.size();
     ChosenAmbiguities(data, options, current, tried, static_cast<std::size_t>(best), sphere, form_better,
                       r.form.separable, trace, c, &r.ambiguous);
     chosen = &c;
+    if (!trace.add_confounded) hold = HoldConfounded(first_new, c, r);
   }
   for (auto& [c, fit] : tried) {
-    if (not_beyond_form.count(c.effect) == 0) {
+    if (not_beyond_form.count(c.effect) == 0 && !c.held) {
       NoteWhyNotAdded(c, Admissible(c, current, trace), form_wins, chosen, current, trace);
+    } else if (c.held && !(hold && &c == chosen)) {
+      c.note += std::string(c.note.empty() ? "" : "; ") + "held back: confounded with another effect, neither added";
     }
     r.candidates.push_back(c);
   }
   if (!r.form.separable) r.candidates.push_back(form);
+  if (hold) return true;  // the next round chooses among the others, still judged against those held
   if (chosen == nullptr) return false;
   r.added.push_back(chosen->effect);
   current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), data, options, trace);

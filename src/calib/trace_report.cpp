@@ -226,6 +226,11 @@ void WriteEffectValues(std::ostream& out, const TraceResult& r) {
     out << Format("  removed in the backward step: %s (the final model without it: delta BIC %+.1f)\n", InfoOf(e).id,
                   cost);
   }
+  if (!r.held.empty()) {
+    out << "  held back, not added (each cannot be told from another; --hold-confounded):";
+    for (const Effect e : r.held) out << " " << InfoOf(e).id;
+    out << "\n";
+  }
 }
 
 // The sphere form: what the design separates, the degree chosen, the form found, the reference of
@@ -274,6 +279,14 @@ void WriteAmbiguities(std::ostream& out, const TraceResult& r) {
           << " explains is a pattern fixed on the sphere, which the reference sphere's own form error would give as "
              "well; to separate them: "
           << x.separate_by << "\n";
+    } else if (x.neither_added) {
+      out << "  two explanations, neither added: " << x.chosen << " or " << x.other
+          << Format(" (delta BIC %.1f and %.1f), which ", x.delta_bic_chosen, x.delta_bic_other)
+          << (x.by_design ? "this design cannot tell apart (their terms fitted together have a variance inflation "
+                            "above 100)"
+                          : "explain the residual about as well")
+          << "; to separate them: " << x.separate_by << "\n";
+      if (!x.checked.empty()) out << "    checked on this design: " << x.checked << "\n";
     } else {
       if (x.by_design) {
         out << "  ambiguous: " << x.other << " cannot be told from " << x.chosen
@@ -368,6 +381,7 @@ json CandidatesJson(const TraceResult& r) {
                           {"components", kept},
                           {"sphere_fraction", c.sphere_fraction},
                           {"added", c.added},
+                          {"held", c.held},
                           {"note", c.note}});
   }
   return candidates;
@@ -386,7 +400,8 @@ json AmbiguousJson(const TraceResult& r) {
                          {"form_turns_with_sphere", x.form_turns_with_sphere},
                          {"separate_by", x.separate_by},
                          {"checked", x.checked},
-                         {"by_design", x.by_design}});
+                         {"by_design", x.by_design},
+                         {"neither_added", x.neither_added}});
   }
   return ambiguous;
 }
@@ -460,6 +475,9 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
   json removed = json::array();
   for (const auto& [e, cost] : r.removed) removed.push_back({{"id", InfoOf(e).id}, {"delta_bic", cost}});
   report["effects_removed"] = removed;
+  json held = json::array();
+  for (Effect e : r.held) held.push_back(InfoOf(e).id);
+  report["effects_held"] = held;
   report["before"] = FitJson(r.before);
   report["after"] = FitJson(r.after);
   report["effects"] = EffectsJson(r.after.fit);

@@ -148,6 +148,38 @@ TEST(TraceResidual, SaysWhenAnEncoderErrorAndASpindleMotionCannotBeTold) {
   EXPECT_LT(r.after.fit.calibration.rms_um, NoiseRmsUm()) << Describe(r);
 }
 
+// Told not to pick one of two effects the data cannot tell apart, the trace adds neither: the
+// same twice-per-turn Theta encoder error leaves both it and the spindle's radial motion held
+// back, reported as two explanations with the placement that separates them, and the residual
+// they explain uncompensated. With a second sphere position the design separates them, and the
+// encoder error is added.
+TEST(TraceResidual, HeldBackAddsNeitherOfTwoEffectsItCannotTellApart) {
+  const PointsData points = WithEffect(Effect::kThetaEncoder, {{2, 0, false}}, {10 * kRadPerArcsec});
+  TraceOptions hold;
+  hold.add_confounded = false;
+  const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), hold);
+  EXPECT_TRUE(r.added.empty()) << Describe(r);
+  const auto held = [&r](Effect e) { return std::find(r.held.begin(), r.held.end(), e) != r.held.end(); };
+  EXPECT_TRUE(held(Effect::kThetaEncoder)) << Describe(r);
+  EXPECT_TRUE(held(Effect::kThetaRadialMotion)) << Describe(r);
+  const auto pair = std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [](const Ambiguity& a) {
+    return a.neither_added && ((a.chosen == "theta_encoder" && a.other == "theta_radial_motion") ||
+                               (a.chosen == "theta_radial_motion" && a.other == "theta_encoder"));
+  });
+  ASSERT_NE(pair, r.ambiguous.end()) << Describe(r);
+  EXPECT_NE(pair->checked.find("tells them apart"), std::string::npos) << pair->checked;
+  EXPECT_GT(r.after.fit.calibration.rms_um, NoiseRmsUm()) << Describe(r);  // left in the residual
+
+  SimulationSpec two;
+  two.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, 4.0, 0.0)};
+  two.effects.model.terms = {{Effect::kThetaEncoder, {{2, 0, false}}}};
+  two.effects.values = {{10 * kRadPerArcsec}};
+  const PointsData both = Simulate(two);
+  const TraceResult separated = TraceResidual(both, PaperOptions(), Calibrate(both, PaperOptions()), hold);
+  EXPECT_EQ(separated.added, std::vector<Effect>{Effect::kThetaEncoder}) << Describe(separated);
+  EXPECT_TRUE(separated.held.empty()) << Describe(separated);
+}
+
 // A second sphere position at another eccentricity separates them.
 TEST(TraceResidual, TwoSpherePositionsTellTheEncoderErrorFromASpindleMotion) {
   SimulationSpec spec;
