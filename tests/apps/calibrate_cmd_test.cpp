@@ -355,6 +355,33 @@ TEST_F(CalibrateCmd, FixedEffectsAreFittedWithoutSelection) {
   EXPECT_EQ(j["effects"][1]["parameters"].size(), 2u);  // t1 and t2: nothing left out
 }
 
+// --hold-confounded reaches the trace: a twice-per-turn Theta encoder error in one placement, which
+// the design cannot tell from a radial motion of the spindle, adds nothing and holds both back,
+// in the JSON and the text.
+TEST_F(CalibrateCmd, HoldConfoundedAddsNeitherOfTwoEffectsItCannotTellApart) {
+  SimulationSpec spec;
+  spec.effects.model.terms = {{Effect::kThetaEncoder, {{2, 0, false}}}};
+  spec.effects.values = {{10 * kRadPerArcsec}};
+  CalibrateOptions o;
+  o.points_path = Simulated("points.txt", spec);
+  o.hold_confounded = true;
+  o.json_path = dir_ + "/report.json";
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
+  EXPECT_TRUE(j["effects_added"].empty()) << j["effects_added"];
+  const std::vector<std::string> held = j["effects_held"];
+  EXPECT_NE(std::find(held.begin(), held.end(), "theta_encoder"), held.end());
+  EXPECT_NE(std::find(held.begin(), held.end(), "theta_radial_motion"), held.end());
+  EXPECT_THAT(r.out, HasSubstr("held back, not added"));
+  EXPECT_THAT(r.out, HasSubstr("two explanations, neither added: "));
+  CLI::App contradictory;
+  CalibrateOptions o2;
+  SetupCalibrateApp(contradictory, o2);
+  std::vector<std::string> args{"--no-extend", "--hold-confounded", "p.txt"};  // parse() takes them reversed
+  EXPECT_THROW(contradictory.parse(args), CLI::ExcludesError);
+}
+
 // CLI::App::parse(vector) takes the arguments in reverse order; this takes them as typed.
 void ParseArgs(CLI::App& app, std::vector<std::string> args) {
   std::reverse(args.begin(), args.end());
