@@ -82,7 +82,7 @@ struct TraceOptions {
   /// within ambiguity_bic, or the design confounds their terms): true, add the one that explains
   /// more and name the other as ambiguous; false, add neither, hold both back from later rounds
   /// and report them as two explanations (the split is not presented as known; the residual they
-  /// explain stays uncompensated).
+  /// explain stays uncompensated). A round that holds back counts among max_effects.
   bool add_confounded = true;
   int threads = 0;                 ///< candidates scored in parallel; 0: one per hardware thread
   double structure_p = 1e-3;       ///< remaining structure with a p-value below this is reported
