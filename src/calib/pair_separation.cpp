@@ -11,22 +11,30 @@
 namespace sph::internal {
 namespace {
 
-// The largest variance inflation of the columns of the last two terms of `fit` on the readings of
-// `table`.
-double PairVif(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit) {
+// The variance inflation of each column of the last `n` terms of `fit` on the readings of `table`
+// (+inf for a column in the null space).
+std::vector<double> LastTermsVifs(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit,
+                                  std::size_t n) {
   const NormalInverse inv = NormalInverseAt(table, options, fit);
   const std::size_t n_terms = fit.model.terms.size();
-  const int first = fit.TermOffset(n_terms - 2);
+  const int first = fit.TermOffset(n_terms - n);
   const int last = fit.TermOffset(n_terms - 1) + fit.model.terms.back().size();
-  double worst = 0.0;
+  std::vector<double> out;
   for (int j = first; j < last; ++j) {
     const auto col = static_cast<Eigen::Index>(j);
     const double vif = inv.in_null[static_cast<std::size_t>(j)]
                            ? std::numeric_limits<double>::infinity()
                            : inv.inverse(col, col) / (inv.scale(col) * inv.scale(col));
-    worst = std::max(worst, std::isnan(vif) ? std::numeric_limits<double>::infinity() : vif);
+    out.push_back(std::isnan(vif) ? std::numeric_limits<double>::infinity() : vif);
   }
-  return worst;
+  return out;
+}
+
+// The largest variance inflation of the columns of the last two terms of `fit` on the readings of
+// `table`.
+double PairVif(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit) {
+  const std::vector<double> vifs = LastTermsVifs(table, options, fit, 2);
+  return vifs.empty() ? 0.0 : *std::max_element(vifs.begin(), vifs.end());
 }
 
 // `points` with the rows of its first setup read once more at placement `p` (setup ids from one
@@ -117,6 +125,27 @@ EffectFit WithPair(const EffectFit& current, const EffectTerm& a, const std::vec
 }
 
 }  // namespace
+
+double PairInflationNow(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& current,
+                        const EffectTerm& a, const std::vector<double>& a_values, const EffectTerm& b,
+                        const std::vector<double>& b_values) {
+  const std::vector<double> both = LastTermsVifs(table, options, WithPair(current, a, a_values, b, b_values), 2);
+  std::vector<double> alone;
+  for (const auto& [term, values] : {std::pair{&a, &a_values}, std::pair{&b, &b_values}}) {
+    EffectFit one = current;
+    one.model.terms.push_back(*term);
+    one.values.push_back(*values);
+    one.n_params += term->size();
+    const std::vector<double> v = LastTermsVifs(table, options, one, 1);
+    alone.insert(alone.end(), v.begin(), v.end());
+  }
+  double factor = 1.0;
+  for (std::size_t k = 0; k < both.size() && k < alone.size(); ++k) {
+    // A column already undetermined alone says nothing of the pair.
+    if (std::isfinite(alone[k])) factor = std::max(factor, both[k] / alone[k]);
+  }
+  return factor;
+}
 
 double PairVifNow(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& current,
                   const EffectTerm& a, const std::vector<double>& a_values, const EffectTerm& b,

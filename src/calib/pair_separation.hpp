@@ -59,6 +59,16 @@ double PairVifNow(const ReadingTable& table, const CalibrationOptions& options, 
                   const EffectTerm& a, const std::vector<double>& a_values, const EffectTerm& b,
                   const std::vector<double>& b_values);
 
+/// The most that a (with a_values) and b (with b_values), both beside the model of `current`,
+/// inflate the variance of a component of each other on the readings of `table`: the variance
+/// inflation of each component with both over that with its own term alone beside the model, 1 /
+/// (1 - rho^2) for its partial correlation with the other term (as IdentifyEffectPairs()). Unlike
+/// PairVifNow(), a term whose components are poorly determined beside the model anyway does not
+/// make every pair with it look confounded.
+double PairInflationNow(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& current,
+                        const EffectTerm& a, const std::vector<double>& a_values, const EffectTerm& b,
+                        const std::vector<double>& b_values);
+
 /// Checks the pair (a with a_values, b with b_values) beside the model of `current` (a fit of
 /// `points`): first on the readings as they are, then with each of PlacementsToTry(), the pattern
 /// of the first setup read once more there (where the probe still meets the sphere). The readings

@@ -930,15 +930,19 @@ std::string CheckedSeparation(const Readings& data, const CalibrationOptions& op
 // least half the chosen one's) and, with both beside the current model, a component of the two
 // has a variance inflation above internal::kSeparatedVif on the readings as measured. A BIC gap
 // between two such terms comes from which components each kept, not from the data telling them
-// apart.
+// apart. Where that decides whether anything is added (TraceOptions::add_confounded false), the
+// inflation that each term causes the other's components is judged instead (PairInflationNow()):
+// a term whose components are poorly determined beside the model anyway must not hold back every
+// effect it is compared with.
 bool ConfoundedByDesign(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
                         const CandidateScore& c, const EffectFit& c_fit, const CandidateScore& chosen,
-                        const EffectFit& chosen_fit) {
+                        const EffectFit& chosen_fit, const TraceOptions& trace) {
   if (!(c.delta_bic <= 0.5 * chosen.delta_bic) || c_fit.model.terms.size() != current.model.terms.size() + 1) {
     return false;
   }
-  return internal::PairVifNow(data.table, options, current, chosen_fit.model.terms.back(), chosen_fit.values.back(),
-                              c_fit.model.terms.back(), c_fit.values.back()) > internal::kSeparatedVif;
+  const auto vif = trace.add_confounded ? internal::PairVifNow : internal::PairInflationNow;
+  return vif(data.table, options, current, chosen_fit.model.terms.back(), chosen_fit.values.back(),
+             c_fit.model.terms.back(), c_fit.values.back()) > internal::kSeparatedVif;
 }
 
 // The ambiguities of the effect chosen in a round: the other admissible candidates that scored
@@ -951,8 +955,12 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
   for (std::size_t i = 0; i < tried.size(); ++i) {
     const CandidateScore& c = tried[i].first;
     if (i == best || !Admissible(c, current, trace)) continue;
-    const bool close = c.delta_bic - chosen.delta_bic < trace.ambiguity_bic;
-    if (close || ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second)) {
+    // A candidate held back in an earlier round (TraceOptions::add_confounded) may score better than
+    // the one chosen now: it is about equal only when the two are within ambiguity_bic either way.
+    const double gap = c.delta_bic - chosen.delta_bic;
+    const bool close = (c.held ? std::abs(gap) : gap) < trace.ambiguity_bic;
+    if (close ||
+        ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second, trace)) {
       Ambiguity a{InfoOf(chosen.effect).id,           InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
                   SeparateBy(chosen.effect, c.effect)};
       a.by_design = !close;
@@ -1136,7 +1144,8 @@ bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r) {
   for (std::size_t k = first_new; k < r.ambiguous.size(); ++k) {
     Effect e{};
     if (!EffectFromId(r.ambiguous[k].other, &e)) continue;  // "sphere_form"
-    partners.push_back(r.ambiguous[k].other);
+    partners.push_back(r.ambiguous[k].other +
+                       (r.ambiguous[k].by_design ? " (confounded by this design)" : " (about as good a score)"));
     if (std::find(r.held.begin(), r.held.end(), e) == r.held.end()) r.held.push_back(e);
   }
   if (partners.empty()) return false;
@@ -1151,10 +1160,11 @@ bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r) {
   r.held.push_back(c.effect);
   c.added = false;
   c.held = true;
+  c.sphere_fraction = 0.0;  // of an added effect only
   std::string list;
   for (const std::string& p : partners) list += (list.empty() ? "" : ", ") + p;
-  c.note += std::string(c.note.empty() ? "" : "; ") + "qualifies, but held back: this design cannot tell it from " +
-            list + ", and neither is added";
+  c.note += std::string(c.note.empty() ? "" : "; ") + "qualifies, but held back: it cannot be told from " + list +
+            ", and neither is added";
   return true;
 }
 
@@ -1222,6 +1232,12 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
                       r.form.separable, trace, c, &r.ambiguous);
     chosen = &c;
     if (!trace.add_confounded) hold = HoldConfounded(first_new, c, r);
+    if (hold) {
+      for (auto& [other, fit] : tried) {  // its partners are held from now on too
+        if (std::find(r.held.begin(), r.held.end(), other.effect) != r.held.end()) other.held = true;
+      }
+      if (form_better) form.note += "; the effect it was compared with is held back";
+    }
   }
   for (auto& [c, fit] : tried) {
     if (not_beyond_form.count(c.effect) == 0 && !c.held) {

@@ -167,8 +167,14 @@ TEST(TraceResidual, HeldBackAddsNeitherOfTwoEffectsItCannotTellApart) {
                                (a.chosen == "theta_radial_motion" && a.other == "theta_encoder"));
   });
   ASSERT_NE(pair, r.ambiguous.end()) << Describe(r);
-  EXPECT_NE(pair->checked.find("tells them apart"), std::string::npos) << pair->checked;
+  EXPECT_EQ(pair->checked.find("none of these"), std::string::npos) << pair->checked;  // a placement that does
   EXPECT_GT(r.after.fit.calibration.rms_um, NoiseRmsUm()) << Describe(r);  // left in the residual
+  for (const CandidateScore& c : r.candidates) {
+    if (!c.sphere_form && (c.effect == Effect::kThetaEncoder || c.effect == Effect::kThetaRadialMotion)) {
+      EXPECT_FALSE(c.added) << Describe(r);
+      EXPECT_TRUE(c.held) << Describe(r);
+    }
+  }
 
   SimulationSpec two;
   two.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, 4.0, 0.0)};
