@@ -108,6 +108,10 @@ std::vector<Case> Cases() {
 // "shuffled" (run only when named): "one" scanned in shuffled order, which breaks the link between
 // the time of a reading and its direction on the sphere: a drift is then no pattern on the sphere.
 enum class Setups { kOne, kThree, kFive, kSpheres, kHigh, kShuffled };
+constexpr Setups kAllSetups[] = {Setups::kOne,     Setups::kThree, Setups::kFive,
+                                 Setups::kSpheres, Setups::kHigh,  Setups::kShuffled};
+// The designs beyond the README's main three, run only when named.
+bool OnlyWhenNamed(Setups s) { return s == Setups::kSpheres || s == Setups::kHigh || s == Setups::kShuffled; }
 const char* SetupsName(Setups s) {
   switch (s) {
     case Setups::kOne:
@@ -199,9 +203,7 @@ struct Filter {
       if (name.find(n) == std::string::npos) return false;
     }
     // "spheres", "high" and "shuffled" run only when asked for (the README's table lists them apart).
-    if (setups_ == Setups::kSpheres && setups.count("spheres") == 0) return false;
-    if (setups_ == Setups::kHigh && setups.count("high") == 0) return false;
-    if (setups_ == Setups::kShuffled && setups.count("shuffled") == 0) return false;
+    if (OnlyWhenNamed(setups_) && setups.count(SetupsName(setups_)) == 0) return false;
     return in(setups, SetupsName(setups_)) && in(forms, form ? "form" : "noform") &&
            in(sigmas, noise < 0.04 ? "0.03" : "0.05");
   }
@@ -211,7 +213,7 @@ Filter FilterOf(int argc, char** argv) {
   Filter f;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "one" || a == "three" || a == "five" || a == "spheres" || a == "high" || a == "shuffled") {
+    if (std::any_of(std::begin(kAllSetups), std::end(kAllSetups), [&a](Setups d) { return a == SetupsName(d); })) {
       f.setups.insert(a);
     } else if (a == "form" || a == "noform") {
       f.forms.insert(a);
@@ -252,8 +254,7 @@ int main(int argc, char** argv) {
   std::map<std::string, Tally> summary;  // by group, form, design, sigma
   for (const Case& c : Cases()) {
     for (const double noise : {0.03, 0.05}) {
-      for (const Setups setups :
-           {Setups::kOne, Setups::kThree, Setups::kFive, Setups::kSpheres, Setups::kHigh, Setups::kShuffled}) {
+      for (const Setups setups : kAllSetups) {
         for (const bool form : {false, true}) {
           if (!filter.Wants(c, setups, form, noise)) continue;
           Tally t;

@@ -931,7 +931,8 @@ std::string CheckedSeparation(const Readings& data, const CalibrationOptions& op
 // has a variance inflation above internal::kSeparatedVif on the readings as measured. A BIC gap
 // between two such terms comes from which components each kept, not from the data telling them
 // apart. Where that decides whether anything is added (TraceOptions::add_confounded false), the
-// inflation that each term causes the other's components is judged instead (PairInflationNow()):
+// inflation that each term causes the other's components is judged instead (PairInflationNow(),
+// above kSeparatedPairInflation):
 // a term whose components are poorly determined beside the model anyway must not hold back every
 // effect it is compared with.
 bool ConfoundedByDesign(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
@@ -940,9 +941,14 @@ bool ConfoundedByDesign(const Readings& data, const CalibrationOptions& options,
   if (!(c.delta_bic <= 0.5 * chosen.delta_bic) || c_fit.model.terms.size() != current.model.terms.size() + 1) {
     return false;
   }
-  const auto vif = trace.add_confounded ? internal::PairVifNow : internal::PairInflationNow;
-  return vif(data.table, options, current, chosen_fit.model.terms.back(), chosen_fit.values.back(),
-             c_fit.model.terms.back(), c_fit.values.back()) > internal::kSeparatedVif;
+  const EffectTerm& a = chosen_fit.model.terms.back();
+  const EffectTerm& b = c_fit.model.terms.back();
+  if (trace.add_confounded) {
+    return internal::PairVifNow(data.table, options, current, a, chosen_fit.values.back(), b, c_fit.values.back()) >
+           internal::kSeparatedVif;
+  }
+  return internal::PairInflationNow(data.table, options, current, a, chosen_fit.values.back(), b, c_fit.values.back()) >
+         kSeparatedPairInflation;
 }
 
 // The ambiguities of the effect chosen in a round: the other admissible candidates that scored
@@ -1134,36 +1140,33 @@ void RefreshComponents(const Readings& data, const CalibrationOptions& options, 
   }
 }
 
+// Whether effect e was held back in this trace (TraceOptions::add_confounded false).
+bool IsHeld(const TraceResult& r, Effect e) { return std::find(r.held.begin(), r.held.end(), e) != r.held.end(); }
+
 // With TraceOptions::add_confounded false: whether the candidate `c` just chosen is confounded with
 // another library effect (an ambiguity of r.ambiguous from `first_new` on names one). Then neither
 // is added: both are held back from later rounds (a third effect chosen later is still judged
 // against them, for they are scored every round), the ambiguities say so, and what else was noted
 // of the chosen effect (its share that is a pattern on the sphere) is dropped with it.
 bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r) {
-  std::vector<std::string> partners;
-  for (std::size_t k = first_new; k < r.ambiguous.size(); ++k) {
+  std::string partners;
+  for (auto a = r.ambiguous.begin() + static_cast<std::ptrdiff_t>(first_new); a != r.ambiguous.end(); ++a) {
     Effect e{};
-    if (!EffectFromId(r.ambiguous[k].other, &e)) continue;  // "sphere_form"
-    partners.push_back(r.ambiguous[k].other +
-                       (r.ambiguous[k].by_design ? " (confounded by this design)" : " (about as good a score)"));
-    if (std::find(r.held.begin(), r.held.end(), e) == r.held.end()) r.held.push_back(e);
+    if (!EffectFromId(a->other, &e)) continue;  // "sphere_form"
+    partners += (partners.empty() ? "" : ", ") + a->other +
+                (a->by_design ? " (confounded by this design)" : " (about as good a score)");
+    a->neither_added = true;
+    if (!IsHeld(r, e)) r.held.push_back(e);
   }
   if (partners.empty()) return false;
-  std::vector<Ambiguity> kept(r.ambiguous.begin(), r.ambiguous.begin() + static_cast<std::ptrdiff_t>(first_new));
-  for (std::size_t k = first_new; k < r.ambiguous.size(); ++k) {
-    Effect e{};
-    if (!EffectFromId(r.ambiguous[k].other, &e)) continue;
-    kept.push_back(r.ambiguous[k]);
-    kept.back().neither_added = true;
-  }
-  r.ambiguous = std::move(kept);
+  r.ambiguous.erase(std::remove_if(r.ambiguous.begin() + static_cast<std::ptrdiff_t>(first_new), r.ambiguous.end(),
+                                   [](const Ambiguity& a) { return !a.neither_added; }),
+                    r.ambiguous.end());
   r.held.push_back(c.effect);
   c.added = false;
   c.held = true;
   c.sphere_fraction = 0.0;  // of an added effect only
-  std::string list;
-  for (const std::string& p : partners) list += (list.empty() ? "" : ", ") + p;
-  c.note += std::string(c.note.empty() ? "" : "; ") + "qualifies, but held back: it cannot be told from " + list +
+  c.note += std::string(c.note.empty() ? "" : "; ") + "qualifies, but held back: it cannot be told from " + partners +
             ", and neither is added";
   return true;
 }
@@ -1178,7 +1181,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     if (current.fit.model.Find(e) < 0) todo.push_back(e);
   }
   Tried tried = ScoreCandidates(data, options, current, todo, round, trace);
-  for (auto& [c, fit] : tried) c.held = std::find(r.held.begin(), r.held.end(), c.effect) != r.held.end();
+  for (auto& [c, fit] : tried) c.held = IsHeld(r, c.effect);
   const auto any = [](const CandidateScore&) { return true; };
   int best = BestAdmissible(tried, current, trace, any);
   // With a design that separates the form, it is in the model and no competitor. When the
@@ -1233,9 +1236,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     chosen = &c;
     if (!trace.add_confounded) hold = HoldConfounded(first_new, c, r);
     if (hold) {
-      for (auto& [other, fit] : tried) {  // its partners are held from now on too
-        if (std::find(r.held.begin(), r.held.end(), other.effect) != r.held.end()) other.held = true;
-      }
+      for (auto& [other, fit] : tried) other.held = IsHeld(r, other.effect);  // its partners too
       if (form_better) form.note += "; the effect it was compared with is held back";
     }
   }
