@@ -62,6 +62,10 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
   auto* replay =
       app.add_option("--replay", o.replay_path, "Candump log to replay instead of a live interface")->excludes(iface);
   iface->excludes(replay);
+  app.add_option("--replay-iface", o.replay_iface,
+                 "Replay: the interface whose frames are replayed (a log of 'candump -l any' holds several); "
+                 "default: the log's only one")
+      ->check(InterfaceName());
   app.add_option("-o,--output", o.output_path, "Points file (sph-points 1); appended, never overwritten")->required();
   app.add_option("--can-log", o.can_log_path, "Also append every frame to this candump log");
   app.add_option("--mode", o.mode, "stream: a row per SYNC cycle; points: one averaged row per standstill")
@@ -211,6 +215,10 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
     log(can::LogLevel::kError, "give either --iface (live) or --replay (a candump log)");
     return kExitBadInput;
   }
+  if (!o.replay_iface.empty() && o.replay_path.empty()) {
+    log(can::LogLevel::kError, "--replay-iface " + o.replay_iface + ": names the interface of a replay (--replay)");
+    return kExitBadInput;
+  }
   can::PipelineConfig config;
   can::MasterConfig master;
   try {
@@ -229,12 +237,14 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
     log(can::LogLevel::kError, e.what());
     return kExitBadInput;
   }
+  can::ReplaySource replay;
   if (!o.replay_path.empty()) {
-    // Before any output file is made: a log that cannot be read, holds no frame or goes back in
-    // time is bad input.
-    const std::string problem = CheckReplayLog(o.replay_path);
-    if (!problem.empty()) {
-      log(can::LogLevel::kError, problem);
+    // Before any output file is made: a log that cannot be read, holds no frame, holds several
+    // interfaces' frames and none chosen, or goes back in time is bad input.
+    try {
+      replay = can::CheckReplayLog(o.replay_path, o.replay_iface, "--replay-iface");
+    } catch (const std::exception& e) {
+      log(can::LogLevel::kError, e.what());
       return kExitBadInput;
     }
   }
@@ -247,7 +257,7 @@ int RunAcquire(const AcquireOptions& o, std::ostream& err) {
     log(can::LogLevel::kError, e.what());
     return kExitOutputError;
   }
-  AcquireContext ctx{o, log, config, master, ProcessSignals(), nullptr, {}};
+  AcquireContext ctx{o, log, config, master, ProcessSignals(), replay, nullptr, {}};
   ctx.print_summary = [&] {
     if (!ctx.session) return;
     err << "sph_acquired: summary: " << ctx.session->Summary() << "\n";

@@ -32,6 +32,7 @@ enum AcquireExit : int {
 struct AcquireOptions {
   std::string iface;            ///< live: CAN interface
   std::string replay_path;      ///< offline: candump log
+  std::string replay_iface;     ///< offline: the interface replayed; empty: the log's only one
   std::string output_path;      ///< points file (appended)
   std::string can_log_path;     ///< candump log of every frame (appended); empty: none
   std::string config_path;      ///< the --config file read (an input: never an output)

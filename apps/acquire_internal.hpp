@@ -21,6 +21,8 @@ struct AcquireContext {
   const can::PipelineConfig& pipeline_config;
   const can::MasterConfig& master_config;
   SignalFlags& signals;
+  /// Replay: what the log holds and which interface is replayed (CheckReplayLog).
+  can::ReplaySource replay;
   /// The session of the run; RunLive and RunReplay make it (the replay adapts the master's
   /// configuration to what the log holds).
   std::unique_ptr<AcquireSession> session;
@@ -37,11 +39,6 @@ PointsWriterOptions AcquirePointsOptions(const AcquireOptions& options);
 /// The points file's header of the options: R0, d and the setup's mount rotation (no metadata);
 /// throws sph::Error naming --mount-rotation-deg when it is not "rx,ry,rz" or "unknown".
 PointsHeader AcquireHeader(const AcquireOptions& options);
-/// Why `path` cannot be replayed ("log.txt: cannot open for reading: ...", "log.txt: no CAN frame
-/// in its 12 lines: ...", "log.txt:9: the time 1700000000.010000 s is before the 1700000000.020000 s of
-/// line 8: a candump log is in time order"), or "" when it can be opened, holds at least one frame
-/// and its frames' times never go back.
-std::string CheckReplayLog(const std::string& path);
 
 }  // namespace sph::apps
 

@@ -1,4 +1,5 @@
-// sph_acquired --replay: the master and the pipeline offline, from a candump log. The master
+// sph_acquired --replay: the master and the pipeline offline, from a candump log: the frames of one
+// interface (--replay-iface, or the log's only one), those of others left out. The master
 // runs as it did live, its frames going nowhere: the log holds what it sent, and its answers
 // drive it. A log without the master's NMT commands or SDO requests (recorded while another
 // master ran the bus, or made by sph_cansim -o) is replayed as with --no-nmt or --no-sdo.
@@ -24,13 +25,6 @@ std::int64_t MonotonicNs() {
   return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
 }
 
-std::string TimeText(std::int64_t t_ns) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%lld.%06lld", static_cast<long long>(t_ns / 1000000000),
-                static_cast<long long>(t_ns % 1000000000 / 1000));
-  return buf;
-}
-
 void SleepUntil(std::int64_t mono_ns) {
   timespec ts{static_cast<time_t>(mono_ns / 1000000000), static_cast<long>(mono_ns % 1000000000)};
   while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
@@ -40,37 +34,6 @@ void SleepUntil(std::int64_t mono_ns) {
 
 }  // namespace
 
-std::string CheckReplayLog(const std::string& path) {
-  try {
-    can::CandumpReader reader(path);
-    std::string first_problem;
-    std::uint64_t frames = 0;
-    std::int64_t last_ns = 0, last_line = 0;
-    for (;;) {
-      const can::CandumpReader::Result r = reader.Next();
-      if (r.status == can::CandumpReader::Status::kEnd) break;
-      if (r.status == can::CandumpReader::Status::kMalformed && first_problem.empty()) first_problem = r.error;
-      if (r.status != can::CandumpReader::Status::kFrame) continue;
-      // The SYNC window and the master's timeouts need the receive order to be the time order.
-      if (frames++ > 0 && r.frame.t_ns < last_ns) {
-        return path + ":" + std::to_string(reader.line_number()) + ": the time " + TimeText(r.frame.t_ns) +
-               " s is before the " + TimeText(last_ns) + " s of line " + std::to_string(last_line) +
-               ": a candump log is in time order (logs merged or edited?)";
-      }
-      last_ns = r.frame.t_ns;
-      last_line = reader.line_number();
-    }
-    if (frames > 0) return "";
-    const std::int64_t lines = reader.line_number();
-    if (lines == 0) return path + ": empty: no CAN frame to replay";
-    if (first_problem.empty()) return path + ": no CAN frame to replay, only blank lines";
-    return path + ": no CAN frame in its " + std::to_string(lines) + (lines == 1 ? " line" : " lines") +
-           ": not a candump log (first: " + first_problem + ")";
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-}
-
 // Whether the log holds NMT commands, and SDO requests to the configured nodes; when the first
 // of them came.
 struct MasterTraffic {
@@ -78,13 +41,16 @@ struct MasterTraffic {
   bool sdo = false;
   std::optional<std::int64_t> first_ns;
 };
-MasterTraffic ScanForMaster(const std::string& path, const can::MasterConfig& master) {
+MasterTraffic ScanForMaster(const std::string& path, const std::string& iface, const can::MasterConfig& master) {
   MasterTraffic t;
   can::CandumpReader reader(path);
   for (;;) {
     const can::CandumpReader::Result r = reader.Next();
     if (r.status == can::CandumpReader::Status::kEnd) break;
-    if (r.status != can::CandumpReader::Status::kFrame || r.frame.IsExtended() || r.frame.IsRemote()) continue;
+    if (r.status != can::CandumpReader::Status::kFrame || r.iface != iface || r.frame.IsExtended() ||
+        r.frame.IsRemote()) {
+      continue;
+    }
     bool ours = false;
     if (r.frame.id == can::kNmtCobId && can::DecodeNmt(r.frame)) ours = t.nmt = true;
     for (const can::MasterNode& n : master.nodes) {
@@ -128,7 +94,7 @@ std::int64_t ReplayBeginNs(const can::MasterConfig& master, const MasterTraffic&
 // frame's time, and the log's and the monotonic clock's time of the first frame (for the pace).
 struct ReplayProgress {
   std::int64_t first_frame_ns = 0, start_mono_ns = 0, last_ns = 0;
-  std::uint64_t n = 0, before = 0;
+  std::uint64_t n = 0, before = 0, other_iface = 0;
 };
 
 // Whether a stop was requested (and logged); prints the summary when it was asked for.
@@ -213,6 +179,10 @@ int ReplayFrames(AcquireContext& ctx, can::CandumpReader& reader, std::int64_t b
       session.OnMalformedInput(r.error);
       continue;
     }
+    if (r.iface != ctx.replay.iface) {
+      ++p.other_iface;
+      continue;
+    }
     if (r.frame.t_ns < begin_ns) {
       ++p.before;
       continue;
@@ -220,6 +190,14 @@ int ReplayFrames(AcquireContext& ctx, can::CandumpReader& reader, std::int64_t b
     ReplayFrame(ctx, r.frame, p);
   }
   FinishReplay(ctx, p.last_ns);
+  if (p.other_iface > 0) {
+    std::string others;
+    for (const std::string& i : ctx.replay.interfaces) {
+      if (i != ctx.replay.iface) others += (others.empty() ? "" : ", ") + i;
+    }
+    ctx.log(can::LogLevel::kInfo, ctx.options.replay_path + ": replayed the frames of " + ctx.replay.iface + "; " +
+                                      std::to_string(p.other_iface) + " frames of " + others + " left out");
+  }
   return kExitOk;
 }
 
@@ -230,7 +208,7 @@ int RunReplay(AcquireContext& ctx) {
   can::MasterConfig master;
   MasterTraffic traffic;
   try {
-    traffic = ScanForMaster(ctx.options.replay_path, ctx.master_config);
+    traffic = ScanForMaster(ctx.options.replay_path, ctx.replay.iface, ctx.master_config);
     master = MasterForLog(ctx, traffic);
     reader = std::make_unique<can::CandumpReader>(ctx.options.replay_path);
   } catch (const std::exception& e) {
@@ -238,7 +216,7 @@ int RunReplay(AcquireContext& ctx) {
     return kExitBadInput;
   }
   ctx.session = std::make_unique<AcquireSession>(ctx.options, ctx.pipeline_config, master, ctx.log,
-                                                 "replay of " + ctx.options.replay_path);
+                                                 "replay of " + ctx.options.replay_path, ctx.replay.iface);
   return ReplayFrames(ctx, *reader, ReplayBeginNs(master, traffic));
 }
 

@@ -28,11 +28,12 @@ std::string UtcNow() {
 }  // namespace
 
 AcquireSession::AcquireSession(const AcquireOptions& options, const can::PipelineConfig& pipeline,
-                               can::MasterConfig master, const Logger& log, std::string source)
+                               can::MasterConfig master, const Logger& log, std::string source, std::string iface)
     : options_(options),
       log_(log),
       pipeline_config_(pipeline),
       source_(std::move(source)),
+      iface_(std::move(iface)),
       master_(std::move(master),
               can::CanopenMaster::Callbacks{[this](const can::CanFrame& f) {
                                               if (send_) send_(f);
@@ -102,7 +103,7 @@ bool AcquireSession::OpenOutputs() {
   try {
     if (!o.can_log_path.empty()) {
       frame_log_ =
-          std::make_unique<can::CandumpWriter>(o.can_log_path, o.iface.empty() ? "can0" : o.iface, o.fsync_interval_s);
+          std::make_unique<can::CandumpWriter>(o.can_log_path, iface_, o.fsync_interval_s);
     }
     PointsHeader header = AcquireHeader(o);
     header.metadata = {

@@ -35,9 +35,10 @@ class AcquireSession {
  public:
   enum class State { kStarting, kAcquiring, kStartRefused, kOutputFailed };
 
-  /// `source` names the input in the header ("CAN interface can0", "replay of frames.log").
+  /// `source` names the input in the header ("CAN interface can0", "replay of frames.log");
+  /// `iface` is the interface the frames come from, named in the frame log's lines.
   AcquireSession(const AcquireOptions& options, const can::PipelineConfig& pipeline, can::MasterConfig master,
-                 const Logger& log, std::string source);
+                 const Logger& log, std::string source, std::string iface);
   ~AcquireSession();
   AcquireSession(const AcquireSession&) = delete;
   AcquireSession& operator=(const AcquireSession&) = delete;
@@ -84,6 +85,7 @@ class AcquireSession {
   const Logger& log_;
   can::PipelineConfig pipeline_config_;
   std::string source_;
+  std::string iface_;
   std::function<void(const can::CanFrame&)> send_;
   can::CanopenMaster master_;
   std::unique_ptr<can::AcquisitionPipeline> pipeline_;

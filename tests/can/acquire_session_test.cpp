@@ -66,7 +66,7 @@ struct LiveRun {
         sim(sc),
         bus(&sim, kT0) {
     sim.set_recording(true);
-    session = std::make_unique<AcquireSession>(options, pipeline, master, log, "CAN interface vcan0");
+    session = std::make_unique<AcquireSession>(options, pipeline, master, log, "CAN interface vcan0", "vcan0");
     session->set_send([this](const can::CanFrame& f) { bus.Send(f); });
     bus_host = {[this](const can::CanFrame& f) {
                   session->OnFrame(f);

@@ -17,6 +17,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "sph/can/frame.hpp"
 #include "sph/core/append_file.hpp"
@@ -59,6 +60,24 @@ class CandumpReader {
   std::string line_;
   std::int64_t line_no_ = 0;
 };
+
+/// What a replay reads of a candump log: the frames of one interface (a log of `candump -l any`
+/// holds those of every interface, in one time order).
+struct ReplaySource {
+  std::string iface;                    ///< the interface replayed
+  std::vector<std::string> interfaces;  ///< every interface of the log, in the order they first appear
+  std::uint64_t frames = 0;             ///< frames of `iface`
+  std::uint64_t other_frames = 0;       ///< frames of the other interfaces (left out)
+};
+
+/// Checks that `path` can be replayed and chooses what is: the frames of `iface`, or (when it is
+/// empty) of the log's only interface. Throws sph::Error with the reason: the file cannot be read,
+/// holds no frame ("log.txt: no CAN frame in its 12 lines: not a candump log (first: ...)"), holds
+/// frames of several interfaces and none is chosen ("log.txt: frames of 2 interfaces, can0 (from
+/// line 1) and can1 (from line 3): choose one with --replay-iface", `option` naming the choice),
+/// none of the chosen one, or the chosen interface's times go back ("log.txt:9: the time ... s is
+/// before the ... s of line 8"). Frames of other interfaces may interleave in any time order.
+ReplaySource CheckReplayLog(const std::string& path, const std::string& iface, const std::string& option = "");
 
 /// Appends frames to a candump log (AppendFile: never overwrites, whole lines only). Lines are
 /// collected in memory and written by Flush(), or when 64 KiB are pending.
