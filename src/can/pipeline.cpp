@@ -104,6 +104,9 @@ AcquisitionPipeline::AcquisitionPipeline(const PipelineConfig& config, Callbacks
     nodes_.push_back(n);
   }
   if (config_.mode == Mode::kPoints) stops_.emplace(config_.standstill);
+  if (config_.sync_counter_max != 0) {
+    for (const int b : config_.sync_counter_byte) hold_ |= b >= 0;
+  }
 }
 
 void AcquisitionPipeline::Log(LogLevel level, const std::string& text) {
@@ -149,15 +152,46 @@ void AcquisitionPipeline::OnFrame(const CanFrame& frame) {
   CheckHeartbeats(frame.t_ns);
 }
 
+double AcquisitionPipeline::PeriodS() const {
+  // Configured, else as observed between SYNCs that followed each other.
+  return config_.sync_period_s > 0.0 ? config_.sync_period_s : static_cast<double>(observed_period_ns_) * 1e-9;
+}
+
+std::optional<std::uint8_t> AcquisitionPipeline::UsableCounter(const CanFrame& frame, const SyncInfo& sync) {
+  const int max = config_.sync_counter_max;
+  if (max == 0) {
+    if (sync.counter && !counter_unconfigured_warned_) {
+      counter_unconfigured_warned_ = true;
+      Log(LogLevel::kWarning, "the SYNC at t_s " + TimeText(frame.t_ns) + " carries a counter (" +
+                                  std::to_string(*sync.counter) +
+                                  ") but no SYNC counter is configured: the SYNCs' counters are not used");
+    }
+    return std::nullopt;
+  }
+  if (sync.counter && *sync.counter >= 1 && *sync.counter <= max) return sync.counter;
+  ++counts_.sync_counter_errors;
+  LogLimited(counts_.sync_counter_errors, LogLevel::kWarning,
+             "the SYNC at t_s " + TimeText(frame.t_ns) +
+                 (sync.counter ? " carries counter " + std::to_string(*sync.counter) + ", outside 1.." +
+                                     std::to_string(max) + " (the SYNC counter overflow value)"
+                               : " carries no counter (1.." + std::to_string(max) + " expected)") +
+                 ": its cycle is placed by time");
+  return std::nullopt;
+}
+
+bool AcquisitionPipeline::Repeats(const CanFrame& frame, const SyncInfo& sync) const {
+  if (!have_sync_ || !sync.counter || !last_counter_ || *sync.counter != *last_counter_) return false;
+  const double period_s = PeriodS();
+  return !(period_s > 0.0) || static_cast<double>(frame.t_ns - last_sync_ns_) < 0.5e9 * period_s;
+}
+
 std::uint64_t AcquisitionPipeline::MissedBefore(const CanFrame& frame, const SyncInfo& sync) {
   if (!have_sync_) return 0;
   std::optional<std::uint64_t> by_counter, by_time;
   if (config_.sync_counter_max != 0 && sync.counter && last_counter_) {
     by_counter = static_cast<std::uint64_t>(MissedSyncs(*last_counter_, *sync.counter, config_.sync_counter_max));
   }
-  // The period: configured, else as observed between SYNCs that followed each other.
-  const double period_s =
-      config_.sync_period_s > 0.0 ? config_.sync_period_s : static_cast<double>(observed_period_ns_) * 1e-9;
+  const double period_s = PeriodS();
   const std::int64_t interval_ns = frame.t_ns - last_sync_ns_;
   if (period_s > 0.0) {
     const double gap = static_cast<double>(interval_ns) * 1e-9 / period_s;
@@ -183,9 +217,28 @@ std::uint64_t AcquisitionPipeline::MissedBefore(const CanFrame& frame, const Syn
   return missed;
 }
 
-void AcquisitionPipeline::OnSync(const CanFrame& frame, const SyncInfo& sync) {
+void AcquisitionPipeline::OnSync(const CanFrame& frame, SyncInfo sync) {
   ++counts_.sync_frames;
-  Resolve(MissedBefore(frame, sync), frame.t_ns);
+  sync.counter = UsableCounter(frame, sync);
+  if (Repeats(frame, sync)) {
+    ++counts_.repeated_syncs;
+    LogLimited(counts_.repeated_syncs, LogLevel::kWarning,
+               "the SYNC at t_s " + TimeText(frame.t_ns) + " repeats the counter " + std::to_string(*sync.counter) +
+                   " of the SYNC " + TimeText(frame.t_ns - last_sync_ns_) + " s before: the same SYNC received " +
+                   "twice, taken once");
+    return;
+  }
+  const std::uint64_t missed = MissedBefore(frame, sync);
+  if (hold_) {
+    ResolveHeld();
+    if (window_.open) {  // held until the next SYNC for its late PDOs
+      std::swap(held_, window_);
+      held_missed_ = missed;
+      held_next_ns_ = frame.t_ns;
+    }
+  } else {
+    Resolve(missed, frame.t_ns);
+  }
   have_sync_ = true;
   last_sync_ns_ = frame.t_ns;
   last_counter_ = sync.counter;
@@ -220,11 +273,24 @@ void AcquisitionPipeline::OnPdo(int device, const CanFrame& frame) {
   Arrival a{v.status, v.value, frame.t_ns, -1};
   const int counter_byte = config_.sync_counter_byte[d];
   if (counter_byte >= 0 && frame.len > counter_byte) a.counter = frame.data[static_cast<std::size_t>(counter_byte)];
-  if (window_.pdos[d].size() >= kMaxPdosPerWindow) {
+  Window* w = &window_;
+  if (held_.open && a.counter >= 0 && held_.counter) {  // a late PDO of the window before?
+    const int m = config_.sync_counter_max;
+    const auto k = static_cast<std::uint64_t>(((a.counter - static_cast<int>(*held_.counter)) % m + m) % m);
+    if (k <= held_missed_) w = &held_;
+  }
+  if (w->pdos[d].size() >= kMaxPdosPerWindow) {
     ++counts_.unplaced;
     return;
   }
-  window_.pdos[d].push_back(a);
+  w->pdos[d].push_back(a);
+}
+
+void AcquisitionPipeline::ResolveHeld() {
+  if (!held_.open) return;
+  std::swap(window_, held_);  // the resolution works on window_
+  Resolve(held_missed_, held_next_ns_);
+  std::swap(window_, held_);
 }
 
 std::string AcquisitionPipeline::Reason(const std::array<Slot, kNumDevices>& slots) const {
@@ -387,7 +453,7 @@ void AcquisitionPipeline::ResolveMissed(const Cycles& cycles, std::uint64_t miss
 void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bool last) {
   if (!window_.open) return;
   window_.open = false;
-  ++counts_.cycles;
+  counts_.cycles += 1 + missed;
   const std::uint64_t spans = std::min<std::uint64_t>(missed, kMaxRecovered) + 1;
   const double period = static_cast<double>(next_ns - window_.t_ns) / static_cast<double>(missed + 1);
   const bool placeable = config_.sync_period_s > 0.0 || (config_.sync_counter_max != 0 && window_.counter);
@@ -417,7 +483,7 @@ void AcquisitionPipeline::EmitCycle(const std::array<Slot, kNumDevices>& slots, 
     if (cb_.sample) cb_.sample(s);
     return;
   }
-  if (const auto p = stops_->Add(s)) EmitPoint(*p);
+  if (const auto p = stops_->Add(s, t_ns)) EmitPoint(*p);
   counts_.short_stops = static_cast<std::uint64_t>(stops_->short_stops());
 }
 
@@ -465,6 +531,7 @@ void AcquisitionPipeline::OnMalformedInput(const std::string& what) {
 }
 
 void AcquisitionPipeline::OnLinkEvent(const std::string& what, std::int64_t now_ns) {
+  ResolveHeld();
   Resolve(0, now_ns, false);
   FlushIncomplete();
   have_sync_ = false;  // the gap while the link was down is noted here, not as missed SYNCs
@@ -472,6 +539,7 @@ void AcquisitionPipeline::OnLinkEvent(const std::string& what, std::int64_t now_
 }
 
 void AcquisitionPipeline::Finish() {
+  ResolveHeld();
   Resolve(0, window_.t_ns, true);
   FlushIncomplete();
   if (stops_) {

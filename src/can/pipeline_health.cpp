@@ -124,7 +124,8 @@ std::string FormatCounts(const PipelineCounts& c, Mode mode) {
   s += "\nlost: incomplete cycles " + u(c.incomplete_cycles) + ", missed SYNC " + u(c.missed_syncs) +
        ", kernel drops (rx overflow) " + u(c.rx_overflow_drops) + "; recovered cycles of missed SYNC " +
        u(c.recovered) + "; last cycle cut by the end " + u(c.cut_by_stop) + "; SYNC counter restarts " +
-       u(c.counter_jumps);
+       u(c.counter_jumps) + ", SYNC received twice " + u(c.repeated_syncs) + ", SYNC counters not usable " +
+       u(c.sync_counter_errors);
   s += "\nper device (missing/flagged/malformed): theta " + u(c.missing[kTheta]) + "/" + u(c.flagged[kTheta]) + "/" +
        u(c.malformed[kTheta]) + ", phi " + u(c.missing[kPhi]) + "/" + u(c.flagged[kPhi]) + "/" + u(c.malformed[kPhi]) +
        ", probe " + u(c.missing[kProbe]) + "/" + u(c.flagged[kProbe]) + "/" + u(c.malformed[kProbe]);

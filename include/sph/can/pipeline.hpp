@@ -17,7 +17,15 @@
 // object 1007h, which is at most the period), or, when the device maps the SYNC counter into
 // its PDO, to the cycle of that counter. A cycle with exactly one valid PDO of every device is a
 // sample; the cycles of missed SYNCs are recovered that way too, timed by interpolation between
-// the SYNCs received. A cycle with no PDO of a device, two of them (the second may answer a SYNC
+// the SYNCs received. Where the devices carry the counter, a window is resolved one SYNC later
+// than that, so that a PDO sent late, after the next SYNC, still reaches the cycle whose counter it
+// carries (it may be up to one period late).
+//
+// A SYNC's counter counts only when it is one the producer can send (1..sync_counter_max); another
+// one, a missing one, or one where no counter is configured is warned about and the SYNC taken as
+// one without a counter. A SYNC with the counter of the SYNC before, sooner than half a period after
+// it, is that SYNC received twice (CAN repeats a frame whose last bit was disturbed): it is counted
+// and taken once. A cycle with no PDO of a device, two of them (the second may answer a SYNC
 // that never came), or PDOs after frames were lost that no counter or period can place (kernel
 // receive-queue drops, a controller RX overflow) has no sample for that device: it is counted per
 // device and reason, logged, and written into the points file as a comment (runs of equal
@@ -76,12 +84,14 @@ struct PipelineConfig {
 struct PipelineCounts {
   std::uint64_t frames = 0;  ///< every frame given to OnFrame
   std::uint64_t sync_frames = 0;
-  std::uint64_t cycles = 0;   ///< SYNC cycles closed
+  std::uint64_t cycles = 0;   ///< SYNC cycles closed, those of missed SYNCs included
   std::uint64_t samples = 0;  ///< complete cycles (stream mode: rows written)
   std::uint64_t incomplete_cycles = 0;
   std::uint64_t missed_syncs = 0;                      ///< SYNCs that never arrived (counter or time gaps)
   std::uint64_t recovered = 0;                         ///< of those, cycles whose PDOs all came: samples
   std::uint64_t counter_jumps = 0;                     ///< SYNC counters that jumped further than the time allows
+  std::uint64_t repeated_syncs = 0;                    ///< SYNCs received twice (taken once)
+  std::uint64_t sync_counter_errors = 0;               ///< SYNC counters outside 1..max or missing (not used)
   std::array<std::uint64_t, kNumDevices> missing{};    ///< cycles without a frame from the device
   std::array<std::uint64_t, kNumDevices> flagged{};    ///< values out of range or device errors
   std::array<std::uint64_t, kNumDevices> malformed{};  ///< frames too short for the configured field
@@ -179,7 +189,15 @@ class AcquisitionPipeline {
     std::uint64_t missing_cycles = 0;  ///< cycles since without a PDO of the device
   };
 
-  void OnSync(const CanFrame& frame, const SyncInfo& sync);
+  void OnSync(const CanFrame& frame, SyncInfo sync);
+  /// The SYNC's counter if it is one the producer can send, else none (warned about).
+  std::optional<std::uint8_t> UsableCounter(const CanFrame& frame, const SyncInfo& sync);
+  /// Whether the SYNC is the one before received again (same counter, within half a period).
+  bool Repeats(const CanFrame& frame, const SyncInfo& sync) const;
+  /// Resolves the held window (see the file comment); its late PDOs can no longer come.
+  void ResolveHeld();
+  /// Period for gap detection [s]: configured, else as observed (0: not known yet).
+  double PeriodS() const;
   void OnPdo(int device, const CanFrame& frame);
   /// Resolves the open window into 1 + `missed` cycles; `next_ns` is the next SYNC's time. With
   /// `last` (the end) an incomplete cycle is cut, not counted as incomplete.
@@ -211,6 +229,13 @@ class AcquisitionPipeline {
   Callbacks cb_;
   PipelineCounts counts_;
   Window window_;
+  /// Where the devices carry the SYNC counter: the window before, held open for its late PDOs
+  /// until the next SYNC, with the SYNCs missed after it and the time of the SYNC that closed it.
+  bool hold_ = false;
+  Window held_;
+  std::uint64_t held_missed_ = 0;
+  std::int64_t held_next_ns_ = 0;
+  bool counter_unconfigured_warned_ = false;
   std::vector<std::array<Slot, kNumDevices>> scratch_;  ///< the cycles of the window being resolved
   IncompleteRun run_;
   std::array<Gap, kNumDevices> gaps_{};
