@@ -150,6 +150,8 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
 can::PipelineConfig MakePipelineConfig(const AcquireOptions& o) {
   can::PipelineConfig c;
   ApplyDeviceOptions(o.devices, c);
+  // Gap detection: a SYNC of another producer, or of a log, comes at its own period unless given.
+  if (!o.devices.sync_period_ms && (!o.replay_path.empty() || o.sync_mode == "follow")) c.sync_period_s = 0.0;
   c.mode = o.mode == "points" ? can::Mode::kPoints : can::Mode::kStream;
   c.setup = o.setup;
   c.heartbeat_timeout_s = o.heartbeat_timeout_s;

@@ -328,7 +328,7 @@ int RunLive(AcquireContext& ctx) {
               (ctx.master_config.nmt || ctx.master_config.sdo ? std::string("starting the devices")
                                                               : std::string("listening")) +
               " (SYNC " +
-              (produce ? "produced every " + std::to_string(o.devices.sync_period_ms) + " ms"
+              (produce ? "produced every " + internal::Format("%g", config.sync_period_s * 1e3) + " ms"
                        : std::string("from an external producer")) +
               ", timestamps: " + can::ToString(sock->timestamp_mode()) + ")");
   LiveLoop loop(ctx, socket_options, std::move(*sock));

@@ -236,12 +236,12 @@ void AddDeviceOptions(CLI::App& app, DeviceOptions& o, bool period_may_be_unknow
       ->group(g);
   if (period_may_be_unknown) {
     app.add_option("--sync-period-ms", o.sync_period_ms,
-                   "SYNC period [ms]: produced at this period, or expected from the external producer (gap "
-                   "detection; 0: unknown)")
+                   "SYNC period [ms]: produced at this period (default 1), or expected of the external producer "
+                   "or in the replayed log (gap detection; 0 or not given there: as observed)")
         ->check(ZeroOrInRange(ranges::kSyncPeriodMs, "unknown"))
         ->group(g);
   } else {
-    app.add_option("--sync-period-ms", o.sync_period_ms, "SYNC period [ms]")
+    app.add_option("--sync-period-ms", o.sync_period_ms, "SYNC period [ms] (default 1)")
         ->check(InRange(ranges::kSyncPeriodMs))
         ->group(g);
   }
@@ -289,7 +289,7 @@ void ApplyDeviceOptions(const DeviceOptions& o, can::PipelineConfig& c) {
   c.sync_cob_id = o.sync_cob_id;
   if (o.sync_counter_max == 1) throw Error("--sync-counter-max: 1 is not allowed (0 or 2..240)");
   c.sync_counter_max = static_cast<std::uint8_t>(o.sync_counter_max);
-  c.sync_period_s = o.sync_period_ms * 1e-3;
+  c.sync_period_s = o.sync_period_ms.value_or(kDefaultSyncPeriodMs) * 1e-3;
   c.Validate();
 }
 

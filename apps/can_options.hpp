@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -51,16 +52,21 @@ struct DeviceOptions {
   int probe_sync_counter_byte = -1;
   std::uint32_t sync_cob_id = 0x80;
   int sync_counter_max = 0;
-  double sync_period_ms = 1.0;
+  /// SYNC period [ms]; not given: kDefaultSyncPeriodMs where SYNC is produced, else (a daemon
+  /// following a producer, a replay) as observed.
+  std::optional<double> sync_period_ms;
 };
+
+/// The SYNC period where none is given [ms].
+inline constexpr double kDefaultSyncPeriodMs = 1.0;
 
 /// Adds the --theta-*, --phi-*, --probe-* and --sync-* options, in option group "Devices".
 /// `period_may_be_unknown`: --sync-period-ms 0 means "not known" (a daemon following an
 /// external SYNC producer); else the period must be given.
 void AddDeviceOptions(CLI::App& app, DeviceOptions& options, bool period_may_be_unknown);
 
-/// The pipeline's device part (encoders, probe, SYNC id, counter, period) from the options.
-/// Throws sph::Error on an inconsistent set.
+/// The pipeline's device part (encoders, probe, SYNC id, counter, period) from the options; a
+/// period not given is kDefaultSyncPeriodMs. Throws sph::Error on an inconsistent set.
 void ApplyDeviceOptions(const DeviceOptions& options, can::PipelineConfig& config);
 
 /// Ranges of the CAN apps' options.

@@ -444,7 +444,7 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
   }
   AddForm(o.form, c.spec.sphere_radius_mm, c.spec.effects);
   ApplyDeviceOptions(o.devices, c.devices);
-  c.sync_period_s = o.devices.sync_period_ms * 1e-3;
+  c.sync_period_s = c.devices.sync_period_s;
   c.move_s = o.move_s;
   c.stop_s = o.stop_s;
   c.heartbeat_period_s = o.heartbeat_period_s;

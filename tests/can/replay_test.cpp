@@ -232,6 +232,28 @@ TEST(ReplayFromLines, ASyncRepeatedWithItsCounterIsTakenOnce) {
   EXPECT_THAT(r.file, Not(HasSubstr("incomplete")));
 }
 
+// A log of a SYNC every 10 ms replayed without --sync-period-ms: the period is the log's.
+TEST(ReplayFromLines, WithoutItsPeriodALogIsReplayedAtTheObservedPeriod) {
+  std::string log;
+  for (int k = 0; k < 50; ++k) log += Cycle(k);
+  const Replay r = ReplayLog("no_period", log, [](AcquireOptions& o) { o.devices.sync_period_ms.reset(); });
+  EXPECT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_EQ(r.rows.size(), 50U);
+  EXPECT_THAT(r.err, HasSubstr("missed SYNC 0,"));
+  EXPECT_THAT(r.file, Not(HasSubstr("missing")));
+  // A SYNC that did not come is still found by the observed period, and its cycle recovered.
+  std::string gap;
+  for (int k = 0; k < 50; ++k) {
+    std::string c = Cycle(k);
+    if (k == 30) c.erase(0, c.find('\n') + 1);
+    gap += c;
+  }
+  const Replay g = ReplayLog("no_period_gap", gap, [](AcquireOptions& o) { o.devices.sync_period_ms.reset(); });
+  EXPECT_EQ(g.code, kExitOk) << g.err;
+  EXPECT_EQ(g.rows.size(), 50U);
+  EXPECT_THAT(g.err, HasSubstr("missed SYNC 1,"));
+}
+
 // The cycle of a SYNC that never came, recovered from its PDOs, is a cycle of the summary too.
 TEST(ReplayFromLines, ARecoveredCycleCountsAsACycle) {
   std::string log;
