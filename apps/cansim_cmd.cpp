@@ -410,7 +410,8 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
   app.add_option("--emcy", o.emergencies, "device:at_s:code: an EMCY frame, code in hex (repeatable)")->group(f);
   app.add_option("--fault", o.faults,
                  "reboot:NODE@T: node NODE (a node id, or theta, phi, probe) reboots T s after the start: silent, "
-                 "boot-up message, pre-operational until an NMT master starts it (repeatable)")
+                 "boot-up message, pre-operational until an NMT master starts it; settings-lost:NODE@T: it reboots "
+                 "without its stored settings (1017h and 1019h 0, EMCY 0x5000) and cannot be started (repeatable)")
       ->group(f);
   const std::string n = "CANopen nodes";
   app.add_flag("--boot-operational", o.boot_operational,
@@ -422,6 +423,11 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
   app.add_option("--transmission-type", o.transmission_type,
                  "The TPDOs' transmission type after a boot (1: every SYNC; 254: event-driven)")
       ->check(CLI::Range(0, 255))
+      ->group(n);
+  app.add_option("--nodes-sync-counter-max", o.nodes_sync_counter_max,
+                 "The nodes' SYNC counter overflow value (1019h) after a boot; -1: --sync-counter-max. A node whose "
+                 "1019h does not fit the SYNC it gets sends EMCY 0x8240 and stays pre-operational")
+      ->check(CLI::Range(-1, 240))
       ->group(n);
   app.add_option("--record", o.record_path,
                  "Write what the devices sent for each SYNC: sync_t_s counter theta_deg phi_deg r_mm (- for none)")
@@ -478,10 +484,13 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
   }
   for (const std::string& s : o.faults) {
     const auto at = s.find('@');
-    if (s.rfind("reboot:", 0) != 0 || at == std::string::npos) {
-      throw Error("--fault '" + s + "': expected reboot:NODE@T (NODE a node id or theta, phi, probe; T in s)");
+    const bool lost = s.rfind("settings-lost:", 0) == 0;
+    if ((s.rfind("reboot:", 0) != 0 && !lost) || at == std::string::npos) {
+      throw Error("--fault '" + s +
+                  "': expected reboot:NODE@T or settings-lost:NODE@T (NODE a node id or theta, phi, probe; T in s)");
     }
-    const std::string node = s.substr(7, at - 7);
+    const std::size_t colon = s.find(':') + 1;
+    const std::string node = s.substr(colon, at - colon);
     int id = 0;
     if (node == "theta" || node == "phi" || node == "probe") {
       const int d = ToDevice(node, "--fault");
@@ -496,10 +505,12 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
     }
     const std::string what = "--fault '" + s + "': T";
     const double t = CheckedValue(ToDouble(s.substr(at + 1), what), ranges::kRunTimeS, what, s.substr(at + 1));
-    f.reboots.push_back({id, t});
+    f.reboots.push_back({id, t, lost});
   }
   c.boot_s = o.boot_s;
   c.transmission_type = o.transmission_type;
+  if (o.nodes_sync_counter_max == 1) throw Error("--nodes-sync-counter-max: 1 is not allowed (-1, 0 or 2..240)");
+  c.sync_counter_overflow = o.nodes_sync_counter_max;
   c.start_operational = o.iface.empty() || o.boot_operational;
   c.Validate();
   const auto points = static_cast<double>(c.spec.pattern.size());

@@ -40,11 +40,12 @@ struct CansimOptions {
   std::vector<double> bus_off_at_s;
   std::vector<std::string> silences;     ///< "device:from_s:to_s"
   std::vector<std::string> emergencies;  ///< "device:at_s:code"
-  std::vector<std::string> faults;       ///< "reboot:NODE@T"
+  std::vector<std::string> faults;       ///< "reboot:NODE@T", "settings-lost:NODE@T"
   // the devices as CANopen nodes
   bool boot_operational = false;  ///< live: start operational (another master started them)
   double boot_s = 0.05;
   int transmission_type = 1;
+  int nodes_sync_counter_max = -1;  ///< the nodes' 1019h after a boot; -1: --sync-counter-max
   std::string record_path;  ///< what was sent for each SYNC
   double duration_s = 0.0;  ///< live: stop after this long; 0: at the pattern's end
   DeviceOptions devices;
