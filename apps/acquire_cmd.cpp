@@ -132,7 +132,14 @@ void SetupAcquireApp(CLI::App& app, AcquireOptions& o) {
                "Acquire even when a device's resolution or TPDO settings differ from the configuration (warnings)")
       ->group(m);
   app.add_flag("--configure-pdo", o.configure_pdo,
-               "Write each TPDO's COB-ID, transmission type 1 and mapping (pre-operational), verify by reading back")
+               "Write each TPDO's COB-ID, transmission type 1 and mapping and the SYNC counter overflow value 1019h "
+               "(pre-operational), verify by reading back")
+      ->group(m);
+  app.add_option("--node-heartbeat-ms", o.node_heartbeat_ms,
+                 "Producer heartbeat time written into a node that sends none (1017h = 0), so that its heartbeat "
+                 "confirms that it is operational [ms]; 0: none written (such a node is refused unless "
+                 "--trust-config)")
+      ->check(CLI::Range(0, 65535))
       ->group(m);
   app.add_option("--sdo-timeout-ms", o.sdo_timeout_ms, "An SDO answer later than this fails the transfer [ms]")
       ->check(InRange({1.0, 60000.0, "ms"}))
@@ -205,6 +212,10 @@ can::MasterConfig MakeMasterConfig(const AcquireOptions& o, const can::PipelineC
   m.sdo = !o.no_sdo;
   m.trust_config = o.trust_config;
   m.configure_pdo = o.configure_pdo;
+  m.sync_counter_max = pc.sync_counter_max;
+  m.sync_counter_name = "--sync-counter-max";
+  m.heartbeat_ms = static_cast<std::uint16_t>(o.node_heartbeat_ms);
+  m.heartbeat_name = "--node-heartbeat-ms";
   m.sdo_timeout_ns = static_cast<std::int64_t>(o.sdo_timeout_ms * 1e6);
   m.boot_timeout_ns = static_cast<std::int64_t>(o.boot_timeout_s * 1e9);
   m.Validate();

@@ -69,6 +69,7 @@ struct AcquireOptions {
   bool configure_pdo = false;      ///< write the TPDO settings, verify by reading back
   double sdo_timeout_ms = 500.0;
   double boot_timeout_s = 5.0;
+  int node_heartbeat_ms = 100;   ///< written into a node whose 1017h is 0; 0: none
   std::string probe_pdo_object;  ///< "0x2000:00": checked in the probe's mapping
   DeviceOptions devices;
 };

@@ -63,7 +63,7 @@ void AcquireSession::Advance(std::int64_t now_ns) {
     for (const std::string& e : master_.errors()) log_(can::LogLevel::kError, e);
     log_(can::LogLevel::kError,
          "the start was refused: no points file was made (--trust-config acquires anyway, "
-         "--configure-pdo writes the TPDO settings)");
+         "--configure-pdo writes the TPDO settings and 1019h)");
     return;
   }
   if (master_.phase() == can::CanopenMaster::Phase::kRunning) StartAcquisition(now_ns);
@@ -271,7 +271,8 @@ std::string AcquireSession::Summary() const {
   if (master_.config().nmt || master_.config().sdo) {
     s += "\nmaster: NMT commands " + std::to_string(m.nmt_commands) + ", SDO transfers " +
          std::to_string(m.sdo_transfers) + ", reboots " + std::to_string(m.boot_ups) + ", restarted " +
-         std::to_string(m.restarts) + ", not restarted " + std::to_string(m.restart_failures);
+         std::to_string(m.restarts) + ", not restarted " + std::to_string(m.restart_failures) +
+         ", started without a heartbeat to confirm it " + std::to_string(m.unconfirmed);
   }
   return s;
 }

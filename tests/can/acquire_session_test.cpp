@@ -234,6 +234,14 @@ TEST(AcquireSession, OptionsForTheMaster) {
   EXPECT_EQ(m.nodes[0].devices[0].cpr_name, "--theta-counts-per-rev");
   ASSERT_TRUE(m.nodes[2].devices[0].mapped_object.has_value());
   EXPECT_EQ(*m.nodes[2].devices[0].mapped_object, (can::ObjectAddress{0x2000, 0}));
+  EXPECT_EQ(m.sync_counter_max, 0);  // every node's 1019h is checked against the SYNC's
+  EXPECT_EQ(m.heartbeat_ms, 100);
+  o.devices.sync_counter_max = 240;
+  o.node_heartbeat_ms = 250;
+  const can::MasterConfig counted = MakeMasterConfig(o, MakePipelineConfig(o));
+  EXPECT_EQ(counted.sync_counter_max, 240);
+  EXPECT_EQ(counted.sync_counter_name, "--sync-counter-max");
+  EXPECT_EQ(counted.heartbeat_ms, 250);
   o.probe_pdo_object = "2000";
   EXPECT_THROW(MakeMasterConfig(o, MakePipelineConfig(o)), Error);
   o.probe_pdo_object.clear();

@@ -223,6 +223,8 @@ std::vector<MatrixCase> AcquiredCases() {
        "--heartbeat-timeout-s: must be >= 0 and <= 86400 s, got inf"},
       {"standstill_tolerance_zero", r({"-o", "x.txt", "--standstill-tol-deg", "0"}), 2,
        "--standstill-tol-deg: must be > 0 and <= 360 deg, got 0"},
+      {"node_heartbeat_negative", r({"-o", "x.txt", "--node-heartbeat-ms", "-1"}), 2,
+       "--node-heartbeat-ms: Value -1 not in range 0 to 65535"},
       {"sdo_timeout_nan", r({"-o", "x.txt", "--sdo-timeout-ms", "nan"}), 2,
        "--sdo-timeout-ms: must be >= 1 and <= 60000 ms, got nan"},
       {"duration_too_long", r({"-o", "x.txt", "--duration-s", "1e300"}), 2,
