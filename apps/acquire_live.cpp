@@ -321,8 +321,8 @@ int RunLive(AcquireContext& ctx) {
     ctx.log(can::LogLevel::kError, e.what());
     return kExitInterfaceError;
   }
-  ctx.session = std::make_unique<AcquireSession>(o, config, ctx.master_config, ctx.log, "CAN interface " + o.iface,
-                                                 o.iface);
+  ctx.session =
+      std::make_unique<AcquireSession>(o, config, ctx.master_config, ctx.log, "CAN interface " + o.iface, o.iface);
   ctx.log(can::LogLevel::kInfo,
           o.iface + ": " +
               (ctx.master_config.nmt || ctx.master_config.sdo ? std::string("starting the devices")

@@ -102,8 +102,7 @@ bool AcquireSession::OpenOutputs() {
   const bool log_existed = o.can_log_path.empty() || ::access(o.can_log_path.c_str(), F_OK) == 0;
   try {
     if (!o.can_log_path.empty()) {
-      frame_log_ =
-          std::make_unique<can::CandumpWriter>(o.can_log_path, iface_, o.fsync_interval_s);
+      frame_log_ = std::make_unique<can::CandumpWriter>(o.can_log_path, iface_, o.fsync_interval_s);
     }
     PointsHeader header = AcquireHeader(o);
     header.metadata = {

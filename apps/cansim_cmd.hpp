@@ -46,8 +46,8 @@ struct CansimOptions {
   double boot_s = 0.05;
   int transmission_type = 1;
   int nodes_sync_counter_max = -1;  ///< the nodes' 1019h after a boot; -1: --sync-counter-max
-  std::string record_path;  ///< what was sent for each SYNC
-  double duration_s = 0.0;  ///< live: stop after this long; 0: at the pattern's end
+  std::string record_path;          ///< what was sent for each SYNC
+  double duration_s = 0.0;          ///< live: stop after this long; 0: at the pattern's end
   DeviceOptions devices;
 };
 

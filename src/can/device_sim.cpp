@@ -37,8 +37,8 @@ int DummyBits(std::uint16_t index) {
 
 // COB-IDs CiA 301 reserves (§7.3.5): no SYNC or EMCY may be sent on them.
 bool Restricted(std::uint64_t id) {
-  return id <= 0x07F || (id >= 0x101 && id <= 0x180) || (id >= 0x581 && id <= 0x5FF) ||
-         (id >= 0x601 && id <= 0x67F) || (id >= 0x6E0 && id <= 0x6FF) || id >= 0x701;
+  return id <= 0x07F || (id >= 0x101 && id <= 0x180) || (id >= 0x581 && id <= 0x5FF) || (id >= 0x601 && id <= 0x67F) ||
+         (id >= 0x6E0 && id <= 0x6FF) || id >= 0x701;
 }
 
 std::uint32_t MapEntry(ObjectAddress o, int bits) {
@@ -84,9 +84,9 @@ struct DeviceSimulator::Node {
   std::int64_t next_event_pdo = kNever;
   std::vector<RebootEvent> reboots;  ///< in time order
   std::size_t next_reboot = 0;
-  bool settings_lost = false;       ///< the next boot is without the stored settings
+  bool settings_lost = false;              ///< the next boot is without the stored settings
   std::int64_t hardware_emcy_at = kNever;  ///< its EMCY 0x5000 after such a boot
-  std::uint8_t error_register = 0;  ///< 1001h: an error keeps the node from operational
+  std::uint8_t error_register = 0;         ///< 1001h: an error keeps the node from operational
   ObjectDictionary od;
   std::unique_ptr<SdoServer> server;
   std::uint64_t syncs_seen = 0;
@@ -124,8 +124,9 @@ void DeviceSimConfig::Validate() const {
   }
   if (heartbeat_period_s > 65.535) throw Error("device simulator: 1017h holds a heartbeat period of at most 65.535 s");
   if (sync_counter_overflow < -1 || sync_counter_overflow == 1 || sync_counter_overflow > 240) {
-    throw Error("device simulator: the nodes' SYNC counter overflow value (1019h) must be 0 or 2..240 (-1: the "
-                "SYNC's)");
+    throw Error(
+        "device simulator: the nodes' SYNC counter overflow value (1019h) must be 0 or 2..240 (-1: the "
+        "SYNC's)");
   }
 }
 
@@ -215,9 +216,7 @@ bool DeviceSimulator::Silent(int device, double t_rel_s) const {
   return false;
 }
 
-std::int64_t DeviceSimulator::RebootNs(const Node& n) const {
-  return start_ns_ + ToNs(n.reboots[n.next_reboot].at_s);
-}
+std::int64_t DeviceSimulator::RebootNs(const Node& n) const { return start_ns_ + ToNs(n.reboots[n.next_reboot].at_s); }
 
 std::uint8_t DeviceSimulator::NodeState(int node_id) const {
   for (const auto& n : nodes_) {
@@ -283,16 +282,17 @@ void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
   // The stored communication settings, or without them the defaults of CANopenNode's object
   // dictionary: no heartbeat, no SYNC counter.
   const bool stored = !n.settings_lost;
-  const int overflow = config_.sync_counter_overflow >= 0 ? config_.sync_counter_overflow
-                                                           : config_.devices.sync_counter_max;
+  const int overflow =
+      config_.sync_counter_overflow >= 0 ? config_.sync_counter_overflow : config_.devices.sync_counter_max;
   od.SetUnsigned({0x1000, 0}, encoder ? 0x00010196 : 0x00000000, 4);  // CiA 406 (0x196), single-turn
   od.SetUnsigned({0x1001, 0}, 0, 1);
   od.SetUnsigned({0x1005, 0}, config_.devices.sync_cob_id, 4, A::kReadWrite);
   const std::string name = std::string("sph_cansim ") + DeviceName(d) + (encoder ? " encoder" : "");
   od.Set({0x1008, 0}, std::vector<std::uint8_t>(name.begin(), name.end()));
   od.SetUnsigned({0x1014, 0}, kEmcyBase + static_cast<std::uint32_t>(n.node_id), 4, A::kReadWrite);
-  od.SetUnsigned({0x1017, 0}, stored ? static_cast<std::uint64_t>(std::llround(config_.heartbeat_period_s * 1000.0)) : 0,
-                 2, A::kReadWrite);
+  od.SetUnsigned({0x1017, 0},
+                 stored ? static_cast<std::uint64_t>(std::llround(config_.heartbeat_period_s * 1000.0)) : 0, 2,
+                 A::kReadWrite);
   od.SetUnsigned({0x1019, 0}, stored ? static_cast<std::uint64_t>(overflow) : 0, 1, A::kReadWrite);
   od.SetUnsigned({0x1018, 0}, 4, 1);
   od.SetUnsigned({0x1018, 1}, kVendorId, 4);
@@ -564,11 +564,11 @@ void DeviceSimulator::OnFrame(const CanFrame& frame, std::vector<CanFrame>& out)
   const std::int64_t t = frame.t_ns;
   now_ns_ = t;
   // A SYNC: on the configured id (the sensors') or on the 1005h of a node.
-  const bool sync_id = !frame.IsExtended() && (frame.id == config_.devices.sync_cob_id ||
-                                               std::any_of(nodes_.begin(), nodes_.end(), [&](const auto& n) {
-                                                 return n->node_id != 0 && n->On() &&
-                                                        (n->od.Unsigned({0x1005, 0}) & 0x7FFU) == frame.id;
-                                               }));
+  const bool sync_id =
+      !frame.IsExtended() &&
+      (frame.id == config_.devices.sync_cob_id || std::any_of(nodes_.begin(), nodes_.end(), [&](const auto& n) {
+         return n->node_id != 0 && n->On() && (n->od.Unsigned({0x1005, 0}) & 0x7FFU) == frame.id;
+       }));
   if (sync_id) {
     if (const auto sync = DecodeSync(frame, frame.id)) OnSync(t, frame.id, sync->counter, out);
     return;

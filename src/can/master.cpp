@@ -190,8 +190,8 @@ struct CanopenMaster::NodeState {
   std::optional<NodeIdentity> first;  ///< identified at the start
   bool restarting = false;
   std::optional<std::uint8_t> last_state;
-  bool heartbeat_since_start = false;  ///< a heartbeat came after the NMT Start
-  std::string error;  ///< why the start failed
+  bool heartbeat_since_start = false;     ///< a heartbeat came after the NMT Start
+  std::string error;                      ///< why the start failed
   std::optional<std::uint16_t> hb_found;  ///< 1017h as this identification found it
   std::uint16_t hb_target = 0;            ///< the heartbeat the master wants of it (set at the start)
   std::uint16_t hb_ms = 0;                ///< the heartbeat it sends now
@@ -346,8 +346,8 @@ void CanopenMaster::ConfigureHeartbeat(NodeState& n, std::uint16_t found) {
   if (n.hb_target == 0 || found == n.hb_target) return;
   using Job = NodeState::Job;
   const auto at = n.jobs.begin() + static_cast<std::ptrdiff_t>(n.next_job + 1);
-  n.jobs.insert(at, {Job{true, {0x1017, 0}, LittleEndianBytes(n.hb_target, 2), false, true},
-                     Job{false, {0x1017, 0}, {}, true}});
+  n.jobs.insert(
+      at, {Job{true, {0x1017, 0}, LittleEndianBytes(n.hb_target, 2), false, true}, Job{false, {0x1017, 0}, {}, true}});
 }
 
 std::vector<std::string> CanopenMaster::Check(const NodeState& n, std::vector<std::string>* warnings) const {
@@ -424,8 +424,9 @@ std::vector<std::string> CanopenMaster::Check(const NodeState& n, std::vector<st
     }
   }
   if (config_.nmt && n.U32({0x1017, 0}).value_or(0) == 0) {
-    std::string why = "its NMT state cannot be confirmed: object 0x1017:00 (producer heartbeat time) is 0, it sends no "
-                      "heartbeat";
+    std::string why =
+        "its NMT state cannot be confirmed: object 0x1017:00 (producer heartbeat time) is 0, it sends no "
+        "heartbeat";
     if (!n.write_error.empty()) {
       why += " (" + n.write_error + ")";
     } else if (n.hb_target == 0) {
@@ -459,8 +460,9 @@ void CanopenMaster::FinishSdo(NodeState& n, std::int64_t now_ns) {
   std::vector<std::string> problems = Check(n, &warnings);
   for (const std::string& w : warnings) Log(LogLevel::kWarning, w);
   if (config_.sync_counter_max > 0 && !n.U32({0x1019, 0})) {
-    Log(LogLevel::kWarning, n.Name() + ": the device has no object 0x1019:00 (synchronous counter overflow value): "
-                                       "whether it takes SYNC with a counter is not known");
+    Log(LogLevel::kWarning, n.Name() +
+                                ": the device has no object 0x1019:00 (synchronous counter overflow value): "
+                                "whether it takes SYNC with a counter is not known");
   }
   if (n.first) {  // a restart: it must be the same device
     const auto differs = [](const std::optional<std::uint32_t>& a, const std::optional<std::uint32_t>& b) {

@@ -156,7 +156,7 @@ TEST(DeviceSim, AMasterSetsTheHeartbeatThrough1017h) {
   f = d.At(kT0 + 100 * kMs, {EncodeUploadRequest(1, {0x1017, 0})}, kT0 + 2000 * kMs);
   EXPECT_THAT(f, ElementsAre("581#4B17100000000000"));  // 0 ms, and no heartbeat for 1.9 s
   f = d.At(kT0 + 2000 * kMs, {MakeFrame(0x601, {0x2B, 0x17, 0x10, 0x00, 0xC8, 0x00, 0x00, 0x00})},
-           kT0 + 2450 * kMs);  // 200 ms
+           kT0 + 2450 * kMs);                                                         // 200 ms
   EXPECT_THAT(f, ElementsAre("581#6017100000000000", "701#7F", "701#7F", "701#7F"));  // at 2000.2, 2200.2, 2400.2
   f = d.At(kT0 + 2450 * kMs, {EncodeNmt(NmtCommand::kStart, 1)}, kT0 + 2500 * kMs);
   EXPECT_THAT(f, ElementsAre("701#05"));  // a state change is told at once
@@ -185,8 +185,8 @@ TEST(DeviceSim, HasTheSyncAndEmcyObjectsAndFollowsThem) {
   f = d.At(kT0 + 106 * kMs, {EncodeDownloadRequest(2, {0x1014, 0}, {0x90, 0x00, 0x00, 0x00})}, kT0 + 107 * kMs);
   EXPECT_THAT(f, ElementsAre("582#8014100030000906"));  // another id while EMCY is on
   // SYNC on 0x90 for node 1 only; node 2 sends no EMCY; node 1 counts SYNCs to 240.
-  const std::vector<std::pair<std::uint16_t, std::vector<std::uint8_t>>> writes{
-      {0x1005, {0x90, 0, 0, 0}}, {0x1019, {240}}};
+  const std::vector<std::pair<std::uint16_t, std::vector<std::uint8_t>>> writes{{0x1005, {0x90, 0, 0, 0}},
+                                                                                {0x1019, {240}}};
   for (const auto& [index, value] : writes) {
     f = d.At(kT0 + 107 * kMs, {EncodeDownloadRequest(1, {index, 0}, value)}, kT0 + 108 * kMs);
     ASSERT_EQ(f.size(), 1U);
@@ -216,8 +216,8 @@ TEST(DeviceSim, ACountedSyncToANodeWithout1019hIsAnErrorThatStopsIt) {
   d.At(kT0, {}, kT0 + 100 * kMs);
   d.At(kT0 + 100 * kMs, {EncodeNmt(NmtCommand::kStart, 0)}, kT0 + 110 * kMs);
   auto f = d.At(kT0 + 110 * kMs, {EncodeSync(std::uint8_t{1})}, kT0 + 120 * kMs);
-  EXPECT_THAT(f, ElementsAre("081#4082111841000000", "082#4082111841000000", "083#4082111841000000", "701#7F",
-                             "702#7F", "703#7F"));
+  EXPECT_THAT(f, ElementsAre("081#4082111841000000", "082#4082111841000000", "083#4082111841000000", "701#7F", "702#7F",
+                             "703#7F"));
   f = d.At(kT0 + 120 * kMs, {EncodeSync(std::uint8_t{2})}, kT0 + 130 * kMs);
   EXPECT_TRUE(f.empty()) << ::testing::PrintToString(f);  // the EMCY once; no PDO
   d.At(kT0 + 130 * kMs, {EncodeNmt(NmtCommand::kStart, 1)}, kT0 + 140 * kMs);

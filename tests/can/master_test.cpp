@@ -280,8 +280,9 @@ struct ScriptedNode {
       }
       CanFrame f = MakeFrame(0x581, {}, t += kMs);
       f.len = 8;
-      for (int i = 0; i < 8; ++i) f.data[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(
-                                      std::stoi(reply.substr(static_cast<std::size_t>(2 * i), 2), nullptr, 16));
+      for (int i = 0; i < 8; ++i)
+        f.data[static_cast<std::size_t>(i)] =
+            static_cast<std::uint8_t>(std::stoi(reply.substr(static_cast<std::size_t>(2 * i), 2), nullptr, 16));
       master.OnFrame(f);
     }
   }
@@ -308,20 +309,13 @@ TEST(Master, ScriptedNodeAndADeviceThatCameBackAsAnother) {
   d.answers["4017100000000000"] = "4B171000F4010000";  // heartbeat 500 ms
   d.master.Begin(d.t);
   d.Answer();
-  const std::vector<std::string> expected{"601#4018100100000000",
-                                          "601#4018100200000000",
-                                          "601#4018100300000000",
-                                          "601#4018100400000000",
-                                          "601#4008100000000000",
-                                          "601#4017100000000000",
-                                          "601#4019100000000000",
-                                          "601#4001600000000000",
-                                          "601#4002600000000000",
-                                          "601#4000180100000000",
-                                          "601#4000180200000000",
-                                          "601#40001A0000000000",
-                                          "601#40001A0100000000",
-                                          "000#0101"};
+  const std::vector<std::string> expected{"601#4018100100000000", "601#4018100200000000",
+                                          "601#4018100300000000", "601#4018100400000000",
+                                          "601#4008100000000000", "601#4017100000000000",
+                                          "601#4019100000000000", "601#4001600000000000",
+                                          "601#4002600000000000", "601#4000180100000000",
+                                          "601#4000180200000000", "601#40001A0000000000",
+                                          "601#40001A0100000000", "000#0101"};
   EXPECT_EQ(d.sent, expected);
   EXPECT_EQ(d.master.phase(), CanopenMaster::Phase::kStarting);  // until its heartbeat says operational
   d.Heartbeat(0x05);

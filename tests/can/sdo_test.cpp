@@ -284,7 +284,7 @@ TEST(SdoServer, ANormalDownloadIsTakenSegmentBySegment) {
   SdoServer server(1, &od, nullptr, [&](ObjectAddress o) { written.push_back(o); });
   auto a = server.OnRequest(From(0x601, {0x21, 0x17, 0x10, 0x00, 0x02, 0x00, 0x00, 0x00}));  // 2 bytes follow
   EXPECT_THAT(Bytes(*a), ElementsAre(0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0));
-  EXPECT_EQ(od.Unsigned({0x1017, 0}), 1000U);  // nothing written yet
+  EXPECT_EQ(od.Unsigned({0x1017, 0}), 1000U);                            // nothing written yet
   a = server.OnRequest(From(0x601, {0x0B, 0xC8, 0x00, 0, 0, 0, 0, 0}));  // toggle 0, 5 bytes unused, last
   EXPECT_THAT(Bytes(*a), ElementsAre(0x20, 0, 0, 0, 0, 0, 0, 0));
   EXPECT_EQ(od.Unsigned({0x1017, 0}), 200U);

@@ -126,7 +126,7 @@ struct SimInjected {
   std::uint64_t nmt_commands = 0;  ///< NMT commands received
   std::uint64_t sdo_requests = 0;  ///< SDO requests answered (aborts included)
   std::uint64_t sdo_aborts = 0;
-  std::uint64_t sync_length_errors = 0;  ///< SYNCs of another length than a node's 1019h says
+  std::uint64_t sync_length_errors = 0;           ///< SYNCs of another length than a node's 1019h says
   std::array<std::uint64_t, kNumDevices> pdos{};  ///< TPDOs sent
 };
 

@@ -113,7 +113,7 @@ std::vector<MasterNode> MasterNodesFor(const PipelineConfig& devices);
 struct NodeIdentity {
   std::optional<std::uint32_t> vendor_id, product_code, revision, serial;
   std::optional<std::string> name;
-  std::optional<std::uint16_t> heartbeat_ms;  ///< 1017h as found, before the master wrote it
+  std::optional<std::uint16_t> heartbeat_ms;     ///< 1017h as found, before the master wrote it
   std::optional<std::uint8_t> sync_counter_max;  ///< 1019h as found
   /// Per device (by role): 6001h and 6002h of encoders.
   std::map<std::string, std::pair<std::optional<std::uint32_t>, std::optional<std::uint32_t>>> resolution;

@@ -78,7 +78,7 @@ class SdoServer {
   WriteCheck check_;
   Written written_;
   Transfer transfer_ = Transfer::kNone;
-  ObjectAddress object_;  ///< of the transfer in progress, or of the last one
+  ObjectAddress object_;              ///< of the transfer in progress, or of the last one
   std::vector<std::uint8_t> buffer_;  ///< upload: the value; download: the bytes received
   std::size_t upload_offset_ = 0;
   std::uint32_t download_size_ = 0;  ///< the size the client indicated; 0: none

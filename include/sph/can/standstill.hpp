@@ -70,7 +70,7 @@ class StandstillDetector {
   StandstillConfig config_;
   std::optional<Sample> anchor_;
   std::int64_t anchor_ns_ = 0;
-  bool done_ = false;  // this stop's point was emitted (average_s reached)
+  bool done_ = false;                 // this stop's point was emitted (average_s reached)
   Running d_theta_, d_phi_, r_, dt_;  // dt_: seconds after the anchor
   std::int64_t first_ns_ = 0, last_ns_ = 0;
   long short_stops_ = 0;
