@@ -113,7 +113,7 @@ void AcquisitionPipeline::Log(LogLevel level, const std::string& text) {
   if (cb_.log) cb_.log(level, text);
 }
 
-void AcquisitionPipeline::LogLimited(std::uint64_t count, LogLevel level, const std::string& text) {
+void AcquisitionPipeline::LogCounted(std::uint64_t count, LogLevel level, const std::string& text) {
   if (count <= 20) {
     Log(level, text + (count == 20 ? " (further ones: every 1000th is logged)" : ""));
   } else if (count % 1000 == 0) {
@@ -138,7 +138,7 @@ void AcquisitionPipeline::OnFrame(const CanFrame& frame) {
     } else {
       ++counts_.malformed_other;
       LogLimited(counts_.malformed_other, LogLevel::kWarning,
-                 "malformed SYNC at " + TimeText(frame.t_ns) + ": " + ToString(frame));
+                 [&] { return "malformed SYNC at " + TimeText(frame.t_ns) + ": " + ToString(frame); });
     }
   } else if (frame.id == config_.theta.field.can_id) {
     OnPdo(kTheta, frame);
@@ -170,12 +170,13 @@ std::optional<std::uint8_t> AcquisitionPipeline::UsableCounter(const CanFrame& f
   }
   if (sync.counter && *sync.counter >= 1 && *sync.counter <= max) return sync.counter;
   ++counts_.sync_counter_errors;
-  LogLimited(counts_.sync_counter_errors, LogLevel::kWarning,
-             "the SYNC at t_s " + TimeText(frame.t_ns) +
-                 (sync.counter ? " carries counter " + std::to_string(*sync.counter) + ", outside 1.." +
-                                     std::to_string(max) + " (the SYNC counter overflow value)"
-                               : " carries no counter (1.." + std::to_string(max) + " expected)") +
-                 ": its cycle is placed by time");
+  LogLimited(counts_.sync_counter_errors, LogLevel::kWarning, [&] {
+    return "the SYNC at t_s " + TimeText(frame.t_ns) +
+           (sync.counter ? " carries counter " + std::to_string(*sync.counter) + ", outside 1.." + std::to_string(max) +
+                               " (the SYNC counter overflow value)"
+                         : " carries no counter (1.." + std::to_string(max) + " expected)") +
+           ": its cycle is placed by time";
+  });
   return std::nullopt;
 }
 
@@ -206,10 +207,10 @@ std::uint64_t AcquisitionPipeline::MissedBefore(const CanFrame& frame, const Syn
     // NMT reset). A paused producer, whose counter did not move, is the other way round.
     if (missed > *by_time + 1) {
       ++counts_.counter_jumps;
-      LogLimited(counts_.counter_jumps, LogLevel::kWarning,
-                 "the SYNC counter went from " + std::to_string(*last_counter_) + " to " +
-                     std::to_string(*sync.counter) + " in " + TimeText(interval_ns) +
-                     " s: a restarted counter, not missed SYNCs");
+      LogLimited(counts_.counter_jumps, LogLevel::kWarning, [&] {
+        return "the SYNC counter went from " + std::to_string(*last_counter_) + " to " + std::to_string(*sync.counter) +
+               " in " + TimeText(interval_ns) + " s: a restarted counter, not missed SYNCs";
+      });
       missed = *by_time;
     }
   }
@@ -222,10 +223,11 @@ void AcquisitionPipeline::OnSync(const CanFrame& frame, SyncInfo sync) {
   sync.counter = UsableCounter(frame, sync);
   if (Repeats(frame, sync)) {
     ++counts_.repeated_syncs;
-    LogLimited(counts_.repeated_syncs, LogLevel::kWarning,
-               "the SYNC at t_s " + TimeText(frame.t_ns) + " repeats the counter " + std::to_string(*sync.counter) +
-                   " of the SYNC " + TimeText(frame.t_ns - last_sync_ns_) + " s before: the same SYNC received " +
-                   "twice, taken once");
+    LogLimited(counts_.repeated_syncs, LogLevel::kWarning, [&] {
+      return "the SYNC at t_s " + TimeText(frame.t_ns) + " repeats the counter " + std::to_string(*sync.counter) +
+             " of the SYNC " + TimeText(frame.t_ns - last_sync_ns_) + " s before: the same SYNC received " +
+             "twice, taken once";
+    });
     return;
   }
   const std::uint64_t missed = MissedBefore(frame, sync);
@@ -252,8 +254,9 @@ void AcquisitionPipeline::OnSync(const CanFrame& frame, SyncInfo sync) {
 void AcquisitionPipeline::OnPdo(int device, const CanFrame& frame) {
   if (!window_.open) {
     ++counts_.outside_cycle;
-    LogLimited(counts_.outside_cycle, LogLevel::kDebug,
-               std::string(DeviceName(device)) + " PDO before the first SYNC at " + TimeText(frame.t_ns));
+    LogLimited(counts_.outside_cycle, LogLevel::kDebug, [&] {
+      return std::string(DeviceName(device)) + " PDO before the first SYNC at " + TimeText(frame.t_ns);
+    });
     return;
   }
   const auto d = static_cast<std::size_t>(device);
@@ -261,14 +264,16 @@ void AcquisitionPipeline::OnPdo(int device, const CanFrame& frame) {
                                           : DecodePosition(device == kTheta ? config_.theta : config_.phi, frame);
   if (v.status == DecodeStatus::kShort) {
     ++counts_.malformed[d];
-    LogLimited(counts_.malformed[d], LogLevel::kWarning,
-               std::string("malformed ") + DeviceName(device) + " PDO at " + TimeText(frame.t_ns) + ": " +
-                   ToString(frame) + " (too short for the configured field)");
+    LogLimited(counts_.malformed[d], LogLevel::kWarning, [&] {
+      return std::string("malformed ") + DeviceName(device) + " PDO at " + TimeText(frame.t_ns) + ": " +
+             ToString(frame) + " (too short for the configured field)";
+    });
   } else if (v.status != DecodeStatus::kOk) {
     ++counts_.flagged[d];
-    LogLimited(counts_.flagged[d], LogLevel::kWarning,
-               std::string(DeviceName(device)) + " reports " + ToString(v.status) + " at " + TimeText(frame.t_ns) +
-                   " (raw " + std::to_string(v.raw) + ")");
+    LogLimited(counts_.flagged[d], LogLevel::kWarning, [&] {
+      return std::string(DeviceName(device)) + " reports " + ToString(v.status) + " at " + TimeText(frame.t_ns) +
+             " (raw " + std::to_string(v.raw) + ")";
+    });
   }
   Arrival a{v.status, v.value, frame.t_ns, -1};
   const int counter_byte = config_.sync_counter_byte[d];
@@ -291,6 +296,16 @@ void AcquisitionPipeline::ResolveHeld() {
   std::swap(window_, held_);  // the resolution works on window_
   Resolve(held_missed_, held_next_ns_);
   std::swap(window_, held_);
+}
+
+bool AcquisitionPipeline::Complete(const std::array<Slot, kNumDevices>& slots, const Window& window) {
+  for (std::size_t d = 0; d < kNumDevices; ++d) {
+    const Slot& s = slots[d];
+    if (s.count != 1 || s.lost || window.pdos[d][static_cast<std::size_t>(s.index)].status != DecodeStatus::kOk) {
+      return false;
+    }
+  }
+  return true;
 }
 
 std::string AcquisitionPipeline::Reason(const std::array<Slot, kNumDevices>& slots) const {
@@ -354,10 +369,11 @@ void AcquisitionPipeline::PlaceArrivals(std::uint64_t missed, double period, boo
         k = static_cast<std::uint64_t>(((a.counter - static_cast<int>(*window_.counter)) % m + m) % m);
         if (k > missed) {
           ++counts_.unplaced;
-          LogLimited(counts_.unplaced, LogLevel::kWarning,
-                     std::string(DeviceName(d)) + " PDO at " + TimeText(a.t_ns) + " answers SYNC counter " +
-                         std::to_string(a.counter) + ", not one of the window of counter " +
-                         std::to_string(*window_.counter) + " (not used)");
+          LogLimited(counts_.unplaced, LogLevel::kWarning, [&] {
+            return std::string(DeviceName(d)) + " PDO at " + TimeText(a.t_ns) + " answers SYNC counter " +
+                   std::to_string(a.counter) + ", not one of the window of counter " +
+                   std::to_string(*window_.counter) + " (not used)";
+          });
           continue;
         }
       } else if (missed > 0) {
@@ -384,9 +400,10 @@ void AcquisitionPipeline::CountDuplicates(const Cycles& cycles) {
       const Slot& s = cycles[k][static_cast<std::size_t>(d)];
       if (s.count < 2) continue;
       counts_.duplicates += static_cast<std::uint64_t>(s.count - 1);
-      LogLimited(counts_.duplicates, LogLevel::kWarning,
-                 std::to_string(s.count) + " " + DeviceName(d) + " PDOs in the SYNC cycle of t_s " +
-                     TimeText(window_.t_ns) + ": none is used (one may answer a SYNC that never arrived)");
+      LogLimited(counts_.duplicates, LogLevel::kWarning, [&] {
+        return std::to_string(s.count) + " " + DeviceName(d) + " PDOs in the SYNC cycle of t_s " +
+               TimeText(window_.t_ns) + ": none is used (one may answer a SYNC that never arrived)";
+      });
     }
   }
 }
@@ -394,8 +411,7 @@ void AcquisitionPipeline::CountDuplicates(const Cycles& cycles) {
 // The cycle of the SYNC received: a sample, or why not.
 void AcquisitionPipeline::ResolveReceived(const std::array<Slot, kNumDevices>& slots, bool last) {
   CloseGaps(slots, window_.t_ns);
-  const std::string why = Reason(slots);
-  if (why.empty()) {
+  if (Complete(slots, window_)) {
     EmitCycle(slots, window_.t_ns);
   } else if (last) {
     ++counts_.cut_by_stop;
@@ -408,7 +424,7 @@ void AcquisitionPipeline::ResolveReceived(const std::array<Slot, kNumDevices>& s
     for (int d = 0; d < kNumDevices; ++d) {
       if (slots[static_cast<std::size_t>(d)].count == 0) ++counts_.missing[static_cast<std::size_t>(d)];
     }
-    NoteIncomplete(why, window_.t_ns);
+    NoteIncomplete(Reason(slots), window_.t_ns);
   }
 }
 
@@ -421,8 +437,7 @@ void AcquisitionPipeline::ResolveMissed(const Cycles& cycles, std::uint64_t miss
   std::uint64_t recovered = 0, with_pdos = 0;
   std::string first_reason;
   for (std::size_t k = 1; k < cycles.size(); ++k) {
-    const std::string r = Reason(cycles[k]);
-    if (r.empty()) {
+    if (Complete(cycles[k], window_)) {
       ++recovered;
       continue;
     }
@@ -430,7 +445,7 @@ void AcquisitionPipeline::ResolveMissed(const Cycles& cycles, std::uint64_t miss
     for (const Slot& s : cycles[k]) any |= s.count > 0;
     if (any) {
       ++with_pdos;
-      if (first_reason.empty()) first_reason = r;
+      if (first_reason.empty()) first_reason = Reason(cycles[k]);
     }
   }
   FlushIncomplete();
@@ -446,7 +461,7 @@ void AcquisitionPipeline::ResolveMissed(const Cycles& cycles, std::uint64_t miss
   for (std::size_t k = 1; k < cycles.size(); ++k) {
     const auto t = window_.t_ns + static_cast<std::int64_t>(std::llround(period * static_cast<double>(k)));
     CloseGaps(cycles[k], t);
-    if (Reason(cycles[k]).empty()) EmitCycle(cycles[k], t);
+    if (Complete(cycles[k], window_)) EmitCycle(cycles[k], t);
   }
 }
 
@@ -527,7 +542,7 @@ void AcquisitionPipeline::OnRxOverflow(std::uint64_t drops, std::int64_t now_ns)
 
 void AcquisitionPipeline::OnMalformedInput(const std::string& what) {
   ++counts_.malformed_other;
-  LogLimited(counts_.malformed_other, LogLevel::kWarning, "malformed input: " + what);
+  LogLimited(counts_.malformed_other, LogLevel::kWarning, [&] { return "malformed input: " + what; });
 }
 
 void AcquisitionPipeline::OnLinkEvent(const std::string& what, std::int64_t now_ns) {

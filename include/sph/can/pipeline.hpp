@@ -221,8 +221,15 @@ class AcquisitionPipeline {
   bool OnHealthFrame(const CanFrame& frame);  // heartbeat, EMCY, error frame
   void CheckHeartbeats(std::int64_t now_ns);
   void Log(LogLevel level, const std::string& text);
-  /// Logs the first 20 of a kind, then every 1000th, so floods stay readable.
-  void LogLimited(std::uint64_t count, LogLevel level, const std::string& text);
+  /// Logs the first 20 of a kind, then every 1000th, so floods stay readable; `text()` makes the
+  /// line, only for a line logged (a flood of frames costs no text).
+  template <typename Text>
+  void LogLimited(std::uint64_t count, LogLevel level, const Text& text) {
+    if (cb_.log && (count <= 20 || count % 1000 == 0)) LogCounted(count, level, text());
+  }
+  void LogCounted(std::uint64_t count, LogLevel level, const std::string& text);
+  /// Whether a cycle with these slots is a sample (Reason() is "").
+  static bool Complete(const std::array<Slot, kNumDevices>& slots, const Window& window);
   void Note(const std::string& text);
 
   PipelineConfig config_;
