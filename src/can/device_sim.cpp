@@ -135,6 +135,7 @@ DeviceSimulator::DeviceSimulator(const DeviceSimConfig& config) : config_(config
   config_.Validate();
   if (config_.spec.pattern.empty()) throw Error("device simulator: the pattern is empty");
   if (config_.spec.centers_mm.empty()) throw Error("device simulator: no sphere centre");
+  CheckSimulationSetup(config_.spec);  // what sph_simulate refuses: a beam that misses, a form too deep
   const auto mount = config_.spec.mount_rotations_deg.find(0);
   if (mount != config_.spec.mount_rotations_deg.end()) body_to_theta_ = RotationOfVectorDeg(mount->second);
   if (!(config_.sync_period_s > 0.0)) throw Error("device simulator: the SYNC period must be positive");

@@ -598,6 +598,15 @@ EffectReference ApplyProbeErrors(const SimulationSpec& spec, const std::vector<d
 
 }  // namespace
 
+void CheckSimulationSetup(const SimulationSpec& spec) {
+  CheckSpec(spec);
+  CheckForm(spec.effects, spec.sphere_radius_mm);
+  CheckSetupOptions(spec);
+  PointsData data = EmptyPointsData(spec);
+  std::vector<double> sin2_incidence;
+  for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) AppendSetupDistances(spec, k, data, sin2_incidence);
+}
+
 PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference) {
   CheckSpec(spec);
   CheckForm(spec.effects, spec.sphere_radius_mm);

@@ -338,6 +338,17 @@ std::vector<MatrixCase> CansimCases() {
        e + "--phi-width-bytes 1: a position of 8 bits cannot count the 4096 steps of one revolution "
            "(--phi-counts-per-rev); give at least 2 bytes"},
       {"center_missing_part", log({"--center-mm", "2,0"}), 2, e + "--center-mm '2,0': expected x,y,z in mm"},
+      // set-ups sph_simulate refuses
+      {"sphere_missed_by_the_beam",
+       {"--theta-steps", "4", "--phi-steps", "2", "--sync-period-ms", "10", "-o", "x.log", "--sphere-radius-mm", "0.5",
+        "--probe-offset-mm", "5"},
+       2,
+       e + "simulation: the probe ray misses the sphere at theta 0.000000 deg, phi 45.000000 deg (setup 0)"},
+      {"form_deeper_than_the_sphere",
+       log({"--sphere-radius-mm", "0.5", "--center-mm", "0,0,0", "--form-um", "2,0,1000"}),
+       2,
+       e + "simulation: the form error (up to 1000 um into the sphere) must be smaller than the sphere's radius (0.5 "
+           "mm)"},
       {"angles_missing", log({"--angles", "nope.txt"}), 2, e + "nope.txt: cannot open for reading"},
       {"neither_log_nor_interface", kSmall, 2, e + "give either --output (a candump log) or --iface (live)"},
       // the config file: sph_acquired's options are accepted (one file describes both)

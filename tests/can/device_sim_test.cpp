@@ -268,6 +268,22 @@ TEST(DeviceSim, ConfigurationErrors) {
   EXPECT_THROW(DeviceSimulator{o}, Error);
   o.sync_counter_overflow = 241;
   EXPECT_THROW(DeviceSimulator{o}, Error);
+  // What sph_simulate refuses: a sphere the probe's beam misses, a form deeper than the sphere.
+  DeviceSimConfig missed = Config();
+  missed.spec.sphere_radius_mm = 0.5;
+  missed.spec.probe_offset_mm = 5.0;
+  try {
+    DeviceSimulator sim(missed);
+    ADD_FAILURE() << "a sphere the beam misses was taken";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::StartsWith("simulation: the probe ray misses the sphere at theta"));
+  }
+  DeviceSimConfig deep = Config();
+  deep.spec.sphere_radius_mm = 0.5;
+  deep.spec.centers_mm = {Eigen::Vector3d::Zero()};
+  deep.spec.effects.form = {{2, 0, 1000.0}};  // 1 mm
+  EXPECT_THROW(DeviceSimulator{deep}, Error);
+  EXPECT_NO_THROW(DeviceSimulator{Config()});
 }
 
 }  // namespace

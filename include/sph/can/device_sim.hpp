@@ -1,7 +1,7 @@
 // A simulated SCMS on CAN: the Theta and Phi encoders (CiA 406) and the probe measuring a
 // reference sphere in a stop-and-go pattern, as CANopen nodes that behave like real ones, with
 // faults on demand. The readings come from sph::ProbeReading (sph/core/simulate.hpp), the same
-// ray-sphere truth as sph_simulate.
+// ray-sphere truth as sph_simulate, and a set-up it refuses is refused (CheckSimulationSetup).
 //
 // Each device is a node (CiA 301) with an NMT state and an object dictionary served over SDO:
 //   1000h device type, 1001h error register, 1005h COB-ID SYNC, 1008h device name, 1014h COB-ID

@@ -218,6 +218,13 @@ PointsData Simulate(const SimulationSpec& spec, EffectReference* reference = nul
 /// Simulate() without noise and outliers: the exact readings of the stated truth and effects.
 PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference = nullptr);
 
+/// Throws the sph::Error SimulateExact() would throw for the set-up of `spec` before it reads a
+/// probe: the sphere, probe, centres, pattern or effects' values impossible, a form deeper than
+/// the sphere, options of setups that do not exist, or a pattern point whose probe ray misses its
+/// setup's sphere ("simulation: the probe ray misses the sphere at theta ... deg, phi ... deg
+/// (setup 0)"). For simulators of the same machine that read the probe otherwise (sph::can).
+void CheckSimulationSetup(const SimulationSpec& spec);
+
 /// Adds Gaussian noise with the spec's sigmas to every reading, drawn from sph::gum::Random(spec.seed)
 /// (the same numbers with every compiler) in the order (r, theta, phi) per sample, so that a seed gives
 /// the same noise whatever sigmas are zero; then the outliers of spec.effects, from a second generator
