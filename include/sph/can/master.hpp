@@ -4,30 +4,12 @@
 // the daemon drives it live and the replay of a frame log drives it the same way (its outputs
 // then go nowhere: the log holds what was sent).
 //
-// Start, per node (all nodes at once, each on its own SDO channel):
-//   1. [--nmt-reset-comm] NMT Reset communication, then wait for the node's boot-up message
-//      (CiA 301 §7.2.8.3.1, §7.2.8.3.3).
-//   2. [--configure-pdo] NMT Enter pre-operational: PDO parameters can only be written there.
-//   3. SDO uploads: identity 1018h (sub 1 vendor-id, 2 product code, 3 revision, 4 serial number;
-//      CiA 301 §7.5.2.21), device name 1008h, producer heartbeat time 1017h; for each encoder the
-//      measuring units per revolution 6001h and the total measuring range 6002h (CiA 406).
-//   4. [--configure-pdo] for each device's TPDO k the CiA 301 sequence: COB-ID (1800h + k - 1,
-//      sub 1) with bit 31 set (PDO invalid), transmission type (sub 2) = 1, mapping count
-//      (1A00h + k - 1, sub 0) = 0, the mapping entry (sub 1: index << 16 | sub-index << 8 | bits),
-//      count = 1, COB-ID valid (§7.5.2.37, §7.5.2.38).
-//   5. SDO uploads of each TPDO's COB-ID, transmission type and mapping, and the checks: the
-//      COB-ID valid and the configured one; transmission type 1 (synchronous, every SYNC); the
-//      configured object (0x6004:00 for an encoder) mapped with the configured width at the
-//      configured byte; 6001h equal to the configured counts per revolution; a single-turn
-//      encoder's 6002h equal to its 6001h. A mismatch refuses the start, naming node, object and
-//      both values, unless the configuration is trusted (then it is a warning).
-//   6. Once every node passed (a refused start starts no node): NMT Start remote node, one
-//      broadcast to node 0 or one per node, then wait for the heartbeat that says operational
-//      (when the node produces heartbeats).
-//
-// Mid-run, a boot-up message (heartbeat state 0x00) of a running node means it rebooted and is
-// pre-operational again: steps 2 to 6 run again (its PDO settings may be back at the defaults),
-// its identity must be the one read at the start (else it is not restarted: another device).
+// The start, per node and all nodes at once (CiA 301, CiA 406): 1. [reset communication, wait for
+// the boot-up], 2. [enter pre-operational], 3. SDO uploads of the identity and resolution objects,
+// 4. [write the TPDO settings], 5. read and check each TPDO and the resolution (a mismatch refuses
+// the start unless the configuration is trusted), 6. once every node passed, NMT Start and wait for
+// the operational heartbeat. A node that reboots mid-run runs steps 2 to 6 again, if it is the same
+// device. Each step, with the objects and the checks: docs/method/acquisition.md.
 #ifndef SPH_CAN_MASTER_HPP_
 #define SPH_CAN_MASTER_HPP_
 

@@ -1,32 +1,18 @@
 // The acquisition pipeline: CANopen frames in, samples (or averaged stop points) out. It knows
 // nothing of sockets or files, so the daemon, the replay and the tests drive the same code.
 //
-// One SYNC cycle gives one sample:
+// One SYNC cycle gives one sample, timed by the SYNC's receive time:
 //
 //   SYNC(t) ... TPDO theta ... TPDO phi ... TPDO probe ... SYNC(t + T) ...
 //   \______________ window: the PDOs after SYNC(t) _____________/
 //
-// The sample's time is the SYNC's receive time. A window is resolved when the next SYNC arrives
-// (or at the end): only then is it known how many SYNC cycles it spans. SYNCs that never arrived
-// are found by a gap in the SYNC counter (CiA 301 §7.2.5, object 1019h) or by more than 1.5
-// periods (configured, else as observed) without SYNC; both together tell gaps longer than the
-// counter's range, and a counter that jumps further than the time allows (a producer that
-// restarted its counter) is taken by the time. A window that
-// spans m + 1 cycles (m SYNCs missed) is split in time: a PDO belongs to the cycle in whose
-// period it arrived (a synchronous PDO is sent within its SYNC's synchronous window, CiA 301
-// object 1007h, which is at most the period), or, when the device maps the SYNC counter into
-// its PDO, to the cycle of that counter. A cycle with exactly one valid PDO of every device is a
-// sample; the cycles of missed SYNCs are recovered that way too, timed by interpolation between
-// the SYNCs received. A cycle with no PDO of a device, two of them (the second may answer a SYNC
-// that never came), or PDOs after frames were lost that no counter or period can place (kernel
-// receive-queue drops, a controller RX overflow) has no sample for that device: it is counted per
-// device and reason, logged, and written into the points file as a comment (runs of equal
-// incomplete cycles in one comment), never filled from a neighbouring cycle. So a lost SYNC can
-// no longer let a later PDO fill a gap in the previous cycle.
-//
-// A boot-up message (heartbeat state 0x00) of a device's node during the acquisition opens a gap
-// mark in the points file ("# gap start t_s ...: theta (node 1) rebooted ..."); the device's
-// first PDO after it closes it ("# gap end t_s ...").
+// A window is resolved when the next SYNC arrives (or at the end). SYNCs that never arrived are
+// found by the SYNC counter and by the time; a window that spans several cycles is split by the
+// period each PDO arrived in, or by the SYNC counter a device maps into its PDO. A cycle with
+// exactly one valid PDO of every device is a sample; any other has no sample for the devices it
+// lacks, is counted per device and reason, logged and written into the points file as a comment,
+// never filled from a neighbouring cycle. A boot-up message of a device's node opens a gap mark.
+// The rules in full: docs/method/acquisition.md.
 #ifndef SPH_CAN_PIPELINE_HPP_
 #define SPH_CAN_PIPELINE_HPP_
 
