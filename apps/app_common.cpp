@@ -244,6 +244,7 @@ int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI
   const StandardOutput standard_output;
   CLI::App app;
   setup(app);
+  app.footer("Manual: docs/apps/" + std::string(name) + ".md in sph's source tree (this help is the option reference).");
   app.set_version_flag("--version", std::string(name) + " " SPH_VERSION);
   int code = kExitOk;
   try {

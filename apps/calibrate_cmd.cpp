@@ -24,7 +24,7 @@ namespace sph::apps {
 void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.description(
       "Calibrate the seven geometric errors of a spherical coordinate measuring system from points "
-      "measured on a reference sphere (format: data/README.md).");
+      "measured on a reference sphere (format: docs/formats/points-files.md).");
   app.add_option("points", o.points_path, "Points file (sph-points 1)")->required();
   app.add_option("--sphere-radius-mm", o.sphere_radius_mm,
                  "Reference sphere radius R0 [mm] (overrides the file's sphere_radius_mm)")
@@ -66,11 +66,13 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "sphericity compensated before and after")
       ->excludes(no_extend);
   app.add_option("--plot-dir", o.plot_dir,
-                 "Write residual_map.png and residual_time.png (gnuplot) with their data into this folder")
+                 "Write residual_map.png, residual_time.png and, when the sphere's form is fitted, "
+                 "sphere_form_map.png (gnuplot) with their data into this folder")
       ->excludes(no_extend);
   app.add_option("--harmonics", o.harmonics,
-                 "Highest harmonic order searched of the harmonic effects; 0: on each axis, what the pattern "
-                 "resolves ((n - 1) / 2 for n distinct angles, at most 12)")
+                 "Highest harmonic order searched of the harmonic effects; 0: chosen on each axis from the "
+                 "seven-error residual (4, or one above its highest significant harmonic), at most what the "
+                 "pattern resolves ((n - 1) / 2 for n distinct angles, at most 12)")
       ->capture_default_str()
       ->check(CLI::Range(0, 12));
   app.add_option("--phi-wobble-pivot-mm", o.phi_wobble_pivot_mm,

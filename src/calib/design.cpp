@@ -86,8 +86,8 @@ PredictedUncertainty PredictUncertainty(const SimulationSpec& spec) {
     return out;
   }
 
-  // Box's second-order bias. C = (J^T W J)^-1; H_i by central differences of the (exact, autodiff)
-  // Jacobian: column k of H_i = (J_i(x + h e_k) - J_i(x - h e_k)) / 2h.
+  // Box's second-order bias. C = (J^T W J)^-1; H_i by central differences of the (exact,
+  // hand-derived) Jacobian: column k of H_i = (J_i(x + h e_k) - J_i(x - h e_k)) / 2h.
   const Eigen::MatrixXd& cov = inv.inverse;
   const Eigen::Index m = jac.rows();
   Eigen::VectorXd d = Eigen::VectorXd::Zero(m);

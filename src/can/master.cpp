@@ -236,7 +236,7 @@ void CanopenMaster::Begin(std::int64_t now_ns) {
   UpdatePhase(now_ns);
 }
 
-// Steps 2 to 6 of the file comment, from a pre-operational (or unknown) node.
+// Steps 2 to 6 of the start (sph/can/master.hpp), from a pre-operational (or unknown) node.
 void CanopenMaster::Advance(NodeState& n, std::int64_t now_ns) {
   n.sdo.Cancel();
   n.deadline = kNever;

@@ -118,7 +118,7 @@ TEST(RunMonteCarlo, SeveralSetupsAndRandomDirections) {
 }
 
 // Table 3, "before": the nominal model's sphericity of spheres at the eccentricities that
-// reproduce the paper (documented in README.md), within 3 %; MODEL.md: 1.72 um at e -> 0.
+// reproduce the paper (docs/validation.md), within 3 %; MODEL.md: 1.72 um at e -> 0.
 TEST(Sphericity, ReproducesThePapersBeforeColumn) {
   const SimulationSpec base;
   const struct {

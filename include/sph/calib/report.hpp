@@ -40,7 +40,7 @@ struct ReportContext {
 /// correlations, conditioning and warnings; then the trace, when ctx.trace is set.
 void WriteTextReport(std::ostream& out, const CalibrationResult& result, const ReportContext& ctx);
 
-/// The same as JSON (format described in README.md, "sph_calibrate --json").
+/// The same as JSON (every key: docs/formats/reports.md).
 std::string JsonReport(const CalibrationResult& result, const ReportContext& ctx);
 
 /// The calibration file for compensation: the seven errors, their covariance, d and R0.

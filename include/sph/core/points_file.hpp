@@ -1,5 +1,5 @@
 // Points files, format "sph-points 1": the interface between acquisition, calibration and
-// measurement. Text, one sample a line, rows in acquisition order (data/README.md):
+// measurement. Text, one sample a line, rows in acquisition order (docs/formats/points-files.md):
 //
 //   # sph-points 1
 //   # sphere_radius_mm: 20
@@ -78,7 +78,7 @@ struct PointsHeader {
 };
 
 /// What the sphere's certificate and the measuring conditions state, with their uncertainties:
-/// the header fields of the same names (data/README.md), checked for range when the file is read
+/// the header fields of the same names (docs/formats/points-files.md), checked for range when the file is read
 /// and kept among the header's metadata. Empty: not stated.
 struct SphereConditions {
   std::optional<double> sphere_radius_u_um;      ///< standard uncertainty of R0 (certificate, k = 1) [um]

@@ -1,4 +1,4 @@
-// Streaming output of points files (format sph-points 1, data/README.md): one record at a time,
+// Streaming output of points files (format sph-points 1, docs/formats/points-files.md): one record at a time,
 // for acquisition. The file is readable by ReadPointsFile() after every record.
 #ifndef SPH_CORE_POINTS_WRITER_HPP_
 #define SPH_CORE_POINTS_WRITER_HPP_
