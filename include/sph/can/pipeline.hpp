@@ -10,9 +10,10 @@
 // found by the SYNC counter and by the time; a window that spans several cycles is split by the
 // period each PDO arrived in, or by the SYNC counter a device maps into its PDO. A cycle with
 // exactly one valid PDO of every device is a sample (where the devices carry the counter, a PDO may
-// come up to one period late; a SYNC repeated with its counter is taken once); any other has no sample for the devices it
-// lacks, is counted per device and reason, logged and written into the points file as a comment,
-// never filled from a neighbouring cycle. A boot-up message of a device's node opens a gap mark.
+// come up to one period late; a SYNC repeated with its counter is taken once); any other has no
+// sample for the devices it lacks, is counted per device and reason, logged and written into the
+// points file as a comment, never filled from a neighbouring cycle. A boot-up message of a
+// device's node opens a gap mark.
 // The rules in full: docs/method/acquisition.md.
 #ifndef SPH_CAN_PIPELINE_HPP_
 #define SPH_CAN_PIPELINE_HPP_
