@@ -61,6 +61,13 @@ struct MasterConfig {
   bool sdo = true;                   ///< identify and check the devices
   bool trust_config = false;         ///< mismatches are warnings, not a refused start
   bool configure_pdo = false;        ///< write the TPDO settings (needs nmt), then verify them
+  /// The SYNC counter overflow value of the bus (0: SYNC without counter), which each node's
+  /// 1019h must equal; -1: not checked.
+  int sync_counter_max = -1;
+  std::string sync_counter_name = "the SYNC counter overflow value";  ///< for messages
+  /// Producer heartbeat time [ms] written into a node whose 1017h is 0; 0: none written.
+  std::uint16_t heartbeat_ms = 100;
+  std::string heartbeat_name = "the master's heartbeat time";  ///< for messages
   std::int64_t sdo_timeout_ns = 500'000'000;
   std::int64_t boot_timeout_ns = 5'000'000'000;  ///< a boot-up after Reset communication
   /// After Start remote node: a node that produces heartbeats must report operational within
@@ -81,7 +88,8 @@ std::vector<MasterNode> MasterNodesFor(const PipelineConfig& devices);
 struct NodeIdentity {
   std::optional<std::uint32_t> vendor_id, product_code, revision, serial;
   std::optional<std::string> name;
-  std::optional<std::uint16_t> heartbeat_ms;
+  std::optional<std::uint16_t> heartbeat_ms;     ///< 1017h as found, before the master wrote it
+  std::optional<std::uint8_t> sync_counter_max;  ///< 1019h as found
   /// Per device (by role): 6001h and 6002h of encoders.
   std::map<std::string, std::pair<std::optional<std::uint32_t>, std::optional<std::uint32_t>>> resolution;
 };
@@ -98,6 +106,7 @@ class CanopenMaster {
     std::uint64_t boot_ups = 0;          ///< mid-run boot-up messages of running nodes
     std::uint64_t restarts = 0;          ///< nodes brought back to operational after one
     std::uint64_t restart_failures = 0;  ///< nodes that could not be restarted
+    std::uint64_t unconfirmed = 0;       ///< nodes started without a heartbeat to confirm it
     std::uint64_t sdo_transfers = 0;
     std::uint64_t nmt_commands = 0;
   };
@@ -140,7 +149,10 @@ class CanopenMaster {
   void SendStart(NodeState& n, std::int64_t now_ns);
   void AwaitOperational(NodeState& n, std::int64_t now_ns);
   void NodeFailed(NodeState& n, const std::string& why);
-  void NodeRunning(NodeState& n);
+  /// The node runs: `confirmed` by its heartbeat saying operational (or without NMT, identified).
+  void NodeRunning(NodeState& n, bool confirmed);
+  /// After a read of 1017h: the write (and read back) of the heartbeat the master wants of the node.
+  void ConfigureHeartbeat(NodeState& n, std::uint16_t found);
   void OnSdoStep(NodeState& n, const SdoClient::Step& step, std::int64_t now_ns);
   void UpdatePhase(std::int64_t now_ns);
   std::vector<std::string> Check(const NodeState& n, std::vector<std::string>* warnings) const;

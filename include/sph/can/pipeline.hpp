@@ -64,12 +64,14 @@ struct PipelineConfig {
 struct PipelineCounts {
   std::uint64_t frames = 0;  ///< every frame given to OnFrame
   std::uint64_t sync_frames = 0;
-  std::uint64_t cycles = 0;   ///< SYNC cycles closed
+  std::uint64_t cycles = 0;   ///< SYNC cycles closed, those of missed SYNCs included
   std::uint64_t samples = 0;  ///< complete cycles (stream mode: rows written)
   std::uint64_t incomplete_cycles = 0;
   std::uint64_t missed_syncs = 0;                      ///< SYNCs that never arrived (counter or time gaps)
   std::uint64_t recovered = 0;                         ///< of those, cycles whose PDOs all came: samples
   std::uint64_t counter_jumps = 0;                     ///< SYNC counters that jumped further than the time allows
+  std::uint64_t repeated_syncs = 0;                    ///< SYNCs received twice (taken once)
+  std::uint64_t sync_counter_errors = 0;               ///< SYNC counters outside 1..max or missing (not used)
   std::array<std::uint64_t, kNumDevices> missing{};    ///< cycles without a frame from the device
   std::array<std::uint64_t, kNumDevices> flagged{};    ///< values out of range or device errors
   std::array<std::uint64_t, kNumDevices> malformed{};  ///< frames too short for the configured field
@@ -167,7 +169,15 @@ class AcquisitionPipeline {
     std::uint64_t missing_cycles = 0;  ///< cycles since without a PDO of the device
   };
 
-  void OnSync(const CanFrame& frame, const SyncInfo& sync);
+  void OnSync(const CanFrame& frame, SyncInfo sync);
+  /// The SYNC's counter if it is one the producer can send, else none (warned about).
+  std::optional<std::uint8_t> UsableCounter(const CanFrame& frame, const SyncInfo& sync);
+  /// Whether the SYNC is the one before received again (same counter, within half a period).
+  bool Repeats(const CanFrame& frame, const SyncInfo& sync) const;
+  /// Resolves the held window (see the file comment); its late PDOs can no longer come.
+  void ResolveHeld();
+  /// Period for gap detection [s]: configured, else as observed (0: not known yet).
+  double PeriodS() const;
   void OnPdo(int device, const CanFrame& frame);
   /// Resolves the open window into 1 + `missed` cycles; `next_ns` is the next SYNC's time. With
   /// `last` (the end) an incomplete cycle is cut, not counted as incomplete.
@@ -191,14 +201,28 @@ class AcquisitionPipeline {
   bool OnHealthFrame(const CanFrame& frame);  // heartbeat, EMCY, error frame
   void CheckHeartbeats(std::int64_t now_ns);
   void Log(LogLevel level, const std::string& text);
-  /// Logs the first 20 of a kind, then every 1000th, so floods stay readable.
-  void LogLimited(std::uint64_t count, LogLevel level, const std::string& text);
+  /// Logs the first 20 of a kind, then every 1000th, so floods stay readable; `text()` makes the
+  /// line, only for a line logged (a flood of frames costs no text).
+  template <typename Text>
+  void LogLimited(std::uint64_t count, LogLevel level, const Text& text) {
+    if (cb_.log && (count <= 20 || count % 1000 == 0)) LogCounted(count, level, text());
+  }
+  void LogCounted(std::uint64_t count, LogLevel level, const std::string& text);
+  /// Whether a cycle with these slots is a sample (Reason() is "").
+  static bool Complete(const std::array<Slot, kNumDevices>& slots, const Window& window);
   void Note(const std::string& text);
 
   PipelineConfig config_;
   Callbacks cb_;
   PipelineCounts counts_;
   Window window_;
+  /// Where the devices carry the SYNC counter: the window before, held open for its late PDOs
+  /// until the next SYNC, with the SYNCs missed after it and the time of the SYNC that closed it.
+  bool hold_ = false;
+  Window held_;
+  std::uint64_t held_missed_ = 0;
+  std::int64_t held_next_ns_ = 0;
+  bool counter_unconfigured_warned_ = false;
   std::vector<std::array<Slot, kNumDevices>> scratch_;  ///< the cycles of the window being resolved
   IncompleteRun run_;
   std::array<Gap, kNumDevices> gaps_{};
