@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -241,6 +242,7 @@ SimulationSpec ToSimulationSpec(const MachineOptions& o) {
 int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI::App&)>& setup,
            const std::function<int()>& run) {
   RemoveTempFilesOnSignals();
+  std::signal(SIGPIPE, SIG_IGN);  // a closed pipe fails a write (EPIPE) as a full disk does
   const StandardOutput standard_output;
   CLI::App app;
   setup(app);

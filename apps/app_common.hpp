@@ -147,10 +147,11 @@ Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what);
 /// The whole main() of an app: set up the options, parse, run. --help and --version exit 0, a parse
 /// error exits kExitBadInput, and an exception escaping `run` is printed as "<name>: error: <what>"
 /// on stderr with kExitBadInput. `run` returns the exit code. A signal that ends the program
-/// removes the temporary files of its unfinished outputs (sph/core/cleanup.hpp), and a failed write
-/// to standard output (a full disk, a closed pipe) is an error: "<name>: error: cannot write to
-/// standard output: No space left on device". Compiled once, in app_common.cpp, so that no main()
-/// compiles CLI11 (cli_fwd.hpp).
+/// removes the temporary files of its unfinished outputs (sph/core/cleanup.hpp). SIGPIPE is
+/// ignored: a write to a closed pipe fails like one to a full disk, and a failed write to standard
+/// output is an error ("<name>: error: cannot write to standard output: Broken pipe"), found by
+/// OutputFiles::Commit() before the run's files are put in place, or at the latest here, as
+/// kExitBadInput. Compiled once, in app_common.cpp, so that no main() compiles CLI11 (cli_fwd.hpp).
 int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI::App&)>& setup,
            const std::function<int()>& run);
 

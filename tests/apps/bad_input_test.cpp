@@ -2,7 +2,8 @@
 // runs the real program in a folder of its own and checks the exit code, the message (naming
 // the option, or the file and line), that no solver log reaches the user, and that the folder
 // is byte for byte as before (device nodes still device nodes), apart from the outputs a
-// successful case makes.
+// successful case makes. A failed run replaces no file: a case whose standard output fails (a
+// full device, a pipe nobody reads) finds its old output unchanged.
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
 
@@ -225,6 +226,20 @@ std::vector<MatrixCase> CalibrateCases() {
        {},
        "full"},
       {"validate_without_trace", {"P.txt", "--no-extend", "--validate", "P.txt"}, 2, "--no-extend excludes --validate"},
+      {"stdout_full_keeps_the_calibration",
+       {"P.txt", "--no-extend", "-o", "c.json"},
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"c.json", "yesterday\n"}},
+       {},
+       "full"},
+      {"stdout_closed_keeps_the_calibration",
+       {"P.txt", "--no-extend", "-o", "c.json"},
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"c.json", "yesterday\n"}},
+       {},
+       kClosedPipe},
   };
 }
 INSTANTIATE_TEST_SUITE_P(Calibrate, CalibrateMatrix, ::testing::ValuesIn(CalibrateCases()), CaseName);
@@ -437,6 +452,13 @@ std::vector<MatrixCase> SimulateCases() {
        e + "full: cannot write: No space left on device"},
       {"output_onto_null_device", {"-o", "null"}, 0, ""},
       {"stdout_full", {}, 2, e + "cannot write to standard output: No space left on device", {}, {}, "full"},
+      {"stdout_closed_keeps_the_truth",
+       {"--truth", "t.json"},
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"t.json", "yesterday\n"}},
+       {},
+       kClosedPipe},
       {"output_and_truth_written", {"-o", "x.txt", "--truth", "t.json"}, 0, "", {}, {"x.txt", "t.json"}},
       {"unknown_option", {"--sphere-radius", "20"}, 2, "The following arguments were not expected: 20 --sphere-radius"},
   };
@@ -522,6 +544,27 @@ std::vector<MatrixCase> MonteCarloCases() {
        2,
        e + "cannot write to standard output: No space left on device",
        {},
+       {},
+       "full"},
+      {"stdout_full_keeps_the_csv",
+       with({"--no-table3", "--csv", "m.csv"}),
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"m.csv", "yesterday\n"}},
+       {},
+       "full"},
+      {"stdout_closed_keeps_the_csv",
+       with({"--no-table3", "--csv", "m.csv"}),
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"m.csv", "yesterday\n"}},
+       {},
+       kClosedPipe},
+      {"plan_stdout_full_keeps_the_json",
+       {"--plan", "--json", "m.json"},
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"m.json", "yesterday\n"}},
        {},
        "full"},
       {"csv_and_json_written",
@@ -665,6 +708,20 @@ std::vector<MatrixCase> MeasureCases() {
        {},
        {},
        "full"},
+      {"stdout_full_keeps_the_points",
+       with({"P.txt", "-o", "p.xyz"}),
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"p.xyz", "yesterday\n"}},
+       {},
+       "full"},
+      {"stdout_closed_keeps_the_points",
+       with({"P.txt", "-o", "p.xyz"}),
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"p.xyz", "yesterday\n"}},
+       {},
+       kClosedPipe},
       {"outputs_written",
        with({"P.txt", "-q", "-o", "p.xyz", "--json", "m.json", "--plot-script", "m.gp"}),
        0,

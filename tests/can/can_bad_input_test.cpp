@@ -256,6 +256,13 @@ std::vector<MatrixCase> CansimCases() {
        {},
        {},
        "full"},
+      {"stdout_closed_keeps_the_record",
+       q({"-o", "-", "--record", "r.txt"}),
+       3,
+       e + "cannot write to standard output: Broken pipe",
+       {{"r.txt", "yesterday\n"}},
+       {},
+       kClosedPipe},
       {"output_and_record_written", log({"--record", "r.txt"}), 0, "", {}, {"x.log", "r.txt"}},
       {"output_replaced_whole", q({"-o", "notes.txt"}), 0, "", {}, {"notes.txt"}},
       // faults

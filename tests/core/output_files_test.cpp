@@ -178,6 +178,20 @@ TEST(OutputFiles, AFailedDirectWriteKeepsTheRegularFilesUntouched) {
   EXPECT_EQ(ReadWholeFile(dir + "/a.txt"), "old a\n");
 }
 
+TEST(OutputFiles, AFailedWriteToTheRunsStandardOutputKeepsTheFilesUntouched) {
+  const std::string dir = sph::testing::MakeTempDir("outputs_stdout");
+  Put(dir + "/a.txt", "old a\n");
+  {
+    std::ostream report(nullptr);  // every write fails, as on a full disk
+    OutputFiles files(report);
+    files.Stage(dir + "/a.txt", [](std::ostream& o) { o << "new a\n"; });
+    report << "the run's report\n";
+    EXPECT_THAT(ErrorOf([&] { files.Commit(); }), HasSubstr("cannot write to standard output"));
+    EXPECT_EQ(ReadWholeFile(dir + "/a.txt"), "old a\n");
+  }  // what was staged goes
+  EXPECT_EQ(Entries(dir), std::vector<std::string>{"a.txt"});
+}
+
 TEST(OutputFiles, CommitPutsEveryFileInPlace) {
   const std::string dir = sph::testing::MakeTempDir("outputs_commit");
   OutputFiles files;
