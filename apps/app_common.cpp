@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <charconv>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
@@ -76,6 +78,24 @@ CLI::Validator InRange(const ValidRange& range) {
         return end != text.c_str() && *end == '\0' && range.Contains(v) ? "" : range.Refusal(text);
       },
       range.Text());
+}
+
+CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string& help) {
+  const CLI::Validator decimal(
+      [](std::string& text) -> std::string {
+        const std::size_t first = std::min(text.find_first_not_of('0'), text.empty() ? 0 : text.size() - 1);
+        const std::string digits = text.substr(first);
+        std::uint64_t value = 0;
+        const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
+        if (text.empty() || ec != std::errc() || end != digits.data() + digits.size()) {
+          return "must be an integer from 0 to " + std::to_string(std::numeric_limits<std::uint64_t>::max()) +
+                 ", got " + Quoted(text);
+        }
+        text = digits;  // CLI11 reads it with base 0
+        return "";
+      },
+      "0 <= x <= 2^64 - 1");
+  return app.add_option("--seed", seed, help)->transform(decimal);
 }
 
 void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source) {

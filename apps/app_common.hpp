@@ -3,6 +3,7 @@
 #define SPH_APPS_APP_COMMON_HPP_
 
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <exception>
 #include <functional>
@@ -79,6 +80,11 @@ inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
 inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
 inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
 }  // namespace ranges
+
+/// Adds --seed: a decimal integer from 0 to 2^64 - 1 ("--seed: must be an integer from 0 to
+/// 18446744073709551615, got '-1'"), "010" being ten. (CLI11 2.1 alone wraps "-1" and 2^64 into
+/// range and reads "010" as octal, "0x10" as hex.)
+CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string& help);
 
 /// The options of the uncertainty inputs, one per field of kConditionFields ("--sphere-radius-u-um"
 /// for the header field sphere_radius_u_um), with the same ranges. `source` ends the help text:

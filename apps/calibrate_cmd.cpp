@@ -81,7 +81,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("--drift-order", o.drift_order, "Highest power of time of probe_drift")
       ->capture_default_str()
       ->check(CLI::Range(1, 3));
-  app.add_option("--seed", o.seed, "Seed of the cross-validation folds")->capture_default_str();
+  AddSeedOption(app, o.seed, "Seed of the cross-validation folds")->capture_default_str();
   AddConditionOptions(app, o.conditions, "(overrides the file's ");
   app.add_option("--coverage", o.coverage,
                  "Coverage probability of the expanded uncertainties U = k u (k from the effective degrees of "

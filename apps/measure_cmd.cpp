@@ -768,7 +768,7 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
                  "Calibration draws for the uncertainty from the calibration's covariance (0: none)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000000));
-  app.add_option("--seed", o.seed, "Seed of the calibration draws")->capture_default_str();
+  AddSeedOption(app, o.seed, "Seed of the calibration draws")->capture_default_str();
   app.add_option("--noise-um", o.noise_um,
                  "The probe's noise sigma for the noise floor of the form values [um] (default: the calibration's "
                  "fit rms, its source.fit_rms_um)")

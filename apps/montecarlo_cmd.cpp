@@ -365,7 +365,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   app.add_option("--setups", o.setups, "Sphere placements per trial, turned evenly about the Theta axis")
       ->capture_default_str()
       ->check(CLI::Range(1, 100));
-  app.add_option("--seed", o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
+  AddSeedOption(app, o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
   app.add_option("--threads", o.threads, "Worker threads (0: all cores)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1024));

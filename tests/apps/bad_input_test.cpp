@@ -42,6 +42,8 @@ std::string ExampleWithR(int row, const std::string& r) {
 
 constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
 
+constexpr const char* kSeedRange = "--seed: must be an integer from 0 to 18446744073709551615, got ";
+
 class Matrix : public ::testing::TestWithParam<MatrixCase> {
  protected:
   // The files every case finds in its folder: the example (P.txt), a calibration made from it
@@ -240,6 +242,11 @@ std::vector<MatrixCase> CalibrateCases() {
        {{"c.json", "yesterday\n"}},
        {},
        kClosedPipe},
+      {"seed_negative", {"P.txt", "--seed", "-1"}, 2, kSeedRange + std::string("'-1'")},
+      {"seed_beyond_64_bits",
+       {"P.txt", "--seed", "18446744073709551616"},
+       2,
+       kSeedRange + std::string("'18446744073709551616'")},
   };
 }
 INSTANTIATE_TEST_SUITE_P(Calibrate, CalibrateMatrix, ::testing::ValuesIn(CalibrateCases()), CaseName);
@@ -459,6 +466,8 @@ std::vector<MatrixCase> SimulateCases() {
        {{"t.json", "yesterday\n"}},
        {},
        kClosedPipe},
+      {"seed_negative", {"--seed", "-1"}, 2, kSeedRange + std::string("'-1'")},
+      {"seed_in_hex", {"--seed", "0x10"}, 2, kSeedRange + std::string("'0x10'")},
       {"output_and_truth_written", {"-o", "x.txt", "--truth", "t.json"}, 0, "", {}, {"x.txt", "t.json"}},
       {"unknown_option", {"--sphere-radius", "20"}, 2, "The following arguments were not expected: 20 --sphere-radius"},
   };
@@ -567,6 +576,8 @@ std::vector<MatrixCase> MonteCarloCases() {
        {{"m.json", "yesterday\n"}},
        {},
        "full"},
+      {"seed_beyond_64_bits", with({"--seed", "18446744073709551616"}), 2,
+       kSeedRange + std::string("'18446744073709551616'")},
       {"csv_and_json_written",
        with({"--no-table3", "--csv", "m.csv", "--json", "m.json"}),
        0,
@@ -722,6 +733,7 @@ std::vector<MatrixCase> MeasureCases() {
        {{"p.xyz", "yesterday\n"}},
        {},
        kClosedPipe},
+      {"seed_negative", with({"P.txt", "--seed", "-1"}), 2, kSeedRange + std::string("'-1'")},
       {"outputs_written",
        with({"P.txt", "-q", "-o", "p.xyz", "--json", "m.json", "--plot-script", "m.gp"}),
        0,

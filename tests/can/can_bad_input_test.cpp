@@ -263,6 +263,8 @@ std::vector<MatrixCase> CansimCases() {
        {{"r.txt", "yesterday\n"}},
        {},
        kClosedPipe},
+      {"seed_negative", log({"--seed", "-1"}), 2,
+       "--seed: must be an integer from 0 to 18446744073709551615, got '-1'"},
       {"output_and_record_written", log({"--record", "r.txt"}), 0, "", {}, {"x.log", "r.txt"}},
       {"output_replaced_whole", q({"-o", "notes.txt"}), 0, "", {}, {"notes.txt"}},
       // faults
