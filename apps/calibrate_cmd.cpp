@@ -241,7 +241,15 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     std::optional<Validation> validation;
     if (!o.no_extend) {
       trace = TraceOf(o, points, copts, base, progress);
-      if (!o.validate_path.empty()) validation = Validate(o.validate_path, copts.probe_offset_mm, *trace);
+      if (!o.validate_path.empty()) {
+        validation = Validate(o.validate_path, copts.probe_offset_mm, *trace);
+        if (SameFile(o.validate_path, o.points_path)) {
+          validation->note =
+              "the validation file is the calibration's own points file: this shows how the model "
+              "fits its own data, not an independent check" +
+              (validation->note.empty() ? std::string() : "; " + validation->note);
+        }
+      }
     }
     progress.Finish();  // the report follows on stdout, maybe the same terminal
     // The calibration reported: the seven errors of the final model, fitted with its effects and

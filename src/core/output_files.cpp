@@ -335,6 +335,10 @@ void OutputFiles::Commit() {
   staged_.clear();
 }
 
+bool SameFile(const std::string& a, const std::string& b) {
+  return SameFile(*Identify("", a, false), *Identify("", b, false));
+}
+
 void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write) {
   OutputFiles files;
   files.Stage(path, write);

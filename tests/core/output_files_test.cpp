@@ -273,6 +273,17 @@ TEST(RunPaths, StandardOutputRedirectedToAnOutputIsTheSameFile) {
   EXPECT_THAT(message, HasSubstr("--output - (standard output) and --truth " + dir + "/t.json are the same file"));
 }
 
+TEST(SameFile, OneFileByAnyNameAndNoOther) {
+  const std::string dir = sph::testing::MakeTempDir("same_file");
+  Put(dir + "/a.txt", "a\n");
+  Put(dir + "/copy.txt", "a\n");
+  ASSERT_EQ(::symlink("a.txt", (dir + "/link.txt").c_str()), 0);
+  EXPECT_TRUE(SameFile(dir + "/a.txt", dir + "/link.txt"));
+  EXPECT_TRUE(SameFile(dir + "/new.txt", dir + "/./new.txt"));
+  EXPECT_FALSE(SameFile(dir + "/a.txt", dir + "/copy.txt"));
+  EXPECT_FALSE(SameFile(dir + "/a.txt", dir + "/new.txt"));
+}
+
 TEST(RunPaths, CharacterDevicesMayTakeSeveralOutputs) {
   RunPaths paths;
   EXPECT_NO_THROW(paths.Input("points", "/dev/null").Output("--json", "/dev/null").Output("--output", "/dev/null"));

@@ -92,6 +92,10 @@ class OutputFiles {
   std::vector<std::unique_ptr<Staged>> staged_;
 };
 
+/// True when `a` and `b` name one file: the same inode, or, for a name not yet created, the same
+/// path after symbolic links and "." and ".." are resolved ("-" is standard input).
+bool SameFile(const std::string& a, const std::string& b);
+
 /// Writes one file the way OutputFiles does: complete or absent, "-" standard output.
 void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write);
 
