@@ -98,6 +98,13 @@ CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string
   return app.add_option("--seed", seed, help)->transform(decimal);
 }
 
+void AddPlotTimeoutOption(CLI::App& app, double& timeout_s) {
+  app.add_option("--plot-timeout-s", timeout_s,
+                 "How long gnuplot may draw the plots of one run before it is stopped and the run fails [s]")
+      ->capture_default_str()
+      ->check(InRange(ranges::kPlotTimeoutS));
+}
+
 void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source) {
   for (const ConditionField& c : kConditionFields) {
     std::string name = std::string("--") + c.key;

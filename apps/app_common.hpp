@@ -58,6 +58,7 @@ double CheckedValue(double value, const ValidRange& range, const std::string& wh
 
 /// Ranges shared by several apps.
 namespace ranges {
+inline constexpr ValidRange kPlotTimeoutS{0.0, 86400.0, "s", true};
 inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};
 inline constexpr ValidRange kProbeOffsetMm{0.0, kMaxProbeOffsetMm, "mm", true};
 /// The seven errors: kScmsParamInfo's bounds, in deg or mm (and |d'| < d).
@@ -85,6 +86,10 @@ inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
 /// 18446744073709551615, got '-1'"), "010" being ten. (CLI11 2.1 alone wraps "-1" and 2^64 into
 /// range and reads "010" as octal, "0x10" as hex.)
 CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string& help);
+
+/// Adds --plot-timeout-s: how long gnuplot may draw before it is stopped (default 60 s, within
+/// ranges::kPlotTimeoutS).
+void AddPlotTimeoutOption(CLI::App& app, double& timeout_s);
 
 /// The options of the uncertainty inputs, one per field of kConditionFields ("--sphere-radius-u-um"
 /// for the header field sphere_radius_u_um), with the same ranges. `source` ends the help text:

@@ -1,7 +1,5 @@
 #include "calibrate_cmd.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <optional>
 
@@ -68,6 +66,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("--plot-dir", o.plot_dir,
                  "Write residual_map.png and residual_time.png (gnuplot) with their data into this folder")
       ->excludes(no_extend);
+  AddPlotTimeoutOption(app, o.plot_timeout_s);
   app.add_option("--harmonics", o.harmonics,
                  "Highest harmonic order searched of the harmonic effects; 0: on each axis, what the pattern "
                  "resolves ((n - 1) / 2 for n distinct angles, at most 12)")
@@ -213,7 +212,7 @@ void StageCalibrationFile(const CalibrateOptions& o, const CalibrationResult& re
 
 int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err) {
   const std::string prog = "sph_calibrate";
-  const bool plot_dir_existed = o.plot_dir.empty() || ::access(o.plot_dir.c_str(), F_OK) == 0;
+  const PlotFolder plot_folder(o.plot_dir);  // removed again when a failed run leaves it empty
   try {
     const bool text = !o.quiet && o.json_path != "-";
     RunPaths paths;
@@ -280,7 +279,10 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       StageCalibrationFile(o, result, ctx, extended ? &trace->after.fit : nullptr, budget ? &*budget : nullptr, files,
                            err);
     }
-    if (trace && !o.plot_dir.empty()) PlotTrace(o.plot_dir, points, copts, *trace, files);
+    if (trace && !o.plot_dir.empty()) {
+      plot_folder.Make();
+      PlotTrace(o.plot_dir, points, copts, *trace, o.plot_timeout_s, files);
+    }
     if (text) {
       WriteTextReport(out, result, ctx);
     }
@@ -290,7 +292,6 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     files.Commit();
     return result.Usable() ? kExitOk : kExitNotUsable;
   } catch (const std::exception& e) {
-    if (!plot_dir_existed) ::rmdir(o.plot_dir.c_str());  // the folder made for the plots, if left empty
     err << prog << ": error: " << e.what() << "\n";
     return kExitBadInput;
   }

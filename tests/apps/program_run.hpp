@@ -7,6 +7,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <stdlib.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
 #include <sys/wait.h>
@@ -92,6 +93,22 @@ inline ProgramResult RunProgram(const std::vector<std::string>& argv, const std:
   return FinishProgram(StartProgram(argv, folder, stdout_path, env), folder, stdout_path);
 }
 
+/// Installs `script` as the program `gnuplot` in a folder beside `folder` (outside it, so that the
+/// folder's content stays as it was) and returns the PATH setting that finds it first.
+inline std::string FakeGnuplot(const std::string& folder, const std::string& script) {
+  const std::string bin = folder + ".bin";
+  ::mkdir(bin.c_str(), 0755);
+  std::ofstream(bin + "/gnuplot") << script;
+  ::chmod((bin + "/gnuplot").c_str(), 0755);
+  const char* path = std::getenv("PATH");
+  return "PATH=" + bin + ":" + (path ? path : "/usr/bin:/bin");
+}
+
+/// True when a program named `name` is found on PATH.
+inline bool OnPath(const std::string& name) {
+  return std::system(("command -v " + name + " > /dev/null 2>&1").c_str()) == 0;
+}
+
 /// What a folder holds: every entry (not following links) with its type, and for a regular file
 /// its content, for a device its numbers, for a link its target.
 inline std::map<std::string, std::string> FolderState(const std::string& folder) {
@@ -155,12 +172,22 @@ struct MatrixCase {
   std::map<std::string, std::string> files = {};  ///< written into the folder before the run
   std::vector<std::string> writes = {};           ///< outputs a successful run makes or continues
   std::string stdout_to = "";                     ///< a name in the folder that takes standard output, or kClosedPipe
+  /// A script run as gnuplot (FakeGnuplot()); "" runs the gnuplot installed, when a case draws.
+  std::string gnuplot = "";
+  std::map<std::string, std::string> links = {};  ///< symbolic links made in the folder: name, target
 };
 
 inline std::ostream& operator<<(std::ostream& os, const MatrixCase& c) { return os << c.name; }
 
 /// The case's name as the parameterised test's name.
 inline std::string CaseName(const ::testing::TestParamInfo<MatrixCase>& info) { return info.param.name; }
+
+/// True when the case draws a plot with the gnuplot installed.
+inline bool UsesRealGnuplot(const MatrixCase& c) {
+  bool draws = false;
+  for (const std::string& a : c.args) draws |= a == "--plot-dir" || a == "--plot";
+  return draws && c.gnuplot.empty();
+}
 
 /// True when the case names one of the folder's device nodes (MakeDeviceNodes()).
 inline bool UsesDeviceNodes(const MatrixCase& c) {
@@ -173,10 +200,14 @@ inline bool UsesDeviceNodes(const MatrixCase& c) {
 /// exit code, the message, and that the folder is byte for byte as before, apart from the case's
 /// outputs, each of which must be written (made, or changed).
 inline ProgramResult RunMatrixCase(const char* program, const MatrixCase& c, const std::string& dir) {
+  for (const auto& [name, target] : c.links)
+    EXPECT_EQ(::symlink(target.c_str(), (dir + "/" + name).c_str()), 0) << name;
+  std::vector<std::string> env;
+  if (!c.gnuplot.empty()) env.push_back(FakeGnuplot(dir, c.gnuplot));
   const auto before = FolderState(dir);
   std::vector<std::string> argv = {program};
   argv.insert(argv.end(), c.args.begin(), c.args.end());
-  const ProgramResult r = RunProgram(argv, dir, c.stdout_to);
+  const ProgramResult r = RunProgram(argv, dir, c.stdout_to, env);
   EXPECT_EQ(r.code, c.exit) << r.err;
   if (!c.message.empty()) {
     EXPECT_THAT(r.err, ::testing::HasSubstr(c.message));
