@@ -100,7 +100,7 @@ CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string
 
 void AddPlotTimeoutOption(CLI::App& app, double& timeout_s) {
   app.add_option("--plot-timeout-s", timeout_s,
-                 "How long gnuplot may draw the plots of one run before it is stopped and the run fails [s]")
+                 "Time limit of each run of gnuplot [s]: a gnuplot still drawing then is stopped and the program fails")
       ->capture_default_str()
       ->check(InRange(ranges::kPlotTimeoutS));
 }

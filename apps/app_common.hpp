@@ -87,8 +87,8 @@ inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
 /// range and reads "010" as octal, "0x10" as hex.)
 CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string& help);
 
-/// Adds --plot-timeout-s: how long gnuplot may draw before it is stopped (default 60 s, within
-/// ranges::kPlotTimeoutS).
+/// Adds --plot-timeout-s: how long each run of gnuplot may take before it is stopped (default 60 s,
+/// within ranges::kPlotTimeoutS).
 void AddPlotTimeoutOption(CLI::App& app, double& timeout_s);
 
 /// The options of the uncertainty inputs, one per field of kConditionFields ("--sphere-radius-u-um"

@@ -12,7 +12,7 @@
 
 namespace sph::apps {
 
-/// How long gnuplot may draw one run's plots before it is stopped [s] (--plot-timeout-s).
+/// How long one run of gnuplot may take before it is stopped [s] (--plot-timeout-s).
 inline constexpr double kDefaultPlotTimeoutS = 60.0;
 
 /// `s` as a gnuplot string in single quotes (a quote is doubled): for names and titles.
