@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <charconv>
+#include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
@@ -75,6 +78,31 @@ CLI::Validator InRange(const ValidRange& range) {
         return end != text.c_str() && *end == '\0' && range.Contains(v) ? "" : range.Refusal(text);
       },
       range.Text());
+}
+
+CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string& help) {
+  const CLI::Validator decimal(
+      [](std::string& text) -> std::string {
+        const std::size_t first = std::min(text.find_first_not_of('0'), text.empty() ? 0 : text.size() - 1);
+        const std::string digits = text.substr(first);
+        std::uint64_t value = 0;
+        const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
+        if (text.empty() || ec != std::errc() || end != digits.data() + digits.size()) {
+          return "must be an integer from 0 to " + std::to_string(std::numeric_limits<std::uint64_t>::max()) +
+                 ", got " + Quoted(text);
+        }
+        text = digits;  // CLI11 reads it with base 0
+        return "";
+      },
+      "0 <= x <= 2^64 - 1");
+  return app.add_option("--seed", seed, help)->transform(decimal);
+}
+
+void AddPlotTimeoutOption(CLI::App& app, double& timeout_s) {
+  app.add_option("--plot-timeout-s", timeout_s,
+                 "Time limit of each run of gnuplot [s]: a gnuplot still drawing then is stopped and the program fails")
+      ->capture_default_str()
+      ->check(InRange(ranges::kPlotTimeoutS));
 }
 
 void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source) {
@@ -241,6 +269,7 @@ SimulationSpec ToSimulationSpec(const MachineOptions& o) {
 int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI::App&)>& setup,
            const std::function<int()>& run) {
   RemoveTempFilesOnSignals();
+  std::signal(SIGPIPE, SIG_IGN);  // a closed pipe fails a write (EPIPE) as a full disk does
   const StandardOutput standard_output;
   CLI::App app;
   setup(app);

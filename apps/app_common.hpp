@@ -3,6 +3,7 @@
 #define SPH_APPS_APP_COMMON_HPP_
 
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <exception>
 #include <functional>
@@ -57,6 +58,7 @@ double CheckedValue(double value, const ValidRange& range, const std::string& wh
 
 /// Ranges shared by several apps.
 namespace ranges {
+inline constexpr ValidRange kPlotTimeoutS{0.0, 86400.0, "s", true};
 inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};
 inline constexpr ValidRange kProbeOffsetMm{0.0, kMaxProbeOffsetMm, "mm", true};
 /// The seven errors: kScmsParamInfo's bounds, in deg or mm (and |d'| < d).
@@ -79,6 +81,15 @@ inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
 inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
 inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
 }  // namespace ranges
+
+/// Adds --seed: a decimal integer from 0 to 2^64 - 1 ("--seed: must be an integer from 0 to
+/// 18446744073709551615, got '-1'"), "010" being ten. (CLI11 2.1 alone wraps "-1" and 2^64 into
+/// range and reads "010" as octal, "0x10" as hex.)
+CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string& help);
+
+/// Adds --plot-timeout-s: how long each run of gnuplot may take before it is stopped (default 60 s,
+/// within ranges::kPlotTimeoutS).
+void AddPlotTimeoutOption(CLI::App& app, double& timeout_s);
 
 /// The options of the uncertainty inputs, one per field of kConditionFields ("--sphere-radius-u-um"
 /// for the header field sphere_radius_u_um), with the same ranges. `source` ends the help text:
@@ -147,10 +158,11 @@ Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what);
 /// The whole main() of an app: set up the options, parse, run. --help and --version exit 0, a parse
 /// error exits kExitBadInput, and an exception escaping `run` is printed as "<name>: error: <what>"
 /// on stderr with kExitBadInput. `run` returns the exit code. A signal that ends the program
-/// removes the temporary files of its unfinished outputs (sph/core/cleanup.hpp), and a failed write
-/// to standard output (a full disk, a closed pipe) is an error: "<name>: error: cannot write to
-/// standard output: No space left on device". Compiled once, in app_common.cpp, so that no main()
-/// compiles CLI11 (cli_fwd.hpp).
+/// removes the temporary files of its unfinished outputs (sph/core/cleanup.hpp). SIGPIPE is
+/// ignored: a write to a closed pipe fails like one to a full disk, and a failed write to standard
+/// output is an error ("<name>: error: cannot write to standard output: Broken pipe"), found by
+/// OutputFiles::Commit() before the run's files are put in place, or at the latest here, as
+/// kExitBadInput. Compiled once, in app_common.cpp, so that no main() compiles CLI11 (cli_fwd.hpp).
 int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI::App&)>& setup,
            const std::function<int()>& run);
 

@@ -1,7 +1,5 @@
 #include "calibrate_cmd.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <optional>
 
@@ -69,6 +67,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "Write residual_map.png, residual_time.png and, when the sphere's form is fitted, "
                  "sphere_form_map.png (gnuplot) with their data into this folder")
       ->excludes(no_extend);
+  AddPlotTimeoutOption(app, o.plot_timeout_s);
   app.add_option("--harmonics", o.harmonics,
                  "Highest harmonic order searched of the harmonic effects; 0: chosen on each axis from the "
                  "seven-error residual (4, or one above its highest significant harmonic), at most what the "
@@ -83,7 +82,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("--drift-order", o.drift_order, "Highest power of time of probe_drift")
       ->capture_default_str()
       ->check(CLI::Range(1, 3));
-  app.add_option("--seed", o.seed, "Seed of the cross-validation folds")->capture_default_str();
+  AddSeedOption(app, o.seed, "Seed of the cross-validation folds")->capture_default_str();
   AddConditionOptions(app, o.conditions, "(overrides the file's ");
   app.add_option("--coverage", o.coverage,
                  "Coverage probability of the expanded uncertainties U = k u (k from the effective degrees of "
@@ -215,7 +214,7 @@ void StageCalibrationFile(const CalibrateOptions& o, const CalibrationResult& re
 
 int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err) {
   const std::string prog = "sph_calibrate";
-  const bool plot_dir_existed = o.plot_dir.empty() || ::access(o.plot_dir.c_str(), F_OK) == 0;
+  const PlotFolder plot_folder(o.plot_dir);  // removed again when a failed run leaves it empty
   try {
     const bool text = !o.quiet && o.json_path != "-";
     RunPaths paths;
@@ -243,7 +242,15 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     std::optional<Validation> validation;
     if (!o.no_extend) {
       trace = TraceOf(o, points, copts, base, progress);
-      if (!o.validate_path.empty()) validation = Validate(o.validate_path, copts.probe_offset_mm, *trace);
+      if (!o.validate_path.empty()) {
+        validation = Validate(o.validate_path, copts.probe_offset_mm, *trace);
+        if (SameFile(o.validate_path, o.points_path)) {
+          validation->note =
+              "the validation file is the calibration's own points file: this shows how the model "
+              "fits its own data, not an independent check" +
+              (validation->note.empty() ? std::string() : "; " + validation->note);
+        }
+      }
     }
     progress.Finish();  // the report follows on stdout, maybe the same terminal
     // The calibration reported: the seven errors of the final model, fitted with its effects and
@@ -274,7 +281,10 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       StageCalibrationFile(o, result, ctx, extended ? &trace->after.fit : nullptr, budget ? &*budget : nullptr, files,
                            err);
     }
-    if (trace && !o.plot_dir.empty()) PlotTrace(o.plot_dir, points, copts, *trace, files);
+    if (trace && !o.plot_dir.empty()) {
+      plot_folder.Make();
+      PlotTrace(o.plot_dir, points, copts, *trace, o.plot_timeout_s, files);
+    }
     if (text) {
       WriteTextReport(out, result, ctx);
     }
@@ -284,7 +294,6 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     files.Commit();
     return result.Usable() ? kExitOk : kExitNotUsable;
   } catch (const std::exception& e) {
-    if (!plot_dir_existed) ::rmdir(o.plot_dir.c_str());  // the folder made for the plots, if left empty
     err << prog << ": error: " << e.what() << "\n";
     return kExitBadInput;
   }

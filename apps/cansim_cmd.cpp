@@ -371,7 +371,7 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
                      "); the form below turns with it (give it to sph_acquired for the points file's header)")
       ->group(m);
   AddFormOptions(app, o.form, m);
-  app.add_option("--seed", o.seed, "Random seed")->group(m);
+  AddSeedOption(app, o.seed, "Random seed")->group(m);
   app.add_option("--move-s", o.move_s, "Time to move between pattern points [s]")->check(InRange(kStepTimeS))->group(m);
   app.add_option("--stop-s", o.stop_s, "Standstill at each pattern point [s]")->check(InRange(kStepTimeS))->group(m);
   app.add_option("--heartbeat-period-s", o.heartbeat_period_s,

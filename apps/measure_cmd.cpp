@@ -291,14 +291,14 @@ void DrawFormMap(const MeasureOptions& o, const std::vector<Eigen::Vector3d>& po
   const std::string script = FormMapScript(points, ev, name, o.plot_path.empty() ? "form_map.png" : o.plot_path);
   if (!o.plot_script_path.empty()) files.Stage(o.plot_script_path, [&](std::ostream& f) { f << script; });
   if (o.plot_path.empty()) return;
-  const std::string png_tmp = files.StageProduced(o.plot_path);
-  const std::size_t slash = png_tmp.find_last_of('/');
+  const std::size_t slash = o.plot_path.find_last_of('/');
   GnuplotRun run;
   run.program = o.gnuplot;
-  run.folder = slash == std::string::npos ? "." : png_tmp.substr(0, slash == 0 ? 1 : slash);
+  run.folder = slash == std::string::npos ? "." : o.plot_path.substr(0, slash == 0 ? 1 : slash);
   run.script = script;
-  run.variables = {{"png", png_tmp.substr(slash + 1)}};
   run.description = "the form-error map";
+  run.timeout_s = o.plot_timeout_s;
+  run.Draw("png", o.plot_path, files);
   RunGnuplot(run, o.plot_path);
 }
 
@@ -764,11 +764,12 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
   app.add_option("--plot-script", o.plot_script_path,
                  "Write the form-error map as a gnuplot script (data inline; run: gnuplot FILE)");
   app.add_option("--gnuplot", o.gnuplot, "The gnuplot program")->capture_default_str();
+  AddPlotTimeoutOption(app, o.plot_timeout_s);
   app.add_option("--uncertainty-samples", o.uncertainty_samples,
                  "Calibration draws for the uncertainty from the calibration's covariance (0: none)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000000));
-  app.add_option("--seed", o.seed, "Seed of the calibration draws")->capture_default_str();
+  AddSeedOption(app, o.seed, "Seed of the calibration draws")->capture_default_str();
   app.add_option("--noise-um", o.noise_um,
                  "The probe's noise sigma for the noise floor of the form values [um] (default: the calibration's "
                  "fit rms, its source.fit_rms_um)")

@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -199,11 +198,9 @@ json Table3(std::ostream& out, const MonteCarloSpec& spec, const MonteCarloResul
 }
 
 // Figure 4: std against eccentricity with the Cramer-Rao curve, and the spread of the estimates:
-// the data, the script and the three images, staged in `dir` (created when missing).
-void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloResult& r, OutputFiles& files) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+// the data, the script and the three images, staged in the folder `dir` (PlotFolder::Make()).
+void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloResult& r, double timeout_s,
+          OutputFiles& files) {
   const std::string folder = dir + "/";
   const double e_min = r.rows.front().eccentricity_mm, e_max = r.rows.back().eccentricity_mm;
   files.Stage(folder + "fig4_std.dat", [&](std::ostream& f) {
@@ -270,18 +267,16 @@ void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloRe
          << "plot spread_dat u ($1*0.97):2 w p pt 7 ps 0.3 lc rgb '#801f77b4' t 'b', "
             "spread_dat u ($1*1.03):3 w p pt 7 ps 0.3 lc rgb '#80d62728' t 'c'\n";
   files.Stage(folder + "fig4.gp", [&](std::ostream& f) { f << script.str(); });
-  const auto name_in_folder = [](const std::string& path) { return path.substr(path.find_last_of('/') + 1); };
   GnuplotRun run;
   run.folder = dir;
   run.script = script.str();
   run.description = "Figure 4";
+  run.timeout_s = timeout_s;
   for (const char* name : {"std", "crlb", "spread"}) {
-    run.variables.emplace_back(std::string(name) + "_dat",
-                               name_in_folder(files.StagedName(folder + "fig4_" + name + ".dat")));
+    run.Set(std::string(name) + "_dat", files.StagedName(folder + "fig4_" + name + ".dat"));
   }
   for (const char* name : {"b_c_std", "beta_epsilon_std", "spread"}) {
-    run.variables.emplace_back(std::string(name) + "_png",
-                               name_in_folder(files.StageProduced(folder + "fig4_" + name + ".png")));
+    run.Draw(std::string(name) + "_png", folder + "fig4_" + name + ".png", files);
   }
   RunGnuplot(run, "--plot-dir " + dir);
 }
@@ -365,7 +360,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   app.add_option("--setups", o.setups, "Sphere placements per trial, turned evenly about the Theta axis")
       ->capture_default_str()
       ->check(CLI::Range(1, 100));
-  app.add_option("--seed", o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
+  AddSeedOption(app, o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
   app.add_option("--threads", o.threads, "Worker threads (0: all cores)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1024));
@@ -376,6 +371,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   app.add_option("--json", o.json_path, "Write the results as JSON ('-' for stdout)");
   app.add_option("--csv", o.csv_path, "Write the per-parameter statistics as CSV");
   app.add_option("--plot-dir", o.plot_dir, "Write Figure 4 (PNG, with gnuplot) and its data into this folder");
+  AddPlotTimeoutOption(app, o.plot_timeout_s);
   app.add_flag("--plan", o.plan, "Predict the standard deviations from the linearised model, without simulating");
   app.add_option("--target-std-um", o.target_std_um,
                  "With --plan: find the smallest eccentricity (and per grid) meeting this std as a displacement [um]")
@@ -421,6 +417,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
 }
 
 int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream& err) {
+  const PlotFolder plot_folder(o.plot_dir);  // removed again when a failed run leaves it empty
   try {
     RunPaths paths;
     paths.Input("--angles", o.machine.angles_path)
@@ -465,7 +462,10 @@ int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream
           << std::flush;
     if (!o.json_path.empty()) files.Stage(o.json_path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
     if (!o.csv_path.empty()) WriteCsv(o.csv_path, r, files);
-    if (!o.plot_dir.empty()) Plot(o.plot_dir, spec, r, files);
+    if (!o.plot_dir.empty()) {
+      plot_folder.Make();
+      Plot(o.plot_dir, spec, r, o.plot_timeout_s, files);
+    }
     files.Commit();
     if (!o.plot_dir.empty()) {
       err << "sph_montecarlo: wrote " << o.plot_dir

@@ -11,6 +11,7 @@
 #include "cli_fwd.hpp"
 
 #include "app_common.hpp"
+#include "gnuplot.hpp"
 
 namespace sph {
 struct MonteCarloSpec;
@@ -32,9 +33,10 @@ struct MonteCarloOptions {
   std::string json_path;
   std::string csv_path;
   std::string plot_dir;
-  bool plan = false;                    ///< predict only, no simulation
-  std::optional<double> target_std_um;  ///< with plan: search the smallest eccentricity
-  bool progress = true;                 ///< progress bar on stderr when it is a terminal
+  double plot_timeout_s = kDefaultPlotTimeoutS;  ///< gnuplot is stopped after this long
+  bool plan = false;                             ///< predict only, no simulation
+  std::optional<double> target_std_um;           ///< with plan: search the smallest eccentricity
+  bool progress = true;                          ///< progress bar on stderr when it is a terminal
   /// --plan-orientations: the mount orientations that separate the sphere's form from the machine.
   bool plan_orientations = false;
   std::vector<std::string> effects;              ///< the machine's effects (ids); empty: the whole library

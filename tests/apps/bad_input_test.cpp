@@ -2,9 +2,12 @@
 // runs the real program in a folder of its own and checks the exit code, the message (naming
 // the option, or the file and line), that no solver log reaches the user, and that the folder
 // is byte for byte as before (device nodes still device nodes), apart from the outputs a
-// successful case makes.
+// successful case makes. A failed run replaces no file: a case whose standard output fails (a
+// full device, a pipe nobody reads) or whose plot fails finds its old output unchanged.
+#include <signal.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <map>
@@ -41,6 +44,12 @@ std::string ExampleWithR(int row, const std::string& r) {
 
 constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
 
+// Stand-ins for gnuplot: one that never finishes (what it starts must go with it), one that
+// ends well without drawing anything.
+constexpr const char* kHangingGnuplot = "#!/bin/sh\nsleep 30\n";
+constexpr const char* kIdleGnuplot = "#!/bin/sh\nexit 0\n";
+constexpr const char* kSeedRange = "--seed: must be an integer from 0 to 18446744073709551615, got ";
+
 class Matrix : public ::testing::TestWithParam<MatrixCase> {
  protected:
   // The files every case finds in its folder: the example (P.txt), a calibration made from it
@@ -68,6 +77,7 @@ class Matrix : public ::testing::TestWithParam<MatrixCase> {
   void Check(const char* program) {
     const MatrixCase& c = GetParam();
     if (UsesDeviceNodes(c) && !nodes_) GTEST_SKIP() << "device nodes cannot be made here (needs CAP_MKNOD)";
+    if (UsesRealGnuplot(c) && !OnPath("gnuplot")) GTEST_SKIP() << "gnuplot is not installed";
     const ProgramResult r = RunMatrixCase(program, c, Folder(c));
     EXPECT_FALSE(HasSolverLog(r.out + r.err)) << r.err;
   }
@@ -225,6 +235,55 @@ std::vector<MatrixCase> CalibrateCases() {
        {},
        "full"},
       {"validate_without_trace", {"P.txt", "--no-extend", "--validate", "P.txt"}, 2, "--no-extend excludes --validate"},
+      {"stdout_full_keeps_the_calibration",
+       {"P.txt", "--no-extend", "-o", "c.json"},
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"c.json", "yesterday\n"}},
+       {},
+       "full"},
+      {"stdout_closed_keeps_the_calibration",
+       {"P.txt", "--no-extend", "-o", "c.json"},
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"c.json", "yesterday\n"}},
+       {},
+       kClosedPipe},
+      {"plot_hangs",
+       {"P.txt", "-q", "-o", "c.json", "--plot-dir", "plots", "--plot-timeout-s", "1"},
+       2,
+       e + "--plot-dir plots: gnuplot did not finish the residual plots within 1 s and was stopped; give it longer "
+           "with --plot-timeout-s",
+       {{"c.json", "yesterday\n"}},
+       {},
+       "",
+       kHangingGnuplot},
+      {"plot_timeout_zero",
+       {"P.txt", "--plot-dir", "plots", "--plot-timeout-s", "0"},
+       2,
+       "--plot-timeout-s: must be > 0 and <= 86400 s, got 0"},
+      {"plot_left_empty",
+       {"P.txt", "-q", "--plot-dir", "sub"},
+       2,
+       e + "sub/residual_map.png: gnuplot ended without drawing the residual plots into it (the image is empty)",
+       {},
+       {},
+       "",
+       kIdleGnuplot},
+      {"plot_through_a_link_drawn_into_its_target",
+       {"P.txt", "-q", "--plot-dir", "sub"},
+       0,
+       "",
+       {{"elsewhere.png", "old\n"}},
+       {"elsewhere.png", "sub/residual_time.png", "sub/residuals.dat", "sub/residuals.gp"},
+       "",
+       "",
+       {{"sub/residual_map.png", "../elsewhere.png"}}},
+      {"seed_negative", {"P.txt", "--seed", "-1"}, 2, kSeedRange + std::string("'-1'")},
+      {"seed_beyond_64_bits",
+       {"P.txt", "--seed", "18446744073709551616"},
+       2,
+       kSeedRange + std::string("'18446744073709551616'")},
   };
 }
 INSTANTIATE_TEST_SUITE_P(Calibrate, CalibrateMatrix, ::testing::ValuesIn(CalibrateCases()), CaseName);
@@ -437,6 +496,15 @@ std::vector<MatrixCase> SimulateCases() {
        e + "full: cannot write: No space left on device"},
       {"output_onto_null_device", {"-o", "null"}, 0, ""},
       {"stdout_full", {}, 2, e + "cannot write to standard output: No space left on device", {}, {}, "full"},
+      {"stdout_closed_keeps_the_truth",
+       {"--truth", "t.json"},
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"t.json", "yesterday\n"}},
+       {},
+       kClosedPipe},
+      {"seed_negative", {"--seed", "-1"}, 2, kSeedRange + std::string("'-1'")},
+      {"seed_in_hex", {"--seed", "0x10"}, 2, kSeedRange + std::string("'0x10'")},
       {"output_and_truth_written", {"-o", "x.txt", "--truth", "t.json"}, 0, "", {}, {"x.txt", "t.json"}},
       {"unknown_option", {"--sphere-radius", "20"}, 2, "The following arguments were not expected: 20 --sphere-radius"},
   };
@@ -524,6 +592,45 @@ std::vector<MatrixCase> MonteCarloCases() {
        {},
        {},
        "full"},
+      {"stdout_full_keeps_the_csv",
+       with({"--no-table3", "--csv", "m.csv"}),
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"m.csv", "yesterday\n"}},
+       {},
+       "full"},
+      {"stdout_closed_keeps_the_csv",
+       with({"--no-table3", "--csv", "m.csv"}),
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"m.csv", "yesterday\n"}},
+       {},
+       kClosedPipe},
+      {"plan_stdout_full_keeps_the_json",
+       {"--plan", "--json", "m.json"},
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"m.json", "yesterday\n"}},
+       {},
+       "full"},
+      {"plot_hangs",
+       with({"--no-table3", "--plot-dir", "plots", "--plot-timeout-s", "1"}),
+       2,
+       e + "--plot-dir plots: gnuplot did not finish Figure 4 within 1 s and was stopped",
+       {},
+       {},
+       "",
+       kHangingGnuplot},
+      {"plot_left_empty",
+       with({"--no-table3", "--plot-dir", "plots"}),
+       2,
+       e + "plots/fig4_b_c_std.png: gnuplot ended without drawing Figure 4 into it (the image is empty)",
+       {},
+       {},
+       "",
+       kIdleGnuplot},
+      {"seed_beyond_64_bits", with({"--seed", "18446744073709551616"}), 2,
+       kSeedRange + std::string("'18446744073709551616'")},
       {"csv_and_json_written",
        with({"--no-table3", "--csv", "m.csv", "--json", "m.json"}),
        0,
@@ -665,6 +772,37 @@ std::vector<MatrixCase> MeasureCases() {
        {},
        {},
        "full"},
+      {"stdout_full_keeps_the_points",
+       with({"P.txt", "-o", "p.xyz"}),
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"p.xyz", "yesterday\n"}},
+       {},
+       "full"},
+      {"stdout_closed_keeps_the_points",
+       with({"P.txt", "-o", "p.xyz"}),
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"p.xyz", "yesterday\n"}},
+       {},
+       kClosedPipe},
+      {"plot_hangs",
+       with({"P.txt", "-q", "--plot", "m.png", "--plot-timeout-s", "1"}),
+       2,
+       e + "m.png: gnuplot did not finish the form-error map within 1 s and was stopped",
+       {},
+       {},
+       "",
+       kHangingGnuplot},
+      {"plot_left_empty",
+       with({"P.txt", "-q", "--plot", "m.png", "--plot-script", "m.gp"}),
+       2,
+       e + "m.png: gnuplot ended without drawing the form-error map into it (the image is empty)",
+       {},
+       {},
+       "",
+       kIdleGnuplot},
+      {"seed_negative", with({"P.txt", "--seed", "-1"}), 2, kSeedRange + std::string("'-1'")},
       {"outputs_written",
        with({"P.txt", "-q", "-o", "p.xyz", "--json", "m.json", "--plot-script", "m.gp"}),
        0,
@@ -674,6 +812,31 @@ std::vector<MatrixCase> MeasureCases() {
   };
 }
 INSTANTIATE_TEST_SUITE_P(Measure, MeasureMatrix, ::testing::ValuesIn(MeasureCases()), CaseName);
+
+// A signal while gnuplot draws: the program kills gnuplot before it removes the image begun, so
+// that nothing draws into it afterwards.
+TEST(PlotSignal, EndsGnuplotAndLeavesNothingBehind) {
+  const std::string dir = MakeTempDir("plot_signal");
+  std::ofstream(dir + "/P.txt") << Example();
+  ASSERT_EQ(RunProgram({SPH_CALIBRATE, "P.txt", "--no-extend", "-q", "-o", "cal.json"}, dir).code, 0);
+  // Says that it started, then draws into its image (-e "png = '<name>'; ") half a second later.
+  const std::string started = dir + ".started";
+  const std::string gnuplot =
+      "#!/bin/sh\npng=${2#*\\'}; png=${png%%\\'*}\ntouch '" + started + "'\nsleep 0.5\necho drawn > \"$png\"\n";
+  const std::vector<std::string> env = {FakeGnuplot(dir, gnuplot)};
+  const auto before = FolderState(dir);
+  const pid_t pid = StartProgram({SPH_MEASURE, "P.txt", "-c", "cal.json", "-q", "--uncertainty-samples", "0",
+                                  "--mc-max-trials", "0", "--plot", "m.png"},
+                                 dir, "", env);
+  ASSERT_GT(pid, 0);
+  for (int i = 0; i < 2000 && ::access(started.c_str(), F_OK) != 0; ++i) ::usleep(10000);
+  ASSERT_EQ(::access(started.c_str(), F_OK), 0) << "gnuplot did not start";
+  ::kill(pid, SIGTERM);
+  const ProgramResult r = FinishProgram(pid, dir);
+  EXPECT_EQ(r.code, 128 + SIGTERM) << r.err;
+  ::usleep(1000000);  // a gnuplot left running would have drawn by now
+  EXPECT_EQ(FolderState(dir), before);
+}
 
 }  // namespace
 }  // namespace sph::testing
