@@ -18,6 +18,7 @@
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
+#include "sph/core/setup_checks.hpp"
 
 namespace sph::apps {
 
@@ -162,6 +163,11 @@ CalibrationOptions SettingsOf(const CalibrateOptions& o, const PointsData& point
   return copts;
 }
 
+// The probe's measuring range: --probe-range-mm, else the points file's probe_range_mm.
+std::optional<double> ProbeRangeOf(const CalibrateOptions& o, const PointsData& points) {
+  return o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
+}
+
 // The residual traced to further effects (or the effects of --effects fitted), from the seven-error
 // fit `base`.
 TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const CalibrationOptions& copts,
@@ -170,8 +176,7 @@ TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const C
   topts.harmonics = {o.harmonics, o.harmonics};
   topts.drift_order = o.drift_order;
   topts.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
-  topts.probe_range_mm =
-      o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
+  topts.probe_range_mm = ProbeRangeOf(o, points);
   topts.seed = o.seed;
   topts.add_confounded = !o.hold_confounded;
   topts.progress = [&](int round, int done, int total) {
@@ -230,6 +235,9 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     const PointsData points = ReadPointsFile(o.points_path);
     CalibrationInputs inputs;
     const CalibrationOptions copts = SettingsOf(o, points, &inputs);
+    if (const std::optional<double> range = ProbeRangeOf(o, points)) {
+      CheckReadingsInProbeRange(points, *range, o.conditions.probe_range_mm ? "--probe-range-mm" : "probe_range_mm");
+    }
     // Readings that parse but look wrong: said first, on stderr, whatever the report's form.
     progress.Stage("checking " + std::to_string(points.samples.size()) + " samples");
     const std::vector<std::string> warnings = PlausibilityWarnings(points);

@@ -18,6 +18,7 @@
 #include "sph/calib/identifiability.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/gum.hpp"
+#include "sph/core/setup_checks.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/internal/parallel.hpp"
 #include "sph/model/form_model.hpp"
@@ -1353,6 +1354,7 @@ struct TraceStart {
   TraceStart(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
              const TraceOptions& asked, TraceResult* r)
       : data(WithoutOutliers(all, base)), reference(ReferenceOf(all, asked)) {
+    if (asked.probe_range_mm) CheckReadingsInProbeRange(all, *asked.probe_range_mm, "probe_range_mm");
     r->before = Analysed(FitNone(data, base, reference, asked), data, options, asked);
     trace = WithSearchedOrders(asked, data.points, r->before.structure);
     r->harmonics = trace.harmonics;

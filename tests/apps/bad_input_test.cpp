@@ -41,6 +41,18 @@ std::string ExampleWithR(int row, const std::string& r) {
 
 constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
 
+// The example with `lines` added to its header (after its first three lines), or with its
+// probe_offset_mm replaced when `offset` is given.
+std::string ExampleWithHeader(const std::string& lines, const std::string& offset = "") {
+  std::string text = Example();
+  if (!offset.empty()) {
+    const std::string key = "# probe_offset_mm: 25\n";
+    text.replace(text.find(key), key.size(), "# probe_offset_mm: " + offset + "\n");
+  }
+  const std::size_t third = text.find('\n', text.find('\n', text.find('\n') + 1) + 1);
+  return text.insert(third + 1, lines);
+}
+
 class Matrix : public ::testing::TestWithParam<MatrixCase> {
  protected:
   // The files every case finds in its folder: the example (P.txt), a calibration made from it
@@ -225,6 +237,23 @@ std::vector<MatrixCase> CalibrateCases() {
        {},
        "full"},
       {"validate_without_trace", {"P.txt", "--no-extend", "--validate", "P.txt"}, 2, "--no-extend excludes --validate"},
+      {"readings_outside_the_probe_range",
+       {"x.txt", "-q"},
+       2,
+       e + "x.txt:8: r_mm 4.77605065 lies outside the probe's measuring range, 0 to 0.002 mm (probe_range_mm): 288 "
+           "of 288 readings do (they span 2.95877 to 6.92469 mm)",
+       {{"x.txt", ExampleWithHeader("# probe_range_mm: 0.002\n")}}},
+      {"probe_range_option_below_the_readings",
+       {"P.txt", "--no-extend", "-q", "--probe-range-mm", "6"},
+       2,
+       e + "P.txt:65: r_mm 6.065184228 lies outside the probe's measuring range, 0 to 6 mm (--probe-range-mm): 56 of "
+           "288 readings do"},
+      {"validate_a_file_of_another_probe_offset",
+       {"P.txt", "-q", "--validate", "v.txt"},
+       2,
+       e + "v.txt: probe_offset_mm 30 differs from the calibration's 25: the calibration belongs to another probe "
+           "set-up",
+       {{"v.txt", ExampleWithHeader("", "30")}}},
   };
 }
 INSTANTIATE_TEST_SUITE_P(Calibrate, CalibrateMatrix, ::testing::ValuesIn(CalibrateCases()), CaseName);
@@ -605,6 +634,10 @@ std::vector<MatrixCase> MeasureCases() {
     return j + R"(]}, "effects": []})" + "\n";
   };
   const std::string good = cal("0.02", "1e-8", "0", "0");
+  // A calibration with a form of the calibration sphere (one term, no covariance).
+  std::string with_form = good.substr(0, good.find(R"(, "covariance")")) +
+                          R"(, "effects": [], "sphere_form": {"normalisation": "schmidt_semi_normalised", )"
+                          R"("frame": "body", "unit": "um", "terms": [{"l": 2, "m": 0, "value_um": 0.05}]}})" + "\n";
   const std::string xyz = "1 0 0\n0 1 0\n0 0 1\n-1 0 0\n0 -1 0\n0 0 -1\n";
   const std::vector<std::string> quick = {"-c", "cal.json", "--uncertainty-samples", "0"};
   auto with = [&](std::vector<std::string> args) {
@@ -671,6 +704,33 @@ std::vector<MatrixCase> MeasureCases() {
        e + "--calibration compensates readings",
        {{"x.xyz", xyz}}},
       {"xyz_too_few", {"--xyz", "x.xyz"}, 2, e, {{"x.xyz", "1 0 0\n0 1 0\n0 0 1\n"}}},
+      {"xyz_beyond_any_machine",
+       {"--xyz", "x.xyz"},
+       2,
+       e + "x.xyz: point 1 of 6 (1e+153 0 0 mm) lies beyond 1e+06 mm from the origin, which no measuring machine "
+           "reaches: are the coordinates in mm?",
+       {{"x.xyz", "1e153 0 0\n0 1e153 0\n0 0 1e153\n-1e153 0 0\n0 -1e153 0\n0 0 -1e153\n"}}},
+      {"xyz_one_point",
+       {"--xyz", "x.xyz"},
+       2,
+       e + "x.xyz: the 5 points are all one point (1 2 3 mm)",
+       {{"x.xyz", "1 2 3\n1 2 3\n1 2 3\n1 2 3\n1 2 3\n"}}},
+      {"readings_outside_the_probe_range",
+       with({"x.txt"}),
+       2,
+       e + "x.txt:8: r_mm 4.77605065 lies outside the probe's measuring range, 0 to 0.002 mm (probe_range_mm)",
+       {{"x.txt", ExampleWithHeader("# probe_range_mm: 0.002\n")}}},
+      {"form_taken_off_another_sphere",
+       {"x.txt", "-c", "f.json", "--subtract-sphere-form", "-q"},
+       2,
+       e + "x.txt: setup 0 measured another sphere (sphere_radius_mm@0: 10 mm), not the calibration sphere whose "
+           "form the calibration file holds: its form cannot be taken off these points",
+       {{"x.txt", ExampleWithHeader("# sphere_radius_mm@0: 10\n")}, {"f.json", with_form}}},
+      {"form_taken_off_the_calibration_sphere",
+       {"P.txt", "-c", "f.json", "--subtract-sphere-form", "-q", "--uncertainty-samples", "0"},
+       0,
+       "",
+       {{"f.json", with_form}}},
       {"setup_missing", with({"P.txt", "--setup", "3"}), 2, e + "P.txt: there is no setup 3"},
       {"one_draw",
        {"P.txt", "-c", "cal.json", "--uncertainty-samples", "1"},
