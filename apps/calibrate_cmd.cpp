@@ -14,6 +14,7 @@
 #include "sph/calib/report.hpp"
 #include "sph/calib/trace.hpp"
 #include "sph/calib/trace_report.hpp"
+#include "sph/calib/usability.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
@@ -195,10 +196,10 @@ TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const C
 // The calibration file of `result` (with the trace's effects when `extended`) staged to o.output_path,
 // or the reason it is not written on err.
 void StageCalibrationFile(const CalibrateOptions& o, const CalibrationResult& result, const ReportContext& ctx,
-                          const EffectFit* extended, const CalibrationBudget* budget, OutputFiles& files,
+                          const EffectFit* extended, const CalibrationBudget* budget, bool usable, OutputFiles& files,
                           std::ostream& err) {
   const std::string prog = "sph_calibrate";
-  if (!result.Usable()) {
+  if (!usable) {
     err << prog << ": not writing " << o.output_path << ": the calibration is not usable\n";
     return;
   }
@@ -268,27 +269,32 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     ctx.sphere_radii_mm = copts.sphere_radii_mm;
     ctx.probe_offset_mm = copts.probe_offset_mm;
     ctx.max_std_um = o.max_std_um;
+    ctx.probe_range_mm = ProbeRangeOf(o, points);
     ctx.metadata = points.header.metadata;
     ctx.trace = trace ? &*trace : nullptr;
     ctx.validation = validation ? &*validation : nullptr;
+    const Usability usability = JudgeUsability(result, ctx);
     OutputFiles files(out);
     if (!o.json_path.empty()) {
       const std::string json = JsonReport(result, ctx);
       files.Stage(o.json_path, [&](std::ostream& f) { f << json; });
     }
     if (!o.output_path.empty()) {
-      StageCalibrationFile(o, result, ctx, extended ? &trace->after.fit : nullptr, budget ? &*budget : nullptr, files,
-                           err);
+      StageCalibrationFile(o, result, ctx, extended ? &trace->after.fit : nullptr, budget ? &*budget : nullptr,
+                           usability.usable, files, err);
     }
     if (trace && !o.plot_dir.empty()) PlotTrace(o.plot_dir, points, copts, *trace, files);
     if (text) {
       WriteTextReport(out, result, ctx);
     }
-    if (o.quiet) {
-      for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";
+    if (!text) {  // the report that says why is not shown: stderr does
+      if (o.quiet) {
+        for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";
+      }
+      for (const std::string& why : usability.reasons) err << prog << ": not usable: " << why << "\n";
     }
     files.Commit();
-    return result.Usable() ? kExitOk : kExitNotUsable;
+    return usability.usable ? kExitOk : kExitNotUsable;
   } catch (const std::exception& e) {
     if (!plot_dir_existed) ::rmdir(o.plot_dir.c_str());  // the folder made for the plots, if left empty
     err << prog << ": error: " << e.what() << "\n";

@@ -1366,6 +1366,15 @@ struct TraceStart {
 void Finish(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
             const TraceOptions& trace, TraceResult* r) {
   RejudgeOutliers(all, options, base, trace, r->after);
+  if (r->after.fit.model.Find(Effect::kProbeDrift) >= 0 && !all.samples.empty()) {
+    const auto [lo, hi] = std::minmax_element(all.samples.begin(), all.samples.end(),
+                                              [](const Sample& a, const Sample& b) { return a.t_s < b.t_s; });
+    if (lo->t_s == hi->t_s) {
+      r->after.fit.calibration.warnings.push_back(
+          "why: every sample has the same time t_s (" + Format("%g", lo->t_s) +
+          " s), so a drift with time is not determined: probe_drift needs the times the readings were taken at");
+    }
+  }
   r->unexplained = RemainingStructure(r->after.structure, trace);
 }
 

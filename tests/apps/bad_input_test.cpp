@@ -39,6 +39,17 @@ std::string ExampleWithR(int row, const std::string& r) {
   return out;
 }
 
+// The example with every t_s 5 s.
+std::string ExampleAtOneTime() {
+  std::istringstream in(Example());
+  std::string out, line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#') line = line.substr(0, line.find_last_of(' ')) + " 5";
+    out += line + "\n";
+  }
+  return out;
+}
+
 constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
 
 // The example with `lines` added to its header (after its first three lines), or with its
@@ -248,6 +259,27 @@ std::vector<MatrixCase> CalibrateCases() {
        2,
        e + "P.txt:65: r_mm 6.065184228 lies outside the probe's measuring range, 0 to 6 mm (--probe-range-mm): 56 of "
            "288 readings do"},
+      {"radius_of_half_the_sphere",
+       {"P.txt", "--sphere-radius-mm", "10", "-q", "-o", "c.json"},
+       1,
+       "sph_calibrate: not usable: d' = -10.0601 mm is more than a tenth of the sphere's radius (10 mm): with the "
+       "nominal d the points lie on a sphere of radius about R0 - d' = 20.0601 mm"},
+      {"temperature_leaves_d_prime_uncertain_by_a_millimetre",
+       {"P.txt", "--no-extend", "-q", "--sphere-temperature-c", "100", "--sphere-cte-per-k", "1e-3",
+        "--sphere-temperature-u-c", "50", "-o", "c.json"},
+       1,
+       "sph_calibrate: not usable: d_prime has a combined standard uncertainty of 1005 um as a displacement (U = 2010 "
+       "um, k = 2.00), most of it from sphere temperature (1005 um)"},
+      {"quiet_not_usable_says_why",
+       {"P.txt", "--effects", "phi_wobble", "--phi-wobble-pivot-mm", "10000", "-q"},
+       1,
+       "sph_calibrate: not usable: the data do not determine a (std 17.5 um), beta (std 4.74e+03 um)"},
+      {"drift_of_readings_all_at_one_time",
+       {"x.txt", "--effects", "probe_drift", "-q"},
+       1,
+       "sph_calibrate: not usable: the data do not determine probe_drift.t1 (no information at all), "
+       "probe_drift.t2 (no information at all)",
+       {{"x.txt", ExampleAtOneTime()}}},
       {"validate_a_file_of_another_probe_offset",
        {"P.txt", "-q", "--validate", "v.txt"},
        2,
