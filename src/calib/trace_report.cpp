@@ -221,6 +221,13 @@ void WriteEffectValues(std::ostream& out, const TraceResult& r) {
     out << "  " << term.info().id << ": " << term.info().description << iso << "\n";
     for (std::size_t i = 0; i < term.components.size(); ++i) {
       const int col = a.fit.TermOffset(t) + static_cast<int>(i);
+      if (!rep.Empty() && !rep.determined[static_cast<std::size_t>(col)]) {
+        const double disp = rep.StdAsDisplacementUm(col);
+        out << Format("    %-30s %12s  (std %s um as a displacement: not determined by these data)\n",
+                      term.ParamName(i).c_str(), "undetermined",
+                      std::isfinite(disp) ? Format("%.3g", disp).c_str() : "infinite");
+        continue;
+      }
       out << Format("    %-30s %12.5f +- %.5f %s\n", term.ParamName(i).c_str(), a.fit.values[t][i] * u.per_internal,
                     rep.Empty() ? std::nan("") : rep.std(col) * u.per_internal, u.name);
     }

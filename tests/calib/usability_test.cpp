@@ -1,5 +1,7 @@
 #include "sph/calib/usability.hpp"
 
+#include <sstream>
+
 #include <nlohmann/json.hpp>
 
 #include <gmock/gmock.h>
@@ -7,6 +9,7 @@
 
 #include "calib_test_util.hpp"
 #include "sph/calib/trace.hpp"
+#include "sph/calib/trace_report.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
 
@@ -131,6 +134,11 @@ TEST_F(Usability, UndeterminedEffectsAreNamed) {
   EXPECT_THAT(r.warnings.back(), HasSubstr("every sample has the same time t_s (5 s)"));
   const nlohmann::json j = nlohmann::json::parse(JsonReport(r, ctx));
   EXPECT_EQ(j["undetermined"], nlohmann::json({"probe_drift.t1", "probe_drift.t2"}));
+  std::ostringstream text;
+  WriteTraceText(text, trace, nullptr);
+  EXPECT_THAT(text.str(), HasSubstr("probe_drift.t1                 undetermined  (std infinite um as a "
+                                    "displacement: not determined by these data)"));
+  EXPECT_THAT(text.str(), ::testing::Not(HasSubstr("+- inf")));
 }
 
 }  // namespace
