@@ -39,6 +39,30 @@ std::string ExampleWithR(int row, const std::string& r) {
   return out;
 }
 
+// The example's header and `rows` of its samples, every (288 / rows)-th.
+std::string ExampleSamples(int rows) {
+  std::istringstream in(Example());
+  std::string out, line;
+  int n = 0, kept = 0;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#' && (n++ % (288 / rows) != 0 || kept++ >= rows)) continue;
+    out += line + "\n";
+  }
+  return out;
+}
+
+// data/example/separation/points.txt (four orientations of the sphere) with every k-th sample.
+std::string SeparationEvery(int k) {
+  std::istringstream in(ReadWholeFile(SPH_SOURCE_DIR "/data/example/separation/points.txt"));
+  std::string out, line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#' && n++ % k != 0) continue;
+    out += line + "\n";
+  }
+  return out;
+}
+
 // The example with every t_s 5 s.
 std::string ExampleAtOneTime() {
   std::istringstream in(Example());
@@ -280,6 +304,28 @@ std::vector<MatrixCase> CalibrateCases() {
        "sph_calibrate: not usable: the data do not determine probe_drift.t1 (no information at all), "
        "probe_drift.t2 (no information at all)",
        {{"x.txt", ExampleAtOneTime()}}},
+      {"too_few_samples_for_the_trace",
+       {"x.txt", "-q"},
+       2,
+       e + "x.txt: 11 samples are too few to trace the residual: its 5-fold cross-validation fits the 7 errors and 3 "
+           "centre coordinates for each of 1 setup(s) (10 parameters) to the samples outside each fold, here as few "
+           "as 8 (a fold leaves out up to 3), and a fit needs more samples than parameters: at least 14 samples are "
+           "needed; the seven errors alone (--no-extend) need more than 10",
+       {{"x.txt", ExampleSamples(11)}}},
+      {"too_few_samples_for_the_seven_errors", {"x.txt", "--no-extend", "-q"}, 1, "", {{"x.txt", ExampleSamples(11)}}},
+      {"few_samples_trace_what_they_can", {"x.txt", "-q"}, 0, "", {{"x.txt", ExampleSamples(20)}}},
+      {"few_samples_of_four_orientations_trace_what_they_can",
+       {"x.txt", "-q"},
+       0,
+       "",
+       {{"x.txt", SeparationEvery(20)}}},
+      {"too_few_samples_for_the_effects_given",
+       {"x.txt", "-q", "--effects", "theta_encoder"},
+       2,
+       e + "x.txt: 20 samples are too few to trace the residual: its 5-fold cross-validation fits the seven-error "
+           "model and theta_encoder (18 parameters) to the samples outside each fold, here as few as 16 (a fold leaves "
+           "out up to 4), and a fit needs more samples than parameters: at least 24 samples are needed",
+       {{"x.txt", ExampleSamples(20)}}},
       {"validate_a_file_of_another_probe_offset",
        {"P.txt", "-q", "--validate", "v.txt"},
        2,
