@@ -184,7 +184,8 @@ Input ReadInput(const MeasureOptions& o) {
   const CalibrationFile file = ReadCalibrationFile(o.calibration_path);
   Calibration cal = ToCalibration(file);
   CheckProbeOffsetMatches(data, cal.probe_offset_mm, o.calibration_path);
-  if (const auto range = ConditionsOf(data.header).probe_range_mm) CheckReadingsInProbeRange(data, *range, "probe_range_mm");
+  if (const auto range = ConditionsOf(data.header).probe_range_mm)
+    CheckReadingsInProbeRange(data, *range, "probe_range_mm");
   in.setup = SelectedSetup(o, data);
   for (const Sample& s : data.samples) {
     if (!in.setup || s.setup == *in.setup) in.readings.push_back({s.theta_deg, s.phi_deg, s.r_mm});
@@ -617,8 +618,9 @@ void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, cons
   out << "  center_mm          " << Vec3Text(ev.ls.sphere.center, "%.9f") << "\n";
   out << Format("  radius_mm          %.9f   (diameter_mm %.9f)\n", r, 2.0 * r);
   if (in.header_radius) {
-    out << Format("  radius_deviation_um %.4f   (from the file's %s %.9g)\n", (r - in.header_radius->radius_mm) * kUmPerMm,
-                  in.header_radius->key.c_str(), in.header_radius->radius_mm);
+    out << Format("  radius_deviation_um %.4f   (from the file's %s %.9g)\n",
+                  (r - in.header_radius->radius_mm) * kUmPerMm, in.header_radius->key.c_str(),
+                  in.header_radius->radius_mm);
   }
   out << Format("  rms_um             %.4f\n", ev.ls.rms * kUmPerMm);
   out << Format("  sphericity_ls_um   %.4f   (peak to valley of the radial residuals)\n",

@@ -1503,8 +1503,7 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
     n_params += t.size();
     ids += (ids.empty() ? "" : ", ") + std::string(t.info().id);
   }
-  CheckFoldsCanFit(start.data.points, trace.folds, n_params, "the seven-error model and " + ids,
-                   r.before.fit.n_params);
+  CheckFoldsCanFit(start.data.points, trace.folds, n_params, "the seven-error model and " + ids, r.before.fit.n_params);
   r.after = Analysed(internal::FitEffectsRows(start.data.points, start.data.table, nullptr, options, model,
                                               EffectFitStart::From(r.before.fit)),
                      start.data, options, trace);

@@ -105,7 +105,8 @@ void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
 Validation Validate(const std::string& path, double probe_offset_mm, const TraceResult& trace) {
   const PointsData data = ReadPointsFile(path);
   CheckProbeOffsetMatches(data, probe_offset_mm, "");
-  if (const auto range = ConditionsOf(data.header).probe_range_mm) CheckReadingsInProbeRange(data, *range, "probe_range_mm");
+  if (const auto range = ConditionsOf(data.header).probe_range_mm)
+    CheckReadingsInProbeRange(data, *range, "probe_range_mm");
   Validation v;
   v.path = path;
   v.n_points = static_cast<int>(data.samples.size());

@@ -34,9 +34,10 @@ void JudgeFit(const CalibrationResult& r, const ReportContext& ctx, Usability& u
              (std::isfinite(disp) ? " (std " + Format("%.3g", disp) + " um)" : " (no information at all)");
   }
   if (!names.empty()) {
-    u.reasons.push_back("the data do not determine " + names + ": their standard uncertainty, as a displacement of "
-                        "the probed point (angles times R0), exceeds " + Format("%g", ctx.max_std_um) +
-                        " um (--max-std-um)");
+    u.reasons.push_back("the data do not determine " + names +
+                        ": their standard uncertainty, as a displacement of the probed point (angles times R0), "
+                        "exceeds " +
+                        Format("%g", ctx.max_std_um) + " um (--max-std-um)");
   }
 }
 
@@ -53,12 +54,12 @@ void JudgeBudget(const CalibrationResult& r, const ReportContext& ctx, Usability
     const std::string from =
         largest < 0 ? ""
                     : ", most of it from " + st.inputs[static_cast<std::size_t>(largest)].name + " (" +
-                          Format("%.4g", AsDisplacementUm(rep, i, st.inputs[static_cast<std::size_t>(largest)]
-                                                                       .Contribution())) +
+                          Format("%.4g", AsDisplacementUm(
+                                             rep, i, st.inputs[static_cast<std::size_t>(largest)].Contribution())) +
                           " um)";
     u.reasons.push_back(rep.parameters[i].name + " has a combined standard uncertainty of " + Format("%.4g", u_um) +
-                        " um as a displacement (U = " + Format("%.4g", AsDisplacementUm(rep, i, st.U)) + " um, k = " +
-                        Format("%.2f", st.k) + ")" + from + ": above " + Format("%g", ctx.max_std_um) +
+                        " um as a displacement (U = " + Format("%.4g", AsDisplacementUm(rep, i, st.U)) +
+                        " um, k = " + Format("%.2f", st.k) + ")" + from + ": above " + Format("%g", ctx.max_std_um) +
                         " um (--max-std-um), the uncertainty budget, not the fit, leaves it undetermined");
   }
 }
@@ -77,9 +78,10 @@ void JudgeZeroError(const CalibrationResult& r, const ReportContext& ctx, Usabil
                d_prime, radius, ctx.sphere_radius_mm - d_prime));
   }
   if (ctx.probe_range_mm && !(std::abs(d_prime) <= *ctx.probe_range_mm)) {
-    u.reasons.push_back(Format("|d'| = %.6g mm exceeds the probe's measuring range (%g mm, probe_range_mm): the "
-                               "probe's zero cannot be that far from where d puts it",
-                               std::abs(d_prime), *ctx.probe_range_mm));
+    u.reasons.push_back(
+        Format("|d'| = %.6g mm exceeds the probe's measuring range (%g mm, probe_range_mm): the "
+               "probe's zero cannot be that far from where d puts it",
+               std::abs(d_prime), *ctx.probe_range_mm));
   }
 }
 
@@ -91,10 +93,10 @@ void JudgeBounds(const CalibrationResult& r, const ReportContext& ctx, Usability
     const double value = r.geometry[static_cast<std::size_t>(p)] * units.to_coarse;
     const double bound = p == kDPrime ? std::min(info.max_abs_report, ctx.probe_offset_mm) : info.max_abs_report;
     if (std::abs(value) < bound || (p != kDPrime && std::abs(value) == bound)) continue;
-    u.reasons.push_back(Format("%s = %.6g %s: a geometric error of the machine lies within %g %s%s; a calibration "
-                               "file does not hold it",
-                               info.name, value, units.coarse, bound, units.coarse,
-                               p == kDPrime ? " (and below d)" : ""));
+    u.reasons.push_back(
+        Format("%s = %.6g %s: a geometric error of the machine lies within %g %s%s; a calibration "
+               "file does not hold it",
+               info.name, value, units.coarse, bound, units.coarse, p == kDPrime ? " (and below d)" : ""));
   }
   if (ctx.trace == nullptr) return;
   const EffectFit& fit = ctx.trace->after.fit;
@@ -105,10 +107,10 @@ void JudgeBounds(const CalibrationResult& r, const ReportContext& ctx, Usability
     for (std::size_t i = 0; i < fit.values[t].size(); ++i) {
       const double v = fit.values[t][i] * scale;
       if (std::abs(v) <= bound) continue;
-      u.reasons.push_back(Format("%s = %.6g %s: an effect of the machine lies within %g %s; a calibration file does "
-                                 "not hold it",
-                                 term.ParamName(i).c_str(), v, angle ? "arcsec" : "um", bound,
-                                 angle ? "arcsec" : "um"));
+      u.reasons.push_back(
+          Format("%s = %.6g %s: an effect of the machine lies within %g %s; a calibration file does "
+                 "not hold it",
+                 term.ParamName(i).c_str(), v, angle ? "arcsec" : "um", bound, angle ? "arcsec" : "um"));
     }
   }
   for (const std::vector<double>& group : fit.form_values) {
@@ -116,9 +118,10 @@ void JudgeBounds(const CalibrationResult& r, const ReportContext& ctx, Usability
       const double v_um = group[k] * kUmPerMm;
       if (std::abs(v_um) <= kMaxEffectUm) continue;
       const FormTerm& f = fit.model.form.terms[k];
-      u.reasons.push_back(Format("the sphere's form term S(%d,%d) = %.6g um: a form term lies within %g um; a "
-                                 "calibration file does not hold it",
-                                 f.l, f.m, v_um, kMaxEffectUm));
+      u.reasons.push_back(
+          Format("the sphere's form term S(%d,%d) = %.6g um: a form term lies within %g um; a "
+                 "calibration file does not hold it",
+                 f.l, f.m, v_um, kMaxEffectUm));
     }
   }
 }

@@ -21,8 +21,8 @@ void CheckReadingsInProbeRange(const PointsData& points, double probe_range_mm, 
   }
   if (outside == 0) return;
   throw Error(points.WhereIs(first) + ": r_mm " + Format("%.10g", points.samples[first].r_mm) +
-              " lies outside the probe's measuring range, 0 to " + Format("%g", probe_range_mm) + " mm (" +
-              range_from + "): " + std::to_string(outside) + " of " + std::to_string(points.samples.size()) +
+              " lies outside the probe's measuring range, 0 to " + Format("%g", probe_range_mm) + " mm (" + range_from +
+              "): " + std::to_string(outside) + " of " + std::to_string(points.samples.size()) +
               " readings do (they span " + Format("%.6g", r_min) + " to " + Format("%.6g", r_max) +
               " mm); a probe reads nothing beyond its range, so the range or the readings are not this probe's");
 }

@@ -426,7 +426,8 @@ struct ProbeResponse {
       if (term.effect != Effect::kProbeGain && term.effect != Effect::kProbeNonlinearity) continue;
       for (std::size_t j = 0; j < term.components.size(); ++j) {
         const int k = term.components[j].order;
-        if (k < 1 || k > 3) throw Error("simulation: a probe term of power " + std::to_string(k) + " (1 to 3 are known)");
+        if (k < 1 || k > 3)
+          throw Error("simulation: a probe term of power " + std::to_string(k) + " (1 to 3 are known)");
         c[static_cast<std::size_t>(k)] += e.values[i][j];
         none = false;
       }
@@ -466,10 +467,11 @@ void CheckProbeResponseRises(const ProbeResponse& p, const EffectReference& ref,
   double u = 0.0;
   const double least = p.LeastGain(ref.r_half_range_mm, &u);
   if (least > 0.0) return;
-  throw Error(internal::Format("simulation: with %s, the distance the probe reports does not rise with its reading "
-                               "over %s: d(distance)/d(reading) is %.3g at r = %.6g mm, so one distance has several "
-                               "readings; a probe's response rises over its range",
-                               ResponseTerms(p).c_str(), range.c_str(), least, ref.r_ref_mm + u * ref.r_half_range_mm));
+  throw Error(
+      internal::Format("simulation: with %s, the distance the probe reports does not rise with its reading "
+                       "over %s: d(distance)/d(reading) is %.3g at r = %.6g mm, so one distance has several "
+                       "readings; a probe's response rises over its range",
+                       ResponseTerms(p).c_str(), range.c_str(), least, ref.r_ref_mm + u * ref.r_half_range_mm));
 }
 
 // The distance [mm] that the reading r_mm reports with the response p (without the offsets).
@@ -641,9 +643,10 @@ void ReadDistances(const SimulatedEffects& effects, const std::vector<Sample>& d
   }
   if (beyond == 0) return;
   const Sample& s = distances[first];
-  throw Error(internal::Format("simulation: %zu of %zu distances (the first: %.6g mm at theta %g deg, phi %g deg, "
-                               "setup %d) lie beyond what the probe reads over %s: its readings would lie outside it",
-                               beyond, distances.size(), s.r_mm, s.theta_deg, s.phi_deg, s.setup, range.c_str()));
+  throw Error(
+      internal::Format("simulation: %zu of %zu distances (the first: %.6g mm at theta %g deg, phi %g deg, "
+                       "setup %d) lie beyond what the probe reads over %s: its readings would lie outside it",
+                       beyond, distances.size(), s.r_mm, s.theta_deg, s.phi_deg, s.setup, range.c_str()));
 }
 
 // The readings with the probe's errors normalised by its range `probe_range_mm`; the reference's fit
@@ -699,9 +702,10 @@ void ReadOwnRange(const std::vector<Sample>& distances, const std::vector<double
   constexpr double kRelative = 1e-9;  // the readings span the range they were solved on
   if (!(std::abs(of_readings.r_half_range_mm - ref.r_half_range_mm) <= kRelative * ref.r_half_range_mm &&
         std::abs(of_readings.r_ref_mm - ref.r_ref_mm) <= kRelative * std::max(1.0, std::abs(ref.r_ref_mm)))) {
-    throw Error(internal::Format("simulation: the readings span %.12g to %.12g mm, not the %.12g -+ %.12g mm they "
-                                 "were solved on",
-                                 of_readings.FitMin(), of_readings.FitMax(), ref.r_ref_mm, ref.r_half_range_mm));
+    throw Error(
+        internal::Format("simulation: the readings span %.12g to %.12g mm, not the %.12g -+ %.12g mm they "
+                         "were solved on",
+                         of_readings.FitMin(), of_readings.FitMax(), ref.r_ref_mm, ref.r_half_range_mm));
   }
   ref = of_readings;  // what a calibration computes from these readings
 }

@@ -285,9 +285,8 @@ SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, c
   }
   for (std::size_t i = 0; i < points_mm.size(); ++i) {
     const Eigen::Vector3d& p = points_mm[i];
-    const std::string which = source + ": point " + std::to_string(i + 1) + " of " +
-                              std::to_string(points_mm.size()) + " (" + Format("%g %g %g", p.x(), p.y(), p.z()) +
-                              " mm)";
+    const std::string which = source + ": point " + std::to_string(i + 1) + " of " + std::to_string(points_mm.size()) +
+                              " (" + Format("%g %g %g", p.x(), p.y(), p.z()) + " mm)";
     if (!p.allFinite()) throw Error(which + " is not a finite point: no sphere is fitted through it");
     if (!(p.lpNorm<Eigen::Infinity>() <= kMaxPointCoordinateMm)) {
       throw Error(which + " lies beyond " + Format("%g", kMaxPointCoordinateMm) +

@@ -722,7 +722,8 @@ std::vector<MatrixCase> MeasureCases() {
   // A calibration with a form of the calibration sphere (one term, no covariance).
   std::string with_form = good.substr(0, good.find(R"(, "covariance")")) +
                           R"(, "effects": [], "sphere_form": {"normalisation": "schmidt_semi_normalised", )"
-                          R"("frame": "body", "unit": "um", "terms": [{"l": 2, "m": 0, "value_um": 0.05}]}})" + "\n";
+                          R"("frame": "body", "unit": "um", "terms": [{"l": 2, "m": 0, "value_um": 0.05}]}})" +
+                          "\n";
   const std::string xyz = "1 0 0\n0 1 0\n0 0 1\n-1 0 0\n0 -1 0\n0 0 -1\n";
   const std::vector<std::string> quick = {"-c", "cal.json", "--uncertainty-samples", "0"};
   auto with = [&](std::vector<std::string> args) {

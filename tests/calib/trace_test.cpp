@@ -386,8 +386,8 @@ TEST(TraceResidual, SaysWhatTheCrossValidationNeedsOfASmallFile) {
     if (c.sphere_form) continue;
     EXPECT_EQ(c.note.rfind("not tried: with its ", 0), 0u) << c.Id() << ": " << c.note;
   }
-  EXPECT_THROW(FitFixedEffects(fourteen, PaperOptions(), Calibrate(fourteen, PaperOptions()),
-                               {Effect::kThetaEncoder}, TraceOptions{}),
+  EXPECT_THROW(FitFixedEffects(fourteen, PaperOptions(), Calibrate(fourteen, PaperOptions()), {Effect::kThetaEncoder},
+                               TraceOptions{}),
                Error);
 }
 

@@ -16,8 +16,8 @@
 namespace sph {
 namespace {
 
-using ::testing::HasSubstr;
 using sph::testing::PaperOptions;
+using ::testing::HasSubstr;
 
 // The paper's study: 288 points at 2 mm, sigma 0.05 um.
 class Usability : public ::testing::Test {
@@ -83,8 +83,9 @@ TEST_F(Usability, AnExpandedUncertaintyOfMillimetresIsNotACalibration) {
   for (int i = 0; i < static_cast<int>(r.analysis.parameters.size()); ++i) {
     std::vector<gum::BudgetInput> inputs{
         {"fit (scatter of the points)", gum::EvaluationType::kA, r.analysis.std(i), 1.0, 278.0, "", ""}};
-    if (i == kDPrime) inputs.push_back({"sphere temperature", gum::EvaluationType::kB, 50.0, 0.02, gum::kInfiniteDof,
-                                        "K", ""});  // 1 mm
+    if (i == kDPrime)
+      inputs.push_back(
+          {"sphere temperature", gum::EvaluationType::kB, 50.0, 0.02, gum::kInfiniteDof, "K", ""});  // 1 mm
     budget.statements.push_back(gum::Combine(inputs));
   }
   ReportContext ctx = ContextOf(PaperOptions());

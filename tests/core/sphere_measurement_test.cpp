@@ -141,8 +141,9 @@ TEST(EvaluateSphere, NamesAPointThatIsNotFiniteOrBeyondAnyMachine) {
   EXPECT_EQ(message(nan), "p.xyz: point 3 of 6 (0 nan 20 mm) is not a finite point: no sphere is fitted through it");
   std::vector<Eigen::Vector3d> far = points;
   for (Eigen::Vector3d& p : far) p *= 1e151;
-  EXPECT_EQ(message(far), "p.xyz: point 1 of 6 (2e+152 0 0 mm) lies beyond 1e+06 mm from the origin, which no "
-                          "measuring machine reaches: are the coordinates in mm?");
+  EXPECT_EQ(message(far),
+            "p.xyz: point 1 of 6 (2e+152 0 0 mm) lies beyond 1e+06 mm from the origin, which no "
+            "measuring machine reaches: are the coordinates in mm?");
   std::vector<Eigen::Vector3d> shifted = points;
   for (Eigen::Vector3d& p : shifted) p.x() += 1e153;  // the sphere's x is lost in the rounding
   EXPECT_THAT(message(shifted), HasSubstr("p.xyz: point 1 of 6 (1e+153 0 0 mm) lies beyond 1e+06 mm"));
@@ -171,10 +172,12 @@ TEST(CalibrationSphereRotation, IsTheSetupsMountRotationOfTheCalibrationSphere) 
     return std::string("no error");
   };
   EXPECT_THAT(message(2), HasSubstr("p.txt: the mount rotation of setup 2 is unknown"));
-  EXPECT_EQ(message(3), "p.txt: setup 3: mount_rotation_deg@3 1e+308 0 0 gives no rotation (its sines and cosines "
-                        "are not finite numbers)");
-  EXPECT_EQ(message(4), "p.txt: setup 4 measured another sphere (sphere_radius_mm@4: 10 mm), not the calibration "
-                        "sphere whose form the calibration file holds: its form cannot be taken off these points");
+  EXPECT_EQ(message(3),
+            "p.txt: setup 3: mount_rotation_deg@3 1e+308 0 0 gives no rotation (its sines and cosines "
+            "are not finite numbers)");
+  EXPECT_EQ(message(4),
+            "p.txt: setup 4 measured another sphere (sphere_radius_mm@4: 10 mm), not the calibration "
+            "sphere whose form the calibration file holds: its form cannot be taken off these points");
 }
 
 TEST(EvaluateSphere, SaysThatFivePointsSayLittleAboutTheForm) {

@@ -28,7 +28,7 @@ struct ReportContext {
   std::map<int, double> sphere_radii_mm;  ///< the setups that measured another sphere: its radius
   double probe_offset_mm = 0.0;
   double max_std_um = 0.0;
-  std::optional<double> probe_range_mm;  ///< the probe's measuring range, when stated [mm]
+  std::optional<double> probe_range_mm;                       ///< the probe's measuring range, when stated [mm]
   std::vector<std::pair<std::string, std::string>> metadata;  ///< the points file's extra header fields
   /// The uncertainty budget of the result's parameters (GUM), when made; not owned.
   const CalibrationBudget* budget = nullptr;
