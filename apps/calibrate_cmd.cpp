@@ -12,10 +12,12 @@
 #include "sph/calib/report.hpp"
 #include "sph/calib/trace.hpp"
 #include "sph/calib/trace_report.hpp"
+#include "sph/calib/usability.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
+#include "sph/core/setup_checks.hpp"
 
 namespace sph::apps {
 
@@ -163,6 +165,11 @@ CalibrationOptions SettingsOf(const CalibrateOptions& o, const PointsData& point
   return copts;
 }
 
+// The probe's measuring range: --probe-range-mm, else the points file's probe_range_mm.
+std::optional<double> ProbeRangeOf(const CalibrateOptions& o, const PointsData& points) {
+  return o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
+}
+
 // The residual traced to further effects (or the effects of --effects fitted), from the seven-error
 // fit `base`.
 TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const CalibrationOptions& copts,
@@ -171,8 +178,7 @@ TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const C
   topts.harmonics = {o.harmonics, o.harmonics};
   topts.drift_order = o.drift_order;
   topts.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
-  topts.probe_range_mm =
-      o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
+  topts.probe_range_mm = ProbeRangeOf(o, points);
   topts.seed = o.seed;
   topts.add_confounded = !o.hold_confounded;
   topts.progress = [&](int round, int done, int total) {
@@ -191,10 +197,10 @@ TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const C
 // The calibration file of `result` (with the trace's effects when `extended`) staged to o.output_path,
 // or the reason it is not written on err.
 void StageCalibrationFile(const CalibrateOptions& o, const CalibrationResult& result, const ReportContext& ctx,
-                          const EffectFit* extended, const CalibrationBudget* budget, OutputFiles& files,
+                          const EffectFit* extended, const CalibrationBudget* budget, bool usable, OutputFiles& files,
                           std::ostream& err) {
   const std::string prog = "sph_calibrate";
-  if (!result.Usable()) {
+  if (!usable) {
     err << prog << ": not writing " << o.output_path << ": the calibration is not usable\n";
     return;
   }
@@ -231,6 +237,9 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     const PointsData points = ReadPointsFile(o.points_path);
     CalibrationInputs inputs;
     const CalibrationOptions copts = SettingsOf(o, points, &inputs);
+    if (const std::optional<double> range = ProbeRangeOf(o, points)) {
+      CheckReadingsInProbeRange(points, *range, o.conditions.probe_range_mm ? "--probe-range-mm" : "probe_range_mm");
+    }
     // Readings that parse but look wrong: said first, on stderr, whatever the report's form.
     progress.Stage("checking " + std::to_string(points.samples.size()) + " samples");
     const std::vector<std::string> warnings = PlausibilityWarnings(points);
@@ -269,17 +278,19 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     ctx.sphere_radii_mm = copts.sphere_radii_mm;
     ctx.probe_offset_mm = copts.probe_offset_mm;
     ctx.max_std_um = o.max_std_um;
+    ctx.probe_range_mm = ProbeRangeOf(o, points);
     ctx.metadata = points.header.metadata;
     ctx.trace = trace ? &*trace : nullptr;
     ctx.validation = validation ? &*validation : nullptr;
+    const Usability usability = JudgeUsability(result, ctx);
     OutputFiles files(out);
     if (!o.json_path.empty()) {
       const std::string json = JsonReport(result, ctx);
       files.Stage(o.json_path, [&](std::ostream& f) { f << json; });
     }
     if (!o.output_path.empty()) {
-      StageCalibrationFile(o, result, ctx, extended ? &trace->after.fit : nullptr, budget ? &*budget : nullptr, files,
-                           err);
+      StageCalibrationFile(o, result, ctx, extended ? &trace->after.fit : nullptr, budget ? &*budget : nullptr,
+                           usability.usable, files, err);
     }
     if (trace && !o.plot_dir.empty()) {
       plot_folder.Make();
@@ -288,11 +299,14 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     if (text) {
       WriteTextReport(out, result, ctx);
     }
-    if (o.quiet) {
-      for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";
+    if (!text) {  // the report that says why is not shown: stderr does
+      if (o.quiet) {
+        for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";
+      }
+      for (const std::string& why : usability.reasons) err << prog << ": not usable: " << why << "\n";
     }
     files.Commit();
-    return result.Usable() ? kExitOk : kExitNotUsable;
+    return usability.usable ? kExitOk : kExitNotUsable;
   } catch (const std::exception& e) {
     err << prog << ": error: " << e.what() << "\n";
     return kExitBadInput;

@@ -43,6 +43,7 @@ MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
   spec.trials = o.trials;
   spec.seed = o.seed;
   spec.threads = o.threads;
+  spec.max_std_um = o.max_std_um;
   for (double e : spec.eccentricities_mm) {
     if (!(e >= 0.0) || !(e < o.machine.sphere_radius_mm)) {
       throw Error("--eccentricities-mm: " + Format("%g", e) + " is not in [0, R0)");
@@ -77,6 +78,29 @@ class ProgressBar {
   bool enabled_;
 };
 
+// `value` in the printf format `fmt` (one conversion, with its width), or "-" in that width when it
+// is not a number (a statistic of fewer than two trials).
+std::string Number(const char* fmt, double value) {
+  if (!std::isnan(value)) return Format(fmt, value);
+  const std::string blank = Format(fmt, 0.0);
+  return std::string(blank.size() - 1, ' ') + "-";
+}
+
+// "undetermined (...): b (CRLB 18.8 um as a displacement), ...", a line below a table that names
+// the parameters (index, std as a displacement [um]) whose predicted std exceeds max_std_um.
+void WriteUndetermined(std::ostream& out, const std::vector<std::pair<int, double>>& undetermined, double max_std_um,
+                       const char* what) {
+  if (undetermined.empty()) return;
+  std::string list;
+  for (const auto& [p, um] : undetermined) {
+    list += (list.empty() ? "" : ", ") + std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + " (" + what +
+            " " + (std::isfinite(um) ? Format("%.3g", um) + " um as a displacement" : std::string("infinite")) + ")";
+  }
+  out << "undetermined: " << list << "; a parameter counts as determined when its predicted std, as a displacement "
+      << "of the probed point (angles times R0), is at most " << Format("%g", max_std_um)
+      << " um (--max-std-um), as sph_calibrate judges a calibration\n";
+}
+
 void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloOptions& o) {
   out << "Table 2: mean of the calibrations (" << o.trials << " trials per eccentricity, seed " << o.seed
       << ", sigma_r " << o.machine.noise_r_um << " um)\n";
@@ -87,7 +111,7 @@ void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloO
     const ReportUnits u = ReportUnitsOf(p);
     out << Format("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name) << Format(" %-4s", u.coarse)
         << Format(" %12.6f", r.rows.front().params[static_cast<std::size_t>(p)].truth * u.to_coarse);
-    for (const auto& row : r.rows) out << Format(" %11.6f", row.params[static_cast<std::size_t>(p)].mean * u.to_coarse);
+    for (const auto& row : r.rows) out << Number(" %11.6f", row.params[static_cast<std::size_t>(p)].mean * u.to_coarse);
     out << "\n";
   }
   for (const auto& row : r.rows) {
@@ -105,38 +129,52 @@ void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloO
       out << "(random directions: each trial has its own Cramer-Rao bound CRLB_t; CRLB is their root mean square, "
              "std/CRLB the std of (estimate - true) / CRLB_t, bias2 the mean of the trials' second-order biases)\n";
     }
-    out << Format("%-9s %14s %14s %10s %9s %9s %10s %9s %9s %9s\n", "param", "true", "mean", "std", "SE", "(m-t)/SE",
+    out << Format("%-9s %14s %14s %10s %9s %9s %12s %9s %9s %9s\n", "param", "true", "mean", "std", "SE", "(m-t)/SE",
                   "CRLB", "std/CRLB", "bias2", "(m-t-b)/SE");
     for (int p = 0; p < kNumScmsParams; ++p) {
       const ReportUnits u = ReportUnitsOf(p);
       const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
       out << Format("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name)
           << Format(" %10.6f ", s.truth * u.to_coarse) << Format("%-3s", u.coarse)
-          << Format(" %10.6f ", s.mean * u.to_coarse) << Format("%-3s", u.coarse)
-          << Format(" %10.4f", s.std * u.to_fine) << Format(" %9.4f", s.se * u.to_fine) << Format(" %9.2f", s.z)
-          << Format(" %10.4f", s.crlb * u.to_fine) << Format(" %9.3f", s.std_over_crlb)
-          << Format(" %9.4f", s.bias * u.to_fine) << Format(" %9.2f", s.z_bias) << "  " << u.fine << "\n";
+          << Number(" %10.6f", s.mean * u.to_coarse) << " " << Format("%-3s", u.coarse)
+          << Number(" %10.4f", s.std * u.to_fine) << Number(" %9.4f", s.se * u.to_fine) << Number(" %9.2f", s.z);
+      out << (s.determined ? Number(" %12.4f", s.crlb * u.to_fine) : Format(" %12s", "undetermined"))
+          << Number(" %9.3f", s.std_over_crlb) << Number(" %9.4f", s.bias * u.to_fine) << Number(" %9.2f", s.z_bias);
+      out << "  " << u.fine << "\n";
     }
+    std::vector<std::pair<int, double>> undetermined;
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
+      if (!s.determined) undetermined.emplace_back(p, s.crlb_displacement_um);
+    }
+    WriteUndetermined(out, undetermined, o.max_std_um, "CRLB");
   }
 }
+
+json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 json StudyJson(const MonteCarloResult& r) {
   json rows = json::array();
   for (const auto& row : r.rows) {
     json params = json::object();
+    json undetermined = json::array();
     for (int p = 0; p < kNumScmsParams; ++p) {
       const ReportUnits u = ReportUnitsOf(p);
       const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
-      params[kScmsParamInfo[static_cast<std::size_t>(p)].name] = {{"unit", u.coarse},
-                                                                  {"true", s.truth * u.to_coarse},
-                                                                  {"mean", s.mean * u.to_coarse},
-                                                                  {"std", s.std * u.to_coarse},
-                                                                  {"se", s.se * u.to_coarse},
-                                                                  {"z", s.z},
-                                                                  {"crlb", s.crlb * u.to_coarse},
-                                                                  {"std_over_crlb", s.std_over_crlb},
-                                                                  {"bias_second_order", s.bias * u.to_coarse},
-                                                                  {"z_after_bias", s.z_bias}};
+      params[kScmsParamInfo[static_cast<std::size_t>(p)].name] = {
+          {"unit", u.coarse},
+          {"true", s.truth * u.to_coarse},
+          {"mean", s.mean * u.to_coarse},
+          {"std", s.std * u.to_coarse},
+          {"se", s.se * u.to_coarse},
+          {"z", s.z},
+          {"crlb", NumberOrNull(s.crlb * u.to_coarse)},
+          {"crlb_displacement_um", NumberOrNull(s.crlb_displacement_um)},
+          {"determined", s.determined},
+          {"std_over_crlb", NumberOrNull(s.std_over_crlb)},
+          {"bias_second_order", NumberOrNull(s.bias * u.to_coarse)},
+          {"z_after_bias", NumberOrNull(s.z_bias)}};
+      if (!s.determined) undetermined.push_back(kScmsParamInfo[static_cast<std::size_t>(p)].name);
     }
     json not_converged = json::array();
     for (int t : row.not_converged) not_converged.push_back(t + 1);
@@ -144,6 +182,7 @@ json StudyJson(const MonteCarloResult& r) {
                     {"trials", row.trials},
                     {"converged", row.converged},
                     {"not_converged_trials", not_converged},
+                    {"undetermined", undetermined},
                     {"parameters", params}});
   }
   return rows;
@@ -151,15 +190,17 @@ json StudyJson(const MonteCarloResult& r) {
 
 void WriteCsv(const std::string& path, const MonteCarloResult& r, OutputFiles& files) {
   files.Stage(path, [&](std::ostream& f) {
-    f << "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials\n";
+    f << "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials,determined\n";
+    // A number that is not finite is an empty field.
+    const auto field = [](double v) { return std::isfinite(v) ? Format("%.17g", v) : std::string(); };
     for (const auto& row : r.rows) {
       for (int p = 0; p < kNumScmsParams; ++p) {
         const ReportUnits u = ReportUnitsOf(p);
         const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
         f << row.eccentricity_mm << "," << kScmsParamInfo[static_cast<std::size_t>(p)].name << "," << u.coarse << ","
           << s.truth * u.to_coarse << "," << s.mean * u.to_coarse << "," << s.std * u.to_coarse << ","
-          << s.se * u.to_coarse << "," << s.z << "," << s.crlb * u.to_coarse << "," << s.std_over_crlb << ","
-          << row.converged << "," << row.trials << "\n";
+          << s.se * u.to_coarse << "," << s.z << "," << field(s.crlb * u.to_coarse) << "," << field(s.std_over_crlb)
+          << "," << row.converged << "," << row.trials << "," << (s.determined ? 1 : 0) << "\n";
       }
     }
   });
@@ -297,22 +338,36 @@ int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream
   }
   out << Format(" %12s\n", "worst_um");
   json rows = json::array();
+  std::string notes;  // the undetermined parameters of each eccentricity, below the table
   for (double e : spec.eccentricities_mm) {
     SimulationSpec s = spec.base;
     s.centers_mm = PlacementCenters(spec, e);
     const PredictedUncertainty u = PredictUncertainty(s);
     out << Format("%-8g", e);
     json row = {{"eccentricity_mm", e}};
+    json undetermined_names = json::array();
+    std::vector<std::pair<int, double>> undetermined;
     for (int p = 0; p < kNumScmsParams; ++p) {
-      out << Format(" %12.4f", u.std(p) * ReportUnitsOf(p).to_fine);
-      row[std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_std_" + ReportUnitsOf(p).fine] =
-          u.std(p) * ReportUnitsOf(p).to_fine;
+      const char* name = kScmsParamInfo[static_cast<std::size_t>(p)].name;
+      const bool determined = u.Determined(p, o.max_std_um);
+      out << (determined ? Format(" %12.4f", u.std(p) * ReportUnitsOf(p).to_fine) : Format(" %12s", "undetermined"));
+      row[std::string(name) + "_std_" + ReportUnitsOf(p).fine] = NumberOrNull(u.std(p) * ReportUnitsOf(p).to_fine);
+      if (!determined) {
+        undetermined_names.push_back(name);
+        undetermined.emplace_back(p, u.StdAsDisplacementUm(p));
+      }
     }
-    out << Format(" %12.4f\n", u.WorstErrorStdUm());
-    row["worst_std_um"] = u.WorstErrorStdUm();
+    const double worst = u.WorstErrorStdUm();
+    out << (worst < 1e7 ? Format(" %12.4f\n", worst) : Format(" %12.4g\n", worst));
+    row["worst_std_um"] = NumberOrNull(worst);
+    row["undetermined"] = undetermined_names;
     rows.push_back(row);
+    std::ostringstream note;
+    WriteUndetermined(note, undetermined, o.max_std_um, "std");
+    notes += note.str().empty() ? "" : Format("e = %g mm: ", e) + note.str();
   }
-  json j = {{"plan", rows}};
+  out << notes;
+  json j = {{"plan", rows}, {"max_std_um", o.max_std_um}};
   if (o.target_std_um) {
     std::vector<Eigen::Vector3d> dirs = PlacementCenters(spec, 1.0);
     const double hi = 0.5 * spec.base.sphere_radius_mm;
@@ -361,6 +416,11 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
       ->capture_default_str()
       ->check(CLI::Range(1, 100));
   AddSeedOption(app, o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
+  app.add_option("--max-std-um", o.max_std_um,
+                 "A parameter whose predicted standard deviation, as a displacement of the probed point (angles "
+                 "times R0), exceeds this is undetermined, as sph_calibrate judges it [um]")
+      ->capture_default_str()
+      ->check(InRange(ranges::kStdUm));
   app.add_option("--threads", o.threads, "Worker threads (0: all cores)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1024));
@@ -449,6 +509,7 @@ int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream
               {"setups", o.setups},
               {"random_direction", o.random_direction},
               {"direction", o.direction},
+              {"max_std_um", o.max_std_um},
               {"wall_time_s", wall_s},
               {"eccentricities", StudyJson(r)}};
     if (o.table3) {

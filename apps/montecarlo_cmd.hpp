@@ -28,6 +28,7 @@ struct MonteCarloOptions {
   int trials = 1000;
   std::uint64_t seed = 1;
   int threads = 0;
+  double max_std_um = 10.0;  ///< a parameter whose predicted std, as a displacement, exceeds this is undetermined
   bool table3 = true;
   double table3_calibration_e_mm = 2.0;
   std::string json_path;

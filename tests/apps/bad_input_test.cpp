@@ -42,6 +42,41 @@ std::string ExampleWithR(int row, const std::string& r) {
   return out;
 }
 
+// The example's header and `rows` of its samples, every (288 / rows)-th.
+std::string ExampleSamples(int rows) {
+  std::istringstream in(Example());
+  std::string out, line;
+  int n = 0, kept = 0;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#' && (n++ % (288 / rows) != 0 || kept++ >= rows)) continue;
+    out += line + "\n";
+  }
+  return out;
+}
+
+// data/example/separation/points.txt (four orientations of the sphere) with every k-th sample.
+std::string SeparationEvery(int k) {
+  std::istringstream in(ReadWholeFile(SPH_SOURCE_DIR "/data/example/separation/points.txt"));
+  std::string out, line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#' && n++ % k != 0) continue;
+    out += line + "\n";
+  }
+  return out;
+}
+
+// The example with every t_s 5 s.
+std::string ExampleAtOneTime() {
+  std::istringstream in(Example());
+  std::string out, line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#') line = line.substr(0, line.find_last_of(' ')) + " 5";
+    out += line + "\n";
+  }
+  return out;
+}
+
 constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
 
 // Stand-ins for gnuplot: one that never finishes (what it starts must go with it), one that
@@ -49,6 +84,17 @@ constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe
 constexpr const char* kHangingGnuplot = "#!/bin/sh\nsleep 30\n";
 constexpr const char* kIdleGnuplot = "#!/bin/sh\nexit 0\n";
 constexpr const char* kSeedRange = "--seed: must be an integer from 0 to 18446744073709551615, got ";
+// The example with `lines` added to its header (after its first three lines), or with its
+// probe_offset_mm replaced when `offset` is given.
+std::string ExampleWithHeader(const std::string& lines, const std::string& offset = "") {
+  std::string text = Example();
+  if (!offset.empty()) {
+    const std::string key = "# probe_offset_mm: 25\n";
+    text.replace(text.find(key), key.size(), "# probe_offset_mm: " + offset + "\n");
+  }
+  const std::size_t third = text.find('\n', text.find('\n', text.find('\n') + 1) + 1);
+  return text.insert(third + 1, lines);
+}
 
 class Matrix : public ::testing::TestWithParam<MatrixCase> {
  protected:
@@ -284,6 +330,66 @@ std::vector<MatrixCase> CalibrateCases() {
        {"P.txt", "--seed", "18446744073709551616"},
        2,
        kSeedRange + std::string("'18446744073709551616'")},
+      {"readings_outside_the_probe_range",
+       {"x.txt", "-q"},
+       2,
+       e + "x.txt:8: r_mm 4.77605065 lies outside the probe's measuring range, 0 to 0.002 mm (probe_range_mm): 288 "
+           "of 288 readings do (they span 2.95877 to 6.92469 mm)",
+       {{"x.txt", ExampleWithHeader("# probe_range_mm: 0.002\n")}}},
+      {"probe_range_option_below_the_readings",
+       {"P.txt", "--no-extend", "-q", "--probe-range-mm", "6"},
+       2,
+       e + "P.txt:65: r_mm 6.065184228 lies outside the probe's measuring range, 0 to 6 mm (--probe-range-mm): 56 of "
+           "288 readings do"},
+      {"radius_of_half_the_sphere",
+       {"P.txt", "--sphere-radius-mm", "10", "-q", "-o", "c.json"},
+       1,
+       "sph_calibrate: not usable: d' = -10.0601 mm is more than a tenth of the sphere's radius (10 mm): with the "
+       "nominal d the points lie on a sphere of radius about R0 - d' = 20.0601 mm"},
+      {"temperature_leaves_d_prime_uncertain_by_a_millimetre",
+       {"P.txt", "--no-extend", "-q", "--sphere-temperature-c", "100", "--sphere-cte-per-k", "1e-3",
+        "--sphere-temperature-u-c", "50", "-o", "c.json"},
+       1,
+       "sph_calibrate: not usable: d_prime has a combined standard uncertainty of 1005 um as a displacement (U = 2010 "
+       "um, k = 2.00), most of it from sphere temperature (1005 um)"},
+      {"quiet_not_usable_says_why",
+       {"P.txt", "--effects", "phi_wobble", "--phi-wobble-pivot-mm", "10000", "-q"},
+       1,
+       "sph_calibrate: not usable: the data do not determine a (std 17.5 um), beta (std 4.74e+03 um)"},
+      {"drift_of_readings_all_at_one_time",
+       {"x.txt", "--effects", "probe_drift", "-q"},
+       1,
+       "sph_calibrate: not usable: the data do not determine probe_drift.t1 (no information at all), "
+       "probe_drift.t2 (no information at all)",
+       {{"x.txt", ExampleAtOneTime()}}},
+      {"too_few_samples_for_the_trace",
+       {"x.txt", "-q"},
+       2,
+       e + "x.txt: 11 samples are too few to trace the residual: its 5-fold cross-validation fits the 7 errors and 3 "
+           "centre coordinates for each of 1 setup(s) (10 parameters) to the samples outside each fold, here as few "
+           "as 8 (a fold leaves out up to 3), and a fit needs more samples than parameters: at least 14 samples are "
+           "needed; the seven errors alone (--no-extend) need more than 10",
+       {{"x.txt", ExampleSamples(11)}}},
+      {"too_few_samples_for_the_seven_errors", {"x.txt", "--no-extend", "-q"}, 1, "", {{"x.txt", ExampleSamples(11)}}},
+      {"few_samples_trace_what_they_can", {"x.txt", "-q"}, 0, "", {{"x.txt", ExampleSamples(20)}}},
+      {"few_samples_of_four_orientations_trace_what_they_can",
+       {"x.txt", "-q"},
+       0,
+       "",
+       {{"x.txt", SeparationEvery(20)}}},
+      {"too_few_samples_for_the_effects_given",
+       {"x.txt", "-q", "--effects", "theta_encoder"},
+       2,
+       e + "x.txt: 20 samples are too few to trace the residual: its 5-fold cross-validation fits the seven-error "
+           "model and theta_encoder (18 parameters) to the samples outside each fold, here as few as 16 (a fold leaves "
+           "out up to 4), and a fit needs more samples than parameters: at least 24 samples are needed",
+       {{"x.txt", ExampleSamples(20)}}},
+      {"validate_a_file_of_another_probe_offset",
+       {"P.txt", "-q", "--validate", "v.txt"},
+       2,
+       e + "v.txt: probe_offset_mm 30 differs from the calibration's 25: the calibration belongs to another probe "
+           "set-up",
+       {{"v.txt", ExampleWithHeader("", "30")}}},
   };
 }
 INSTANTIATE_TEST_SUITE_P(Calibrate, CalibrateMatrix, ::testing::ValuesIn(CalibrateCases()), CaseName);
@@ -506,6 +612,41 @@ std::vector<MatrixCase> SimulateCases() {
       {"seed_negative", {"--seed", "-1"}, 2, kSeedRange + std::string("'-1'")},
       {"seed_in_hex", {"--seed", "0x10"}, 2, kSeedRange + std::string("'0x10'")},
       {"output_and_truth_written", {"-o", "x.txt", "--truth", "t.json"}, 0, "", {}, {"x.txt", "t.json"}},
+      {"probe_gain_beyond_the_range",
+       {"--probe-range-mm", "1", "--effect-um", "probe_gain.u1=600", "-o", "x.txt"},
+       2,
+       e + "simulation: 288 of 288 distances (the first: 4.77605 mm at theta 0 deg, phi 7.5 deg, setup 0) lie beyond "
+           "what the probe reads over its range 0 to 1 mm (probe_range_mm): its readings would lie outside it"},
+      {"probe_gain_on_a_tiny_range",
+       {"--probe-range-mm", "0.002", "--effect-um", "probe_gain.u1=1000", "-o", "x.txt"},
+       2,
+       e + "simulation: 288 of 288 distances"},
+      {"probe_nonlinearity_on_a_small_range",
+       {"--probe-range-mm", "0.1", "--effect-um", "probe_nonlinearity.u3=200", "-o", "x.txt"},
+       2,
+       e + "simulation: 288 of 288 distances"},
+      {"probe_gain_of_half_the_range",
+       {"--probe-range-mm", "2", "--effect-um", "probe_gain.u1=1000", "-o", "x.txt"},
+       2,
+       e + "simulation: 286 of 288 distances"},
+      {"probe_gain_of_half_the_range_read",
+       {"--probe-offset-mm", "21.5", "--center-mm", "0.5,0,0", "--probe-range-mm", "2", "--effect-um",
+        "probe_gain.u1=1000", "-o", "x.txt"},
+       0,
+       "",
+       {},
+       {"x.txt"}},
+      {"probe_response_falls",
+       {"--probe-offset-mm", "20.7", "--center-mm", "0.2,0,0", "--probe-range-mm", "1", "--effect-um",
+        "probe_gain.u1=-600", "-o", "x.txt"},
+       2,
+       e + "simulation: with probe_gain.u1 -600 um, the distance the probe reports does not rise with its reading "
+           "over its range 0 to 1 mm (probe_range_mm): d(distance)/d(reading) is -0.2 at r = 0 mm"},
+      {"probe_response_folds_the_own_range",
+       {"--effect-um", "probe_nonlinearity.u2=1000", "-o", "x.txt"},
+       2,
+       e + "simulation: with probe_nonlinearity.u2 1000 um, the distance the probe reports does not rise with its "
+           "reading over the readings' own range"},
       {"unknown_option", {"--sphere-radius", "20"}, 2, "The following arguments were not expected: 20 --sphere-radius"},
   };
 }
@@ -542,6 +683,13 @@ std::vector<MatrixCase> MonteCarloCases() {
       {"threads_too_many", with({"--threads", "5000"}), 2, "--threads: Value 5000 not in range"},
       {"target_without_plan", with({"--target-std-um", "1"}), 2, e + "--target-std-um goes with --plan"},
       {"target_zero", {"--plan", "--target-std-um", "0"}, 2, "--target-std-um: must be > 0 and <= 1e+06 um, got 0"},
+      {"max_std_zero", {"--plan", "--max-std-um", "0"}, 2, "--max-std-um: must be > 0 and <= 1e+06 um, got 0"},
+      {"undetermined_study_reported",
+       with({"--eccentricities-mm", "0", "--no-table3", "--json", "m.json", "--csv", "m.csv"}),
+       0,
+       "",
+       {},
+       {"m.json", "m.csv"}},
       {"candidate_rotation_short",
        {"--plan-orientations", "--candidate-rotation-deg", "1,2"},
        2,
@@ -677,6 +825,11 @@ std::vector<MatrixCase> MeasureCases() {
     return j + R"(]}, "effects": []})" + "\n";
   };
   const std::string good = cal("0.02", "1e-8", "0", "0");
+  // A calibration with a form of the calibration sphere (one term, no covariance).
+  std::string with_form = good.substr(0, good.find(R"(, "covariance")")) +
+                          R"(, "effects": [], "sphere_form": {"normalisation": "schmidt_semi_normalised", )"
+                          R"("frame": "body", "unit": "um", "terms": [{"l": 2, "m": 0, "value_um": 0.05}]}})" +
+                          "\n";
   const std::string xyz = "1 0 0\n0 1 0\n0 0 1\n-1 0 0\n0 -1 0\n0 0 -1\n";
   const std::vector<std::string> quick = {"-c", "cal.json", "--uncertainty-samples", "0"};
   auto with = [&](std::vector<std::string> args) {
@@ -743,6 +896,33 @@ std::vector<MatrixCase> MeasureCases() {
        e + "--calibration compensates readings",
        {{"x.xyz", xyz}}},
       {"xyz_too_few", {"--xyz", "x.xyz"}, 2, e, {{"x.xyz", "1 0 0\n0 1 0\n0 0 1\n"}}},
+      {"xyz_beyond_any_machine",
+       {"--xyz", "x.xyz"},
+       2,
+       e + "x.xyz: point 1 of 6 (1e+153 0 0 mm) lies beyond 1e+06 mm from the origin, which no measuring machine "
+           "reaches: are the coordinates in mm?",
+       {{"x.xyz", "1e153 0 0\n0 1e153 0\n0 0 1e153\n-1e153 0 0\n0 -1e153 0\n0 0 -1e153\n"}}},
+      {"xyz_one_point",
+       {"--xyz", "x.xyz"},
+       2,
+       e + "x.xyz: the 5 points are all one point (1 2 3 mm)",
+       {{"x.xyz", "1 2 3\n1 2 3\n1 2 3\n1 2 3\n1 2 3\n"}}},
+      {"readings_outside_the_probe_range",
+       with({"x.txt"}),
+       2,
+       e + "x.txt:8: r_mm 4.77605065 lies outside the probe's measuring range, 0 to 0.002 mm (probe_range_mm)",
+       {{"x.txt", ExampleWithHeader("# probe_range_mm: 0.002\n")}}},
+      {"form_taken_off_another_sphere",
+       {"x.txt", "-c", "f.json", "--subtract-sphere-form", "-q"},
+       2,
+       e + "x.txt: setup 0 measured another sphere (sphere_radius_mm@0: 10 mm), not the calibration sphere whose "
+           "form the calibration file holds: its form cannot be taken off these points",
+       {{"x.txt", ExampleWithHeader("# sphere_radius_mm@0: 10\n")}, {"f.json", with_form}}},
+      {"form_taken_off_the_calibration_sphere",
+       {"P.txt", "-c", "f.json", "--subtract-sphere-form", "-q", "--uncertainty-samples", "0"},
+       0,
+       "",
+       {{"f.json", with_form}}},
       {"setup_missing", with({"P.txt", "--setup", "3"}), 2, e + "P.txt: there is no setup 3"},
       {"one_draw",
        {"P.txt", "-c", "cal.json", "--uncertainty-samples", "1"},

@@ -20,6 +20,7 @@
 
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/gum.hpp"
+#include "sph/core/points_file.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/sphere/sphere_fit.hpp"
@@ -59,8 +60,13 @@ struct SphereEvaluation {
   std::vector<std::string> warnings;  ///< plain-language, for the user
 };
 
-/// Evaluates points measured on a sphere. `source` names them in messages. Throws sph::Error when
-/// they determine no sphere (fewer than four, or all on one plane or line).
+/// The largest coordinate of a measured point that EvaluateSphere() takes [mm]: 1 km, beyond any
+/// measuring machine (a larger one is in another unit, or not a measurement).
+inline constexpr double kMaxPointCoordinateMm = 1e6;
+
+/// Evaluates points measured on a sphere. `source` names them in messages. Throws sph::Error,
+/// naming the point, when a point is not finite or lies beyond kMaxPointCoordinateMm, and when
+/// the points determine no sphere (fewer than four, all one point, or all on one plane or line).
 SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, const std::string& source,
                                 const SphereEvaluationOptions& options = SphereEvaluationOptions());
 
@@ -74,6 +80,13 @@ struct FormCorrection {
   Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();     ///< where the directions are taken from
   bool Empty() const { return terms.empty(); }
 };
+
+/// The rotation R (FormCorrection::rotation) of the calibration sphere as it sat on its mount in
+/// `setup` of a points file (`points_name` names it in messages): its mount_rotation_deg@<setup>,
+/// the identity without one. Throws sph::Error when the setup measured another sphere
+/// (sphere_radius_mm@<setup>: the calibration file's form is not that sphere's), when its
+/// orientation is unknown, or when the rotation is not finite.
+Eigen::Matrix3d CalibrationSphereRotation(const PointsHeader& header, int setup, const std::string& points_name);
 
 /// Takes the form off `points_mm` with the coefficients `values_mm` (one per term).
 void SubtractForm(const FormCorrection& form, const double* values_mm, std::vector<Eigen::Vector3d>& points_mm);
