@@ -114,7 +114,8 @@ TEST(ResidualStructure, PValuesAreUniformUnderWhiteNoise) {
 // gain of 10 um in a probe range of 10 mm at 1 mm eccentricity (the gain nearly a shift of the
 // centre and d': the readings span 3 % of the range), and an incidence error of 30 um at 2 mm.
 // Twelve distributions at a family-wise level of 1 %: each at 1/1200, sqrt(n) D below 1.97. (With
-// the Jacobian and u at r + e, 466 of the 500 gain fits had p < 0.01 in the joint test.)
+// the functions at r + e and the incidence error's Jacobian at r, the joint test's sqrt(n) D was
+// 20.7 and 11.7.)
 TEST(ResidualStructure, PValuesAreUniformUnderWhiteNoiseAfterProbeTerms) {
   constexpr int kRuns = 500;
   struct Design {
@@ -330,7 +331,7 @@ TEST(TraceResidual, NoStructureRemainsOnceTheProbeGainIsFitted) {
 // A gain of 0.2 % in a 10 mm range at 1 mm eccentricity, where it is nearly a shift of the centre
 // and d' (sph_simulate --center-mm 1,0,0 --probe-range-mm 10 --effect-um probe_gain.u1=10 --seed S,
 // then sph_calibrate --effects probe_gain): white noise is left, and no structure is reported. (With
-// the Jacobian and u at r + e, these seeds gave p = 1e-3 to 1e-54.)
+// the Jacobian and u at r + e, these seeds gave p = 1e-3 to 1e-57.)
 TEST(TraceResidual, NoStructureRemainsOnceANearlyConfoundedProbeGainIsFitted) {
   for (const std::uint64_t seed : {1, 2, 3, 4, 11}) {
     SimulationSpec spec;
