@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
+#include "sph/core/text_input.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -142,10 +143,10 @@ TEST(PointsFile, ErrorsNameFileLineAndProblem) {
 }
 
 TEST(PointsFile, ALongFieldIsCutInTheMessage) {
-  const std::string field(1 << 20, '7');
+  const std::string field(1 << 19, '7');  // within a line's bound (kMaxLineBytes)
   const std::string message = ErrorOf("1 2 3x" + field + "\n");
   EXPECT_THAT(message, HasSubstr("pts.txt:1: column r_mm: '3x" + field.substr(0, 38) +
-                                 "...' (1048578 characters) is "
+                                 "...' (524290 characters) is "
                                  "not a number"));
   EXPECT_LT(message.size(), 200u);
 }
@@ -336,6 +337,37 @@ TEST(IsHeaderKey, NamesAndPerSetupNames) {
   }
   for (const char* key : {"", "@1", "a b", "a@", "a@1 2", "a.b", "mount rotation@1"})
     EXPECT_FALSE(IsHeaderKey(key)) << key;
+}
+
+// ---- bounds ---------------------------------------------------------------------------------------
+
+// /dev/zero, or a file without line breaks, costs a line's bound at most.
+TEST(PointsFile, ANulOrAnEndlessLineIsRefusedAfterABoundedRead) {
+  sph::testing::RepeatedBytes zeros('\0', std::size_t{64} << 20);
+  std::istream z(&zeros);
+  try {
+    ParsePoints(z, "zero");
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "zero:1: binary data (NUL byte): this is not a points file");
+  }
+  EXPECT_LE(zeros.consumed(), 8192u);
+  sph::testing::RepeatedBytes digits('7', std::size_t{64} << 20);
+  std::istream d(&digits);
+  try {
+    ParsePoints(d, "digits");
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "digits:1: the line is longer than 1048576 bytes: this is not a points file");
+  }
+  EXPECT_LE(digits.consumed(), kMaxLineBytes + 8192);
+  // A NUL after a long run of text on its line is found where it is read.
+  std::string text = "# sph-points 1\n0 7.5 " + std::string(100000, '5');
+  text += '\0';
+  EXPECT_EQ(ErrorOf(text + "\n"), "pts.txt:2: binary data (NUL byte): this is not a points file");
+  // The longest line is read whole, with or without its line break.
+  EXPECT_EQ(Parse("# " + std::string(kMaxLineBytes - 2, 'c') + "\n1 2 3").samples.size(), 1u);
+  EXPECT_EQ(Parse("1 2 3\n#" + std::string(kMaxLineBytes - 1, 'c')).samples.size(), 1u);
 }
 
 }  // namespace
