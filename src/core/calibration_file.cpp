@@ -3,12 +3,14 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
-#include <sstream>
+#include <optional>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 
 #include <nlohmann/json.hpp>
 
+#include "json_input.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/text_input.hpp"
@@ -19,6 +21,7 @@ namespace sph {
 namespace {
 
 using internal::Format;
+using internal::JsonExcerpt;
 using nlohmann::json;
 
 const char* UnitOf(int p) { return ReportUnitsOf(p).coarse; }
@@ -46,7 +49,7 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
     const json& id = Field(effects[k], "id", where, path);
     Effect e;
     if (!id.is_string() || !EffectFromId(id.get<std::string>(), &e)) {
-      throw Error(path + ": field '" + where + "id': unknown effect " + id.dump());
+      throw Error(path + ": field '" + where + "id': unknown effect " + JsonExcerpt(id));
     }
     if (e == Effect::kProbeDrift) {
       throw Error(path + ": field '" + where +
@@ -64,11 +67,11 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
       const json& name = Field(params[i], "name", pw, path);
       EffectComponent c;
       if (!name.is_string() || !FindComponent(e, name.get<std::string>(), &c)) {
-        throw Error(path + ": field '" + pw + "name': " + name.dump() + " is no parameter of " + InfoOf(e).id);
+        throw Error(path + ": field '" + pw + "name': " + JsonExcerpt(name) + " is no parameter of " + InfoOf(e).id);
       }
       for (std::size_t q = 0; q < term.components.size(); ++q) {
         if (term.ParamName(q) == name.get<std::string>())
-          throw Error(path + ": field '" + pw + "name': " + name.dump() + " is listed twice");
+          throw Error(path + ": field '" + pw + "name': " + JsonExcerpt(name) + " is listed twice");
       }
       term.components.push_back(c);
       if (Field(params[i], "unit", pw, path) != EffectUnit(term)) {
@@ -157,9 +160,14 @@ void ParseSphereForm(const json& j, const std::string& path, CalibrationFile& ca
     }
     cal.form_terms.push_back(term);
     cal.form_values_mm.push_back(v * kMmPerUm);
-    if (t.contains("std_um") && t["std_um"].is_number() && std::isfinite(t["std_um"].get<double>()) &&
-        t["std_um"].get<double>() >= 0.0) {
-      cal.form_std_mm.push_back(t["std_um"].get<double>() * kMmPerUm);
+    if (t.contains("std_um")) {
+      const double u = Number(t, "std_um", where, path);
+      if (!(u >= 0.0 && u <= kMaxEffectUm)) {
+        throw Error(path + ": field '" + where + "std_um' is " + Format("%g", u) +
+                    " um: a standard uncertainty is >= 0, and one of a form term within " + Format("%g", kMaxEffectUm) +
+                    " um");
+      }
+      cal.form_std_mm.push_back(u * kMmPerUm);
     } else {
       with_std = false;
     }
@@ -387,22 +395,14 @@ CalibrationFile ReadCalibrationFile(const std::string& path) {
 }
 
 CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw Error(path + ": read error");
-  json j;
-  try {
-    j = json::parse(text.str());  // the whole text: one JSON value and nothing after it
-  } catch (const json::exception& e) {
-    throw Error(path + ": not valid JSON: " + e.what());
-  }
+  json j = internal::ParseJsonInput(in, path, "a calibration file", kMaxCalibrationFileBytes);
   if (!j.is_object() || !j.contains("format") || j["format"] != "sph-calibration") {
     throw Error(path + ": not an sph calibration file (field \"format\" must be \"sph-calibration\")");
   }
   const json& version = Field(j, "format_version", "", path);
   if (!version.is_number_integer() || version.get<int>() != kCalibrationFormatVersion) {
-    throw Error(path + ": calibration format version " + version.dump() + " is not supported (this program reads " +
-                std::to_string(kCalibrationFormatVersion) + ")");
+    throw Error(path + ": calibration format version " + JsonExcerpt(version) +
+                " is not supported (this program reads " + std::to_string(kCalibrationFormatVersion) + ")");
   }
   CalibrationFile cal;
   cal.probe_offset_mm = Number(j, "probe_offset_mm", "", path);
@@ -410,6 +410,15 @@ CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
   if (j.contains("sphere_radius_mm")) cal.sphere_radius_mm = Number(j, "sphere_radius_mm", "", path);
   if (j.contains("created_by") && j["created_by"].is_string()) cal.created_by = j["created_by"].get<std::string>();
   const json& geometry = Field(j, "geometry", "", path);
+  if (!geometry.is_object()) throw Error(path + ": field 'geometry' must be an object");
+  for (const auto& item : geometry.items()) {
+    bool known = false;
+    for (const ScmsParamInfo& p : kScmsParamInfo) known |= item.key() == p.name;
+    if (!known) {
+      throw Error(path + ": field " + internal::Quoted("geometry." + item.key()) +
+                  " is unknown (the seven errors: alpha a beta b epsilon c d_prime)");
+    }
+  }
   for (int p = 0; p < kNumScmsParams; ++p) {
     const char* name = kScmsParamInfo[static_cast<std::size_t>(p)].name;
     const json& entry = Field(geometry, name, "geometry.", path);

@@ -616,6 +616,33 @@ std::vector<MatrixCase> MeasureCases() {
        2,
        e + "x.json: covariance.matrix is not positive semi-definite",
        {{"x.json", cal("0.02", "1e-8", "2e-8", "2e-8")}}},
+      {"calibration_of_zeros",
+       {"P.txt", "-c", "full"},
+       2,
+       e + "full:1: binary data (NUL byte): this is not a calibration file"},
+      {"calibration_nested_deep",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: arrays and objects nested deeper than 64 levels (at 'format_version[0][0][0][0][0][0][0][0][0...'",
+       {{"x.json",
+         [&] {
+           std::string j = good;
+           const std::string version = "\"format_version\": 1";
+           j.replace(j.find(version), version.size(),
+                     "\"format_version\": " + std::string(70000, '[') + "1" + std::string(70000, ']'));
+           return j;
+         }()}}},
+      {"calibration_key_given_twice",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: key 'geometry.alpha' is given twice (JSON would keep one of them silently): give each key once",
+       {{"x.json",
+         [&] {
+           std::string j = good;
+           const std::string alpha = "\"alpha\": {\"value\": 0.02, \"unit\": \"deg\"},";
+           j.replace(j.find(alpha), alpha.size(), alpha + " \"alpha\": {\"value\": 5, \"unit\": \"deg\"},");
+           return j;
+         }()}}},
       {"calibration_of_another_probe",
        with({"x.txt"}),
        2,

@@ -38,6 +38,7 @@
 #ifndef SPH_CORE_CALIBRATION_FILE_HPP_
 #define SPH_CORE_CALIBRATION_FILE_HPP_
 
+#include <cstddef>
 #include <iosfwd>
 #include <limits>
 #include <optional>
@@ -56,6 +57,12 @@
 namespace sph {
 
 inline constexpr int kCalibrationFormatVersion = 1;
+
+/// The largest calibration file the reader takes [bytes], twice the largest the writer makes:
+/// the covariance of every parameter the format can hold (1965: the seven errors, every
+/// component of every effect, the form's terms to degree 40) takes 127 MB in its layout.
+/// Anything larger is no calibration file (a device, a stream that never ends).
+inline constexpr std::size_t kMaxCalibrationFileBytes = std::size_t{256} << 20;
 
 /// Contents of a calibration file, in internal units (rad, mm).
 struct CalibrationFile {
