@@ -643,6 +643,12 @@ std::vector<MatrixCase> MeasureCases() {
            j.replace(j.find(alpha), alpha.size(), alpha + " \"alpha\": {\"value\": 5, \"unit\": \"deg\"},");
            return j;
          }()}}},
+      {"calibration_variance_beyond_the_range",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: covariance.matrix: the standard uncertainty of alpha is 14.1421 deg, more than any value of it "
+           "(within 10 deg): not the covariance of a calibration",
+       {{"x.json", cal("0.02", "200", "0", "0")}}},
       {"calibration_of_another_probe",
        with({"x.txt"}),
        2,

@@ -302,7 +302,7 @@ TEST(CalibrationFile, FullCovarianceOfErrorsEffectsAndFormRoundTrips) {
   Eigen::VectorXd s_r0 = Eigen::VectorXd::Zero(12);
   s_r0(6) = 1.0056e-3;  // d' per um of R0 [mm/um]
   s_r0(9) = 2e-5;
-  cal.covariance_inputs = {{"R0 (certificate)", "um", 0.1, s_r0}};
+  cal.covariance_inputs = {{"R0 (certificate)", "um", 0.02, s_r0}};  // within what the matrix holds
   cal.covariance_type_a_dof = 571;
   WriteCalibrationFile(dir + "/cal.json", cal);
 
@@ -319,7 +319,7 @@ TEST(CalibrationFile, FullCovarianceOfErrorsEffectsAndFormRoundTrips) {
   ASSERT_EQ(back.covariance_inputs.size(), 1u);
   EXPECT_EQ(back.covariance_inputs[0].input, "R0 (certificate)");
   EXPECT_EQ(back.covariance_inputs[0].unit, "um");
-  EXPECT_DOUBLE_EQ(back.covariance_inputs[0].u, 0.1);
+  EXPECT_DOUBLE_EQ(back.covariance_inputs[0].u, 0.02);
   EXPECT_TRUE(back.covariance_inputs[0].per_unit.isApprox(s_r0, 1e-14));
   EXPECT_DOUBLE_EQ(back.covariance_type_a_dof, 571.0);
 
@@ -454,6 +454,52 @@ TEST(CalibrationFile, AFormTermsStandardUncertaintyIsChecked) {
   EXPECT_THAT(ErrorReading(dir + "/text.json"), HasSubstr("field 'sphere_form.terms[0].std_um' must be a number"));
   WriteText(dir + "/ok.json", with("0.004"));
   EXPECT_NEAR(ReadCalibrationFile(dir + "/ok.json").form_std_mm.at(0), 4e-6, 1e-18);
+}
+
+// A covariance is a calibration's: no standard uncertainty larger than any value of its
+// parameter, and the Type B inputs it says it holds within it.
+TEST(CalibrationFile, ACovarianceThatIsNoCalibrationsIsRefused) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_cov");
+  const std::vector<std::pair<std::pair<std::string, std::string>, std::string>> cases{
+      {{"[0, 0, 0, 0, 0, 0, 1e-12]]", "[0, 0, 0, 0, 0, 0, 1e300]]"},
+       "covariance.matrix: the standard uncertainty of d_prime is 1e+150 mm, more than any value of it (within 25 "
+       "mm): not the covariance of a calibration"},
+      {{"[[1e-8, 0,", "[[200, 0,"},
+       "covariance.matrix: the standard uncertainty of alpha is 14.1421 deg, more than any value of it (within 10 "
+       "deg)"},
+      // An input larger than the matrix holds: the Type A part would be negative.
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "R0 (certificate)", "unit": "um", "u": 10,
+          "sensitivity": [0, 0, 0, 0, 0, 0, 1e-3]}]})x"},
+       "covariance.inputs: the inputs give d_prime a variance of 0.0001 mm^2, more than covariance.matrix holds "
+       "(1e-12 mm^2; the largest part from covariance.inputs[0], 'R0 (certificate)'): the matrix is not the sum of a "
+       "Type A part and these inputs"},
+      // Within every variance, but not in the correlation of c and d': the Type A part is indefinite.
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "R0 (certificate)", "unit": "um", "u": 1,
+          "sensitivity": [0, 0, 0, 0, 0, 0.8e-6, 0.8e-6]}]})x"},
+       "covariance.inputs: the matrix less its inputs (covariance.inputs[0], 'R0 (certificate)', alone) is not "
+       "positive semi-definite (eigenvalue -0.28 of the correlation)"},
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "R0 (certificate)", "unit": "um", "u": 1e308,
+          "sensitivity": [0, 0, 0, 0, 0, 0, 0]}]})x"},
+       "field 'covariance.inputs[0].u' is 1e+308 um: the standard uncertainty of an input in um lies within [0, "
+       "1000]"},
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "sphere temperature", "unit": "K", "u": 51,
+          "sensitivity": [0, 0, 0, 0, 0, 0, 0]}]})x"},
+       "field 'covariance.inputs[0].u' is 51 K: the standard uncertainty of an input in K lies within [0, 50]"},
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "R0", "unit": "furlong", "u": 1,
+          "sensitivity": [0, 0, 0, 0, 0, 0, 0]}]})x"},
+       "field 'covariance.inputs[0].unit' is 'furlong': an input of the budget is in um, K or relative"},
+  };
+  int i = 0;
+  for (const auto& [edit, message] : cases) {
+    const std::string path = dir + "/c" + std::to_string(i++) + ".json";
+    WriteText(path, ValidFile(edit.first, edit.second));
+    EXPECT_THAT(ErrorReading(path), HasSubstr(path + ": " + message)) << edit.second;
+  }
+  // Inputs the matrix holds, to its last digit: read.
+  WriteText(dir + "/held.json",
+            ValidFile("1e-12]]}", R"x(1e-12]], "inputs": [{"input": "probe scale", "unit": "relative", "u": 0.5,
+                "sensitivity": [0, 0, 0, 0, 0, 0, 2e-6]}]})x"));
+  EXPECT_EQ(ReadCalibrationFile(dir + "/held.json").covariance_inputs.size(), 1u);
 }
 
 // /dev/zero as a calibration file is refused at its first NUL byte, after a bounded read.

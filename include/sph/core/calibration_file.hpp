@@ -102,7 +102,11 @@ void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal);
 void WriteCalibration(std::ostream& out, const CalibrationFile& cal);
 
 /// Reads a calibration file. Throws sph::Error naming the file and the problem when it is not
-/// JSON, is of another format or version, or lacks a field.
+/// JSON (or holds a NUL byte, is larger than kMaxCalibrationFileBytes, nests deeper than any
+/// calibration file, gives a key twice), is of another format or version, lacks a field, has a
+/// field the format does not know in "geometry", a value out of its range, or a covariance that
+/// is none (not symmetric, not positive semi-definite, a standard uncertainty larger than any
+/// value of its parameter, inputs the matrix does not hold: see the file comment).
 CalibrationFile ReadCalibrationFile(const std::string& path);
 
 /// As ReadCalibrationFile(), from a stream; `source` names it in messages.
