@@ -58,7 +58,8 @@ TEST(PointsWriter, WritesWhatReadPointsFileReads) {
 
 TEST(PointsWriter, FormatsRowsOfTheLargestFiniteValuesWhole) {
   constexpr double kMax = std::numeric_limits<double>::max();
-  const Sample s{-kMax, -kMax, -kMax, -kMax, std::numeric_limits<int>::min()};
+  // The time at the reader's bound: a larger one is written as whole, but refused when read.
+  const Sample s{-kMax, -kMax, -kMax, -kMaxTimeS, std::numeric_limits<int>::min()};
   const std::string row = PointsWriter::FormatRow(s, true, true);
   ASSERT_FALSE(row.empty());
   EXPECT_EQ(row.back(), '\n');
@@ -68,7 +69,7 @@ TEST(PointsWriter, FormatsRowsOfTheLargestFiniteValuesWhole) {
   ASSERT_EQ(d.samples.size(), 1U);
   EXPECT_EQ(d.samples[0].theta_deg, -kMax);
   EXPECT_EQ(d.samples[0].r_mm, -kMax);
-  EXPECT_EQ(d.samples[0].t_s, -kMax);
+  EXPECT_EQ(d.samples[0].t_s, -kMaxTimeS);
   EXPECT_EQ(d.samples[0].setup, std::numeric_limits<int>::min());
 }
 
