@@ -21,6 +21,8 @@
 #include "sph/core/points_writer.hpp"
 #include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/model/form_model.hpp"
+#include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
@@ -110,6 +112,13 @@ std::string MountRotationValue(const MountRotation& rotation) {
   if (!rotation.known()) return "unknown";
   const Eigen::Vector3d& v = *rotation.rotation_deg;
   return internal::Shortest(v.x()) + " " + internal::Shortest(v.y()) + " " + internal::Shortest(v.z());
+}
+
+bool SameOrientation(const MountRotation& a, const MountRotation& b) {
+  if (!a.known() || !b.known()) return a.known() == b.known();
+  const Eigen::Matrix3d between =
+      MountRotationMatrix(*a.rotation_deg).transpose() * MountRotationMatrix(*b.rotation_deg);
+  return Eigen::AngleAxisd(between).angle() * kDegPerRad <= kMountRotationToleranceDeg;
 }
 
 MountRotation ParseMountRotation(const std::string& value, const std::string& key, const std::string& where) {

@@ -112,6 +112,42 @@ std::vector<MatrixCase> AcquiredCases() {
       {"output_has_another_radius", r({"-o", "P.txt", "--sphere-radius-mm", "21"}), 3,
        e + "P.txt: has sphere_radius_mm 20 but this run writes 21: use another file"},
       {"output_continued", r({"-o", "P.txt", "--sphere-radius-mm", "20"}), 0, "", {}, {"P.txt"}},
+      // a setup's rows keep the orientation and sphere they were recorded with (P.txt: setup 0 from line 8)
+      {"rotation_for_a_setup_with_rows",
+       r({"-o", "P.txt", "--sphere-radius-mm", "20", "--mount-rotation-deg", "0,90,0"}), 3,
+       e + "P.txt: setup 0 has rows (the first at line 8) in the reference orientation (no mount_rotation_deg@0 before "
+           "them): this run's mount_rotation_deg@0 0 90 0 would apply to them too: give this placement a setup of its "
+           "own"},
+      {"other_sphere_for_a_setup_with_rows", r({"-o", "P.txt", "--other-sphere-radius-mm", "10"}), 3,
+       e + "P.txt: setup 0 has rows (the first at line 8) of the reference sphere (no sphere_radius_mm@0 before "
+           "them): this run's sphere_radius_mm@0 10 would apply to them too"},
+      {"rotation_for_a_new_setup",
+       r({"-o", "P.txt", "--setup", "1", "--mount-rotation-deg", "0,90,0"}),
+       0,
+       "",
+       {},
+       {"P.txt"}},
+      {"reference_orientation_for_a_setup_with_rows",
+       r({"-o", "P.txt", "--mount-rotation-deg", "0,0,360"}),
+       0,
+       "",
+       {},
+       {"P.txt"}},
+      {"same_orientation_written_otherwise",
+       r({"-o", "x.txt", "--setup", "1", "--mount-rotation-deg", "0,-270,0"}),
+       0,
+       "",
+       {{"x.txt",
+         "# sph-points 1\n# mount_rotation_deg@1: 0 90 0\n# columns: theta_deg phi_deg r_mm t_s setup\n"
+         "0.0000000000 90.0000000000 2.9399890000 1699999999.000000 1\n"}},
+       {"x.txt"}},
+      {"another_orientation_of_a_setup",
+       r({"-o", "x.txt", "--setup", "1", "--mount-rotation-deg", "0,-90,0"}),
+       3,
+       e + "x.txt: has mount_rotation_deg@1 0 90 0 but this run writes 0 -90 0: use another file",
+       {{"x.txt",
+         "# sph-points 1\n# mount_rotation_deg@1: 0 90 0\n# columns: theta_deg phi_deg r_mm t_s setup\n"
+         "0.0000000000 90.0000000000 2.9399890000 1699999999.000000 1\n"}}},
       // outputs that are no regular files
       {"output_onto_block_device", r({"-o", "disk"}), 3, e + "disk: is a block device: refusing to write onto it"},
       {"output_onto_full_device", r({"-o", "full"}), 3, e + "full: cannot write: No space left on device"},

@@ -440,5 +440,20 @@ TEST(PointsFile, ANulOrAnEndlessLineIsRefusedAfterABoundedRead) {
   EXPECT_EQ(Parse("1 2 3\n#" + std::string(kMaxLineBytes - 1, 'c')).samples.size(), 1u);
 }
 
+// ---- orientations compared as rotations --------------------------------------------------------------
+
+TEST(SameOrientation, ComparesRotationsNotNumbers) {
+  const auto known = [](double x, double y, double z) { return MountRotation::Known(Eigen::Vector3d(x, y, z)); };
+  EXPECT_TRUE(SameOrientation(known(0, -270, 0), known(0, 90, 0)));
+  EXPECT_TRUE(SameOrientation(known(0, 0, 0), known(0, 0, 360)));
+  EXPECT_TRUE(SameOrientation(known(180, 0, 0), known(-180, 0, 0)));
+  EXPECT_TRUE(SameOrientation(known(0, 0, 90), known(0, 0, 90 + 0.5e-6)));
+  EXPECT_FALSE(SameOrientation(known(0, 0, 90), known(0, 0, 90 + 2e-6)));
+  EXPECT_FALSE(SameOrientation(known(90, 0, 0), known(0, 90, 0)));
+  EXPECT_FALSE(SameOrientation(known(0, 0, 90), known(0, 0, -90)));
+  EXPECT_TRUE(SameOrientation(MountRotation::Unknown(), MountRotation::Unknown()));
+  EXPECT_FALSE(SameOrientation(MountRotation::Unknown(), known(0, 0, 0)));
+}
+
 }  // namespace
 }  // namespace sph

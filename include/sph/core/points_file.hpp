@@ -49,6 +49,7 @@ struct MountRotation {
   bool known() const { return rotation_deg.has_value(); }
   static MountRotation Known(const Eigen::Vector3d& rotation_deg) { return {rotation_deg}; }
   static MountRotation Unknown() { return {}; }
+  /// The same statement, number for number (SameOrientation() compares them as rotations).
   bool operator==(const MountRotation& other) const { return rotation_deg == other.rotation_deg; }
   bool operator!=(const MountRotation& other) const { return !(*this == other); }
 };
@@ -56,6 +57,16 @@ struct MountRotation {
 /// The largest magnitude of each component of a mount rotation's rotation vector that files and
 /// options accept [deg]: a turn either way about any axis, written as the user likes it.
 inline constexpr double kMaxMountRotationDeg = 360.0;
+
+/// How far apart two mount rotations may be and still be one orientation [deg]: far above the
+/// rounding of a rotation vector's conversion (1e-13 deg), far below any mount's repeatability
+/// (a point of a 20 mm sphere moves 0.35 nm).
+inline constexpr double kMountRotationToleranceDeg = 1e-6;
+
+/// Whether `a` and `b` state one orientation of the sphere: both unknown, or both known and the
+/// rotation between them within kMountRotationToleranceDeg ("0 -270 0" is "0 90 0"; "0 0 0",
+/// "0 0 360" and a setup without the field are the reference orientation).
+bool SameOrientation(const MountRotation& a, const MountRotation& b);
 
 /// Header fields of a points file.
 struct PointsHeader {
