@@ -22,6 +22,7 @@
 
 #include "acquire_cmd.hpp"
 #include "app_common.hpp"
+#include "can_options.hpp"
 #include "sph/can/candump_log.hpp"
 #include "sph/can/sdo.hpp"
 #include "sph/can/socket.hpp"
@@ -211,7 +212,7 @@ class LivePlay {
         pdo_ids_{c.devices.theta.field.can_id, c.devices.phi.field.can_id, c.devices.probe.field.can_id} {}
 
   void Run() {
-    while (!ProcessSignals().stop) {
+    while (!ProcessControl().stop.load()) {
       // Take every frame queued first: a SYNC waiting in the queue closes the window before.
       for (int i = 0; i < 64; ++i) {
         const can::RxResult r = sock_.Receive();
@@ -379,7 +380,7 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
       ->check(ZeroOrInRange({0.001, 65.535, "s"}, "none"))
       ->group(m);
   app.add_option("--start-time-s", o.start_time_s, "Log: time of the first SYNC [s since the epoch]")
-      ->check(InRange(ranges::kEpochTimeS))
+      ->check(InRange(can::ranges::kEpochTimeS))
       ->group(m);
   const std::string f = "Faults";
   app.add_option("--drop-probability", o.drop_probability, "Each PDO is lost with this probability")
@@ -404,7 +405,7 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
       ->group(f);
   app.add_option("--bus-off-at-s", o.bus_off_at_s,
                  "A bus-off error frame at this time after the start [s] (repeatable)")
-      ->check(InRange(ranges::kRunTimeS))
+      ->check(InRange(can::ranges::kRunTimeS))
       ->group(f);
   app.add_option("--silence", o.silences, "device:from_s:to_s: the device sends nothing then (repeatable)")->group(f);
   app.add_option("--emcy", o.emergencies, "device:at_s:code: an EMCY frame, code in hex (repeatable)")->group(f);
@@ -433,7 +434,7 @@ void SetupCansimApp(CLI::App& app, CansimOptions& o) {
                  "Write what the devices sent for each SYNC: sync_t_s counter theta_deg phi_deg r_mm (- for none)")
       ->group(n);
   app.add_option("--duration-s", o.duration_s, "Live: stop after this long [s]; 0: at the pattern's end")
-      ->check(InRange(ranges::kRunTimeS))
+      ->check(InRange(can::ranges::kRunTimeS))
       ->group(n);
   AddDeviceOptions(app, o.devices, false);
 }
@@ -449,7 +450,7 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
                          "rx,ry,rz (a rotation vector in deg, axis times angle)");
   }
   AddForm(o.form, c.spec.sphere_radius_mm, c.spec.effects);
-  ApplyDeviceOptions(o.devices, c.devices);
+  c.devices = can::DevicesConfig(o.devices);
   c.sync_period_s = c.devices.sync_period_s;
   c.move_s = o.move_s;
   c.stop_s = o.stop_s;
@@ -467,8 +468,8 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
     const auto p = Split(s, ':');
     if (p.size() != 3) throw Error("--silence '" + s + "': expected device:from_s:to_s");
     const std::string what = "--silence '" + s + "'";
-    const double from = CheckedValue(ToDouble(p[1], what + ": from_s"), ranges::kRunTimeS, what + ": from_s", p[1]);
-    const double to = CheckedValue(ToDouble(p[2], what + ": to_s"), ranges::kRunTimeS, what + ": to_s", p[2]);
+    const double from = CheckedValue(ToDouble(p[1], what + ": from_s"), can::ranges::kRunTimeS, what + ": from_s", p[1]);
+    const double to = CheckedValue(ToDouble(p[2], what + ": to_s"), can::ranges::kRunTimeS, what + ": to_s", p[2]);
     if (!(from < to)) throw Error(what + ": the window must end after it begins (from_s < to_s)");
     f.silences.push_back({ToDevice(p[0], "--silence"), from, to});
   }
@@ -479,7 +480,7 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
     const unsigned long code = std::strtoul(p[2].c_str(), &end, 16);
     if (p[2].empty() || *end != '\0' || code > 0xFFFF) throw Error("--emcy '" + s + "': code must be 16-bit hex");
     const std::string what = "--emcy '" + s + "': at_s";
-    const double at = CheckedValue(ToDouble(p[1], what), ranges::kRunTimeS, what, p[1]);
+    const double at = CheckedValue(ToDouble(p[1], what), can::ranges::kRunTimeS, what, p[1]);
     f.emergencies.push_back({ToDevice(p[0], "--emcy"), at, static_cast<std::uint16_t>(code)});
   }
   for (const std::string& s : o.faults) {
@@ -504,7 +505,7 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
       id = static_cast<int>(v);
     }
     const std::string what = "--fault '" + s + "': T";
-    const double t = CheckedValue(ToDouble(s.substr(at + 1), what), ranges::kRunTimeS, what, s.substr(at + 1));
+    const double t = CheckedValue(ToDouble(s.substr(at + 1), what), can::ranges::kRunTimeS, what, s.substr(at + 1));
     f.reboots.push_back({id, t, lost});
   }
   c.boot_s = o.boot_s;
@@ -515,10 +516,10 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& o) {
   c.Validate();
   const auto points = static_cast<double>(c.spec.pattern.size());
   const double end_s = c.start_time_s + points * c.stop_s + (points - 1.0) * c.move_s;
-  if (!(end_s < ranges::kEpochTimeS.hi)) {
+  if (!(end_s < can::ranges::kEpochTimeS.hi)) {
     throw Error("--start-time-s " + internal::Format("%.0f", c.start_time_s) + ": the simulation would end at " +
                 internal::Format("%.0f", end_s) + " s since the epoch, beyond the " +
-                internal::Format("%g", ranges::kEpochTimeS.hi) + " s that a frame time in ns holds");
+                internal::Format("%g", can::ranges::kEpochTimeS.hi) + " s that a frame time in ns holds");
   }
   return c;
 }
@@ -558,7 +559,7 @@ int RunCansim(const CansimOptions& o, std::ostream& err) {
       LogSink sink(target.fd, o.output_path);
       std::vector<can::CanFrame> frames;
       std::string line;
-      while (!ProcessSignals().stop && sim->NextCycle(frames)) {
+      while (!ProcessControl().stop.load() && sim->NextCycle(frames)) {
         for (const can::CanFrame& fr : frames) {
           line = can::FormatCandumpLine(fr, o.log_iface);
           line += '\n';
@@ -578,7 +579,7 @@ int RunCansim(const CansimOptions& o, std::ostream& err) {
       err << "sph_cansim: error: " << e.what() << "\n";
       return kExitOutputError;
     }
-    if (const int sig = ProcessSignals().stop) {
+    if (const int sig = ProcessControl().stop.load()) {
       err << "sph_cansim: stopped by signal " << sig << ": "
           << (target.staged.empty() ? "the log is incomplete" : "no log written") << "\n";
       return 128 + sig;  // `files` removes the log begun

@@ -10,7 +10,7 @@
 #include "cli_fwd.hpp"
 
 #include "app_common.hpp"
-#include "can_options.hpp"
+#include "sph/can/device_options.hpp"
 #include "sph/can/device_sim.hpp"
 
 namespace sph::apps {
@@ -48,7 +48,7 @@ struct CansimOptions {
   int nodes_sync_counter_max = -1;  ///< the nodes' 1019h after a boot; -1: --sync-counter-max
   std::string record_path;          ///< what was sent for each SYNC
   double duration_s = 0.0;          ///< live: stop after this long; 0: at the pattern's end
-  DeviceOptions devices;
+  can::DeviceOptions devices;
 };
 
 void SetupCansimApp(CLI::App& app, CansimOptions& options);
@@ -63,7 +63,7 @@ can::DeviceSimConfig MakeDeviceSimConfig(const CansimOptions& options);
 ///
 /// The log (a regular file) and the record are written beside their names and put in place at
 /// the end, complete or not at all; a FIFO, a character device or standard output is written
-/// directly. A stop signal (SIGINT, SIGTERM: ProcessSignals().stop) ends a live play normally
+/// directly. A stop signal (SIGINT, SIGTERM: ProcessControl().stop) ends a live play normally
 /// (the record is written); it cuts a log short, which is then removed: 128 + the signal's
 /// number is returned.
 int RunCansim(const CansimOptions& options, std::ostream& err);

@@ -240,6 +240,12 @@ std::vector<MatrixCase> AcquiredCases() {
        e + "--probe-scale-nm-per-count: must not be 0 nm"},
       {"probe_cob_id_beyond_11_bits", r({"-o", "x.txt", "--probe-cob-id", "0x800"}), 2,
        e + "--probe-cob-id 0x800: an 11-bit id is at most 0x7FF (--probe-extended-id for a 29-bit id)"},
+      {"probe_pdo_object_without_sub", r({"-o", "x.txt", "--probe-pdo-object", "2000:"}), 2,
+       e + "--probe-pdo-object '2000:': expected INDEX:SUB in hex, e.g. 0x2000:00"},
+      {"fsync_interval_in_hex", r({"-o", "x.txt", "--fsync-interval-s", "0x10"}), 2,
+       "--fsync-interval-s: must be -1 (only at the end) or >= 0 and <= 86400 s, got 0x10"},
+      {"mount_rotation_not_a_rotation", r({"-o", "x.txt", "--mount-rotation-deg", "0,90"}), 2,
+       e + "--mount-rotation-deg '0,90': expected rx,ry,rz (a rotation vector in deg, axis times angle) or unknown"},
       {"no_output", replay, 2, "--output is required"},
   };
 }
