@@ -35,14 +35,14 @@ namespace {
 // A simulated log of the default machine; `extra` adjusts the options.
 std::string MakeLog(const std::string& dir, const std::string& name, void (*extra)(CansimOptions&) = nullptr) {
   CansimOptions o;
-  o.output_path = dir + "/" + name;
-  o.devices.sync_period_ms = 10.0;
-  o.stop_s = 1.0;
-  o.move_s = 0.5;
+  o.bus.output_path = dir + "/" + name;
+  o.bus.devices.sync_period_ms = 10.0;
+  o.bus.sim.stop_s = 1.0;
+  o.bus.sim.move_s = 0.5;
   if (extra != nullptr) extra(o);
   std::ostringstream err;
   EXPECT_EQ(RunCansim(o, err), kExitOk) << err.str();
-  return o.output_path;
+  return o.bus.output_path;
 }
 
 AcquireOptions ReplayOptions(const std::string& log, const std::string& out) {
@@ -74,16 +74,16 @@ TEST(Acquire, EveryFaultIsCountedReportedAndTheFileStaysReadable) {
   const std::string log = MakeLog(dir, "sim.log", [](CansimOptions& o) {
     o.machine.theta_steps = 6;
     o.machine.phi_steps = 3;
-    o.drop_probability = 0.01;
-    o.short_probability = 0.005;
-    o.sync_drop_probability = 0.005;
-    o.probe_out_of_range_probability = 0.005;
-    o.jitter_us = 2000;
-    o.error_frame_period_s = 5.0;
-    o.bus_off_at_s = {7.0};
+    o.bus.sim.faults.drop_probability = 0.01;
+    o.bus.sim.faults.short_probability = 0.005;
+    o.bus.sim.faults.sync_drop_probability = 0.005;
+    o.bus.sim.faults.probe_out_of_range_probability = 0.005;
+    o.bus.sim.faults.jitter_us = 2000;
+    o.bus.sim.faults.error_frame_period_s = 5.0;
+    o.bus.sim.faults.bus_off_at_s = {7.0};
     o.silences = {"probe:10:14"};
     o.emergencies = {"theta:3:8130"};
-    o.devices.sync_counter_max = 240;
+    o.bus.devices.sync_counter_max = 240;
   });
   { std::ofstream(log, std::ios::app) << "garbage line\n(1700000100.000000) can0 183#0102\n(1.0) can0 181##1\n"; }
   AcquireOptions o = ReplayOptions(log, dir + "/p.txt");
@@ -563,11 +563,11 @@ TEST(CansimCmd, BadOptionsAndUnwritableLogsFailAndLeaveNothing) {
        "--mount-rotation-deg '0,x,0': ry: 'x' is not a number"},
       {[](CansimOptions& o) { o.form.flats_um = {"1,0,0,0"}; }, kExitBadInput,
        "--form-flat-um '1,0,0,0': the direction nx,ny,nz has no length"},
-      {[](CansimOptions& o) { o.output_path += "/no/such/dir/sim.log"; }, kExitOutputError, "sim.log"},
+      {[](CansimOptions& o) { o.bus.output_path += "/no/such/dir/sim.log"; }, kExitOutputError, "sim.log"},
   };
   for (const auto& [edit, exit, message] : cases) {
     CansimOptions o;
-    o.output_path = dir + "/sim.log";
+    o.bus.output_path = dir + "/sim.log";
     edit(o);
     std::ostringstream err;
     EXPECT_EQ(RunCansim(o, err), exit) << message;
