@@ -1,5 +1,6 @@
 #include "acquire_cmd.hpp"
 
+#include <atomic>
 #include <csignal>
 #include <iostream>
 
@@ -9,6 +10,7 @@ namespace sph::apps {
 namespace {
 
 can::RunControl g_control;
+static_assert(std::atomic<int>::is_always_lock_free, "the signal handlers store into RunControl's flags");
 
 extern "C" void OnStopSignal(int sig) { g_control.stop.store(sig); }
 extern "C" void OnSummarySignal(int) { g_control.summary.store(1); }
