@@ -64,20 +64,19 @@ void AddPointsFile(CLI::App& app, can::AcquisitionOptions& a) {
                  "Header: this setup measures another sphere than the reference one, of this radius [mm] "
                  "(sphere_radius_mm@SETUP; it tells a probe's gain from its incidence error)")
       ->check(InRange(r::kSphereRadiusMm));
-  const ValidRange& fsync = r::kFsyncIntervalS;
   app.add_option("--fsync-interval-s", a.fsync_interval_s,
                  "fsync the output at most this long after a record [s]; 0: every record; -1: only at the end")
       ->check(CLI::Validator(
-          [fsync](std::string& text) -> std::string {
+          [](std::string& text) -> std::string {
             bool ok = false;
             try {
               const double v = ParseNumber(text, "", "");
-              ok = v == -1.0 || fsync.Contains(v);
+              ok = v == -1.0 || r::kFsyncIntervalS.Contains(v);
             } catch (const Error&) {  // not a finite number: refused with the range
             }
-            return ok ? "" : "must be -1 (only at the end) or " + fsync.Refusal(text).substr(8);
+            return ok ? "" : "must be -1 (only at the end) or " + r::kFsyncIntervalS.Refusal(text).substr(8);
           },
-          "-1 or " + fsync.Text()));
+          "-1 or " + r::kFsyncIntervalS.Text()));
 }
 
 // The bus, the stops of points mode, how long and how fast, the log.

@@ -67,7 +67,6 @@ void CheckAcquisitionOptions(const AcquisitionOptions& o) {
 }
 
 PipelineConfig AcquisitionPipelineConfig(const AcquisitionOptions& o) {
-  Check(o.setup, ranges::kSetup, "--setup");
   Check(o.heartbeat_timeout_s, ranges::kTimeoutS, "--heartbeat-timeout-s");
   Check(o.standstill.tolerance_deg, ranges::kStandstillTolDeg, "--standstill-tol-deg");
   Check(o.standstill.dwell_s, ranges::kTimeoutS, "--dwell-s");

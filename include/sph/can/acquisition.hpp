@@ -100,7 +100,6 @@ inline constexpr ValidRange kRcvbufBytes{0.0, 1073741824.0, "bytes"};
 inline constexpr ValidRange kNodeHeartbeatMs{0.0, 65535.0, ""};
 inline constexpr ValidRange kSdoTimeoutMs{1.0, 60000.0, "ms"};
 inline constexpr ValidRange kBootTimeoutS{0.01, 600.0, "s"};
-inline constexpr ValidRange kSetup{-2147483648.0, 2147483647.0, ""};
 }  // namespace ranges
 
 /// Throws sph::Error naming the option when a value is out of its range or the options do not go
@@ -138,7 +137,7 @@ enum class AcquisitionStatus {
 struct AcquisitionResult {
   AcquisitionStatus status = AcquisitionStatus::kOk;
   std::string error;  ///< why the run failed (every status but kOk and kSamplesLost); also logged
-  /// The session ran (the master began): the counts below are its.
+  /// The checks passed and the session was made: the counts below are its.
   bool ran = false;
   bool acquired = false;  ///< the devices were started and the outputs opened
   PipelineCounts counts;  ///< the pipeline's, from the start of the acquisition

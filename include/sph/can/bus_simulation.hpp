@@ -71,7 +71,8 @@ RebootEvent ParseFault(const std::string& text, const DeviceOptions& devices);
 /// Throws sph::Error naming the option when a value is out of its range or the options do not go
 /// together: neither or both of output_path and iface ("give either --output (a candump log) or
 /// --iface (live)"), external_sync without iface, a simulation that would end beyond what a
-/// frame time holds, the devices (DevicesConfig()), the simulator's own checks.
+/// frame time holds, the devices (DevicesConfig()), DeviceSimConfig::Validate(). The run checks
+/// the rest as the simulator is made (an empty pattern, a set-up that sph_simulate refuses).
 void CheckBusSimulationOptions(const BusSimulationOptions& options);
 
 enum class BusSimulationStatus {
