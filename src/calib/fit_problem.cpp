@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <map>
 
@@ -631,16 +632,16 @@ SphereFitProblem::Incidence SphereFitProblem::IncidenceAt(const double* g, const
   return result;
 }
 
-void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
-                                  const std::uint32_t* idx, int count, double* e, double* cols) const {
+void SphereFitProblem::EffectRows(const SetupParams& p, const ScmsErrorTrig<double>& et, double d_plus_dprime,
+                                  int setup, const std::uint32_t* idx, int count, double* e, double* cols) const {
   Scratch& s = *scratch_;
-  const double* center = x + kNumScmsParams + 3 * setup;
+  const double* center = p.center;
   const bool form = num_form_terms_ > 0;
-  const double* form_values = x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_;
+  const double* form_values = p.form;
   const Eigen::Matrix3d& rotation = form_rotation_[static_cast<std::size_t>(setup)];
   const double radius_mm = radius_mm_[static_cast<std::size_t>(setup)];
-  const double* g = x;
-  const double* effect_values = x + first_effect_;
+  const double* g = p.geometry;
+  const double* effect_values = p.effects;
   BlockBasis(idx, count);
   SumTerms(effect_values, count);  // each term's sums, per target, as EffectScmsPoint() adds them
   const int n_eff = num_effect_params_;
@@ -724,49 +725,107 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
   }
 }
 
+SetupParams SphereFitProblem::ParamsOf(const double* x, int setup) const {
+  SetupParams p;
+  p.geometry = x;
+  p.center = x + kNumScmsParams + 3 * setup;
+  p.effects = num_effect_params_ > 0 ? x + first_effect_ : nullptr;
+  p.form = num_form_terms_ > 0 ? x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_
+                               : nullptr;
+  return p;
+}
+
+void SphereFitProblem::EvaluateBlock(int k, const SetupParams& p, const ScmsErrorTrig<double>& et,
+                                     const std::uint32_t* idx, int count, const double* r_offset,
+                                     bool jacobian) const {
+  Scratch& s = *scratch_;
+  const double d_plus_dprime = probe_offset_mm_ + p.geometry[kDPrime];
+  double* e = s.cols.data() + num_local_ * kRows;
+  double* cols = jacobian ? s.cols.data() : nullptr;
+  for (int i = 0; i < count; ++i) {
+    const std::uint32_t row = idx[i];
+    s.ct[i] = table_.cos_theta[row];
+    s.st[i] = table_.sin_theta[row];
+    s.cp[i] = table_.cos_phi[row];
+    s.sp[i] = table_.sin_phi[row];
+    s.r[i] = r_offset ? table_.r_mm[row] + r_offset[row] : table_.r_mm[row];
+  }
+  const auto setup = static_cast<std::size_t>(k);
+  if (model_.terms.empty() && num_form_terms_ == 0) {
+    const GatheredReadings gathered{s.ct, s.st, s.cp, s.sp, s.r, count};
+    if (jacobian) {
+      SevenErrors<true>(p.geometry, et, d_plus_dprime, p.center, radius_mm_[setup], gathered, e, cols);
+    } else {
+      SevenErrors<false>(p.geometry, et, d_plus_dprime, p.center, radius_mm_[setup], gathered, e, nullptr);
+    }
+  } else {
+    EffectRows(p, et, d_plus_dprime, k, idx, count, e, cols);
+  }
+}
+
 void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, bool jacobian,
                                     const std::function<void(const RowBlock&)>& fn) const {
   Scratch& s = *scratch_;
-  const double* g = x;
-  const ScmsErrorTrig<double> et = ErrorTrigOf(g);
-  const double d_plus_dprime = probe_offset_mm_ + g[kDPrime];
-  const int local = num_local_;
-  double* e = s.cols.data() + local * kRows;
-  double* cols = jacobian ? s.cols.data() : nullptr;
+  const ScmsErrorTrig<double> et = ErrorTrigOf(x);
   for (std::size_t k = 0; k < setups_.size(); ++k) {
-    const double* center = x + kNumScmsParams + 3 * k;
+    const SetupParams p = ParamsOf(x, static_cast<int>(k));
     const std::vector<std::uint32_t>& rows = rows_[k];
     for (std::size_t first = 0; first < rows.size(); first += kRows) {
       const int count = static_cast<int>(std::min<std::size_t>(kRows, rows.size() - first));
       const std::uint32_t* idx = rows.data() + first;
-      for (int i = 0; i < count; ++i) {
-        const std::uint32_t row = idx[i];
-        s.ct[i] = table_.cos_theta[row];
-        s.st[i] = table_.sin_theta[row];
-        s.cp[i] = table_.cos_phi[row];
-        s.sp[i] = table_.sin_phi[row];
-        s.r[i] = r_offset ? table_.r_mm[row] + r_offset[row] : table_.r_mm[row];
-      }
-      if (model_.terms.empty() && num_form_terms_ == 0) {
-        const GatheredReadings gathered{s.ct, s.st, s.cp, s.sp, s.r, count};
-        if (jacobian) {
-          SevenErrors<true>(g, et, d_plus_dprime, center, radius_mm_[k], gathered, e, cols);
-        } else {
-          SevenErrors<false>(g, et, d_plus_dprime, center, radius_mm_[k], gathered, e, nullptr);
-        }
-      } else {
-        EffectRows(x, et, d_plus_dprime, static_cast<int>(k), idx, count, e, cols);
-      }
+      EvaluateBlock(static_cast<int>(k), p, et, idx, count, r_offset, jacobian);
       RowBlock block;
       block.setup = static_cast<int>(k);
       block.rows = idx;
       block.count = count;
-      block.e = e;
-      block.cols = cols;
-      block.num_cols = local;
+      block.e = s.cols.data() + num_local_ * kRows;
+      block.cols = jacobian ? s.cols.data() : nullptr;
+      block.num_cols = num_local_;
       fn(block);
     }
   }
+}
+
+bool SphereFitProblem::EvaluateSetupRows(int setup, const SetupParams& p, int first, int count, double* residuals,
+                                         double* const* jacobians) const {
+  Scratch& s = *scratch_;
+  const ScmsErrorTrig<double> et = ErrorTrigOf(p.geometry);
+  const std::uint32_t* rows = rows_[static_cast<std::size_t>(setup)].data() + first;
+  const bool jacobian = jacobians != nullptr && std::any_of(jacobians, jacobians + NumSetupBlocks(),
+                                                                [](const double* j) { return j != nullptr; });
+  // Each block's columns within the local columns of RowBlock::cols: first and width.
+  const int n_eff = num_effect_params_;
+  const std::array<std::array<int, 2>, 4> blocks{{{0, kNumScmsParams},
+                                                  {kNumScmsParams, 3},
+                                                  {kNumScmsParams + 3, n_eff},
+                                                  {kNumScmsParams + 3 + n_eff, num_form_terms_}}};
+  const double* e = s.cols.data() + num_local_ * kRows;
+  bool finite = true;
+  for (int done = 0; done < count; done += kRows) {
+    const int n = std::min(kRows, count - done);
+    EvaluateBlock(setup, p, et, rows + done, n, nullptr, jacobian);
+    for (int i = 0; i < n; ++i) {
+      residuals[done + i] = e[i];
+      finite &= std::isfinite(e[i]);
+    }
+    if (!jacobian) continue;
+    int b = 0;
+    for (std::size_t which = 0; which < blocks.size(); ++which) {
+      const auto [col0, width] = blocks[which];
+      if (width == 0) continue;
+      double* jac = jacobians[b++];
+      if (jac == nullptr) continue;
+      for (int c = 0; c < width; ++c) {
+        const double* column = s.cols.data() + (col0 + c) * kRows;
+        for (int i = 0; i < n; ++i) {
+          const double v = column[i];
+          jac[(done + i) * width + c] = v;
+          finite &= std::isfinite(v);
+        }
+      }
+    }
+  }
+  return finite;
 }
 
 bool SphereFitProblem::Evaluate(const double* x, NormalEquations* ne) const {

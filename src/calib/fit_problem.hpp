@@ -73,6 +73,15 @@ RowsOfSetup AllRows(const ReadingTable& table, const std::vector<bool>* left_out
 /// to `setup_ids`; returns the number of rows in all.
 std::size_t SetupsWithRows(const ReadingTable& table, const RowsOfSetup& rows, std::vector<int>* setup_ids);
 
+/// The parameters that the rows of one setup depend on (pointers into x, or into a solver's own
+/// copy of each parameter block).
+struct SetupParams {
+  const double* geometry = nullptr;  ///< the seven errors
+  const double* center = nullptr;    ///< the setup's centre
+  const double* effects = nullptr;   ///< every effect parameter, in term order (null: none)
+  const double* form = nullptr;      ///< the form coefficients of the setup's group (null: none)
+};
+
 /// One block of rows as the evaluation produced it.
 struct RowBlock {
   int setup = 0;                        ///< problem setup index
@@ -125,6 +134,30 @@ class SphereFitProblem {
     return first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_ + (effect - num_effect_params_);
   }
 
+  /// The number of rows of problem setup `setup`.
+  int SetupRows(int setup) const { return static_cast<int>(rows_[static_cast<std::size_t>(setup)].size()); }
+  /// The table rows of problem setup `setup`, ascending.
+  const std::vector<std::uint32_t>& RowsOf(int setup) const { return rows_[static_cast<std::size_t>(setup)]; }
+  /// The group of the form that problem setup `setup` belongs to.
+  int FormGroupOf(int setup) const { return form_group_[static_cast<std::size_t>(setup)]; }
+  int NumEffectParams() const { return num_effect_params_; }
+  /// The parameter blocks a setup's rows depend on: the seven errors, its centre, the effects (when
+  /// the model has any), its form group's coefficients (when it has a form).
+  int NumSetupBlocks() const { return 2 + (num_effect_params_ > 0 ? 1 : 0) + (num_form_terms_ > 0 ? 1 : 0); }
+  /// The first column of x of the effects, and of form group `group`.
+  Eigen::Index FirstEffectColumn() const { return first_effect_; }
+  Eigen::Index FirstFormColumn(int group) const { return first_form_ + group * num_form_terms_; }
+  int NumFormTerms() const { return num_form_terms_; }
+  /// The parameters of problem setup `setup` in x.
+  SetupParams ParamsOf(const double* x, int setup) const;
+
+  /// Rows first.. first + count - 1 of problem setup `setup` at p: their residuals into
+  /// residuals[0..count) and, for each non-null jacobians[b] (b: 0 the seven errors, 1 the centre,
+  /// 2 the effects, 3 the form; 2 and 3 only where the model has them), that block's Jacobian,
+  /// row-major, one row per residual. False when a residual or a derivative is not finite.
+  bool EvaluateSetupRows(int setup, const SetupParams& p, int first, int count, double* residuals,
+                         double* const* jacobians) const;
+
   /// Levenberg-Marquardt's evaluation: J^T J, J^T e and cost at x. Not thread-safe (scratch).
   bool Evaluate(const double* x, NormalEquations* ne) const;
   /// The cost at x alone, the same number as Evaluate()'s, at about a third of its price.
@@ -155,8 +188,12 @@ class SphereFitProblem {
   struct Scratch;
   // The residuals (and with cols, the Jacobian) of `count` gathered rows with effects and form, of
   // problem setup `setup`.
-  void EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
+  void EffectRows(const SetupParams& p, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
                   const std::uint32_t* idx, int count, double* e, double* cols) const;
+  // One block (at most kBlockRows) of rows idx[0..count) of problem setup k at p into the scratch's
+  // residuals and, with jacobian, its columns (RowBlock::cols).
+  void EvaluateBlock(int k, const SetupParams& p, const ScmsErrorTrig<double>& et, const std::uint32_t* idx, int count,
+                     const double* r_offset, bool jacobian) const;
   // Its parts: the readings and basis functions of the block's rows (idx), each target's sum of
   // the terms' components, and probe_incidence's change of row i's reading with its derivatives.
   void BlockBasis(const std::uint32_t* idx, int count) const;
