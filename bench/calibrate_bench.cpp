@@ -1,6 +1,8 @@
 // Cost of one calibration at the paper's settings (288 points, 2 mm eccentricity, 0.05 um noise).
 //
 //   build/bench/calibrate_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true
+//
+// The argument "solver" selects Ceres (0) or the hand-written Levenberg-Marquardt (1), side by side.
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
@@ -9,6 +11,7 @@
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "ceres_fit.hpp"
 
 namespace {
 
@@ -40,12 +43,19 @@ void RunCalibrations(benchmark::State& state, const sph::PointsData& data, const
 
 // Solve only: problem building and Levenberg-Marquardt.
 void BM_CalibrateSolve(benchmark::State& state) {
+  sph::internal::SelectHandSolver(state.range(2) != 0);
   RunCalibrations(state, Data(static_cast<int>(state.range(0)), static_cast<int>(state.range(1))), Options(false));
 }
-BENCHMARK(BM_CalibrateSolve)->Args({24, 12})->Args({48, 24})->Args({96, 48})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CalibrateSolve)
+    ->ArgsProduct({{24}, {12}, {0, 1}})
+    ->ArgsProduct({{48}, {24}, {0, 1}})
+    ->ArgsProduct({{96}, {48}, {0, 1}})
+    ->ArgNames({"theta", "phi", "solver"})
+    ->Unit(benchmark::kMillisecond);
 
 // Everything sph_calibrate computes: solve, residuals, covariance, observability.
 void BM_CalibrateFull(benchmark::State& state) {
+  sph::internal::SelectHandSolver(state.range(0) != 0);
   const sph::PointsData data = Data(24, 12);
   const sph::CalibrationOptions o = Options(true);
   for (auto _ : state) {
@@ -53,11 +63,12 @@ void BM_CalibrateFull(benchmark::State& state) {
     benchmark::DoNotOptimize(r.analysis.std);
   }
 }
-BENCHMARK(BM_CalibrateFull)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CalibrateFull)->Arg(0)->Arg(1)->ArgName("solver")->Unit(benchmark::kMillisecond);
 
 // Solve only, of the points file named by SPH_BENCH_POINTS (its header's R0 and d): the same data
 // another implementation is timed on (bench/peer_scipy.sh). Registered only when it is set.
 void BM_CalibrateFile(benchmark::State& state, const std::string& path) {
+  sph::internal::SelectHandSolver(state.range(0) != 0);
   const sph::PointsData data = sph::ReadPointsFile(path);
   sph::CalibrationOptions o = Options(false);
   o.sphere_radius_mm = data.header.sphere_radius_mm.value_or(o.sphere_radius_mm);
@@ -70,6 +81,9 @@ void BM_CalibrateFile(benchmark::State& state, const std::string& path) {
 int main(int argc, char** argv) {
   if (const char* path = std::getenv("SPH_BENCH_POINTS")) {
     benchmark::RegisterBenchmark("BM_CalibrateFile", BM_CalibrateFile, std::string(path))
+        ->Arg(0)
+        ->Arg(1)
+        ->ArgName("solver")
         ->Unit(benchmark::kMillisecond);
   }
   benchmark::Initialize(&argc, argv);

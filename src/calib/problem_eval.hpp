@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "ceres_fit.hpp"
 #include "fit_problem.hpp"
 #include "levenberg_marquardt.hpp"
 #include "sph/calib/calibrator.hpp"
@@ -59,17 +60,26 @@ inline void CheckEnoughSamples(const std::string& source, std::size_t n_samples,
               " parameters" + (which.empty() ? "" : " (" + which + ")"));
 }
 
-/// Solves `problem` from x (in place) with CalibrationSolverOptions() in the workspace `lm`, and
-/// records the run in `result`: converged, iterations, the solver's message, the number of
-/// samples, and a warning when it did not converge.
+/// Solves `problem` from x (in place) with Ceres (ceres_fit.hpp) and records the run in `result`:
+/// converged, iterations, the solver's message, the number of samples, and a warning when it did
+/// not converge. `lm` then holds J^T J at x (NormalInverseAtSolution()).
 inline void SolveCalibration(const SphereFitProblem& problem, Eigen::VectorXd& x, int max_iterations,
                              std::size_t n_samples, LmWorkspace& lm, CalibrationResult& result) {
-  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(max_iterations), lm);
-  result.converged = summary.converged;
-  result.iterations = summary.iterations;
-  result.solver_message = summary.message;
+  if (HandSolverSelected()) {
+    const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(max_iterations), lm);
+    result.converged = summary.converged;
+    result.iterations = summary.iterations;
+    result.solver_message = summary.message;
+  } else {
+    FitSolver solver(problem);
+    const SolveSummary summary = solver.Solve(x, max_iterations);
+    result.converged = summary.converged;
+    result.iterations = summary.iterations;
+    result.solver_message = summary.message;
+    problem.Evaluate(x.data(), &lm.at_x);
+  }
   result.n_points = static_cast<int>(n_samples);
-  if (!result.converged) result.warnings.push_back("the solver did not converge: " + summary.message);
+  if (!result.converged) result.warnings.push_back("the solver did not converge: " + result.solver_message);
 }
 
 /// (J^T J)^-1 at the solution x of a Levenberg-Marquardt run (whose workspace holds J^T J there):
