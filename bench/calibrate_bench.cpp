@@ -11,6 +11,7 @@
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "study_designs.hpp"
 #include "ceres_fit.hpp"
 
 namespace {
@@ -64,6 +65,20 @@ void BM_CalibrateFull(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_CalibrateFull)->Arg(0)->Arg(1)->ArgName("solver")->Unit(benchmark::kMillisecond);
+
+// Growth over the number of setups: calibrations of `setups` placements of 12 readings each, with
+// the analysis and the outlier rule (what sph_calibrate --no-extend computes), which eliminate
+// each setup's centre first (a Schur complement): the cost grows with the setups, not their cube.
+void BM_CalibrateSetups(benchmark::State& state) {
+  sph::internal::SelectHandSolver(state.range(1) != 0);
+  const sph::PointsData data = sph::Simulate(sph::bench::ManySetups(static_cast<int>(state.range(0))));
+  RunCalibrations(state, data, Options(true));
+  state.counters["setups"] = static_cast<double>(state.range(0));
+}
+BENCHMARK(BM_CalibrateSetups)
+    ->ArgsProduct({{25, 50, 100, 200}, {0, 1}})
+    ->ArgNames({"setups", "solver"})
+    ->Unit(benchmark::kMillisecond);
 
 // Solve only, of the points file named by SPH_BENCH_POINTS (its header's R0 and d): the same data
 // another implementation is timed on (bench/peer_scipy.sh). Registered only when it is set.

@@ -173,7 +173,7 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
   Eigen::VectorXd x = problem.Pack(result.geometry, result.centers_mm, {});
   LmWorkspace local;
   LmWorkspace& lm = workspace ? *workspace : local;
-  SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
+  const NormalEquations* at_x = SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
   problem.Unpack(x, &result.geometry, &result.centers_mm, nullptr);
   if (!options.analyse) return result;
 
@@ -189,7 +189,7 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
   }
   SetResidualStatistics(result);
   std::vector<ParameterDescription> desc = BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
-  result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples), rss,
+  result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, at_x), static_cast<Eigen::Index>(n_samples), rss,
                                std::move(desc), options.max_std_um);
   ExplainUndetermined(points, left_out, options, result);
   return result;

@@ -123,7 +123,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   Eigen::VectorXd x = problem.Pack(start.geometry, start.centers_mm, values, start.form_values);
   LmWorkspace local;
   LmWorkspace& lm = workspace ? *workspace : local;
-  SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
+  const NormalEquations* at_x = SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
   problem.Unpack(x, &result.geometry, &result.centers_mm, &fit.values, &fit.form_values);
   std::vector<double> all(table.size(), 0.0);
   problem.Residuals(x.data(), all.data());
@@ -137,7 +137,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   if (!options.analyse) return fit;
 
   result.analysis =
-      AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples), fit.rss_mm2,
+      AnalyseFit(NormalInverseAtSolution(problem, x, at_x), static_cast<Eigen::Index>(n_samples), fit.rss_mm2,
                  ParameterDescriptions(result.setup_ids, model, options.sphere_radius_mm), options.max_std_um);
   return fit;
 }
@@ -172,16 +172,21 @@ StructureJacobian::StructureJacobian(const ReadingTable& table, const Calibratio
 
 void StructureJacobian::ForEach(const BlockFn& fn) const {
   const auto n = static_cast<int>(problem_.NumParams());
-  problem_.ForEachGlobalBlock(
-      x_.data(), offset_.empty() ? nullptr : offset_.data(),
-      [&](const std::uint32_t* rows, int count, double* jacobian) { fn(rows, count, jacobian, n); });
+  problem_.ForEachGlobalBlock(x_.data(), offset_.empty() ? nullptr : offset_.data(),
+                              [&](const std::uint32_t* rows, int count, double* jacobian, int setup) {
+                                fn(rows, count, jacobian, n, setup);
+                              });
+}
+
+std::vector<Eigen::Index> StructureJacobian::GroupColumns() const {
+  std::vector<Eigen::Index> first;
+  for (int k = 0; k < problem_.NumSetups(); ++k) first.push_back(kNumScmsParams + 3 * static_cast<Eigen::Index>(k));
+  return first;
 }
 
 NormalInverse NormalInverseAt(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit) {
   const ProblemAt at(table, nullptr, options, fit, "");
-  LmWorkspace lm;
-  at.problem.Evaluate(at.x.data(), &lm.at_x);
-  return NormalInverseAtSolution(at.problem, at.x, lm);
+  return NormalInverseAtSolution(at.problem, at.x);
 }
 
 std::vector<double> ResidualsAt(const ReadingTable& table, const std::vector<bool>* left_out,

@@ -28,6 +28,8 @@ class StructureJacobian final : public JacobianBlocks {
   StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit);
   Eigen::Index Cols() const override { return problem_.NumParams(); }
   void ForEach(const BlockFn& fn) const override;
+  /// Each setup's centre (the rows come setup after setup).
+  std::vector<Eigen::Index> GroupColumns() const override;
 
  private:
   SphereFitProblem problem_;

@@ -894,13 +894,56 @@ void SphereFitProblem::Residuals(const double* x, double* out) const {
 RowQr SphereFitProblem::FactorJacobian(const double* x, const double* r_offset) const {
   RowQr qr(num_params_);
   ForEachGlobalBlock(x, r_offset,
-                     [&](const std::uint32_t*, int count, double* rows) { qr.AddRows(rows, num_params_, count); });
+                     [&](const std::uint32_t*, int count, double* rows, int) { qr.AddRows(rows, num_params_, count); });
   return qr;
+}
+
+BlockFactor SphereFitProblem::FactorBlocks(const double* x, const double* r_offset, const double* row_weight) const {
+  std::vector<Eigen::Index> f_columns, e_first;
+  for (Eigen::Index j = 0; j < kNumScmsParams; ++j) f_columns.push_back(j);
+  for (Eigen::Index j = first_effect_; j < num_params_; ++j) f_columns.push_back(j);
+  for (std::size_t k = 0; k < setups_.size(); ++k) e_first.push_back(kNumScmsParams + 3 * static_cast<Eigen::Index>(k));
+  BlockFactor factor(std::move(f_columns), std::move(e_first), num_params_);
+  // Each setup's rows over its local columns, the centre's first: [centre | g | effects | form].
+  const int local = num_local_;
+  std::vector<double> rows(static_cast<std::size_t>(kRows * local));
+  std::vector<int> f_of_local(static_cast<std::size_t>(local - 3));
+  RowQr qr;
+  int current = -1;
+  Eigen::Index count = 0;
+  auto finish = [&] {
+    if (current >= 0) factor.AddSetup(current, qr.r(), f_of_local, count);
+  };
+  ForEachBlock(x, r_offset, true, [&](const RowBlock& b) {
+    if (b.setup != current) {
+      finish();
+      current = b.setup;
+      qr.Reset(local);
+      count = 0;
+      const int group = form_group_[static_cast<std::size_t>(current)];
+      for (int j = 0; j < local - 3; ++j) {
+        const int shared = j - kNumScmsParams - num_effect_params_;  // a form term, when >= 0
+        f_of_local[static_cast<std::size_t>(j)] =
+            shared < 0 ? j : kNumScmsParams + num_effect_params_ + group * num_form_terms_ + shared;
+      }
+    }
+    for (int i = 0; i < b.count; ++i) {
+      const double w = row_weight != nullptr ? row_weight[b.rows[i]] : 1.0;
+      double* row = rows.data() + static_cast<std::size_t>(i * local);
+      for (int c = 0; c < 3; ++c) row[c] = w * b.cols[(kNumScmsParams + c) * kRows + i];
+      for (int c = 0; c < kNumScmsParams; ++c) row[3 + c] = w * b.cols[c * kRows + i];
+      for (int c = kNumScmsParams + 3; c < local; ++c) row[c] = w * b.cols[c * kRows + i];
+    }
+    qr.AddRows(rows.data(), local, b.count);
+    count += b.count;
+  });
+  finish();
+  return factor;
 }
 
 void SphereFitProblem::ForEachGlobalBlock(
     const double* x, const double* r_offset,
-    const std::function<void(const std::uint32_t* rows, int count, double* jacobian)>& fn) const {
+    const std::function<void(const std::uint32_t* rows, int count, double* jacobian, int setup)>& fn) const {
   Scratch& s = *scratch_;
   const auto n = static_cast<std::size_t>(num_params_);
   s.global.assign(n * kRows, 0.0);
@@ -910,7 +953,7 @@ void SphereFitProblem::ForEachGlobalBlock(
       const auto col = static_cast<std::size_t>(GlobalColumn(block.setup, c));
       for (int i = 0; i < block.count; ++i) s.global[static_cast<std::size_t>(i) * n + col] = block.cols[c * kRows + i];
     }
-    fn(block.rows, block.count, s.global.data());
+    fn(block.rows, block.count, s.global.data(), block.setup);
   });
 }
 

@@ -34,6 +34,7 @@
 #include <memory>
 #include <vector>
 
+#include "block_factor.hpp"
 #include "levenberg_marquardt.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/points_file.hpp"
@@ -175,10 +176,16 @@ class SphereFitProblem {
   /// The triangular factor of the Jacobian at x (readings r + r_offset when given), columns as x.
   RowQr FactorJacobian(const double* x, const double* r_offset = nullptr) const;
 
-  /// ForEachBlock() with the Jacobian's rows in the columns of x: fn(rows, count, jacobian) with
-  /// the table row of each and the rows one after the other (NumParams() values each; writable).
-  void ForEachGlobalBlock(const double* x, const double* r_offset,
-                          const std::function<void(const std::uint32_t* rows, int count, double* jacobian)>& fn) const;
+  /// The Jacobian's triangular factor at x in blocks, the centres eliminated first (block_factor.hpp),
+  /// readings r + r_offset when given, each row times row_weight[its table row] when given.
+  BlockFactor FactorBlocks(const double* x, const double* r_offset = nullptr, const double* row_weight = nullptr) const;
+
+  /// ForEachBlock() with the Jacobian's rows in the columns of x: fn(rows, count, jacobian, setup)
+  /// with the table row of each, the rows one after the other (NumParams() values each; writable),
+  /// and the problem setup they belong to.
+  void ForEachGlobalBlock(
+      const double* x, const double* r_offset,
+      const std::function<void(const std::uint32_t* rows, int count, double* jacobian, int setup)>& fn) const;
 
   /// The Jacobian at x (readings r + r_offset when given), one row per table row of the problem in
   /// table order (rows not in the problem left out), columns as x.

@@ -152,9 +152,10 @@ ObservabilityReport Analyse(const Invert& invert, Eigen::Index m, Eigen::Index n
   if (!(sv_max > 0.0)) return rep;
 
   // Nearly dependent combinations, weakest first, in displacement-equivalent coefficients.
-  for (Eigen::Index k = n - 1; k >= 0; --k) {
+  const Eigen::Index p = sv.size();  // n, or fewer where only the weakest are known (many setups)
+  for (Eigen::Index k = p - 1; k >= 0; --k) {
     const double ratio = sv(k) / sv_max;
-    if (ratio >= kWeakRatio && k != n - 1) break;
+    if (ratio >= kWeakRatio && k != p - 1) break;
     WeakCombination w;
     w.relative_singular_value = ratio;
     Eigen::VectorXd coef(n);

@@ -62,33 +62,42 @@ inline void CheckEnoughSamples(const std::string& source, std::size_t n_samples,
 
 /// Solves `problem` from x (in place) with Ceres (ceres_fit.hpp) and records the run in `result`:
 /// converged, iterations, the solver's message, the number of samples, and a warning when it did
-/// not converge. `lm` then holds J^T J at x (NormalInverseAtSolution()).
-inline void SolveCalibration(const SphereFitProblem& problem, Eigen::VectorXd& x, int max_iterations,
-                             std::size_t n_samples, LmWorkspace& lm, CalibrationResult& result) {
+/// not converge. Returns J^T J at x when the solver left it (the hand-written one, in `lm`), else null.
+inline const NormalEquations* SolveCalibration(const SphereFitProblem& problem, Eigen::VectorXd& x, int max_iterations,
+                                               std::size_t n_samples, LmWorkspace& lm, CalibrationResult& result) {
+  const NormalEquations* at_x = nullptr;
   if (HandSolverSelected()) {
     const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(max_iterations), lm);
     result.converged = summary.converged;
     result.iterations = summary.iterations;
     result.solver_message = summary.message;
+    at_x = &lm.at_x;
   } else {
     FitSolver solver(problem);
     const SolveSummary summary = solver.Solve(x, max_iterations);
     result.converged = summary.converged;
     result.iterations = summary.iterations;
     result.solver_message = summary.message;
-    problem.Evaluate(x.data(), &lm.at_x);
   }
   result.n_points = static_cast<int>(n_samples);
   if (!result.converged) result.warnings.push_back("the solver did not converge: " + result.solver_message);
+  return at_x;
 }
 
-/// (J^T J)^-1 at the solution x of a Levenberg-Marquardt run (whose workspace holds J^T J there):
-/// from the normal equations when J is well conditioned, else from the Jacobian's triangular
-/// factor (another pass over the rows).
+/// (J^T J)^-1 at x: with many setups through the Jacobian's block structure (block_factor.hpp),
+/// else from the normal equations (at_x, or evaluated here) when J is well conditioned, else from
+/// the Jacobian's triangular factor (another pass over the rows).
 inline NormalInverse NormalInverseAtSolution(const SphereFitProblem& problem, const Eigen::VectorXd& x,
-                                             const LmWorkspace& lm) {
+                                             const NormalEquations* at_x = nullptr) {
   const auto rows = static_cast<Eigen::Index>(problem.NumRows());
-  std::optional<NormalInverse> inverse = InvertNormalEquations(lm.at_x.jtj, rows);
+  const auto shared = static_cast<int>(problem.NumParams()) - 3 * problem.NumSetups();
+  if (AnalyseByBlocks(problem.NumSetups(), shared)) return problem.FactorBlocks(x.data()).Invert();
+  NormalEquations evaluated;
+  if (at_x == nullptr) {
+    problem.Evaluate(x.data(), &evaluated);
+    at_x = &evaluated;
+  }
+  std::optional<NormalInverse> inverse = InvertNormalEquations(at_x->jtj, rows);
   if (inverse) return *inverse;
   return InvertNormalFactor(problem.FactorJacobian(x.data()).r(), rows);
 }

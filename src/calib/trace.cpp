@@ -668,9 +668,11 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
   const std::vector<int>& ids = fit.calibration.setup_ids;
   if (ids.size() < 2) return {};
   const std::size_t m = points.samples.size();
-  // The fits without a setup are analysed when `fit` is, to see whether the others determine it.
+  // The fits without a setup are analysed when `fit` is, to see whether the others determine its
+  // effects and form (DeterminedWithout(); the seven errors alone need no such check).
   CalibrationOptions rest_options = options;
-  rest_options.analyse = loose != nullptr && !fit.calibration.analysis.Empty();
+  rest_options.analyse = loose != nullptr && !fit.calibration.analysis.Empty() &&
+                         fit.n_params > kNumScmsParams + 3 * static_cast<int>(fit.calibration.setup_ids.size());
   internal::LmWorkspace workspace;
   std::vector<double> errors(points.samples.size(), std::numeric_limits<double>::quiet_NaN());
   std::vector<bool> held(m), others(m);  // fitted without the setup, then predicted on it

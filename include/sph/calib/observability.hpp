@@ -62,8 +62,10 @@ struct NormalInverse {
   Eigen::MatrixXd inverse;          ///< (J^T J)^-1; rows and columns of null-space parameters are NaN
   std::vector<bool> in_null;        ///< parameter j lies in the numerical null space of J
   double condition_number = 0.0;    ///< sigma_max / sigma_min of J D (inf when singular)
-  Eigen::VectorXd singular_values;  ///< of J D, descending
-  Eigen::MatrixXd v;                ///< right singular vectors of J D, in the same order
+  /// Of J D, descending: all of them, or (a fit of many setups, analysed through its block
+  /// structure) the largest and the weakest ones.
+  Eigen::VectorXd singular_values;
+  Eigen::MatrixXd v;  ///< right singular vectors of J D, in the same order
   Eigen::VectorXd scale;            ///< the diagonal of D: 1 / |J_:,j|, 0 for a zero column
 };
 
