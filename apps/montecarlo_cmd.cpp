@@ -1,6 +1,5 @@
 #include "montecarlo_cmd.hpp"
 
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -425,8 +424,7 @@ int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream
     if (o.plan_orientations) return RunOrientationPlan(o, spec, out, files);
     Progress progress("sph_montecarlo", err, o.progress ? ProgressMode::kAuto : ProgressMode::kNever);
     const auto t0 = std::chrono::steady_clock::now();
-    const MonteCarloResult r =
-        RunMonteCarlo(spec, [&](long d, long t) { progress.Update("calibrating", d, t); });
+    const MonteCarloResult r = RunMonteCarlo(spec, [&](long d, long t) { progress.Update("calibrating", d, t); });
     progress.Finish();
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o.json_path != "-") PrintTable2(out, r, o);

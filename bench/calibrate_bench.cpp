@@ -8,11 +8,11 @@
 #include <cstdlib>
 #include <string>
 
+#include "ceres_fit.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
 #include "study_designs.hpp"
-#include "ceres_fit.hpp"
 
 namespace {
 

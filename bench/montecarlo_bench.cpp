@@ -6,9 +6,9 @@
 // peak_rss_MB is the process' peak: BM_DefaultStudy/2 runs first, so its figure is its own.
 #include <benchmark/benchmark.h>
 
+#include "ceres_fit.hpp"
 #include "peak_rss.hpp"
 #include "sph/calib/montecarlo.hpp"
-#include "ceres_fit.hpp"
 
 namespace {
 
@@ -31,7 +31,9 @@ BENCHMARK(BM_DefaultStudy)
     ->Args({1, 0})
     ->Args({1, 1})
     ->ArgNames({"threads", "solver"})
-    ->Iterations(1)->UseRealTime()->Unit(benchmark::kMillisecond);
+    ->Iterations(1)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 // 200 calibrations at 2 mm with theta_steps x phi_steps points, on `threads` threads.
 void BM_StudyPoints(benchmark::State& state) {

@@ -5,9 +5,9 @@
 // The argument "solver" selects Ceres (0) or the hand-written Levenberg-Marquardt (1), side by side.
 #include <benchmark/benchmark.h>
 
+#include "ceres_fit.hpp"
 #include "peak_rss.hpp"
 #include "sph/calib/trace.hpp"
-#include "ceres_fit.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "study_designs.hpp"
@@ -55,7 +55,8 @@ void BM_Trace(benchmark::State& state) {
 }
 BENCHMARK(BM_Trace)
     ->ArgsProduct({{0, 1}, {1, 2}, {0, 1}})
-    ->ArgNames({"undeclared", "threads", "solver"})->Unit(benchmark::kMillisecond);
+    ->ArgNames({"undeclared", "threads", "solver"})
+    ->Unit(benchmark::kMillisecond);
 
 // The trace of the paper's study on the 96 x 48 grid (4608 points), 2 threads, and its memory:
 // peak_rss_MB is the process' peak, its own when run alone (--benchmark_filter=BM_Trace4608).
@@ -113,7 +114,12 @@ void BM_Trace1440FiveOrientations(benchmark::State& state) {
   state.counters["form_degree"] = degree;
   state.counters["peak_rss_MB"] = sph::bench::PeakRssMb();
 }
-BENCHMARK(BM_Trace1440FiveOrientations)->Arg(0)->Arg(1)->ArgName("solver")->UseRealTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Trace1440FiveOrientations)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("solver")
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 // Growth over the number of setups: the seven-error calibration and its trace (what sph_calibrate
 // computes by default) of `setups` placements of 12 readings each (the 200 setups: 2400 readings).

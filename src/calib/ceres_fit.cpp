@@ -92,11 +92,11 @@ bool HandSolverSelected() { return hand_solver; }
 
 struct FitSolver::Impl {
   const SphereFitProblem& problem;
-  Eigen::VectorXd state;              // the parameter blocks' memory, laid out as x
-  std::vector<double*> blocks;        // each parameter block's start in `state`
-  std::vector<int> block_sizes;       // and its size
-  std::vector<Eigen::Index> first;    // and its first column of x
-  std::vector<Eigen::Index> fixed;    // columns held
+  Eigen::VectorXd state;            // the parameter blocks' memory, laid out as x
+  std::vector<double*> blocks;      // each parameter block's start in `state`
+  std::vector<int> block_sizes;     // and its size
+  std::vector<Eigen::Index> first;  // and its first column of x
+  std::vector<Eigen::Index> fixed;  // columns held
   std::vector<std::unique_ptr<ceres::CostFunction>> costs;
   std::unique_ptr<ceres::LossFunction> loss;
   std::vector<std::unique_ptr<ceres::Manifold>> manifolds;
@@ -174,8 +174,10 @@ FitSolver::Impl::Impl(const SphereFitProblem& p, const SolveConstraints& c)
   }
   for (const ColumnBound& bound : c.bounds) {
     const auto [b, index] = BlockOf(bound.column);
-    if (std::isfinite(bound.lower)) problem_.SetParameterLowerBound(blocks[static_cast<std::size_t>(b)], index, bound.lower);
-    if (std::isfinite(bound.upper)) problem_.SetParameterUpperBound(blocks[static_cast<std::size_t>(b)], index, bound.upper);
+    if (std::isfinite(bound.lower))
+      problem_.SetParameterLowerBound(blocks[static_cast<std::size_t>(b)], index, bound.lower);
+    if (std::isfinite(bound.upper))
+      problem_.SetParameterUpperBound(blocks[static_cast<std::size_t>(b)], index, bound.upper);
   }
 
   // The linear solver (measured, bench/calibrate_bench.cpp): one setup of up to a few thousand

@@ -242,8 +242,7 @@ StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vect
   // (block_factor.hpp's reasoning): R holds the shared columns, the functions and e.
   const std::vector<Eigen::Index> group_columns = fit.jacobian.GroupColumns();
   const auto groups = static_cast<int>(group_columns.size());
-  const bool eliminate =
-      groups > 0 && internal::AnalyseByBlocks(groups, static_cast<int>(n) - 3 * groups);
+  const bool eliminate = groups > 0 && internal::AnalyseByBlocks(groups, static_cast<int>(n) - 3 * groups);
   std::vector<Eigen::Index> shared;  // the columns of J that R keeps
   {
     std::vector<bool> own(static_cast<std::size_t>(n), false);
@@ -258,7 +257,7 @@ StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vect
   }
   const auto ns = static_cast<Eigen::Index>(shared.size());
   factor.jacobian_cols = ns;
-  const Eigen::Index cols = ns + functions_cols;       // [shared J | functions | e]
+  const Eigen::Index cols = ns + functions_cols;          // [shared J | functions | e]
   const Eigen::Index local = (eliminate ? 3 : 0) + cols;  // a group's rows: [own | shared J | functions | e]
   RowQr qr(cols), group_qr;
   Eigen::VectorXd norms2 = Eigen::VectorXd::Zero(cols);
@@ -267,7 +266,8 @@ StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vect
   auto fold_group = [&] {
     if (current < 0) return;
     // What the group's rows leave of the other columns, off its own three: rows 3.. of its factor.
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rest = group_qr.r().bottomRightCorner(cols, cols);
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rest =
+        group_qr.r().bottomRightCorner(cols, cols);
     qr.AddRows(rest.data(), cols, cols);
     Eigen::Matrix3d own = group_qr.r().topLeftCorner<3, 3>();
     for (int k = 0; k < 3; ++k) {
@@ -341,11 +341,11 @@ ResidualStructure AnalyseResidualStructure(const StructureFactor& factor) {
   for (int k = 1; k <= kThetaHarmonics; ++k) {
     const Eigen::MatrixXd two = factor.r.middleCols(n + 2 * k - 2, 2);
     // Fitted alone: on the functions as they are (before the elimination of the centres, if any).
-    const Eigen::Vector2d coef =
-        factor.gram.size() == 0
-            ? Eigen::Vector2d(two.colPivHouseholderQr().solve(e))
-            : Eigen::Vector2d(factor.gram.block<2, 2>(2 * k - 2, 2 * k - 2).colPivHouseholderQr().solve(
-                  factor.gram.block<2, 1>(2 * k - 2, kFunctions)));
+    const Eigen::Vector2d coef = factor.gram.size() == 0
+                                     ? Eigen::Vector2d(two.colPivHouseholderQr().solve(e))
+                                     : Eigen::Vector2d(factor.gram.block<2, 2>(2 * k - 2, 2 * k - 2)
+                                                           .colPivHouseholderQr()
+                                                           .solve(factor.gram.block<2, 1>(2 * k - 2, kFunctions)));
     out.theta_harmonics_um.push_back(coef.norm() * kUmPerMm);
     out.theta_harmonic_p.push_back(
         Regress({"theta", "", two, {"cos", "sin"}, Norms(factor, n + 2 * k - 2, 2)}, q, e, n_fit, m).p_value);

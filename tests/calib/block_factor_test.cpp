@@ -77,8 +77,7 @@ TEST(BlockFactor, InvertsAsTheDenseAnalysisWithTwentySetups) {
   const Eigen::Index nb = r.blocks.singular_values.size(), nd = r.dense.singular_values.size();
   ASSERT_GE(nb, 3);
   for (Eigen::Index i = 1; i <= 3; ++i) {
-    EXPECT_NEAR(r.blocks.singular_values(nb - i), r.dense.singular_values(nd - i),
-                1e-9 * r.dense.singular_values(0))
+    EXPECT_NEAR(r.blocks.singular_values(nb - i), r.dense.singular_values(nd - i), 1e-9 * r.dense.singular_values(0))
         << "the " << i << "-th weakest";
   }
   EXPECT_LE(WeakestDirectionDifference(r.dense, r.blocks), 1e-8);

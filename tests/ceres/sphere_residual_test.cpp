@@ -8,13 +8,13 @@
 #include <gtest/gtest.h>
 
 #include "calib/calib_test_util.hpp"
+#include "ceres_fit.hpp"
+#include "fit_problem.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/effect_fit.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/effects.hpp"
 #include "sph/sphere/sphere_fit.hpp"
-#include "ceres_fit.hpp"
-#include "fit_problem.hpp"
 #include "test_util.hpp"
 
 namespace sph {
