@@ -25,7 +25,8 @@ void BlockFactor::AddSetup(int k, const Eigen::MatrixXd& r_local, const std::vec
   const auto nf = static_cast<Eigen::Index>(f_columns_.size());
   const auto nl = static_cast<Eigen::Index>(f_of_local.size());
   r_ee_[setup] = r_local.topLeftCorner<3, 3>();
-  for (Eigen::Index j = 0; j < nl; ++j) r_ef_[setup].col(f_of_local[static_cast<std::size_t>(j)]) = r_local.block(0, 3 + j, 3, 1);
+  for (Eigen::Index j = 0; j < nl; ++j)
+    r_ef_[setup].col(f_of_local[static_cast<std::size_t>(j)]) = r_local.block(0, 3 + j, 3, 1);
   // What the setup leaves of the shared columns, folded into R_ff.
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rest = Eigen::MatrixXd::Zero(nl, nf);
   for (Eigen::Index i = 0; i < nl; ++i) {
@@ -35,16 +36,59 @@ void BlockFactor::AddSetup(int k, const Eigen::MatrixXd& r_local, const std::vec
   rows_ += rows;
 }
 
+void BlockFactor::AddSharedRow(int f, double weight) {
+  const auto nf = static_cast<Eigen::Index>(f_columns_.size());
+  Eigen::VectorXd row = Eigen::VectorXd::Zero(nf);
+  row(f) = weight;
+  if (chosen_) {
+    r_ff_chosen_.conservativeResize(r_ff_chosen_.rows() + 1, Eigen::NoChange);
+    r_ff_chosen_.row(r_ff_chosen_.rows() - 1) = row.transpose();
+  } else {
+    r_ff_.AddRows(row.data(), nf, 1);
+  }
+  rows_ += 1;
+}
+
+BlockFactor BlockFactor::Without(const std::vector<bool>& held) const {
+  std::vector<Eigen::Index> number(static_cast<std::size_t>(n_), -1);  // each column's number among the kept
+  Eigen::Index kept = 0;
+  for (Eigen::Index j = 0; j < n_; ++j) {
+    if (!held[static_cast<std::size_t>(j)]) number[static_cast<std::size_t>(j)] = kept++;
+  }
+  std::vector<Eigen::Index> f_columns, e_first, f_kept;
+  for (std::size_t j = 0; j < f_columns_.size(); ++j) {
+    const Eigen::Index k = number[static_cast<std::size_t>(f_columns_[j])];
+    if (k < 0) continue;
+    f_columns.push_back(k);
+    f_kept.push_back(static_cast<Eigen::Index>(j));
+  }
+  for (const Eigen::Index e : e_first_) e_first.push_back(number[static_cast<std::size_t>(e)]);
+  BlockFactor out(std::move(f_columns), std::move(e_first), kept);
+  out.rows_ = rows_;
+  out.r_ee_ = r_ee_;
+  const auto nf = static_cast<Eigen::Index>(f_kept.size());
+  for (std::size_t k = 0; k < r_ef_.size(); ++k) {
+    for (Eigen::Index j = 0; j < nf; ++j) out.r_ef_[k].col(j) = r_ef_[k].col(f_kept[static_cast<std::size_t>(j)]);
+  }
+  out.chosen_ = true;
+  out.r_ff_chosen_.resize(Rff().rows(), nf);
+  for (Eigen::Index j = 0; j < nf; ++j) out.r_ff_chosen_.col(j) = Rff().col(f_kept[static_cast<std::size_t>(j)]);
+  return out;
+}
+
 Eigen::MatrixXd BlockFactor::Dense() const {
   const auto nf = static_cast<Eigen::Index>(f_columns_.size());
   const auto setups = static_cast<Eigen::Index>(e_first_.size());
-  Eigen::MatrixXd r = Eigen::MatrixXd::Zero(3 * setups + nf, n_);
+  Eigen::MatrixXd r = Eigen::MatrixXd::Zero(3 * setups + Rff().rows(), n_);
   for (Eigen::Index k = 0; k < setups; ++k) {
     const auto s = static_cast<std::size_t>(k);
     for (int c = 0; c < 3; ++c) r.block(3 * k, e_first_[s] + c, 3, 1) = r_ee_[s].col(c);
-    for (Eigen::Index j = 0; j < nf; ++j) r.block(3 * k, f_columns_[static_cast<std::size_t>(j)], 3, 1) = r_ef_[s].col(j);
+    for (Eigen::Index j = 0; j < nf; ++j)
+      r.block(3 * k, f_columns_[static_cast<std::size_t>(j)], 3, 1) = r_ef_[s].col(j);
   }
-  for (Eigen::Index j = 0; j < nf; ++j) r.block(3 * setups, f_columns_[static_cast<std::size_t>(j)], nf, 1) = r_ff_.r().col(j);
+  for (Eigen::Index j = 0; j < nf; ++j) {
+    r.block(3 * setups, f_columns_[static_cast<std::size_t>(j)], Rff().rows(), 1) = Rff().col(j);
+  }
   return r;
 }
 
@@ -58,7 +102,7 @@ struct Scaled {
   std::vector<Eigen::Matrix3d> ree;
   std::vector<Eigen::MatrixXd> ref;  // 3 x nf
   Eigen::MatrixXd rff;
-  Eigen::MatrixXd u, v;  // SVD of rff
+  Eigen::MatrixXd u, v;  // thin SVD of rff
   Eigen::VectorXd sv, sv_plus;
 
   Eigen::Index Nf() const { return static_cast<Eigen::Index>(f.size()); }
@@ -72,18 +116,18 @@ struct Scaled {
   // (R D) y: 3 rows per setup, then the nf rows of R_ff.
   Eigen::MatrixXd Apply(const Eigen::MatrixXd& y) const {
     const Eigen::MatrixXd yf = FRows(y);
-    Eigen::MatrixXd z(3 * Setups() + Nf(), y.cols());
+    Eigen::MatrixXd z(3 * Setups() + rff.rows(), y.cols());
     for (Eigen::Index k = 0; k < Setups(); ++k) {
       const auto s = static_cast<std::size_t>(k);
       z.middleRows(3 * k, 3) = ree[s] * y.middleRows(e[s], 3) + ref[s] * yf;
     }
-    z.bottomRows(Nf()) = rff * yf;
+    z.bottomRows(rff.rows()) = rff * yf;
     return z;
   }
   // (R D)^T z, in the full parameter order.
   Eigen::MatrixXd ApplyTransposed(const Eigen::MatrixXd& z, Eigen::Index n) const {
     Eigen::MatrixXd y = Eigen::MatrixXd::Zero(n, z.cols());
-    Eigen::MatrixXd yf = rff.transpose() * z.bottomRows(Nf());
+    Eigen::MatrixXd yf = rff.transpose() * z.bottomRows(rff.rows());
     for (Eigen::Index k = 0; k < Setups(); ++k) {
       const auto s = static_cast<std::size_t>(k);
       y.middleRows(e[s], 3) = ree[s].transpose() * z.middleRows(3 * k, 3);
@@ -92,7 +136,8 @@ struct Scaled {
     for (Eigen::Index j = 0; j < Nf(); ++j) y.row(f[static_cast<std::size_t>(j)]) = yf.row(j);
     return y;
   }
-  // ((R D)^T (R D))^+ y, with R_ff's null space left out.
+  // ((R D)^T (R D))^+ y, with R_ff's null space left out (R_ff may have more rows than columns:
+  // its thin SVD).
   Eigen::MatrixXd ApplyInverse(const Eigen::MatrixXd& y) const {
     // (R D)^T w = y: the centres' rows first, then R_ff^T w_f = y_f - sum_k R_ef_k^T w_k.
     std::vector<Eigen::MatrixXd> w(static_cast<std::size_t>(Setups()));
@@ -174,9 +219,10 @@ NormalInverse BlockFactor::Invert() const {
   out.scale = Eigen::VectorXd::Zero(n);
   Eigen::VectorXd sf(nf);
   {
-    Eigen::VectorXd norm2 = r_ff_.r().colwise().squaredNorm().transpose();
+    Eigen::VectorXd norm2 = Rff().colwise().squaredNorm().transpose();
     for (const Eigen::MatrixXd& b : r_ef_) norm2 += b.colwise().squaredNorm().transpose();
-    for (Eigen::Index j = 0; j < nf; ++j) out.scale(f_columns_[static_cast<std::size_t>(j)]) = sf(j) = inverse_norm(norm2(j));
+    for (Eigen::Index j = 0; j < nf; ++j)
+      out.scale(f_columns_[static_cast<std::size_t>(j)]) = sf(j) = inverse_norm(norm2(j));
   }
   Scaled a{f_columns_, e_first_, {}, {}, {}, {}, {}, {}, {}};
   bool centres_determined = true;
@@ -188,7 +234,7 @@ NormalInverse BlockFactor::Invert() const {
     a.ref.push_back(r_ef_[s] * sf.asDiagonal());
     centres_determined &= se.minCoeff() > 0.0;
   }
-  a.rff = r_ff_.r() * sf.asDiagonal();
+  a.rff = Rff() * sf.asDiagonal();
   if (!centres_determined) return InvertNormalFactor(Dense(), rows_);
   const auto [largest, largest_vector] = LargestEigen(a, n);
   const double sigma_max = std::sqrt(std::max(largest, 0.0));
@@ -197,7 +243,7 @@ NormalInverse BlockFactor::Invert() const {
     // A centre its setup's rows barely hold: the dense analysis decides what is determined.
     if (!(Eigen::JacobiSVD<Eigen::Matrix3d>(b).singularValues()(2) > tol)) return InvertNormalFactor(Dense(), rows_);
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(a.rff, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(a.rff, Eigen::ComputeThinU | Eigen::ComputeFullV);
   a.u = svd.matrixU();
   a.v = svd.matrixV();
   a.sv = svd.singularValues();
@@ -227,7 +273,8 @@ NormalInverse BlockFactor::Invert() const {
   }
   Eigen::MatrixXd c(n, n);
   for (Eigen::Index i = 0; i < nf; ++i) {
-    for (Eigen::Index j = 0; j < nf; ++j) c(f_columns_[static_cast<std::size_t>(i)], f_columns_[static_cast<std::size_t>(j)]) = cff(i, j);
+    for (Eigen::Index j = 0; j < nf; ++j)
+      c(f_columns_[static_cast<std::size_t>(i)], f_columns_[static_cast<std::size_t>(j)]) = cff(i, j);
   }
   for (Eigen::Index k = 0; k < setups; ++k) {
     const auto s = static_cast<std::size_t>(k);

@@ -45,6 +45,13 @@ class BlockFactor {
   /// f_columns of local column 3 + j; `rows` the number of rows it factors.
   void AddSetup(int k, const Eigen::MatrixXd& r_local, const std::vector<int>& f_of_local, Eigen::Index rows);
 
+  /// Folds one more row in that has a single entry, `weight` in shared column f (a prior's row).
+  void AddSharedRow(int f, double weight);
+
+  /// The factor of the columns not held (held[j] for each of the n columns; centres are never
+  /// held), numbered as they follow one another: the Jacobian of a fit of the others.
+  BlockFactor Without(const std::vector<bool>& held) const;
+
   /// The inverse of J^T J and what the SVD of J D tells (observability.hpp): the covariance and
   /// null space exactly, the largest singular value and the weakest ones with their directions
   /// as the file comment says (NormalInverse::singular_values holds those: the largest first, then
@@ -60,9 +67,14 @@ class BlockFactor {
   std::vector<Eigen::Index> f_columns_, e_first_;
   Eigen::Index n_ = 0;
   Eigen::Index rows_ = 0;
+  // R_ff: the factor folded so far, or (Without()) a matrix with its Gram: its columns chosen.
+  const Eigen::MatrixXd& Rff() const { return chosen_ ? r_ff_chosen_ : r_ff_.r(); }
+
   std::vector<Eigen::Matrix3d> r_ee_;
   std::vector<Eigen::MatrixXd> r_ef_;  // 3 x n_f
   RowQr r_ff_;
+  bool chosen_ = false;
+  Eigen::MatrixXd r_ff_chosen_;
 };
 
 /// Whether a fit of `setups` setups and `shared` parameters besides their centres is analysed

@@ -12,6 +12,7 @@
 #include "calibrate_rows.hpp"
 #include "fit_problem.hpp"
 #include "problem_eval.hpp"
+#include "solve_fit.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
@@ -173,7 +174,7 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
   Eigen::VectorXd x = problem.Pack(result.geometry, result.centers_mm, {});
   LmWorkspace local;
   LmWorkspace& lm = workspace ? *workspace : local;
-  const NormalEquations* at_x = SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
+  const SolvedFit solved = SolveFit(problem, x, options, n_samples, lm, result, points.source);
   problem.Unpack(x, &result.geometry, &result.centers_mm, nullptr);
   if (!options.analyse) return result;
 
@@ -188,9 +189,10 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
     rss += all[i] * all[i];
   }
   SetResidualStatistics(result);
+  NoteWeightedReadings(points, solved, all, result);
   std::vector<ParameterDescription> desc = BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
-  result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, at_x), static_cast<Eigen::Index>(n_samples), rss,
-                               std::move(desc), options.max_std_um);
+  result.analysis = AnalyseSolved(problem, x, solved, solved.Plain() ? rss : WeightedRss(problem, solved, all),
+                                  std::move(desc), options.max_std_um);
   ExplainUndetermined(points, left_out, options, result);
   return result;
 }
@@ -227,18 +229,40 @@ std::vector<double> ResidualsOf(const internal::ReadingTable& table, const Calib
 
 }  // namespace
 
-std::string DescribeOutliers(const PointsData& points, const std::vector<Outlier>& outliers) {
+namespace {
+
+// "sample 18 (line 24, theta 240 deg, phi 7.5 deg, residual +999 um<more>)" for each of `count`
+// readings (sample(k), residual_um(k), more(k)), cut after about 400 characters.
+template <typename SampleOf, typename Residual, typename More>
+std::string DescribeSamples(const PointsData& points, std::size_t count, SampleOf sample, Residual residual_um,
+                            More more) {
   std::string rows;
-  for (const Outlier& o : outliers) {
+  for (std::size_t k = 0; k < count; ++k) {
     if (rows.size() >= 400) return rows + "; ...";
-    const Sample& s = points.samples[o.sample];
+    const std::size_t i = sample(k);
+    const Sample& s = points.samples[i];
     const std::string line =
-        o.sample < points.sample_lines.size() ? "line " + std::to_string(points.sample_lines[o.sample]) + ", " : "";
-    rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(o.sample + 1) + " (" + line + "theta " +
+        i < points.sample_lines.size() ? "line " + std::to_string(points.sample_lines[i]) + ", " : "";
+    rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(i + 1) + " (" + line + "theta " +
             Format("%g", s.theta_deg) + " deg, phi " + Format("%g", s.phi_deg) + " deg, residual " +
-            Format("%+.3g", o.residual_um) + " um)";
+            Format("%+.3g", residual_um(k)) + " um" + more(k) + ")";
   }
   return rows;
+}
+
+}  // namespace
+
+std::string DescribeOutliers(const PointsData& points, const std::vector<Outlier>& outliers) {
+  return DescribeSamples(
+      points, outliers.size(), [&](std::size_t k) { return outliers[k].sample; },
+      [&](std::size_t k) { return outliers[k].residual_um; }, [](std::size_t) { return std::string(); });
+}
+
+std::string DescribeWeightedReadings(const PointsData& points, const std::vector<WeightedReading>& readings) {
+  return DescribeSamples(
+      points, readings.size(), [&](std::size_t k) { return readings[k].sample; },
+      [&](std::size_t k) { return readings[k].residual_um; },
+      [&](std::size_t k) { return ", weight " + Format("%.3g", readings[k].weight); });
 }
 
 PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& result) {

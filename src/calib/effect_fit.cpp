@@ -10,6 +10,7 @@
 #include "effect_fit_rows.hpp"
 #include "fit_problem.hpp"
 #include "problem_eval.hpp"
+#include "solve_fit.hpp"
 #include "sph/core/error.hpp"
 
 namespace sph {
@@ -123,7 +124,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   Eigen::VectorXd x = problem.Pack(start.geometry, start.centers_mm, values, start.form_values);
   LmWorkspace local;
   LmWorkspace& lm = workspace ? *workspace : local;
-  const NormalEquations* at_x = SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
+  const SolvedFit solved = SolveFit(problem, x, options, n_samples, lm, result, src);
   problem.Unpack(x, &result.geometry, &result.centers_mm, &fit.values, &fit.form_values);
   std::vector<double> all(table.size(), 0.0);
   problem.Residuals(x.data(), all.data());
@@ -134,11 +135,12 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
     fit.rss_mm2 += all[i] * all[i];
   }
   SetResidualStatistics(result);
+  NoteWeightedReadings(points, solved, all, result);
   if (!options.analyse) return fit;
 
   result.analysis =
-      AnalyseFit(NormalInverseAtSolution(problem, x, at_x), static_cast<Eigen::Index>(n_samples), fit.rss_mm2,
-                 ParameterDescriptions(result.setup_ids, model, options.sphere_radius_mm), options.max_std_um);
+      AnalyseSolved(problem, x, solved, solved.Plain() ? fit.rss_mm2 : WeightedRss(problem, solved, all),
+                    ParameterDescriptions(result.setup_ids, model, options.sphere_radius_mm), options.max_std_um);
   return fit;
 }
 
@@ -172,10 +174,9 @@ StructureJacobian::StructureJacobian(const ReadingTable& table, const Calibratio
 
 void StructureJacobian::ForEach(const BlockFn& fn) const {
   const auto n = static_cast<int>(problem_.NumParams());
-  problem_.ForEachGlobalBlock(x_.data(), offset_.empty() ? nullptr : offset_.data(),
-                              [&](const std::uint32_t* rows, int count, double* jacobian, int setup) {
-                                fn(rows, count, jacobian, n, setup);
-                              });
+  problem_.ForEachGlobalBlock(
+      x_.data(), offset_.empty() ? nullptr : offset_.data(),
+      [&](const std::uint32_t* rows, int count, double* jacobian, int setup) { fn(rows, count, jacobian, n, setup); });
 }
 
 std::vector<Eigen::Index> StructureJacobian::GroupColumns() const {

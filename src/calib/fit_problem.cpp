@@ -730,14 +730,13 @@ SetupParams SphereFitProblem::ParamsOf(const double* x, int setup) const {
   p.geometry = x;
   p.center = x + kNumScmsParams + 3 * setup;
   p.effects = num_effect_params_ > 0 ? x + first_effect_ : nullptr;
-  p.form = num_form_terms_ > 0 ? x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_
-                               : nullptr;
+  p.form =
+      num_form_terms_ > 0 ? x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_ : nullptr;
   return p;
 }
 
 void SphereFitProblem::EvaluateBlock(int k, const SetupParams& p, const ScmsErrorTrig<double>& et,
-                                     const std::uint32_t* idx, int count, const double* r_offset,
-                                     bool jacobian) const {
+                                     const std::uint32_t* idx, int count, const double* r_offset, bool jacobian) const {
   Scratch& s = *scratch_;
   const double d_plus_dprime = probe_offset_mm_ + p.geometry[kDPrime];
   double* e = s.cols.data() + num_local_ * kRows;
@@ -792,7 +791,7 @@ bool SphereFitProblem::EvaluateSetupRows(int setup, const SetupParams& p, int fi
   const ScmsErrorTrig<double> et = ErrorTrigOf(p.geometry);
   const std::uint32_t* rows = rows_[static_cast<std::size_t>(setup)].data() + first;
   const bool jacobian = jacobians != nullptr && std::any_of(jacobians, jacobians + NumSetupBlocks(),
-                                                                [](const double* j) { return j != nullptr; });
+                                                            [](const double* j) { return j != nullptr; });
   // Each block's columns within the local columns of RowBlock::cols: first and width.
   const int n_eff = num_effect_params_;
   const std::array<std::array<int, 2>, 4> blocks{{{0, kNumScmsParams},
@@ -891,10 +890,17 @@ void SphereFitProblem::Residuals(const double* x, double* out) const {
   });
 }
 
-RowQr SphereFitProblem::FactorJacobian(const double* x, const double* r_offset) const {
+RowQr SphereFitProblem::FactorJacobian(const double* x, const double* r_offset, const double* row_weight) const {
   RowQr qr(num_params_);
-  ForEachGlobalBlock(x, r_offset,
-                     [&](const std::uint32_t*, int count, double* rows, int) { qr.AddRows(rows, num_params_, count); });
+  ForEachGlobalBlock(x, r_offset, [&](const std::uint32_t* table_rows, int count, double* rows, int) {
+    if (row_weight != nullptr) {
+      for (int i = 0; i < count; ++i) {
+        const double w = row_weight[table_rows[i]];
+        for (Eigen::Index j = 0; j < num_params_; ++j) rows[i * num_params_ + j] *= w;
+      }
+    }
+    qr.AddRows(rows, num_params_, count);
+  });
   return qr;
 }
 

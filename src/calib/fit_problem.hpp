@@ -173,8 +173,9 @@ class SphereFitProblem {
   /// Residuals at x into out (table-indexed; rows not in the problem untouched).
   void Residuals(const double* x, double* out) const;
 
-  /// The triangular factor of the Jacobian at x (readings r + r_offset when given), columns as x.
-  RowQr FactorJacobian(const double* x, const double* r_offset = nullptr) const;
+  /// The triangular factor of the Jacobian at x (readings r + r_offset when given, each row times
+  /// row_weight[its table row] when given), columns as x.
+  RowQr FactorJacobian(const double* x, const double* r_offset = nullptr, const double* row_weight = nullptr) const;
 
   /// The Jacobian's triangular factor at x in blocks, the centres eliminated first (block_factor.hpp),
   /// readings r + r_offset when given, each row times row_weight[its table row] when given.

@@ -13,6 +13,7 @@
 #include "ceres_fit.hpp"
 #include "fit_problem.hpp"
 #include "levenberg_marquardt.hpp"
+#include "solve_fit.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/observability.hpp"
 #include "sph/core/error.hpp"
@@ -36,6 +37,7 @@ inline LmOptions CalibrationSolverOptions(int max_iterations) {
 /// its radius in the options.
 inline void CheckFitOptions(const PointsData& points, const CalibrationOptions& options) {
   const std::string& source = points.source;
+  CheckParameterSettings(options, source);
   if (!(options.sphere_radius_mm > 0.0)) throw Error(source + ": the sphere radius must be positive");
   if (!(options.probe_offset_mm > 0.0)) throw Error(source + ": the probe offset must be positive");
   for (const auto& [setup, radius_mm] : options.sphere_radii_mm) {
@@ -58,30 +60,6 @@ inline void CheckEnoughSamples(const std::string& source, std::size_t n_samples,
   if (n_samples > n_params) return;
   throw Error(source + ": " + std::to_string(n_samples) + " samples are too few to fit " + std::to_string(n_params) +
               " parameters" + (which.empty() ? "" : " (" + which + ")"));
-}
-
-/// Solves `problem` from x (in place) with Ceres (ceres_fit.hpp) and records the run in `result`:
-/// converged, iterations, the solver's message, the number of samples, and a warning when it did
-/// not converge. Returns J^T J at x when the solver left it (the hand-written one, in `lm`), else null.
-inline const NormalEquations* SolveCalibration(const SphereFitProblem& problem, Eigen::VectorXd& x, int max_iterations,
-                                               std::size_t n_samples, LmWorkspace& lm, CalibrationResult& result) {
-  const NormalEquations* at_x = nullptr;
-  if (HandSolverSelected()) {
-    const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(max_iterations), lm);
-    result.converged = summary.converged;
-    result.iterations = summary.iterations;
-    result.solver_message = summary.message;
-    at_x = &lm.at_x;
-  } else {
-    FitSolver solver(problem);
-    const SolveSummary summary = solver.Solve(x, max_iterations);
-    result.converged = summary.converged;
-    result.iterations = summary.iterations;
-    result.solver_message = summary.message;
-  }
-  result.n_points = static_cast<int>(n_samples);
-  if (!result.converged) result.warnings.push_back("the solver did not converge: " + result.solver_message);
-  return at_x;
 }
 
 /// (J^T J)^-1 at x: with many setups through the Jacobian's block structure (block_factor.hpp),

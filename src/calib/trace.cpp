@@ -154,6 +154,11 @@ std::vector<Drop> Eliminate(const ObservabilityReport& rep, std::vector<double> 
                             double rows, const TraceOptions& trace) {
   std::vector<Drop> drops;
   std::vector<bool> alive(static_cast<std::size_t>(size), true);
+  // A component held at a value given (CalibrationOptions::fixed) stays: it is known, not fitted.
+  for (int j = 0; j < size; ++j) {
+    if (rep.IsHeld(offset + j)) alive[static_cast<std::size_t>(j)] = false;
+  }
+  if (std::find(alive.begin(), alive.end(), true) == alive.end()) return drops;
   Eigen::MatrixXd c = rep.covariance;
   const double dof = rows - static_cast<double>(c.rows());
   double rss_ratio = 1.0;  // (residual sum of squares) / (sigma^2 dof) of the fit
@@ -202,6 +207,14 @@ std::vector<Drop> Eliminate(const ObservabilityReport& rep, std::vector<double> 
   return drops;
 }
 
+// Whether the options hold parameter `name` or give it a prior.
+bool Told(const CalibrationOptions& options, const std::string& name) {
+  return std::any_of(options.fixed.begin(), options.fixed.end(),
+                     [&](const FixedParameter& f) { return f.name == name; }) ||
+         std::any_of(options.priors.begin(), options.priors.end(),
+                     [&](const ParameterPrior& p) { return p.name == name; });
+}
+
 // `names` separated by spaces; past the first eight, their count ("... and 13 more").
 std::string Listed(const std::vector<std::string>& names) {
   constexpr std::size_t kNamed = 8;
@@ -241,6 +254,9 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
     int worst = -1;
     double vif_max = trace.max_vif;
     for (int j = 0; j < cand.size(); ++j) {
+      // A component held or informed (CalibrationOptions::fixed, priors) is known beyond these
+      // readings: the fit, not the linearised problem without it, decides.
+      if (Told(options, cand.ParamName(static_cast<std::size_t>(j)))) continue;
       const auto col = static_cast<Eigen::Index>(offset + j);
       const double vif = inv.in_null[static_cast<std::size_t>(col)]
                              ? std::numeric_limits<double>::infinity()
