@@ -134,7 +134,7 @@ CalibrationBudget MakeCalibrationBudget(const PointsData& fitted, const Calibrat
                         prior.u / unit,
                         kInfiniteDof,
                         per_internal * unit,
-                        "an independent measurement of it (its standard uncertainty)"};
+                        "the standard uncertainty of an independent measurement of it"};
     type_a -= s.per_unit * s.per_unit.transpose() * (s.u * s.u);
     b.inputs.push_back(s);
   }

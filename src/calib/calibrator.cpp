@@ -342,7 +342,7 @@ namespace internal {
 
 CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& table, const CalibrationOptions& options,
                                  LmWorkspace* workspace) {
-  if (!options.analyse || !(options.outlier_sigma > 0.0))
+  if (!options.analyse || !options.LeavesOutOutliers())
     return CalibrateRows(points, table, nullptr, options, workspace);
   // Robust rejection: the median and the median absolute deviation of the residuals do not follow
   // a few gross errors, as a least-squares fit does. Marked first at the start values, so that the

@@ -558,7 +558,7 @@ void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, c
                      const TraceOptions& trace, TracedFit& after) {
   std::vector<std::size_t> outliers;
   for (const Outlier& o : base.outliers) outliers.push_back(o.sample);
-  if (options.outlier_sigma > 0.0) {
+  if (options.LeavesOutOutliers()) {
     for (int round = 0; round < 5; ++round) {
       const std::vector<std::size_t> judged = OutliersUnder(all, options, after.fit);
       if (judged == outliers) break;

@@ -87,6 +87,9 @@ struct CalibrationOptions {
   /// readings pass the fit's on (CalibrationResult::robust_sigma_mm).
   double robust_sigma_mm = 0.0;
 
+  /// Whether outliers are left out (outlier_sigma > 0 and no robust loss).
+  bool LeavesOutOutliers() const { return outlier_sigma > 0.0 && robust_loss == RobustLoss::kNone; }
+
   /// The radius of the sphere measured in `setup`: its entry in sphere_radii_mm, else R0 [mm].
   double SphereRadiusMm(int setup) const {
     const auto it = sphere_radii_mm.find(setup);
