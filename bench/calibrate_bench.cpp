@@ -1,14 +1,11 @@
 // Cost of one calibration at the paper's settings (288 points, 2 mm eccentricity, 0.05 um noise).
 //
 //   build/bench/calibrate_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true
-//
-// The argument "solver" selects Ceres (0) or the hand-written Levenberg-Marquardt (1), side by side.
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
 #include <string>
 
-#include "ceres_fit.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
@@ -42,21 +39,14 @@ void RunCalibrations(benchmark::State& state, const sph::PointsData& data, const
   state.counters["lm_iterations"] = iterations;
 }
 
-// Solve only: problem building and Levenberg-Marquardt.
+// Solve only: problem building and the solve.
 void BM_CalibrateSolve(benchmark::State& state) {
-  sph::internal::SelectHandSolver(state.range(2) != 0);
   RunCalibrations(state, Data(static_cast<int>(state.range(0)), static_cast<int>(state.range(1))), Options(false));
 }
-BENCHMARK(BM_CalibrateSolve)
-    ->ArgsProduct({{24}, {12}, {0, 1}})
-    ->ArgsProduct({{48}, {24}, {0, 1}})
-    ->ArgsProduct({{96}, {48}, {0, 1}})
-    ->ArgNames({"theta", "phi", "solver"})
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CalibrateSolve)->Args({24, 12})->Args({48, 24})->Args({96, 48})->Unit(benchmark::kMillisecond);
 
 // Everything sph_calibrate computes: solve, residuals, covariance, observability.
 void BM_CalibrateFull(benchmark::State& state) {
-  sph::internal::SelectHandSolver(state.range(0) != 0);
   const sph::PointsData data = Data(24, 12);
   const sph::CalibrationOptions o = Options(true);
   for (auto _ : state) {
@@ -64,26 +54,21 @@ void BM_CalibrateFull(benchmark::State& state) {
     benchmark::DoNotOptimize(r.analysis.std);
   }
 }
-BENCHMARK(BM_CalibrateFull)->Arg(0)->Arg(1)->ArgName("solver")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CalibrateFull)->Unit(benchmark::kMillisecond);
 
 // Growth over the number of setups: calibrations of `setups` placements of 12 readings each, with
 // the analysis and the outlier rule (what sph_calibrate --no-extend computes), which eliminate
 // each setup's centre first (a Schur complement): the cost grows with the setups, not their cube.
 void BM_CalibrateSetups(benchmark::State& state) {
-  sph::internal::SelectHandSolver(state.range(1) != 0);
   const sph::PointsData data = sph::Simulate(sph::bench::ManySetups(static_cast<int>(state.range(0))));
   RunCalibrations(state, data, Options(true));
   state.counters["setups"] = static_cast<double>(state.range(0));
 }
-BENCHMARK(BM_CalibrateSetups)
-    ->ArgsProduct({{25, 50, 100, 200}, {0, 1}})
-    ->ArgNames({"setups", "solver"})
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CalibrateSetups)->Arg(25)->Arg(50)->Arg(100)->Arg(200)->Unit(benchmark::kMillisecond);
 
 // Solve only, of the points file named by SPH_BENCH_POINTS (its header's R0 and d): the same data
 // another implementation is timed on (bench/peer_scipy.sh). Registered only when it is set.
 void BM_CalibrateFile(benchmark::State& state, const std::string& path) {
-  sph::internal::SelectHandSolver(state.range(0) != 0);
   const sph::PointsData data = sph::ReadPointsFile(path);
   sph::CalibrationOptions o = Options(false);
   o.sphere_radius_mm = data.header.sphere_radius_mm.value_or(o.sphere_radius_mm);
@@ -96,9 +81,6 @@ void BM_CalibrateFile(benchmark::State& state, const std::string& path) {
 int main(int argc, char** argv) {
   if (const char* path = std::getenv("SPH_BENCH_POINTS")) {
     benchmark::RegisterBenchmark("BM_CalibrateFile", BM_CalibrateFile, std::string(path))
-        ->Arg(0)
-        ->Arg(1)
-        ->ArgName("solver")
         ->Unit(benchmark::kMillisecond);
   }
   benchmark::Initialize(&argc, argv);

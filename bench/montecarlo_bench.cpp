@@ -2,11 +2,9 @@
 //
 //   build/bench/montecarlo_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 //
-// The argument "solver" selects Ceres (0) or the hand-written Levenberg-Marquardt (1), side by side.
 // peak_rss_MB is the process' peak: BM_DefaultStudy/2 runs first, so its figure is its own.
 #include <benchmark/benchmark.h>
 
-#include "ceres_fit.hpp"
 #include "peak_rss.hpp"
 #include "sph/calib/montecarlo.hpp"
 
@@ -14,7 +12,6 @@ namespace {
 
 // The default study: 4 eccentricities x 1000 calibrations of 288 points, on all cores.
 void BM_DefaultStudy(benchmark::State& state) {
-  sph::internal::SelectHandSolver(state.range(1) != 0);
   sph::MonteCarloSpec spec;
   spec.threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
@@ -25,15 +22,7 @@ void BM_DefaultStudy(benchmark::State& state) {
       benchmark::Counter(4000.0 * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
   state.counters["peak_rss_MB"] = sph::bench::PeakRssMb();
 }
-BENCHMARK(BM_DefaultStudy)
-    ->Args({2, 0})
-    ->Args({2, 1})
-    ->Args({1, 0})
-    ->Args({1, 1})
-    ->ArgNames({"threads", "solver"})
-    ->Iterations(1)
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DefaultStudy)->Arg(2)->Arg(1)->Iterations(1)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 // 200 calibrations at 2 mm with theta_steps x phi_steps points, on `threads` threads.
 void BM_StudyPoints(benchmark::State& state) {

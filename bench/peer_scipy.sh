@@ -36,8 +36,8 @@ for grid in "24 12" "96 48"; do
   points="$work/points_$1x$2.txt"
   "$build/apps/sph_simulate" -o "$points" --theta-steps "$1" --phi-steps "$2"
   n=$(($1 * $2))
-  ours=$(SPH_BENCH_POINTS="$points" "$build/bench/calibrate_bench" --benchmark_filter='^BM_CalibrateFile/solver:0$' \
-    --benchmark_repetitions=10 --benchmark_report_aggregates_only=true 2>/dev/null | median BM_CalibrateFile/solver:0)
+  ours=$(SPH_BENCH_POINTS="$points" "$build/bench/calibrate_bench" --benchmark_filter='^BM_CalibrateFile$' \
+    --benchmark_repetitions=10 --benchmark_report_aggregates_only=true 2>/dev/null | median BM_CalibrateFile)
   reps=50
   [ "$n" -gt 1000 ] && reps=10
   "$py" "$here/peer_scipy.py" "$points" --repetitions "$reps" >"$work/peer.txt"
@@ -55,19 +55,19 @@ echo
 # The paper's study: 4 x 1000 calibrations of 288 points, on 2 threads, the median of 5 runs;
 # scipy's figure is 4000 times its median on 288 points above (the same calibration, other noise),
 # not a run of 4000 fits.
-study=$("$build/bench/montecarlo_bench" --benchmark_filter='^BM_DefaultStudy/threads:2/solver:0/' --benchmark_repetitions=5 \
-  --benchmark_report_aggregates_only=true 2>/dev/null | awk '$1 ~ /^BM_DefaultStudy\/threads:2\/solver:0\/.*_median$/ { print $2, $0 }')
+study=$("$build/bench/montecarlo_bench" --benchmark_filter='^BM_DefaultStudy/2/' --benchmark_repetitions=5 \
+  --benchmark_report_aggregates_only=true 2>/dev/null | awk '$1 ~ /^BM_DefaultStudy\/2\/.*_median$/ { print $2, $0 }')
 study_ms=$(echo "$study" | cut -d' ' -f1)
 study_rss=$(echo "$study" | sed -n 's/.*peak_rss_MB=\([0-9.]*[kM]*\).*/\1/p')
 echo "Monte Carlo study 4 x 1000 x 288 points, 2 threads: sph $study_ms ms wall (peak RSS $study_rss MB);" \
   "scipy 4000 x $scipy288 ms = $(awk -v a="$scipy288" 'BEGIN { printf "%.1f", 4 * a }') s on one thread," \
   "ratio $(awk -v a="$scipy288" -v b="$study_ms" 'BEGIN { printf "%.0f", 4000 * a / b }')x"
-trace=$("$build/bench/trace_bench" --benchmark_filter='^BM_Trace4608/solver:0' --benchmark_repetitions=3 \
-  --benchmark_report_aggregates_only=true 2>/dev/null | awk '$1 ~ /^BM_Trace4608\/solver:0.*_median$/')
+trace=$("$build/bench/trace_bench" --benchmark_filter='^BM_Trace4608' --benchmark_repetitions=3 \
+  --benchmark_report_aggregates_only=true 2>/dev/null | awk '$1 ~ /^BM_Trace4608.*_median$/')
 echo "trace of 4608 points (paper's study, 96 x 48), 2 threads: median $(echo "$trace" | awk '{ print $2 }') ms," \
   "peak RSS $(echo "$trace" | sed -n 's/.*peak_rss_MB=\([0-9.]*[kM]*\).*/\1/p') MB"
-undeclared=$("$build/bench/trace_bench" --benchmark_filter='^BM_Trace/undeclared:1/threads:2/solver:0$' --benchmark_repetitions=5 \
-  --benchmark_report_aggregates_only=true 2>/dev/null | median BM_Trace/undeclared:1/threads:2/solver:0)
+undeclared=$("$build/bench/trace_bench" --benchmark_filter='^BM_Trace/undeclared:1/threads:2$' --benchmark_repetitions=5 \
+  --benchmark_report_aggregates_only=true 2>/dev/null | median BM_Trace/undeclared:1/threads:2)
 echo "trace of data/example/undeclared (576 points), 2 threads: median ${undeclared% *} ms wall, ${undeclared#* } ms CPU"
 
 [ "$quick" -eq 1 ] && exit 0

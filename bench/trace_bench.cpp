@@ -1,11 +1,8 @@
 // Cost of closing the loop: the residual trace that sph_calibrate runs by default.
 //
 //   build/bench/trace_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
-//
-// The argument "solver" selects Ceres (0) or the hand-written Levenberg-Marquardt (1), side by side.
 #include <benchmark/benchmark.h>
 
-#include "ceres_fit.hpp"
 #include "peak_rss.hpp"
 #include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
@@ -38,7 +35,6 @@ sph::PointsData Data(bool undeclared) {
 // Seven-error calibration, then the whole trace: every candidate with its pruning and 5-fold
 // cross-validation, round after round.
 void BM_Trace(benchmark::State& state) {
-  sph::internal::SelectHandSolver(state.range(2) != 0);
   const sph::PointsData data = Data(state.range(0) != 0);
   const sph::CalibrationOptions o = Options();
   sph::TraceOptions trace;
@@ -53,15 +49,11 @@ void BM_Trace(benchmark::State& state) {
   state.counters["points"] = static_cast<double>(data.samples.size());
   state.counters["effects_added"] = static_cast<double>(added);
 }
-BENCHMARK(BM_Trace)
-    ->ArgsProduct({{0, 1}, {1, 2}, {0, 1}})
-    ->ArgNames({"undeclared", "threads", "solver"})
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Trace)->ArgsProduct({{0, 1}, {1, 2}})->ArgNames({"undeclared", "threads"})->Unit(benchmark::kMillisecond);
 
 // The trace of the paper's study on the 96 x 48 grid (4608 points), 2 threads, and its memory:
 // peak_rss_MB is the process' peak, its own when run alone (--benchmark_filter=BM_Trace4608).
 void BM_Trace4608(benchmark::State& state) {
-  sph::internal::SelectHandSolver(state.range(0) != 0);
   sph::SimulationSpec spec;
   spec.pattern = sph::GridPattern(96, 48);
   const sph::PointsData data = sph::Simulate(spec);
@@ -76,14 +68,13 @@ void BM_Trace4608(benchmark::State& state) {
   state.counters["points"] = static_cast<double>(data.samples.size());
   state.counters["peak_rss_MB"] = sph::bench::PeakRssMb();
 }
-BENCHMARK(BM_Trace4608)->Arg(0)->Arg(1)->ArgName("solver")->UseRealTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Trace4608)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 // A separation: the sphere in five orientations on its mount (turned by 90 and 180 deg about z,
 // tilted by 90 deg about x and y), 288 points each (1440 in all), each setup in another scan
 // order, with a form of 0.05 um rms of degrees 2..8, a Theta encoder error of 5 arcsec at 3 per
 // turn and a probe drift of 0.4 um: the form's degree chosen, the effects found beside it, 2 threads.
 void BM_Trace1440FiveOrientations(benchmark::State& state) {
-  sph::internal::SelectHandSolver(state.range(0) != 0);
   sph::SimulationSpec spec;
   spec.seed = 3;
   spec.centers_mm = std::vector<Eigen::Vector3d>(5, Eigen::Vector3d(2.0, 0.0, 0.0));
@@ -114,12 +105,7 @@ void BM_Trace1440FiveOrientations(benchmark::State& state) {
   state.counters["form_degree"] = degree;
   state.counters["peak_rss_MB"] = sph::bench::PeakRssMb();
 }
-BENCHMARK(BM_Trace1440FiveOrientations)
-    ->Arg(0)
-    ->Arg(1)
-    ->ArgName("solver")
-    ->UseRealTime()
-    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Trace1440FiveOrientations)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 // Growth over the number of setups: the seven-error calibration and its trace (what sph_calibrate
 // computes by default) of `setups` placements of 12 readings each (the 200 setups: 2400 readings).
@@ -139,7 +125,6 @@ BENCHMARK(BM_TraceSetups)->Arg(25)->Arg(50)->Arg(100)->Arg(200)->UseRealTime()->
 
 // One fit with one effect term of 6 parameters (Theta encoder harmonics 2..4), with the analysis.
 void BM_FitOneEffect(benchmark::State& state) {
-  sph::internal::SelectHandSolver(state.range(0) != 0);
   const sph::PointsData data = Data(false);
   const sph::CalibrationOptions o = Options();
   const sph::CalibrationResult base = sph::Calibrate(data, o);
@@ -152,7 +137,7 @@ void BM_FitOneEffect(benchmark::State& state) {
     benchmark::DoNotOptimize(fit.rss_mm2);
   }
 }
-BENCHMARK(BM_FitOneEffect)->Arg(0)->Arg(1)->ArgName("solver")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FitOneEffect)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

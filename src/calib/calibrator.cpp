@@ -1,4 +1,4 @@
-// The seven-error calibration: start values, Levenberg-Marquardt, outliers, analysis.
+// The seven-error calibration: start values, the solve, outliers, analysis.
 #include "sph/calib/calibrator.hpp"
 
 #include <algorithm>
@@ -143,8 +143,7 @@ std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOpt
 }
 
 CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
-                                const CalibrationOptions& options, LmWorkspace* workspace,
-                                const std::vector<Sphere>* start_spheres) {
+                                const CalibrationOptions& options, const std::vector<Sphere>* start_spheres) {
   CheckFitOptions(points, options);
   RowsOfSetup rows = AllRows(table, left_out);
   CalibrationResult result;
@@ -169,12 +168,10 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
   }
 
   // One residual per sample (sph/ceres/sphere_residual.hpp), the gradient derived by hand
-  // (sph/model/residual_gradient.hpp), Levenberg-Marquardt on the normal equations.
+  // (sph/model/residual_gradient.hpp), solved by Ceres (solve_fit.hpp).
   const SphereFitProblem problem(table, std::move(rows), EffectModel{}, options);
   Eigen::VectorXd x = problem.Pack(result.geometry, result.centers_mm, {});
-  LmWorkspace local;
-  LmWorkspace& lm = workspace ? *workspace : local;
-  const SolvedFit solved = SolveFit(problem, x, options, n_samples, lm, result, points.source);
+  const SolvedFit solved = SolveFit(problem, x, options, n_samples, result, points.source);
   problem.Unpack(x, &result.geometry, &result.centers_mm, nullptr);
   if (!options.analyse) return result;
 
@@ -340,10 +337,9 @@ std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, const 
 
 namespace internal {
 
-CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& table, const CalibrationOptions& options,
-                                 LmWorkspace* workspace) {
-  if (!options.analyse || !options.LeavesOutOutliers())
-    return CalibrateRows(points, table, nullptr, options, workspace);
+CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& table,
+                                 const CalibrationOptions& options) {
+  if (!options.analyse || !options.LeavesOutOutliers()) return CalibrateRows(points, table, nullptr, options);
   // Robust rejection: the median and the median absolute deviation of the residuals do not follow
   // a few gross errors, as a least-squares fit does. Marked first at the start values, so that the
   // first fit is not pulled away by them; then judged again under each fit.
@@ -355,7 +351,7 @@ CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& t
         !MarkOutliers(StartResiduals(table, options, out, &spheres), table.setup, options.outlier_sigma, out);
   }
   auto fit_kept = [&] {
-    CalibrationResult r = CalibrateRows(points, table, &out, options, workspace, spheres_of_out ? &spheres : nullptr);
+    CalibrationResult r = CalibrateRows(points, table, &out, options, spheres_of_out ? &spheres : nullptr);
     spheres_of_out = false;
     for (std::size_t i = 0; i < out.size(); ++i) {
       if (out[i]) r.outliers.push_back({i, 0.0});

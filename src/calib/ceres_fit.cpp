@@ -2,7 +2,6 @@
 #include "ceres_fit.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -80,15 +79,10 @@ std::unique_ptr<ceres::LossFunction> LossOf(LossKind kind, double scale) {
   return nullptr;
 }
 
-std::atomic<bool> hand_solver{false};
-
 // Readings of one setup above which the centres are eliminated first (see Impl::Impl()).
 constexpr std::size_t kSchurRows = 2000;
 
 }  // namespace
-
-void SelectHandSolver(bool hand) { hand_solver = hand; }
-bool HandSolverSelected() { return hand_solver; }
 
 struct FitSolver::Impl {
   const SphereFitProblem& problem;

@@ -93,11 +93,6 @@ class FitSolver {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Whether the fits run the hand-written Levenberg-Marquardt of levenberg_marquardt.hpp instead of
-/// Ceres: the benchmarks time both side by side.
-void SelectHandSolver(bool hand);
-bool HandSolverSelected();
-
 }  // namespace sph::internal
 
 #endif  // SPH_SRC_CALIB_CERES_FIT_HPP_

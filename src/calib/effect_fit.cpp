@@ -98,8 +98,7 @@ double FormAt(const EffectFit& fit, int setup_id, const Eigen::Vector3d& offset)
 namespace internal {
 
 EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
-                         const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start,
-                         LmWorkspace* workspace) {
+                         const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start) {
   const std::string& src = points.source;
   CheckFitOptions(points, options);
   EffectFit fit;
@@ -122,9 +121,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   }
   const SphereFitProblem problem(table, std::move(rows), model, options);
   Eigen::VectorXd x = problem.Pack(start.geometry, start.centers_mm, values, start.form_values);
-  LmWorkspace local;
-  LmWorkspace& lm = workspace ? *workspace : local;
-  const SolvedFit solved = SolveFit(problem, x, options, n_samples, lm, result, src);
+  const SolvedFit solved = SolveFit(problem, x, options, n_samples, result, src);
   problem.Unpack(x, &result.geometry, &result.centers_mm, &fit.values, &fit.form_values);
   std::vector<double> all(table.size(), 0.0);
   problem.Residuals(x.data(), all.data());

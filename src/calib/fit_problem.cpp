@@ -865,25 +865,6 @@ bool SphereFitProblem::Evaluate(const double* x, NormalEquations* ne) const {
   return std::isfinite(ne->cost);
 }
 
-bool SphereFitProblem::EvaluateCost(const double* x, double* cost) const {
-  // Summed as Evaluate() sums e^T e (AddGram's lanes, per setup), so that both give the same cost.
-  *cost = 0.0;
-  int current = -1;
-  double sum = 0.0;
-  ForEachBlock(x, nullptr, false, [&](const RowBlock& block) {
-    if (block.setup != current) {
-      if (current >= 0) *cost += 0.5 * sum;
-      sum = 0.0;
-      current = block.setup;
-    }
-    double* e = scratch_->cols.data() + num_local_ * kRows;
-    PadToLanes(e, 1, block.count);
-    AddGram(e, kRows, 1, block.count, &sum);
-  });
-  if (current >= 0) *cost += 0.5 * sum;
-  return std::isfinite(*cost);
-}
-
 void SphereFitProblem::Residuals(const double* x, double* out) const {
   ForEachBlock(x, nullptr, false, [&](const RowBlock& block) {
     for (int i = 0; i < block.count; ++i) out[block.rows[i]] = block.e[i];

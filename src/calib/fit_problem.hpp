@@ -8,8 +8,8 @@
 // outliers, cross-validation folds and the candidates of a trace share one table. The residuals
 // and their gradients come from the hand-derived SphereResidualGradient() in blocks of rows (the
 // fixed part of each reading gathered once per block, the loop over the rows vectorised), and
-// whoever needs them takes them block by block: the normal equations of Levenberg-Marquardt, the
-// triangular factor of the Jacobian for the analysis, the residuals. Nothing of size rows x
+// whoever needs them takes them block by block: Ceres' residual blocks (EvaluateSetupRows()), the
+// normal equations and the triangular factor of the Jacobian for the analysis, the residuals. Nothing of size rows x
 // parameters is ever held.
 //
 // The effect terms' basis functions are evaluated per block: harmonics by the angle-addition
@@ -35,7 +35,6 @@
 #include <vector>
 
 #include "block_factor.hpp"
-#include "levenberg_marquardt.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/model/effects.hpp"
@@ -43,6 +42,19 @@
 #include "sph/model/row_qr.hpp"
 
 namespace sph::internal {
+
+/// J^T J (full, symmetric), J^T e and the cost 1/2 e^T e at one point.
+struct NormalEquations {
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd jte;
+  double cost = 0.0;
+
+  void SetZero(Eigen::Index n) {
+    jtj.setZero(n, n);
+    jte.setZero(n);
+    cost = 0.0;
+  }
+};
 
 /// Each setup id of `ids` to its index there.
 inline std::map<int, std::size_t> IndexOfSetups(const std::vector<int>& ids) {
@@ -159,10 +171,9 @@ class SphereFitProblem {
   bool EvaluateSetupRows(int setup, const SetupParams& p, int first, int count, double* residuals,
                          double* const* jacobians) const;
 
-  /// Levenberg-Marquardt's evaluation: J^T J, J^T e and cost at x. Not thread-safe (scratch).
+  /// The normal equations at x (the analysis of a fit of few setups): J^T J, J^T e and the cost,
+  /// summed in one pass over the rows. Not thread-safe (scratch).
   bool Evaluate(const double* x, NormalEquations* ne) const;
-  /// The cost at x alone, the same number as Evaluate()'s, at about a third of its price.
-  bool EvaluateCost(const double* x, double* cost) const;
 
   /// Calls fn for every block of rows at x, setup after setup, rows in table order. With r_offset
   /// (table-indexed, mm) the probe readings are r + r_offset[row]; with jacobian the blocks carry

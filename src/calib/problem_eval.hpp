@@ -1,4 +1,4 @@
-// Private to sph::calib: the solver settings, parameter descriptions and residual statistics of
+// Private to sph::calib: the checks, parameter descriptions, analysis and residual statistics of
 // every fit.
 #ifndef SPH_SRC_CALIB_PROBLEM_EVAL_HPP_
 #define SPH_SRC_CALIB_PROBLEM_EVAL_HPP_
@@ -12,7 +12,6 @@
 
 #include "ceres_fit.hpp"
 #include "fit_problem.hpp"
-#include "levenberg_marquardt.hpp"
 #include "solve_fit.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/observability.hpp"
@@ -20,17 +19,6 @@
 #include "sph/model/units.hpp"
 
 namespace sph::internal {
-
-/// The Levenberg-Marquardt settings of every calibration: stops on a relative cost change of 1e-6
-/// or a relative step of 1e-12.
-inline LmOptions CalibrationSolverOptions(int max_iterations) {
-  LmOptions o;
-  o.max_iterations = max_iterations;
-  o.function_tolerance = 1e-6;
-  o.gradient_tolerance = 1e-16;
-  o.parameter_tolerance = 1e-12;
-  return o;
-}
 
 /// Throws sph::Error naming the points' source when the options cannot fit them: a sphere radius
 /// or the probe offset not positive, a setup that the header says measured another sphere without
@@ -63,19 +51,15 @@ inline void CheckEnoughSamples(const std::string& source, std::size_t n_samples,
 }
 
 /// (J^T J)^-1 at x: with many setups through the Jacobian's block structure (block_factor.hpp),
-/// else from the normal equations (at_x, or evaluated here) when J is well conditioned, else from
+/// else from the normal equations when J is well conditioned, else from
 /// the Jacobian's triangular factor (another pass over the rows).
-inline NormalInverse NormalInverseAtSolution(const SphereFitProblem& problem, const Eigen::VectorXd& x,
-                                             const NormalEquations* at_x = nullptr) {
+inline NormalInverse NormalInverseAtSolution(const SphereFitProblem& problem, const Eigen::VectorXd& x) {
   const auto rows = static_cast<Eigen::Index>(problem.NumRows());
   const auto shared = static_cast<int>(problem.NumParams()) - 3 * problem.NumSetups();
   if (AnalyseByBlocks(problem.NumSetups(), shared)) return problem.FactorBlocks(x.data()).Invert();
-  NormalEquations evaluated;
-  if (at_x == nullptr) {
-    problem.Evaluate(x.data(), &evaluated);
-    at_x = &evaluated;
-  }
-  std::optional<NormalInverse> inverse = InvertNormalEquations(at_x->jtj, rows);
+  NormalEquations at_x;
+  problem.Evaluate(x.data(), &at_x);
+  std::optional<NormalInverse> inverse = InvertNormalEquations(at_x.jtj, rows);
   if (inverse) return *inverse;
   return InvertNormalFactor(problem.FactorJacobian(x.data()).r(), rows);
 }

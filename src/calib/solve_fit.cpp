@@ -210,7 +210,7 @@ void CheckParameterSettings(const CalibrationOptions& options, const std::string
 }
 
 SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const CalibrationOptions& options,
-                   std::size_t n_samples, LmWorkspace& lm, CalibrationResult& result, const std::string& source) {
+                   std::size_t n_samples, CalibrationResult& result, const std::string& source) {
   const Eigen::Index n = problem.NumParams();
   SolvedFit out;
   out.held.assign(static_cast<std::size_t>(n), Held::kNo);
@@ -238,17 +238,7 @@ SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const Ca
                 ValueText(problem, b.column, b.upper) + ")");
   }
   const bool loss = options.robust_loss != RobustLoss::kNone;
-  const bool plain = c.fixed.empty() && out.priors.empty() && !loss && options.bounds.empty();
   result.n_points = static_cast<int>(n_samples);
-  if (plain && HandSolverSelected()) {  // the benchmarks' side-by-side runs
-    const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(options.max_iterations), lm);
-    result.converged = summary.converged;
-    result.iterations = summary.iterations;
-    result.solver_message = summary.message;
-    out.at_x = &lm.at_x;
-    if (!result.converged) result.warnings.push_back("the solver did not converge: " + result.solver_message);
-    return out;
-  }
 
   const auto m = static_cast<double>(problem.NumRows());
   const auto p = static_cast<double>(out.priors.size());
@@ -367,8 +357,7 @@ double WeightedRss(const SphereFitProblem& problem, const SolvedFit& solved, con
 ObservabilityReport AnalyseSolved(const SphereFitProblem& problem, const Eigen::VectorXd& x, const SolvedFit& solved,
                                   double rss, std::vector<ParameterDescription> desc, double max_std_um) {
   const auto m = static_cast<Eigen::Index>(problem.NumRows());
-  if (solved.Plain())
-    return AnalyseFit(NormalInverseAtSolution(problem, x, solved.at_x), m, rss, std::move(desc), max_std_um);
+  if (solved.Plain()) return AnalyseFit(NormalInverseAtSolution(problem, x), m, rss, std::move(desc), max_std_um);
   const Eigen::Index n = problem.NumParams();
   std::vector<ParameterDescription> free_desc;
   for (Eigen::Index j = 0; j < n; ++j) {

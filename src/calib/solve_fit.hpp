@@ -25,7 +25,6 @@
 
 #include "ceres_fit.hpp"
 #include "fit_problem.hpp"
-#include "levenberg_marquardt.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/observability.hpp"
 
@@ -37,8 +36,6 @@ struct SolvedFit {
   std::vector<ColumnPrior> priors;  ///< on free columns
   double prior_sigma_mm = 0.0;
   std::vector<double> weights;  ///< each reading's rho'(e^2) (table-indexed; empty without a loss)
-  /// J^T J at x when the hand-written solver left it (benchmarks only), else null.
-  const NormalEquations* at_x = nullptr;
 
   /// Nothing held, informed or weighted: the plain least-squares fit.
   bool Plain() const;
@@ -50,10 +47,9 @@ void CheckParameterSettings(const CalibrationOptions& options, const std::string
 
 /// Solves `problem` from x (in place) under `options` and records the run in `result`: converged,
 /// iterations, the solver's message, n_samples, a warning when it did not converge, the robust
-/// loss' noise and scale and the priors' sigma. `lm`: the hand-written solver's workspace
-/// (benchmarks). Throws sph::Error naming `source` when x starts outside a bound.
+/// loss' noise and scale and the priors' sigma. Throws sph::Error naming `source` when x starts outside a bound.
 SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const CalibrationOptions& options,
-                   std::size_t n_samples, LmWorkspace& lm, CalibrationResult& result, const std::string& source);
+                   std::size_t n_samples, CalibrationResult& result, const std::string& source);
 
 /// The readings' sum of squares, weighted by the loss [mm^2]; `residuals`: table-indexed.
 double WeightedRss(const SphereFitProblem& problem, const SolvedFit& solved, const std::vector<double>& residuals);

@@ -605,7 +605,6 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
   CalibrationOptions quick = options;
   quick.analyse = false;
   double sum2 = 0.0;
-  internal::LmWorkspace workspace;
   std::vector<bool> fold(m), others(m);  // fitted without the fold, then predicted on it
   for (int f = 0; f < folds; ++f) {
     bool any = false;
@@ -615,7 +614,7 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
       any |= fold[i];
     }
     if (!any) continue;
-    const EffectFit fit = internal::FitEffectsRows(data.points, data.table, &fold, quick, model, start, &workspace);
+    const EffectFit fit = internal::FitEffectsRows(data.points, data.table, &fold, quick, model, start);
     const std::vector<double> e = internal::ResidualsAt(data.table, &others, options, fit, data.points.source);
     for (std::size_t i = 0; i < m; ++i) {
       if (fold[i]) sum2 += e[i] * e[i];
@@ -689,7 +688,6 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
   CalibrationOptions rest_options = options;
   rest_options.analyse = loose != nullptr && !fit.calibration.analysis.Empty() &&
                          fit.n_params > kNumScmsParams + 3 * static_cast<int>(fit.calibration.setup_ids.size());
-  internal::LmWorkspace workspace;
   std::vector<double> errors(points.samples.size(), std::numeric_limits<double>::quiet_NaN());
   std::vector<bool> held(m), others(m);  // fitted without the setup, then predicted on it
   for (std::size_t k = 0; k < ids.size(); ++k) {
@@ -705,7 +703,7 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
     start.centers_mm.erase(start.centers_mm.begin() + static_cast<std::ptrdiff_t>(k));
     EffectFit rest;
     try {
-      rest = internal::FitEffectsRows(points, data.table, &held, rest_options, fit.model, start, &workspace);
+      rest = internal::FitEffectsRows(points, data.table, &held, rest_options, fit.model, start);
     } catch (const Error&) {
       continue;  // the other setups cannot be fitted without it (too few readings): not predicted
     }

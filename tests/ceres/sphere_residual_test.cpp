@@ -348,8 +348,9 @@ TEST(FitSolver, CeresSeesThePerReadingFunctorsDifferentiated) {
   EXPECT_LE(worst, 1e-12);
 }
 
-// The calibration's own Levenberg-Marquardt against Ceres' on the per-reading autodiff functors
-// (one AutoDiffCostFunction per reading, dense QR), same start and tolerances.
+// The calibration (its block cost functions, the hand-derived Jacobian) against Ceres on the
+// per-reading autodiff functors (one AutoDiffCostFunction per reading, dense QR), same start and
+// tolerances.
 TEST(Calibrate, AgreesWithCeresOnThePerReadingFunctors) {
   for (const double noise_um : {0.0, 0.05}) {
     SimulationSpec spec;
