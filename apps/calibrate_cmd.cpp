@@ -16,6 +16,7 @@
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
+#include "sph/core/parameter_settings.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/setup_checks.hpp"
 
@@ -86,6 +87,29 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
       ->check(CLI::Range(1, 3));
   AddSeedOption(app, o.seed, "Seed of the cross-validation folds")->capture_default_str();
   AddConditionOptions(app, o.conditions, "(overrides the file's ");
+  const std::string told = "Fix, inform and weight (sph/core/parameter_settings.hpp)";
+  app.add_option("--fix", o.fix,
+                 "Hold a parameter instead of fitting it: NAME at its start value (the seven errors: 0), or "
+                 "NAME_UNIT=VALUE, e.g. d_prime_mm=-0.062 (units deg, arcsec, urad, mm, um); a parameter is one of "
+                 "the seven errors or an effect's (theta_encoder.c2); repeatable; overrides the file's 'fix'")
+      ->group(told);
+  app.add_option("--prior", o.prior,
+                 "A Gaussian prior from an independent measurement: NAME_UNIT=VALUE,U with U its standard "
+                 "uncertainty, e.g. alpha_deg=0.02,0.0005; listed in the uncertainty budget as an input of its own; "
+                 "repeatable; overrides the file's 'prior'")
+      ->group(told);
+  auto* robust =
+      app.add_option("--robust-loss", o.robust_loss,
+                     "Fit with a robust loss instead of least squares and the outlier rule, every reading kept at a "
+                     "weight: huber or cauchy (with --no-extend or --effects)")
+          ->check(CLI::IsMember({"huber", "cauchy"}))
+          ->group(told);
+  app.add_option("--robust-scale-sigma", o.robust_scale_sigma,
+                 "The robust loss' scale in units of the readings' noise (1.4826 median absolute deviation of the "
+                 "residuals); default: huber 1.345, cauchy 2.385")
+      ->check(CLI::Range(0.01, 100.0))
+      ->needs(robust)
+      ->group(told);
   app.add_option("--coverage", o.coverage,
                  "Coverage probability of the expanded uncertainties U = k u (k from the effective degrees of "
                  "freedom); default: k = 2")
@@ -129,8 +153,7 @@ std::optional<CalibrationBudget> BudgetOf(const PointsData& points, const Calibr
     return ParameterVector(fit.calibration, fit.values, fit.form_values);
   };
   try {
-    return MakeCalibrationBudget(WithoutOutliers(points, result), copts, result.analysis, result.n_points, inputs,
-                                 refit);
+    return MakeCalibrationBudget(WithoutOutliers(points, result), copts, result, inputs, refit);
   } catch (const std::exception& e) {
     err << "sph_calibrate: warning: no uncertainty budget: " << e.what() << "\n";
     return std::nullopt;
@@ -162,6 +185,33 @@ CalibrationOptions SettingsOf(const CalibrateOptions& o, const PointsData& point
   copts.probe_offset_mm = *offset;
   copts.max_std_um = o.max_std_um;
   copts.max_iterations = o.max_iterations;
+  // What the file holds and informs, then the options (which win for a parameter both name).
+  std::vector<FixedParameter> fixed;
+  std::vector<ParameterPrior> priors;
+  for (const std::string& text : o.fix) fixed.push_back(ParseFixedParameter(text, "--fix " + text));
+  for (const std::string& text : o.prior) priors.push_back(ParseParameterPrior(text, "--prior " + text));
+  auto named = [&](const std::string& name) {
+    return std::any_of(fixed.begin(), fixed.end(), [&](const FixedParameter& f) { return f.name == name; }) ||
+           std::any_of(priors.begin(), priors.end(), [&](const ParameterPrior& p) { return p.name == name; });
+  };
+  for (const FixedParameter& f : FixedParametersOf(points.header)) {
+    if (!named(f.name)) copts.fixed.push_back(f);
+  }
+  for (const ParameterPrior& p : ParameterPriorsOf(points.header)) {
+    if (!named(p.name)) copts.priors.push_back(p);
+  }
+  copts.fixed.insert(copts.fixed.end(), fixed.begin(), fixed.end());
+  copts.priors.insert(copts.priors.end(), priors.begin(), priors.end());
+  if (!o.robust_loss.empty()) {
+    if (!o.no_extend && o.effects.empty()) {
+      throw Error(
+          "--robust-loss keeps every reading at a weight, which the trace's selection of effects does not "
+          "(it judges outliers by their residuals): use it with --no-extend, or with --effects for a fixed "
+          "model");
+    }
+    copts.robust_loss = o.robust_loss == "cauchy" ? RobustLoss::kCauchy : RobustLoss::kHuber;
+    copts.robust_scale_sigma = o.robust_scale_sigma;
+  }
   return copts;
 }
 

@@ -37,6 +37,10 @@ struct CalibrateOptions {
   std::uint64_t seed = 1;                        ///< of the cross-validation folds
   SphereConditions conditions;                   ///< uncertainty inputs; override the file's header
   std::optional<double> coverage;                ///< coverage probability of U (default: k = 2)
+  std::vector<std::string> fix;                  ///< parameters held: NAME or NAME_UNIT=VALUE (override the file's)
+  std::vector<std::string> prior;                ///< Gaussian priors: NAME_UNIT=VALUE,U (override the file's)
+  std::string robust_loss;                       ///< "huber" or "cauchy"; empty: least squares and the outlier rule
+  double robust_scale_sigma = 0.0;               ///< the loss' scale in units of the noise; 0: the loss' usual
   ProgressMode progress = ProgressMode::kAuto;   ///< progress on stderr
 };
 

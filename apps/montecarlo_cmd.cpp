@@ -1,7 +1,5 @@
 #include "montecarlo_cmd.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "gnuplot.hpp"
+#include "progress.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"
 #include "sph/calib/montecarlo.hpp"
@@ -60,23 +59,6 @@ MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
   }
   return spec;
 }
-
-class ProgressBar {
- public:
-  ProgressBar(std::ostream& err, bool enabled) : err_(err), enabled_(enabled && ::isatty(STDERR_FILENO) == 1) {}
-  void operator()(long done, long total) {
-    if (!enabled_) return;
-    const int width = 40;
-    const int filled = static_cast<int>(width * done / total);
-    err_ << "\rsph_montecarlo: [" << std::string(static_cast<std::size_t>(filled), '#')
-         << std::string(static_cast<std::size_t>(width - filled), '.') << "] " << (100 * done / total) << "% (" << done
-         << "/" << total << ")" << (done == total ? "\n" : "") << std::flush;
-  }
-
- private:
-  std::ostream& err_;
-  bool enabled_;
-};
 
 // `value` in the printf format `fmt` (one conversion, with its width), or "-" in that width when it
 // is not a number (a statistic of fewer than two trials).
@@ -473,7 +455,9 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
       ->capture_default_str()
       ->needs(orient)
       ->check(InRange(ranges::kPivotMm));
-  app.add_flag("!--no-progress", o.progress, "No progress bar");
+  app.add_flag("!--no-progress", o.progress,
+               "No progress on stderr (default: on a terminal once the run takes longer than a second; into a log "
+               "once it takes longer than ten seconds, a line now and then)");
 }
 
 int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream& err) {
@@ -495,9 +479,10 @@ int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream
     if (o.plan) return RunPlan(o, spec, out, files);
     if (o.target_std_um) throw Error("--target-std-um goes with --plan");
     if (o.plan_orientations) return RunOrientationPlan(o, spec, out, files);
-    ProgressBar bar(err, o.progress);
+    Progress progress("sph_montecarlo", err, o.progress ? ProgressMode::kAuto : ProgressMode::kNever);
     const auto t0 = std::chrono::steady_clock::now();
-    const MonteCarloResult r = RunMonteCarlo(spec, [&](long d, long t) { bar(d, t); });
+    const MonteCarloResult r = RunMonteCarlo(spec, [&](long d, long t) { progress.Update("calibrating", d, t); });
+    progress.Finish();
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o.json_path != "-") PrintTable2(out, r, o);
     json j = {{"program", "sph_montecarlo " SPH_VERSION},
