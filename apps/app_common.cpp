@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <charconv>
+#include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
@@ -54,19 +57,6 @@ Eigen::Vector3d Direction(const std::vector<double>& v, std::size_t first, const
 
 }  // namespace
 
-bool ValidRange::Contains(double v) const {
-  return std::isfinite(v) && (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
-}
-
-std::string ValidRange::Text() const {
-  return Format("%g %s x %s %g", lo, lo_open ? "<" : "<=", hi_open ? "<" : "<=", hi) + (*unit ? " " : "") + unit;
-}
-
-std::string ValidRange::Refusal(const std::string& text) const {
-  return Format("must be %s %g and %s %g", lo_open ? ">" : ">=", lo, hi_open ? "<" : "<=", hi) + (*unit ? " " : "") +
-         unit + ", got " + (text.size() > 40 ? Quoted(text) : text);
-}
-
 CLI::Validator InRange(const ValidRange& range) {
   return CLI::Validator(
       [range](std::string& text) -> std::string {
@@ -77,6 +67,31 @@ CLI::Validator InRange(const ValidRange& range) {
       range.Text());
 }
 
+CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string& help) {
+  const CLI::Validator decimal(
+      [](std::string& text) -> std::string {
+        const std::size_t first = std::min(text.find_first_not_of('0'), text.empty() ? 0 : text.size() - 1);
+        const std::string digits = text.substr(first);
+        std::uint64_t value = 0;
+        const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value);
+        if (text.empty() || ec != std::errc() || end != digits.data() + digits.size()) {
+          return "must be an integer from 0 to " + std::to_string(std::numeric_limits<std::uint64_t>::max()) +
+                 ", got " + Quoted(text);
+        }
+        text = digits;  // CLI11 reads it with base 0
+        return "";
+      },
+      "0 <= x <= 2^64 - 1");
+  return app.add_option("--seed", seed, help)->transform(decimal);
+}
+
+void AddPlotTimeoutOption(CLI::App& app, double& timeout_s) {
+  app.add_option("--plot-timeout-s", timeout_s,
+                 "Time limit of each run of gnuplot [s]: a gnuplot still drawing then is stopped and the program fails")
+      ->capture_default_str()
+      ->check(InRange(ranges::kPlotTimeoutS));
+}
+
 void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source) {
   for (const ConditionField& c : kConditionFields) {
     std::string name = std::string("--") + c.key;
@@ -84,11 +99,6 @@ void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std:
     const ValidRange range{c.min, c.max, c.unit};
     app.add_option(name, conditions.*c.field, std::string(c.what) + " " + source + c.key + ")")->check(InRange(range));
   }
-}
-
-double CheckedValue(double value, const ValidRange& range, const std::string& what, const std::string& text) {
-  if (!range.Contains(value)) throw Error(what + ": " + range.Refusal(text));
-  return value;
 }
 
 std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,
@@ -241,9 +251,11 @@ SimulationSpec ToSimulationSpec(const MachineOptions& o) {
 int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI::App&)>& setup,
            const std::function<int()>& run) {
   RemoveTempFilesOnSignals();
+  std::signal(SIGPIPE, SIG_IGN);  // a closed pipe fails a write (EPIPE) as a full disk does
   const StandardOutput standard_output;
   CLI::App app;
   setup(app);
+  app.footer("Manual: docs/apps/" + std::string(name) + ".md in sph's source tree (this help is the option reference).");
   app.set_version_flag("--version", std::string(name) + " " SPH_VERSION);
   int code = kExitOk;
   try {

@@ -3,6 +3,7 @@
 #define SPH_APPS_APP_COMMON_HPP_
 
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <exception>
 #include <functional>
@@ -19,6 +20,7 @@
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/core/valid_range.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph::apps {
@@ -30,33 +32,14 @@ enum ExitCode : int {
   kExitBadInput = 2,   ///< bad input or usage
 };
 
-/// The valid values of a numeric option: finite, between `lo` and `hi` (excluded where open), in
-/// `unit`. Every numeric option of the apps has one; --help shows it ("0 < x <= 1000 mm").
-struct ValidRange {
-  double lo;
-  double hi;
-  const char* unit;  ///< "mm", "deg", "s", ...; "" for a pure number
-  bool lo_open = false;
-  bool hi_open = false;
-
-  bool Contains(double v) const;
-  /// "0 < x <= 1000 mm"
-  std::string Text() const;
-  /// "must be > 0 and <= 1000 mm, got 1e308"
-  std::string Refusal(const std::string& text) const;
-};
-
 /// A CLI11 check for a numeric option in `range`. CLI11 prefixes the option's name:
 /// "--sphere-radius-mm: must be > 0 and <= 1000 mm, got 1e308". (CLI11 2.1's own PositiveNumber
 /// and Range print their 300-digit bounds and let infinity through.)
 CLI::Validator InRange(const ValidRange& range);
 
-/// Checks a number the app parsed itself (a part of "x,y,z", the value of "id.param=v"): returns
-/// it, or throws sph::Error "<what>: must be ..., got <text>".
-double CheckedValue(double value, const ValidRange& range, const std::string& what, const std::string& text);
-
 /// Ranges shared by several apps.
 namespace ranges {
+inline constexpr ValidRange kPlotTimeoutS{0.0, 86400.0, "s", true};
 inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};
 inline constexpr ValidRange kProbeOffsetMm{0.0, kMaxProbeOffsetMm, "mm", true};
 /// The seven errors: kScmsParamInfo's bounds, in deg or mm (and |d'| < d).
@@ -73,12 +56,21 @@ inline constexpr ValidRange kStdUm{0.0, 1e6, "um", true};
 /// The Phi axis wobble's pivot distance along the axis (phi_wobble).
 inline constexpr ValidRange kPivotMm{-kMaxPivotMm, kMaxPivotMm, "mm"};
 /// The sphere on its mount and its form (sph_simulate).
-inline constexpr ValidRange kMountRotationDeg{-360.0, 360.0, "deg"};  ///< each component of a rotation vector
+inline constexpr ValidRange kMountRotationDeg{-kMaxMountRotationDeg, kMaxMountRotationDeg, "deg"};  ///< each component
 inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
 inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
 inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
 inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
 }  // namespace ranges
+
+/// Adds --seed: a decimal integer from 0 to 2^64 - 1 ("--seed: must be an integer from 0 to
+/// 18446744073709551615, got '-1'"), "010" being ten. (CLI11 2.1 alone wraps "-1" and 2^64 into
+/// range and reads "010" as octal, "0x10" as hex.)
+CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string& help);
+
+/// Adds --plot-timeout-s: how long each run of gnuplot may take before it is stopped (default 60 s,
+/// within ranges::kPlotTimeoutS).
+void AddPlotTimeoutOption(CLI::App& app, double& timeout_s);
 
 /// The options of the uncertainty inputs, one per field of kConditionFields ("--sphere-radius-u-um"
 /// for the header field sphere_radius_u_um), with the same ranges. `source` ends the help text:
@@ -147,10 +139,11 @@ Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what);
 /// The whole main() of an app: set up the options, parse, run. --help and --version exit 0, a parse
 /// error exits kExitBadInput, and an exception escaping `run` is printed as "<name>: error: <what>"
 /// on stderr with kExitBadInput. `run` returns the exit code. A signal that ends the program
-/// removes the temporary files of its unfinished outputs (sph/core/cleanup.hpp), and a failed write
-/// to standard output (a full disk, a closed pipe) is an error: "<name>: error: cannot write to
-/// standard output: No space left on device". Compiled once, in app_common.cpp, so that no main()
-/// compiles CLI11 (cli_fwd.hpp).
+/// removes the temporary files of its unfinished outputs (sph/core/cleanup.hpp). SIGPIPE is
+/// ignored: a write to a closed pipe fails like one to a full disk, and a failed write to standard
+/// output is an error ("<name>: error: cannot write to standard output: Broken pipe"), found by
+/// OutputFiles::Commit() before the run's files are put in place, or at the latest here, as
+/// kExitBadInput. Compiled once, in app_common.cpp, so that no main() compiles CLI11 (cli_fwd.hpp).
 int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI::App&)>& setup,
            const std::function<int()>& run);
 

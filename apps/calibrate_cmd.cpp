@@ -1,7 +1,5 @@
 #include "calibrate_cmd.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <optional>
 
@@ -14,18 +12,20 @@
 #include "sph/calib/report.hpp"
 #include "sph/calib/trace.hpp"
 #include "sph/calib/trace_report.hpp"
+#include "sph/calib/usability.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/parameter_settings.hpp"
 #include "sph/core/points_file.hpp"
+#include "sph/core/setup_checks.hpp"
 
 namespace sph::apps {
 
 void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.description(
       "Calibrate the seven geometric errors of a spherical coordinate measuring system from points "
-      "measured on a reference sphere (format: data/README.md).");
+      "measured on a reference sphere (format: docs/formats/points-files.md).");
   app.add_option("points", o.points_path, "Points file (sph-points 1)")->required();
   app.add_option("--sphere-radius-mm", o.sphere_radius_mm,
                  "Reference sphere radius R0 [mm] (overrides the file's sphere_radius_mm)")
@@ -67,11 +67,14 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "sphericity compensated before and after")
       ->excludes(no_extend);
   app.add_option("--plot-dir", o.plot_dir,
-                 "Write residual_map.png and residual_time.png (gnuplot) with their data into this folder")
+                 "Write residual_map.png, residual_time.png and, when the sphere's form is fitted, "
+                 "sphere_form_map.png (gnuplot) with their data into this folder")
       ->excludes(no_extend);
+  AddPlotTimeoutOption(app, o.plot_timeout_s);
   app.add_option("--harmonics", o.harmonics,
-                 "Highest harmonic order searched of the harmonic effects; 0: on each axis, what the pattern "
-                 "resolves ((n - 1) / 2 for n distinct angles, at most 12)")
+                 "Highest harmonic order searched of the harmonic effects; 0: chosen on each axis from the "
+                 "seven-error residual (4, or one above its highest significant harmonic), at most what the "
+                 "pattern resolves ((n - 1) / 2 for n distinct angles, at most 12)")
       ->capture_default_str()
       ->check(CLI::Range(0, 12));
   app.add_option("--phi-wobble-pivot-mm", o.phi_wobble_pivot_mm,
@@ -82,7 +85,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("--drift-order", o.drift_order, "Highest power of time of probe_drift")
       ->capture_default_str()
       ->check(CLI::Range(1, 3));
-  app.add_option("--seed", o.seed, "Seed of the cross-validation folds")->capture_default_str();
+  AddSeedOption(app, o.seed, "Seed of the cross-validation folds")->capture_default_str();
   AddConditionOptions(app, o.conditions, "(overrides the file's ");
   const std::string told = "Fix, inform and weight (sph/core/parameter_settings.hpp)";
   app.add_option("--fix", o.fix,
@@ -212,6 +215,11 @@ CalibrationOptions SettingsOf(const CalibrateOptions& o, const PointsData& point
   return copts;
 }
 
+// The probe's measuring range: --probe-range-mm, else the points file's probe_range_mm.
+std::optional<double> ProbeRangeOf(const CalibrateOptions& o, const PointsData& points) {
+  return o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
+}
+
 // The residual traced to further effects (or the effects of --effects fitted), from the seven-error
 // fit `base`.
 TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const CalibrationOptions& copts,
@@ -220,8 +228,7 @@ TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const C
   topts.harmonics = {o.harmonics, o.harmonics};
   topts.drift_order = o.drift_order;
   topts.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
-  topts.probe_range_mm =
-      o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(points.header).probe_range_mm;
+  topts.probe_range_mm = ProbeRangeOf(o, points);
   topts.seed = o.seed;
   topts.add_confounded = !o.hold_confounded;
   topts.progress = [&](int round, int done, int total) {
@@ -240,10 +247,10 @@ TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const C
 // The calibration file of `result` (with the trace's effects when `extended`) staged to o.output_path,
 // or the reason it is not written on err.
 void StageCalibrationFile(const CalibrateOptions& o, const CalibrationResult& result, const ReportContext& ctx,
-                          const EffectFit* extended, const CalibrationBudget* budget, OutputFiles& files,
+                          const EffectFit* extended, const CalibrationBudget* budget, bool usable, OutputFiles& files,
                           std::ostream& err) {
   const std::string prog = "sph_calibrate";
-  if (!result.Usable()) {
+  if (!usable) {
     err << prog << ": not writing " << o.output_path << ": the calibration is not usable\n";
     return;
   }
@@ -263,7 +270,7 @@ void StageCalibrationFile(const CalibrateOptions& o, const CalibrationResult& re
 
 int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err) {
   const std::string prog = "sph_calibrate";
-  const bool plot_dir_existed = o.plot_dir.empty() || ::access(o.plot_dir.c_str(), F_OK) == 0;
+  const PlotFolder plot_folder(o.plot_dir);  // removed again when a failed run leaves it empty
   try {
     const bool text = !o.quiet && o.json_path != "-";
     RunPaths paths;
@@ -280,6 +287,9 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     const PointsData points = ReadPointsFile(o.points_path);
     CalibrationInputs inputs;
     const CalibrationOptions copts = SettingsOf(o, points, &inputs);
+    if (const std::optional<double> range = ProbeRangeOf(o, points)) {
+      CheckReadingsInProbeRange(points, *range, o.conditions.probe_range_mm ? "--probe-range-mm" : "probe_range_mm");
+    }
     // Readings that parse but look wrong: said first, on stderr, whatever the report's form.
     progress.Stage("checking " + std::to_string(points.samples.size()) + " samples");
     const std::vector<std::string> warnings = PlausibilityWarnings(points);
@@ -291,7 +301,15 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     std::optional<Validation> validation;
     if (!o.no_extend) {
       trace = TraceOf(o, points, copts, base, progress);
-      if (!o.validate_path.empty()) validation = Validate(o.validate_path, copts.probe_offset_mm, *trace);
+      if (!o.validate_path.empty()) {
+        validation = Validate(o.validate_path, copts.probe_offset_mm, *trace);
+        if (SameFile(o.validate_path, o.points_path)) {
+          validation->note =
+              "the validation file is the calibration's own points file: this shows how the model "
+              "fits its own data, not an independent check" +
+              (validation->note.empty() ? std::string() : "; " + validation->note);
+        }
+      }
     }
     progress.Finish();  // the report follows on stdout, maybe the same terminal
     // The calibration reported: the seven errors of the final model, fitted with its effects and
@@ -310,29 +328,36 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     ctx.sphere_radii_mm = copts.sphere_radii_mm;
     ctx.probe_offset_mm = copts.probe_offset_mm;
     ctx.max_std_um = o.max_std_um;
+    ctx.probe_range_mm = ProbeRangeOf(o, points);
     ctx.metadata = points.header.metadata;
     ctx.trace = trace ? &*trace : nullptr;
     ctx.validation = validation ? &*validation : nullptr;
+    const Usability usability = JudgeUsability(result, ctx);
     OutputFiles files(out);
     if (!o.json_path.empty()) {
       const std::string json = JsonReport(result, ctx);
       files.Stage(o.json_path, [&](std::ostream& f) { f << json; });
     }
     if (!o.output_path.empty()) {
-      StageCalibrationFile(o, result, ctx, extended ? &trace->after.fit : nullptr, budget ? &*budget : nullptr, files,
-                           err);
+      StageCalibrationFile(o, result, ctx, extended ? &trace->after.fit : nullptr, budget ? &*budget : nullptr,
+                           usability.usable, files, err);
     }
-    if (trace && !o.plot_dir.empty()) PlotTrace(o.plot_dir, points, copts, *trace, files);
+    if (trace && !o.plot_dir.empty()) {
+      plot_folder.Make();
+      PlotTrace(o.plot_dir, points, copts, *trace, o.plot_timeout_s, files);
+    }
     if (text) {
       WriteTextReport(out, result, ctx);
     }
-    if (o.quiet) {
-      for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";
+    if (!text) {  // the report that says why is not shown: stderr does
+      if (o.quiet) {
+        for (const auto& w : result.warnings) err << prog << ": warning: " << w << "\n";
+      }
+      for (const std::string& why : usability.reasons) err << prog << ": not usable: " << why << "\n";
     }
     files.Commit();
-    return result.Usable() ? kExitOk : kExitNotUsable;
+    return usability.usable ? kExitOk : kExitNotUsable;
   } catch (const std::exception& e) {
-    if (!plot_dir_existed) ::rmdir(o.plot_dir.c_str());  // the folder made for the plots, if left empty
     err << prog << ": error: " << e.what() << "\n";
     return kExitBadInput;
   }

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <sstream>
 
 #include "gnuplot.hpp"
@@ -16,10 +15,7 @@ namespace sph::apps {
 using internal::Format;
 
 void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
-               const TraceResult& r, OutputFiles& files) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+               const TraceResult& r, double timeout_s, OutputFiles& files) {
   const std::string folder = dir + "/";
   // Every reading under each model (outliers too: they show at the end of the colour scale).
   const std::vector<double> before = EffectResiduals(points, options, r.before.fit);
@@ -61,15 +57,15 @@ void PlotTrace(const std::string& dir, const PointsData& points, const Calibrati
          << "plot data using 3:4 with points pt 7 ps 0.6 lc rgb '#c03030' title 'before', "
             "data using 3:5 with points pt 7 ps 0.6 lc rgb '#3050c0' title 'after'\n";
   files.Stage(folder + "residuals.gp", [&](std::ostream& f) { f << script.str(); });
-  // gnuplot reads the staged data and draws into the staged images, by their names in the folder.
-  const auto name_in_folder = [](const std::string& path) { return path.substr(path.find_last_of('/') + 1); };
+  // gnuplot reads the staged data and draws into the staged images.
   GnuplotRun run;
   run.folder = dir;
   run.script = script.str();
   run.description = "the residual plots";
-  run.variables = {{"data", name_in_folder(files.StagedName(folder + "residuals.dat"))},
-                   {"map_png", name_in_folder(files.StageProduced(folder + "residual_map.png"))},
-                   {"time_png", name_in_folder(files.StageProduced(folder + "residual_time.png"))}};
+  run.timeout_s = timeout_s;
+  run.Set("data", files.StagedName(folder + "residuals.dat"));
+  run.Draw("map_png", folder + "residual_map.png", files);
+  run.Draw("time_png", folder + "residual_time.png", files);
   RunGnuplot(run, "--plot-dir " + dir);
   // The sphere's form, when the trace separated it: a map over its body frame.
   const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
@@ -102,8 +98,9 @@ void PlotTrace(const std::string& dir, const PointsData& points, const Calibrati
   form_run.folder = dir;
   form_run.script = form_script.str();
   form_run.description = "the sphere's form map";
-  form_run.variables = {{"data", name_in_folder(files.StagedName(folder + "sphere_form.dat"))},
-                        {"png", name_in_folder(files.StageProduced(folder + "sphere_form_map.png"))}};
+  form_run.timeout_s = timeout_s;
+  form_run.Set("data", files.StagedName(folder + "sphere_form.dat"));
+  form_run.Draw("png", folder + "sphere_form_map.png", files);
   RunGnuplot(form_run, "--plot-dir " + dir);
 }
 

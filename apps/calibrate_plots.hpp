@@ -18,10 +18,11 @@ inline const std::vector<std::string> kTracePlotFiles = {"residual_map.png", "re
                                                          "sphere_form.gp"};
 
 /// Stages residual_map.png (over theta and phi, before and after) and residual_time.png (against
-/// t), drawn now, with their gnuplot script and data, in `dir` (created when missing).
-/// `points`: every reading of the calibration (outliers too).
+/// t), drawn now, with their gnuplot script and data, in the folder `dir` (PlotFolder::Make()).
+/// `points`: every reading of the calibration (outliers too); gnuplot gets `timeout_s` for each
+/// of its two runs.
 void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
-               const TraceResult& trace, OutputFiles& files);
+               const TraceResult& trace, double timeout_s, OutputFiles& files);
 
 }  // namespace sph::apps
 

@@ -1,16 +1,25 @@
 #include "gnuplot.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
+#include <csignal>
 #include <cstring>
+#include <filesystem>
+#include <utility>
 
 #include "sph/core/cleanup.hpp"
 #include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
 
 namespace sph::apps {
+
+using internal::Format;
 
 std::string GnuplotQuoted(const std::string& s) {
   std::string q = "'";
@@ -74,21 +83,152 @@ class ScriptFile {
   int cleanup_ = -1;
 };
 
-// Everything the child writes, up to 64 KiB, until it closes the pipe.
-std::string ReadAll(int fd) {
-  std::string output;
-  char buf[4096];
-  for (;;) {
-    const ssize_t n = ::read(fd, buf, sizeof buf);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    if (output.size() < 64 * 1024) output.append(buf, static_cast<std::size_t>(n));
-  }
-  ::close(fd);
-  return output;
+using Clock = std::chrono::steady_clock;
+
+// Milliseconds left until `deadline`, at least 0.
+int MsLeft(Clock::time_point deadline) {
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+  return left <= 0 ? 0 : left > 1000000 ? 1000000 : static_cast<int>(left);
 }
 
+// Appends what the child writes to `output` (up to 64 KiB) until it closes the pipe; false when
+// `deadline` comes first.
+bool ReadUntilClosed(int fd, Clock::time_point deadline, std::string& output) {
+  char buf[4096];
+  for (;;) {
+    pollfd p{fd, POLLIN, 0};
+    const int ready = ::poll(&p, 1, MsLeft(deadline));
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready == 0) return false;
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return true;
+    if (output.size() < 64 * 1024) output.append(buf, static_cast<std::size_t>(n));
+  }
+}
+
+// Waits for the child to end without reaping it (its pid stays its own until then); false when
+// `deadline` comes first.
+bool AwaitExit(pid_t pid, Clock::time_point deadline) {
+  for (;;) {
+    siginfo_t info{};
+    const int rc = ::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT);
+    if (rc == 0 && info.si_pid == pid) return true;
+    if (rc < 0 && errno != EINTR) return true;  // nothing to wait for: waitpid() says why
+    if (MsLeft(deadline) == 0) return false;
+    ::usleep(10000);
+  }
+}
+
+// The child, started in a process group of its own with the signals the cleanup handles blocked,
+// and registered with the cleanup before they are unblocked.
+class Child {
+ public:
+  Child(std::vector<char*>& argv, const std::string& folder, int out_fd, const std::string& what) {
+    sigset_t block, saved;
+    sigemptyset(&block);
+    for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGPIPE}) sigaddset(&block, sig);
+    ::sigprocmask(SIG_BLOCK, &block, &saved);
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      ::setpgid(0, 0);
+      std::signal(SIGPIPE, SIG_DFL);  // the program's own choice (sph apps ignore it), not gnuplot's
+      ::sigprocmask(SIG_SETMASK, &saved, nullptr);
+      const int null_in = ::open("/dev/null", O_RDONLY);
+      if (null_in >= 0) ::dup2(null_in, STDIN_FILENO);
+      ::dup2(out_fd, STDOUT_FILENO);
+      ::dup2(out_fd, STDERR_FILENO);
+      if (::chdir(folder.c_str()) != 0) ::_exit(126);
+      ::execvp(argv[0], argv.data());
+      ::_exit(127);
+    }
+    const int err = errno;
+    if (pid_ > 0) {
+      ::setpgid(pid_, pid_);  // either side may win the race; both set the same group
+      cleanup_ = RegisterChildProcess(pid_);
+    }
+    ::sigprocmask(SIG_SETMASK, &saved, nullptr);
+    if (pid_ < 0) throw Error(what + ": cannot run gnuplot: " + std::strerror(err));
+  }
+  ~Child() {
+    if (pid_ > 0) Kill();
+  }
+  Child(const Child&) = delete;
+  Child& operator=(const Child&) = delete;
+
+  pid_t pid() const { return pid_; }
+  /// Kills the child's process group and waits for the child.
+  void Kill() {
+    ::kill(-pid_, SIGKILL);
+    ::kill(pid_, SIGKILL);
+    Reap();
+  }
+  /// Waits for the child (ended, or about to) and returns its wait status.
+  int Reap() {
+    int status = 0;
+    while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+    }
+    UnregisterChildProcess(cleanup_);
+    cleanup_ = -1;
+    pid_ = -1;
+    return status;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int cleanup_ = -1;
+};
+
+// The pipe the child writes its messages into; the read end stays, closed when this goes.
+struct OutputPipe {
+  explicit OutputPipe(const std::string& what) {
+    if (::pipe2(fd, O_CLOEXEC) != 0) throw Error(what + ": cannot run gnuplot: " + std::strerror(errno));
+  }
+  ~OutputPipe() {
+    for (int f : fd) {
+      if (f >= 0) ::close(f);
+    }
+  }
+  void CloseWriteEnd() { ::close(std::exchange(fd[1], -1)); }
+  int fd[2] = {-1, -1};
+};
+
 }  // namespace
+
+PlotFolder::PlotFolder(std::string dir)
+    : dir_(std::move(dir)), existed_(dir_.empty() || ::access(dir_.c_str(), F_OK) == 0) {}
+
+PlotFolder::~PlotFolder() {
+  if (!existed_) ::rmdir(dir_.c_str());  // only when empty
+}
+
+void PlotFolder::Make() const {
+  std::error_code ec;
+  std::filesystem::create_directories(dir_, ec);
+  if (ec) throw Error(dir_ + ": cannot create the folder: " + ec.message());
+}
+
+void GnuplotRun::Set(const std::string& variable, const std::string& file) {
+  const std::size_t slash = file.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "." : file.substr(0, slash == 0 ? 1 : slash);
+  struct stat in_dir {};
+  struct stat in_folder {};
+  if (::stat(dir.c_str(), &in_dir) == 0 && ::stat(folder.c_str(), &in_folder) == 0 &&
+      in_dir.st_dev == in_folder.st_dev && in_dir.st_ino == in_folder.st_ino) {
+    variables.emplace_back(variable, file.substr(slash + 1));  // npos + 1: the whole name
+    return;
+  }
+  std::error_code ec;
+  const std::filesystem::path absolute = std::filesystem::absolute(file, ec);
+  if (ec) throw Error(file + ": " + ec.message());
+  variables.emplace_back(variable, absolute.string());
+}
+
+void GnuplotRun::Draw(const std::string& variable, const std::string& path, OutputFiles& files) {
+  const std::string file = files.StageProduced(path);
+  Set(variable, file);
+  images.emplace_back(path, file);
+}
 
 void RunGnuplot(const GnuplotRun& run, const std::string& what) {
   const ScriptFile script(run.folder, run.script, what);
@@ -101,29 +241,19 @@ void RunGnuplot(const GnuplotRun& run, const std::string& what) {
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
 
-  int out_pipe[2];
-  if (::pipe2(out_pipe, O_CLOEXEC) != 0) throw Error(what + ": cannot run gnuplot: " + std::strerror(errno));
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    const int err = errno;
-    ::close(out_pipe[0]);
-    ::close(out_pipe[1]);
-    throw Error(what + ": cannot run gnuplot: " + std::strerror(err));
+  const auto deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(run.timeout_s));
+  OutputPipe pipe(what);
+  Child child(argv, run.folder, pipe.fd[1], what);
+  pipe.CloseWriteEnd();
+  std::string output;
+  if (!ReadUntilClosed(pipe.fd[0], deadline, output) || !AwaitExit(child.pid(), deadline)) {
+    child.Kill();
+    throw Error(what + ": gnuplot did not finish " + run.description + " within " + Format("%g", run.timeout_s) +
+                " s and was stopped; give it longer with --plot-timeout-s" +
+                (output.empty() ? std::string() : " (it printed: " + output + ")"));
   }
-  if (pid == 0) {
-    const int null_in = ::open("/dev/null", O_RDONLY);
-    if (null_in >= 0) ::dup2(null_in, STDIN_FILENO);
-    ::dup2(out_pipe[1], STDOUT_FILENO);
-    ::dup2(out_pipe[1], STDERR_FILENO);
-    if (::chdir(run.folder.c_str()) != 0) ::_exit(126);
-    ::execvp(argv[0], argv.data());
-    ::_exit(127);
-  }
-  ::close(out_pipe[1]);
-  const std::string output = ReadAll(out_pipe[0]);
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
+  const int status = child.Reap();
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   if (code == 127) {
     throw Error(what + ": cannot draw " + run.description + ": the program '" + run.program +
@@ -134,6 +264,13 @@ void RunGnuplot(const GnuplotRun& run, const std::string& what) {
     throw Error(what + ": gnuplot failed (" +
                 (code < 0 ? std::string("killed by a signal") : "exit " + std::to_string(code)) + ")" +
                 (output.empty() ? std::string() : ": " + output));
+  }
+  for (const auto& [path, file] : run.images) {
+    struct stat st {};
+    if (::stat(file.c_str(), &st) != 0 || st.st_size == 0) {
+      throw Error(path + ": gnuplot ended without drawing " + run.description + " into it (the image is empty)" +
+                  (output.empty() ? std::string() : ": " + output));
+    }
   }
 }
 

@@ -21,6 +21,7 @@
 #include "sph/core/noise_floor.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
+#include "sph/core/setup_checks.hpp"
 #include "sph/core/sphere_measurement.hpp"
 #include "sph/core/xyz_file.hpp"
 #include "sph/internal/format.hpp"
@@ -47,7 +48,7 @@ struct Input {
   std::optional<AppliedCalibration> applied;  ///< what compensated them, with its covariance
   std::string covariance_note;                ///< what of the calibration goes without its uncertainty
   std::optional<int> setup;
-  std::optional<double> header_radius_mm;
+  std::optional<StatedSphereRadius> header_radius;  ///< the radius the points file states for the setup's sphere
   std::string description;                       ///< one line for the report
   std::string form_note;                         ///< what the calibration file says of the calibration sphere's form
   std::vector<std::string> warnings;             ///< readings that parse but look wrong (PlausibilityWarnings)
@@ -138,15 +139,7 @@ void TakeOffSphereForm(const MeasureOptions& o, const CalibrationFile& file, con
                 ": holds no form of the calibration sphere (sph_calibrate stores one when the sphere was measured "
                 "in at least two known orientations on its mount), which --subtract-sphere-form takes off");
   }
-  const int id = in.setup.value_or(0);
-  const auto it = data.header.mount_rotations.find(id);
-  if (it != data.header.mount_rotations.end()) {
-    if (!it->second.known()) {
-      throw Error(o.points_path + ": the mount rotation of setup " + std::to_string(id) +
-                  " is unknown: the sphere's form cannot be taken off in an orientation nobody measured");
-    }
-    applied.form.rotation = MountRotationMatrix(*it->second.rotation_deg);
-  }
+  applied.form.rotation = CalibrationSphereRotation(data.header, in.setup.value_or(0), o.points_path);
   const LeastSquaresSphere ls = FitSphereLeastSquares(in.points_mm);
   if (!ls.sphere.ok) throw Error(o.points_path + ": the compensated points determine no sphere");
   applied.form.center_mm = ls.sphere.center;  // the form's directions are taken from here
@@ -190,12 +183,9 @@ Input ReadInput(const MeasureOptions& o) {
   in.warnings = PlausibilityWarnings(data);
   const CalibrationFile file = ReadCalibrationFile(o.calibration_path);
   Calibration cal = ToCalibration(file);
-  const auto d = data.header.probe_offset_mm;
-  if (d && std::abs(*d - cal.probe_offset_mm) > 1e-9 * cal.probe_offset_mm) {
-    throw Error(o.points_path + ": probe_offset_mm " + Format("%.9g", *d) + " differs from the calibration's " +
-                Format("%.9g", cal.probe_offset_mm) + " (" + o.calibration_path +
-                "): the calibration belongs to another probe set-up");
-  }
+  CheckProbeOffsetMatches(data, cal.probe_offset_mm, o.calibration_path);
+  if (const auto range = ConditionsOf(data.header).probe_range_mm)
+    CheckReadingsInProbeRange(data, *range, "probe_range_mm");
   in.setup = SelectedSetup(o, data);
   for (const Sample& s : data.samples) {
     if (!in.setup || s.setup == *in.setup) in.readings.push_back({s.theta_deg, s.phi_deg, s.r_mm});
@@ -215,7 +205,7 @@ Input ReadInput(const MeasureOptions& o) {
   in.covariance_note = CovarianceNote(o, applied, cal);
   in.applied = std::move(applied);
   in.calibration_fit_rms_um = FitRmsOf(file);
-  in.header_radius_mm = data.header.sphere_radius_mm;
+  in.header_radius = SphereRadiusOfSetup(data.header, in.setup.value_or(0));
   in.description = std::to_string(in.readings.size()) + " readings" +
                    (in.setup ? " (setup " + std::to_string(*in.setup) + ")" : "") + ", compensated with " +
                    o.calibration_path;
@@ -291,14 +281,14 @@ void DrawFormMap(const MeasureOptions& o, const std::vector<Eigen::Vector3d>& po
   const std::string script = FormMapScript(points, ev, name, o.plot_path.empty() ? "form_map.png" : o.plot_path);
   if (!o.plot_script_path.empty()) files.Stage(o.plot_script_path, [&](std::ostream& f) { f << script; });
   if (o.plot_path.empty()) return;
-  const std::string png_tmp = files.StageProduced(o.plot_path);
-  const std::size_t slash = png_tmp.find_last_of('/');
+  const std::size_t slash = o.plot_path.find_last_of('/');
   GnuplotRun run;
   run.program = o.gnuplot;
-  run.folder = slash == std::string::npos ? "." : png_tmp.substr(0, slash == 0 ? 1 : slash);
+  run.folder = slash == std::string::npos ? "." : o.plot_path.substr(0, slash == 0 ? 1 : slash);
   run.script = script;
-  run.variables = {{"png", png_tmp.substr(slash + 1)}};
   run.description = "the form-error map";
+  run.timeout_s = o.plot_timeout_s;
+  run.Draw("png", o.plot_path, files);
   RunGnuplot(run, o.plot_path);
 }
 
@@ -627,9 +617,10 @@ void WriteText(std::ostream& out, const MeasureOptions& o, const Input& in, cons
   out << "least-squares sphere\n";
   out << "  center_mm          " << Vec3Text(ev.ls.sphere.center, "%.9f") << "\n";
   out << Format("  radius_mm          %.9f   (diameter_mm %.9f)\n", r, 2.0 * r);
-  if (in.header_radius_mm) {
-    out << Format("  radius_deviation_um %.4f   (from the file's sphere_radius_mm %.9g)\n",
-                  (r - *in.header_radius_mm) * kUmPerMm, *in.header_radius_mm);
+  if (in.header_radius) {
+    out << Format("  radius_deviation_um %.4f   (from the file's %s %.9g)\n",
+                  (r - in.header_radius->radius_mm) * kUmPerMm, in.header_radius->key.c_str(),
+                  in.header_radius->radius_mm);
   }
   out << Format("  rms_um             %.4f\n", ev.ls.rms * kUmPerMm);
   out << Format("  sphericity_ls_um   %.4f   (peak to valley of the radial residuals)\n",
@@ -695,9 +686,10 @@ std::string JsonReport(const MeasureOptions& o, const Input& in, const SphereEva
   j["center_mm"] = Vec3Json(ev.ls.sphere.center);
   j["radius_mm"] = ev.ls.sphere.radius;
   j["diameter_mm"] = 2.0 * ev.ls.sphere.radius;
-  if (in.header_radius_mm) {
-    j["header_sphere_radius_mm"] = *in.header_radius_mm;
-    j["radius_deviation_um"] = (ev.ls.sphere.radius - *in.header_radius_mm) * kUmPerMm;
+  if (in.header_radius) {
+    j["header_sphere_radius_mm"] = in.header_radius->radius_mm;
+    j["header_sphere_radius_key"] = in.header_radius->key;
+    j["radius_deviation_um"] = (ev.ls.sphere.radius - in.header_radius->radius_mm) * kUmPerMm;
   }
   j["rms_um"] = ev.ls.rms * kUmPerMm;
   j["sphericity_ls_um"] = ev.sphericity_ls_mm * kUmPerMm;
@@ -764,11 +756,12 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
   app.add_option("--plot-script", o.plot_script_path,
                  "Write the form-error map as a gnuplot script (data inline; run: gnuplot FILE)");
   app.add_option("--gnuplot", o.gnuplot, "The gnuplot program")->capture_default_str();
+  AddPlotTimeoutOption(app, o.plot_timeout_s);
   app.add_option("--uncertainty-samples", o.uncertainty_samples,
                  "Calibration draws for the uncertainty from the calibration's covariance (0: none)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000000));
-  app.add_option("--seed", o.seed, "Seed of the calibration draws")->capture_default_str();
+  AddSeedOption(app, o.seed, "Seed of the calibration draws")->capture_default_str();
   app.add_option("--noise-um", o.noise_um,
                  "The probe's noise sigma for the noise floor of the form values [um] (default: the calibration's "
                  "fit rms, its source.fit_rms_um)")

@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -43,6 +42,7 @@ MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
   spec.trials = o.trials;
   spec.seed = o.seed;
   spec.threads = o.threads;
+  spec.max_std_um = o.max_std_um;
   for (double e : spec.eccentricities_mm) {
     if (!(e >= 0.0) || !(e < o.machine.sphere_radius_mm)) {
       throw Error("--eccentricities-mm: " + Format("%g", e) + " is not in [0, R0)");
@@ -60,6 +60,29 @@ MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
   return spec;
 }
 
+// `value` in the printf format `fmt` (one conversion, with its width), or "-" in that width when it
+// is not a number (a statistic of fewer than two trials).
+std::string Number(const char* fmt, double value) {
+  if (!std::isnan(value)) return Format(fmt, value);
+  const std::string blank = Format(fmt, 0.0);
+  return std::string(blank.size() - 1, ' ') + "-";
+}
+
+// "undetermined (...): b (CRLB 18.8 um as a displacement), ...", a line below a table that names
+// the parameters (index, std as a displacement [um]) whose predicted std exceeds max_std_um.
+void WriteUndetermined(std::ostream& out, const std::vector<std::pair<int, double>>& undetermined, double max_std_um,
+                       const char* what) {
+  if (undetermined.empty()) return;
+  std::string list;
+  for (const auto& [p, um] : undetermined) {
+    list += (list.empty() ? "" : ", ") + std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + " (" + what +
+            " " + (std::isfinite(um) ? Format("%.3g", um) + " um as a displacement" : std::string("infinite")) + ")";
+  }
+  out << "undetermined: " << list << "; a parameter counts as determined when its predicted std, as a displacement "
+      << "of the probed point (angles times R0), is at most " << Format("%g", max_std_um)
+      << " um (--max-std-um), as sph_calibrate judges a calibration\n";
+}
+
 void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloOptions& o) {
   out << "Table 2: mean of the calibrations (" << o.trials << " trials per eccentricity, seed " << o.seed
       << ", sigma_r " << o.machine.noise_r_um << " um)\n";
@@ -70,7 +93,7 @@ void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloO
     const ReportUnits u = ReportUnitsOf(p);
     out << Format("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name) << Format(" %-4s", u.coarse)
         << Format(" %12.6f", r.rows.front().params[static_cast<std::size_t>(p)].truth * u.to_coarse);
-    for (const auto& row : r.rows) out << Format(" %11.6f", row.params[static_cast<std::size_t>(p)].mean * u.to_coarse);
+    for (const auto& row : r.rows) out << Number(" %11.6f", row.params[static_cast<std::size_t>(p)].mean * u.to_coarse);
     out << "\n";
   }
   for (const auto& row : r.rows) {
@@ -88,38 +111,52 @@ void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloO
       out << "(random directions: each trial has its own Cramer-Rao bound CRLB_t; CRLB is their root mean square, "
              "std/CRLB the std of (estimate - true) / CRLB_t, bias2 the mean of the trials' second-order biases)\n";
     }
-    out << Format("%-9s %14s %14s %10s %9s %9s %10s %9s %9s %9s\n", "param", "true", "mean", "std", "SE", "(m-t)/SE",
+    out << Format("%-9s %14s %14s %10s %9s %9s %12s %9s %9s %9s\n", "param", "true", "mean", "std", "SE", "(m-t)/SE",
                   "CRLB", "std/CRLB", "bias2", "(m-t-b)/SE");
     for (int p = 0; p < kNumScmsParams; ++p) {
       const ReportUnits u = ReportUnitsOf(p);
       const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
       out << Format("%-9s", kScmsParamInfo[static_cast<std::size_t>(p)].name)
           << Format(" %10.6f ", s.truth * u.to_coarse) << Format("%-3s", u.coarse)
-          << Format(" %10.6f ", s.mean * u.to_coarse) << Format("%-3s", u.coarse)
-          << Format(" %10.4f", s.std * u.to_fine) << Format(" %9.4f", s.se * u.to_fine) << Format(" %9.2f", s.z)
-          << Format(" %10.4f", s.crlb * u.to_fine) << Format(" %9.3f", s.std_over_crlb)
-          << Format(" %9.4f", s.bias * u.to_fine) << Format(" %9.2f", s.z_bias) << "  " << u.fine << "\n";
+          << Number(" %10.6f", s.mean * u.to_coarse) << " " << Format("%-3s", u.coarse)
+          << Number(" %10.4f", s.std * u.to_fine) << Number(" %9.4f", s.se * u.to_fine) << Number(" %9.2f", s.z);
+      out << (s.determined ? Number(" %12.4f", s.crlb * u.to_fine) : Format(" %12s", "undetermined"))
+          << Number(" %9.3f", s.std_over_crlb) << Number(" %9.4f", s.bias * u.to_fine) << Number(" %9.2f", s.z_bias);
+      out << "  " << u.fine << "\n";
     }
+    std::vector<std::pair<int, double>> undetermined;
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
+      if (!s.determined) undetermined.emplace_back(p, s.crlb_displacement_um);
+    }
+    WriteUndetermined(out, undetermined, o.max_std_um, "CRLB");
   }
 }
+
+json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 json StudyJson(const MonteCarloResult& r) {
   json rows = json::array();
   for (const auto& row : r.rows) {
     json params = json::object();
+    json undetermined = json::array();
     for (int p = 0; p < kNumScmsParams; ++p) {
       const ReportUnits u = ReportUnitsOf(p);
       const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
-      params[kScmsParamInfo[static_cast<std::size_t>(p)].name] = {{"unit", u.coarse},
-                                                                  {"true", s.truth * u.to_coarse},
-                                                                  {"mean", s.mean * u.to_coarse},
-                                                                  {"std", s.std * u.to_coarse},
-                                                                  {"se", s.se * u.to_coarse},
-                                                                  {"z", s.z},
-                                                                  {"crlb", s.crlb * u.to_coarse},
-                                                                  {"std_over_crlb", s.std_over_crlb},
-                                                                  {"bias_second_order", s.bias * u.to_coarse},
-                                                                  {"z_after_bias", s.z_bias}};
+      params[kScmsParamInfo[static_cast<std::size_t>(p)].name] = {
+          {"unit", u.coarse},
+          {"true", s.truth * u.to_coarse},
+          {"mean", s.mean * u.to_coarse},
+          {"std", s.std * u.to_coarse},
+          {"se", s.se * u.to_coarse},
+          {"z", s.z},
+          {"crlb", NumberOrNull(s.crlb * u.to_coarse)},
+          {"crlb_displacement_um", NumberOrNull(s.crlb_displacement_um)},
+          {"determined", s.determined},
+          {"std_over_crlb", NumberOrNull(s.std_over_crlb)},
+          {"bias_second_order", NumberOrNull(s.bias * u.to_coarse)},
+          {"z_after_bias", NumberOrNull(s.z_bias)}};
+      if (!s.determined) undetermined.push_back(kScmsParamInfo[static_cast<std::size_t>(p)].name);
     }
     json not_converged = json::array();
     for (int t : row.not_converged) not_converged.push_back(t + 1);
@@ -127,6 +164,7 @@ json StudyJson(const MonteCarloResult& r) {
                     {"trials", row.trials},
                     {"converged", row.converged},
                     {"not_converged_trials", not_converged},
+                    {"undetermined", undetermined},
                     {"parameters", params}});
   }
   return rows;
@@ -134,15 +172,17 @@ json StudyJson(const MonteCarloResult& r) {
 
 void WriteCsv(const std::string& path, const MonteCarloResult& r, OutputFiles& files) {
   files.Stage(path, [&](std::ostream& f) {
-    f << "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials\n";
+    f << "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials,determined\n";
+    // A number that is not finite is an empty field.
+    const auto field = [](double v) { return std::isfinite(v) ? Format("%.17g", v) : std::string(); };
     for (const auto& row : r.rows) {
       for (int p = 0; p < kNumScmsParams; ++p) {
         const ReportUnits u = ReportUnitsOf(p);
         const ParameterStats& s = row.params[static_cast<std::size_t>(p)];
         f << row.eccentricity_mm << "," << kScmsParamInfo[static_cast<std::size_t>(p)].name << "," << u.coarse << ","
           << s.truth * u.to_coarse << "," << s.mean * u.to_coarse << "," << s.std * u.to_coarse << ","
-          << s.se * u.to_coarse << "," << s.z << "," << s.crlb * u.to_coarse << "," << s.std_over_crlb << ","
-          << row.converged << "," << row.trials << "\n";
+          << s.se * u.to_coarse << "," << s.z << "," << field(s.crlb * u.to_coarse) << "," << field(s.std_over_crlb)
+          << "," << row.converged << "," << row.trials << "," << (s.determined ? 1 : 0) << "\n";
       }
     }
   });
@@ -181,11 +221,9 @@ json Table3(std::ostream& out, const MonteCarloSpec& spec, const MonteCarloResul
 }
 
 // Figure 4: std against eccentricity with the Cramer-Rao curve, and the spread of the estimates:
-// the data, the script and the three images, staged in `dir` (created when missing).
-void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloResult& r, OutputFiles& files) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+// the data, the script and the three images, staged in the folder `dir` (PlotFolder::Make()).
+void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloResult& r, double timeout_s,
+          OutputFiles& files) {
   const std::string folder = dir + "/";
   const double e_min = r.rows.front().eccentricity_mm, e_max = r.rows.back().eccentricity_mm;
   files.Stage(folder + "fig4_std.dat", [&](std::ostream& f) {
@@ -252,18 +290,16 @@ void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloRe
          << "plot spread_dat u ($1*0.97):2 w p pt 7 ps 0.3 lc rgb '#801f77b4' t 'b', "
             "spread_dat u ($1*1.03):3 w p pt 7 ps 0.3 lc rgb '#80d62728' t 'c'\n";
   files.Stage(folder + "fig4.gp", [&](std::ostream& f) { f << script.str(); });
-  const auto name_in_folder = [](const std::string& path) { return path.substr(path.find_last_of('/') + 1); };
   GnuplotRun run;
   run.folder = dir;
   run.script = script.str();
   run.description = "Figure 4";
+  run.timeout_s = timeout_s;
   for (const char* name : {"std", "crlb", "spread"}) {
-    run.variables.emplace_back(std::string(name) + "_dat",
-                               name_in_folder(files.StagedName(folder + "fig4_" + name + ".dat")));
+    run.Set(std::string(name) + "_dat", files.StagedName(folder + "fig4_" + name + ".dat"));
   }
   for (const char* name : {"b_c_std", "beta_epsilon_std", "spread"}) {
-    run.variables.emplace_back(std::string(name) + "_png",
-                               name_in_folder(files.StageProduced(folder + "fig4_" + name + ".png")));
+    run.Draw(std::string(name) + "_png", folder + "fig4_" + name + ".png", files);
   }
   RunGnuplot(run, "--plot-dir " + dir);
 }
@@ -284,22 +320,36 @@ int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream
   }
   out << Format(" %12s\n", "worst_um");
   json rows = json::array();
+  std::string notes;  // the undetermined parameters of each eccentricity, below the table
   for (double e : spec.eccentricities_mm) {
     SimulationSpec s = spec.base;
     s.centers_mm = PlacementCenters(spec, e);
     const PredictedUncertainty u = PredictUncertainty(s);
     out << Format("%-8g", e);
     json row = {{"eccentricity_mm", e}};
+    json undetermined_names = json::array();
+    std::vector<std::pair<int, double>> undetermined;
     for (int p = 0; p < kNumScmsParams; ++p) {
-      out << Format(" %12.4f", u.std(p) * ReportUnitsOf(p).to_fine);
-      row[std::string(kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_std_" + ReportUnitsOf(p).fine] =
-          u.std(p) * ReportUnitsOf(p).to_fine;
+      const char* name = kScmsParamInfo[static_cast<std::size_t>(p)].name;
+      const bool determined = u.Determined(p, o.max_std_um);
+      out << (determined ? Format(" %12.4f", u.std(p) * ReportUnitsOf(p).to_fine) : Format(" %12s", "undetermined"));
+      row[std::string(name) + "_std_" + ReportUnitsOf(p).fine] = NumberOrNull(u.std(p) * ReportUnitsOf(p).to_fine);
+      if (!determined) {
+        undetermined_names.push_back(name);
+        undetermined.emplace_back(p, u.StdAsDisplacementUm(p));
+      }
     }
-    out << Format(" %12.4f\n", u.WorstErrorStdUm());
-    row["worst_std_um"] = u.WorstErrorStdUm();
+    const double worst = u.WorstErrorStdUm();
+    out << (worst < 1e7 ? Format(" %12.4f\n", worst) : Format(" %12.4g\n", worst));
+    row["worst_std_um"] = NumberOrNull(worst);
+    row["undetermined"] = undetermined_names;
     rows.push_back(row);
+    std::ostringstream note;
+    WriteUndetermined(note, undetermined, o.max_std_um, "std");
+    notes += note.str().empty() ? "" : Format("e = %g mm: ", e) + note.str();
   }
-  json j = {{"plan", rows}};
+  out << notes;
+  json j = {{"plan", rows}, {"max_std_um", o.max_std_um}};
   if (o.target_std_um) {
     std::vector<Eigen::Vector3d> dirs = PlacementCenters(spec, 1.0);
     const double hi = 0.5 * spec.base.sphere_radius_mm;
@@ -347,7 +397,12 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   app.add_option("--setups", o.setups, "Sphere placements per trial, turned evenly about the Theta axis")
       ->capture_default_str()
       ->check(CLI::Range(1, 100));
-  app.add_option("--seed", o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
+  AddSeedOption(app, o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
+  app.add_option("--max-std-um", o.max_std_um,
+                 "A parameter whose predicted standard deviation, as a displacement of the probed point (angles "
+                 "times R0), exceeds this is undetermined, as sph_calibrate judges it [um]")
+      ->capture_default_str()
+      ->check(InRange(ranges::kStdUm));
   app.add_option("--threads", o.threads, "Worker threads (0: all cores)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1024));
@@ -358,6 +413,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   app.add_option("--json", o.json_path, "Write the results as JSON ('-' for stdout)");
   app.add_option("--csv", o.csv_path, "Write the per-parameter statistics as CSV");
   app.add_option("--plot-dir", o.plot_dir, "Write Figure 4 (PNG, with gnuplot) and its data into this folder");
+  AddPlotTimeoutOption(app, o.plot_timeout_s);
   app.add_flag("--plan", o.plan, "Predict the standard deviations from the linearised model, without simulating");
   app.add_option("--target-std-um", o.target_std_um,
                  "With --plan: find the smallest eccentricity (and per grid) meeting this std as a displacement [um]")
@@ -405,6 +461,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
 }
 
 int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream& err) {
+  const PlotFolder plot_folder(o.plot_dir);  // removed again when a failed run leaves it empty
   try {
     RunPaths paths;
     paths.Input("--angles", o.machine.angles_path)
@@ -437,6 +494,7 @@ int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream
               {"setups", o.setups},
               {"random_direction", o.random_direction},
               {"direction", o.direction},
+              {"max_std_um", o.max_std_um},
               {"wall_time_s", wall_s},
               {"eccentricities", StudyJson(r)}};
     if (o.table3) {
@@ -450,7 +508,10 @@ int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream
           << std::flush;
     if (!o.json_path.empty()) files.Stage(o.json_path, [&](std::ostream& f) { f << j.dump(2) << "\n"; });
     if (!o.csv_path.empty()) WriteCsv(o.csv_path, r, files);
-    if (!o.plot_dir.empty()) Plot(o.plot_dir, spec, r, files);
+    if (!o.plot_dir.empty()) {
+      plot_folder.Make();
+      Plot(o.plot_dir, spec, r, o.plot_timeout_s, files);
+    }
     files.Commit();
     if (!o.plot_dir.empty()) {
       err << "sph_montecarlo: wrote " << o.plot_dir

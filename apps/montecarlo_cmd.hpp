@@ -11,6 +11,7 @@
 #include "cli_fwd.hpp"
 
 #include "app_common.hpp"
+#include "gnuplot.hpp"
 
 namespace sph {
 struct MonteCarloSpec;
@@ -27,14 +28,16 @@ struct MonteCarloOptions {
   int trials = 1000;
   std::uint64_t seed = 1;
   int threads = 0;
+  double max_std_um = 10.0;  ///< a parameter whose predicted std, as a displacement, exceeds this is undetermined
   bool table3 = true;
   double table3_calibration_e_mm = 2.0;
   std::string json_path;
   std::string csv_path;
   std::string plot_dir;
-  bool plan = false;                    ///< predict only, no simulation
-  std::optional<double> target_std_um;  ///< with plan: search the smallest eccentricity
-  bool progress = true;                 ///< progress on stderr (ProgressMode::kAuto), or none
+  double plot_timeout_s = kDefaultPlotTimeoutS;  ///< gnuplot is stopped after this long
+  bool plan = false;                             ///< predict only, no simulation
+  std::optional<double> target_std_um;           ///< with plan: search the smallest eccentricity
+  bool progress = true;                          ///< progress on stderr (ProgressMode::kAuto), or none
   /// --plan-orientations: the mount orientations that separate the sphere's form from the machine.
   bool plan_orientations = false;
   std::vector<std::string> effects;              ///< the machine's effects (ids); empty: the whole library

@@ -178,7 +178,7 @@ void SetupSimulateApp(CLI::App& app, SimulateOptions& o) {
   app.add_option("--truth", o.truth_path, "Also write the truth (JSON) to this file");
   AddMachineOptions(app, o.machine);
   app.add_option("--center-mm", o.centers_mm, "Sphere centre x,y,z [mm]; repeat for several setups");
-  app.add_option("--seed", o.seed, "Random seed");
+  AddSeedOption(app, o.seed, "Random seed");
   app.add_option("--sample-period-s", o.sample_period_s, "Time between samples [s]")
       ->check(InRange({0.0, 86400.0, "s"}));
   app.add_option("--effect-arcsec", o.effects_arcsec,

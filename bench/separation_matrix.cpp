@@ -5,7 +5,7 @@
 // placements beside a second sphere of another radius, in five placements of one sphere that
 // reach 15 mm up and 6 mm out, and in one placement scanned in shuffled order (Design()), at two
 // noise levels. A study program, run by hand
-// (README.md, "Closing the loop"):
+// (docs/validation.md, "The separation matrix"):
 //
 //   build/bench/separation_matrix [RUNS] [FILTER...]   (default 5 runs per cell, seeds 1..RUNS)
 //
@@ -110,7 +110,7 @@ std::vector<Case> Cases() {
 enum class Setups { kOne, kThree, kFive, kSpheres, kHigh, kShuffled };
 constexpr Setups kAllSetups[] = {Setups::kOne,     Setups::kThree, Setups::kFive,
                                  Setups::kSpheres, Setups::kHigh,  Setups::kShuffled};
-// The designs beyond the README's main three, run only when named.
+// The designs beyond the main three, run only when named.
 bool OnlyWhenNamed(Setups s) { return s == Setups::kSpheres || s == Setups::kHigh || s == Setups::kShuffled; }
 const char* SetupsName(Setups s) {
   switch (s) {
@@ -202,7 +202,7 @@ struct Filter {
     for (const std::string& n : names) {
       if (name.find(n) == std::string::npos) return false;
     }
-    // "spheres", "high" and "shuffled" run only when asked for (the README's table lists them apart).
+    // "spheres", "high" and "shuffled" run only when asked for (docs/validation.md lists them apart).
     if (OnlyWhenNamed(setups_) && setups.count(SetupsName(setups_)) == 0) return false;
     return in(setups, SetupsName(setups_)) && in(forms, form ? "form" : "noform") &&
            in(sigmas, noise < 0.04 ? "0.03" : "0.05");

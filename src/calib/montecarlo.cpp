@@ -179,29 +179,42 @@ ParameterStats StatsOf(const MonteCarloSpec& spec, const EccentricityResult& row
     st.crlb = fixed.std(p);
     st.bias = fixed.bias(p);
   }
-  if (row.estimates.size() < 2) return st;
+  const bool angle = kScmsParamInfo[q].quantity == Quantity::kAngle;
+  st.crlb_displacement_um = st.crlb * (angle ? spec.base.sphere_radius_mm : 1.0) * kUmPerMm;
+  st.determined = st.crlb_displacement_um <= spec.max_std_um;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // One design undetermined: its bound and bias say nothing. Random directions: each trial is
+  // judged against its own bound, whatever the root mean square of the bounds.
+  const bool blank = !st.determined && !spec.random_direction;
+  if (blank) st.bias = nan;
   double sum = 0.0;
   for (const auto& g : row.estimates) sum += g[q];
-  st.mean = sum / n;
+  st.mean = n > 0 ? sum / n : nan;
+  if (row.estimates.size() < 2) {  // no spread: no statistic of it
+    st.std = st.se = st.z = st.std_over_crlb = st.z_bias = nan;
+    return st;
+  }
   double ss = 0.0;
   for (const auto& g : row.estimates) ss += (g[q] - st.mean) * (g[q] - st.mean);
   st.std = std::sqrt(ss / (n - 1.0));
   if (spec.random_direction) {
-    std::vector<double> z;
+    std::vector<double> z;  // the trials whose own bound is finite
     for (int t = 0; t < row.trials; ++t) {
       const Trial& tr = trials[t];
-      if (tr.converged) z.push_back((tr.geometry[q] - st.truth) / tr.crlb[q]);
+      if (tr.converged && std::isfinite(tr.crlb[q])) z.push_back((tr.geometry[q] - st.truth) / tr.crlb[q]);
     }
+    const double m = static_cast<double>(z.size());
     double zm = 0.0, zss = 0.0;
-    for (double v : z) zm += v / n;
+    for (double v : z) zm += v / m;
     for (double v : z) zss += (v - zm) * (v - zm);
-    st.std_over_crlb = std::sqrt(zss / (n - 1.0));
+    st.std_over_crlb = z.size() >= 2 ? std::sqrt(zss / (m - 1.0)) : nan;
   } else {
     st.std_over_crlb = st.std / st.crlb;
   }
   st.se = st.std / std::sqrt(n);
   st.z = st.se > 0.0 ? (st.mean - st.truth) / st.se : 0.0;
   st.z_bias = st.se > 0.0 ? (st.mean - st.truth - st.bias) / st.se : 0.0;
+  if (blank) st.std_over_crlb = st.z_bias = nan;
   return st;
 }
 
@@ -243,6 +256,7 @@ MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<v
   if (spec.setups < 1) throw Error("Monte Carlo: at least one setup per trial is needed");
   if (spec.eccentricities_mm.empty()) throw Error("Monte Carlo: no eccentricity given");
   if (!spec.random_direction && !(spec.direction.norm() > 0.0)) throw Error("Monte Carlo: the direction is zero");
+  if (!(spec.max_std_um > 0.0)) throw Error("Monte Carlo: max_std_um must be positive");
   const std::vector<Trial> trials = RunTrials(spec, progress);
   MonteCarloResult result;
   for (std::size_t k = 0; k < spec.eccentricities_mm.size(); ++k) {

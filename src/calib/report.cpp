@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sph/calib/trace_report.hpp"
+#include "sph/calib/usability.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 #include "trace_json.hpp"
@@ -158,7 +159,9 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
     out << "\nwarnings:\n";
     for (const auto& w : r.warnings) out << "  - " << w << "\n";
   }
-  out << "\nresult: " << (r.Usable() ? "usable calibration" : "NOT a usable calibration") << "\n";
+  const Usability usability = JudgeUsability(r, ctx);
+  out << "\nresult: " << (usability.usable ? "usable calibration" : "NOT a usable calibration") << "\n";
+  for (const std::string& why : usability.reasons) out << "  why: " << why << "\n";
   if (ctx.trace != nullptr) WriteTraceText(out, *ctx.trace, ctx.validation);
 }
 
@@ -194,7 +197,6 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
       const double sd = rep.std(static_cast<Eigen::Index>(i));
       p["std"] = std::isfinite(sd) ? json(sd * u.to_coarse) : json(nullptr);
       p["determined"] = static_cast<bool>(rep.determined[i]);
-      if (!rep.determined[i]) undetermined.push_back(name);
       if (rep.IsHeld(static_cast<int>(i))) {
         p["held"] = rep.held[i] == Held::kFixed          ? "fixed"
                     : rep.held[i] == Held::kAtLowerBound ? "lower bound"
@@ -251,8 +253,13 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
     j["coverage"] = ctx.budget->coverage.probability > 0.0 ? json{{"probability", ctx.budget->coverage.probability}}
                                                            : json{{"k", ctx.budget->coverage.k}};
   }
+  for (std::size_t i = 0; i < rep.parameters.size(); ++i) {
+    if (!rep.determined[i]) undetermined.push_back(rep.parameters[i].name);
+  }
   j["undetermined"] = undetermined;
-  j["usable"] = r.Usable();
+  const Usability usability = JudgeUsability(r, ctx);
+  j["usable"] = usability.usable;
+  j["why_not_usable"] = usability.reasons;
   json outliers = json::array();
   for (const Outlier& o : r.outliers) outliers.push_back({{"sample", o.sample + 1}, {"residual_um", o.residual_um}});
   j["outliers"] = outliers;

@@ -18,6 +18,7 @@
 #include "sph/calib/identifiability.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/gum.hpp"
+#include "sph/core/setup_checks.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/internal/parallel.hpp"
 #include "sph/model/form_model.hpp"
@@ -97,6 +98,43 @@ struct Readings {
 
 double CrossValidated(const Readings& data, const CalibrationOptions& options, const EffectModel& model,
                       const EffectFitStart& start, int folds, std::uint64_t seed);
+
+// The fewest samples that a fit of the cross-validation fits (CrossValidated(): each fold holds
+// every `folds`-th sample of each setup, the first fold the most), and the most a fold leaves out.
+struct FoldSizes {
+  std::size_t fewest_fitted = 0, most_left_out = 0;
+};
+FoldSizes FoldSizesOf(const PointsData& points, int folds) {
+  std::map<int, std::size_t> of_setup;
+  for (const Sample& s : points.samples) ++of_setup[s.setup];
+  FoldSizes f;
+  const auto k = static_cast<std::size_t>(std::max(folds, 1));
+  for (const auto& [setup, n] : of_setup) f.most_left_out += (n + k - 1) / k;
+  f.fewest_fitted = points.samples.size() - f.most_left_out;
+  return f;
+}
+
+// Throws sph::Error, in the terms of the file, when the cross-validation of a model of n_params
+// parameters (`what` they are) cannot fit them: a fit needs more samples than parameters. The
+// seven-error calibration alone needs more than base_params.
+void CheckFoldsCanFit(const PointsData& points, int folds, int n_params, const std::string& what, int base_params) {
+  const FoldSizes f = FoldSizesOf(points, folds);
+  if (f.fewest_fitted > static_cast<std::size_t>(n_params)) return;
+  std::string needed;
+  if (points.SetupIds().size() == 1) {  // one setup: the samples the folds would need
+    const auto k = static_cast<std::size_t>(std::max(folds, 1));
+    std::size_t n = points.samples.size();
+    while (n - (n + k - 1) / k <= static_cast<std::size_t>(n_params)) ++n;
+    needed = ": at least " + std::to_string(n) + " samples are needed";
+  }
+  throw Error(points.source + ": " + std::to_string(points.samples.size()) + " samples are too few to trace the " +
+              "residual: its " + std::to_string(folds) + "-fold cross-validation fits " + what + " (" +
+              std::to_string(n_params) + " parameters) to the samples outside each fold, here as few as " +
+              std::to_string(f.fewest_fitted) + " (a fold leaves out up to " + std::to_string(f.most_left_out) +
+              "), and a fit needs more samples than parameters" + needed +
+              "; the seven errors alone (--no-extend) need more than " + std::to_string(base_params));
+}
+
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
                                            const EffectFit& fit, std::set<int>* loose = nullptr);
 double RmsUmOf(const std::vector<double>& errors_mm);
@@ -275,6 +313,13 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
       return current;
     }
   }
+  const std::size_t fewest = FoldSizesOf(data.points, trace.folds).fewest_fitted;
+  if (static_cast<std::size_t>(current.n_params + model.terms.back().size()) >= fewest) {
+    *note = "not tried: with its " + std::to_string(model.terms.back().size()) + " component(s) the model has " +
+            std::to_string(current.n_params + model.terms.back().size()) + " parameters, and a cross-validation " +
+            "fold fits as few as " + std::to_string(fewest) + " samples";
+    return current;
+  }
   for (;;) {
     EffectFit fit = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
     EffectTerm& cand = model.terms.back();
@@ -341,6 +386,16 @@ FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
   };
   const int resolved = std::min(distinct(phis) - 1, (distinct(thetas) - 1) / 2);
   f.degree_limit = std::min(trace.form_degree_max, resolved);
+  // No higher than the cross-validation's folds can fit beside the seven errors and the centres.
+  const int base_params = kNumScmsParams + 3 * static_cast<int>(points.SetupIds().size());
+  const auto fewest = static_cast<int>(FoldSizesOf(points, trace.folds).fewest_fitted);
+  int fitted = 1;
+  while (fitted < f.degree_limit &&
+         base_params + FormModelOf(points, FormTermsOfDegrees(2, fitted + 1)).NumParams() < fewest) {
+    ++fitted;
+  }
+  const bool few = fitted < f.degree_limit;
+  f.degree_limit = fitted;
   f.separable = orientations.size() >= 2 && f.degree_limit >= 2;
   const std::string unknown_note =
       own > 0 ? "; " + std::to_string(own) +
@@ -356,7 +411,9 @@ FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
                ": a form of the sphere cannot be told from a function of the direction; it competes with the effects "
                "as a pattern fixed on the sphere";
   } else {
-    f.design = "the pattern resolves no form of degree 2 or more";
+    f.design = few ? "the cross-validation's folds (as few as " + std::to_string(fewest) +
+                         " samples) cannot fit a form of degree 2 or more beside the seven errors and the centres"
+                   : "the pattern resolves no form of degree 2 or more";
   }
   return f;
 }
@@ -369,7 +426,17 @@ void ConfoundedFormTerms(const Readings& data, const CalibrationOptions& options
                          const std::vector<Effect>& pool, const TraceOptions& trace, FormSelection* sel) {
   EffectModel machine;
   machine.reference = base.model.reference;
-  for (const Effect e : pool) machine.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
+  int judged = base.n_params + FormModelOf(data.points, FormTermsOfDegrees(2, sel->degree_limit)).NumParams();
+  for (const Effect e : pool) {
+    machine.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
+    judged += machine.terms.back().size();
+  }
+  if (data.points.samples.size() <= static_cast<std::size_t>(judged)) {
+    sel->design += "; which of its terms the machine's effects would confound is not judged: " +
+                   std::to_string(data.points.samples.size()) + " readings are too few for the " +
+                   std::to_string(judged) + " parameters of the form and every candidate effect";
+    return;
+  }
   const FormIdentifiability id =
       IdentifyForm(data.points, options, machine, EffectFitStart::From(base), FormTermsOfDegrees(2, sel->degree_limit));
   for (const ConfoundedCombination& c : id.combinations) sel->confounded.push_back(c.words);
@@ -1369,6 +1436,12 @@ struct TraceStart {
   TraceStart(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
              const TraceOptions& asked, TraceResult* r)
       : data(WithoutOutliers(all, base)), reference(ReferenceOf(all, asked)) {
+    if (asked.probe_range_mm) CheckReadingsInProbeRange(all, *asked.probe_range_mm, "probe_range_mm");
+    const std::size_t setups = base.setup_ids.size();
+    const int base_params = kNumScmsParams + 3 * static_cast<int>(setups);
+    CheckFoldsCanFit(data.points, asked.folds, base_params,
+                     "the 7 errors and 3 centre coordinates for each of " + std::to_string(setups) + " setup(s)",
+                     base_params);
     r->before = Analysed(FitNone(data, base, reference, asked), data, options, asked);
     trace = WithSearchedOrders(asked, data.points, r->before.structure);
     r->harmonics = trace.harmonics;
@@ -1380,6 +1453,15 @@ struct TraceStart {
 void Finish(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
             const TraceOptions& trace, TraceResult* r) {
   RejudgeOutliers(all, options, base, trace, r->after);
+  if (r->after.fit.model.Find(Effect::kProbeDrift) >= 0 && !all.samples.empty()) {
+    const auto [lo, hi] = std::minmax_element(all.samples.begin(), all.samples.end(),
+                                              [](const Sample& a, const Sample& b) { return a.t_s < b.t_s; });
+    if (lo->t_s == hi->t_s) {
+      r->after.fit.calibration.warnings.push_back(
+          "why: every sample has the same time t_s (" + Format("%g", lo->t_s) +
+          " s), so a drift with time is not determined: probe_drift needs the times the readings were taken at");
+    }
+  }
   r->unexplained = RemainingStructure(r->after.structure, trace);
 }
 
@@ -1430,7 +1512,14 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
   for (Effect e : effects) {
     if (model.Find(e) < 0) model.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
   }
-  for (const EffectTerm& t : model.terms) r.added.push_back(t.effect);
+  int n_params = r.before.fit.n_params;
+  std::string ids;
+  for (const EffectTerm& t : model.terms) {
+    r.added.push_back(t.effect);
+    n_params += t.size();
+    ids += (ids.empty() ? "" : ", ") + std::string(t.info().id);
+  }
+  CheckFoldsCanFit(start.data.points, trace.folds, n_params, "the seven-error model and " + ids, r.before.fit.n_params);
   r.after = Analysed(internal::FitEffectsRows(start.data.points, start.data.table, nullptr, options, model,
                                               EffectFitStart::From(r.before.fit)),
                      start.data, options, trace);

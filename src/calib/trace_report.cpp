@@ -11,6 +11,7 @@
 #include "sph/calib/form_report.hpp"
 #include "sph/calib/report.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/setup_checks.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/units.hpp"
@@ -103,6 +104,9 @@ void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
 
 Validation Validate(const std::string& path, double probe_offset_mm, const TraceResult& trace) {
   const PointsData data = ReadPointsFile(path);
+  CheckProbeOffsetMatches(data, probe_offset_mm, "");
+  if (const auto range = ConditionsOf(data.header).probe_range_mm)
+    CheckReadingsInProbeRange(data, *range, "probe_range_mm");
   Validation v;
   v.path = path;
   v.n_points = static_cast<int>(data.samples.size());
@@ -221,6 +225,13 @@ void WriteEffectValues(std::ostream& out, const TraceResult& r) {
       if (!rep.Empty() && rep.IsHeld(col)) {
         out << Format("    %-30s %12.5f %s (%s)\n", term.ParamName(i).c_str(), a.fit.values[t][i] * u.per_internal,
                       u.name, rep.held[static_cast<std::size_t>(col)] == Held::kFixed ? "fixed" : "at bound");
+        continue;
+      }
+      if (!rep.Empty() && !rep.determined[static_cast<std::size_t>(col)]) {
+        const double disp = rep.StdAsDisplacementUm(col);
+        out << Format("    %-30s %12s  (std %s um as a displacement: not determined by these data)\n",
+                      term.ParamName(i).c_str(), "undetermined",
+                      std::isfinite(disp) ? Format("%.3g", disp).c_str() : "infinite");
         continue;
       }
       out << Format("    %-30s %12.5f +- %.5f %s\n", term.ParamName(i).c_str(), a.fit.values[t][i] * u.per_internal,

@@ -1,10 +1,12 @@
 #include "sph/can/candump_log.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
 
 #include "sph/core/error.hpp"
 
@@ -175,29 +177,98 @@ bool ParseCandumpLine(std::string_view line, CanFrame& f, std::string& iface, st
 }
 
 CandumpReader::CandumpReader(const std::string& path)
-    : owned_(std::make_unique<std::ifstream>(path, std::ios::binary)), in_(owned_.get()), source_(path) {
-  if (!*in_) throw Error(path + ": cannot open for reading: " + std::strerror(errno));
+    : owned_(std::make_unique<std::ifstream>(path, std::ios::binary)),
+      lines_(*owned_, path, "a candump log", TextLines::Nul::kKeep) {
+  if (!*owned_) throw Error(path + ": cannot open for reading: " + std::strerror(errno));
 }
 
-CandumpReader::CandumpReader(std::istream& in, std::string source) : in_(&in), source_(std::move(source)) {}
+CandumpReader::CandumpReader(std::istream& in, std::string source)
+    : lines_(in, std::move(source), "a candump log", TextLines::Nul::kKeep) {}
 
 CandumpReader::Result CandumpReader::Next() {
   Result r;
-  while (std::getline(*in_, line_)) {
-    ++line_no_;
+  while (lines_.Next(line_)) {
     if (line_.find_first_not_of(" \t\r") == std::string::npos) continue;
     std::string error;
     if (ParseCandumpLine(line_, r.frame, r.iface, error)) {
       r.status = Status::kFrame;
     } else {
       r.status = Status::kMalformed;
-      r.error = source_ + ":" + std::to_string(line_no_) + ": " + error;
+      r.error = lines_.Where() + error;
     }
     return r;
   }
-  if (in_->bad()) throw Error(source_ + ": read error after line " + std::to_string(line_no_));
   r.status = Status::kEnd;
   return r;
+}
+
+namespace {
+
+std::string TimeText(std::int64_t t_ns) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%lld.%06lld", static_cast<long long>(t_ns / 1000000000),
+                static_cast<long long>(t_ns % 1000000000 / 1000));
+  return buf;
+}
+
+// "can0 (from line 1) and can1 (from line 3)", the first eight.
+std::string InterfaceList(const std::vector<std::string>& names, const std::map<std::string, std::int64_t>& first) {
+  std::string s;
+  const std::size_t shown = std::min<std::size_t>(names.size(), 8);
+  for (std::size_t i = 0; i < shown; ++i) {
+    if (i > 0) s += i + 1 == names.size() ? " and " : ", ";
+    s += names[i] + " (from line " + std::to_string(first.at(names[i])) + ")";
+  }
+  if (shown < names.size()) s += " and " + std::to_string(names.size() - shown) + " more";
+  return s;
+}
+
+}  // namespace
+
+ReplaySource CheckReplayLog(const std::string& path, const std::string& iface, const std::string& option) {
+  CandumpReader reader(path);
+  ReplaySource source;
+  std::map<std::string, std::int64_t> first_line;
+  std::string first_problem;
+  std::uint64_t frames = 0;
+  std::int64_t last_ns = 0, last_line = 0;
+  for (;;) {
+    const CandumpReader::Result r = reader.Next();
+    if (r.status == CandumpReader::Status::kEnd) break;
+    if (r.status == CandumpReader::Status::kMalformed && first_problem.empty()) first_problem = r.error;
+    if (r.status != CandumpReader::Status::kFrame) continue;
+    ++frames;
+    if (first_line.emplace(r.iface, reader.line_number()).second) source.interfaces.push_back(r.iface);
+    if (!iface.empty() && r.iface != iface) continue;
+    if (iface.empty() && r.iface != source.interfaces.front()) continue;  // several: refused below
+    // The SYNC window and the master's timeouts need the receive order to be the time order.
+    if (source.frames++ > 0 && r.frame.t_ns < last_ns) {
+      throw Error(path + ":" + std::to_string(reader.line_number()) + ": the time " + TimeText(r.frame.t_ns) +
+                  " s is before the " + TimeText(last_ns) + " s of line " + std::to_string(last_line) +
+                  ": a candump log is in time order (logs merged or edited?)");
+    }
+    last_ns = r.frame.t_ns;
+    last_line = reader.line_number();
+  }
+  if (frames == 0) {
+    const std::int64_t lines = reader.line_number();
+    if (lines == 0) throw Error(path + ": empty: no CAN frame to replay");
+    if (first_problem.empty()) throw Error(path + ": no CAN frame to replay, only blank lines");
+    throw Error(path + ": no CAN frame in its " + std::to_string(lines) + (lines == 1 ? " line" : " lines") +
+                ": not a candump log (first: " + first_problem + ")");
+  }
+  if (iface.empty() && source.interfaces.size() > 1) {
+    throw Error(path + ": frames of " + std::to_string(source.interfaces.size()) + " interfaces, " +
+                InterfaceList(source.interfaces, first_line) + ": choose one" +
+                (option.empty() ? std::string() : " with " + option));
+  }
+  if (source.frames == 0) {
+    throw Error(path + ": no frame of interface " + iface + " (the log holds " +
+                InterfaceList(source.interfaces, first_line) + ")");
+  }
+  source.iface = iface.empty() ? source.interfaces.front() : iface;
+  source.other_frames = frames - source.frames;
+  return source;
 }
 
 void CandumpWriter::CheckContinuable(const std::string& path) {

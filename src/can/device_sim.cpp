@@ -35,6 +35,12 @@ int DummyBits(std::uint16_t index) {
   }
 }
 
+// COB-IDs CiA 301 reserves (§7.3.5): no SYNC or EMCY may be sent on them.
+bool Restricted(std::uint64_t id) {
+  return id <= 0x07F || (id >= 0x101 && id <= 0x180) || (id >= 0x581 && id <= 0x5FF) || (id >= 0x601 && id <= 0x67F) ||
+         (id >= 0x6E0 && id <= 0x6FF) || id >= 0x701;
+}
+
 std::uint32_t MapEntry(ObjectAddress o, int bits) {
   return (static_cast<std::uint32_t>(o.index) << 16) | (static_cast<std::uint32_t>(o.subindex) << 8) |
          static_cast<std::uint32_t>(bits);
@@ -66,19 +72,21 @@ std::vector<std::uint32_t> DefaultMapping(const FieldLayout& field, ObjectAddres
 }  // namespace
 
 struct DeviceSimulator::Node {
-  enum class St { kOff, kPreOp, kOperational, kStopped };
   int node_id = 0;  ///< 0: a sensor with its own frames, always sending
   int device = kProbe;
   int tpdo = 1;
-  St st = St::kOff;
+  NmtState st = NmtState::kBootUp;  ///< kBootUp: off or booting
   std::int64_t boot_at = kNever;
   bool hb_on_grid = false;  ///< log mode: heartbeats on the internal SYNC grid
   std::int64_t hb_base = 0;
   std::uint64_t hb_index = 0;
   std::int64_t next_heartbeat = kNever;
   std::int64_t next_event_pdo = kNever;
-  std::vector<std::int64_t> reboot_at;
+  std::vector<RebootEvent> reboots;  ///< in time order
   std::size_t next_reboot = 0;
+  bool settings_lost = false;              ///< the next boot is without the stored settings
+  std::int64_t hardware_emcy_at = kNever;  ///< its EMCY 0x5000 after such a boot
+  std::uint8_t error_register = 0;         ///< 1001h: an error keeps the node from operational
   ObjectDictionary od;
   std::unique_ptr<SdoServer> server;
   std::uint64_t syncs_seen = 0;
@@ -87,19 +95,10 @@ struct DeviceSimulator::Node {
 
   std::uint16_t Comm() const { return static_cast<std::uint16_t>(0x1800 + tpdo - 1); }
   std::uint16_t Map() const { return static_cast<std::uint16_t>(0x1A00 + tpdo - 1); }
-  std::uint8_t StateByte() const {
-    switch (st) {
-      case St::kOff:
-        return static_cast<std::uint8_t>(NmtState::kBootUp);
-      case St::kPreOp:
-        return static_cast<std::uint8_t>(NmtState::kPreOperational);
-      case St::kOperational:
-        return static_cast<std::uint8_t>(NmtState::kOperational);
-      case St::kStopped:
-        return static_cast<std::uint8_t>(NmtState::kStopped);
-    }
-    return 0;
-  }
+  std::uint8_t StateByte() const { return static_cast<std::uint8_t>(st); }
+  bool On() const { return st != NmtState::kBootUp; }
+  /// The heartbeat period of its 1017h [ns]; 0: none.
+  std::int64_t HeartbeatNs() const { return static_cast<std::int64_t>(od.Unsigned({0x1017, 0})) * 1000000; }
 };
 
 void DeviceSimConfig::Validate() const {
@@ -123,6 +122,12 @@ void DeviceSimConfig::Validate() const {
   if (boot_s < 0.0 || sdo_latency_s < 0.0 || heartbeat_period_s < 0.0) {
     throw Error("device simulator: boot, SDO and heartbeat times must not be negative");
   }
+  if (heartbeat_period_s > 65.535) throw Error("device simulator: 1017h holds a heartbeat period of at most 65.535 s");
+  if (sync_counter_overflow < -1 || sync_counter_overflow == 1 || sync_counter_overflow > 240) {
+    throw Error(
+        "device simulator: the nodes' SYNC counter overflow value (1019h) must be 0 or 2..240 (-1: the "
+        "SYNC's)");
+  }
 }
 
 DeviceSimulator::DeviceSimulator(const DeviceSimConfig& config) : config_(config), rng_(config.spec.seed) {
@@ -130,6 +135,7 @@ DeviceSimulator::DeviceSimulator(const DeviceSimConfig& config) : config_(config
   config_.Validate();
   if (config_.spec.pattern.empty()) throw Error("device simulator: the pattern is empty");
   if (config_.spec.centers_mm.empty()) throw Error("device simulator: no sphere centre");
+  CheckSimulationSetup(config_.spec);  // what sph_simulate refuses: a beam that misses, a form too deep
   const auto mount = config_.spec.mount_rotations_deg.find(0);
   if (mount != config_.spec.mount_rotations_deg.end()) body_to_theta_ = RotationOfVectorDeg(mount->second);
   if (!(config_.sync_period_s > 0.0)) throw Error("device simulator: the SYNC period must be positive");
@@ -153,19 +159,19 @@ DeviceSimulator::DeviceSimulator(const DeviceSimConfig& config) : config_(config
                                           : dc.probe.field.can_id;
     n->tpdo = TpdoNumber(d == kTheta ? dc.theta.tpdo : d == kPhi ? dc.phi.tpdo : dc.probe.tpdo, cob, n->node_id);
     for (const RebootEvent& r : config_.faults.reboots) {
-      if (r.node_id == n->node_id) n->reboot_at.push_back(start_ns_ + ToNs(r.at_s));
+      if (r.node_id == n->node_id) n->reboots.push_back(r);
     }
-    std::sort(n->reboot_at.begin(), n->reboot_at.end());
+    std::stable_sort(n->reboots.begin(), n->reboots.end(),
+                     [](const RebootEvent& a, const RebootEvent& b) { return a.at_s < b.at_s; });
     nodes_.push_back(std::move(n));
   }
   for (auto& n : nodes_) {
     if (n->node_id == 0 || config_.start_operational) {
       Boot(*n, start_ns_);
-      n->st = Node::St::kOperational;
+      n->st = NmtState::kOperational;
       n->hb_on_grid = true;
       n->hb_index = 0;
-      n->next_heartbeat =
-          n->node_id != 0 && config_.heartbeat_period_s > 0.0 ? GridNs(0.0, 600.0 + 20.0 * n->device) : kNever;
+      n->next_heartbeat = n->node_id != 0 && n->HeartbeatNs() > 0 ? GridNs(0.0, 600.0 + 20.0 * n->device) : kNever;
     } else {
       n->boot_at = start_ns_ + ToNs(config_.boot_s);  // power-on
     }
@@ -211,6 +217,8 @@ bool DeviceSimulator::Silent(int device, double t_rel_s) const {
   return false;
 }
 
+std::int64_t DeviceSimulator::RebootNs(const Node& n) const { return start_ns_ + ToNs(n.reboots[n.next_reboot].at_s); }
+
 std::uint8_t DeviceSimulator::NodeState(int node_id) const {
   for (const auto& n : nodes_) {
     if (n->node_id == node_id) return n->StateByte();
@@ -218,14 +226,25 @@ std::uint8_t DeviceSimulator::NodeState(int node_id) const {
   return 0xFF;
 }
 
-// A node (re)starts: the object dictionary at its defaults, pre-operational.
-// The abort code of an SDO write of `v` to `o` of node n's TPDO communication or mapping
-// parameters (0: accepted), as a CiA 301 device checks them.
-std::uint32_t DeviceSimulator::CheckPdoWrite(const Node& n, ObjectAddress o, const std::vector<std::uint8_t>& v) {
+std::uint32_t DeviceSimulator::CheckWrite(const Node& n, ObjectAddress o, const std::vector<std::uint8_t>& v) {
+  const std::uint64_t value = LittleEndianValue(v);
+  switch (o.index) {
+    case 0x1005:  // a SYNC consumer: an 11-bit id, no producer bit (CANopenNode's OD_write_1005)
+      return (value & 0xFFFFF800U) != 0 || Restricted(value & 0x7FFU) ? kAbortInvalidValue : 0U;
+    case 0x1014: {  // bit 31: no EMCY; the id may change only while EMCY is off (OD_write_1014)
+      const std::uint64_t old = n.od.Unsigned(o);
+      const bool on = (old & 0x80000000U) == 0, new_on = (value & 0x80000000U) == 0;
+      if ((value & 0x7FFFF800U) != 0 || Restricted(value & 0x7FFU)) return kAbortInvalidValue;
+      return on && new_on && (value & 0x7FFU) != (old & 0x7FFU) ? kAbortInvalidValue : 0U;
+    }
+    case 0x1019:  // OD_write_1019
+      return value == 1 || value > 240 ? kAbortInvalidValue : 0U;
+    default:
+      break;
+  }
   const bool comm = o.index == n.Comm(), map = o.index == n.Map();
   if (!comm && !map) return std::uint32_t{0};
-  if (n.st == Node::St::kOperational) return kAbortDeviceState;
-  const std::uint64_t value = LittleEndianValue(v);
+  if (n.st == NmtState::kOperational) return kAbortDeviceState;
   if (comm && o.subindex == 1) {
     const std::uint64_t old = n.od.Unsigned(o);
     const bool old_valid = (old & 0x80000000U) == 0, new_valid = (value & 0x80000000U) == 0;
@@ -250,6 +269,8 @@ std::uint32_t DeviceSimulator::CheckPdoWrite(const Node& n, ObjectAddress o, con
   return std::uint32_t{0};
 }
 
+// A node (re)starts: the object dictionary at its defaults (or without its stored settings),
+// pre-operational.
 void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
   using A = ObjectDictionary::Access;
   ObjectDictionary& od = n.od;
@@ -259,11 +280,21 @@ void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
   const FieldLayout& field = d == kTheta ? config_.devices.theta.field
                              : d == kPhi ? config_.devices.phi.field
                                          : config_.devices.probe.field;
+  // The stored communication settings, or without them the defaults of CANopenNode's object
+  // dictionary: no heartbeat, no SYNC counter.
+  const bool stored = !n.settings_lost;
+  const int overflow =
+      config_.sync_counter_overflow >= 0 ? config_.sync_counter_overflow : config_.devices.sync_counter_max;
   od.SetUnsigned({0x1000, 0}, encoder ? 0x00010196 : 0x00000000, 4);  // CiA 406 (0x196), single-turn
   od.SetUnsigned({0x1001, 0}, 0, 1);
+  od.SetUnsigned({0x1005, 0}, config_.devices.sync_cob_id, 4, A::kReadWrite);
   const std::string name = std::string("sph_cansim ") + DeviceName(d) + (encoder ? " encoder" : "");
   od.Set({0x1008, 0}, std::vector<std::uint8_t>(name.begin(), name.end()));
-  od.SetUnsigned({0x1017, 0}, static_cast<std::uint64_t>(std::llround(config_.heartbeat_period_s * 1000.0)), 2);
+  od.SetUnsigned({0x1014, 0}, kEmcyBase + static_cast<std::uint32_t>(n.node_id), 4, A::kReadWrite);
+  od.SetUnsigned({0x1017, 0},
+                 stored ? static_cast<std::uint64_t>(std::llround(config_.heartbeat_period_s * 1000.0)) : 0, 2,
+                 A::kReadWrite);
+  od.SetUnsigned({0x1019, 0}, stored ? static_cast<std::uint64_t>(overflow) : 0, 1, A::kReadWrite);
   od.SetUnsigned({0x1018, 0}, 4, 1);
   od.SetUnsigned({0x1018, 1}, kVendorId, 4);
   od.SetUnsigned({0x1018, 2}, encoder ? 0x00004060U + static_cast<std::uint32_t>(d) : 0x00002000U, 4);
@@ -297,17 +328,89 @@ void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
     od.SetUnsigned({n.Map(), static_cast<std::uint8_t>(i + 1)}, i < entries.size() ? entries[i] : 0, 4, A::kReadWrite);
   }
   n.server = std::make_unique<SdoServer>(
-      n.node_id, &n.od, [&n](ObjectAddress o, const std::vector<std::uint8_t>& v) { return CheckPdoWrite(n, o, v); });
-  n.st = Node::St::kPreOp;
+      n.node_id, &n.od, [&n](ObjectAddress o, const std::vector<std::uint8_t>& v) { return CheckWrite(n, o, v); },
+      [this, &n](ObjectAddress o) { OnWritten(n, o); });
+  n.st = NmtState::kPreOperational;
   n.boot_at = kNever;
   n.syncs_seen = 0;
   n.last_sent_raw.reset();
+  n.error_register = 0;
+  n.hardware_emcy_at = kNever;
+  if (!stored) {  // the device finds its settings gone: a hardware error, reported after its boot-up
+    n.error_register = 0x01;
+    n.hardware_emcy_at = t_ns + ToNs(config_.sdo_latency_s);
+    n.settings_lost = false;
+  }
+  od.SetUnsigned({0x1001, 0}, n.error_register, 1);
   n.hb_on_grid = false;
   n.hb_base = t_ns;
   n.hb_index = 1;
-  n.next_heartbeat =
-      n.node_id != 0 && config_.heartbeat_period_s > 0.0 ? t_ns + ToNs(config_.heartbeat_period_s) : kNever;
+  n.next_heartbeat = n.node_id != 0 && n.HeartbeatNs() > 0 ? t_ns + n.HeartbeatNs() : kNever;
   n.next_event_pdo = kNever;
+}
+
+void DeviceSimulator::OnWritten(Node& n, ObjectAddress o) {
+  if (o.index != 0x1017) return;
+  // CANopenNode's OD_write_1017: the new period runs from a heartbeat sent at once.
+  n.hb_on_grid = false;
+  n.hb_base = now_ns_ + ToNs(config_.sdo_latency_s);
+  n.hb_index = 0;
+  n.next_heartbeat = n.HeartbeatNs() > 0 ? n.hb_base : kNever;
+}
+
+void DeviceSimulator::Enter(Node& n, NmtState state, std::int64_t t_ns) {
+  // An error in the register keeps the node from operational (CANopenNode: CO_NMT_ERR_ON_ERR_REG
+  // with the generic and communication bits).
+  if (state == NmtState::kOperational && (n.error_register & 0x11) != 0) state = NmtState::kPreOperational;
+  if (state == NmtState::kOperational) {
+    if (n.st != NmtState::kOperational) n.syncs_seen = 0;
+    const std::uint64_t timer_ms = n.od.Unsigned({n.Comm(), 5});
+    n.next_event_pdo = timer_ms > 0 ? t_ns + static_cast<std::int64_t>(timer_ms) * 1000000 : kNever;
+  }
+  const bool changed = state != n.st;
+  n.st = state;
+  if (changed && n.node_id != 0 && n.HeartbeatNs() > 0) {  // a heartbeat at once, then every period
+    n.hb_on_grid = false;
+    n.hb_base = t_ns + ToNs(config_.sdo_latency_s);
+    n.hb_index = 0;
+    n.next_heartbeat = n.hb_base;
+  }
+}
+
+std::optional<CanFrame> DeviceSimulator::Emcy(const Node& n, std::uint16_t code, std::uint8_t manufacturer_bit,
+                                              std::uint32_t info) const {
+  const std::uint64_t cob = n.od.Unsigned({0x1014, 0});
+  if (n.node_id == 0 || (cob & 0x80000000U) != 0) return std::nullopt;
+  Emergency em;
+  em.node_id = n.node_id;
+  em.error_code = code;
+  em.error_register = n.error_register;
+  em.manufacturer = {manufacturer_bit, static_cast<std::uint8_t>(info), static_cast<std::uint8_t>(info >> 8),
+                     static_cast<std::uint8_t>(info >> 16), static_cast<std::uint8_t>(info >> 24)};
+  CanFrame f = EncodeEmergency(em);
+  f.id = static_cast<std::uint32_t>(cob & 0x7FFU);
+  return f;
+}
+
+// CANopenNode's CO_SYNC_receive: with 1019h 0 a SYNC has no data, else one byte (the counter);
+// another length is an error (EMCY 0x8240 once, the communication bit set, pre-operational).
+bool DeviceSimulator::TakesSync(Node& n, std::int64_t t_ns, std::optional<std::uint8_t> counter,
+                                std::vector<CanFrame>& out) {
+  if (n.node_id == 0) return true;  // a sensor with its own frames: no object dictionary to follow
+  const bool counted = n.od.Unsigned({0x1019, 0}) != 0;
+  if (counted == counter.has_value()) return true;
+  ++injected_.sync_length_errors;
+  if ((n.error_register & 0x10) == 0) {
+    n.error_register |= 0x11;  // communication, and the generic bit CiA 301 sets with any error
+    if (auto* e = n.od.Find({0x1001, 0})) e->value = {n.error_register};
+    const std::uint32_t info = (counter ? 1U : 0U) | (counted ? 0x80U : 0x40U);
+    if (auto f = Emcy(n, 0x8240, 0x18, info)) {
+      f->t_ns = t_ns + ToNs(config_.sdo_latency_s);
+      out.push_back(*f);
+    }
+  }
+  if (n.st == NmtState::kOperational) Enter(n, NmtState::kPreOperational, t_ns);
+  return false;
 }
 
 bool DeviceSimulator::NextCycle(std::vector<CanFrame>& frames) {
@@ -329,7 +432,7 @@ bool DeviceSimulator::NextCycle(std::vector<CanFrame>& frames) {
     sync.t_ns = t_ns;
     frames.push_back(sync);
   }
-  OnSync(t_ns, counter, frames);
+  OnSync(t_ns, config_.devices.sync_cob_id, counter, frames);
   AdvanceTo(t_ns + ToNs(config_.sync_period_s), frames);
   std::stable_sort(frames.begin() + static_cast<std::ptrdiff_t>(first), frames.end(),
                    [](const CanFrame& a, const CanFrame& b) { return a.t_ns < b.t_ns; });
@@ -339,7 +442,7 @@ bool DeviceSimulator::NextCycle(std::vector<CanFrame>& frames) {
 // Whether node n's TPDO goes out at this SYNC by its transmission type: synchronous (every
 // type-th SYNC; counted here) or acyclic (only a changed value), and valid.
 bool DeviceSimulator::TransmitsAtSync(Node& n) {
-  if (n.st != Node::St::kOperational) return false;
+  if (n.st != NmtState::kOperational) return false;
   const std::uint64_t tt = n.od.Unsigned({n.Comm(), 2});
   const std::uint64_t cob = n.od.Unsigned({n.Comm(), 1});
   if (tt > 240 || (cob & 0x80000000U) != 0) return false;  // not synchronous, or the PDO is not valid
@@ -375,7 +478,8 @@ CanFrame DeviceSimulator::MappedPdo(const Node& n, std::uint64_t cob) const {
   return pdo;
 }
 
-void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> counter, std::vector<CanFrame>& out) {
+void DeviceSimulator::OnSync(std::int64_t t_ns, std::uint32_t cob_id, std::optional<std::uint8_t> counter,
+                             std::vector<CanFrame>& out) {
   if (finished()) return;
   const SimFaults& f = config_.faults;
   const std::size_t first = out.size();
@@ -385,7 +489,7 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> coun
   };
   ++injected_.cycles;
   if (!moving_) {
-    moving_ = std::all_of(nodes_.begin(), nodes_.end(), [](const auto& n) { return n->st == Node::St::kOperational; });
+    moving_ = std::all_of(nodes_.begin(), nodes_.end(), [](const auto& n) { return n->st == NmtState::kOperational; });
   }
   // The fault times count from the start; the pattern from its own start.
   const double t_rel = RelS(t_ns);
@@ -420,7 +524,11 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> coun
       e->value = LittleEndianBytes(static_cast<std::uint64_t>(n.raw), static_cast<int>(e->value.size()));
     }
     if (auto* e = n.od.Find({0x2010, 0})) e->value = {counter.value_or(0)};
-    if (!TransmitsAtSync(n)) continue;
+    // A node takes SYNC on the id of its 1005h, pre-operational or operational, of the length of its 1019h.
+    const bool listens = n.node_id == 0 ? cob_id == config_.devices.sync_cob_id
+                                        : (n.st == NmtState::kPreOperational || n.st == NmtState::kOperational) &&
+                                              (n.od.Unsigned({0x1005, 0}) & 0x7FFU) == cob_id;
+    if (!listens || !TakesSync(n, t_ns, counter, out) || !TransmitsAtSync(n)) continue;
     const std::uint64_t cob = n.od.Unsigned({n.Comm(), 1});
     if (Silent(dev, t_rel)) {
       ++injected_.silent_cycles[d];
@@ -455,8 +563,15 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::optional<std::uint8_t> coun
 void DeviceSimulator::OnFrame(const CanFrame& frame, std::vector<CanFrame>& out) {
   if (frame.IsError() || frame.IsRemote()) return;
   const std::int64_t t = frame.t_ns;
-  if (frame.id == config_.devices.sync_cob_id) {
-    if (const auto sync = DecodeSync(frame, config_.devices.sync_cob_id)) OnSync(t, sync->counter, out);
+  now_ns_ = t;
+  // A SYNC: on the configured id (the sensors') or on the 1005h of a node.
+  const bool sync_id =
+      !frame.IsExtended() &&
+      (frame.id == config_.devices.sync_cob_id || std::any_of(nodes_.begin(), nodes_.end(), [&](const auto& n) {
+         return n->node_id != 0 && n->On() && (n->od.Unsigned({0x1005, 0}) & 0x7FFU) == frame.id;
+       }));
+  if (sync_id) {
+    if (const auto sync = DecodeSync(frame, frame.id)) OnSync(t, frame.id, sync->counter, out);
     return;
   }
   if (frame.id == kNmtCobId) {
@@ -465,26 +580,20 @@ void DeviceSimulator::OnFrame(const CanFrame& frame, std::vector<CanFrame>& out)
     ++injected_.nmt_commands;
     for (auto& np : nodes_) {
       Node& n = *np;
-      if (n.node_id == 0 || (nmt->node_id != 0 && nmt->node_id != n.node_id) || n.st == Node::St::kOff) continue;
+      if (n.node_id == 0 || (nmt->node_id != 0 && nmt->node_id != n.node_id) || n.st == NmtState::kBootUp) continue;
       switch (static_cast<NmtCommand>(nmt->command)) {
         case NmtCommand::kStart:
-          if (n.st != Node::St::kOperational) n.syncs_seen = 0;
-          n.st = Node::St::kOperational;
-          if (const std::uint64_t timer_ms = n.od.Unsigned({n.Comm(), 5}); timer_ms > 0) {
-            n.next_event_pdo = t + static_cast<std::int64_t>(timer_ms) * 1000000;
-          } else {
-            n.next_event_pdo = kNever;
-          }
+          Enter(n, NmtState::kOperational, t);
           break;
         case NmtCommand::kStop:
-          n.st = Node::St::kStopped;
+          Enter(n, NmtState::kStopped, t);
           break;
         case NmtCommand::kEnterPreOperational:
-          n.st = Node::St::kPreOp;
+          Enter(n, NmtState::kPreOperational, t);
           break;
         case NmtCommand::kResetNode:
         case NmtCommand::kResetCommunication:
-          n.st = Node::St::kOff;
+          n.st = NmtState::kBootUp;
           n.boot_at = t + ToNs(config_.boot_s);
           n.next_heartbeat = kNever;
           n.server->Reset();
@@ -496,7 +605,7 @@ void DeviceSimulator::OnFrame(const CanFrame& frame, std::vector<CanFrame>& out)
   for (auto& np : nodes_) {
     Node& n = *np;
     if (n.node_id == 0 || frame.id != kSdoRequestBase + static_cast<std::uint32_t>(n.node_id)) continue;
-    if (n.st != Node::St::kPreOp && n.st != Node::St::kOperational) return;  // no SDO when stopped or off
+    if (n.st != NmtState::kPreOperational && n.st != NmtState::kOperational) return;  // no SDO when stopped or off
     if (auto answer = n.server->OnRequest(frame)) {
       ++injected_.sdo_requests;
       if ((answer->data[0] >> 5) == 4) ++injected_.sdo_aborts;
@@ -516,10 +625,11 @@ std::int64_t DeviceSimulator::NextEventNs() const {
     if (!emcy_done_[i]) next = std::min(next, GridNs(config_.faults.emergencies[i].at_s, 720.0));
   }
   for (const auto& n : nodes_) {
-    if (n->st == Node::St::kOff) next = std::min(next, n->boot_at);
-    if (n->st != Node::St::kOff) next = std::min(next, n->next_heartbeat);
-    if (n->next_reboot < n->reboot_at.size()) next = std::min(next, n->reboot_at[n->next_reboot]);
-    if (n->st == Node::St::kOperational && n->od.Unsigned({n->Comm(), 2}) >= 254) {
+    if (n->st == NmtState::kBootUp) next = std::min(next, n->boot_at);
+    if (n->st != NmtState::kBootUp) next = std::min(next, n->next_heartbeat);
+    if (n->next_reboot < n->reboots.size()) next = std::min(next, RebootNs(*n));
+    if (n->On()) next = std::min(next, n->hardware_emcy_at);
+    if (n->st == NmtState::kOperational && n->od.Unsigned({n->Comm(), 2}) >= 254) {
       next = std::min(next, n->next_event_pdo);
     }
   }
@@ -556,35 +666,41 @@ void DeviceSimulator::AdvanceTo(std::int64_t t_end, std::vector<CanFrame>& out) 
       if (emcy_done_[i] || GridNs(config_.faults.emergencies[i].at_s, 720.0) != t) continue;
       emcy_done_[i] = true;
       const Node& n = *nodes_[static_cast<std::size_t>(config_.faults.emergencies[i].device)];
-      Emergency em;
-      em.node_id = n.node_id;
-      em.error_code = config_.faults.emergencies[i].code;
-      em.error_register = 0x01;
-      CanFrame e = EncodeEmergency(em);
-      e.t_ns = t;
-      out.push_back(e);
-      ++injected_.emergencies;
+      if (auto e = Emcy(n, config_.faults.emergencies[i].code, 0, 0)) {
+        e->data[2] |= 0x01;  // generic error
+        e->t_ns = t;
+        out.push_back(*e);
+        ++injected_.emergencies;
+      }
       done = true;
     }
     for (auto& np : nodes_) {
       if (done) break;
       Node& n = *np;
-      if (n.next_reboot < n.reboot_at.size() && n.reboot_at[n.next_reboot] == t) {
+      if (n.next_reboot < n.reboots.size() && RebootNs(n) == t) {
+        n.settings_lost = n.reboots[n.next_reboot].settings_lost;
         ++n.next_reboot;
         ++injected_.reboots;
-        n.st = Node::St::kOff;
+        n.st = NmtState::kBootUp;
         n.boot_at = t + ToNs(config_.boot_s);
         n.next_heartbeat = kNever;
         if (n.server) n.server->Reset();
         done = true;
-      } else if (n.st == Node::St::kOff && n.boot_at == t) {
+      } else if (n.st == NmtState::kBootUp && n.boot_at == t) {
         Boot(n, t);
         CanFrame b = EncodeHeartbeat(n.node_id, NmtState::kBootUp);
         b.t_ns = t;
         out.push_back(b);
         ++injected_.boot_ups;
         done = true;
-      } else if (n.st != Node::St::kOff && n.next_heartbeat == t) {
+      } else if (n.On() && n.hardware_emcy_at == t) {
+        n.hardware_emcy_at = kNever;
+        if (auto e = Emcy(n, 0x5000, 0, 0)) {  // device hardware
+          e->t_ns = t;
+          out.push_back(*e);
+        }
+        done = true;
+      } else if (n.st != NmtState::kBootUp && n.next_heartbeat == t) {
         if (!Silent(n.device, RelS(t))) {
           CanFrame hb = MakeFrame(kHeartbeatBase + static_cast<std::uint32_t>(n.node_id), {n.StateByte()});
           hb.t_ns = t;
@@ -592,11 +708,13 @@ void DeviceSimulator::AdvanceTo(std::int64_t t_end, std::vector<CanFrame>& out) 
           ++injected_.heartbeats;
         }
         ++n.hb_index;
-        const double p = config_.heartbeat_period_s;
-        n.next_heartbeat = n.hb_on_grid ? GridNs(static_cast<double>(n.hb_index) * p, 600.0 + 20.0 * n.device)
-                                        : n.hb_base + ToNs(static_cast<double>(n.hb_index) * p);
+        const std::int64_t p = n.HeartbeatNs();
+        n.next_heartbeat = p == 0         ? kNever
+                           : n.hb_on_grid ? GridNs(static_cast<double>(n.hb_index) * static_cast<double>(p) * 1e-9,
+                                                   600.0 + 20.0 * n.device)
+                                          : n.hb_base + static_cast<std::int64_t>(n.hb_index) * p;
         done = true;
-      } else if (n.st == Node::St::kOperational && n.od.Unsigned({n.Comm(), 2}) >= 254 && n.next_event_pdo == t) {
+      } else if (n.st == NmtState::kOperational && n.od.Unsigned({n.Comm(), 2}) >= 254 && n.next_event_pdo == t) {
         const std::uint64_t timer_ms = n.od.Unsigned({n.Comm(), 5});
         n.next_event_pdo = timer_ms == 0 ? kNever : t + static_cast<std::int64_t>(timer_ms) * 1000000;
         CanFrame pdo;

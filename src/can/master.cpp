@@ -54,6 +54,8 @@ std::string ObjectName(ObjectAddress o) {
       return "manufacturer device name";
     case 0x1017:
       return "producer heartbeat time";
+    case 0x1019:
+      return "synchronous counter overflow value";
     case 0x1018:
       switch (o.subindex) {
         case 1:
@@ -146,6 +148,9 @@ void MasterConfig::Validate() const {
       }
     }
   }
+  if (sync_counter_max < -1 || sync_counter_max == 1 || sync_counter_max > 240) {
+    throw Error("the SYNC counter overflow value to check must be 0 or 2..240 (-1: not checked)");
+  }
   if (sdo_timeout_ns <= 0 || boot_timeout_ns <= 0 || operational_timeout_ns < 0) {
     throw Error("the master's timeouts must be positive");
   }
@@ -158,6 +163,7 @@ struct CanopenMaster::NodeState {
     ObjectAddress object;
     std::vector<std::uint8_t> data;
     bool optional = false;  ///< an abort "no such object / sub-index" leaves it absent
+    bool may_fail = false;  ///< any abort is kept in write_error and the next job runs
   };
 
   NodeState(const MasterNode& c, std::int64_t timeout_ns) : config(c), sdo(c.node_id, timeout_ns) {}
@@ -184,7 +190,13 @@ struct CanopenMaster::NodeState {
   std::optional<NodeIdentity> first;  ///< identified at the start
   bool restarting = false;
   std::optional<std::uint8_t> last_state;
-  std::string error;  ///< why the start failed
+  bool heartbeat_since_start = false;     ///< a heartbeat came after the NMT Start
+  std::string error;                      ///< why the start failed
+  std::optional<std::uint16_t> hb_found;  ///< 1017h as this identification found it
+  std::uint16_t hb_target = 0;            ///< the heartbeat the master wants of it (set at the start)
+  std::uint16_t hb_ms = 0;                ///< the heartbeat it sends now
+  std::string write_error;                ///< a may_fail write the device refused
+  bool confirmed = false;                 ///< its heartbeat said operational
 };
 
 CanopenMaster::CanopenMaster(MasterConfig config, Callbacks callbacks)
@@ -224,7 +236,7 @@ void CanopenMaster::Begin(std::int64_t now_ns) {
   UpdatePhase(now_ns);
 }
 
-// Steps 2 to 6 of the file comment, from a pre-operational (or unknown) node.
+// Steps 2 to 6 of the start (sph/can/master.hpp), from a pre-operational (or unknown) node.
 void CanopenMaster::Advance(NodeState& n, std::int64_t now_ns) {
   n.sdo.Cancel();
   n.deadline = kNever;
@@ -235,7 +247,7 @@ void CanopenMaster::Advance(NodeState& n, std::int64_t now_ns) {
   }
   n.step = NodeState::Step::kReadyToStart;
   if (!config_.nmt) {
-    NodeRunning(n);
+    NodeRunning(n, true);
   } else if (phase_ != Phase::kStarting) {
     SendStart(n, now_ns);
   }
@@ -247,10 +259,16 @@ void CanopenMaster::StartSdo(NodeState& n, std::int64_t now_ns) {
   n.values.clear();
   n.jobs.clear();
   n.next_job = 0;
+  n.hb_found.reset();
+  n.write_error.clear();
   n.jobs.push_back(Job{false, {0x1018, 1}, {}, false});
   for (std::uint8_t sub = 2; sub <= 4; ++sub) n.jobs.push_back(Job{false, {0x1018, sub}, {}, true});
   n.jobs.push_back(Job{false, {0x1008, 0}, {}, true});
-  n.jobs.push_back(Job{false, {0x1017, 0}, {}, true});
+  n.jobs.push_back(Job{false, {0x1017, 0}, {}, true});  // a write may follow: ConfigureHeartbeat
+  if (config_.configure_pdo && config_.sync_counter_max >= 0) {
+    n.jobs.push_back(Job{true, {0x1019, 0}, {static_cast<std::uint8_t>(config_.sync_counter_max)}, true});
+  }
+  n.jobs.push_back(Job{false, {0x1019, 0}, {}, true});
   for (const MasterDevice& d : n.config.devices) {
     if (d.encoder) {
       n.jobs.push_back(Job{false, {0x6001, 0}, {}, true});
@@ -295,12 +313,18 @@ void CanopenMaster::OnSdoStep(NodeState& n, const SdoClient::Step& step, std::in
   if (step.status == Status::kFailed) {
     const SdoError& e = n.sdo.error();
     const bool absent = e.kind == SdoError::Kind::kAborted && (e.code == kAbortNoObject || e.code == kAbortNoSubindex);
-    if (!(job.optional && absent)) {
+    if (job.may_fail && e.kind == SdoError::Kind::kAborted) {
+      n.write_error = "writing " + Describe(job.object) + ": " + e.text;
+      Log(LogLevel::kWarning, n.Name() + ": " + n.write_error);
+    } else if (!(job.optional && absent)) {
       NodeFailed(n, std::string(job.write ? "writing " : "reading ") + Describe(job.object) + ": " + e.text);
       return;
     }
   } else if (!job.write) {
     n.values[Key(job.object)] = n.sdo.data();
+    if (job.object == ObjectAddress{0x1017, 0}) {
+      ConfigureHeartbeat(n, static_cast<std::uint16_t>(LittleEndianValue(n.sdo.data())));
+    }
     // The mapping's count says how many entries follow.
     if (job.object.index >= 0x1A00 && job.object.index < 0x1C00 && job.object.subindex == 0) {
       const std::uint64_t count = LittleEndianValue(n.sdo.data());
@@ -312,6 +336,18 @@ void CanopenMaster::OnSdoStep(NodeState& n, const SdoClient::Step& step, std::in
   }
   ++n.next_job;
   NextJob(n, now_ns);
+}
+
+void CanopenMaster::ConfigureHeartbeat(NodeState& n, std::uint16_t found) {
+  if (n.hb_found) return;  // the read back after the master's write
+  n.hb_found = found;
+  if (!config_.nmt) return;  // another master configures the heartbeats it consumes
+  if (!n.first) n.hb_target = found != 0 ? found : config_.heartbeat_ms;
+  if (n.hb_target == 0 || found == n.hb_target) return;
+  using Job = NodeState::Job;
+  const auto at = n.jobs.begin() + static_cast<std::ptrdiff_t>(n.next_job + 1);
+  n.jobs.insert(
+      at, {Job{true, {0x1017, 0}, LittleEndianBytes(n.hb_target, 2), false, true}, Job{false, {0x1017, 0}, {}, true}});
 }
 
 std::vector<std::string> CanopenMaster::Check(const NodeState& n, std::vector<std::string>* warnings) const {
@@ -379,6 +415,25 @@ std::vector<std::string> CanopenMaster::Check(const NodeState& n, std::vector<st
       }
     }
   }
+  if (config_.sync_counter_max >= 0) {
+    const auto v = n.U32({0x1019, 0});
+    if (v && *v != static_cast<std::uint32_t>(config_.sync_counter_max)) {
+      problems.push_back("object 0x1019:00 (synchronous counter overflow value): the device has " + std::to_string(*v) +
+                         ", " + config_.sync_counter_name + " " + std::to_string(config_.sync_counter_max) +
+                         " (a node that expects another SYNC refuses every SYNC: EMCY 0x8240, pre-operational)");
+    }
+  }
+  if (config_.nmt && n.U32({0x1017, 0}).value_or(0) == 0) {
+    std::string why =
+        "its NMT state cannot be confirmed: object 0x1017:00 (producer heartbeat time) is 0, it sends no "
+        "heartbeat";
+    if (!n.write_error.empty()) {
+      why += " (" + n.write_error + ")";
+    } else if (n.hb_target == 0) {
+      why += " (" + config_.heartbeat_name + " is 0: none written)";
+    }
+    problems.push_back(why);
+  }
   if (config_.trust_config && !problems.empty()) {
     if (warnings != nullptr) {
       for (const std::string& p : problems) warnings->push_back(n.Name() + ": " + p + " (trusted: acquiring anyway)");
@@ -395,18 +450,33 @@ void CanopenMaster::FinishSdo(NodeState& n, std::int64_t now_ns) {
   id.revision = n.U32({0x1018, 3});
   id.serial = n.U32({0x1018, 4});
   if (const auto* name = n.Value({0x1008, 0})) id.name = CleanString(*name);
-  if (const auto hb = n.U32({0x1017, 0})) id.heartbeat_ms = static_cast<std::uint16_t>(*hb);
+  id.heartbeat_ms = n.hb_found;
+  if (const auto v = n.U32({0x1019, 0})) id.sync_counter_max = static_cast<std::uint8_t>(*v);
+  n.hb_ms = static_cast<std::uint16_t>(n.U32({0x1017, 0}).value_or(0));
   for (const MasterDevice& d : n.config.devices) {
     if (d.encoder) id.resolution[d.role] = {n.U32({0x6001, 0}), n.U32({0x6002, 0})};
   }
   std::vector<std::string> warnings;
   std::vector<std::string> problems = Check(n, &warnings);
   for (const std::string& w : warnings) Log(LogLevel::kWarning, w);
+  if (config_.sync_counter_max > 0 && !n.U32({0x1019, 0})) {
+    Log(LogLevel::kWarning, n.Name() +
+                                ": the device has no object 0x1019:00 (synchronous counter overflow value): "
+                                "whether it takes SYNC with a counter is not known");
+  }
   if (n.first) {  // a restart: it must be the same device
     const auto differs = [](const std::optional<std::uint32_t>& a, const std::optional<std::uint32_t>& b) {
       return a && b && *a != *b;
     };
     const NodeIdentity& f = *n.first;
+    if (f.heartbeat_ms && id.heartbeat_ms && *f.heartbeat_ms != *id.heartbeat_ms) {
+      const std::string text = n.Name() + ": object 0x1017:00 (producer heartbeat time) is " +
+                               std::to_string(*id.heartbeat_ms) + " ms after its reboot, " +
+                               std::to_string(*f.heartbeat_ms) +
+                               " ms at the start: it may have lost its stored settings";
+      Log(LogLevel::kWarning, text);
+      if (cb_.note) cb_.note(text);
+    }
     if (differs(f.vendor_id, id.vendor_id) || differs(f.product_code, id.product_code) ||
         differs(f.serial, id.serial)) {
       problems.push_back("it came back as another device: vendor-id " + Hex32(id.vendor_id.value_or(0)) +
@@ -424,7 +494,7 @@ void CanopenMaster::FinishSdo(NodeState& n, std::int64_t now_ns) {
   }
   n.step = NodeState::Step::kReadyToStart;
   if (!config_.nmt) {
-    NodeRunning(n);
+    NodeRunning(n, true);
   } else if (phase_ != Phase::kStarting) {
     SendStart(n, now_ns);  // a restart mid-run; at the start every node waits for the others
   }
@@ -437,12 +507,14 @@ void CanopenMaster::SendStart(NodeState& n, std::int64_t now_ns) {
 }
 
 void CanopenMaster::AwaitOperational(NodeState& n, std::int64_t now_ns) {
-  const std::uint16_t hb = n.identity.heartbeat_ms.value_or(0);
-  if (hb == 0) {  // no heartbeat to confirm it: started by the command
-    NodeRunning(n);
+  // Without SDO its heartbeat is not known: the heartbeats of the operational timeout are waited for.
+  const std::uint16_t hb = config_.sdo ? n.hb_ms : 0;
+  if (config_.sdo && hb == 0) {  // trusted without a heartbeat: started, not confirmed
+    NodeRunning(n, false);
     return;
   }
   n.step = NodeState::Step::kAwaitOperational;
+  n.heartbeat_since_start = false;
   n.wait_ns = config_.operational_timeout_ns + 3 * std::int64_t{hb} * 1000000;
   n.deadline = now_ns + n.wait_ns;
 }
@@ -462,14 +534,19 @@ void CanopenMaster::NodeFailed(NodeState& n, const std::string& why) {
   if (cb_.note) cb_.note(text);
 }
 
-void CanopenMaster::NodeRunning(NodeState& n) {
+void CanopenMaster::NodeRunning(NodeState& n, bool confirmed) {
   n.step = NodeState::Step::kRunning;
   n.deadline = kNever;
+  n.confirmed = confirmed;
   if (!n.first && config_.sdo) n.first = n.identity;
+  if (!confirmed) {
+    ++counts_.unconfirmed;
+    Log(LogLevel::kWarning, n.Name() + ": started by NMT; no heartbeat confirms that it is operational");
+  }
   if (n.restarting) {
     n.restarting = false;
     ++counts_.restarts;
-    Log(LogLevel::kInfo, n.Name() + ": restarted, operational again");
+    Log(LogLevel::kInfo, n.Name() + (confirmed ? ": restarted, operational again" : ": restarted (not confirmed)"));
   }
 }
 
@@ -503,7 +580,17 @@ void CanopenMaster::UpdatePhase(std::int64_t now_ns) {
   }
   if (all_running) {
     phase_ = Phase::kRunning;
-    Log(LogLevel::kInfo, config_.nmt ? "every node is operational" : "every node is identified");
+    std::string unconfirmed;
+    for (const auto& n : nodes_) {
+      if (!n->confirmed) unconfirmed += (unconfirmed.empty() ? "" : ", ") + n->Name();
+    }
+    if (!config_.nmt) {
+      Log(LogLevel::kInfo, "every node is identified");
+    } else if (unconfirmed.empty()) {
+      Log(LogLevel::kInfo, "every node is operational (each heartbeat says so)");
+    } else {
+      Log(LogLevel::kWarning, "every node is started; not confirmed operational (no heartbeat): " + unconfirmed);
+    }
   }
 }
 
@@ -534,8 +621,9 @@ void CanopenMaster::OnFrame(const CanFrame& frame) {
             Advance(n, now);
           }
         }
-      } else if (n.step == Step::kAwaitOperational && hb->state == static_cast<std::uint8_t>(NmtState::kOperational)) {
-        NodeRunning(n);
+      } else if (n.step == Step::kAwaitOperational) {
+        n.heartbeat_since_start = true;
+        if (hb->state == static_cast<std::uint8_t>(NmtState::kOperational)) NodeRunning(n, true);
       }
       UpdatePhase(now);
       return;
@@ -560,6 +648,8 @@ void CanopenMaster::OnTime(std::int64_t now_ns) {
     if (now_ns < n.deadline) continue;
     if (n.step == Step::kAwaitBoot) {
       NodeFailed(n, "no boot-up message within " + Seconds(config_.boot_timeout_ns) + " after Reset communication");
+    } else if (n.step == Step::kAwaitOperational && !config_.sdo && !n.heartbeat_since_start) {
+      NodeRunning(n, false);  // no heartbeat at all: one it may not send at all
     } else if (n.step == Step::kAwaitOperational) {
       NodeFailed(n, "no heartbeat saying operational within " + Seconds(n.wait_ns) +
                         " after Start remote node (last state: " +

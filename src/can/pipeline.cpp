@@ -30,6 +30,8 @@ const char* DeviceName(int device) {
   }
 }
 
+const char* ToString(Mode mode) { return mode == Mode::kPoints ? "points" : "stream"; }
+
 const char* ToString(LogLevel level) {
   switch (level) {
     case LogLevel::kError:
@@ -104,13 +106,16 @@ AcquisitionPipeline::AcquisitionPipeline(const PipelineConfig& config, Callbacks
     nodes_.push_back(n);
   }
   if (config_.mode == Mode::kPoints) stops_.emplace(config_.standstill);
+  if (config_.sync_counter_max != 0) {
+    for (const int b : config_.sync_counter_byte) hold_ |= b >= 0;
+  }
 }
 
 void AcquisitionPipeline::Log(LogLevel level, const std::string& text) {
   if (cb_.log) cb_.log(level, text);
 }
 
-void AcquisitionPipeline::LogLimited(std::uint64_t count, LogLevel level, const std::string& text) {
+void AcquisitionPipeline::LogCounted(std::uint64_t count, LogLevel level, const std::string& text) {
   if (count <= 20) {
     Log(level, text + (count == 20 ? " (further ones: every 1000th is logged)" : ""));
   } else if (count % 1000 == 0) {
@@ -135,7 +140,7 @@ void AcquisitionPipeline::OnFrame(const CanFrame& frame) {
     } else {
       ++counts_.malformed_other;
       LogLimited(counts_.malformed_other, LogLevel::kWarning,
-                 "malformed SYNC at " + TimeText(frame.t_ns) + ": " + ToString(frame));
+                 [&] { return "malformed SYNC at " + TimeText(frame.t_ns) + ": " + ToString(frame); });
     }
   } else if (frame.id == config_.theta.field.can_id) {
     OnPdo(kTheta, frame);
@@ -149,15 +154,47 @@ void AcquisitionPipeline::OnFrame(const CanFrame& frame) {
   CheckHeartbeats(frame.t_ns);
 }
 
+double AcquisitionPipeline::PeriodS() const {
+  // Configured, else as observed between SYNCs that followed each other.
+  return config_.sync_period_s > 0.0 ? config_.sync_period_s : static_cast<double>(observed_period_ns_) * 1e-9;
+}
+
+std::optional<std::uint8_t> AcquisitionPipeline::UsableCounter(const CanFrame& frame, const SyncInfo& sync) {
+  const int max = config_.sync_counter_max;
+  if (max == 0) {
+    if (sync.counter && !counter_unconfigured_warned_) {
+      counter_unconfigured_warned_ = true;
+      Log(LogLevel::kWarning, "the SYNC at t_s " + TimeText(frame.t_ns) + " carries a counter (" +
+                                  std::to_string(*sync.counter) +
+                                  ") but no SYNC counter is configured: the SYNCs' counters are not used");
+    }
+    return std::nullopt;
+  }
+  if (sync.counter && *sync.counter >= 1 && *sync.counter <= max) return sync.counter;
+  ++counts_.sync_counter_errors;
+  LogLimited(counts_.sync_counter_errors, LogLevel::kWarning, [&] {
+    return "the SYNC at t_s " + TimeText(frame.t_ns) +
+           (sync.counter ? " carries counter " + std::to_string(*sync.counter) + ", outside 1.." + std::to_string(max) +
+                               " (the SYNC counter overflow value)"
+                         : " carries no counter (1.." + std::to_string(max) + " expected)") +
+           ": its cycle is placed by time";
+  });
+  return std::nullopt;
+}
+
+bool AcquisitionPipeline::Repeats(const CanFrame& frame, const SyncInfo& sync) const {
+  if (!have_sync_ || !sync.counter || !last_counter_ || *sync.counter != *last_counter_) return false;
+  const double period_s = PeriodS();
+  return !(period_s > 0.0) || static_cast<double>(frame.t_ns - last_sync_ns_) < 0.5e9 * period_s;
+}
+
 std::uint64_t AcquisitionPipeline::MissedBefore(const CanFrame& frame, const SyncInfo& sync) {
   if (!have_sync_) return 0;
   std::optional<std::uint64_t> by_counter, by_time;
   if (config_.sync_counter_max != 0 && sync.counter && last_counter_) {
     by_counter = static_cast<std::uint64_t>(MissedSyncs(*last_counter_, *sync.counter, config_.sync_counter_max));
   }
-  // The period: configured, else as observed between SYNCs that followed each other.
-  const double period_s =
-      config_.sync_period_s > 0.0 ? config_.sync_period_s : static_cast<double>(observed_period_ns_) * 1e-9;
+  const double period_s = PeriodS();
   const std::int64_t interval_ns = frame.t_ns - last_sync_ns_;
   if (period_s > 0.0) {
     const double gap = static_cast<double>(interval_ns) * 1e-9 / period_s;
@@ -172,10 +209,10 @@ std::uint64_t AcquisitionPipeline::MissedBefore(const CanFrame& frame, const Syn
     // NMT reset). A paused producer, whose counter did not move, is the other way round.
     if (missed > *by_time + 1) {
       ++counts_.counter_jumps;
-      LogLimited(counts_.counter_jumps, LogLevel::kWarning,
-                 "the SYNC counter went from " + std::to_string(*last_counter_) + " to " +
-                     std::to_string(*sync.counter) + " in " + TimeText(interval_ns) +
-                     " s: a restarted counter, not missed SYNCs");
+      LogLimited(counts_.counter_jumps, LogLevel::kWarning, [&] {
+        return "the SYNC counter went from " + std::to_string(*last_counter_) + " to " + std::to_string(*sync.counter) +
+               " in " + TimeText(interval_ns) + " s: a restarted counter, not missed SYNCs";
+      });
       missed = *by_time;
     }
   }
@@ -183,9 +220,29 @@ std::uint64_t AcquisitionPipeline::MissedBefore(const CanFrame& frame, const Syn
   return missed;
 }
 
-void AcquisitionPipeline::OnSync(const CanFrame& frame, const SyncInfo& sync) {
+void AcquisitionPipeline::OnSync(const CanFrame& frame, SyncInfo sync) {
   ++counts_.sync_frames;
-  Resolve(MissedBefore(frame, sync), frame.t_ns);
+  sync.counter = UsableCounter(frame, sync);
+  if (Repeats(frame, sync)) {
+    ++counts_.repeated_syncs;
+    LogLimited(counts_.repeated_syncs, LogLevel::kWarning, [&] {
+      return "the SYNC at t_s " + TimeText(frame.t_ns) + " repeats the counter " + std::to_string(*sync.counter) +
+             " of the SYNC " + TimeText(frame.t_ns - last_sync_ns_) + " s before: the same SYNC received " +
+             "twice, taken once";
+    });
+    return;
+  }
+  const std::uint64_t missed = MissedBefore(frame, sync);
+  if (hold_) {
+    ResolveHeld();
+    if (window_.open) {  // held until the next SYNC for its late PDOs
+      std::swap(held_, window_);
+      held_missed_ = missed;
+      held_next_ns_ = frame.t_ns;
+    }
+  } else {
+    Resolve(missed, frame.t_ns);
+  }
   have_sync_ = true;
   last_sync_ns_ = frame.t_ns;
   last_counter_ = sync.counter;
@@ -199,8 +256,9 @@ void AcquisitionPipeline::OnSync(const CanFrame& frame, const SyncInfo& sync) {
 void AcquisitionPipeline::OnPdo(int device, const CanFrame& frame) {
   if (!window_.open) {
     ++counts_.outside_cycle;
-    LogLimited(counts_.outside_cycle, LogLevel::kDebug,
-               std::string(DeviceName(device)) + " PDO before the first SYNC at " + TimeText(frame.t_ns));
+    LogLimited(counts_.outside_cycle, LogLevel::kDebug, [&] {
+      return std::string(DeviceName(device)) + " PDO before the first SYNC at " + TimeText(frame.t_ns);
+    });
     return;
   }
   const auto d = static_cast<std::size_t>(device);
@@ -208,23 +266,48 @@ void AcquisitionPipeline::OnPdo(int device, const CanFrame& frame) {
                                           : DecodePosition(device == kTheta ? config_.theta : config_.phi, frame);
   if (v.status == DecodeStatus::kShort) {
     ++counts_.malformed[d];
-    LogLimited(counts_.malformed[d], LogLevel::kWarning,
-               std::string("malformed ") + DeviceName(device) + " PDO at " + TimeText(frame.t_ns) + ": " +
-                   ToString(frame) + " (too short for the configured field)");
+    LogLimited(counts_.malformed[d], LogLevel::kWarning, [&] {
+      return std::string("malformed ") + DeviceName(device) + " PDO at " + TimeText(frame.t_ns) + ": " +
+             ToString(frame) + " (too short for the configured field)";
+    });
   } else if (v.status != DecodeStatus::kOk) {
     ++counts_.flagged[d];
-    LogLimited(counts_.flagged[d], LogLevel::kWarning,
-               std::string(DeviceName(device)) + " reports " + ToString(v.status) + " at " + TimeText(frame.t_ns) +
-                   " (raw " + std::to_string(v.raw) + ")");
+    LogLimited(counts_.flagged[d], LogLevel::kWarning, [&] {
+      return std::string(DeviceName(device)) + " reports " + ToString(v.status) + " at " + TimeText(frame.t_ns) +
+             " (raw " + std::to_string(v.raw) + ")";
+    });
   }
   Arrival a{v.status, v.value, frame.t_ns, -1};
   const int counter_byte = config_.sync_counter_byte[d];
   if (counter_byte >= 0 && frame.len > counter_byte) a.counter = frame.data[static_cast<std::size_t>(counter_byte)];
-  if (window_.pdos[d].size() >= kMaxPdosPerWindow) {
+  Window* w = &window_;
+  if (held_.open && a.counter >= 0 && held_.counter) {  // a late PDO of the window before?
+    const int m = config_.sync_counter_max;
+    const auto k = static_cast<std::uint64_t>(((a.counter - static_cast<int>(*held_.counter)) % m + m) % m);
+    if (k <= held_missed_) w = &held_;
+  }
+  if (w->pdos[d].size() >= kMaxPdosPerWindow) {
     ++counts_.unplaced;
     return;
   }
-  window_.pdos[d].push_back(a);
+  w->pdos[d].push_back(a);
+}
+
+void AcquisitionPipeline::ResolveHeld() {
+  if (!held_.open) return;
+  std::swap(window_, held_);  // the resolution works on window_
+  Resolve(held_missed_, held_next_ns_);
+  std::swap(window_, held_);
+}
+
+bool AcquisitionPipeline::Complete(const std::array<Slot, kNumDevices>& slots, const Window& window) {
+  for (std::size_t d = 0; d < kNumDevices; ++d) {
+    const Slot& s = slots[d];
+    if (s.count != 1 || s.lost || window.pdos[d][static_cast<std::size_t>(s.index)].status != DecodeStatus::kOk) {
+      return false;
+    }
+  }
+  return true;
 }
 
 std::string AcquisitionPipeline::Reason(const std::array<Slot, kNumDevices>& slots) const {
@@ -288,10 +371,11 @@ void AcquisitionPipeline::PlaceArrivals(std::uint64_t missed, double period, boo
         k = static_cast<std::uint64_t>(((a.counter - static_cast<int>(*window_.counter)) % m + m) % m);
         if (k > missed) {
           ++counts_.unplaced;
-          LogLimited(counts_.unplaced, LogLevel::kWarning,
-                     std::string(DeviceName(d)) + " PDO at " + TimeText(a.t_ns) + " answers SYNC counter " +
-                         std::to_string(a.counter) + ", not one of the window of counter " +
-                         std::to_string(*window_.counter) + " (not used)");
+          LogLimited(counts_.unplaced, LogLevel::kWarning, [&] {
+            return std::string(DeviceName(d)) + " PDO at " + TimeText(a.t_ns) + " answers SYNC counter " +
+                   std::to_string(a.counter) + ", not one of the window of counter " +
+                   std::to_string(*window_.counter) + " (not used)";
+          });
           continue;
         }
       } else if (missed > 0) {
@@ -318,9 +402,10 @@ void AcquisitionPipeline::CountDuplicates(const Cycles& cycles) {
       const Slot& s = cycles[k][static_cast<std::size_t>(d)];
       if (s.count < 2) continue;
       counts_.duplicates += static_cast<std::uint64_t>(s.count - 1);
-      LogLimited(counts_.duplicates, LogLevel::kWarning,
-                 std::to_string(s.count) + " " + DeviceName(d) + " PDOs in the SYNC cycle of t_s " +
-                     TimeText(window_.t_ns) + ": none is used (one may answer a SYNC that never arrived)");
+      LogLimited(counts_.duplicates, LogLevel::kWarning, [&] {
+        return std::to_string(s.count) + " " + DeviceName(d) + " PDOs in the SYNC cycle of t_s " +
+               TimeText(window_.t_ns) + ": none is used (one may answer a SYNC that never arrived)";
+      });
     }
   }
 }
@@ -328,8 +413,7 @@ void AcquisitionPipeline::CountDuplicates(const Cycles& cycles) {
 // The cycle of the SYNC received: a sample, or why not.
 void AcquisitionPipeline::ResolveReceived(const std::array<Slot, kNumDevices>& slots, bool last) {
   CloseGaps(slots, window_.t_ns);
-  const std::string why = Reason(slots);
-  if (why.empty()) {
+  if (Complete(slots, window_)) {
     EmitCycle(slots, window_.t_ns);
   } else if (last) {
     ++counts_.cut_by_stop;
@@ -342,7 +426,7 @@ void AcquisitionPipeline::ResolveReceived(const std::array<Slot, kNumDevices>& s
     for (int d = 0; d < kNumDevices; ++d) {
       if (slots[static_cast<std::size_t>(d)].count == 0) ++counts_.missing[static_cast<std::size_t>(d)];
     }
-    NoteIncomplete(why, window_.t_ns);
+    NoteIncomplete(Reason(slots), window_.t_ns);
   }
 }
 
@@ -355,8 +439,7 @@ void AcquisitionPipeline::ResolveMissed(const Cycles& cycles, std::uint64_t miss
   std::uint64_t recovered = 0, with_pdos = 0;
   std::string first_reason;
   for (std::size_t k = 1; k < cycles.size(); ++k) {
-    const std::string r = Reason(cycles[k]);
-    if (r.empty()) {
+    if (Complete(cycles[k], window_)) {
       ++recovered;
       continue;
     }
@@ -364,7 +447,7 @@ void AcquisitionPipeline::ResolveMissed(const Cycles& cycles, std::uint64_t miss
     for (const Slot& s : cycles[k]) any |= s.count > 0;
     if (any) {
       ++with_pdos;
-      if (first_reason.empty()) first_reason = r;
+      if (first_reason.empty()) first_reason = Reason(cycles[k]);
     }
   }
   FlushIncomplete();
@@ -380,14 +463,14 @@ void AcquisitionPipeline::ResolveMissed(const Cycles& cycles, std::uint64_t miss
   for (std::size_t k = 1; k < cycles.size(); ++k) {
     const auto t = window_.t_ns + static_cast<std::int64_t>(std::llround(period * static_cast<double>(k)));
     CloseGaps(cycles[k], t);
-    if (Reason(cycles[k]).empty()) EmitCycle(cycles[k], t);
+    if (Complete(cycles[k], window_)) EmitCycle(cycles[k], t);
   }
 }
 
 void AcquisitionPipeline::Resolve(std::uint64_t missed, std::int64_t next_ns, bool last) {
   if (!window_.open) return;
   window_.open = false;
-  ++counts_.cycles;
+  counts_.cycles += 1 + missed;
   const std::uint64_t spans = std::min<std::uint64_t>(missed, kMaxRecovered) + 1;
   const double period = static_cast<double>(next_ns - window_.t_ns) / static_cast<double>(missed + 1);
   const bool placeable = config_.sync_period_s > 0.0 || (config_.sync_counter_max != 0 && window_.counter);
@@ -417,7 +500,7 @@ void AcquisitionPipeline::EmitCycle(const std::array<Slot, kNumDevices>& slots, 
     if (cb_.sample) cb_.sample(s);
     return;
   }
-  if (const auto p = stops_->Add(s)) EmitPoint(*p);
+  if (const auto p = stops_->Add(s, t_ns)) EmitPoint(*p);
   counts_.short_stops = static_cast<std::uint64_t>(stops_->short_stops());
 }
 
@@ -461,10 +544,11 @@ void AcquisitionPipeline::OnRxOverflow(std::uint64_t drops, std::int64_t now_ns)
 
 void AcquisitionPipeline::OnMalformedInput(const std::string& what) {
   ++counts_.malformed_other;
-  LogLimited(counts_.malformed_other, LogLevel::kWarning, "malformed input: " + what);
+  LogLimited(counts_.malformed_other, LogLevel::kWarning, [&] { return "malformed input: " + what; });
 }
 
 void AcquisitionPipeline::OnLinkEvent(const std::string& what, std::int64_t now_ns) {
+  ResolveHeld();
   Resolve(0, now_ns, false);
   FlushIncomplete();
   have_sync_ = false;  // the gap while the link was down is noted here, not as missed SYNCs
@@ -472,6 +556,7 @@ void AcquisitionPipeline::OnLinkEvent(const std::string& what, std::int64_t now_
 }
 
 void AcquisitionPipeline::Finish() {
+  ResolveHeld();
   Resolve(0, window_.t_ns, true);
   FlushIncomplete();
   if (stops_) {

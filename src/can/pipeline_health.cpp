@@ -26,7 +26,7 @@ bool AcquisitionPipeline::OnHealthFrame(const CanFrame& frame) {
       Log(LogLevel::kError, "error frame: " + err->text + " (the controller stopped sending and receiving)");
       Note("bus off reported by an error frame at t_s " + std::to_string(frame.TimeS()));
     } else {
-      LogLimited(counts_.error_frames, LogLevel::kWarning, "error frame: " + err->text);
+      LogLimited(counts_.error_frames, LogLevel::kWarning, [&] { return "error frame: " + err->text; });
     }
     return true;
   }
@@ -37,9 +37,9 @@ bool AcquisitionPipeline::OnHealthFrame(const CanFrame& frame) {
       const auto hb = DecodeHeartbeat(frame);
       if (!hb) {
         ++counts_.malformed_other;
-        LogLimited(
-            counts_.malformed_other, LogLevel::kWarning,
-            "malformed heartbeat of node " + std::to_string(n.node_id) + " (" + n.name + "): " + ToString(frame));
+        LogLimited(counts_.malformed_other, LogLevel::kWarning, [&] {
+          return "malformed heartbeat of node " + std::to_string(n.node_id) + " (" + n.name + "): " + ToString(frame);
+        });
         return true;
       }
       if (n.lost) {
@@ -64,8 +64,9 @@ bool AcquisitionPipeline::OnHealthFrame(const CanFrame& frame) {
       const auto e = DecodeEmergency(frame);
       if (!e) {
         ++counts_.malformed_other;
-        LogLimited(counts_.malformed_other, LogLevel::kWarning,
-                   "malformed EMCY of node " + std::to_string(n.node_id) + " (" + n.name + "): " + ToString(frame));
+        LogLimited(counts_.malformed_other, LogLevel::kWarning, [&] {
+          return "malformed EMCY of node " + std::to_string(n.node_id) + " (" + n.name + "): " + ToString(frame);
+        });
         return true;
       }
       ++counts_.emergencies;
@@ -124,7 +125,8 @@ std::string FormatCounts(const PipelineCounts& c, Mode mode) {
   s += "\nlost: incomplete cycles " + u(c.incomplete_cycles) + ", missed SYNC " + u(c.missed_syncs) +
        ", kernel drops (rx overflow) " + u(c.rx_overflow_drops) + "; recovered cycles of missed SYNC " +
        u(c.recovered) + "; last cycle cut by the end " + u(c.cut_by_stop) + "; SYNC counter restarts " +
-       u(c.counter_jumps);
+       u(c.counter_jumps) + ", SYNC received twice " + u(c.repeated_syncs) + ", SYNC counters not usable " +
+       u(c.sync_counter_errors);
   s += "\nper device (missing/flagged/malformed): theta " + u(c.missing[kTheta]) + "/" + u(c.flagged[kTheta]) + "/" +
        u(c.malformed[kTheta]) + ", phi " + u(c.missing[kPhi]) + "/" + u(c.flagged[kPhi]) + "/" + u(c.malformed[kPhi]) +
        ", probe " + u(c.missing[kProbe]) + "/" + u(c.flagged[kProbe]) + "/" + u(c.malformed[kProbe]);

@@ -14,22 +14,25 @@ double AngleDiffDeg(double a, double b) {
 
 }  // namespace
 
-std::optional<StopPoint> StandstillDetector::Add(const Sample& s) {
+std::optional<StopPoint> StandstillDetector::Add(const Sample& s, std::int64_t t_ns) {
   std::optional<StopPoint> out;
   if (anchor_ && (std::abs(AngleDiffDeg(s.theta_deg, anchor_->theta_deg)) > config_.tolerance_deg ||
                   std::abs(s.phi_deg - anchor_->phi_deg) > config_.tolerance_deg)) {
     out = Close();  // the axes moved: this stop is over, the sample may start the next one
     anchor_.reset();
   }
-  if (!anchor_) anchor_ = s;
-  if (done_ || s.t_s - anchor_->t_s < config_.dwell_s) return out;
-  if (r_.n == 0) t_first_ = s.t_s;
-  t_last_ = s.t_s;
+  if (!anchor_) {
+    anchor_ = s;
+    anchor_ns_ = t_ns;
+  }
+  if (done_ || t_ns - anchor_ns_ < std::llround(config_.dwell_s * 1e9)) return out;
+  if (r_.n == 0) first_ns_ = t_ns;
+  last_ns_ = t_ns;
   d_theta_.Add(AngleDiffDeg(s.theta_deg, anchor_->theta_deg));
   d_phi_.Add(s.phi_deg - anchor_->phi_deg);
   r_.Add(s.r_mm);
-  t_.Add(s.t_s);
-  if (!out && config_.average_s > 0.0 && t_last_ - t_first_ >= config_.average_s) {
+  dt_.Add(static_cast<double>(t_ns - anchor_ns_) * 1e-9);
+  if (!out && config_.average_s > 0.0 && last_ns_ - first_ns_ >= std::llround(config_.average_s * 1e9)) {
     out = Close();
     done_ = true;  // ignore the rest of this stop
   }
@@ -56,17 +59,17 @@ std::optional<StopPoint> StandstillDetector::Close() {
       }
       p.mean.phi_deg = anchor_->phi_deg + d_phi_.mean;
       p.mean.r_mm = r_.mean;
-      p.mean.t_s = t_.mean;
+      p.mean.t_s = anchor_->t_s + dt_.mean;
       p.sd_theta_deg = d_theta_.Sd();
       p.sd_phi_deg = d_phi_.Sd();
       p.sd_r_mm = r_.Sd();
-      p.duration_s = t_last_ - t_first_;
+      p.duration_s = static_cast<double>(last_ns_ - first_ns_) * 1e-9;
       out = p;
     } else {
       ++short_stops_;
     }
   }
-  d_theta_ = d_phi_ = r_ = t_ = Running{};
+  d_theta_ = d_phi_ = r_ = dt_ = Running{};
   done_ = false;
   return out;
 }

@@ -200,8 +200,8 @@ struct OutputFiles::Staged {
   ~Staged() { RemoveTemp(); }
 };
 
-OutputFiles::OutputFiles(std::ostream& standard_output) : standard_output_(standard_output) {}
-OutputFiles::OutputFiles() : OutputFiles(std::cout) {}
+OutputFiles::OutputFiles(std::ostream& standard_output) : standard_output_(standard_output), run_output_(true) {}
+OutputFiles::OutputFiles() : standard_output_(std::cout), run_output_(false) {}
 OutputFiles::~OutputFiles() = default;
 
 namespace {
@@ -298,22 +298,31 @@ std::string OutputFiles::StagedName(const std::string& path) const {
 }
 
 void OutputFiles::Commit() {
-  // The writes that can fail first, while every regular file is still untouched.
+  // The writes that can fail first, while every regular file is still untouched: standard
+  // output, all the run wrote to it, ...
+  bool to_standard_output = run_output_;
   for (auto& s : staged_) {
-    if (s->kind == Staged::kStdout) {
-      standard_output_.write(s->content.data(), static_cast<std::streamsize>(s->content.size()));
-      standard_output_.flush();
-      const std::string why = &standard_output_ == &std::cout ? FlushStandardOutput() : "";
-      if (!why.empty() || !standard_output_) {
-        throw Error("cannot write to standard output: " + (why.empty() ? std::string("write error") : why));
-      }
-    } else if (s->kind == Staged::kDirect) {
+    if (s->kind != Staged::kStdout) continue;
+    standard_output_.write(s->content.data(), static_cast<std::streamsize>(s->content.size()));
+    to_standard_output = true;
+  }
+  if (to_standard_output) {
+    standard_output_.flush();
+    const std::string why = &standard_output_ == &std::cout ? FlushStandardOutput() : "";
+    if (!why.empty() || !standard_output_) {
+      throw Error("cannot write to standard output: " + (why.empty() ? std::string("write error") : why));
+    }
+  }
+  // ... the FIFOs and character devices, ...
+  for (auto& s : staged_) {
+    if (s->kind == Staged::kDirect) {
       const int fd = ::open(s->target.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
       int err = fd < 0 ? errno : WriteAll(fd, s->content.data(), s->content.size());
       if (fd >= 0 && ::close(fd) != 0 && err == 0) err = errno;
       if (err != 0) throw Error(s->path + ": cannot write: " + ErrnoText(err));
     }
   }
+  // ... and only then the renames.
   for (auto& s : staged_) {
     if (s->kind != Staged::kRename) continue;
     if (std::rename(s->tmp.c_str(), s->target.c_str()) != 0) {
@@ -324,6 +333,10 @@ void OutputFiles::Commit() {
     s->tmp.clear();
   }
   staged_.clear();
+}
+
+bool SameFile(const std::string& a, const std::string& b) {
+  return SameFile(*Identify("", a, false), *Identify("", b, false));
 }
 
 void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write) {

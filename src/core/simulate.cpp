@@ -4,7 +4,9 @@
 #include <array>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -410,24 +412,105 @@ std::optional<double> ProbeReading(const ScmsGeometry& g, double theta_rad, doub
   return TrueProbeDistance(g, SimulatedEffects{}, theta_rad, phi_rad, probe_offset_mm, center_mm, sphere_radius_mm);
 }
 
-double ProbeReadingOfDistance(const SimulatedEffects& e, double distance_mm, double t_s, double sin2_incidence) {
+namespace {
+
+// The probe's reading error that depends on the reading, gain(u) + nonlinearity(u) = sum_k c[k] u^k
+// (powers 1 to 3, the library's probe terms), and how the distance it reports moves with the reading.
+struct ProbeResponse {
+  std::array<double, 4> c{};  // c[k]: the coefficient of u^k [mm]
+  bool none = true;           // no gain nor nonlinearity: the reading is the distance less the offsets
+
+  explicit ProbeResponse(const SimulatedEffects& e) {
+    for (std::size_t i = 0; i < e.model.terms.size(); ++i) {
+      const EffectTerm& term = e.model.terms[i];
+      if (term.effect != Effect::kProbeGain && term.effect != Effect::kProbeNonlinearity) continue;
+      for (std::size_t j = 0; j < term.components.size(); ++j) {
+        const int k = term.components[j].order;
+        if (k < 1 || k > 3)
+          throw Error("simulation: a probe term of power " + std::to_string(k) + " (1 to 3 are known)");
+        c[static_cast<std::size_t>(k)] += e.values[i][j];
+        none = false;
+      }
+    }
+  }
+  double ErrorAt(double u) const { return ((c[3] * u + c[2]) * u + c[1]) * u; }
+  double Slope(double u) const { return (3.0 * c[3] * u + 2.0 * c[2]) * u + c[1]; }  // d Error / du
+  // The least of d(distance)/d(reading) = 1 + Slope(u) / r_half over u in [-1, 1] (a quadratic in u:
+  // its ends and its vertex), and where it is.
+  double LeastGain(double r_half_mm, double* at_u) const {
+    std::vector<double> us{-1.0, 1.0};
+    if (c[3] != 0.0 && std::abs(c[2] / (3.0 * c[3])) < 1.0) us.push_back(-c[2] / (3.0 * c[3]));
+    double least = std::numeric_limits<double>::infinity();
+    for (double u : us) {
+      const double g = 1.0 + Slope(u) / r_half_mm;
+      if (g < least) least = g, *at_u = u;
+    }
+    return least;
+  }
+};
+
+// The probe's terms that make its response, "probe_gain.u1 -600 um, probe_nonlinearity.u3 20 um".
+std::string ResponseTerms(const ProbeResponse& p) {
+  std::string out;
+  for (std::size_t k = 1; k <= 3; ++k) {
+    if (p.c[k] == 0.0) continue;
+    out += (out.empty() ? "" : ", ") + std::string(k == 1 ? "probe_gain.u1" : "probe_nonlinearity.u") +
+           (k == 1 ? "" : std::to_string(k)) + internal::Format(" %.6g um", p.c[k] * kUmPerMm);
+  }
+  return out;
+}
+
+// Throws unless the response of the probe of reference `ref` rises with the reading over the
+// readings r_ref -+ r_half (`range`: what they are, for the message): else one distance has two
+// readings there, and a reading would not tell the distance.
+void CheckProbeResponseRises(const ProbeResponse& p, const EffectReference& ref, const std::string& range) {
+  double u = 0.0;
+  const double least = p.LeastGain(ref.r_half_range_mm, &u);
+  if (least > 0.0) return;
+  throw Error(
+      internal::Format("simulation: with %s, the distance the probe reports does not rise with its reading "
+                       "over %s: d(distance)/d(reading) is %.3g at r = %.6g mm, so one distance has several "
+                       "readings; a probe's response rises over its range",
+                       ResponseTerms(p).c_str(), range.c_str(), least, ref.r_ref_mm + u * ref.r_half_range_mm));
+}
+
+// The distance [mm] that the reading r_mm reports with the response p (without the offsets).
+double ReportedDistance(const ProbeResponse& p, const EffectReference& ref, double r_mm) {
+  return r_mm + p.ErrorAt((r_mm - ref.r_ref_mm) / ref.r_half_range_mm);
+}
+
+}  // namespace
+
+std::optional<double> ProbeReadingOfDistance(const SimulatedEffects& e, double distance_mm, double t_s,
+                                             double sin2_incidence) {
   const EffectReference& ref = e.model.reference;
   const double tau = (t_s - ref.t_start_s) / ref.t_span_s;
   // The errors that do not depend on the reading: the drift at t and the error at this incidence.
-  const double drift =
+  const double offsets =
       EffectValue(e, Effect::kProbeDrift, 0, tau) + EffectValue(e, Effect::kProbeIncidence, 0, sin2_incidence);
-  // r + error(r) = distance, error(r) = gain + nonlinearity in u(r) + drift: a contraction (the
-  // errors change by far less than r does), so fixed-point iteration converges in a few steps.
-  double r = distance_mm;
-  for (int it = 0; it < 100; ++it) {
-    const double u = (r - ref.r_ref_mm) / ref.r_half_range_mm;
-    const double next = distance_mm - drift - EffectValue(e, Effect::kProbeGain, 0, u) -
-                        EffectValue(e, Effect::kProbeNonlinearity, 0, u);
-    const bool settled = next == r;
-    r = next;
-    if (settled) break;
+  const double target = distance_mm - offsets;  // what the reading and its own error add up to
+  const ProbeResponse p(e);
+  double lo = ref.r_ref_mm - ref.r_half_range_mm, hi = ref.r_ref_mm + ref.r_half_range_mm;
+  const double tolerance = 8.0 * std::numeric_limits<double>::epsilon() * std::max({1.0, std::abs(lo), std::abs(hi)});
+  const double f_lo = ReportedDistance(p, ref, lo) - target, f_hi = ReportedDistance(p, ref, hi) - target;
+  if (!(f_lo <= tolerance && f_hi >= -tolerance)) return std::nullopt;  // beyond the range, or not finite
+  if (p.none) return target;
+  CheckProbeResponseRises(p, ref, internal::Format("the readings %.6g to %.6g mm", lo, hi));
+  if (f_lo >= 0.0) return lo;
+  if (f_hi <= 0.0) return hi;
+  // r + ErrorAt(u(r)) rises with r over the range: the reading is its one root there, bracketed by
+  // the range's ends, found by Newton's method kept inside the bracket by bisection, to a few units
+  // in the last place.
+  double r = std::clamp(target, lo, hi);
+  for (int it = 0; it < 200; ++it) {
+    const double f = ReportedDistance(p, ref, r) - target;
+    if (std::abs(f) <= tolerance) return r;
+    (f < 0.0 ? lo : hi) = r;
+    const double next = r - f / (1.0 + p.Slope((r - ref.r_ref_mm) / ref.r_half_range_mm) / ref.r_half_range_mm);
+    r = next > lo && next < hi ? next : 0.5 * (lo + hi);
+    if (!(hi - lo > tolerance)) return r;
   }
-  return r;
+  throw Error(internal::Format("simulation: the probe reading of the distance %.9g mm did not converge", distance_mm));
 }
 
 namespace {
@@ -543,12 +626,27 @@ void AppendSetupDistances(const SimulationSpec& spec, std::size_t k, PointsData&
   }
 }
 
-// Sets each reading in `samples` to the probe's reading of the distance in `distances` under `effects`.
+// Sets each reading in `samples` to the probe's reading of the distance in `distances` under
+// `effects`; throws, naming the first and counting them, when distances lie beyond what the probe
+// reads over its reference's range (`range`: what that range is, in words).
 void ReadDistances(const SimulatedEffects& effects, const std::vector<Sample>& distances,
-                   const std::vector<double>& sin2_incidence, std::vector<Sample>& samples) {
+                   const std::vector<double>& sin2_incidence, const std::string& range, std::vector<Sample>& samples) {
+  std::size_t beyond = 0, first = 0;
   for (std::size_t i = 0; i < distances.size(); ++i) {
-    samples[i].r_mm = ProbeReadingOfDistance(effects, distances[i].r_mm, distances[i].t_s, sin2_incidence[i]);
+    const std::optional<double> r =
+        ProbeReadingOfDistance(effects, distances[i].r_mm, distances[i].t_s, sin2_incidence[i]);
+    if (r) {
+      samples[i].r_mm = *r;
+    } else if (beyond++ == 0) {
+      first = i;
+    }
   }
+  if (beyond == 0) return;
+  const Sample& s = distances[first];
+  throw Error(
+      internal::Format("simulation: %zu of %zu distances (the first: %.6g mm at theta %g deg, phi %g deg, "
+                       "setup %d) lie beyond what the probe reads over %s: its readings would lie outside it",
+                       beyond, distances.size(), s.r_mm, s.theta_deg, s.phi_deg, s.setup, range.c_str()));
 }
 
 // The readings with the probe's errors normalised by its range `probe_range_mm`; the reference's fit
@@ -557,46 +655,88 @@ void ReadWithProbeRange(double probe_range_mm, const std::vector<Sample>& distan
                         const std::vector<double>& sin2_incidence, SimulatedEffects& effects,
                         std::vector<Sample>& samples) {
   effects.model.reference = WithProbeRange(effects.model.reference, probe_range_mm);
-  ReadDistances(effects, distances, sin2_incidence, samples);
+  const std::string range = internal::Format("its range 0 to %g mm (probe_range_mm)", probe_range_mm);
+  CheckProbeResponseRises(ProbeResponse(effects), effects.model.reference, range);
+  ReadDistances(effects, distances, sin2_incidence, range, samples);
   // The data's span as a calibration records it; the normalisation stays the probe's.
   const EffectReference of_readings = EffectReferenceOf(samples);
   effects.model.reference.r_fit_min_mm = of_readings.r_fit_min_mm;
   effects.model.reference.r_fit_max_mm = of_readings.r_fit_max_mm;
 }
 
-// The readings with the probe's errors normalised by the readings themselves: the reference and the
-// readings iterated to their common fixed point.
-void ReadToFixedPoint(const std::vector<Sample>& distances, const std::vector<double>& sin2_incidence,
-                      SimulatedEffects& effects, std::vector<Sample>& samples) {
-  for (int it = 0; it < 20; ++it) {
-    ReadDistances(effects, distances, sin2_incidence, samples);
-    const EffectReference next = EffectReferenceOf(samples);
-    const bool settled = next.r_ref_mm == effects.model.reference.r_ref_mm &&
-                         next.r_half_range_mm == effects.model.reference.r_half_range_mm;
-    effects.model.reference = next;
-    if (settled) break;
+// The readings with the probe's errors normalised by the readings themselves. Where the response
+// rises, the least and the greatest reading are those of the least and greatest y = distance -
+// drift - incidence, at u = -1 and +1: y_lo = r_ref - r_half + E(-1), y_hi = r_ref + r_half + E(1),
+// with E the reading's own error, which gives the reference; each reading is then solved on it.
+void ReadOwnRange(const std::vector<Sample>& distances, const std::vector<double>& sin2_incidence,
+                  SimulatedEffects& effects, std::vector<Sample>& samples) {
+  EffectReference& ref = effects.model.reference;  // its times are the distances', which the readings keep
+  double y_lo = std::numeric_limits<double>::infinity(), y_hi = -y_lo;
+  for (std::size_t i = 0; i < distances.size(); ++i) {
+    const double tau = (distances[i].t_s - ref.t_start_s) / ref.t_span_s;
+    const double y = distances[i].r_mm - EffectValue(effects, Effect::kProbeDrift, 0, tau) -
+                     EffectValue(effects, Effect::kProbeIncidence, 0, sin2_incidence[i]);
+    y_lo = std::min(y_lo, y);
+    y_hi = std::max(y_hi, y);
   }
+  const ProbeResponse p(effects);
+  if (y_hi > y_lo) {
+    const double e_hi = p.ErrorAt(1.0), e_lo = p.ErrorAt(-1.0);
+    ref.r_half_range_mm = 0.5 * ((y_hi - y_lo) - (e_hi - e_lo));
+    ref.r_ref_mm = 0.5 * ((y_hi + y_lo) - (e_hi + e_lo));
+    if (!(ref.r_half_range_mm > 0.0)) {
+      throw Error(internal::Format(
+          "simulation: %s at the ends of the readings exceed half the span of the distances the probe reads "
+          "(%.6g mm): no readings normalised by their own range report these distances; state the probe's range "
+          "(probe_range_mm)",
+          ResponseTerms(p).c_str(), 0.5 * (y_hi - y_lo)));
+    }
+  } else {  // one distance: every reading is it (u = 0), the reference EffectReferenceOf()'s
+    ref.r_ref_mm = y_lo;
+    ref.r_half_range_mm = 1.0;
+  }
+  const std::string range = "the readings' own range";
+  if (y_hi > y_lo) CheckProbeResponseRises(p, ref, range);
+  ReadDistances(effects, distances, sin2_incidence, range, samples);
+  const EffectReference of_readings = EffectReferenceOf(samples);
+  constexpr double kRelative = 1e-9;  // the readings span the range they were solved on
+  if (!(std::abs(of_readings.r_half_range_mm - ref.r_half_range_mm) <= kRelative * ref.r_half_range_mm &&
+        std::abs(of_readings.r_ref_mm - ref.r_ref_mm) <= kRelative * std::max(1.0, std::abs(ref.r_ref_mm)))) {
+    throw Error(
+        internal::Format("simulation: the readings span %.12g to %.12g mm, not the %.12g -+ %.12g mm they "
+                         "were solved on",
+                         of_readings.FitMin(), of_readings.FitMax(), ref.r_ref_mm, ref.r_half_range_mm));
+  }
+  ref = of_readings;  // what a calibration computes from these readings
 }
 
 // Turns the exact distances in `data` into the probe's readings of them; returns the reference that
 // normalises the probe's errors.
 EffectReference ApplyProbeErrors(const SimulationSpec& spec, const std::vector<double>& sin2_incidence,
                                  PointsData& data) {
-  // The probe's own errors act on the reading, normalised by the range and run of the readings
-  // themselves, as a calibration normalises them: the reference and the readings are iterated to
-  // their common fixed point (the errors are tiny against the range, so two or three steps do).
+  // The probe's own errors act on the reading, normalised by the probe's range or by the range and
+  // run of the readings themselves, as a calibration normalises them.
   SimulatedEffects effects = spec.effects;
   const std::vector<Sample> distances = data.samples;
   effects.model.reference = EffectReferenceOf(distances);
   if (spec.probe_range_mm) {
     ReadWithProbeRange(*spec.probe_range_mm, distances, sin2_incidence, effects, data.samples);
   } else {
-    ReadToFixedPoint(distances, sin2_incidence, effects, data.samples);
+    ReadOwnRange(distances, sin2_incidence, effects, data.samples);
   }
   return effects.model.reference;
 }
 
 }  // namespace
+
+void CheckSimulationSetup(const SimulationSpec& spec) {
+  CheckSpec(spec);
+  CheckForm(spec.effects, spec.sphere_radius_mm);
+  CheckSetupOptions(spec);
+  PointsData data = EmptyPointsData(spec);
+  std::vector<double> sin2_incidence;
+  for (std::size_t k = 0; k < spec.centers_mm.size(); ++k) AppendSetupDistances(spec, k, data, sin2_incidence);
+}
 
 PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference) {
   CheckSpec(spec);

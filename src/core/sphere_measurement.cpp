@@ -83,6 +83,28 @@ Eigen::MatrixXd FactorOf(const Eigen::MatrixXd& c) {
 
 }  // namespace
 
+Eigen::Matrix3d CalibrationSphereRotation(const PointsHeader& header, int setup, const std::string& points_name) {
+  const std::string which = points_name + ": setup " + std::to_string(setup);
+  const auto other = header.sphere_radii_mm.find(setup);
+  if (other != header.sphere_radii_mm.end()) {
+    throw Error(which + " measured another sphere (" + SphereRadiusKey(setup) + ": " + Format("%g", other->second) +
+                " mm), not the calibration sphere whose form the calibration file holds: its form cannot be taken "
+                "off these points");
+  }
+  const auto it = header.mount_rotations.find(setup);
+  if (it == header.mount_rotations.end()) return Eigen::Matrix3d::Identity();
+  if (!it->second.known()) {
+    throw Error(points_name + ": the mount rotation of setup " + std::to_string(setup) +
+                " is unknown: the sphere's form cannot be taken off in an orientation nobody measured");
+  }
+  const Eigen::Matrix3d r = MountRotationMatrix(*it->second.rotation_deg);
+  if (!r.allFinite()) {
+    throw Error(which + ": " + MountRotationKey(setup) + " " + MountRotationValue(it->second) +
+                " gives no rotation (its sines and cosines are not finite numbers)");
+  }
+  return r;
+}
+
 void SubtractForm(const FormCorrection& form, const double* values_mm, std::vector<Eigen::Vector3d>& points_mm) {
   for (Eigen::Vector3d& p : points_mm) {
     const Eigen::Vector3d offset = p - form.center_mm;
@@ -239,6 +261,20 @@ gum::MonteCarloResult CheckByMonteCarlo(MeasuredResult which, const std::vector<
   return gum::PropagateDistributions(model, inputs, options);
 }
 
+namespace {
+
+// Why points within reach determine no sphere, in words: they are one point, or lie on one plane
+// or line.
+std::string WhyNoSphere(const std::vector<Eigen::Vector3d>& points_mm) {
+  for (const Eigen::Vector3d& p : points_mm) {
+    if (p != points_mm[0]) return "the points determine no sphere (they lie on one plane or line)";
+  }
+  return "the " + std::to_string(points_mm.size()) + " points are all one point (" +
+         Format("%.17g %.17g %.17g", points_mm[0].x(), points_mm[0].y(), points_mm[0].z()) + " mm)";
+}
+
+}  // namespace
+
 SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, const std::string& source,
                                 const SphereEvaluationOptions& options) {
   SphereEvaluation ev;
@@ -247,10 +283,18 @@ SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, c
     throw Error(source + ": " + std::to_string(points_mm.size()) +
                 " points are too few to determine a sphere (at least 4)");
   }
-  ev.ls = FitSphereLeastSquares(points_mm);
-  if (!ev.ls.sphere.ok) {
-    throw Error(source + ": the points determine no sphere (they lie on one plane or line, or coincide)");
+  for (std::size_t i = 0; i < points_mm.size(); ++i) {
+    const Eigen::Vector3d& p = points_mm[i];
+    const std::string which = source + ": point " + std::to_string(i + 1) + " of " + std::to_string(points_mm.size()) +
+                              " (" + Format("%g %g %g", p.x(), p.y(), p.z()) + " mm)";
+    if (!p.allFinite()) throw Error(which + " is not a finite point: no sphere is fitted through it");
+    if (!(p.lpNorm<Eigen::Infinity>() <= kMaxPointCoordinateMm)) {
+      throw Error(which + " lies beyond " + Format("%g", kMaxPointCoordinateMm) +
+                  " mm from the origin, which no measuring machine reaches: are the coordinates in mm?");
+    }
   }
+  ev.ls = FitSphereLeastSquares(points_mm);
+  if (!ev.ls.sphere.ok) throw Error(source + ": " + WhyNoSphere(points_mm));
   ev.residuals_mm = RadialResiduals(points_mm, ev.ls.sphere.center, ev.ls.sphere.radius);
   ev.sphericity_ls_mm = PeakToValley(ev.residuals_mm);
   ev.coverage = CoverageOf(points_mm, ev.ls.sphere.center);

@@ -1,4 +1,4 @@
-// The form evaluations of sph/sphere/sphere_form.hpp; the minimum zone's algorithm is described there.
+// The form evaluations of sph/sphere/sphere_form.hpp; the minimum zone's algorithm: docs/method/sphere-evaluation.md.
 #include "sph/sphere/sphere_form.hpp"
 
 #include <algorithm>

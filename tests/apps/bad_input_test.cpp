@@ -2,9 +2,12 @@
 // runs the real program in a folder of its own and checks the exit code, the message (naming
 // the option, or the file and line), that no solver log reaches the user, and that the folder
 // is byte for byte as before (device nodes still device nodes), apart from the outputs a
-// successful case makes.
+// successful case makes. A failed run replaces no file: a case whose standard output fails (a
+// full device, a pipe nobody reads) or whose plot fails finds its old output unchanged.
+#include <signal.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <map>
@@ -39,7 +42,59 @@ std::string ExampleWithR(int row, const std::string& r) {
   return out;
 }
 
+// The example's header and `rows` of its samples, every (288 / rows)-th.
+std::string ExampleSamples(int rows) {
+  std::istringstream in(Example());
+  std::string out, line;
+  int n = 0, kept = 0;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#' && (n++ % (288 / rows) != 0 || kept++ >= rows)) continue;
+    out += line + "\n";
+  }
+  return out;
+}
+
+// data/example/separation/points.txt (four orientations of the sphere) with every k-th sample.
+std::string SeparationEvery(int k) {
+  std::istringstream in(ReadWholeFile(SPH_SOURCE_DIR "/data/example/separation/points.txt"));
+  std::string out, line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#' && n++ % k != 0) continue;
+    out += line + "\n";
+  }
+  return out;
+}
+
+// The example with every t_s 5 s.
+std::string ExampleAtOneTime() {
+  std::istringstream in(Example());
+  std::string out, line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#') line = line.substr(0, line.find_last_of(' ')) + " 5";
+    out += line + "\n";
+  }
+  return out;
+}
+
 constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
+
+// Stand-ins for gnuplot: one that never finishes (what it starts must go with it), one that
+// ends well without drawing anything.
+constexpr const char* kHangingGnuplot = "#!/bin/sh\nsleep 30\n";
+constexpr const char* kIdleGnuplot = "#!/bin/sh\nexit 0\n";
+constexpr const char* kSeedRange = "--seed: must be an integer from 0 to 18446744073709551615, got ";
+// The example with `lines` added to its header (after its first three lines), or with its
+// probe_offset_mm replaced when `offset` is given.
+std::string ExampleWithHeader(const std::string& lines, const std::string& offset = "") {
+  std::string text = Example();
+  if (!offset.empty()) {
+    const std::string key = "# probe_offset_mm: 25\n";
+    text.replace(text.find(key), key.size(), "# probe_offset_mm: " + offset + "\n");
+  }
+  const std::size_t third = text.find('\n', text.find('\n', text.find('\n') + 1) + 1);
+  return text.insert(third + 1, lines);
+}
 
 class Matrix : public ::testing::TestWithParam<MatrixCase> {
  protected:
@@ -68,6 +123,7 @@ class Matrix : public ::testing::TestWithParam<MatrixCase> {
   void Check(const char* program) {
     const MatrixCase& c = GetParam();
     if (UsesDeviceNodes(c) && !nodes_) GTEST_SKIP() << "device nodes cannot be made here (needs CAP_MKNOD)";
+    if (UsesRealGnuplot(c) && !OnPath("gnuplot")) GTEST_SKIP() << "gnuplot is not installed";
     const ProgramResult r = RunMatrixCase(program, c, Folder(c));
     EXPECT_FALSE(HasSolverLog(r.out + r.err)) << r.err;
   }
@@ -117,6 +173,48 @@ std::vector<MatrixCase> CalibrateCases() {
        2,
        e + "x.txt:4: column r_mm: '4x" + std::string(38, '9') + "...' (1000002 characters)",
        {{"x.txt", h + "0 7.5 4x" + std::string(1000000, '9') + "\n"}}},
+      {"points_file_of_zeros", {"full"}, 2, e + "full:1: binary data (NUL byte): this is not a points file"},
+      {"line_without_end",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: the line is longer than 1048576 bytes: this is not a points file",
+       {{"x.txt", h + std::string(2 << 20, '9')}}},
+      {"mount_rotation_beyond_a_turn",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: mount_rotation_deg@0 rz: must be within [-360, 360] deg, got '1e308'",
+       {{"x.txt", h + "# mount_rotation_deg@0: 0 0 1e308\n0 7.5 4.8\n"}}},
+      {"setup_field_naming_no_setup",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: mount_rotation_deg@ names no setup: write 'mount_rotation_deg@<setup>: rx ry rz'",
+       {{"x.txt", h + "# mount_rotation_deg@: 0 0 90\n0 7.5 4.8\n"}}},
+      {"setup_field_after_its_rows",
+       {"x.txt"},
+       2,
+       e + "x.txt:295: mount_rotation_deg@0: setup 0 has rows before this line (the first at line 7): the mount "
+           "rotation of a setup applies to all of its rows and stands before the first of them",
+       {{"x.txt", Example() + "# mount_rotation_deg@0: 0 0 90\n"}}},
+      {"columns_line_after_rows",
+       {"x.txt"},
+       2,
+       e + "x.txt:5: a columns line after the first sample (line 4): the columns are named once, before the samples",
+       {{"x.txt", h + "0 7.5 4.8\n# columns: theta_deg phi_deg r_mm t_s\n15 7.5 4.8 1\n"}}},
+      {"time_beyond_bound",
+       {"x.txt"},
+       2,
+       e + "x.txt:6: column t_s: '1e308' is beyond 1e+12 s from 0: not a time of a measurement",
+       {{"x.txt", h + "# columns: theta_deg phi_deg r_mm t_s\n0 7.5 4.8 0\n15 7.5 4.8 1e308\n"}}},
+      {"reading_beyond_any_machine",
+       {"x.txt"},
+       2,
+       e + "x.txt:5: column r_mm: '1e150' is beyond 1e+06 mm from 0: not a probe reading in mm",
+       {{"x.txt", h + "0 7.5 4.8\n15 7.5 1e150\n"}}},
+      {"angle_beyond_any_encoder",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: column phi_deg: '-1e153' is beyond 1e+09 deg from 0: not an encoder's angle",
+       {{"x.txt", h + "0 -1e153 4.8\n"}}},
       {"setup_id_out_of_range",
        {"x.txt"},
        2,
@@ -135,8 +233,8 @@ std::vector<MatrixCase> CalibrateCases() {
       {"absurd_reading_named",
        {"x.txt", "--no-extend", "-q"},
        0,
-       "x.txt:107: r_mm 1e+10",
-       {{"x.txt", ExampleWithR(100, "1e10")}}},
+       "x.txt:107: r_mm 100000",
+       {{"x.txt", ExampleWithR(100, "1e5")}}},
       {"huge_constant_readings_no_solver_log",
        {"x.txt", "-q"},
        1,
@@ -145,7 +243,7 @@ std::vector<MatrixCase> CalibrateCases() {
          [] {
            std::string t = kHeader;
            for (int i = 0; i < 288; ++i)
-             t += std::to_string(15 * (i % 24)) + " " + std::to_string(7.5 + 15 * (i / 24)) + " 1e9\n";
+             t += std::to_string(15 * (i % 24)) + " " + std::to_string(7.5 + 15 * (i / 24)) + " 1e6\n";
            return t;
          }()}}},
       {"radius_option_too_large",
@@ -278,6 +376,115 @@ std::vector<MatrixCase> CalibrateCases() {
         "cauchy", "--robust-scale-sigma", "3"},
        0,
        ""},
+      {"stdout_full_keeps_the_calibration",
+       {"P.txt", "--no-extend", "-o", "c.json"},
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"c.json", "yesterday\n"}},
+       {},
+       "full"},
+      {"stdout_closed_keeps_the_calibration",
+       {"P.txt", "--no-extend", "-o", "c.json"},
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"c.json", "yesterday\n"}},
+       {},
+       kClosedPipe},
+      {"plot_hangs",
+       {"P.txt", "-q", "-o", "c.json", "--plot-dir", "plots", "--plot-timeout-s", "1"},
+       2,
+       e + "--plot-dir plots: gnuplot did not finish the residual plots within 1 s and was stopped; give it longer "
+           "with --plot-timeout-s",
+       {{"c.json", "yesterday\n"}},
+       {},
+       "",
+       kHangingGnuplot},
+      {"plot_timeout_zero",
+       {"P.txt", "--plot-dir", "plots", "--plot-timeout-s", "0"},
+       2,
+       "--plot-timeout-s: must be > 0 and <= 86400 s, got 0"},
+      {"plot_left_empty",
+       {"P.txt", "-q", "--plot-dir", "sub"},
+       2,
+       e + "sub/residual_map.png: gnuplot ended without drawing the residual plots into it (the image is empty)",
+       {},
+       {},
+       "",
+       kIdleGnuplot},
+      {"plot_through_a_link_drawn_into_its_target",
+       {"P.txt", "-q", "--plot-dir", "sub"},
+       0,
+       "",
+       {{"elsewhere.png", "old\n"}},
+       {"elsewhere.png", "sub/residual_time.png", "sub/residuals.dat", "sub/residuals.gp"},
+       "",
+       "",
+       {{"sub/residual_map.png", "../elsewhere.png"}}},
+      {"seed_negative", {"P.txt", "--seed", "-1"}, 2, kSeedRange + std::string("'-1'")},
+      {"seed_beyond_64_bits",
+       {"P.txt", "--seed", "18446744073709551616"},
+       2,
+       kSeedRange + std::string("'18446744073709551616'")},
+      {"readings_outside_the_probe_range",
+       {"x.txt", "-q"},
+       2,
+       e + "x.txt:8: r_mm 4.77605065 lies outside the probe's measuring range, 0 to 0.002 mm (probe_range_mm): 288 "
+           "of 288 readings do (they span 2.95877 to 6.92469 mm)",
+       {{"x.txt", ExampleWithHeader("# probe_range_mm: 0.002\n")}}},
+      {"probe_range_option_below_the_readings",
+       {"P.txt", "--no-extend", "-q", "--probe-range-mm", "6"},
+       2,
+       e + "P.txt:65: r_mm 6.065184228 lies outside the probe's measuring range, 0 to 6 mm (--probe-range-mm): 56 of "
+           "288 readings do"},
+      {"radius_of_half_the_sphere",
+       {"P.txt", "--sphere-radius-mm", "10", "-q", "-o", "c.json"},
+       1,
+       "sph_calibrate: not usable: d' = -10.0601 mm is more than a tenth of the sphere's radius (10 mm): with the "
+       "nominal d the points lie on a sphere of radius about R0 - d' = 20.0601 mm"},
+      {"temperature_leaves_d_prime_uncertain_by_a_millimetre",
+       {"P.txt", "--no-extend", "-q", "--sphere-temperature-c", "100", "--sphere-cte-per-k", "1e-3",
+        "--sphere-temperature-u-c", "50", "-o", "c.json"},
+       1,
+       "sph_calibrate: not usable: d_prime has a combined standard uncertainty of 1005 um as a displacement (U = 2010 "
+       "um, k = 2.00), most of it from sphere temperature (1005 um)"},
+      {"quiet_not_usable_says_why",
+       {"P.txt", "--effects", "phi_wobble", "--phi-wobble-pivot-mm", "10000", "-q"},
+       1,
+       "sph_calibrate: not usable: the data do not determine a (std 17.5 um), beta (std 4.74e+03 um)"},
+      {"drift_of_readings_all_at_one_time",
+       {"x.txt", "--effects", "probe_drift", "-q"},
+       1,
+       "sph_calibrate: not usable: the data do not determine probe_drift.t1 (no information at all), "
+       "probe_drift.t2 (no information at all)",
+       {{"x.txt", ExampleAtOneTime()}}},
+      {"too_few_samples_for_the_trace",
+       {"x.txt", "-q"},
+       2,
+       e + "x.txt: 11 samples are too few to trace the residual: its 5-fold cross-validation fits the 7 errors and 3 "
+           "centre coordinates for each of 1 setup(s) (10 parameters) to the samples outside each fold, here as few "
+           "as 8 (a fold leaves out up to 3), and a fit needs more samples than parameters: at least 14 samples are "
+           "needed; the seven errors alone (--no-extend) need more than 10",
+       {{"x.txt", ExampleSamples(11)}}},
+      {"too_few_samples_for_the_seven_errors", {"x.txt", "--no-extend", "-q"}, 1, "", {{"x.txt", ExampleSamples(11)}}},
+      {"few_samples_trace_what_they_can", {"x.txt", "-q"}, 0, "", {{"x.txt", ExampleSamples(20)}}},
+      {"few_samples_of_four_orientations_trace_what_they_can",
+       {"x.txt", "-q"},
+       0,
+       "",
+       {{"x.txt", SeparationEvery(20)}}},
+      {"too_few_samples_for_the_effects_given",
+       {"x.txt", "-q", "--effects", "theta_encoder"},
+       2,
+       e + "x.txt: 20 samples are too few to trace the residual: its 5-fold cross-validation fits the seven-error "
+           "model and theta_encoder (18 parameters) to the samples outside each fold, here as few as 16 (a fold leaves "
+           "out up to 4), and a fit needs more samples than parameters: at least 24 samples are needed",
+       {{"x.txt", ExampleSamples(20)}}},
+      {"validate_a_file_of_another_probe_offset",
+       {"P.txt", "-q", "--validate", "v.txt"},
+       2,
+       e + "v.txt: probe_offset_mm 30 differs from the calibration's 25: the calibration belongs to another probe "
+           "set-up",
+       {{"v.txt", ExampleWithHeader("", "30")}}},
   };
 }
 INSTANTIATE_TEST_SUITE_P(Calibrate, CalibrateMatrix, ::testing::ValuesIn(CalibrateCases()), CaseName);
@@ -477,6 +684,7 @@ std::vector<MatrixCase> SimulateCases() {
        e + "x.txt:2: expected 'theta_deg phi_deg'",
        {{"x.txt", "0 45\n0 x\n"}}},
       {"angles_directory", {"--angles", "sub"}, 2, e + "sub: is a directory, not a file"},
+      {"angles_of_zeros", {"--angles", "full"}, 2, e + "full:1: binary data (NUL byte): this is not a file of angles"},
       {"output_is_the_angles",
        {"-o", "a.txt", "--angles", "a.txt"},
        2,
@@ -490,7 +698,51 @@ std::vector<MatrixCase> SimulateCases() {
        e + "full: cannot write: No space left on device"},
       {"output_onto_null_device", {"-o", "null"}, 0, ""},
       {"stdout_full", {}, 2, e + "cannot write to standard output: No space left on device", {}, {}, "full"},
+      {"stdout_closed_keeps_the_truth",
+       {"--truth", "t.json"},
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"t.json", "yesterday\n"}},
+       {},
+       kClosedPipe},
+      {"seed_negative", {"--seed", "-1"}, 2, kSeedRange + std::string("'-1'")},
+      {"seed_in_hex", {"--seed", "0x10"}, 2, kSeedRange + std::string("'0x10'")},
       {"output_and_truth_written", {"-o", "x.txt", "--truth", "t.json"}, 0, "", {}, {"x.txt", "t.json"}},
+      {"probe_gain_beyond_the_range",
+       {"--probe-range-mm", "1", "--effect-um", "probe_gain.u1=600", "-o", "x.txt"},
+       2,
+       e + "simulation: 288 of 288 distances (the first: 4.77605 mm at theta 0 deg, phi 7.5 deg, setup 0) lie beyond "
+           "what the probe reads over its range 0 to 1 mm (probe_range_mm): its readings would lie outside it"},
+      {"probe_gain_on_a_tiny_range",
+       {"--probe-range-mm", "0.002", "--effect-um", "probe_gain.u1=1000", "-o", "x.txt"},
+       2,
+       e + "simulation: 288 of 288 distances"},
+      {"probe_nonlinearity_on_a_small_range",
+       {"--probe-range-mm", "0.1", "--effect-um", "probe_nonlinearity.u3=200", "-o", "x.txt"},
+       2,
+       e + "simulation: 288 of 288 distances"},
+      {"probe_gain_of_half_the_range",
+       {"--probe-range-mm", "2", "--effect-um", "probe_gain.u1=1000", "-o", "x.txt"},
+       2,
+       e + "simulation: 286 of 288 distances"},
+      {"probe_gain_of_half_the_range_read",
+       {"--probe-offset-mm", "21.5", "--center-mm", "0.5,0,0", "--probe-range-mm", "2", "--effect-um",
+        "probe_gain.u1=1000", "-o", "x.txt"},
+       0,
+       "",
+       {},
+       {"x.txt"}},
+      {"probe_response_falls",
+       {"--probe-offset-mm", "20.7", "--center-mm", "0.2,0,0", "--probe-range-mm", "1", "--effect-um",
+        "probe_gain.u1=-600", "-o", "x.txt"},
+       2,
+       e + "simulation: with probe_gain.u1 -600 um, the distance the probe reports does not rise with its reading "
+           "over its range 0 to 1 mm (probe_range_mm): d(distance)/d(reading) is -0.2 at r = 0 mm"},
+      {"probe_response_folds_the_own_range",
+       {"--effect-um", "probe_nonlinearity.u2=1000", "-o", "x.txt"},
+       2,
+       e + "simulation: with probe_nonlinearity.u2 1000 um, the distance the probe reports does not rise with its "
+           "reading over the readings' own range"},
       {"unknown_option", {"--sphere-radius", "20"}, 2, "The following arguments were not expected: 20 --sphere-radius"},
   };
 }
@@ -527,6 +779,13 @@ std::vector<MatrixCase> MonteCarloCases() {
       {"threads_too_many", with({"--threads", "5000"}), 2, "--threads: Value 5000 not in range"},
       {"target_without_plan", with({"--target-std-um", "1"}), 2, e + "--target-std-um goes with --plan"},
       {"target_zero", {"--plan", "--target-std-um", "0"}, 2, "--target-std-um: must be > 0 and <= 1e+06 um, got 0"},
+      {"max_std_zero", {"--plan", "--max-std-um", "0"}, 2, "--max-std-um: must be > 0 and <= 1e+06 um, got 0"},
+      {"undetermined_study_reported",
+       with({"--eccentricities-mm", "0", "--no-table3", "--json", "m.json", "--csv", "m.csv"}),
+       0,
+       "",
+       {},
+       {"m.json", "m.csv"}},
       {"candidate_rotation_short",
        {"--plan-orientations", "--candidate-rotation-deg", "1,2"},
        2,
@@ -577,6 +836,45 @@ std::vector<MatrixCase> MonteCarloCases() {
        {},
        {},
        "full"},
+      {"stdout_full_keeps_the_csv",
+       with({"--no-table3", "--csv", "m.csv"}),
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"m.csv", "yesterday\n"}},
+       {},
+       "full"},
+      {"stdout_closed_keeps_the_csv",
+       with({"--no-table3", "--csv", "m.csv"}),
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"m.csv", "yesterday\n"}},
+       {},
+       kClosedPipe},
+      {"plan_stdout_full_keeps_the_json",
+       {"--plan", "--json", "m.json"},
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"m.json", "yesterday\n"}},
+       {},
+       "full"},
+      {"plot_hangs",
+       with({"--no-table3", "--plot-dir", "plots", "--plot-timeout-s", "1"}),
+       2,
+       e + "--plot-dir plots: gnuplot did not finish Figure 4 within 1 s and was stopped",
+       {},
+       {},
+       "",
+       kHangingGnuplot},
+      {"plot_left_empty",
+       with({"--no-table3", "--plot-dir", "plots"}),
+       2,
+       e + "plots/fig4_b_c_std.png: gnuplot ended without drawing Figure 4 into it (the image is empty)",
+       {},
+       {},
+       "",
+       kIdleGnuplot},
+      {"seed_beyond_64_bits", with({"--seed", "18446744073709551616"}), 2,
+       kSeedRange + std::string("'18446744073709551616'")},
       {"csv_and_json_written",
        with({"--no-table3", "--csv", "m.csv", "--json", "m.json"}),
        0,
@@ -623,6 +921,11 @@ std::vector<MatrixCase> MeasureCases() {
     return j + R"(]}, "effects": []})" + "\n";
   };
   const std::string good = cal("0.02", "1e-8", "0", "0");
+  // A calibration with a form of the calibration sphere (one term, no covariance).
+  std::string with_form = good.substr(0, good.find(R"(, "covariance")")) +
+                          R"(, "effects": [], "sphere_form": {"normalisation": "schmidt_semi_normalised", )"
+                          R"("frame": "body", "unit": "um", "terms": [{"l": 2, "m": 0, "value_um": 0.05}]}})" +
+                          "\n";
   const std::string xyz = "1 0 0\n0 1 0\n0 0 1\n-1 0 0\n0 -1 0\n0 0 -1\n";
   const std::vector<std::string> quick = {"-c", "cal.json", "--uncertainty-samples", "0"};
   auto with = [&](std::vector<std::string> args) {
@@ -662,6 +965,39 @@ std::vector<MatrixCase> MeasureCases() {
        2,
        e + "x.json: covariance.matrix is not positive semi-definite",
        {{"x.json", cal("0.02", "1e-8", "2e-8", "2e-8")}}},
+      {"calibration_of_zeros",
+       {"P.txt", "-c", "full"},
+       2,
+       e + "full:1: binary data (NUL byte): this is not a calibration file"},
+      {"calibration_nested_deep",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: arrays and objects nested deeper than 64 levels (at 'format_version[0][0][0][0][0][0][0][0][0...'",
+       {{"x.json",
+         [&] {
+           std::string j = good;
+           const std::string version = "\"format_version\": 1";
+           j.replace(j.find(version), version.size(),
+                     "\"format_version\": " + std::string(70000, '[') + "1" + std::string(70000, ']'));
+           return j;
+         }()}}},
+      {"calibration_key_given_twice",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: key 'geometry.alpha' is given twice (JSON would keep one of them silently): give each key once",
+       {{"x.json",
+         [&] {
+           std::string j = good;
+           const std::string alpha = "\"alpha\": {\"value\": 0.02, \"unit\": \"deg\"},";
+           j.replace(j.find(alpha), alpha.size(), alpha + " \"alpha\": {\"value\": 5, \"unit\": \"deg\"},");
+           return j;
+         }()}}},
+      {"calibration_variance_beyond_the_range",
+       {"P.txt", "-c", "x.json"},
+       2,
+       e + "x.json: covariance.matrix: the standard uncertainty of alpha is 14.1421 deg, more than any value of it "
+           "(within 10 deg): not the covariance of a calibration",
+       {{"x.json", cal("0.02", "200", "0", "0")}}},
       {"calibration_of_another_probe",
        with({"x.txt"}),
        2,
@@ -683,12 +1019,40 @@ std::vector<MatrixCase> MeasureCases() {
        2,
        e + "x.xyz:1: binary data (NUL byte): this is not a text file of points",
        {{"x.xyz", std::string("1\0 2 3\n", 7)}}},
+      {"xyz_of_zeros", {"--xyz", "full"}, 2, e + "full:1: binary data (NUL byte): this is not a text file of points"},
       {"xyz_with_calibration",
        {"--xyz", "x.xyz", "-c", "cal.json"},
        2,
        e + "--calibration compensates readings",
        {{"x.xyz", xyz}}},
       {"xyz_too_few", {"--xyz", "x.xyz"}, 2, e, {{"x.xyz", "1 0 0\n0 1 0\n0 0 1\n"}}},
+      {"xyz_beyond_any_machine",
+       {"--xyz", "x.xyz"},
+       2,
+       e + "x.xyz: point 1 of 6 (1e+153 0 0 mm) lies beyond 1e+06 mm from the origin, which no measuring machine "
+           "reaches: are the coordinates in mm?",
+       {{"x.xyz", "1e153 0 0\n0 1e153 0\n0 0 1e153\n-1e153 0 0\n0 -1e153 0\n0 0 -1e153\n"}}},
+      {"xyz_one_point",
+       {"--xyz", "x.xyz"},
+       2,
+       e + "x.xyz: the 5 points are all one point (1 2 3 mm)",
+       {{"x.xyz", "1 2 3\n1 2 3\n1 2 3\n1 2 3\n1 2 3\n"}}},
+      {"readings_outside_the_probe_range",
+       with({"x.txt"}),
+       2,
+       e + "x.txt:8: r_mm 4.77605065 lies outside the probe's measuring range, 0 to 0.002 mm (probe_range_mm)",
+       {{"x.txt", ExampleWithHeader("# probe_range_mm: 0.002\n")}}},
+      {"form_taken_off_another_sphere",
+       {"x.txt", "-c", "f.json", "--subtract-sphere-form", "-q"},
+       2,
+       e + "x.txt: setup 0 measured another sphere (sphere_radius_mm@0: 10 mm), not the calibration sphere whose "
+           "form the calibration file holds: its form cannot be taken off these points",
+       {{"x.txt", ExampleWithHeader("# sphere_radius_mm@0: 10\n")}, {"f.json", with_form}}},
+      {"form_taken_off_the_calibration_sphere",
+       {"P.txt", "-c", "f.json", "--subtract-sphere-form", "-q", "--uncertainty-samples", "0"},
+       0,
+       "",
+       {{"f.json", with_form}}},
       {"setup_missing", with({"P.txt", "--setup", "3"}), 2, e + "P.txt: there is no setup 3"},
       {"one_draw",
        {"P.txt", "-c", "cal.json", "--uncertainty-samples", "1"},
@@ -718,6 +1082,37 @@ std::vector<MatrixCase> MeasureCases() {
        {},
        {},
        "full"},
+      {"stdout_full_keeps_the_points",
+       with({"P.txt", "-o", "p.xyz"}),
+       2,
+       e + "cannot write to standard output: No space left on device",
+       {{"p.xyz", "yesterday\n"}},
+       {},
+       "full"},
+      {"stdout_closed_keeps_the_points",
+       with({"P.txt", "-o", "p.xyz"}),
+       2,
+       e + "cannot write to standard output: Broken pipe",
+       {{"p.xyz", "yesterday\n"}},
+       {},
+       kClosedPipe},
+      {"plot_hangs",
+       with({"P.txt", "-q", "--plot", "m.png", "--plot-timeout-s", "1"}),
+       2,
+       e + "m.png: gnuplot did not finish the form-error map within 1 s and was stopped",
+       {},
+       {},
+       "",
+       kHangingGnuplot},
+      {"plot_left_empty",
+       with({"P.txt", "-q", "--plot", "m.png", "--plot-script", "m.gp"}),
+       2,
+       e + "m.png: gnuplot ended without drawing the form-error map into it (the image is empty)",
+       {},
+       {},
+       "",
+       kIdleGnuplot},
+      {"seed_negative", with({"P.txt", "--seed", "-1"}), 2, kSeedRange + std::string("'-1'")},
       {"outputs_written",
        with({"P.txt", "-q", "-o", "p.xyz", "--json", "m.json", "--plot-script", "m.gp"}),
        0,
@@ -727,6 +1122,31 @@ std::vector<MatrixCase> MeasureCases() {
   };
 }
 INSTANTIATE_TEST_SUITE_P(Measure, MeasureMatrix, ::testing::ValuesIn(MeasureCases()), CaseName);
+
+// A signal while gnuplot draws: the program kills gnuplot before it removes the image begun, so
+// that nothing draws into it afterwards.
+TEST(PlotSignal, EndsGnuplotAndLeavesNothingBehind) {
+  const std::string dir = MakeTempDir("plot_signal");
+  std::ofstream(dir + "/P.txt") << Example();
+  ASSERT_EQ(RunProgram({SPH_CALIBRATE, "P.txt", "--no-extend", "-q", "-o", "cal.json"}, dir).code, 0);
+  // Says that it started, then draws into its image (-e "png = '<name>'; ") half a second later.
+  const std::string started = dir + ".started";
+  const std::string gnuplot =
+      "#!/bin/sh\npng=${2#*\\'}; png=${png%%\\'*}\ntouch '" + started + "'\nsleep 0.5\necho drawn > \"$png\"\n";
+  const std::vector<std::string> env = {FakeGnuplot(dir, gnuplot)};
+  const auto before = FolderState(dir);
+  const pid_t pid = StartProgram({SPH_MEASURE, "P.txt", "-c", "cal.json", "-q", "--uncertainty-samples", "0",
+                                  "--mc-max-trials", "0", "--plot", "m.png"},
+                                 dir, "", env);
+  ASSERT_GT(pid, 0);
+  for (int i = 0; i < 2000 && ::access(started.c_str(), F_OK) != 0; ++i) ::usleep(10000);
+  ASSERT_EQ(::access(started.c_str(), F_OK), 0) << "gnuplot did not start";
+  ::kill(pid, SIGTERM);
+  const ProgramResult r = FinishProgram(pid, dir);
+  EXPECT_EQ(r.code, 128 + SIGTERM) << r.err;
+  ::usleep(1000000);  // a gnuplot left running would have drawn by now
+  EXPECT_EQ(FolderState(dir), before);
+}
 
 }  // namespace
 }  // namespace sph::testing

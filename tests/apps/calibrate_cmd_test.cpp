@@ -1,5 +1,7 @@
 #include "calibrate_cmd.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -337,6 +339,7 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
     }
   }
   EXPECT_GT(j["validation"]["before_ls_sphericity_um"].get<double>(), 0.0);
+  EXPECT_THAT(j["validation"]["note"].get<std::string>(), Not(HasSubstr("independent")));
   // The calibration file carries the machine's effects (not the run's drift), and compensation
   // with it gives the validation sphere the sphericity the report states.
   const Calibration cal = LoadCalibration(o.output_path);
@@ -374,6 +377,22 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
   EXPECT_GT(file.covariance_type_a_dof, 500.0);
   EXPECT_GT(sph::testing::ReadWholeFile(o.plot_dir + "/residual_map.png").size(), 1000u);
   EXPECT_GT(sph::testing::ReadWholeFile(o.plot_dir + "/residual_time.png").size(), 1000u);
+}
+
+TEST_F(CalibrateCmd, AValidationOnTheCalibrationsOwnPointsSaysItIsNoIndependentCheck) {
+  CalibrateOptions o;
+  o.points_path = WriteFile("points.txt", sph::testing::ReadWholeFile(SPH_SOURCE_DIR "/data/example/points.txt"));
+  o.validate_path = dir_ + "/same.txt";  // the same file by another name
+  ASSERT_EQ(::symlink("points.txt", o.validate_path.c_str()), 0);
+  o.json_path = dir_ + "/report.json";
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  const std::string note =
+      "the validation file is the calibration's own points file: this shows how the model fits its own data, not "
+      "an independent check";
+  EXPECT_THAT(r.out, HasSubstr(note));
+  const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
+  EXPECT_THAT(j["validation"]["note"].get<std::string>(), HasSubstr(note));
 }
 
 TEST_F(CalibrateCmd, NoExtendFitsTheSevenErrorsOnly) {

@@ -355,6 +355,37 @@ TEST_F(MeasureCmd, ChoosesASetupOfSeveral) {
   EXPECT_THAT(Measure(o).err, HasSubstr("two.txt: there is no setup 7"));
 }
 
+// A setup that measured another sphere is measured against that sphere's stated radius.
+TEST_F(MeasureCmd, TheRadiusDeviationIsFromTheSetupsOwnSphere) {
+  SimulationSpec spec;
+  spec.noise_r_um = 0.0;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(1, 0, 0)};
+  spec.sphere_radii_mm = {{1, 10.0}};
+  const std::string points = dir_ + "/two.txt";
+  WritePointsFile(points, Simulate(spec));
+  CalibrationFile cal;
+  cal.geometry = SimulationSpec::PaperTruth();
+  cal.probe_offset_mm = 25.0;
+  WriteCalibrationFile(dir_ + "/exact.json", cal);
+  MeasureOptions o;
+  o.points_path = points;
+  o.calibration_path = dir_ + "/exact.json";
+  o.setup = 1;
+  o.mc_max_trials = 0;
+  o.json_path = dir_ + "/m.json";
+  const RunOutput r = Measure(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("(from the file's sphere_radius_mm@1 10)"));
+  const json j = ReadJson(o.json_path);
+  EXPECT_EQ(j["header_sphere_radius_mm"].get<double>(), 10.0);
+  EXPECT_EQ(j["header_sphere_radius_key"], "sphere_radius_mm@1");
+  EXPECT_NEAR(j["radius_deviation_um"].get<double>(), 0.0, 1e-6);  // exact readings, the exact calibration
+  o.setup = 0;
+  ASSERT_EQ(Measure(o).code, kExitOk);
+  EXPECT_EQ(ReadJson(o.json_path)["header_sphere_radius_key"], "sphere_radius_mm");
+  EXPECT_NEAR(ReadJson(o.json_path)["radius_deviation_um"].get<double>(), 0.0, 1e-6);
+}
+
 TEST_F(MeasureCmd, BadInputExitsTwoNamingTheFile) {
   const std::string readings = Simulated("r.txt", {Eigen::Vector3d(2, 0, 0)});
   auto expect_bad = [&](MeasureOptions o, const std::string& message) {
@@ -443,6 +474,8 @@ TEST_F(MeasureCmd, BrokenFilesGiveOneMessageAndExitTwo) {
   o.calibration_path = dir_ + "/missing.json";
   expect_one_error(o, o.calibration_path + ": cannot open for reading");
   o.calibration_path = WriteFile("garbage.json", std::string("\0\x01\x02{[", 5));
+  expect_one_error(o, o.calibration_path + ":1: binary data (NUL byte): this is not a calibration file");
+  o.calibration_path = WriteFile("garbage2.json", "{[\x01");
   expect_one_error(o, o.calibration_path + ": not valid JSON");
   o.calibration_path = WriteFile("empty.json", "");
   expect_one_error(o, o.calibration_path + ": not valid JSON");

@@ -50,7 +50,7 @@ TEST(MonteCarloCmd, TablesJsonAndCsv) {
   std::ifstream csv(o.csv_path);
   std::string header;
   std::getline(csv, header);
-  EXPECT_EQ(header, "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials");
+  EXPECT_EQ(header, "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials,determined");
   int lines = 0;
   for (std::string line; std::getline(csv, line);) ++lines;
   EXPECT_EQ(lines, 14);
@@ -82,6 +82,51 @@ TEST(MonteCarloCmd, PlanPredictsAndFindsTheEccentricity) {
   EXPECT_THAT(r.out, HasSubstr("Predicted standard deviations"));
   EXPECT_THAT(r.out, HasSubstr("this pattern: 1.9"));  // c needs e = 1.9... mm for 2 um (std ~ 1/e^2)
   EXPECT_THAT(r.out, HasSubstr("96 x 48"));
+}
+
+// A parameter that the design does not determine (the sphere at the axes' common point, or
+// placed along the Theta axis) is reported so, in the text, the JSON and the plan, as
+// sph_calibrate judges it: no bound of 1e15 urad, no bias of 1e38, no std/CRLB of 0 against an
+// infinite bound.
+TEST(MonteCarloCmd, SaysUndeterminedWhereTheDesignDeterminesNothing) {
+  const std::string dir = sph::testing::MakeTempDir("mcundetermined");
+  MonteCarloOptions o;
+  o.trials = 10;
+  o.table3 = false;
+  o.eccentricities_mm = {0.0};
+  o.json_path = dir + "/mc.json";
+  RunOutput r = RunApp(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("undetermined         -         -         -  urad"));
+  EXPECT_THAT(r.out, HasSubstr("undetermined: alpha (CRLB "));
+  EXPECT_THAT(r.out, ::testing::Not(HasSubstr("e+15")));
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(o.json_path));
+  const auto& row = j["eccentricities"][0];
+  EXPECT_EQ(row["undetermined"].size(), 7u);
+  EXPECT_EQ(row["parameters"]["alpha"]["determined"], false);
+  EXPECT_TRUE(row["parameters"]["alpha"]["bias_second_order"].is_null());
+  EXPECT_TRUE(row["parameters"]["alpha"]["std_over_crlb"].is_null());
+
+  o.eccentricities_mm = {2.0};
+  o.direction = "0,0,1";  // along the Theta axis: the design has a null space
+  r = RunApp(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, ::testing::Not(HasSubstr("0.000       nan")));
+  j = nlohmann::json::parse(std::ifstream(o.json_path));
+  const auto& along = j["eccentricities"][0]["parameters"]["alpha"];
+  EXPECT_EQ(along["determined"], false);
+  EXPECT_TRUE(along["crlb"].is_null());  // infinite
+  EXPECT_TRUE(along["std_over_crlb"].is_null());
+
+  o.plan = true;
+  o.direction = "1,0,0";
+  o.eccentricities_mm = {0.0, 2.0};
+  o.json_path.clear();
+  r = RunApp(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("\n0        undetermined undetermined"));
+  EXPECT_THAT(r.out, HasSubstr("\n2              2.9455       0.0096      94.9160"));
+  EXPECT_THAT(r.out, HasSubstr("e = 0 mm: undetermined: alpha (std "));
 }
 
 // The orientations that separate the form from a radial motion of the Phi axis: with the sphere

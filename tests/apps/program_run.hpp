@@ -1,10 +1,13 @@
 // Running an installed-style program as a user would, for the bad-input matrices: in a folder
 // of its own, with its standard output and error captured (or standard output sent to a file
-// of the folder, such as a full device), and the folder's content compared before and after.
+// of the folder, such as a full device, or to a pipe nobody reads), and the folder's content
+// compared before and after.
 #ifndef SPH_TESTS_APPS_PROGRAM_RUN_HPP_
 #define SPH_TESTS_APPS_PROGRAM_RUN_HPP_
 
 #include <fcntl.h>
+#include <signal.h>
+#include <stdlib.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
 #include <sys/wait.h>
@@ -30,28 +33,48 @@ struct ProgramResult {
   std::string err;
 };
 
-/// Runs `argv` in `folder`; standard output goes to `stdout_path` (a name in the folder) when
-/// given, else it is captured. Standard input is /dev/null.
-inline ProgramResult RunProgram(const std::vector<std::string>& argv, const std::string& folder,
-                                const std::string& stdout_path = "") {
+/// A standard output that is a pipe whose reader has gone, as after `| head -c 10`.
+inline const std::string kClosedPipe = "|closed";
+
+/// Starts `argv` in `folder`, as a shell would (SIGPIPE at its default); standard output goes to
+/// `stdout_path` (a name in the folder, or kClosedPipe) when given, else to a file beside the
+/// folder that FinishProgram() reads. Standard input is /dev/null. `env` holds "NAME=value"
+/// settings for the program's environment.
+inline pid_t StartProgram(const std::vector<std::string>& argv, const std::string& folder,
+                          const std::string& stdout_path = "", const std::vector<std::string>& env = {}) {
   const std::string capture = folder + ".stdout", errors = folder + ".stderr";
+  int closed[2] = {-1, -1};
+  if (stdout_path == kClosedPipe && ::pipe(closed) != 0) return -1;
   const pid_t pid = ::fork();
   if (pid == 0) {
     if (::chdir(folder.c_str()) != 0) ::_exit(125);
+    ::signal(SIGPIPE, SIG_DFL);
     const int in = ::open("/dev/null", O_RDONLY);
-    const int out = ::open(stdout_path.empty() ? capture.c_str() : stdout_path.c_str(),
-                           O_WRONLY | (stdout_path.empty() ? O_CREAT | O_TRUNC : 0), 0644);
+    const int out = stdout_path == kClosedPipe ? closed[1]
+                                               : ::open(stdout_path.empty() ? capture.c_str() : stdout_path.c_str(),
+                                                        O_WRONLY | (stdout_path.empty() ? O_CREAT | O_TRUNC : 0), 0644);
     const int err = ::open(errors.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (in < 0 || out < 0 || err < 0) ::_exit(125);
+    if (closed[0] >= 0) ::close(closed[0]);  // nobody reads
     ::dup2(in, 0);
     ::dup2(out, 1);
     ::dup2(err, 2);
+    for (const std::string& e : env) ::putenv(const_cast<char*>(e.c_str()));
     std::vector<char*> args;
     for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
     ::execv(args[0], args.data());
     ::_exit(126);
   }
+  for (int fd : closed) {
+    if (fd >= 0) ::close(fd);
+  }
+  return pid;
+}
+
+/// Waits for a program StartProgram() started and collects what it printed.
+inline ProgramResult FinishProgram(pid_t pid, const std::string& folder, const std::string& stdout_path = "") {
+  const std::string capture = folder + ".stdout", errors = folder + ".stderr";
   ProgramResult r;
   int status = 0;
   if (pid > 0 && ::waitpid(pid, &status, 0) == pid) {
@@ -62,6 +85,28 @@ inline ProgramResult RunProgram(const std::vector<std::string>& argv, const std:
   ::unlink(capture.c_str());
   ::unlink(errors.c_str());
   return r;
+}
+
+/// Runs `argv` in `folder` (StartProgram()) and waits for it.
+inline ProgramResult RunProgram(const std::vector<std::string>& argv, const std::string& folder,
+                                const std::string& stdout_path = "", const std::vector<std::string>& env = {}) {
+  return FinishProgram(StartProgram(argv, folder, stdout_path, env), folder, stdout_path);
+}
+
+/// Installs `script` as the program `gnuplot` in a folder beside `folder` (outside it, so that the
+/// folder's content stays as it was) and returns the PATH setting that finds it first.
+inline std::string FakeGnuplot(const std::string& folder, const std::string& script) {
+  const std::string bin = folder + ".bin";
+  ::mkdir(bin.c_str(), 0755);
+  std::ofstream(bin + "/gnuplot") << script;
+  ::chmod((bin + "/gnuplot").c_str(), 0755);
+  const char* path = std::getenv("PATH");
+  return "PATH=" + bin + ":" + (path ? path : "/usr/bin:/bin");
+}
+
+/// True when a program named `name` is found on PATH.
+inline bool OnPath(const std::string& name) {
+  return std::system(("command -v " + name + " > /dev/null 2>&1").c_str()) == 0;
 }
 
 /// What a folder holds: every entry (not following links) with its type, and for a regular file
@@ -126,13 +171,23 @@ struct MatrixCase {
   std::string message;                            ///< expected in stderr ("" when none is)
   std::map<std::string, std::string> files = {};  ///< written into the folder before the run
   std::vector<std::string> writes = {};           ///< outputs a successful run makes or continues
-  std::string stdout_to = "";                     ///< a name in the folder that takes standard output
+  std::string stdout_to = "";                     ///< a name in the folder that takes standard output, or kClosedPipe
+  /// A script run as gnuplot (FakeGnuplot()); "" runs the gnuplot installed, when a case draws.
+  std::string gnuplot = "";
+  std::map<std::string, std::string> links = {};  ///< symbolic links made in the folder: name, target
 };
 
 inline std::ostream& operator<<(std::ostream& os, const MatrixCase& c) { return os << c.name; }
 
 /// The case's name as the parameterised test's name.
 inline std::string CaseName(const ::testing::TestParamInfo<MatrixCase>& info) { return info.param.name; }
+
+/// True when the case draws a plot with the gnuplot installed.
+inline bool UsesRealGnuplot(const MatrixCase& c) {
+  bool draws = false;
+  for (const std::string& a : c.args) draws |= a == "--plot-dir" || a == "--plot";
+  return draws && c.gnuplot.empty();
+}
 
 /// True when the case names one of the folder's device nodes (MakeDeviceNodes()).
 inline bool UsesDeviceNodes(const MatrixCase& c) {
@@ -145,10 +200,14 @@ inline bool UsesDeviceNodes(const MatrixCase& c) {
 /// exit code, the message, and that the folder is byte for byte as before, apart from the case's
 /// outputs, each of which must be written (made, or changed).
 inline ProgramResult RunMatrixCase(const char* program, const MatrixCase& c, const std::string& dir) {
+  for (const auto& [name, target] : c.links)
+    EXPECT_EQ(::symlink(target.c_str(), (dir + "/" + name).c_str()), 0) << name;
+  std::vector<std::string> env;
+  if (!c.gnuplot.empty()) env.push_back(FakeGnuplot(dir, c.gnuplot));
   const auto before = FolderState(dir);
   std::vector<std::string> argv = {program};
   argv.insert(argv.end(), c.args.begin(), c.args.end());
-  const ProgramResult r = RunProgram(argv, dir, c.stdout_to);
+  const ProgramResult r = RunProgram(argv, dir, c.stdout_to, env);
   EXPECT_EQ(r.code, c.exit) << r.err;
   if (!c.message.empty()) {
     EXPECT_THAT(r.err, ::testing::HasSubstr(c.message));

@@ -68,8 +68,8 @@ TEST(SmallestEccentricityMm, MeetsTheTargetExactlyThere) {
 // 0.996-0.999 and a std of 0.032-0.034, as that says.
 //
 // d' is not first order at 1 mm: a tangential error of 10 um changes the measured radius by
-// delta^2 / 2 R0, which d' absorbs, so its Monte Carlo std exceeds the first-order bound (the
-// README's Monte Carlo section; 3.7 times the bound at 0.5 mm). Over those 300 runs its ratio has a
+// delta^2 / 2 R0, which d' absorbs, so its Monte Carlo std exceeds the first-order bound
+// (docs/validation.md, the paper's study; 3.7 times the bound at 0.5 mm). Over those 300 runs its ratio has a
 // mean of 1.045 and a std of 0.035: 17 of them lie beyond 1.10. The bound is then a lower bound, and
 // the ratio is held to three of its sampling std about that measured excess.
 TEST(PredictUncertainty, MatchesTheMonteCarloSpread) {

@@ -252,7 +252,7 @@ TEST(FitEffects, ProbeGainInTheProbesRangeIsTheSameAtAnyEccentricity) {
                 << " um in the probe's range, " << own[k] * kUmPerMm << " +- " << own_std[k] * kUmPerMm
                 << " um in the readings' own (half range " << own_half[k] << " mm)\n";
     }
-    // With noise: within 3 combined standard uncertainties (this seed: 2.3).
+    // With noise: within 3 combined standard uncertainties (these seeds: 1.66).
     EXPECT_NEAR(gain[0], gain[1], noise_um > 0.0 ? 3.0 * std::hypot(gain_std[0], gain_std[1]) : 1e-9 * kGainMm);
     // By the readings' own range: the gain times each half range, which differ by about 2.
     EXPECT_GT(own_half[1] / own_half[0], 1.8);

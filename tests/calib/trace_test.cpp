@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "calib_test_util.hpp"
+#include "sph/core/error.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "test_util.hpp"
@@ -354,6 +355,42 @@ TEST(TraceResidual, CrossValidationKeepsEverySetupInEveryFold) {
 }
 
 // With the probe terms normalised by the readings, exact data give back the simulated values.
+// A small file: what the trace needs is said in the file's own counts, not in those of the fits
+// of its cross-validation folds; with enough for the seven-error model, candidates that the folds
+// cannot fit are not tried, and named.
+TEST(TraceResidual, SaysWhatTheCrossValidationNeedsOfASmallFile) {
+  const PointsData all = Simulate(SimulationSpec());
+  const auto first = [&](std::size_t n, std::size_t step) {
+    PointsData p = all;
+    p.source = "small.txt";
+    p.samples.clear();
+    for (std::size_t i = 0; i < n; ++i) p.samples.push_back(all.samples[i * step]);
+    return p;
+  };
+  const PointsData eleven = first(11, 26);
+  const CalibrationResult base = Calibrate(eleven, PaperOptions());
+  try {
+    TraceResidual(eleven, PaperOptions(), base, TraceOptions{});
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "small.txt: 11 samples are too few to trace the residual: its 5-fold cross-validation fits the 7 errors "
+              "and 3 centre coordinates for each of 1 setup(s) (10 parameters) to the samples outside each fold, here "
+              "as few as 8 (a fold leaves out up to 3), and a fit needs more samples than parameters: at least 14 "
+              "samples are needed; the seven errors alone (--no-extend) need more than 10");
+  }
+  const PointsData fourteen = first(14, 20);
+  const TraceResult r = TraceResidual(fourteen, PaperOptions(), Calibrate(fourteen, PaperOptions()), TraceOptions{});
+  ASSERT_FALSE(r.candidates.empty());
+  for (const CandidateScore& c : r.candidates) {
+    if (c.sphere_form) continue;
+    EXPECT_EQ(c.note.rfind("not tried: with its ", 0), 0u) << c.Id() << ": " << c.note;
+  }
+  EXPECT_THROW(FitFixedEffects(fourteen, PaperOptions(), Calibrate(fourteen, PaperOptions()), {Effect::kThetaEncoder},
+                               TraceOptions{}),
+               Error);
+}
+
 TEST(FitEffects, ProbeGainOfExactDataIsTheSimulatedOne) {
   SimulationSpec spec;
   spec.noise_r_um = 0.0;

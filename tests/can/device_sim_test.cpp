@@ -13,6 +13,7 @@ namespace sph::can {
 namespace {
 
 using ::testing::Contains;
+using ::testing::ElementsAre;
 using ::testing::Not;
 
 constexpr std::int64_t kMs = 1000000;
@@ -73,7 +74,7 @@ TEST(DeviceSim, BootsPreOperationalAndSendsNoPdoUntilStarted) {
   f = d.At(kT0 + 2100 * kMs, {Sync()}, kT0 + 2110 * kMs);
   EXPECT_THAT(f, Not(Contains(::testing::StartsWith("182#"))));
   f = d.At(kT0 + 2110 * kMs, {EncodeUploadRequest(2, {0x1018, 1})}, kT0 + 2120 * kMs);
-  EXPECT_TRUE(f.empty());  // no SDO when stopped
+  EXPECT_THAT(f, Not(Contains(::testing::StartsWith("582#"))));  // no SDO when stopped
   f = d.At(kT0 + 2120 * kMs, {EncodeNmt(NmtCommand::kResetCommunication, 2)}, kT0 + 2200 * kMs);
   EXPECT_THAT(f, Contains("702#00"));  // boot-up again
   EXPECT_EQ(d.sim.NodeState(2), 0x7F);
@@ -144,6 +145,116 @@ TEST(DeviceSim, ARebootFaultSilencesTheNodeUntilItsBootUpAndLeavesItPreOperation
   EXPECT_EQ(d.sim.injected().boot_ups, 1U);
 }
 
+// 1017h is read-write (CiA 301 §7.5.2.29): a master sets the heartbeat through it. The node sends
+// one at once (CANopenNode's OD_write_1017) and then every new period; 0 stops them.
+TEST(DeviceSim, AMasterSetsTheHeartbeatThrough1017h) {
+  DeviceSimConfig c = Config();
+  c.heartbeat_period_s = 0.0;  // 1017h = 0: no heartbeat
+  Drive d(c);
+  auto f = d.At(kT0, {}, kT0 + 100 * kMs);
+  EXPECT_THAT(f, Contains("701#00"));
+  f = d.At(kT0 + 100 * kMs, {EncodeUploadRequest(1, {0x1017, 0})}, kT0 + 2000 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#4B17100000000000"));  // 0 ms, and no heartbeat for 1.9 s
+  f = d.At(kT0 + 2000 * kMs, {MakeFrame(0x601, {0x2B, 0x17, 0x10, 0x00, 0xC8, 0x00, 0x00, 0x00})},
+           kT0 + 2450 * kMs);                                                         // 200 ms
+  EXPECT_THAT(f, ElementsAre("581#6017100000000000", "701#7F", "701#7F", "701#7F"));  // at 2000.2, 2200.2, 2400.2
+  f = d.At(kT0 + 2450 * kMs, {EncodeNmt(NmtCommand::kStart, 1)}, kT0 + 2500 * kMs);
+  EXPECT_THAT(f, ElementsAre("701#05"));  // a state change is told at once
+  f = d.At(kT0 + 2500 * kMs, {EncodeDownloadRequest(1, {0x1017, 0}, {0, 0})}, kT0 + 4000 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#6017100000000000"));  // 0: none any more
+}
+
+// 1005h (COB-ID SYNC), 1014h (COB-ID EMCY) and 1019h (synchronous counter overflow value) are
+// there, read-write, with CANopenNode's checks; a node takes SYNC on its 1005h and of the length
+// its 1019h says.
+TEST(DeviceSim, HasTheSyncAndEmcyObjectsAndFollowsThem) {
+  Drive d(Config());
+  d.At(kT0, {}, kT0 + 100 * kMs);
+  auto f = d.At(kT0 + 100 * kMs, {EncodeUploadRequest(1, {0x1005, 0})}, kT0 + 101 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#4305100080000000"));
+  f = d.At(kT0 + 101 * kMs, {EncodeUploadRequest(2, {0x1014, 0})}, kT0 + 102 * kMs);
+  EXPECT_THAT(f, ElementsAre("582#4314100082000000"));
+  f = d.At(kT0 + 102 * kMs, {EncodeUploadRequest(3, {0x1019, 0})}, kT0 + 103 * kMs);
+  EXPECT_THAT(f, ElementsAre("583#4F19100000000000"));  // no counter, as the SYNC configured
+  f = d.At(kT0 + 103 * kMs, {EncodeDownloadRequest(1, {0x1019, 0}, {1})}, kT0 + 104 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#8019100030000906"));  // 1 is no overflow value
+  f = d.At(kT0 + 104 * kMs, {EncodeDownloadRequest(1, {0x1019, 0}, {241})}, kT0 + 105 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#8019100030000906"));
+  f = d.At(kT0 + 105 * kMs, {EncodeDownloadRequest(1, {0x1005, 0}, {0x80, 0x00, 0x00, 0x40})}, kT0 + 106 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#8005100030000906"));  // it produces no SYNC
+  f = d.At(kT0 + 106 * kMs, {EncodeDownloadRequest(2, {0x1014, 0}, {0x90, 0x00, 0x00, 0x00})}, kT0 + 107 * kMs);
+  EXPECT_THAT(f, ElementsAre("582#8014100030000906"));  // another id while EMCY is on
+  // SYNC on 0x90 for node 1 only; node 2 sends no EMCY; node 1 counts SYNCs to 240.
+  const std::vector<std::pair<std::uint16_t, std::vector<std::uint8_t>>> writes{{0x1005, {0x90, 0, 0, 0}},
+                                                                                {0x1019, {240}}};
+  for (const auto& [index, value] : writes) {
+    f = d.At(kT0 + 107 * kMs, {EncodeDownloadRequest(1, {index, 0}, value)}, kT0 + 108 * kMs);
+    ASSERT_EQ(f.size(), 1U);
+    EXPECT_EQ(f[0].substr(0, 6), "581#60") << f[0];
+  }
+  f = d.At(kT0 + 108 * kMs, {EncodeDownloadRequest(2, {0x1014, 0}, {0x82, 0x00, 0x00, 0x80})}, kT0 + 109 * kMs);
+  EXPECT_THAT(f, ElementsAre("582#6014100000000000"));
+  d.At(kT0 + 109 * kMs, {EncodeNmt(NmtCommand::kStart, 0)}, kT0 + 110 * kMs);
+  f = d.At(kT0 + 110 * kMs, {EncodeSync(std::uint8_t{7}, 0x90)}, kT0 + 120 * kMs);
+  ASSERT_EQ(f.size(), 1U);
+  EXPECT_EQ(f[0].substr(0, 4), "181#");
+  // 0x80 with a counter: an error for nodes 2 and 3 (1019h 0), node 2 telling it by no EMCY.
+  f = d.At(kT0 + 120 * kMs, {EncodeSync(std::uint8_t{8})}, kT0 + 130 * kMs);
+  EXPECT_THAT(f, ElementsAre("083#4082111841000000", "702#7F", "703#7F"));
+  EXPECT_EQ(d.sim.NodeState(1), 0x05);
+  EXPECT_EQ(d.sim.NodeState(2), 0x7F);
+}
+
+// A counted SYNC to a node whose 1019h is 0 is no SYNC to it: EMCY 0x8240 (unexpected SYNC data
+// length) with the communication and generic bits, pre-operational, no PDO; NMT Start cannot make
+// it operational until a reset clears the error (CANopenNode's CO_SYNC_receive, CO_NMT_process).
+TEST(DeviceSim, ACountedSyncToANodeWithout1019hIsAnErrorThatStopsIt) {
+  DeviceSimConfig c = Config();
+  c.devices.sync_counter_max = 240;
+  c.sync_counter_overflow = 0;
+  Drive d(c);
+  d.At(kT0, {}, kT0 + 100 * kMs);
+  d.At(kT0 + 100 * kMs, {EncodeNmt(NmtCommand::kStart, 0)}, kT0 + 110 * kMs);
+  auto f = d.At(kT0 + 110 * kMs, {EncodeSync(std::uint8_t{1})}, kT0 + 120 * kMs);
+  EXPECT_THAT(f, ElementsAre("081#4082111841000000", "082#4082111841000000", "083#4082111841000000", "701#7F", "702#7F",
+                             "703#7F"));
+  f = d.At(kT0 + 120 * kMs, {EncodeSync(std::uint8_t{2})}, kT0 + 130 * kMs);
+  EXPECT_TRUE(f.empty()) << ::testing::PrintToString(f);  // the EMCY once; no PDO
+  d.At(kT0 + 130 * kMs, {EncodeNmt(NmtCommand::kStart, 1)}, kT0 + 140 * kMs);
+  EXPECT_EQ(d.sim.NodeState(1), 0x7F);
+  f = d.At(kT0 + 140 * kMs, {EncodeUploadRequest(1, {0x1001, 0})}, kT0 + 141 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#4F01100011000000"));  // the error register
+  // Configured (pre-operational), reset: the node takes the counted SYNC.
+  d.At(kT0 + 141 * kMs, {EncodeNmt(NmtCommand::kResetCommunication, 1)}, kT0 + 200 * kMs);
+  d.At(kT0 + 200 * kMs, {EncodeDownloadRequest(1, {0x1019, 0}, {240})}, kT0 + 201 * kMs);
+  d.At(kT0 + 201 * kMs, {EncodeNmt(NmtCommand::kStart, 1)}, kT0 + 202 * kMs);
+  EXPECT_EQ(d.sim.NodeState(1), 0x05);
+  f = d.At(kT0 + 202 * kMs, {EncodeSync(std::uint8_t{3})}, kT0 + 210 * kMs);
+  EXPECT_THAT(f, Contains(::testing::StartsWith("181#")));
+  EXPECT_EQ(d.sim.injected().sync_length_errors, 8U);  // 3 nodes at SYNC 1 and 2, nodes 2 and 3 at SYNC 3
+}
+
+// A node that reboots without its stored settings comes back with 1017h and 1019h 0 and a hardware
+// error (EMCY 0x5000) that keeps it pre-operational.
+TEST(DeviceSim, ARebootWithoutItsSettingsLeavesANodeThatCannotStart) {
+  DeviceSimConfig c = Config();
+  c.start_operational = true;
+  c.heartbeat_period_s = 0.2;
+  c.devices.sync_counter_max = 240;
+  c.faults.reboots = {{2, 0.5, true}};
+  Drive d(c);
+  d.At(kT0, {}, kT0 + 500 * kMs);
+  auto f = d.At(kT0 + 500 * kMs, {}, kT0 + 600 * kMs);
+  EXPECT_THAT(f, ElementsAre("702#00", "082#0050010000000000"));  // boot-up, then the hardware error
+  f = d.At(kT0 + 600 * kMs, {EncodeUploadRequest(2, {0x1017, 0})}, kT0 + 601 * kMs);
+  EXPECT_THAT(f, Contains("582#4B17100000000000"));  // 0 ms (it had 200)
+  f = d.At(kT0 + 601 * kMs, {EncodeUploadRequest(2, {0x1019, 0})}, kT0 + 602 * kMs);
+  EXPECT_THAT(f, Contains("582#4F19100000000000"));  // 0 (it had 240)
+  d.At(kT0 + 602 * kMs, {EncodeNmt(NmtCommand::kStart, 2)}, kT0 + 610 * kMs);
+  EXPECT_EQ(d.sim.NodeState(2), 0x7F);
+  EXPECT_EQ(d.sim.NodeState(1), 0x05);
+}
+
 TEST(DeviceSim, ConfigurationErrors) {
   DeviceSimConfig c = Config();
   c.devices.phi.node_id = 1;
@@ -152,6 +263,27 @@ TEST(DeviceSim, ConfigurationErrors) {
   DeviceSimConfig r = Config();
   r.faults.reboots = {{9, 1.0}};
   EXPECT_THROW(DeviceSimulator{r}, Error);
+  DeviceSimConfig o = Config();
+  o.sync_counter_overflow = 1;
+  EXPECT_THROW(DeviceSimulator{o}, Error);
+  o.sync_counter_overflow = 241;
+  EXPECT_THROW(DeviceSimulator{o}, Error);
+  // What sph_simulate refuses: a sphere the probe's beam misses, a form deeper than the sphere.
+  DeviceSimConfig missed = Config();
+  missed.spec.sphere_radius_mm = 0.5;
+  missed.spec.probe_offset_mm = 5.0;
+  try {
+    DeviceSimulator sim(missed);
+    ADD_FAILURE() << "a sphere the beam misses was taken";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::StartsWith("simulation: the probe ray misses the sphere at theta"));
+  }
+  DeviceSimConfig deep = Config();
+  deep.spec.sphere_radius_mm = 0.5;
+  deep.spec.centers_mm = {Eigen::Vector3d::Zero()};
+  deep.spec.effects.form = {{2, 0, 1000.0}};  // 1 mm
+  EXPECT_THROW(DeviceSimulator{deep}, Error);
+  EXPECT_NO_THROW(DeviceSimulator{Config()});
 }
 
 }  // namespace

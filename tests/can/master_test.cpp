@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <map>
 
 #include "sim_bus.hpp"
 #include "sph/can/device_sim.hpp"
@@ -17,7 +19,9 @@ namespace sph::can {
 namespace {
 
 using ::testing::Contains;
+using ::testing::ElementsAre;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::Pair;
 
 constexpr std::int64_t kMs = 1000000;
@@ -245,64 +249,208 @@ TEST(Master, ANodeThatRebootsMidRunIsRestarted) {
   EXPECT_THAT(r.logs, Contains("node 2 (phi): restarted, operational again"));
 }
 
-// One encoder node, its answers written out by hand: the start, a reboot, and a device with
-// another serial number where the rebooted one was.
-TEST(Master, ScriptedNodeAndADeviceThatCameBackAsAnother) {
-  PipelineConfig pc;
-  pc.phi.node_id = 0;
-  pc.probe.node_id = 0;
-  MasterConfig mc;
-  mc.nodes = MasterNodesFor(pc);
-  std::vector<std::string> sent, notes;
-  CanopenMaster m(mc, {[&](const CanFrame& f) { sent.push_back(ToString(f)); }, nullptr,
-                       [&](const std::string& n) { notes.push_back(n); }});
+// One encoder node whose answers are written out by hand, byte by byte: to each request of the
+// master the device's answer (an abort "no such object" to any other request), and the
+// heartbeats the test sends.
+struct ScriptedNode {
+  explicit ScriptedNode(MasterConfig mc)
+      : master(std::move(mc), {[this](const CanFrame& f) { sent.push_back(ToString(f)); },
+                               [this](LogLevel, const std::string& l) { logs.push_back(l); },
+                               [this](const std::string& n) { notes.push_back(n); }}) {}
+  static MasterConfig OneEncoder() {
+    PipelineConfig pc;
+    pc.phi.node_id = 0;
+    pc.probe.node_id = 0;
+    MasterConfig mc;
+    mc.nodes = MasterNodesFor(pc);
+    return mc;
+  }
+  // Answers the master's requests, each 1 ms after the one before, until it asks nothing more.
+  void Answer() {
+    while (answered < sent.size()) {
+      const std::string request = sent[answered++];
+      if (request.rfind("601#", 0) != 0) continue;  // NMT
+      const auto it = answers.find(request.substr(4));
+      std::string reply = it != answers.end() ? it->second : "80" + request.substr(6, 6) + "00000206";
+      if (request.substr(4, 1) == "2" && reply.rfind("60", 0) == 0) {  // a write taken: read back as written
+        const int bytes = 4 - ((std::stoi(request.substr(5, 1), nullptr, 16) >> 2) & 3);
+        char command[3];
+        std::snprintf(command, sizeof command, "%02X", 0x43 | ((4 - bytes) << 2));
+        answers["40" + request.substr(6, 6) + "00000000"] = command + request.substr(6);
+      }
+      CanFrame f = MakeFrame(0x581, {}, t += kMs);
+      f.len = 8;
+      for (int i = 0; i < 8; ++i)
+        f.data[static_cast<std::size_t>(i)] =
+            static_cast<std::uint8_t>(std::stoi(reply.substr(static_cast<std::size_t>(2 * i), 2), nullptr, 16));
+      master.OnFrame(f);
+    }
+  }
+  void Heartbeat(std::uint8_t state) { master.OnFrame(MakeFrame(0x701, {state}, t += kMs)); }
+  void Time(std::int64_t dt) { master.OnTime(t += dt); }
+
+  // The device: identity, no name, 6001h and 6002h 2^24, TPDO1 on 0x181, synchronous, 0x6004:00.
+  std::map<std::string, std::string> answers{
+      {"4018100100000000", "4318100148505300"}, {"4018100200000000", "4318100260400000"},
+      {"4018100400000000", "4318100401000100"}, {"4001600000000000", "4301600000000001"},
+      {"4002600000000000", "4302600000000001"}, {"4000180100000000", "4300180181010000"},
+      {"4000180200000000", "4F00180201000000"}, {"40001A0000000000", "4F001A0001000000"},
+      {"40001A0100000000", "43001A0120000460"}, {"4017100000000000", "4B171000C8000000"}};
+  CanopenMaster master;
+  std::vector<std::string> sent, logs, notes;
+  std::size_t answered = 0;
   std::int64_t t = kT0;
-  auto answer = [&](std::initializer_list<std::uint8_t> bytes) {
-    t += kMs;
-    m.OnFrame(MakeFrame(0x581, bytes, t));
-  };
-  auto identify = [&](std::uint8_t serial) {
-    answer({0x43, 0x18, 0x10, 0x01, 0x48, 0x50, 0x53, 0x00});    // vendor-id
-    answer({0x43, 0x18, 0x10, 0x02, 0x60, 0x40, 0x00, 0x00});    // product code
-    answer({0x80, 0x18, 0x10, 0x03, 0x11, 0x00, 0x09, 0x06});    // no revision: sub-index absent
-    answer({0x43, 0x18, 0x10, 0x04, serial, 0x00, 0x01, 0x00});  // serial
-    answer({0x80, 0x08, 0x10, 0x00, 0x00, 0x00, 0x02, 0x06});    // no device name
-    answer({0x4B, 0x17, 0x10, 0x00, 0x00, 0x00, 0x00, 0x00});    // no heartbeat
-    answer({0x43, 0x01, 0x60, 0x00, 0x00, 0x00, 0x00, 0x01});    // 6001h: 2^24
-    answer({0x43, 0x02, 0x60, 0x00, 0x00, 0x00, 0x00, 0x01});    // 6002h: 2^24
-    answer({0x43, 0x00, 0x18, 0x01, 0x81, 0x01, 0x00, 0x00});    // COB-ID 0x181, valid
-    answer({0x4F, 0x00, 0x18, 0x02, 0x01, 0x00, 0x00, 0x00});    // transmission type 1
-    answer({0x4F, 0x00, 0x1A, 0x00, 0x01, 0x00, 0x00, 0x00});    // one mapping entry
-    answer({0x43, 0x00, 0x1A, 0x01, 0x20, 0x00, 0x04, 0x60});    // 0x6004:00, 32 bits
-  };
-  m.Begin(t);
-  identify(0x01);
-  EXPECT_EQ(m.phase(), CanopenMaster::Phase::kRunning);
-  const std::vector<std::string> expected{"601#4018100100000000",
-                                          "601#4018100200000000",
-                                          "601#4018100300000000",
-                                          "601#4018100400000000",
-                                          "601#4008100000000000",
-                                          "601#4017100000000000",
-                                          "601#4001600000000000",
-                                          "601#4002600000000000",
-                                          "601#4000180100000000",
-                                          "601#4000180200000000",
-                                          "601#40001A0000000000",
-                                          "601#40001A0100000000",
-                                          "000#0101"};
-  EXPECT_EQ(sent, expected);
-  EXPECT_EQ(m.HeaderFields()[0].second,
+};
+
+// The start and a reboot of one node, and a device with another serial number where the
+// rebooted one was.
+TEST(Master, ScriptedNodeAndADeviceThatCameBackAsAnother) {
+  ScriptedNode d(ScriptedNode::OneEncoder());
+  d.answers["4017100000000000"] = "4B171000F4010000";  // heartbeat 500 ms
+  d.master.Begin(d.t);
+  d.Answer();
+  const std::vector<std::string> expected{"601#4018100100000000", "601#4018100200000000",
+                                          "601#4018100300000000", "601#4018100400000000",
+                                          "601#4008100000000000", "601#4017100000000000",
+                                          "601#4019100000000000", "601#4001600000000000",
+                                          "601#4002600000000000", "601#4000180100000000",
+                                          "601#4000180200000000", "601#40001A0000000000",
+                                          "601#40001A0100000000", "000#0101"};
+  EXPECT_EQ(d.sent, expected);
+  EXPECT_EQ(d.master.phase(), CanopenMaster::Phase::kStarting);  // until its heartbeat says operational
+  d.Heartbeat(0x05);
+  EXPECT_EQ(d.master.phase(), CanopenMaster::Phase::kRunning);
+  EXPECT_THAT(d.logs, Contains("every node is operational (each heartbeat says so)"));
+  EXPECT_EQ(d.master.HeaderFields()[0].second,
             "node 1; vendor_id 0x00535048; product_code 0x00004060; serial 0x00010001; "
             "measuring_units_per_revolution 16777216; total_measuring_range 16777216; tpdo 1 cob_id 0x181");
-  m.OnFrame(MakeFrame(0x701, {0x00}, t += kMs));  // boot-up: rebooted
-  EXPECT_EQ(m.counts().boot_ups, 1U);
-  identify(0x02);  // another serial
-  EXPECT_EQ(m.counts().restart_failures, 1U);
-  EXPECT_EQ(sent.back(), "601#40001A0100000000");  // not started again
-  ASSERT_EQ(notes.size(), 1U);
-  EXPECT_THAT(notes[0], HasSubstr("node 1 (theta) was not restarted after its reboot: it came back as another device"));
-  EXPECT_THAT(notes[0], HasSubstr("serial 0x00010002 (at the start: 0x00535048, 0x00004060, 0x00010001)"));
+  d.Heartbeat(0x00);  // boot-up: rebooted
+  EXPECT_EQ(d.master.counts().boot_ups, 1U);
+  d.answers["4018100400000000"] = "4318100402000100";  // another serial
+  d.Answer();
+  EXPECT_EQ(d.master.counts().restart_failures, 1U);
+  EXPECT_EQ(d.sent.back(), "601#40001A0100000000");  // not started again
+  ASSERT_EQ(d.notes.size(), 1U);
+  EXPECT_THAT(d.notes[0],
+              HasSubstr("node 1 (theta) was not restarted after its reboot: it came back as another device"));
+  EXPECT_THAT(d.notes[0], HasSubstr("serial 0x00010002 (at the start: 0x00535048, 0x00004060, 0x00010001)"));
+}
+
+// A node whose 1017h is 0 sends no heartbeat, so nothing would tell that it is operational: the
+// master writes its heartbeat time into it (and reads it back) and calls it operational only when
+// a heartbeat says so.
+TEST(Master, ANodeWithoutHeartbeatIsGivenOneAndStartedOnlyWhenItSaysOperational) {
+  ScriptedNode d(ScriptedNode::OneEncoder());
+  d.answers["4017100000000000"] = "4B17100000000000";  // 0 ms
+  d.answers["2B17100064000000"] = "6017100000000000";  // the write of 100 ms is taken
+  d.master.Begin(d.t);
+  d.Answer();
+  ASSERT_GE(d.sent.size(), 8U);
+  EXPECT_EQ(d.sent[5], "601#4017100000000000");
+  EXPECT_EQ(d.sent[6], "601#2B17100064000000");
+  EXPECT_EQ(d.sent[7], "601#4017100000000000");  // read back: 100 ms
+  EXPECT_EQ(d.sent.back(), "000#0101");
+  EXPECT_THAT(d.logs, Not(Contains(HasSubstr("operational"))));
+  d.Heartbeat(0x7F);  // still pre-operational: not enough
+  d.Time(700 * kMs);
+  EXPECT_EQ(d.master.phase(), CanopenMaster::Phase::kStarting);
+  d.Time(200 * kMs);  // 500 ms + 3 heartbeat periods after the Start
+  ASSERT_EQ(d.master.phase(), CanopenMaster::Phase::kFailed);
+  EXPECT_THAT(d.master.errors(), ElementsAre("node 1 (theta): no heartbeat saying operational within 0.8 s after "
+                                             "Start remote node (last state: pre-operational)"));
+
+  ScriptedNode ok(ScriptedNode::OneEncoder());
+  ok.answers["4017100000000000"] = "4B17100000000000";
+  ok.answers["2B17100064000000"] = "6017100000000000";
+  ok.master.Begin(ok.t);
+  ok.Answer();
+  ok.Heartbeat(0x05);
+  EXPECT_EQ(ok.master.phase(), CanopenMaster::Phase::kRunning);
+  EXPECT_THAT(ok.logs, Contains("every node is operational (each heartbeat says so)"));
+}
+
+// A device that refuses the heartbeat time (1017h read-only) cannot confirm its state: the start
+// is refused, or with a trusted configuration it is started and said to be unconfirmed.
+TEST(Master, ANodeThatCannotSendHeartbeatsIsRefusedOrStartedUnconfirmed) {
+  for (const bool trust : {false, true}) {
+    MasterConfig mc = ScriptedNode::OneEncoder();
+    mc.trust_config = trust;
+    ScriptedNode d(mc);
+    d.answers["4017100000000000"] = "4B17100000000000";
+    d.answers["2B17100064000000"] = "8017100002000106";  // read only
+    d.master.Begin(d.t);
+    d.Answer();
+    const std::string why =
+        "its NMT state cannot be confirmed: object 0x1017:00 (producer heartbeat time) is 0, it sends no heartbeat "
+        "(writing 0x1017:00 (producer heartbeat time): the device aborted: 0x06010002 (attempt to write a read only "
+        "object))";
+    if (!trust) {
+      ASSERT_EQ(d.master.phase(), CanopenMaster::Phase::kFailed);
+      EXPECT_THAT(d.master.errors(), ElementsAre("node 1 (theta): " + why));
+      EXPECT_THAT(d.sent, Not(Contains("000#0101")));
+      continue;
+    }
+    EXPECT_EQ(d.master.phase(), CanopenMaster::Phase::kRunning);
+    EXPECT_THAT(d.logs, Contains("node 1 (theta): " + why + " (trusted: acquiring anyway)"));
+    EXPECT_THAT(d.logs, Contains("every node is started; not confirmed operational (no heartbeat): node 1 (theta)"));
+    EXPECT_EQ(d.master.counts().unconfirmed, 1U);
+  }
+}
+
+// The SYNC carries a counter (overflow value 240) and the device's 1019h is 0: it would refuse
+// every SYNC. The start is refused naming 1019h; --configure-pdo writes it.
+TEST(Master, A1019hThatDoesNotFitTheSyncRefusesTheStartOrIsWritten) {
+  MasterConfig mc = ScriptedNode::OneEncoder();
+  mc.sync_counter_max = 240;
+  mc.sync_counter_name = "--sync-counter-max";
+  ScriptedNode d(mc);
+  d.answers["4019100000000000"] = "4F19100000000000";
+  d.master.Begin(d.t);
+  d.Answer();
+  ASSERT_EQ(d.master.phase(), CanopenMaster::Phase::kFailed);
+  EXPECT_THAT(d.master.errors(),
+              ElementsAre("node 1 (theta): object 0x1019:00 (synchronous counter overflow value): the device has 0, "
+                          "--sync-counter-max 240 (a node that expects another SYNC refuses every SYNC: EMCY 0x8240, "
+                          "pre-operational)"));
+  mc.configure_pdo = true;
+  ScriptedNode c(mc);
+  c.answers["4019100000000000"] = "4F19100000000000";
+  c.answers["2F191000F0000000"] = "6019100000000000";
+  for (const char* w : {"2300180181010080", "2F00180201000000", "2F001A0000000000", "23001A0120000460",
+                        "2F001A0001000000", "2300180181010000"}) {
+    c.answers[w] = "60" + std::string(w).substr(2, 6) + "00000000";
+  }
+  c.master.Begin(c.t);
+  c.Answer();
+  const auto write = std::find(c.sent.begin(), c.sent.end(), "601#2F191000F0000000");
+  ASSERT_NE(write, c.sent.end());
+  EXPECT_EQ(*(write + 1), "601#4019100000000000");  // read back: 240
+  c.Heartbeat(0x05);
+  EXPECT_EQ(c.master.phase(), CanopenMaster::Phase::kRunning) << ::testing::PrintToString(c.master.errors());
+}
+
+// A node that reboots without its stored settings (1017h and 1019h back at 0, EMCY 0x5000) and
+// stays pre-operational: the changed heartbeat time is flagged and the start's written back, and
+// the node is not called operational again while its heartbeat says pre-operational.
+TEST(Master, ANodeBackWithoutItsSettingsIsFlaggedAndNotCalledOperational) {
+  DeviceSimConfig sc = Booting();
+  sc.heartbeat_period_s = 0.2;
+  sc.faults.reboots = {{2, 2.0, true}};
+  Rig r(sc);
+  r.bus.ProduceSync(kT0 + 10 * kMs, 10 * kMs);
+  r.master->Begin(kT0);
+  r.bus.RunUntil(kT0 + 1900 * kMs);
+  ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kRunning);
+  r.bus.RunUntil(kT0 + 5000 * kMs);
+  EXPECT_EQ(r.sim.NodeState(2), 0x7F);
+  EXPECT_THAT(r.notes, Contains("node 2 (phi): object 0x1017:00 (producer heartbeat time) is 0 ms after its reboot, "
+                                "200 ms at the start: it may have lost its stored settings"));
+  EXPECT_THAT(r.Frames(), Contains("602#2B171000C8000000"));  // 200 ms written back
+  EXPECT_THAT(r.logs, Not(Contains("node 2 (phi): restarted, operational again")));
+  EXPECT_EQ(r.master->counts().restarts, 0U);
+  EXPECT_EQ(r.master->counts().restart_failures, 1U);
+  EXPECT_THAT(r.notes, Contains("node 2 (phi) was not restarted after its reboot: no heartbeat saying operational "
+                                "within 1.1 s after Start remote node (last state: pre-operational)"));
 }
 
 TEST(Master, ConfigurationErrors) {

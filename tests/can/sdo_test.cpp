@@ -1,8 +1,8 @@
 // SDO transfers against scripted byte sequences laid out as in CiA 301 §7.2.4.3 (the frames a
 // server sends are written here byte by byte, not made by the code under test): expedited and
-// segmented uploads with the toggle bit, expedited downloads, aborts, malformed and out-of-order
-// answers, timeouts. Every failure must end in a clear error and an abort frame, never a hang,
-// and a failed transfer returns or writes nothing.
+// segmented uploads with the toggle bit, expedited downloads (and the server's segmented ones),
+// aborts, malformed and out-of-order answers, timeouts. Every failure must end in a clear error
+// and an abort frame, never a hang, and a failed transfer returns or writes nothing.
 #include "sph/can/sdo.hpp"
 
 #include <gmock/gmock.h>
@@ -273,6 +273,67 @@ TEST(SdoServer, ARefusedDownloadWritesNothing) {
   a = server.OnRequest(From(0x601, {0x2B, 0x17, 0x10, 0x00, 0xF4, 0x01, 0, 0}));  // 500 ms
   EXPECT_THAT(Bytes(*a), ElementsAre(0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0));
   EXPECT_EQ(od.Unsigned({0x1017, 0}), 500U);
+}
+
+// A normal (segmented) download, CiA 301 §7.2.4.3.3 and .5, as CANopenNode's server answers it:
+// initiate 21 (size indicated) answered 60, each segment 0t.. answered 2t with the same toggle bit;
+// the value written once the last segment (c = 1) came. Any length, 2 bytes here.
+TEST(SdoServer, ANormalDownloadIsTakenSegmentBySegment) {
+  ObjectDictionary od = SmallDictionary();
+  std::vector<ObjectAddress> written;
+  SdoServer server(1, &od, nullptr, [&](ObjectAddress o) { written.push_back(o); });
+  auto a = server.OnRequest(From(0x601, {0x21, 0x17, 0x10, 0x00, 0x02, 0x00, 0x00, 0x00}));  // 2 bytes follow
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0));
+  EXPECT_EQ(od.Unsigned({0x1017, 0}), 1000U);                            // nothing written yet
+  a = server.OnRequest(From(0x601, {0x0B, 0xC8, 0x00, 0, 0, 0, 0, 0}));  // toggle 0, 5 bytes unused, last
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x20, 0, 0, 0, 0, 0, 0, 0));
+  EXPECT_EQ(od.Unsigned({0x1017, 0}), 200U);
+  ASSERT_EQ(written.size(), 1U);
+  EXPECT_EQ(written[0], (ObjectAddress{0x1017, 0}));
+  // Without a size, in two segments (a 9-byte entry): toggle 0 then 1, answered alike.
+  od.Set({0x2100, 1}, std::vector<std::uint8_t>(9, 0), ObjectDictionary::Access::kReadWrite);
+  a = server.OnRequest(From(0x601, {0x20, 0x00, 0x21, 0x01, 0, 0, 0, 0}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x60, 0x00, 0x21, 0x01, 0, 0, 0, 0));
+  a = server.OnRequest(From(0x601, {0x00, 1, 2, 3, 4, 5, 6, 7}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x20, 0, 0, 0, 0, 0, 0, 0));
+  a = server.OnRequest(From(0x601, {0x1B, 8, 9, 0, 0, 0, 0, 0}));  // toggle 1, 2 bytes, last
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x30, 0, 0, 0, 0, 0, 0, 0));
+  EXPECT_THAT(od.Find({0x2100, 1})->value, ElementsAre(1, 2, 3, 4, 5, 6, 7, 8, 9));
+}
+
+TEST(SdoServer, ANormalDownloadIsRefusedAsCANopenNodeRefusesIt) {
+  ObjectDictionary od = SmallDictionary();
+  SdoServer server(1, &od);
+  // No such object, no such sub-index, a read-only entry: refused at the initiate.
+  auto a = server.OnRequest(From(0x601, {0x21, 0x22, 0x22, 0x00, 0x02, 0, 0, 0}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x80, 0x22, 0x22, 0x00, 0x00, 0x00, 0x02, 0x06));
+  a = server.OnRequest(From(0x601, {0x21, 0x18, 0x10, 0x09, 0x04, 0, 0, 0}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x80, 0x18, 0x10, 0x09, 0x11, 0x00, 0x09, 0x06));
+  a = server.OnRequest(From(0x601, {0x21, 0x18, 0x10, 0x01, 0x04, 0, 0, 0}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x80, 0x18, 0x10, 0x01, 0x02, 0x00, 0x01, 0x06));
+  // A size that is not the entry's: too high, too low.
+  a = server.OnRequest(From(0x601, {0x21, 0x17, 0x10, 0x00, 0x05, 0, 0, 0}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x80, 0x17, 0x10, 0x00, 0x12, 0x00, 0x07, 0x06));
+  a = server.OnRequest(From(0x601, {0x21, 0x17, 0x10, 0x00, 0x01, 0, 0, 0}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x80, 0x17, 0x10, 0x00, 0x13, 0x00, 0x07, 0x06));
+  // Segments: a toggle bit that did not alternate, more bytes than the entry holds.
+  server.OnRequest(From(0x601, {0x20, 0x17, 0x10, 0x00, 0, 0, 0, 0}));
+  a = server.OnRequest(From(0x601, {0x10, 1, 2, 3, 4, 5, 6, 7}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x80, 0x17, 0x10, 0x00, 0x00, 0x00, 0x03, 0x05));
+  server.OnRequest(From(0x601, {0x20, 0x17, 0x10, 0x00, 0, 0, 0, 0}));
+  a = server.OnRequest(From(0x601, {0x09, 1, 2, 3, 0, 0, 0, 0}));  // 3 bytes into UNSIGNED16
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x80, 0x17, 0x10, 0x00, 0x12, 0x00, 0x07, 0x06));
+  EXPECT_EQ(od.Unsigned({0x1017, 0}), 1000U);
+  // While a transfer is in progress only its next segment is taken; a client's abort ends it.
+  server.OnRequest(From(0x601, {0x21, 0x17, 0x10, 0x00, 0x02, 0, 0, 0}));
+  a = server.OnRequest(From(0x601, {0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x80, 0x17, 0x10, 0x00, 0x01, 0x00, 0x04, 0x05));
+  a = server.OnRequest(From(0x601, {0x0B, 0xC8, 0x00, 0, 0, 0, 0, 0}));  // no transfer any more
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x80, 0x17, 0x10, 0x00, 0x01, 0x00, 0x04, 0x05));
+  server.OnRequest(From(0x601, {0x21, 0x17, 0x10, 0x00, 0x02, 0, 0, 0}));
+  EXPECT_FALSE(server.OnRequest(From(0x601, {0x80, 0x17, 0x10, 0x00, 0, 0, 0x04, 0x05})).has_value());
+  a = server.OnRequest(From(0x601, {0x40, 0x17, 0x10, 0x00, 0, 0, 0, 0}));
+  EXPECT_THAT(Bytes(*a), ElementsAre(0x4B, 0x17, 0x10, 0x00, 0xE8, 0x03, 0, 0));
 }
 
 TEST(SdoServer, ClientAndServerAgreeOnEveryLength) {

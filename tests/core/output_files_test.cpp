@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <csignal>
 #include <fstream>
 #include <sstream>
@@ -178,6 +179,20 @@ TEST(OutputFiles, AFailedDirectWriteKeepsTheRegularFilesUntouched) {
   EXPECT_EQ(ReadWholeFile(dir + "/a.txt"), "old a\n");
 }
 
+TEST(OutputFiles, AFailedWriteToTheRunsStandardOutputKeepsTheFilesUntouched) {
+  const std::string dir = sph::testing::MakeTempDir("outputs_stdout");
+  Put(dir + "/a.txt", "old a\n");
+  {
+    std::ostream report(nullptr);  // every write fails, as on a full disk
+    OutputFiles files(report);
+    files.Stage(dir + "/a.txt", [](std::ostream& o) { o << "new a\n"; });
+    report << "the run's report\n";
+    EXPECT_THAT(ErrorOf([&] { files.Commit(); }), HasSubstr("cannot write to standard output"));
+    EXPECT_EQ(ReadWholeFile(dir + "/a.txt"), "old a\n");
+  }  // what was staged goes
+  EXPECT_EQ(Entries(dir), std::vector<std::string>{"a.txt"});
+}
+
 TEST(OutputFiles, CommitPutsEveryFileInPlace) {
   const std::string dir = sph::testing::MakeTempDir("outputs_commit");
   OutputFiles files;
@@ -211,6 +226,34 @@ TEST(OutputFiles, ASignalDuringTheWriteLeavesNoTemporaryFile) {
   EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << status;
   EXPECT_EQ(ReadWholeFile(dir + "/a.txt"), "old\n");
   EXPECT_EQ(Entries(dir), std::vector<std::string>{"a.txt"});
+}
+
+// A child process that would write a staged file later (a plotting program) is killed, with what
+// it started, and waited for before the files are removed: nothing is written afterwards.
+TEST(OutputFiles, ASignalEndsARegisteredChildBeforeItWritesAStagedFile) {
+  const std::string dir = sph::testing::MakeTempDir("outputs_child");
+  const pid_t program = ::fork();
+  ASSERT_GE(program, 0);
+  if (program == 0) {
+    RemoveTempFilesOnSignals();
+    OutputFiles files;
+    const std::string image = files.StageProduced(dir + "/image.png");
+    const pid_t child = ::fork();
+    if (child == 0) {
+      ::setpgid(0, 0);
+      ::execl("/bin/sh", "sh", "-c", ("sleep 0.5; echo drawn > '" + image + "'").c_str(), nullptr);
+      ::_exit(127);
+    }
+    ::setpgid(child, child);
+    RegisterChildProcess(child);
+    std::raise(SIGTERM);
+    ::_exit(0);  // not reached
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(program, &status, 0), program);
+  EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << status;
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // a child left running would have written by now
+  EXPECT_EQ(Entries(dir), std::vector<std::string>{});
 }
 
 TEST(RunPaths, RefusesAnOutputThatIsAnInput) {
@@ -257,6 +300,17 @@ TEST(RunPaths, StandardOutputRedirectedToAnOutputIsTheSameFile) {
   ::close(saved);
   ::close(fd);
   EXPECT_THAT(message, HasSubstr("--output - (standard output) and --truth " + dir + "/t.json are the same file"));
+}
+
+TEST(SameFile, OneFileByAnyNameAndNoOther) {
+  const std::string dir = sph::testing::MakeTempDir("same_file");
+  Put(dir + "/a.txt", "a\n");
+  Put(dir + "/copy.txt", "a\n");
+  ASSERT_EQ(::symlink("a.txt", (dir + "/link.txt").c_str()), 0);
+  EXPECT_TRUE(SameFile(dir + "/a.txt", dir + "/link.txt"));
+  EXPECT_TRUE(SameFile(dir + "/new.txt", dir + "/./new.txt"));
+  EXPECT_FALSE(SameFile(dir + "/a.txt", dir + "/copy.txt"));
+  EXPECT_FALSE(SameFile(dir + "/a.txt", dir + "/new.txt"));
 }
 
 TEST(RunPaths, CharacterDevicesMayTakeSeveralOutputs) {

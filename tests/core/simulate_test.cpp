@@ -81,6 +81,86 @@ TEST(Simulate, SetupsTimesAndSeeds) {
   EXPECT_NE(Simulate(spec).samples[100].r_mm, d.samples[100].r_mm);
 }
 
+// The distance r + gain(u) + nonlinearity(u) that each reading of `read` reports (u by `ref`)
+// against the exact distance of `exact` (the same spec without the probe's terms).
+void ExpectReadingsReportTheDistances(const PointsData& read, const PointsData& exact, const EffectReference& ref,
+                                      double gain_mm, double quadratic_mm) {
+  ASSERT_EQ(read.samples.size(), exact.samples.size());
+  for (std::size_t i = 0; i < read.samples.size(); ++i) {
+    const double r = read.samples[i].r_mm, u = (r - ref.r_ref_mm) / ref.r_half_range_mm;
+    EXPECT_NEAR(r + gain_mm * u + quadratic_mm * u * u, exact.samples[i].r_mm, 1e-12) << "sample " << i;
+  }
+}
+
+// A gain of half the probe's range (1 mm at the end of a 2 mm range): d(distance)/d(reading) is 2,
+// which a fixed-point iteration r <- distance - gain(u(r)) does not converge on (it swaps between
+// two values); the readings are the roots, in the range.
+TEST(Simulate, AProbeGainOfHalfTheRangeIsReadExactly) {
+  SimulationSpec spec;
+  spec.noise_r_um = 0.0;
+  spec.probe_offset_mm = 21.5;
+  spec.centers_mm = {Eigen::Vector3d(0.5, 0.0, 0.0)};
+  spec.probe_range_mm = 2.0;
+  const PointsData exact = Simulate(spec);
+  spec.effects.model.terms = {DefaultTerm(Effect::kProbeGain)};
+  spec.effects.values = {{1.0}};
+  EffectReference ref;
+  const PointsData read = Simulate(spec, &ref);
+  EXPECT_DOUBLE_EQ(ref.r_ref_mm, 1.0);
+  EXPECT_DOUBLE_EQ(ref.r_half_range_mm, 1.0);
+  ExpectReadingsReportTheDistances(read, exact, ref, 1.0, 0.0);
+  for (const Sample& s : read.samples) {
+    EXPECT_GT(s.r_mm, 0.0);
+    EXPECT_LT(s.r_mm, 2.0);
+  }
+}
+
+// Normalised by the readings' own range, the readings and the range they span are solved together:
+// a gain of 1 mm on readings that span about 2 mm (d(distance)/d(reading) about 2 again).
+TEST(Simulate, AProbeGainNormalisedByTheReadingsOwnRangeIsReadExactly) {
+  SimulationSpec spec;
+  spec.noise_r_um = 0.0;
+  const PointsData exact = Simulate(spec);
+  for (const auto& [gain_mm, quadratic_mm] : {std::pair{1.0, 0.0}, std::pair{-1.0, 0.3}, std::pair{1e-3, 0.0}}) {
+    SCOPED_TRACE(gain_mm);
+    spec.effects.model.terms = {DefaultTerm(Effect::kProbeGain), DefaultTerm(Effect::kProbeNonlinearity)};
+    spec.effects.values = {{gain_mm}, {quadratic_mm, 0.0}};
+    EffectReference ref;
+    const PointsData read = Simulate(spec, &ref);
+    const EffectReference own = EffectReferenceOf(read.samples);
+    EXPECT_DOUBLE_EQ(ref.r_ref_mm, own.r_ref_mm);
+    EXPECT_DOUBLE_EQ(ref.r_half_range_mm, own.r_half_range_mm);
+    ExpectReadingsReportTheDistances(read, exact, own, gain_mm, quadratic_mm);
+  }
+}
+
+TEST(Simulate, RefusesAProbeThatCannotReadTheDistances) {
+  const auto message = [](SimulationSpec spec) {
+    try {
+      Simulate(spec);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  SimulationSpec spec;
+  spec.probe_range_mm = 1.0;  // the readings are 3 to 7 mm
+  EXPECT_THAT(message(spec), ::testing::HasSubstr("288 of 288 distances (the first: 4.77605 mm at theta 0 deg, phi "
+                                                  "7.5 deg, setup 0) lie beyond what the probe reads over its range 0 "
+                                                  "to 1 mm (probe_range_mm)"));
+  spec.probe_offset_mm = 20.7;  // readings 0.44 to 0.84 mm
+  spec.centers_mm = {Eigen::Vector3d(0.2, 0.0, 0.0)};
+  spec.effects.model.terms = {DefaultTerm(Effect::kProbeGain)};
+  spec.effects.values = {{-0.6}};  // the distance falls by 0.2 mm per mm of reading
+  EXPECT_THAT(message(spec), ::testing::HasSubstr("with probe_gain.u1 -600 um, the distance the probe reports does "
+                                                  "not rise with its reading over its range 0 to 1 mm "
+                                                  "(probe_range_mm): d(distance)/d(reading) is -0.2 at r = 0 mm"));
+  spec = SimulationSpec();
+  spec.effects.model.terms = {DefaultTerm(Effect::kProbeNonlinearity)};
+  spec.effects.values = {{1.0, 0.0}};  // u^2 of 1 mm over readings that span 2 mm each way
+  EXPECT_THAT(message(spec), ::testing::HasSubstr("does not rise with its reading over the readings' own range"));
+}
+
 TEST(Simulate, RejectsImpossibleSpecs) {
   SimulationSpec spec;
   spec.centers_mm = {Eigen::Vector3d(0, 40, 0)};

@@ -123,6 +123,63 @@ TEST(EvaluateSphere, RefusesPointsThatDetermineNoSphere) {
   }
 }
 
+// A point that is not finite (a NaN rotation of the form, say) or that lies beyond any machine (a
+// coordinate of 1e153) is named as such; only points that genuinely lie on a plane or line, or are
+// one point, are said to.
+TEST(EvaluateSphere, NamesAPointThatIsNotFiniteOrBeyondAnyMachine) {
+  std::vector<Eigen::Vector3d> points{{20, 0, 0}, {0, 20, 0}, {0, 0, 20}, {-20, 0, 0}, {0, -20, 0}, {0, 0, -20}};
+  const auto message = [](const std::vector<Eigen::Vector3d>& p) {
+    try {
+      EvaluateSphere(p, "p.xyz");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  std::vector<Eigen::Vector3d> nan = points;
+  nan[2].y() = std::nan("");
+  EXPECT_EQ(message(nan), "p.xyz: point 3 of 6 (0 nan 20 mm) is not a finite point: no sphere is fitted through it");
+  std::vector<Eigen::Vector3d> far = points;
+  for (Eigen::Vector3d& p : far) p *= 1e151;
+  EXPECT_EQ(message(far),
+            "p.xyz: point 1 of 6 (2e+152 0 0 mm) lies beyond 1e+06 mm from the origin, which no "
+            "measuring machine reaches: are the coordinates in mm?");
+  std::vector<Eigen::Vector3d> shifted = points;
+  for (Eigen::Vector3d& p : shifted) p.x() += 1e153;  // the sphere's x is lost in the rounding
+  EXPECT_THAT(message(shifted), HasSubstr("p.xyz: point 1 of 6 (1e+153 0 0 mm) lies beyond 1e+06 mm"));
+  EXPECT_EQ(message(std::vector<Eigen::Vector3d>(5, Eigen::Vector3d(1, 2, 3))),
+            "p.xyz: the 5 points are all one point (1 2 3 mm)");
+  for (Eigen::Vector3d& p : points) p *= 5e4;  // 1 km from the origin: still a sphere
+  EXPECT_NEAR(EvaluateSphere(points, "p.xyz").ls.sphere.radius, 1e6, 1e-6);
+}
+
+// The form of the calibration sphere is taken off in the orientation its setup gives, and only
+// off the calibration sphere.
+TEST(CalibrationSphereRotation, IsTheSetupsMountRotationOfTheCalibrationSphere) {
+  PointsHeader h;
+  h.mount_rotations[1] = MountRotation::Known(Eigen::Vector3d(0, 0, 90));
+  h.mount_rotations[2] = MountRotation::Unknown();
+  h.mount_rotations[3] = MountRotation::Known(Eigen::Vector3d(1e308, 0, 0));
+  h.sphere_radii_mm[4] = 10.0;
+  EXPECT_TRUE(CalibrationSphereRotation(h, 0, "p.txt").isIdentity());
+  EXPECT_TRUE(CalibrationSphereRotation(h, 1, "p.txt").isApprox(MountRotationMatrix(Eigen::Vector3d(0, 0, 90))));
+  const auto message = [&](int setup) {
+    try {
+      CalibrationSphereRotation(h, setup, "p.txt");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(message(2), HasSubstr("p.txt: the mount rotation of setup 2 is unknown"));
+  EXPECT_EQ(message(3),
+            "p.txt: setup 3: mount_rotation_deg@3 1e+308 0 0 gives no rotation (its sines and cosines "
+            "are not finite numbers)");
+  EXPECT_EQ(message(4),
+            "p.txt: setup 4 measured another sphere (sphere_radius_mm@4: 10 mm), not the calibration "
+            "sphere whose form the calibration file holds: its form cannot be taken off these points");
+}
+
 TEST(EvaluateSphere, SaysThatFivePointsSayLittleAboutTheForm) {
   const SphereEvaluation ev =
       EvaluateSphere({{10, 0, 0}, {0, 10, 0}, {0, 0, 10}, {-10, 0, 0}, {0, -10.01, 0}}, "five.xyz");

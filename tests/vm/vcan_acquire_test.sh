@@ -2,7 +2,8 @@
 # sph_acquired and sph_cansim against a real Linux CAN stack: runs inside the VM of
 # tests/vm/run-in-vcan-vm.sh (vcan0 up, can-utils on PATH), with the two programs in /work.
 # The bytes of the NMT and SDO frames are checked as candump shows them (CiA 301: NMT 000#cs nn,
-# SDO requests 600h + node, answers 580h + node, boot-up 700h + node with state 00).
+# SDO requests 600h + node, answers 580h + node, boot-up 700h + node with state 00), also where the
+# daemon configures a node's heartbeat (1017h) and SYNC counter (1019h).
 # Prints one line per check and "N passed, N failed"; exits 1 if any check failed.
 cd /work || exit 1
 pass=0
@@ -29,12 +30,14 @@ echo "   rows $n; daemon: $(grep -m1 'summary: frames' acq1.err)"
 grep -E 'incomplete|missing' acq1.err | head -5 | sed 's/^/   /'
 cycles=$(sed -n 's/.*summary: frames [0-9]*, SYNC [0-9]*, cycles \([0-9]*\),.*/\1/p' acq1.err | tail -1)
 incomplete=$(sed -n 's/.*lost: incomplete cycles \([0-9]*\),.*/\1/p' acq1.err | tail -1)
+missed=$(sed -n 's/.*, missed SYNC \([0-9]*\),.*/\1/p' acq1.err | tail -1)
 recovered=$(sed -n 's/.*recovered cycles of missed SYNC \([0-9]*\);.*/\1/p' acq1.err | tail -1)
 cut=$(sed -n 's/.*last cycle cut by the end \([0-9]*\).*/\1/p' acq1.err | tail -1)
 # Under emulation the simulator sometimes answers a SYNC late: such a cycle must be reported, not lost.
+# The cycles count those of SYNCs that never came: recovered ones are rows, the others lost.
 check "daemon stopped cleanly, exit $rc (0, or 1 when cycles were incomplete)" test "$rc" -le 1
-check "every SYNC cycle is a row or a reported incomplete cycle: $n - $recovered + $incomplete + $cut = $cycles" \
-  test $((n - recovered + incomplete + cut)) -eq "$cycles"
+check "every SYNC cycle is a row or a reported loss: $n + $incomplete + $cut + $missed - $recovered = $cycles" \
+  test $((n + incomplete + cut + missed - recovered)) -eq "$cycles"
 check "rows from the simulator: $n of $cycles cycles" test "$n" -ge 300
 check "candump saw the daemon's SYNC frames" test "$(grep -c ' 080#' sync.log)" -eq 20
 
@@ -181,8 +184,10 @@ check "the file ends with a newline" test "$(tail -c 1 /mnt/small/p.txt | od -An
 echo "== 7. the daemon as CANopen master: silent devices started, identified, a reboot restarted"
 candump -L vcan0 >bus7.log &
 cd_pid=$!
-# The devices power on pre-operational; node 1 reboots 4.5 s later. They answer the daemon's SYNC.
-"${SIM[@]}" --sync-source external --sync-period-ms 10 --fault reboot:1@4.5 --record rec7.txt 2>sim7.err &
+# The devices power on pre-operational; node 1 reboots 4.5 s later. They answer the daemon's SYNC,
+# which counts to 240 as their 1019h says.
+"${SIM[@]}" --sync-source external --sync-period-ms 10 --sync-counter-max 240 --fault reboot:1@4.5 --record rec7.txt \
+  2>sim7.err &
 sim_pid=$!
 sleep 1
 MASTER=(--sync-period-ms 10 --sync-counter-max 240 --heartbeat-timeout-s 2.5)
@@ -301,6 +306,60 @@ check "candump: transmission type 1 written (601#2F 00 18 02 01) and confirmed (
   test -n "$(grep -m1 -F ' 601#2F00180201000000' bus9.log)" -a -n "$(grep -m1 -F ' 581#6000180200000000' bus9.log)"
 check "... read back as 1 (581#4F 00 18 02 01)" grep -q -F ' 581#4F00180201000000' bus9.log
 check "rows from the configured devices: $(rows configured.txt)" test "$(rows configured.txt)" -ge 150
+
+echo "== 10. devices without heartbeat (1017h = 0): given one, and operational only when it says so"
+"${SIM[@]}" --sync-source external --sync-period-ms 10 --heartbeat-period-s 0 2>sim10.err &
+sim_pid=$!
+sleep 1
+candump -L vcan0 >bus10.log &
+cd_pid=$!
+sleep 0.2
+./sph_acquired --iface vcan0 -o heartbeat.txt --sync-period-ms 10 --duration-s 3 2>acq10.err
+rc=$?
+sleep 0.2
+kill $cd_pid 2>/dev/null; wait $cd_pid
+kill $sim_pid 2>/dev/null; wait $sim_pid
+grep -E 'operational|heartbeat' acq10.err | head -5 | sed 's/^/   /'
+start10=$(grep -n -m1 -F ' 000#0101' bus10.log | cut -d: -f1)
+op10=$(awk -v s="${start10:-0}" 'NR > s && / 701#05$/ {print NR; exit}' bus10.log)
+check "daemon stopped cleanly, exit $rc (0 or 1)" test "$rc" -le 1
+check "candump: 1017h read as 0 ms (581#4B 17 10 00 00 00)" grep -q -F ' 581#4B17100000000000' bus10.log
+check "candump: 100 ms written (601#2B 17 10 00 64 00) and confirmed (581#60 17 10 00)" \
+  test -n "$(grep -m1 -F ' 601#2B17100064000000' bus10.log)" -a -n "$(grep -m1 -F ' 581#6017100000000000' bus10.log)"
+check "candump: node 1's heartbeat says operational (701#05, line ${op10:-none}) after its NMT Start (line ${start10:-none})" \
+  test -n "$op10"
+check "the daemon calls the nodes operational because their heartbeats say so" \
+  grep -q 'every node is operational (each heartbeat says so)' acq10.err
+check "rows: $(rows heartbeat.txt)" test "$(rows heartbeat.txt)" -ge 100
+
+echo "== 11. a counted SYNC against devices whose 1019h is 0: refused, then 1019h configured by the daemon"
+"${SIM[@]}" --sync-source external --sync-period-ms 10 --nodes-sync-counter-max 0 2>sim11.err &
+sim_pid=$!
+sleep 1
+./sph_acquired --iface vcan0 -o uncounted.txt --sync-period-ms 10 --sync-counter-max 240 --duration-s 3 2>acq11a.err
+rc_a=$?
+candump -L vcan0 >bus11.log &
+cd_pid=$!
+sleep 0.2
+./sph_acquired --iface vcan0 -o counted.txt --sync-period-ms 10 --sync-counter-max 240 --duration-s 4 --configure-pdo \
+  2>acq11b.err
+rc_b=$?
+sleep 0.2
+kill $cd_pid 2>/dev/null; wait $cd_pid
+kill $sim_pid 2>/dev/null; wait $sim_pid
+grep -m1 '0x1019' acq11a.err | sed 's/^/   /'
+check "without --configure-pdo: exit 5, got $rc_a" test "$rc_a" -eq 5
+check "the message names node, object and both values" grep -q \
+  'error: node 1 (theta): object 0x1019:00 (synchronous counter overflow value): the device has 0, --sync-counter-max 240' \
+  acq11a.err
+check "no points file" test ! -e uncounted.txt
+check "with --configure-pdo: exit $rc_b (0 or 1)" test "$rc_b" -le 1
+check "candump: 1019h = 240 written (601#2F 19 10 00 F0), confirmed (581#60 19 10 00), read back (581#4F 19 10 00 F0)" \
+  test -n "$(grep -m1 -F ' 601#2F191000F0000000' bus11.log)" -a -n "$(grep -m1 -F ' 581#6019100000000000' bus11.log)" \
+  -a -n "$(grep -m1 -F ' 581#4F191000F0000000' bus11.log)"
+check "candump: counted SYNCs (080#01, 080#02, ...)" test -n "$(grep -m1 -F ' 080#01' bus11.log)"
+check "candump: no EMCY 0x8240 (unexpected SYNC length) from any node" test -z "$(grep -m1 -E ' 08[123]#4082' bus11.log)"
+check "rows from the configured devices: $(rows counted.txt)" test "$(rows counted.txt)" -ge 150
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -1,25 +1,11 @@
-// The uncertainty budget of a calibration, as a calibration laboratory states it (GUM).
-//
-// The fit's covariance is the Type A evaluation: the scatter of the points about the model. It
-// says nothing about what the fit takes as exact: the reference sphere's radius R0 (its
-// certificate gives it with an uncertainty, and a steel ball grows with temperature) and the
-// scale of the probe. Each of these is a Type B input x_j; its sensitivity vector
-// s_j = d(parameters)/dx_j is measured by refitting the same readings (outliers left out as in
-// the fit) with x_j moved by +-h and taking the central difference: exact for any model the
-// refit function fits, the seven errors alone or with effects, and checked in the tests against
-// the linearisation (J^T J)^-1 J^T de/dx_j of the seven-error fit.
-//
-// For each parameter p_i (GUM 5.1.2, with the inputs uncorrelated):
-//   u_c(p_i)^2 = std_A(p_i)^2 + sum_j (s_ji u(x_j))^2,
-// degrees of freedom by Welch-Satterthwaite (Type A: m - n, Type B as stated, infinite by
-// default), coverage factor k (2 by default, or from a coverage probability and nu_eff) and
-// U = k u_c. The combined covariance of all parameters, C = C_A + sum_j s_j s_j^T u(x_j)^2, is
-// what a calibration file should carry for the measurements made with it.
-//
-// Temperature: the certificate states R0 at 20 deg C; at the measuring temperature T the sphere
-// has R0(T) = R0 (1 + cte (T - 20 deg C)), which the fit then uses, and u(T) enters through
-// s_R0 R0 cte. The uncertainty of the expansion coefficient itself is not an input (its
-// contribution, R0 (T - 20) u(cte), is below 0.01 um for T within 1 K of 20 deg C).
+// The uncertainty budget of a calibration, as a calibration laboratory states it (GUM): for each
+// parameter, the fit's Type A standard uncertainty and the Type B inputs the fit takes as exact
+// (the reference sphere's radius from its certificate, its temperature, the probe's scale), each
+// with a sensitivity vector s_j = d(parameters)/dx_j measured by refitting the same readings with
+// x_j moved by +-h (central differences); the combined u, Welch-Satterthwaite degrees of freedom,
+// k and U = k u; and the combined covariance C = C_A + sum_j s_j s_j^T u(x_j)^2 that a calibration
+// file carries. The method in full: docs/method/uncertainty.md. Units: rad and mm (parameters),
+// um, K and relative (inputs).
 #ifndef SPH_CALIB_BUDGET_HPP_
 #define SPH_CALIB_BUDGET_HPP_
 
@@ -78,7 +64,7 @@ struct CalibrationBudget {
 /// parameter in the analysis' order, internal units.
 using BudgetRefit = std::function<Eigen::VectorXd(const PointsData&, const CalibrationOptions&)>;
 
-/// The budget of a fit (see the file comment). `fitted`: the readings the fit used (outliers
+/// The budget of a fit (docs/method/uncertainty.md). `fitted`: the readings the fit used (outliers
 /// left out); `analysis`: the fit's covariance and determinacy; `n_points`: m. Each prior of
 /// `options` on a parameter of the analysis is an input of its own (its standard uncertainty,
 /// the sensitivity by refits with its value moved), and the fit's covariance less what the priors

@@ -1,9 +1,13 @@
 // Calibration of the seven geometric errors from points measured on a reference sphere.
 //
-// Plain C++ API: no Ceres type appears here. The solver (Levenberg-Marquardt, Ceres) minimises
-//   S = sum_i (|p_sphere(g; theta_i, phi_i, r_i) - O_setup(i)| - R0)^2
-// over g (seven errors) and one centre O per setup; the errors start at zero (the paper's initial
-// guess) and each centre at an algebraic sphere fit of that setup's nominal-model points.
+// Minimises
+//   S = sum_i (|p_sphere(g; theta_i, phi_i, r_i) - O_setup(i)| - R_setup(i))^2
+// over g (seven errors) and one centre O per setup, by Levenberg-Marquardt on normal equations
+// built from the hand-derived gradient (docs/architecture.md, "The solver"); the errors start at
+// zero (the paper's initial guess) and each centre at an algebraic sphere fit of that setup's
+// nominal-model points. Outliers and the analysis: docs/method/model.md.
+//
+// Plain C++ API: no Ceres type appears here. Units: rad and mm.
 #ifndef SPH_CALIB_CALIBRATOR_HPP_
 #define SPH_CALIB_CALIBRATOR_HPP_
 

@@ -35,6 +35,11 @@ struct PredictedUncertainty {
 
   /// Standard deviation of parameter i as a displacement [um] (angles times R0).
   double StdAsDisplacementUm(int i) const;
+  /// Whether the design determines parameter i as a calibration judges it
+  /// (CalibrationOptions::max_std_um): its std, as a displacement, is finite and at most
+  /// max_std_um. An undetermined parameter's std and bias say nothing a linearisation can: the
+  /// estimate is not held near the truth by the data.
+  bool Determined(int i, double max_std_um) const { return StdAsDisplacementUm(i) <= max_std_um; }
   /// The largest StdAsDisplacementUm over the seven errors, and which error it is.
   double WorstErrorStdUm(int* which = nullptr) const;
 };

@@ -1,19 +1,15 @@
-// Calibration with effects beyond the seven errors (sph/model/effects.hpp).
+// Calibration with effects beyond the seven errors (sph/model/effects.hpp) and the sphere's form.
 //
-// The solver (Levenberg-Marquardt, Ceres) minimises
-//   S = sum_i (|EffectScmsPoint(g, effects; reading_i) - O_setup(i)| - R0)^2
-// over the seven errors g, one centre per setup and one parameter block per effect term, from a
-// given start (usually the seven-error calibration, with the effects at zero). With no terms it is
-// the seven-error calibration of sph/calib/calibrator.hpp.
+// Minimises
+//   S = sum_i (|EffectScmsPoint(g, effects; reading_i) - O_setup(i)| - R_setup(i) - F(form; reading_i))^2
+// over the seven errors g, one centre per setup, one parameter block per effect term and the form's
+// coefficients, from a given start (usually the seven-error calibration, with the effects at zero),
+// by the Levenberg-Marquardt iteration of every calibration on normal equations built from the
+// hand-derived gradient (docs/architecture.md, "The solver"). With no terms and no form it is the
+// seven-error calibration of sph/calib/calibrator.hpp. A term's size is data: it holds only the
+// components the measurement determines (sph/calib/trace.hpp leaves the others out).
 //
-// Each effect term is its own parameter block. Its size is data: a term keeps only the components
-// that the measurement determines (sph/calib/trace.hpp leaves the others out). So the cost
-// function is a ceres::DynamicAutoDiffCostFunction over the blocks present, one per setup over all
-// its readings, rather than one fixed-size functor with switched-off blocks held constant
-// (Problem::SetParameterBlockConstant), which would need a block of every size that pruning can
-// leave and would differentiate the held ones too.
-//
-// Plain C++ API: no Ceres type appears here.
+// Plain C++ API: no Ceres type appears here. Units: rad and mm.
 #ifndef SPH_CALIB_EFFECT_FIT_HPP_
 #define SPH_CALIB_EFFECT_FIT_HPP_
 

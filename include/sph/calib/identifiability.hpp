@@ -1,27 +1,10 @@
-// What a measurement design can tell apart, from the design alone, before any fit.
-//
-// The residuals of a model (the seven errors, each setup's centre, effects, the sphere's form)
-// are linearised at a point of its parameters: J = de/dx over the readings of the design (the
-// pattern of every setup, its centre, its orientation on the mount, the time order). Scaled to
-// unit columns, J D has singular values sigma_k; a direction v_k with sigma_k / sigma_max small
-// is a combination of parameters that moves the residuals (almost) not at all: the readings
-// cannot tell its parameters apart, whatever the noise and however many repetitions, and a fit
-// returns their split from the noise. This is the design's null space, computed rather than
-// argued. For example, a sphere turned with its mount on the Theta table about the Theta axis,
-// centre and all, is to a machine whose errors do not depend on theta only the first setup read
-// at other theta: what such a machine mimics of the form in one placement (with the library's
-// Phi-axis effects, the m = +-1 terms) stays confounded however often the sphere is turned so,
-// and a tilt on the mount separates it.
-//
-// The machine is what the model holds: the seven errors, the centres and the effects asked about
-// (the trace asks about every candidate). Its own directions that the design does not determine
-// (an effect the pattern cannot see) are set aside first, as the fit leaves such components out.
-// A machine error outside the library is not part of the judgement: the generic reversal argument
-// (any function of the reading angles, the same in every setup) is not made here.
-//
-// Only combinations of the sphere's form with anything else (or of form terms among themselves)
-// are reported here: that is the separation of the machine from the sphere. The weak
-// combinations among machine parameters are the fit's own analysis (ObservabilityReport::weak).
+// What a measurement design can tell apart, from the design alone, before any fit: the null space
+// of the Jacobian of the model's residuals (the seven errors, each setup's centre, effects, the
+// sphere's form) linearised over the design's readings, with unit columns. Which form terms the
+// design separates from the machine (IdentifyForm()), and how far it tells the machine's effects
+// apart from each other (IdentifyEffectPairs()). The machine is what the model holds: an error
+// outside the effect library is not part of the judgement. What follows from it for a sphere on a
+// Theta table: docs/method/form-separation.md.
 #ifndef SPH_CALIB_IDENTIFIABILITY_HPP_
 #define SPH_CALIB_IDENTIFIABILITY_HPP_
 

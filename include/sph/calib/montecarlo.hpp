@@ -32,13 +32,17 @@ struct MonteCarloSpec {
   int trials = 1000;
   std::uint64_t seed = 1;
   int threads = 0;  ///< 0: all hardware threads
+  /// A parameter whose predicted std (CRLB), as a displacement of the probed point (angles times
+  /// R0), exceeds this is undetermined at that eccentricity, as a calibration would report it
+  /// (CalibrationOptions::max_std_um, the same default) [um].
+  double max_std_um = 10.0;
 };
 
 /// Statistics of one parameter's estimates at one eccentricity, in internal units (rad, mm).
 struct ParameterStats {
   double truth = 0.0;
-  double mean = 0.0;
-  double std = 0.0;  ///< sample standard deviation over the converged trials
+  double mean = 0.0;  ///< NaN when no trial converged
+  double std = 0.0;  ///< sample standard deviation over the converged trials (NaN, as all of its statistics, below two)
   double se = 0.0;   ///< standard error of the mean, std / sqrt(n)
   double z = 0.0;    ///< (mean - truth) / se
   /// Predicted std (design.hpp) at the truth. With random directions every trial has its own
@@ -51,6 +55,14 @@ struct ParameterStats {
   /// (a pooled std would be ruled by the few near-degenerate placements). 1: efficient.
   double std_over_crlb = 0.0;
   double z_bias = 0.0;  ///< (mean - truth - bias) / se
+  /// The CRLB as a displacement [um] (angles times R0), and whether it is at most
+  /// MonteCarloSpec::max_std_um. When it is not, the design does not determine the parameter:
+  /// std_over_crlb, bias and z_bias are NaN (a bound that does not hold the estimate near the
+  /// truth, or an infinite one, gives no ratio and no second-order bias), crlb is kept (+inf in
+  /// the design's null space). With random directions each trial is judged against its own bound
+  /// (trials whose bound is infinite are left out of std_over_crlb) whatever the root mean square.
+  double crlb_displacement_um = 0.0;
+  bool determined = true;
 };
 
 struct EccentricityResult {

@@ -3,6 +3,7 @@
 #define SPH_CALIB_REPORT_HPP_
 
 #include <map>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <utility>
@@ -27,6 +28,7 @@ struct ReportContext {
   std::map<int, double> sphere_radii_mm;  ///< the setups that measured another sphere: its radius
   double probe_offset_mm = 0.0;
   double max_std_um = 0.0;
+  std::optional<double> probe_range_mm;                       ///< the probe's measuring range, when stated [mm]
   std::vector<std::pair<std::string, std::string>> metadata;  ///< the points file's extra header fields
   /// The uncertainty budget of the result's parameters (GUM), when made; not owned.
   const CalibrationBudget* budget = nullptr;
@@ -37,10 +39,13 @@ struct ReportContext {
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,
-/// correlations, conditioning and warnings; then the trace, when ctx.trace is set.
+/// correlations, conditioning, warnings and whether the calibration is usable, and why not
+/// (JudgeUsability(), sph/calib/usability.hpp); then the trace, when ctx.trace is set.
 void WriteTextReport(std::ostream& out, const CalibrationResult& result, const ReportContext& ctx);
 
-/// The same as JSON (format described in README.md, "sph_calibrate --json").
+/// The same as JSON (every key: docs/formats/reports.md): "usable" and "why_not_usable" are
+/// JudgeUsability()'s, "undetermined" names every parameter of the fit that its data do not
+/// determine (the effects' and the form's too).
 std::string JsonReport(const CalibrationResult& result, const ReportContext& ctx);
 
 /// The calibration file for compensation: the seven errors, their covariance, d and R0.

@@ -1,49 +1,18 @@
-// Closing the loop: from the seven-error fit's residual to the effect the model lacks.
+// Closing the loop: the residual of the seven-error fit traced to the effects of the library
+// (sph/model/effect_terms.hpp) that the model lacks, with the sphere's own form fitted where the
+// design separates it from the machine (TraceResidual()); or a given list of effects fitted without
+// selection (FitFixedEffects()).
 //
-// 1. Fit the seven errors; analyse what is left (sph/calib/residual_structure.hpp).
-// 2. For each effect of the library not yet in the model, refit with it added. Components the
-//    data cannot separate from the rest (variance inflation above max_vif) are left out, the
-//    weakest first; then components that are not significantly non-zero (|value| < min_t std),
-//    so that a term keeps only what the data show.
-// 3. Score each candidate by the change of an extended Bayesian information criterion (delta_bic:
-//    the BIC's change plus 2 ln C(P, k) for the k components kept of the P its term searched,
-//    SubsetSearchPenalty(), so that the best of many noise components does not pass for an
-//    effect) and by k-fold cross-validated RMS (folds within each setup; each fitted without its
-//    points, then predicted). The best candidate is added when delta_bic <= -min_delta_bic
-//    (strong evidence), its cross-validated RMS is lower, with two or more setups it does not
-//    predict each setup from the others clearly worse than the model without it (LeaveOneSetupOutRms():
-//    the transfer test, which a form fitted as a machine error fails, for the form turns with the
-//    sphere; "clearly": the paired t of the squared errors above min_t, CandidateScore::loso_t), every
-//    parameter of the model stays determined, and a pattern fixed on the sphere (spherical harmonics of degree 2..5 of
-//    the direction from the centre, the reference sphere's own form error or an effect outside the library; its choice
-//    of harmonics charged in the same way) does not explain the residual better or about as well (within ambiguity_bic:
-//    the machine effect is the claim that must be shown). Repeat until none is.
-// The sphere's own form. When the design separates it (the sphere measured in at least two known
-// orientations on its mount), the form is no competitor but a component of the model: spherical
-// harmonics of degree 2..L in the sphere's body frame, fitted jointly with the seven errors, the
-// centres and the effects (sph/calib/effect_fit.hpp). L is chosen by an extended BIC, BIC + 2 ln N
-// with N the number of degrees searched, first with the seven errors alone and again after the
-// effects are chosen; every candidate effect is fitted with the form in the model, so components
-// that a form turning with the sphere would explain as well are left out as not separable. Effects
-// and form compete in one selection: an effect is added only when it still qualifies beside the
-// form of the highest degree searched (its components separable and significant, the extended BIC
-// lower by min_delta_bic), so that what a lower degree leaves of the form is not taken for an
-// effect; one that qualifies only without it is reported with the form as two explanations,
-// neither added (a probe polynomial when the eccentricity points the same way on the body in every
-// setup is such a function of the body's direction).
-// Without such a design (one placement, or every setup in one orientation) a form cannot be told
-// from anything that is a function of the direction, and the pattern fixed on the sphere competes
-// as below; but it never blocks an effect that its own variable shows (the time for probe_drift,
-// the probe reading for probe_gain and probe_nonlinearity): that effect is added and both
-// explanations are reported with their sizes and the measurement that separates them.
+// Each round fits every candidate effect beside the current model, keeps its separable and
+// significant components, scores it by an extended BIC, the cross-validated rms and, with two or
+// more setups, the transfer between setups, weighs it against a pattern fixed on the sphere (or,
+// with the form separable, against the form of the highest degree searched), and adds the best one
+// that qualifies; ambiguities are reported with the measurement that would separate them. The rules
+// and every threshold of TraceOptions: docs/method/closing-the-loop.md; the form:
+// docs/method/form-separation.md.
 //
-// After the rounds, a backward step removes an effect that the final model (with the form chosen
-// again) no longer needs: the extended BIC without it is less than min_delta_bic higher.
-//
-// 4. Report candidates that explain the residual about as well as the one added (their BICs within
-//    ambiguity_bic), with the measurement that would separate them; an added effect whose signal is
-//    mostly a pattern fixed on the sphere (SpherePatternFraction), which the sphere's own form error
-//    would give as well; and structure that remains, with what it follows and its size.
+// Units: the fits in rad and mm; the results' *_um fields in um. Candidates are scored in parallel;
+// the result does not depend on the number of threads.
 #ifndef SPH_CALIB_TRACE_HPP_
 #define SPH_CALIB_TRACE_HPP_
 
@@ -89,8 +58,9 @@ struct TraceOptions {
   /// An added effect whose signal is at least this much a pattern fixed on the sphere is reported
   /// as ambiguous with the sphere's own form error.
   double max_sphere_fraction = 0.5;
-  /// Highest degree of the sphere's form fitted when the design separates it (see the file
-  /// comment); below 2: the form is never fitted. Bounded by what the pattern resolves.
+  /// Highest degree of the sphere's form fitted when the design separates it
+  /// (docs/method/form-separation.md); below 2: the form is never fitted. Bounded by what the
+  /// pattern resolves.
   int form_degree_max = 8;
   /// Where the Phi axis pivots when it tilts, along it from the Phi frame's origin [mm]
   /// (EffectModel::phi_wobble_pivot_mm): a constant of the machine's drawing, never fitted.
@@ -223,8 +193,8 @@ struct TraceResult {
 /// kMaxEffectHarmonic (a scan with a reading per SYNC has thousands of distinct angles).
 HarmonicOrders PatternOrders(const PointsData& points);
 
-/// Traces the residual of `points` (see the file comment). `base` is the seven-error calibration
-/// of the same points and options; the readings it left out as outliers are left out of the
+/// Traces the residual of `points` (docs/method/closing-the-loop.md). `base` is the seven-error
+/// calibration of the same points and options; the readings it left out as outliers are left out of the
 /// selection and judged again under the final model. The effect reference is that of all the
 /// readings (EffectReferenceOf).
 TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,

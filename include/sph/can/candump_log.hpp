@@ -17,9 +17,11 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "sph/can/frame.hpp"
 #include "sph/core/append_file.hpp"
+#include "sph/core/text_input.hpp"
 
 namespace sph::can {
 
@@ -47,18 +49,35 @@ class CandumpReader {
   /// Reads from `in` (not owned); `source` names it in messages.
   CandumpReader(std::istream& in, std::string source);
 
-  /// The next frame, or kMalformed for a line that is not one (reading goes on after it), or
-  /// kEnd. Empty lines are skipped. A read error throws sph::Error.
+  /// The next frame, or kMalformed for a line that is not one (reading goes on after it; a line
+  /// with a NUL byte is one), or kEnd. Empty lines are skipped. A read error, or a line longer
+  /// than sph::kMaxLineBytes, throws sph::Error.
   Result Next();
-  std::int64_t line_number() const { return line_no_; }
+  std::int64_t line_number() const { return lines_.line_no(); }
 
  private:
   std::unique_ptr<std::istream> owned_;
-  std::istream* in_;
-  std::string source_;
+  TextLines lines_;
   std::string line_;
-  std::int64_t line_no_ = 0;
 };
+
+/// What a replay reads of a candump log: the frames of one interface (a log of `candump -l any`
+/// holds those of every interface, in one time order).
+struct ReplaySource {
+  std::string iface;                    ///< the interface replayed
+  std::vector<std::string> interfaces;  ///< every interface of the log, in the order they first appear
+  std::uint64_t frames = 0;             ///< frames of `iface`
+  std::uint64_t other_frames = 0;       ///< frames of the other interfaces (left out)
+};
+
+/// Checks that `path` can be replayed and chooses what is: the frames of `iface`, or (when it is
+/// empty) of the log's only interface. Throws sph::Error with the reason: the file cannot be read,
+/// holds no frame ("log.txt: no CAN frame in its 12 lines: not a candump log (first: ...)"), holds
+/// frames of several interfaces and none is chosen ("log.txt: frames of 2 interfaces, can0 (from
+/// line 1) and can1 (from line 3): choose one with --replay-iface", `option` naming the choice),
+/// none of the chosen one, or the chosen interface's times go back ("log.txt:9: the time ... s is
+/// before the ... s of line 8"). Frames of other interfaces may interleave in any time order.
+ReplaySource CheckReplayLog(const std::string& path, const std::string& iface, const std::string& option = "");
 
 /// Appends frames to a candump log (AppendFile: never overwrites, whole lines only). Lines are
 /// collected in memory and written by Flush(), or when 64 KiB are pending.

@@ -1,17 +1,28 @@
 // A simulated SCMS on CAN: the Theta and Phi encoders (CiA 406) and the probe measuring a
 // reference sphere in a stop-and-go pattern, as CANopen nodes that behave like real ones, with
 // faults on demand. The readings come from sph::ProbeReading (sph/core/simulate.hpp), the same
-// ray-sphere truth as sph_simulate.
+// ray-sphere truth as sph_simulate, and a set-up it refuses is refused (CheckSimulationSetup).
 //
 // Each device is a node (CiA 301) with an NMT state and an object dictionary served over SDO:
-//   1000h device type, 1001h error register, 1008h device name, 1017h producer heartbeat time,
-//   1018h identity (vendor-id, product code, revision, serial), 1800h/1A00h + k - 1 the TPDO's
+//   1000h device type, 1001h error register, 1005h COB-ID SYNC, 1008h device name, 1014h COB-ID
+//   EMCY, 1017h producer heartbeat time, 1018h identity (vendor-id, product code, revision,
+//   serial), 1019h synchronous counter overflow value, 1800h/1A00h + k - 1 the TPDO's
 //   communication (COB-ID, transmission type, event timer) and mapping; an encoder 6001h
 //   measuring units per revolution, 6002h total measuring range, 6004h position value; the
 //   probe 2000h reading [counts], 2001h status; 2010h the counter of the last SYNC (mappable).
+// 1005h, 1014h, 1017h and 1019h are read-write, as CiA 301 makes them and CANopenNode checks them:
+// a node takes SYNC on the id of its 1005h and sends EMCY on that of its 1014h (bit 31: none); a
+// written 1017h sends a heartbeat at once and then every new period (0: none); 1019h 1 or above
+// 240 is refused (0x06090030). A SYNC whose length is not the one its 1019h says (1 byte with a
+// counter, else none) is no SYNC to the node: it sends EMCY 0x8240 (once), sets the communication
+// bit of its error register and goes pre-operational. A node with an error in its register does
+// not become operational on NMT Start (CANopenNode's default NMT control); a reset clears it. A
+// heartbeat also goes out at once whenever the NMT state changes.
 // At power-on and after an NMT reset or a reboot fault a node is silent for boot_s, sends its
 // boot-up message and is pre-operational: heartbeats, SDO, no PDO. NMT Start makes it
-// operational (PDOs), Stop stopped (heartbeats only), Enter pre-operational pre-operational.
+// operational (PDOs), Stop stopped (heartbeats only), Enter pre-operational pre-operational. A
+// node that reboots without its stored settings comes back with 1017h and 1019h 0 and an error
+// (EMCY 0x5000, device hardware, after its boot-up message), so it stays pre-operational.
 // The TPDO's content follows its mapping and its transmission type (1..240: every n-th SYNC;
 // 0: on SYNC when the value changed; 254, 255: every event-timer period, without SYNC). PDO
 // parameters cannot be written while the node is operational (abort 0x08000022), a COB-ID not
@@ -59,6 +70,7 @@ struct EmcyEvent {
 struct RebootEvent {
   int node_id = 1;
   double at_s = 0.0;
+  bool settings_lost = false;  ///< it comes back without its stored settings (see the file comment)
 };
 
 struct SimFaults {
@@ -83,7 +95,8 @@ struct DeviceSimConfig {
   double sync_period_s = 0.001;
   double move_s = 0.5;                ///< time from one pattern point to the next
   double stop_s = 1.0;                ///< standstill at each pattern point
-  double heartbeat_period_s = 1.0;    ///< 0: no heartbeats (1017h = 0)
+  double heartbeat_period_s = 1.0;    ///< 1017h after a boot; 0: no heartbeats
+  int sync_counter_overflow = -1;     ///< 1019h after a boot (0, 2..240); -1: devices.sync_counter_max
   double start_time_s = 1.7e9;        ///< time of the first SYNC, of power-on [s since the epoch]
   bool start_operational = true;      ///< the nodes start operational (a log without a master)
   double boot_s = 0.05;               ///< power-on or reset to the boot-up message
@@ -113,6 +126,7 @@ struct SimInjected {
   std::uint64_t nmt_commands = 0;  ///< NMT commands received
   std::uint64_t sdo_requests = 0;  ///< SDO requests answered (aborts included)
   std::uint64_t sdo_aborts = 0;
+  std::uint64_t sync_length_errors = 0;           ///< SYNCs of another length than a node's 1019h says
   std::array<std::uint64_t, kNumDevices> pdos{};  ///< TPDOs sent
 };
 
@@ -163,16 +177,29 @@ class DeviceSimulator {
 
  private:
   struct Node;
-  void OnSync(std::int64_t t_ns, std::optional<std::uint8_t> counter, std::vector<CanFrame>& out);
+  /// A SYNC on `cob_id` at t_ns, to the nodes that take SYNC on that id.
+  void OnSync(std::int64_t t_ns, std::uint32_t cob_id, std::optional<std::uint8_t> counter, std::vector<CanFrame>& out);
+  /// Whether node n takes a SYNC of this length as one (else: its EMCY 0x8240, pre-operational).
+  bool TakesSync(Node& n, std::int64_t t_ns, std::optional<std::uint8_t> counter, std::vector<CanFrame>& out);
   bool TransmitsAtSync(Node& n);
   CanFrame MappedPdo(const Node& n, std::uint64_t cob) const;
   void Boot(Node& n, std::int64_t t_ns);
-  static std::uint32_t CheckPdoWrite(const Node& n, ObjectAddress o, const std::vector<std::uint8_t>& v);
+  /// Node n enters `state` at t_ns (a heartbeat goes out at once when the state changed).
+  void Enter(Node& n, NmtState state, std::int64_t t_ns);
+  /// Node n's EMCY frame with `code`, or nothing when its 1014h says it sends none.
+  std::optional<CanFrame> Emcy(const Node& n, std::uint16_t code, std::uint8_t manufacturer_bit,
+                               std::uint32_t info) const;
+  /// The abort code of an SDO write of `v` to `o` of node n (0: accepted), as a CiA 301 device checks it.
+  static std::uint32_t CheckWrite(const Node& n, ObjectAddress o, const std::vector<std::uint8_t>& v);
+  void OnWritten(Node& n, ObjectAddress o);
   bool Silent(int device, double t_rel_s) const;
+  /// The time of node n's next reboot fault.
+  std::int64_t RebootNs(const Node& n) const;
   double RelS(std::int64_t t_ns) const;
   std::int64_t GridNs(double at_s, double offset_us) const;
 
   DeviceSimConfig config_;
+  std::int64_t now_ns_ = 0;  ///< the time of the frame being taken (for the nodes' side effects)
   gum::Random rng_;  // the same numbers with every standard library
   Eigen::Matrix3d body_to_theta_ = Eigen::Matrix3d::Identity();  // the sphere's mount rotation
   std::vector<std::unique_ptr<Node>> nodes_;

@@ -4,30 +4,13 @@
 // the daemon drives it live and the replay of a frame log drives it the same way (its outputs
 // then go nowhere: the log holds what was sent).
 //
-// Start, per node (all nodes at once, each on its own SDO channel):
-//   1. [--nmt-reset-comm] NMT Reset communication, then wait for the node's boot-up message
-//      (CiA 301 §7.2.8.3.1, §7.2.8.3.3).
-//   2. [--configure-pdo] NMT Enter pre-operational: PDO parameters can only be written there.
-//   3. SDO uploads: identity 1018h (sub 1 vendor-id, 2 product code, 3 revision, 4 serial number;
-//      CiA 301 §7.5.2.21), device name 1008h, producer heartbeat time 1017h; for each encoder the
-//      measuring units per revolution 6001h and the total measuring range 6002h (CiA 406).
-//   4. [--configure-pdo] for each device's TPDO k the CiA 301 sequence: COB-ID (1800h + k - 1,
-//      sub 1) with bit 31 set (PDO invalid), transmission type (sub 2) = 1, mapping count
-//      (1A00h + k - 1, sub 0) = 0, the mapping entry (sub 1: index << 16 | sub-index << 8 | bits),
-//      count = 1, COB-ID valid (§7.5.2.37, §7.5.2.38).
-//   5. SDO uploads of each TPDO's COB-ID, transmission type and mapping, and the checks: the
-//      COB-ID valid and the configured one; transmission type 1 (synchronous, every SYNC); the
-//      configured object (0x6004:00 for an encoder) mapped with the configured width at the
-//      configured byte; 6001h equal to the configured counts per revolution; a single-turn
-//      encoder's 6002h equal to its 6001h. A mismatch refuses the start, naming node, object and
-//      both values, unless the configuration is trusted (then it is a warning).
-//   6. Once every node passed (a refused start starts no node): NMT Start remote node, one
-//      broadcast to node 0 or one per node, then wait for the heartbeat that says operational
-//      (when the node produces heartbeats).
-//
-// Mid-run, a boot-up message (heartbeat state 0x00) of a running node means it rebooted and is
-// pre-operational again: steps 2 to 6 run again (its PDO settings may be back at the defaults),
-// its identity must be the one read at the start (else it is not restarted: another device).
+// The start, per node and all nodes at once (CiA 301, CiA 406): 1. [reset communication, wait for
+// the boot-up], 2. [enter pre-operational], 3. SDO uploads of the identity, heartbeat (1017h, given
+// one when 0), SYNC counter (1019h) and resolution objects, 4. [write the TPDO settings and 1019h],
+// 5. read and check each TPDO, 1019h and the resolution (a mismatch refuses the start unless the
+// configuration is trusted), 6. once every node passed, NMT Start; a node is operational only when
+// its heartbeat says so. A node that reboots mid-run runs steps 2 to 6 again, if it is the same
+// device. Each step, with the objects and the checks: docs/method/acquisition.md.
 #ifndef SPH_CAN_MASTER_HPP_
 #define SPH_CAN_MASTER_HPP_
 
@@ -78,6 +61,13 @@ struct MasterConfig {
   bool sdo = true;                   ///< identify and check the devices
   bool trust_config = false;         ///< mismatches are warnings, not a refused start
   bool configure_pdo = false;        ///< write the TPDO settings (needs nmt), then verify them
+  /// The SYNC counter overflow value of the bus (0: SYNC without counter), which each node's
+  /// 1019h must equal; -1: not checked.
+  int sync_counter_max = -1;
+  std::string sync_counter_name = "the SYNC counter overflow value";  ///< for messages
+  /// Producer heartbeat time [ms] written into a node whose 1017h is 0; 0: none written.
+  std::uint16_t heartbeat_ms = 100;
+  std::string heartbeat_name = "the master's heartbeat time";  ///< for messages
   std::int64_t sdo_timeout_ns = 500'000'000;
   std::int64_t boot_timeout_ns = 5'000'000'000;  ///< a boot-up after Reset communication
   /// After Start remote node: a node that produces heartbeats must report operational within
@@ -98,7 +88,8 @@ std::vector<MasterNode> MasterNodesFor(const PipelineConfig& devices);
 struct NodeIdentity {
   std::optional<std::uint32_t> vendor_id, product_code, revision, serial;
   std::optional<std::string> name;
-  std::optional<std::uint16_t> heartbeat_ms;
+  std::optional<std::uint16_t> heartbeat_ms;     ///< 1017h as found, before the master wrote it
+  std::optional<std::uint8_t> sync_counter_max;  ///< 1019h as found
   /// Per device (by role): 6001h and 6002h of encoders.
   std::map<std::string, std::pair<std::optional<std::uint32_t>, std::optional<std::uint32_t>>> resolution;
 };
@@ -115,6 +106,7 @@ class CanopenMaster {
     std::uint64_t boot_ups = 0;          ///< mid-run boot-up messages of running nodes
     std::uint64_t restarts = 0;          ///< nodes brought back to operational after one
     std::uint64_t restart_failures = 0;  ///< nodes that could not be restarted
+    std::uint64_t unconfirmed = 0;       ///< nodes started without a heartbeat to confirm it
     std::uint64_t sdo_transfers = 0;
     std::uint64_t nmt_commands = 0;
   };
@@ -157,7 +149,10 @@ class CanopenMaster {
   void SendStart(NodeState& n, std::int64_t now_ns);
   void AwaitOperational(NodeState& n, std::int64_t now_ns);
   void NodeFailed(NodeState& n, const std::string& why);
-  void NodeRunning(NodeState& n);
+  /// The node runs: `confirmed` by its heartbeat saying operational (or without NMT, identified).
+  void NodeRunning(NodeState& n, bool confirmed);
+  /// After a read of 1017h: the write (and read back) of the heartbeat the master wants of the node.
+  void ConfigureHeartbeat(NodeState& n, std::uint16_t found);
   void OnSdoStep(NodeState& n, const SdoClient::Step& step, std::int64_t now_ns);
   void UpdatePhase(std::int64_t now_ns);
   std::vector<std::string> Check(const NodeState& n, std::vector<std::string>* warnings) const;

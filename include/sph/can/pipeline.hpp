@@ -1,32 +1,20 @@
 // The acquisition pipeline: CANopen frames in, samples (or averaged stop points) out. It knows
 // nothing of sockets or files, so the daemon, the replay and the tests drive the same code.
 //
-// One SYNC cycle gives one sample:
+// One SYNC cycle gives one sample, timed by the SYNC's receive time:
 //
 //   SYNC(t) ... TPDO theta ... TPDO phi ... TPDO probe ... SYNC(t + T) ...
 //   \______________ window: the PDOs after SYNC(t) _____________/
 //
-// The sample's time is the SYNC's receive time. A window is resolved when the next SYNC arrives
-// (or at the end): only then is it known how many SYNC cycles it spans. SYNCs that never arrived
-// are found by a gap in the SYNC counter (CiA 301 §7.2.5, object 1019h) or by more than 1.5
-// periods (configured, else as observed) without SYNC; both together tell gaps longer than the
-// counter's range, and a counter that jumps further than the time allows (a producer that
-// restarted its counter) is taken by the time. A window that
-// spans m + 1 cycles (m SYNCs missed) is split in time: a PDO belongs to the cycle in whose
-// period it arrived (a synchronous PDO is sent within its SYNC's synchronous window, CiA 301
-// object 1007h, which is at most the period), or, when the device maps the SYNC counter into
-// its PDO, to the cycle of that counter. A cycle with exactly one valid PDO of every device is a
-// sample; the cycles of missed SYNCs are recovered that way too, timed by interpolation between
-// the SYNCs received. A cycle with no PDO of a device, two of them (the second may answer a SYNC
-// that never came), or PDOs after frames were lost that no counter or period can place (kernel
-// receive-queue drops, a controller RX overflow) has no sample for that device: it is counted per
-// device and reason, logged, and written into the points file as a comment (runs of equal
-// incomplete cycles in one comment), never filled from a neighbouring cycle. So a lost SYNC can
-// no longer let a later PDO fill a gap in the previous cycle.
-//
-// A boot-up message (heartbeat state 0x00) of a device's node during the acquisition opens a gap
-// mark in the points file ("# gap start t_s ...: theta (node 1) rebooted ..."); the device's
-// first PDO after it closes it ("# gap end t_s ...").
+// A window is resolved when the next SYNC arrives (or at the end). SYNCs that never arrived are
+// found by the SYNC counter and by the time; a window that spans several cycles is split by the
+// period each PDO arrived in, or by the SYNC counter a device maps into its PDO. A cycle with
+// exactly one valid PDO of every device is a sample (where the devices carry the counter, a PDO may
+// come up to one period late; a SYNC repeated with its counter is taken once); any other has no
+// sample for the devices it lacks, is counted per device and reason, logged and written into the
+// points file as a comment, never filled from a neighbouring cycle. A boot-up message of a
+// device's node opens a gap mark.
+// The rules in full: docs/method/acquisition.md.
 #ifndef SPH_CAN_PIPELINE_HPP_
 #define SPH_CAN_PIPELINE_HPP_
 
@@ -48,6 +36,8 @@ enum Device : int { kTheta = 0, kPhi = 1, kProbe = 2, kNumDevices = 3 };
 const char* DeviceName(int device);
 
 enum class Mode { kStream, kPoints };
+/// "stream", "points".
+const char* ToString(Mode mode);
 
 enum class LogLevel : int { kError = 0, kWarning = 1, kInfo = 2, kDebug = 3 };
 const char* ToString(LogLevel level);
@@ -76,12 +66,14 @@ struct PipelineConfig {
 struct PipelineCounts {
   std::uint64_t frames = 0;  ///< every frame given to OnFrame
   std::uint64_t sync_frames = 0;
-  std::uint64_t cycles = 0;   ///< SYNC cycles closed
+  std::uint64_t cycles = 0;   ///< SYNC cycles closed, those of missed SYNCs included
   std::uint64_t samples = 0;  ///< complete cycles (stream mode: rows written)
   std::uint64_t incomplete_cycles = 0;
   std::uint64_t missed_syncs = 0;                      ///< SYNCs that never arrived (counter or time gaps)
   std::uint64_t recovered = 0;                         ///< of those, cycles whose PDOs all came: samples
   std::uint64_t counter_jumps = 0;                     ///< SYNC counters that jumped further than the time allows
+  std::uint64_t repeated_syncs = 0;                    ///< SYNCs received twice (taken once)
+  std::uint64_t sync_counter_errors = 0;               ///< SYNC counters outside 1..max or missing (not used)
   std::array<std::uint64_t, kNumDevices> missing{};    ///< cycles without a frame from the device
   std::array<std::uint64_t, kNumDevices> flagged{};    ///< values out of range or device errors
   std::array<std::uint64_t, kNumDevices> malformed{};  ///< frames too short for the configured field
@@ -179,7 +171,15 @@ class AcquisitionPipeline {
     std::uint64_t missing_cycles = 0;  ///< cycles since without a PDO of the device
   };
 
-  void OnSync(const CanFrame& frame, const SyncInfo& sync);
+  void OnSync(const CanFrame& frame, SyncInfo sync);
+  /// The SYNC's counter if it is one the producer can send, else none (warned about).
+  std::optional<std::uint8_t> UsableCounter(const CanFrame& frame, const SyncInfo& sync);
+  /// Whether the SYNC is the one before received again (same counter, within half a period).
+  bool Repeats(const CanFrame& frame, const SyncInfo& sync) const;
+  /// Resolves the held window (see the file comment); its late PDOs can no longer come.
+  void ResolveHeld();
+  /// Period for gap detection [s]: configured, else as observed (0: not known yet).
+  double PeriodS() const;
   void OnPdo(int device, const CanFrame& frame);
   /// Resolves the open window into 1 + `missed` cycles; `next_ns` is the next SYNC's time. With
   /// `last` (the end) an incomplete cycle is cut, not counted as incomplete.
@@ -203,14 +203,28 @@ class AcquisitionPipeline {
   bool OnHealthFrame(const CanFrame& frame);  // heartbeat, EMCY, error frame
   void CheckHeartbeats(std::int64_t now_ns);
   void Log(LogLevel level, const std::string& text);
-  /// Logs the first 20 of a kind, then every 1000th, so floods stay readable.
-  void LogLimited(std::uint64_t count, LogLevel level, const std::string& text);
+  /// Logs the first 20 of a kind, then every 1000th, so floods stay readable; `text()` makes the
+  /// line, only for a line logged (a flood of frames costs no text).
+  template <typename Text>
+  void LogLimited(std::uint64_t count, LogLevel level, const Text& text) {
+    if (cb_.log && (count <= 20 || count % 1000 == 0)) LogCounted(count, level, text());
+  }
+  void LogCounted(std::uint64_t count, LogLevel level, const std::string& text);
+  /// Whether a cycle with these slots is a sample (Reason() is "").
+  static bool Complete(const std::array<Slot, kNumDevices>& slots, const Window& window);
   void Note(const std::string& text);
 
   PipelineConfig config_;
   Callbacks cb_;
   PipelineCounts counts_;
   Window window_;
+  /// Where the devices carry the SYNC counter: the window before, held open for its late PDOs
+  /// until the next SYNC, with the SYNCs missed after it and the time of the SYNC that closed it.
+  bool hold_ = false;
+  Window held_;
+  std::uint64_t held_missed_ = 0;
+  std::int64_t held_next_ns_ = 0;
+  bool counter_unconfigured_warned_ = false;
   std::vector<std::array<Slot, kNumDevices>> scratch_;  ///< the cycles of the window being resolved
   IncompleteRun run_;
   std::array<Gap, kNumDevices> gaps_{};

@@ -3,6 +3,7 @@
 #define SPH_CAN_STANDSTILL_HPP_
 
 #include <cmath>
+#include <cstdint>
 #include <optional>
 
 #include "sph/core/points_file.hpp"
@@ -37,12 +38,16 @@ struct StopPoint {
 /// anchor's are averaged (Welford's running mean and variance, O(1) memory); the point is
 /// emitted when the axes leave the tolerance, when average_s is reached, or at Finish().
 /// A stop with fewer than min_samples averaged samples is only counted (short_stops()).
+/// Times are compared in integer nanoseconds (a sample's t_s since the epoch in a double is only
+/// good to a quarter of a microsecond, which would decide at random whether a sample exactly
+/// dwell_s after the anchor is averaged).
 class StandstillDetector {
  public:
   explicit StandstillDetector(const StandstillConfig& config) : config_(config) {}
 
-  /// Feeds the next sample (in time order); returns a point when a stop ended with it.
-  std::optional<StopPoint> Add(const Sample& sample);
+  /// Feeds the next sample (in time order), taken at `t_ns` (its t_s in ns); returns a point when
+  /// a stop ended with it.
+  std::optional<StopPoint> Add(const Sample& sample, std::int64_t t_ns);
   /// Ends the stream: the open stop, if long enough.
   std::optional<StopPoint> Finish();
   long short_stops() const { return short_stops_; }
@@ -64,9 +69,10 @@ class StandstillDetector {
 
   StandstillConfig config_;
   std::optional<Sample> anchor_;
-  bool done_ = false;  // this stop's point was emitted (average_s reached)
-  Running d_theta_, d_phi_, r_, t_;
-  double t_first_ = 0.0, t_last_ = 0.0;
+  std::int64_t anchor_ns_ = 0;
+  bool done_ = false;                 // this stop's point was emitted (average_s reached)
+  Running d_theta_, d_phi_, r_, dt_;  // dt_: seconds after the anchor
+  std::int64_t first_ns_ = 0, last_ns_ = 0;
   long short_stops_ = 0;
 };
 

@@ -1,43 +1,16 @@
-// Calibration files: what sph_calibrate --output writes and compensation loads later.
+// Calibration files: what sph_calibrate --output writes and compensation loads later. JSON, format
+// "sph-calibration" version 1; every field, its unit and what the reader refuses:
+// docs/formats/calibration-files.md.
 //
-// JSON, format "sph-calibration" version 1:
-//   {
-//     "format": "sph-calibration", "format_version": 1, "created_by": "sph_calibrate 0.1.0",
-//     "probe_offset_mm": 25.0,              nominal d the errors refer to
-//     "sphere_radius_mm": 20.0,             R0 of the reference sphere (information)
-//     "geometry": {"alpha": {"value": 0.02, "unit": "deg"}, "a": {"value": 0.002, "unit": "mm"}, ...},
-//     "covariance": {                       the covariance of every parameter the file applies
-//       "parameters": ["alpha", ..., "d_prime", "theta_encoder.c2", ..., "sphere_form.S(2,0)", ...],
-//       "units": ["deg", "mm", ..., "arcsec", ..., "um", ...], "matrix": [[...], ...],
-//       "type_a_dof": 571,                  optional: degrees of freedom of its Type A part (m - n)
-//       "inputs": [{"input": "R0 (certificate)", "unit": "um", "u": 0.1,     optional: the Type B
-//                   "sensitivity": [...]}]},  inputs in it, d(parameter)/d(input) in the parameters' units
-//     "effects": [                          further effects of the machine (sph/model/effects.hpp), may be empty
-//       {"id": "theta_encoder", "iso_name": "ECC (...)",     (iso_name: information, not read)
-//        "parameters": [{"name": "theta_encoder.c2", "value": 5.5, "unit": "arcsec"}, ...]},
-//       {"id": "phi_wobble", "pivot_mm": 80.0, ...},  where the Phi axis tilts about, |L| <= 10000 mm (default 0)
-//       ...],
-//     "effect_reference": {"r_ref_mm": .., "r_half_range_mm": .., "t_start_s": .., "t_span_s": ..,
-//                          "r_fit_min_mm": .., "r_fit_max_mm": ..},
-//                                           with effects: what u and tau are normalised by, and the
-//                                           readings the probe terms were fitted over (optional)
-//     "sphere_form": {                      optional: the calibration sphere's own form, when separated
-//       "normalisation": "schmidt_semi_normalised", "frame": "body", "unit": "um",
-//       "terms": [{"l": 2, "m": 0, "value_um": 0.06, "std_um": 0.004}, ...]},  l = 2..40, |m| <= l, each once
-//     "source": {"points_file": "...", ...} free-form provenance
-//   }
-// Angles are stored in deg and lengths in mm; the covariance in the same units (deg^2, deg*mm, mm^2).
-// The covariance's parameters are the seven errors, then every effect parameter in the order of
-// "effects", then every term of "sphere_form" (its coefficients, um), each in the unit it is stored
-// in; or the seven errors alone (files that keep only their block are read as before: the effects'
-// and the form's values are then applied without an uncertainty). Its matrix is the combined one
-// (Type A and every Type B input); "inputs" says what of it each Type B input is:
-// matrix = A + sum_j s_j s_j^T u_j^2, with A the calibration's Type A covariance.
-// Effect parameters are in arcsec (angle effects) or um (length effects). probe_drift is refused:
-// a drift belongs to the run it was measured in, not to the machine.
+// The file stores angles in deg, lengths in mm and the effects' parameters in arcsec or um; this
+// API works in rad and mm. The covariance's parameters are the seven errors, then every effect
+// parameter in the order of the effects, then every term of the sphere's form, or the seven errors
+// alone; its matrix is the combined one, A + sum_j s_j s_j^T u_j^2 (Type A and each Type B input).
+// probe_drift is refused: a drift belongs to the run it was measured in, not to the machine.
 #ifndef SPH_CORE_CALIBRATION_FILE_HPP_
 #define SPH_CORE_CALIBRATION_FILE_HPP_
 
+#include <cstddef>
 #include <iosfwd>
 #include <limits>
 #include <optional>
@@ -57,6 +30,12 @@ namespace sph {
 
 inline constexpr int kCalibrationFormatVersion = 1;
 
+/// The largest calibration file the reader takes [bytes], twice the largest the writer makes:
+/// the covariance of every parameter the format can hold (1965: the seven errors, every
+/// component of every effect, the form's terms to degree 40) takes 127 MB in its layout.
+/// Anything larger is no calibration file (a device, a stream that never ends).
+inline constexpr std::size_t kMaxCalibrationFileBytes = std::size_t{256} << 20;
+
 /// Contents of a calibration file, in internal units (rad, mm).
 struct CalibrationFile {
   ScmsGeometry geometry{};                 ///< the seven errors (rad, mm)
@@ -75,7 +54,7 @@ struct CalibrationFile {
   /// effects' parameters (term, then component order), then the form's coefficients; its
   /// top-left 7 x 7 block is `covariance`. Empty when the file holds the seven errors' alone.
   Eigen::MatrixXd parameter_covariance;
-  /// What the covariance is made of, when the calibration's budget gave it (see the file comment).
+  /// What the covariance is made of, when the calibration's budget gave it: C = A + sum_j s_j s_j^T u_j^2.
   struct CovarianceInput {
     std::string input;         ///< "R0 (certificate)", "sphere temperature", "probe scale"
     std::string unit;          ///< of the input: "um", "K", "relative"
@@ -95,7 +74,11 @@ void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal);
 void WriteCalibration(std::ostream& out, const CalibrationFile& cal);
 
 /// Reads a calibration file. Throws sph::Error naming the file and the problem when it is not
-/// JSON, is of another format or version, or lacks a field.
+/// JSON (or holds a NUL byte, is larger than kMaxCalibrationFileBytes, nests deeper than any
+/// calibration file, gives a key twice), is of another format or version, lacks a field, has a
+/// field the format does not know in "geometry", a value out of its range, or a covariance that
+/// is none (not symmetric, not positive semi-definite, a standard uncertainty larger than any
+/// value of its parameter, inputs the matrix does not hold: see the file comment).
 CalibrationFile ReadCalibrationFile(const std::string& path);
 
 /// As ReadCalibrationFile(), from a stream; `source` names it in messages.

@@ -1,7 +1,7 @@
 // What the probe's noise alone makes of a sphere's form statistics.
 //
 // Peak-to-valley and minimum-zone values are extremes: of n readings with noise sigma, their range
-// grows like sigma times the expected range of n normal values (4.9 sigma for 288 readings, 6.1 for
+// grows like sigma times the expected range of n normal values (5.7 sigma for 288 readings, 6.9 for
 // 2000), whether or not the sphere has any form error. A sphericity means little without this
 // floor beside it. It is found here by simulation at the very directions measured: pure noise
 // (normal, sigma) on a perfect sphere of the fitted centre and radius, fitted as the measurement

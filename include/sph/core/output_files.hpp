@@ -5,10 +5,11 @@
 //    file (RunPaths, checked before anything is computed).
 //  - Every output file is complete or absent. A regular file (or a name not yet taken) is written
 //    to a temporary file beside it, fsync'ed, and renamed over the name only when the whole run
-//    succeeded; a symbolic link is followed and its target replaced. A FIFO, a terminal,
-//    /dev/null or standard output is written directly and is never replaced by a regular file.
-//    A directory, a block device or a socket is refused. A failure or a signal leaves no
-//    temporary file behind (OutputFiles, and the signal handlers of sph/core/cleanup.hpp).
+//    succeeded, its standard output included; a symbolic link is followed and its target
+//    replaced. A FIFO, a terminal, /dev/null or standard output is written directly and is never
+//    replaced by a regular file. A directory, a block device or a socket is refused. A failure
+//    or a signal leaves no temporary file behind (OutputFiles, and the signal handlers of
+//    sph/core/cleanup.hpp).
 #ifndef SPH_CORE_OUTPUT_FILES_HPP_
 #define SPH_CORE_OUTPUT_FILES_HPP_
 
@@ -54,9 +55,13 @@ class RunPaths {
 /// (sph/core/cleanup.hpp) until it is renamed or removed.
 class OutputFiles {
  public:
-  /// `standard_output` receives what is staged for "-" (a test passes a string stream).
+  /// `standard_output` is the run's standard output (a test passes a string stream): it receives
+  /// what is staged for "-", and whatever else the run wrote to it (a text report) counts as an
+  /// output too: Commit() flushes it and fails when any write to it failed.
   explicit OutputFiles(std::ostream& standard_output);
-  OutputFiles();  ///< "-" is std::cout
+  /// Files only: "-" is std::cout, flushed and checked by Commit() only when something is staged
+  /// for it.
+  OutputFiles();
   ~OutputFiles();
   OutputFiles(const OutputFiles&) = delete;
   OutputFiles& operator=(const OutputFiles&) = delete;
@@ -73,15 +78,23 @@ class OutputFiles {
   /// (for another program that reads the staged content). Throws sph::Error when `path` was not
   /// staged as a regular file.
   std::string StagedName(const std::string& path) const;
-  /// Puts every staged file in place, in the order staged. Throws sph::Error naming the path on
-  /// the first failure; the files not yet put in place are then removed.
+  /// Puts every staged file in place: first standard output (what was staged for it, then a
+  /// flush that fails when any write to it failed: "cannot write to standard output: Broken
+  /// pipe"), then the FIFOs and character devices, and only then, when all of that succeeded, the
+  /// renames, in the order staged. Throws sph::Error naming the path on the first failure; the
+  /// files not yet put in place are then removed.
   void Commit();
 
  private:
   struct Staged;
   std::ostream& standard_output_;
+  bool run_output_;  ///< standard_output_ is the run's: checked whatever was staged
   std::vector<std::unique_ptr<Staged>> staged_;
 };
+
+/// True when `a` and `b` name one file: the same inode, or, for a name not yet created, the same
+/// path after symbolic links and "." and ".." are resolved ("-" is standard input).
+bool SameFile(const std::string& a, const std::string& b);
 
 /// Writes one file the way OutputFiles does: complete or absent, "-" standard output.
 void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write);

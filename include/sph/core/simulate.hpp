@@ -18,7 +18,8 @@
 //                    * Rx(wx(phi)) * Ry(wy(phi)) * Rz(-phi_true) * Rz(beta) * Tz(b) * Tx(c) * Rx(pi/2 + epsilon)
 //
 // and the probe reads r_read such that r_read + (gain + nonlinearity + drift)(r_read, t) equals the
-// true distance (solved by fixed-point iteration). The simulator also makes what is not in the
+// true distance (a bracketed solve over the probe's range, where that sum must rise with r_read:
+// ProbeReadingOfDistance()). The simulator also makes what is not in the
 // library, so that the calibration can be tested on what it cannot explain, or must separate:
 // outliers, and the reference sphere's own form error. The form is defined on the sphere's BODY
 // frame; in each setup the sphere sits on its mount turned by a rotation R (p_theta = R * p_body
@@ -203,20 +204,33 @@ std::optional<double> TrueProbeDistance(const ScmsGeometry& truth, const Simulat
 
 /// The reading r_read [mm] of a probe with the gain, nonlinearity, drift and incidence error of
 /// `effects` (with the reference `effects.model.reference`) that sees the true distance
-/// `distance_mm` at time t_s, its beam meeting the surface at sin^2 psi = sin2_incidence.
-double ProbeReadingOfDistance(const SimulatedEffects& effects, double distance_mm, double t_s,
-                              double sin2_incidence = 0.0);
+/// `distance_mm` at time t_s, its beam meeting the surface at sin^2 psi = sin2_incidence: the root
+/// of r + gain(u) + nonlinearity(u) + drift + incidence = distance over the reference's readings
+/// r_ref -+ r_half (u from -1 to 1), to a few units in the last place. Nothing when the distance
+/// lies beyond what the probe reads there. Throws sph::Error when the distance the probe reports
+/// does not rise with the reading over that range (a distance would have several readings).
+std::optional<double> ProbeReadingOfDistance(const SimulatedEffects& effects, double distance_mm, double t_s,
+                                             double sin2_incidence = 0.0);
 
 /// Simulates a points file: for each setup, each pattern point in the setup's scan order (t_s of
 /// row i is i * sample_period_s); the axes are at the commanded angles, the readings carry the
 /// noise. The header holds the mount rotations (or "unknown") of the setups that have one.
-/// Throws sph::Error when a ray misses the sphere or the spec is impossible.
+/// Throws sph::Error when a ray misses the sphere, the spec is impossible, or the probe cannot read
+/// the distances: its response (gain, nonlinearity) does not rise with the reading over its range
+/// (probe_range_mm, else the readings' own), or a reading would lie outside probe_range_mm.
 /// Equals AddReadingNoise(SimulateExact(spec), spec).
 /// When `reference` is given, it receives the reference the probe terms were simulated with.
 PointsData Simulate(const SimulationSpec& spec, EffectReference* reference = nullptr);
 
 /// Simulate() without noise and outliers: the exact readings of the stated truth and effects.
 PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference = nullptr);
+
+/// Throws the sph::Error SimulateExact() would throw for the set-up of `spec` before it reads a
+/// probe: the sphere, probe, centres, pattern or effects' values impossible, a form deeper than
+/// the sphere, options of setups that do not exist, or a pattern point whose probe ray misses its
+/// setup's sphere ("simulation: the probe ray misses the sphere at theta ... deg, phi ... deg
+/// (setup 0)"). For simulators of the same machine that read the probe otherwise (sph::can).
+void CheckSimulationSetup(const SimulationSpec& spec);
 
 /// Adds Gaussian noise with the spec's sigmas to every reading, drawn from sph::gum::Random(spec.seed)
 /// (the same numbers with every compiler) in the order (r, theta, phi) per sample, so that a seed gives

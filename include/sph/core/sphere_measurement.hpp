@@ -1,34 +1,12 @@
 // Evaluation of a measured sphere: least-squares sphere, least-squares and minimum-zone
 // sphericity, how well the coverage determines them, and how much of the result the calibration's
-// own uncertainty can explain. The mathematics is header-only (sph/sphere/sphere_fit.hpp,
-// sph/sphere/sphere_form.hpp); this adds the judgement (warnings) and the uncertainty propagation.
-//
-// Uncertainty from the calibration, by sampling (Monte Carlo), not by linearisation: the errors are
-// drawn from N(g, Sigma) (Sigma the calibration's 7 x 7 covariance, rad and mm), the raw readings are
-// compensated with each draw and evaluated again. The radius is a smooth function of the errors and
-// a linearisation would do (the tests check that both agree), but the sphericities are a max minus a
-// min: their derivative only follows the current extreme points and misses that other points become
-// the extremes, and it cannot say how large a form error the calibration alone can produce when the
-// true form is nil (a peak-to-valley is never negative). Sampling answers both. Reported:
-//   radius_std_mm, center_std_mm, sphericity_{ls,mz}_std_mm   standard deviations over the draws;
-//   calibration_form_p95_mm   95th percentile over the draws of the peak-to-valley of the change of
-//                             the residuals (each draw about its own least-squares sphere): the form
-//                             error that the calibration's uncertainty alone produces in 95 % of cases.
-// The form error exceeds the calibration when the least-squares sphericity is above that percentile.
-// Probe noise of the measurement itself is not part of the calibration's covariance and not in here.
-//
-// What is drawn is every parameter the measurement applies (AppliedCalibration): the seven errors,
-// the effects' parameters and, when the calibration sphere's form is taken off the points, the
-// form's coefficients, from their joint covariance as the calibration file holds it.
-//
-// The budget (GUM) of radius and sphericities: the linear sensitivities c = dy/dx of each result
-// to the applied parameters (central differences, MeasurementSensitivitiesOf()), the measurement's
-// own Type A input, and the calibration's covariance split into its Type A part and the Type B
-// inputs it holds (R0, temperature, probe scale: C = A + sum_j s_j s_j^T u_j^2), each input
-// contributing |c^T s_j| u_j; the probe's scale acts on this measurement's readings too, and so
-// the same scale error enters twice, through the calibration and directly (one input, one
-// sensitivity: their sum). A sphericity is not linear in the parameters (a max minus a min), so its
-// statement is checked by the adaptive Monte Carlo method of JCGM 101 (CheckByMonteCarlo()).
+// own uncertainty can explain. The mathematics is in sph::sphere (sph/sphere/sphere_fit.hpp,
+// sph/sphere/sphere_form.hpp); this adds the judgement (warnings) and the uncertainty: the
+// calibration's covariance propagated by sampling (every parameter the measurement applies drawn
+// from their joint covariance, the readings compensated again with each draw), the GUM budget of
+// radius and sphericities with its linear sensitivities, and its check by the adaptive Monte Carlo
+// method of JCGM 101. What each statement means: docs/method/uncertainty.md and
+// docs/method/sphere-evaluation.md. Units: mm, unless a name says otherwise.
 #ifndef SPH_CORE_SPHERE_MEASUREMENT_HPP_
 #define SPH_CORE_SPHERE_MEASUREMENT_HPP_
 
@@ -42,6 +20,7 @@
 
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/gum.hpp"
+#include "sph/core/points_file.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/sphere/sphere_fit.hpp"
@@ -81,8 +60,13 @@ struct SphereEvaluation {
   std::vector<std::string> warnings;  ///< plain-language, for the user
 };
 
-/// Evaluates points measured on a sphere. `source` names them in messages. Throws sph::Error when
-/// they determine no sphere (fewer than four, or all on one plane or line).
+/// The largest coordinate of a measured point that EvaluateSphere() takes [mm]: 1 km, beyond any
+/// measuring machine (a larger one is in another unit, or not a measurement).
+inline constexpr double kMaxPointCoordinateMm = 1e6;
+
+/// Evaluates points measured on a sphere. `source` names them in messages. Throws sph::Error,
+/// naming the point, when a point is not finite or lies beyond kMaxPointCoordinateMm, and when
+/// the points determine no sphere (fewer than four, all one point, or all on one plane or line).
 SphereEvaluation EvaluateSphere(const std::vector<Eigen::Vector3d>& points_mm, const std::string& source,
                                 const SphereEvaluationOptions& options = SphereEvaluationOptions());
 
@@ -96,6 +80,13 @@ struct FormCorrection {
   Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();     ///< where the directions are taken from
   bool Empty() const { return terms.empty(); }
 };
+
+/// The rotation R (FormCorrection::rotation) of the calibration sphere as it sat on its mount in
+/// `setup` of a points file (`points_name` names it in messages): its mount_rotation_deg@<setup>,
+/// the identity without one. Throws sph::Error when the setup measured another sphere
+/// (sphere_radius_mm@<setup>: the calibration file's form is not that sphere's), when its
+/// orientation is unknown, or when the rotation is not finite.
+Eigen::Matrix3d CalibrationSphereRotation(const PointsHeader& header, int setup, const std::string& points_name);
 
 /// Takes the form off `points_mm` with the coefficients `values_mm` (one per term).
 void SubtractForm(const FormCorrection& form, const double* values_mm, std::vector<Eigen::Vector3d>& points_mm);
@@ -176,7 +167,7 @@ struct UncertaintyOptions {
   std::function<void(int, int)> progress;
 };
 
-/// What the calibration's covariance means for one measured sphere (see the file comment); mm.
+/// What the calibration's covariance means for one measured sphere (docs/method/uncertainty.md); mm.
 struct CalibrationUncertainty {
   int samples = 0;
   std::uint64_t seed = 0;

@@ -8,73 +8,11 @@
 // Minimum-zone sphericity (ISO 12181-1 MZCS, Chebyshev): the smallest radial separation of two
 // concentric spheres that enclose all points between them,
 //   S_MZ = min over c of f(c),   f(c) = max_i d_i(c) - min_i d_i(c),   d_i(c) = |p_i - c|,
-// and c_MZ, the minimising centre. Always S_MZ <= S_LS = f(c_LS).
-//
-// Algorithm: sequential linear programming with a trust region, started at a given centre (the
-// least-squares one). About a centre c, with q_i = p_i - c, d_i = |q_i| and u_i = q_i / d_i, the
-// distances are modelled by L_i(delta) = d_i - u_i . delta (the limacon approximation), and the
-// problem becomes the linear programme in x = (delta, a, b)
-//   min a - b   s.t.   L_i(delta) <= a,   L_i(delta) >= b   (all i),   |delta_k| <= Delta,
-// whose value is the minimum over the box of the convex, piecewise linear function
-//   F(delta) = max_i L_i(delta) - min_i L_i(delta),   F(0) = f(c).
-// The step delta is taken when the exact f decreases; Delta follows the ratio of actual to
-// predicted decrease. The iteration stops when the LP predicts a decrease pi of at most
-// tolerance * f (plus rounding): delta = 0 then solves the LP, the first-order optimality condition
-// of the exact problem (the convex hulls of the outer and of the inner contact directions u_i
-// meet). Near a solution with five contact points (the generic case) the LP step is a Newton step
-// on the contact equations, so convergence is quadratic and the result is exact to rounding.
-//
-// Why not minimise f directly: f is not smooth (a max minus a min), so a general-purpose minimiser
-// stalls at its kinks; the LP treats the kinks exactly.
-//
-// What the result is. f is not convex either: max_i d_i is convex, but min_i d_i is not concave,
-// so f is a difference of convex functions, and that the LP is convex proves nothing about f away
-// from c: a cap or a hemisphere can hold several local minima (tests/sphere/ has one). What
-// holds is a bound. For a step delta of length rho < d_i, exactly
-//   |q_i - delta|^2 = L_i^2 + rho^2 - (u_i . delta)^2,   L_i = L_i(delta) >= d_i - rho > 0,
-// and as sqrt(l^2 + s) <= l + s / (2 l) for s >= 0 (square both sides), with
-// 0 <= s = rho^2 - (u_i . delta)^2 <= rho^2,
-//   L_i(delta) <= d_i(c + delta) <= L_i(delta) + rho^2 / (2 (d_i - rho)).              (1)
-// The 1/2 cannot be lowered: for delta perpendicular to u_i the excess is rho^2 / (2 d_i) + O(rho^4).
-// The left side of (1) bounds max_i d_i(c + delta) from below by max_i L_i, the right side
-// min_i d_i(c + delta) from above by min_i L_i + rho^2 / (2 (r_in - rho)), r_in = min_i d_i, so
-//   f(c + delta) >= F(delta) - rho^2 / (2 (r_in - rho)).
-// F is convex and, at the last LP, F >= f(c) - pi on the box |delta|_inf <= Delta (the rows the LP
-// left out cannot reach the extremes there, see below). Along a segment from 0, convexity extends
-// this to F(delta) >= f(c) - pi max(1, |delta|_inf / Delta) everywhere. Together:
-//   no centre within rho of c gives a zone narrower than
-//   f(c) - pi max(1, rho / Delta) - rho^2 / (2 (r_in - rho))                                 (2)
-// (MinimumZoneSphere::MaxDecreaseWithin; CertifiedRadius inverts it). With pi at rounding, the
-// radius certified to a slack s is about sqrt(2 r_in s): 6.3 um for s = 1 nm on a 20 mm sphere.
-//
-// Where narrower zones can be. Take i and j at the two ends of the spread of u . e along a unit
-// vector e, w(e) = max_i u_i . e - min_i u_i . e, in (1): for every rho < r_in,
-//   f(c + rho e) >= rho w(e) - f(c) - rho^2 / (2 (r_in - rho)).                              (3)
-// So a centre at least as good as c lies, along e, within the smaller root rho_near of
-// rho w - rho^2 / (2 (r_in - rho)) = 2 f(c) (about 2 f(c) / w), or beyond the larger root rho_far
-// (about 2 w r_in / (1 + 2 w)): far off, the centre of a sphere of quite another size (on a cap of
-// half-angle t, f tends to the sagitta r (1 - cos t) as the centre recedes along the axis). With
-// w >= 2 sigma(e) >= 2 sqrt(lambda_min), the range of the u_i . e at least twice their standard
-// deviation (Popoviciu), lambda_min the smallest eigenvalue of the covariance of the u_i, (3)
-// holds with one w in every direction: MinimumZoneSphere::near_radius and far_radius, and by (2)
-// no centre nearer than far_radius gives a zone narrower by more than MaxDecreaseWithin(near_radius).
-// Over the whole sphere w is near 2 (the bound 2 sqrt(lambda_min) about 1), rho_near about 2 f and
-// that bound about 2 f^2 / R (9 pm for a form of 0.3 um on a 20 mm sphere): the minimum found is
-// the global one. On a cap the
-// directions spread little along the axis (w = 1 - cos t: 0.13 at 30 deg, 0.015 at 10 deg), the
-// near region grows to 2 f / w and, with it, room for other local minima: for partial coverage
-// FitSphereMinimumZoneMultiStart() searches again from starts displaced along the principal
-// directions of the u_i (the cap's axis and two across it) by 2/3 of rho_near(e) computed at the
-// least-squares centre: with it, 0 and +-2/3 rho_near are the centres of three equal cells that
-// cover [-rho_near, rho_near], where by (3) every centre better than the least-squares one lies
-// (short of rho_far).
-// The narrowest zone is returned with what every start reached, so that disagreement is seen.
-//
-// The LP has only five variables: it is solved by a primal active-set (simplex) method on the
-// inequality form, with the most negative multiplier leaving and Bland's smallest-index rule after a
-// run of degenerate steps (constructed data has every point in contact at the solution). Only
-// constraints that can be active under the trust region take part: a point whose d_i is more than
-// 2 sqrt(3) Delta below max d (above min d) can never reach the outer (inner) sphere of the LP.
+// and c_MZ, the minimising centre. Always S_MZ <= S_LS = f(c_LS). Found by sequential linear
+// programming with a trust region from a given centre; f is not convex, so what is proven is a
+// bound: (2), no centre within rho narrows the zone by more than MaxDecreaseWithin(rho), and (3),
+// a narrower zone's centre lies within near_radius or beyond far_radius. The algorithm and the
+// derivation of bounds (1) to (3): docs/method/sphere-evaluation.md.
 #ifndef SPH_SPHERE_SPHERE_FORM_HPP_
 #define SPH_SPHERE_SPHERE_FORM_HPP_
 
@@ -130,8 +68,8 @@ struct MinimumZoneSphere {
   bool converged = false;     ///< the LP predicted no further decrease (a stationary centre)
   bool ok = false;            ///< false for fewer than four points or non-finite input
 
-  /// The certificate of the last linear programme solved at `center` (bound (2) of the file
-  /// comment): the half-width Delta of its box and the decrease pi >= 0 it still predicted.
+  /// The certificate of the last linear programme solved at `center` (bound (2)): the half-width
+  /// Delta of its box and the decrease pi >= 0 it still predicted.
   /// lp_box == 0: no certificate (not converged, or nothing to solve: a zone of width 0).
   double lp_box = 0.0;
   double lp_decrease = 0.0;
@@ -157,8 +95,8 @@ struct MinimumZoneSphere {
   bool StartsAgree() const;
 };
 
-/// Minimum-zone sphere of the points (see the file comment), started at `start_center` (use the
-/// least-squares centre: the width returned is then never above the least-squares sphericity).
+/// Minimum-zone sphere of the points, started at `start_center` (use the least-squares centre: the
+/// width returned is then never above the least-squares sphericity).
 ///
 /// Many points: only points near the extremes can touch the zone, so it is found for the
 /// MinimumZoneOptions::candidates farthest and nearest from the start centre first. When every
@@ -175,7 +113,7 @@ MinimumZoneSphere FitSphereMinimumZone(const std::vector<Eigen::Vector3d>& point
 
 /// The minimum zone searched from `start_center` (the least-squares centre) and from six starts
 /// displaced from it along +-e for the three principal directions e of the directions u_i seen from
-/// it, by 2/3 of the near-region radius rho_near(e) of bound (3) at the start (file comment). The
+/// it, by 2/3 of the near-region radius rho_near(e) of bound (3) at the start. The
 /// narrowest converged zone is returned, with `starts` listing what each search reached (the first
 /// is the given centre). Meant for partial coverage (caps, hemispheres); costs seven searches.
 MinimumZoneSphere FitSphereMinimumZoneMultiStart(const std::vector<Eigen::Vector3d>& points,
