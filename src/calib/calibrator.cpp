@@ -167,8 +167,8 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
     result.centers_mm.push_back(fit.center);
   }
 
-  // One residual per sample (the residual of sph/ceres/sphere_residual.hpp's functor), the gradient
-  // derived by hand (sph/model/residual_gradient.hpp), solved by Ceres (solve_fit.hpp).
+  // One residual per sample (sph/ceres/sphere_residual.hpp), the gradient derived by hand
+  // (sph/model/residual_gradient.hpp), solved by Ceres (solve_fit.hpp).
   const SphereFitProblem problem(table, std::move(rows), EffectModel{}, options);
   Eigen::VectorXd x = problem.Pack(result.geometry, result.centers_mm, {});
   const SolvedFit solved = SolveFit(problem, x, options, n_samples, result, points.source);
