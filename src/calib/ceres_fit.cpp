@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 
+#include <Eigen/Cholesky>
 #include <ceres/cost_function.h>
 #include <ceres/crs_matrix.h>
 #include <ceres/loss_function.h>
@@ -43,6 +44,112 @@ class SetupCost final : public ceres::CostFunction {
  private:
   const SphereFitProblem& problem_;
   int setup_, first_, count_;
+};
+
+// All readings of one setup as n + 1 residuals, n the columns of its parameter blocks: with
+// G = [J e]^T [J e] (summed over blocks of rows, as SphereFitProblem::Evaluate() sums the normal
+// equations) and F any square factor of it, F^T F = G (from a pivoted LDL^T, which takes a
+// semidefinite G), the residuals are F's last column and the Jacobian its others. Then the cost is
+// e^T e, the gradient J^T e and the Gauss-Newton matrix J^T J, and the model of the cost along any
+// step is that of the readings: Levenberg-Marquardt takes the same steps and accepts them by the
+// same costs, with n + 1 rows instead of the setup's readings for Ceres to copy and check.
+// Evaluated without a Jacobian (a trial step, of which only the cost is used) the residuals are
+// (|e|, 0, ..., 0).
+class CompressedSetupCost final : public ceres::CostFunction {
+ public:
+  CompressedSetupCost(const SphereFitProblem& problem, int setup) : problem_(problem), setup_(setup) {
+    std::vector<int>& sizes = *mutable_parameter_block_sizes();
+    sizes = {kNumScmsParams, 3};
+    if (problem.NumEffectParams() > 0) sizes.push_back(problem.NumEffectParams());
+    if (problem.NumFormTerms() > 0) sizes.push_back(problem.NumFormTerms());
+    n_ = 0;
+    for (const int size : sizes) n_ += size;
+    set_num_residuals(n_ + 1);
+    e_.resize(kChunk);
+    for (const int size : sizes) jac_.emplace_back(static_cast<std::size_t>(kChunk * size));
+    rows_.resize(static_cast<std::size_t>(kChunk * (n_ + 1)));
+  }
+
+  /// Used for a setup of this many readings or more (twice the rows it is compressed to).
+  static int MinRows(const SphereFitProblem& problem) {
+    return 2 * (kNumScmsParams + 3 + problem.NumEffectParams() + problem.NumFormTerms() + 1);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    SetupParams p;
+    int b = 0;
+    p.geometry = parameters[b++];
+    p.center = parameters[b++];
+    if (problem_.NumEffectParams() > 0) p.effects = parameters[b++];
+    if (problem_.NumFormTerms() > 0) p.form = parameters[b++];
+    const int m = problem_.SetupRows(setup_);
+    const std::vector<int>& sizes = parameter_block_sizes();
+    if (jacobians == nullptr) {
+      double sum = 0.0;
+      for (int first = 0; first < m; first += kChunk) {
+        const int count = std::min(kChunk, m - first);
+        if (!problem_.EvaluateSetupRows(setup_, p, first, count, e_.data(), nullptr)) return false;
+        for (int i = 0; i < count; ++i) sum += e_[static_cast<std::size_t>(i)] * e_[static_cast<std::size_t>(i)];
+      }
+      residuals[0] = std::sqrt(sum);
+      std::fill_n(residuals + 1, n_, 0.0);
+      return true;
+    }
+    std::vector<double*> jp;
+    for (auto& j : jac_) jp.push_back(j.data());
+    const int stride = n_ + 1;
+    gram_.setZero(stride, stride);
+    for (int first = 0; first < m; first += kChunk) {
+      const int count = std::min(kChunk, m - first);
+      if (!problem_.EvaluateSetupRows(setup_, p, first, count, e_.data(), jp.data())) return false;
+      for (int i = 0; i < count; ++i) {
+        double* row = rows_.data() + i * stride;
+        int col = 0;
+        for (std::size_t k = 0; k < sizes.size(); ++k) {
+          const int width = sizes[k];
+          std::copy_n(jac_[k].data() + i * width, width, row + col);
+          col += width;
+        }
+        row[n_] = e_[static_cast<std::size_t>(i)];
+      }
+      // The rows, row after row, are the columns of [J e]^T.
+      gram_.selfadjointView<Eigen::Lower>().rankUpdate(
+          Eigen::Map<const Eigen::MatrixXd>(rows_.data(), stride, count));
+    }
+    // G = P^T L D L^T P, hence F = D^(1/2) L^T P has F^T F = G. Where the readings leave a direction
+    // undetermined G is singular: its pivots there are zero to rounding (clamped at 0, and Eigen's
+    // "numerical issue" for them is no failure here).
+    ldlt_.compute(gram_);
+    const Eigen::VectorXd root = ldlt_.vectorD().cwiseMax(0.0).cwiseSqrt();
+    upper_ = root.asDiagonal() * Eigen::MatrixXd(ldlt_.matrixU());
+    perm_.setIdentity(stride, stride);
+    perm_ = ldlt_.transpositionsP() * perm_;  // P as a matrix
+    factor_.noalias() = upper_ * perm_;
+    for (int i = 0; i <= n_; ++i) residuals[i] = factor_(i, n_);
+    int col = 0;
+    for (std::size_t k = 0; k < sizes.size(); ++k) {
+      const int width = sizes[k];
+      if (jacobians[k] != nullptr) {
+        for (int i = 0; i <= n_; ++i) {
+          for (int c = 0; c < width; ++c) jacobians[k][i * width + c] = factor_(i, col + c);
+        }
+      }
+      col += width;
+    }
+    return factor_.allFinite();
+  }
+
+ private:
+  static constexpr int kChunk = SphereFitProblem::kBlockRows;  // readings evaluated and summed at a time
+  const SphereFitProblem& problem_;
+  int setup_;
+  int n_;
+  // Scratch (a cost function is evaluated by one thread at a time: FitSolver is not thread-safe).
+  mutable std::vector<double> e_;
+  mutable std::vector<std::vector<double>> jac_;
+  mutable std::vector<double> rows_;
+  mutable Eigen::MatrixXd gram_, upper_, perm_, factor_;
+  mutable Eigen::LDLT<Eigen::MatrixXd> ldlt_;
 };
 
 // A Gaussian prior on entry `index` of a parameter block of `size`: the residual w (x - value).
@@ -135,8 +242,13 @@ FitSolver::Impl::Impl(const SphereFitProblem& p, const SolveConstraints& c)
     if (effects_block >= 0) used.push_back(blocks[static_cast<std::size_t>(effects_block)]);
     if (groups > 0) used.push_back(blocks[static_cast<std::size_t>(first_form_block + p.FormGroupOf(k))]);
     // Under a loss each reading is a residual block of its own (Ceres applies a loss to a block's
-    // squared norm); without one a setup's readings are one block.
+    // squared norm); without one a setup's readings are one block, compressed where they are many.
     const int rows = p.SetupRows(k);
+    if (!loss && rows >= CompressedSetupCost::MinRows(p)) {
+      costs.push_back(std::make_unique<CompressedSetupCost>(p, k));
+      problem_.AddResidualBlock(costs.back().get(), nullptr, used);
+      continue;
+    }
     const int piece = loss ? 1 : rows;
     for (int first_row = 0; first_row < rows; first_row += piece) {
       costs.push_back(std::make_unique<SetupCost>(p, k, first_row, std::min(piece, rows - first_row)));

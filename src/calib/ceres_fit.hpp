@@ -4,8 +4,10 @@
 // of each group]; Ceres sees them as parameter blocks: the seven errors, each centre, all effect
 // parameters, each form group's coefficients. Each setup's readings are one residual block whose
 // cost function evaluates them with the problem's hand-derived Jacobian in blocks of rows
-// (SphereFitProblem::EvaluateSetupRows()); under a robust loss each reading is a residual block of
-// its own, for Ceres' loss functions apply to a residual block as a whole. What a solve holds,
+// (SphereFitProblem::EvaluateSetupRows()); a setup of many readings is compressed to n + 1
+// residuals with the same cost, gradient and J^T J (n its parameters), so that Ceres' own work per
+// iteration does not grow with the readings. Under a robust loss each reading is a residual block
+// of its own, for Ceres' loss functions apply to a residual block as a whole. What a solve holds,
 // informs and bounds (SolveConstraints) maps onto Ceres: fixed columns onto constant blocks or a
 // SubsetManifold, priors onto residual blocks of their own, bounds onto the problem's bounds.
 //
@@ -80,8 +82,9 @@ class FitSolver {
   SolveSummary Solve(Eigen::VectorXd& x, int max_iterations);
 
   /// The residuals and the Jacobian (columns as x) of every residual block at x as Ceres evaluates
-  /// them (ceres::Problem::Evaluate, no loss applied): the readings in problem order (setup after
-  /// setup, each setup's rows ascending), then the priors.
+  /// them (ceres::Problem::Evaluate, no loss applied): setup after setup, its readings (rows
+  /// ascending) or, for a setup compressed, its n + 1 rows, then the priors. The readings' own
+  /// residuals come from the SphereFitProblem, not from here.
   void Evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* residuals, Eigen::MatrixXd* jacobian);
 
   /// The weight rho'(e^2) of each residual of x under the loss (1 without one), table-indexed (rows

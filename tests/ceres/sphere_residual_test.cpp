@@ -282,7 +282,8 @@ TEST(JacobianAt, EqualsTheAutodiffJacobianWithEveryEffect) {
 
 // What Ceres solves: the fits' cost functions (src/calib/ceres_fit.cpp, the hand-derived Jacobian
 // of every reading of a setup in one residual block) as Ceres evaluates them, against the
-// per-reading functors differentiated by Ceres, with every effect of the library and two setups.
+// per-reading functors differentiated by Ceres, with every effect of the library and two setups
+// (of too few readings each to be compressed, so that each reading is a row).
 TEST(FitSolver, CeresSeesThePerReadingFunctorsDifferentiated) {
   SimulationSpec spec;
   spec.pattern = GridPattern(12, 6);
@@ -346,6 +347,52 @@ TEST(FitSolver, CeresSeesThePerReadingFunctorsDifferentiated) {
   }
   EXPECT_LE(worst_e, 1e-12);
   EXPECT_LE(worst, 1e-12);
+}
+
+// A setup of many readings is one residual block of n + 1 rows (n its parameters) that has the
+// readings' normal equations: Ceres' J^T J, J^T e and cost equal those summed over the readings,
+// with two setups, an effect and a form (every kind of parameter block), and without a loss only.
+TEST(FitSolver, ASetupOfManyReadingsIsCompressedToItsNormalEquations) {
+  SimulationSpec spec;
+  spec.pattern = GridPattern(24, 12);
+  spec.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, -1.5, 0.5)};
+  spec.noise_r_um = 0.05;
+  const PointsData points = Simulate(spec);
+  EffectModel model;
+  model.terms.push_back(DefaultTerm(Effect::kThetaEncoder, 2, 2));
+  model.reference = EffectReferenceOf(points.samples);
+  model.form = FormModelOf(points, FormTermsOfDegrees(2, 2));
+  const internal::ReadingTable table(points);
+  const internal::SphereFitProblem problem(table, internal::AllRows(table), model, sph::testing::PaperOptions());
+  ASSERT_GT(problem.NumFormTerms(), 0);
+  const std::vector<Eigen::Vector3d> centers{{2.001, 0.002, -0.001}, {0.0, -1.499, 0.503}};
+  std::vector<std::vector<double>> values{std::vector<double>(static_cast<std::size_t>(model.NumParams()), 3e-5)};
+  Eigen::VectorXd x = problem.Pack(SomeGeometry(), centers, values);
+  x.tail(problem.NumParams() - problem.FirstFormColumn(0)).setConstant(1e-5);
+  internal::NormalEquations ne;
+  ASSERT_TRUE(problem.Evaluate(x.data(), &ne));
+  const int n = kNumScmsParams + 3 + problem.NumEffectParams() + problem.NumFormTerms();
+  for (const bool loss : {false, true}) {
+    internal::SolveConstraints c;
+    if (loss) {
+      c.loss = internal::LossKind::kHuber;
+      c.loss_scale_mm = 1.0;  // far beyond every residual: the loss does not act
+    }
+    internal::FitSolver solver(problem, c);
+    Eigen::VectorXd e;
+    Eigen::MatrixXd jac;
+    solver.Evaluate(x, &e, &jac);
+    EXPECT_EQ(e.size(), loss ? problem.NumRows() : problem.NumSetups() * (n + 1)) << "loss " << loss;
+    EXPECT_NEAR(0.5 * e.squaredNorm(), ne.cost, 1e-12 * ne.cost);
+    const Eigen::MatrixXd jtj = jac.transpose() * jac;
+    const Eigen::MatrixXd sym = ne.jtj.selfadjointView<Eigen::Lower>();
+    EXPECT_LE((jtj - sym).cwiseAbs().maxCoeff(), 1e-12 * sym.cwiseAbs().maxCoeff()) << "loss " << loss;
+    // J^T e: each entry against what rounding of the sum allows, |J_j| |e|.
+    const Eigen::VectorXd jte = jac.transpose() * e;
+    for (Eigen::Index j = 0; j < x.size(); ++j) {
+      EXPECT_LE(std::abs(jte(j) - ne.jte(j)), 1e-12 * std::sqrt(sym(j, j) * 2.0 * ne.cost)) << "column " << j;
+    }
+  }
 }
 
 // The calibration (its block cost functions, the hand-derived Jacobian) against Ceres on the
