@@ -47,11 +47,11 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   AddProgressOptions(app, o.progress);
   std::string ids;
   for (const EffectInfo& e : kEffectInfo) ids += (ids.empty() ? "" : ", ") + std::string(e.id);
-  auto* no_extend = app.add_flag("--no-extend", o.no_extend,
-                                 "Fit the seven errors only; do not trace the residual to further effects");
+  auto* no_trace =
+      app.add_flag("--no-trace", o.no_trace, "Fit the seven errors only; do not trace the residual to further effects");
   app.add_option("--effects", o.effects, "Fit exactly these effects (comma-separated), no selection: " + ids)
       ->delimiter(',')
-      ->excludes(no_extend)
+      ->excludes(no_trace)
       ->check(CLI::IsMember([] {
         std::vector<std::string> v;
         for (const EffectInfo& e : kEffectInfo) v.emplace_back(e.id);
@@ -60,15 +60,15 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_flag("--hold-confounded", o.hold_confounded,
                "When the effect the trace would add cannot be told from another (by this design, or about equal "
                "scores), add neither and report both; default: add the one that explains more and name the other")
-      ->excludes(no_extend);
+      ->excludes(no_trace);
   app.add_option("--validate", o.validate_path,
                  "Another points file of the same machine (another sphere or position): report its least-squares "
                  "sphericity compensated before and after")
-      ->excludes(no_extend);
+      ->excludes(no_trace);
   app.add_option("--plot-dir", o.plot_dir,
                  "Write residual_map.png, residual_time.png and, when the sphere's form is fitted, "
                  "sphere_form_map.png (gnuplot) with their data into this folder")
-      ->excludes(no_extend);
+      ->excludes(no_trace);
   AddPlotTimeoutOption(app, o.plot_timeout_s);
   app.add_option("--harmonics", o.harmonics,
                  "Highest harmonic order searched of the harmonic effects; 0: chosen on each axis from the "
@@ -180,7 +180,7 @@ TraceResult TraceOf(const CalibrateOptions& o, const PointsData& points, const C
   topts.phi_wobble_pivot_mm = o.phi_wobble_pivot_mm;
   topts.probe_range_mm = ProbeRangeOf(o, points);
   topts.seed = o.seed;
-  topts.add_confounded = !o.hold_confounded;
+  topts.hold_confounded = o.hold_confounded;
   topts.progress = [&](int round, int done, int total) {
     progress.Update("tracing the residual, round " + std::to_string(round) + ": candidates", done, total);
   };
@@ -249,7 +249,7 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     const CalibrationResult base = Calibrate(points, copts);
     std::optional<TraceResult> trace;
     std::optional<Validation> validation;
-    if (!o.no_extend) {
+    if (!o.no_trace) {
       trace = TraceOf(o, points, copts, base, progress);
       if (!o.validate_path.empty()) {
         validation = Validate(o.validate_path, copts.probe_offset_mm, *trace);

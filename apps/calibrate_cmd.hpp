@@ -25,7 +25,7 @@ struct CalibrateOptions {
   double max_std_um = 10.0;
   int max_iterations = 100;
   bool quiet = false;                            ///< no text report on stdout
-  bool no_extend = false;                        ///< fit the seven errors only, no residual tracing
+  bool no_trace = false;                         ///< fit the seven errors only, no residual tracing
   bool hold_confounded = false;                  ///< add neither of two effects the data cannot tell apart
   std::vector<std::string> effects;              ///< a fixed model: these effects, no selection
   std::string validate_path;                     ///< another sphere measured on the same machine

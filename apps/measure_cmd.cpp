@@ -374,7 +374,7 @@ struct ResultBudget {
   const char* key;   ///< of the JSON
   double value_mm = 0.0;
   gum::UncertaintyStatement statement;
-  std::optional<gum::MonteCarloResult> mc;  ///< the JCGM 101 check, for the sphericities
+  std::optional<gum::PropagationResult> mc;  ///< the JCGM 101 check, for the sphericities
   std::string mc_note;                      ///< why there is none
 };
 
@@ -433,7 +433,7 @@ Budgets BudgetsOf(const MeasureOptions& o, const Input& in, const SphereEvaluati
                          ev.n_points, o.mc_max_points);
     } else {
       progress.Stage(std::string("Monte Carlo check (JCGM 101) of ") + r.name);
-      gum::MonteCarloOptions mo;
+      gum::PropagationOptions mo;
       mo.probability = r.statement.coverage_probability;
       mo.significant_digits = o.mc_digits;
       mo.seed = o.seed;
@@ -469,7 +469,7 @@ void WriteBudgetText(std::ostream& out, const Budgets& b, int mc_digits) {
       out << Format("    %-44s %.4f   (%s)\n", in.name.c_str(), in.Contribution() * kUmPerMm, detail.c_str());
     }
     if (r.mc) {
-      const gum::MonteCarloResult& mc = *r.mc;
+      const gum::PropagationResult& mc = *r.mc;
       const double lo = r.value_mm - st.U, hi = r.value_mm + st.U;
       out << Format(
           "    Monte Carlo check (JCGM 101, adaptive): %ld trials, mean %.4f, u %.4f, %.2f %% interval "
@@ -521,7 +521,7 @@ json BudgetsJson(const Budgets& b, int mc_digits) {
               {"coverage_probability", st.coverage_probability},
               {"budget", items}};
     if (r.mc) {
-      const gum::MonteCarloResult& mc = *r.mc;
+      const gum::PropagationResult& mc = *r.mc;
       e["monte_carlo"] = {{"method", "JCGM 101 adaptive"},
                           {"trials", mc.trials},
                           {"mean_um", mc.y * kUmPerMm},

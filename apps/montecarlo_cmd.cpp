@@ -32,8 +32,8 @@ constexpr double kPaperBeforeUm[10] = {1.786, 1.796, 1.811, 1.828, 1.842, 2.641,
 constexpr double kPaperAfterUm[10] = {0.00529, 0.00541, 0.00541, 0.00558, 0.00606,
                                       0.01656, 0.02519, 0.02927, 0.03838, 0.04541};
 
-MonteCarloSpec ToSpec(const MonteCarloOptions& o) {
-  MonteCarloSpec spec;
+MonteCarloStudyOptions ToSpec(const MonteCarloAppOptions& o) {
+  MonteCarloStudyOptions spec;
   spec.base = ToSimulationSpec(o.machine);
   spec.eccentricities_mm = o.eccentricities_mm;
   spec.direction = ParseVector3(o.direction, "--direction");
@@ -101,7 +101,7 @@ void WriteUndetermined(std::ostream& out, const std::vector<std::pair<int, doubl
       << " um (--max-std-um), as sph_calibrate judges a calibration\n";
 }
 
-void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloOptions& o) {
+void PrintTable2(std::ostream& out, const MonteCarloStudy& r, const MonteCarloAppOptions& o) {
   out << "Table 2: mean of the calibrations (" << o.trials << " trials per eccentricity, seed " << o.seed
       << ", sigma_r " << o.machine.noise_r_um << " um)\n";
   out << Format("%-9s %-4s %12s", "param", "unit", "true");
@@ -153,7 +153,7 @@ void PrintTable2(std::ostream& out, const MonteCarloResult& r, const MonteCarloO
 
 json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
-json StudyJson(const MonteCarloResult& r) {
+json StudyJson(const MonteCarloStudy& r) {
   json rows = json::array();
   for (const auto& row : r.rows) {
     json params = json::object();
@@ -188,7 +188,7 @@ json StudyJson(const MonteCarloResult& r) {
   return rows;
 }
 
-void WriteCsv(const std::string& path, const MonteCarloResult& r, OutputFiles& files) {
+void WriteCsv(const std::string& path, const MonteCarloStudy& r, OutputFiles& files) {
   files.Stage(path, [&](std::ostream& f) {
     f << "eccentricity_mm,parameter,unit,true,mean,std,se,z,crlb,std_over_crlb,converged,trials,determined\n";
     // A number that is not finite is an empty field.
@@ -207,7 +207,8 @@ void WriteCsv(const std::string& path, const MonteCarloResult& r, OutputFiles& f
 }
 
 // Table 3: ten spheres whose nominal-model sphericity is the paper's "before" value.
-json Table3(std::ostream& out, const MonteCarloSpec& spec, const MonteCarloResult& r, const MonteCarloOptions& o) {
+json Table3(std::ostream& out, const MonteCarloStudyOptions& spec, const MonteCarloStudy& r,
+            const MonteCarloAppOptions& o) {
   const std::vector<double> targets(std::begin(kPaperBeforeUm), std::end(kPaperBeforeUm));
   const std::vector<SphericityRow> rows = SphericityStudy(spec, r, targets, o.table3_calibration_e_mm);
   out << "\nTable 3: least-squares sphericity (um) of ten spheres, exact readings, evaluated with the nominal "
@@ -240,7 +241,7 @@ json Table3(std::ostream& out, const MonteCarloSpec& spec, const MonteCarloResul
 
 // Figure 4: std against eccentricity with the Cramer-Rao curve, and the spread of the estimates:
 // the data, the script and the three images, staged in the folder `dir` (PlotFolder::Make()).
-void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloResult& r, double timeout_s,
+void Plot(const std::string& dir, const MonteCarloStudyOptions& spec, const MonteCarloStudy& r, double timeout_s,
           OutputFiles& files) {
   const std::string folder = dir + "/";
   const double e_min = r.rows.front().eccentricity_mm, e_max = r.rows.back().eccentricity_mm;
@@ -322,7 +323,8 @@ void Plot(const std::string& dir, const MonteCarloSpec& spec, const MonteCarloRe
   RunGnuplot(run, "--plot-dir " + dir);
 }
 
-int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream& report, OutputFiles& files) {
+int RunPlan(const MonteCarloAppOptions& o, const MonteCarloStudyOptions& spec, std::ostream& report,
+            OutputFiles& files) {
   // The table goes to the report, unless the JSON takes standard output.
   std::ostringstream discarded;
   std::ostream& out = o.json_path == "-" ? discarded : report;
@@ -399,7 +401,7 @@ int RunPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream
 
 }  // namespace
 
-void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
+void SetupMonteCarloApp(CLI::App& app, MonteCarloAppOptions& o) {
   app.description(
       "Monte Carlo study of the calibration against the sphere's eccentricity (the paper's Tables 2 and "
       "3 and Figure 4), with the Cramer-Rao prediction; --plan predicts without simulating.");
@@ -476,7 +478,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& o) {
   app.add_flag("!--no-progress", o.progress, "No progress bar");
 }
 
-int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream& err) {
+int RunMonteCarloApp(const MonteCarloAppOptions& o, std::ostream& out, std::ostream& err) {
   const PlotFolder plot_folder(o.plot_dir);  // removed again when a failed run leaves it empty
   try {
     RunPaths paths;
@@ -490,14 +492,14 @@ int RunMonteCarloApp(const MonteCarloOptions& o, std::ostream& out, std::ostream
         paths.Output("--plot-dir", o.plot_dir + "/" + f);
       }
     }
-    const MonteCarloSpec spec = ToSpec(o);
+    const MonteCarloStudyOptions spec = ToSpec(o);
     OutputFiles files(out);
     if (o.plan) return RunPlan(o, spec, out, files);
     if (o.target_std_um) throw Error("--target-std-um goes with --plan");
     if (o.plan_orientations) return RunOrientationPlan(o, spec, out, files);
     ProgressBar bar(err, o.progress);
     const auto t0 = std::chrono::steady_clock::now();
-    const MonteCarloResult r = RunMonteCarlo(spec, [&](long d, long t) { bar(d, t); });
+    const MonteCarloStudy r = RunMonteCarlo(spec, [&](long d, long t) { bar(d, t); });
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (o.json_path != "-") PrintTable2(out, r, o);
     json j = {{"program", "sph_montecarlo " SPH_VERSION},

@@ -28,7 +28,7 @@ std::string TermsText(const std::vector<FormTerm>& terms) {
   return s;
 }
 
-OrientationPlanOptions PlanOptionsOf(const MonteCarloOptions& o) {
+OrientationPlanOptions PlanOptionsOf(const MonteCarloAppOptions& o) {
   OrientationPlanOptions p;
   for (const std::string& id : o.effects) {
     Effect e;
@@ -141,7 +141,7 @@ json Report(std::ostream& out, double e_mm, const Eigen::Vector3d& center_mm, co
 
 }  // namespace
 
-int RunOrientationPlan(const MonteCarloOptions& o, const MonteCarloSpec& spec, std::ostream& report,
+int RunOrientationPlan(const MonteCarloAppOptions& o, const MonteCarloStudyOptions& spec, std::ostream& report,
                        OutputFiles& files) {
   const OrientationPlanOptions options = PlanOptionsOf(o);
   std::ostringstream discarded;

@@ -104,7 +104,7 @@ class Matrix : public ::testing::TestWithParam<MatrixCase> {
   static void SetUpTestSuite() {
     base_ = MakeTempDir("matrix_base");
     std::ofstream(base_ + "/P.txt") << Example();
-    const ProgramResult r = RunProgram({SPH_CALIBRATE, "P.txt", "--no-extend", "-q", "-o", "cal.json"}, base_);
+    const ProgramResult r = RunProgram({SPH_CALIBRATE, "P.txt", "--no-trace", "-q", "-o", "cal.json"}, base_);
     ASSERT_EQ(r.code, 0) << r.err;
     nodes_ = MakeDeviceNodes(base_);
   }
@@ -152,7 +152,7 @@ std::vector<MatrixCase> CalibrateCases() {
        {{"x.txt", std::string("\x7f"
                               "ELF\x02\x01\x01\0\0\0",
                               10)}}},
-      {"byte_order_mark", {"x.txt", "--no-extend", "-q"}, 0, "", {{"x.txt", "\xEF\xBB\xBF" + Example()}}},
+      {"byte_order_mark", {"x.txt", "--no-trace", "-q"}, 0, "", {{"x.txt", "\xEF\xBB\xBF" + Example()}}},
       {"bad_columns_line_named_at_its_line",
        {"x.txt"},
        2,
@@ -189,7 +189,7 @@ std::vector<MatrixCase> CalibrateCases() {
        e + "x.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 2",
        {{"x.txt", h + "1 2\n"}}},
       {"absurd_reading_named",
-       {"x.txt", "--no-extend", "-q"},
+       {"x.txt", "--no-trace", "-q"},
        0,
        "x.txt:107: r_mm 1e+10",
        {{"x.txt", ExampleWithR(100, "1e10")}}},
@@ -251,45 +251,45 @@ std::vector<MatrixCase> CalibrateCases() {
        2,
        e + "disk: is a block device: refusing to write onto it"},
       {"output_onto_full_device",
-       {"P.txt", "--no-extend", "-q", "-o", "full"},
+       {"P.txt", "--no-trace", "-q", "-o", "full"},
        2,
        e + "full: cannot write: No space left on device"},
-      {"output_onto_null_device", {"P.txt", "--no-extend", "-q", "-o", "null", "--json", "null"}, 0, ""},
+      {"output_onto_null_device", {"P.txt", "--no-trace", "-q", "-o", "null", "--json", "null"}, 0, ""},
       {"output_onto_directory", {"P.txt", "-o", "sub"}, 2, e + "sub: is a directory; give the name of a file"},
       {"output_into_missing_folder",
-       {"P.txt", "--no-extend", "-q", "-o", "no/c.json"},
+       {"P.txt", "--no-trace", "-q", "-o", "no/c.json"},
        2,
        e + "no/c.json: cannot create a file in 'no': No such file or directory"},
       {"json_and_output_written",
-       {"P.txt", "--no-extend", "-q", "-o", "c.json", "--json", "r.json"},
+       {"P.txt", "--no-trace", "-q", "-o", "c.json", "--json", "r.json"},
        0,
        "",
        {},
        {"c.json", "r.json"}},
       {"stdout_full",
-       {"P.txt", "--no-extend"},
+       {"P.txt", "--no-trace"},
        2,
        e + "cannot write to standard output: No space left on device",
        {},
        {},
        "full"},
       {"json_stdout_full",
-       {"P.txt", "--no-extend", "--json", "-"},
+       {"P.txt", "--no-trace", "--json", "-"},
        2,
        e + "cannot write to standard output: No space left on device",
        {},
        {},
        "full"},
-      {"validate_without_trace", {"P.txt", "--no-extend", "--validate", "P.txt"}, 2, "--no-extend excludes --validate"},
+      {"validate_without_trace", {"P.txt", "--no-trace", "--validate", "P.txt"}, 2, "--no-trace excludes --validate"},
       {"stdout_full_keeps_the_calibration",
-       {"P.txt", "--no-extend", "-o", "c.json"},
+       {"P.txt", "--no-trace", "-o", "c.json"},
        2,
        e + "cannot write to standard output: No space left on device",
        {{"c.json", "yesterday\n"}},
        {},
        "full"},
       {"stdout_closed_keeps_the_calibration",
-       {"P.txt", "--no-extend", "-o", "c.json"},
+       {"P.txt", "--no-trace", "-o", "c.json"},
        2,
        e + "cannot write to standard output: Broken pipe",
        {{"c.json", "yesterday\n"}},
@@ -337,7 +337,7 @@ std::vector<MatrixCase> CalibrateCases() {
            "of 288 readings do (they span 2.95877 to 6.92469 mm)",
        {{"x.txt", ExampleWithHeader("# probe_range_mm: 0.002\n")}}},
       {"probe_range_option_below_the_readings",
-       {"P.txt", "--no-extend", "-q", "--probe-range-mm", "6"},
+       {"P.txt", "--no-trace", "-q", "--probe-range-mm", "6"},
        2,
        e + "P.txt:65: r_mm 6.065184228 lies outside the probe's measuring range, 0 to 6 mm (--probe-range-mm): 56 of "
            "288 readings do"},
@@ -347,7 +347,7 @@ std::vector<MatrixCase> CalibrateCases() {
        "sph_calibrate: not usable: d' = -10.0601 mm is more than a tenth of the sphere's radius (10 mm): with the "
        "nominal d the points lie on a sphere of radius about R0 - d' = 20.0601 mm"},
       {"temperature_leaves_d_prime_uncertain_by_a_millimetre",
-       {"P.txt", "--no-extend", "-q", "--sphere-temperature-c", "100", "--sphere-cte-per-k", "1e-3",
+       {"P.txt", "--no-trace", "-q", "--sphere-temperature-c", "100", "--sphere-cte-per-k", "1e-3",
         "--sphere-temperature-u-c", "50", "-o", "c.json"},
        1,
        "sph_calibrate: not usable: d_prime has a combined standard uncertainty of 1005 um as a displacement (U = 2010 "
@@ -368,9 +368,9 @@ std::vector<MatrixCase> CalibrateCases() {
        e + "x.txt: 11 samples are too few to trace the residual: its 5-fold cross-validation fits the 7 errors and 3 "
            "centre coordinates for each of 1 setup(s) (10 parameters) to the samples outside each fold, here as few "
            "as 8 (a fold leaves out up to 3), and a fit needs more samples than parameters: at least 14 samples are "
-           "needed; the seven errors alone (--no-extend) need more than 10",
+           "needed; the seven errors alone (--no-trace) need more than 10",
        {{"x.txt", ExampleSamples(11)}}},
-      {"too_few_samples_for_the_seven_errors", {"x.txt", "--no-extend", "-q"}, 1, "", {{"x.txt", ExampleSamples(11)}}},
+      {"too_few_samples_for_the_seven_errors", {"x.txt", "--no-trace", "-q"}, 1, "", {{"x.txt", ExampleSamples(11)}}},
       {"few_samples_trace_what_they_can", {"x.txt", "-q"}, 0, "", {{"x.txt", ExampleSamples(20)}}},
       {"few_samples_of_four_orientations_trace_what_they_can",
        {"x.txt", "-q"},
@@ -998,7 +998,7 @@ INSTANTIATE_TEST_SUITE_P(Measure, MeasureMatrix, ::testing::ValuesIn(MeasureCase
 TEST(PlotSignal, EndsGnuplotAndLeavesNothingBehind) {
   const std::string dir = MakeTempDir("plot_signal");
   std::ofstream(dir + "/P.txt") << Example();
-  ASSERT_EQ(RunProgram({SPH_CALIBRATE, "P.txt", "--no-extend", "-q", "-o", "cal.json"}, dir).code, 0);
+  ASSERT_EQ(RunProgram({SPH_CALIBRATE, "P.txt", "--no-trace", "-q", "-o", "cal.json"}, dir).code, 0);
   // Says that it started, then draws into its image (-e "png = '<name>'; ") half a second later.
   const std::string started = dir + ".started";
   const std::string gnuplot =

@@ -267,7 +267,7 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
   const RunOutput r = Calibrate(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
   EXPECT_THAT(r.err, HasSubstr("leaves out probe_drift"));
-  EXPECT_THAT(r.out, HasSubstr("closing the loop"));
+  EXPECT_THAT(r.out, HasSubstr("tracing the residual (to the effects"));
   EXPECT_THAT(r.out, HasSubstr("theta_encoder.c2"));
   const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
   EXPECT_EQ(j["effects_added"], nlohmann::json({"probe_drift", "theta_encoder"})) << j.dump(2);
@@ -354,10 +354,10 @@ TEST_F(CalibrateCmd, AValidationOnTheCalibrationsOwnPointsSaysItIsNoIndependentC
 TEST_F(CalibrateCmd, NoExtendFitsTheSevenErrorsOnly) {
   CalibrateOptions o;
   o.points_path = Simulated("points.txt", UndeclaredEffects());
-  o.no_extend = true;
+  o.no_trace = true;
   o.json_path = dir_ + "/report.json";
   const RunOutput r = Calibrate(o);
-  EXPECT_THAT(r.out, Not(HasSubstr("closing the loop")));
+  EXPECT_THAT(r.out, Not(HasSubstr("tracing the residual (to the effects")));
   const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
   EXPECT_FALSE(j.contains("effects_added"));
 }
@@ -397,7 +397,7 @@ TEST_F(CalibrateCmd, HoldConfoundedAddsNeitherOfTwoEffectsItCannotTellApart) {
   CLI::App contradictory;
   CalibrateOptions o2;
   SetupCalibrateApp(contradictory, o2);
-  std::vector<std::string> args{"--no-extend", "--hold-confounded", "p.txt"};  // parse() takes them reversed
+  std::vector<std::string> args{"--no-trace", "--hold-confounded", "p.txt"};  // parse() takes them reversed
   EXPECT_THROW(contradictory.parse(args), CLI::ExcludesError);
 }
 
@@ -417,7 +417,7 @@ TEST_F(CalibrateCmd, StatesTheGumBudgetAndPutsTheCombinedCovarianceInTheCalibrat
   WritePointsFile(points, data);
   CalibrateOptions o;
   o.points_path = points;
-  o.no_extend = true;
+  o.no_trace = true;
   o.conditions.probe_scale_u = 1e-5;
   o.json_path = dir_ + "/report.json";
   o.output_path = dir_ + "/cal.json";
@@ -491,7 +491,7 @@ TEST_F(CalibrateCmd, AFormAloneIsFittedWithTheMachineAndStored) {
 TEST_F(CalibrateCmd, CoverageProbabilityGivesKFromTheDegreesOfFreedom) {
   CalibrateOptions o;
   o.points_path = SPH_SOURCE_DIR "/data/example/points.txt";
-  o.no_extend = true;
+  o.no_trace = true;
   o.coverage = 0.99;
   o.json_path = dir_ + "/report.json";
   ASSERT_EQ(Calibrate(o).code, kExitOk);
@@ -527,7 +527,7 @@ TEST(CalibrateCli, ParsesOptions) {
   CLI::App contradictory;
   CalibrateOptions o5;
   SetupCalibrateApp(contradictory, o5);
-  EXPECT_THROW(ParseArgs(contradictory, {"p.txt", "--no-extend", "--effects", "probe_gain"}), CLI::ExcludesError);
+  EXPECT_THROW(ParseArgs(contradictory, {"p.txt", "--no-trace", "--effects", "probe_gain"}), CLI::ExcludesError);
 }
 
 }  // namespace
