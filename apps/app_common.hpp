@@ -75,7 +75,7 @@ inline constexpr ValidRange kStdUm{0.0, 1e6, "um", true};
 /// The Phi axis wobble's pivot distance along the axis (phi_wobble).
 inline constexpr ValidRange kPivotMm{-kMaxPivotMm, kMaxPivotMm, "mm"};
 /// The sphere on its mount and its form (sph_simulate).
-inline constexpr ValidRange kMountRotationDeg{-360.0, 360.0, "deg"};  ///< each component of a rotation vector
+inline constexpr ValidRange kMountRotationDeg{-kMaxMountRotationDeg, kMaxMountRotationDeg, "deg"};  ///< each component
 inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
 inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
 inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)

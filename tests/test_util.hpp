@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <streambuf>
 #include <vector>
 
 #include <cmath>
@@ -84,6 +86,29 @@ inline std::string MakeTempDir(const std::string& name) {
   if (std::system(cmd.c_str()) != 0) ADD_FAILURE() << "cannot create " << dir;
   return dir;
 }
+
+/// A stream of `size` copies of one byte, made as it is read: what /dev/zero, or a file without
+/// line breaks, gives a reader, without holding it. consumed() says how much a reader took.
+class RepeatedBytes : public std::streambuf {
+ public:
+  RepeatedBytes(char byte, std::size_t size) : size_(size) { piece_.fill(byte); }
+  std::size_t consumed() const { return handed_ - static_cast<std::size_t>(egptr() - gptr()); }
+
+ protected:
+  int_type underflow() override {
+    if (gptr() < egptr()) return traits_type::to_int_type(*gptr());
+    if (handed_ >= size_) return traits_type::eof();
+    const std::size_t n = std::min(piece_.size(), size_ - handed_);
+    setg(piece_.data(), piece_.data(), piece_.data() + n);
+    handed_ += n;
+    return traits_type::to_int_type(piece_[0]);
+  }
+
+ private:
+  std::array<char, 4096> piece_{};
+  std::size_t size_;
+  std::size_t handed_ = 0;
+};
 
 }  // namespace sph::testing
 

@@ -177,27 +177,27 @@ bool ParseCandumpLine(std::string_view line, CanFrame& f, std::string& iface, st
 }
 
 CandumpReader::CandumpReader(const std::string& path)
-    : owned_(std::make_unique<std::ifstream>(path, std::ios::binary)), in_(owned_.get()), source_(path) {
-  if (!*in_) throw Error(path + ": cannot open for reading: " + std::strerror(errno));
+    : owned_(std::make_unique<std::ifstream>(path, std::ios::binary)),
+      lines_(*owned_, path, "a candump log", TextLines::Nul::kKeep) {
+  if (!*owned_) throw Error(path + ": cannot open for reading: " + std::strerror(errno));
 }
 
-CandumpReader::CandumpReader(std::istream& in, std::string source) : in_(&in), source_(std::move(source)) {}
+CandumpReader::CandumpReader(std::istream& in, std::string source)
+    : lines_(in, std::move(source), "a candump log", TextLines::Nul::kKeep) {}
 
 CandumpReader::Result CandumpReader::Next() {
   Result r;
-  while (std::getline(*in_, line_)) {
-    ++line_no_;
+  while (lines_.Next(line_)) {
     if (line_.find_first_not_of(" \t\r") == std::string::npos) continue;
     std::string error;
     if (ParseCandumpLine(line_, r.frame, r.iface, error)) {
       r.status = Status::kFrame;
     } else {
       r.status = Status::kMalformed;
-      r.error = source_ + ":" + std::to_string(line_no_) + ": " + error;
+      r.error = lines_.Where() + error;
     }
     return r;
   }
-  if (in_->bad()) throw Error(source_ + ": read error after line " + std::to_string(line_no_));
   r.status = Status::kEnd;
   return r;
 }

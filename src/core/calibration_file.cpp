@@ -1,16 +1,20 @@
 #include "sph/core/calibration_file.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
-#include <sstream>
+#include <optional>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 
 #include <nlohmann/json.hpp>
 
+#include "json_input.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
+#include "sph/core/points_file.hpp"
 #include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
@@ -19,6 +23,7 @@ namespace sph {
 namespace {
 
 using internal::Format;
+using internal::JsonExcerpt;
 using nlohmann::json;
 
 const char* UnitOf(int p) { return ReportUnitsOf(p).coarse; }
@@ -46,7 +51,7 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
     const json& id = Field(effects[k], "id", where, path);
     Effect e;
     if (!id.is_string() || !EffectFromId(id.get<std::string>(), &e)) {
-      throw Error(path + ": field '" + where + "id': unknown effect " + id.dump());
+      throw Error(path + ": field '" + where + "id': unknown effect " + JsonExcerpt(id));
     }
     if (e == Effect::kProbeDrift) {
       throw Error(path + ": field '" + where +
@@ -64,11 +69,11 @@ void ParseEffects(const json& j, const std::string& path, CalibrationFile& cal) 
       const json& name = Field(params[i], "name", pw, path);
       EffectComponent c;
       if (!name.is_string() || !FindComponent(e, name.get<std::string>(), &c)) {
-        throw Error(path + ": field '" + pw + "name': " + name.dump() + " is no parameter of " + InfoOf(e).id);
+        throw Error(path + ": field '" + pw + "name': " + JsonExcerpt(name) + " is no parameter of " + InfoOf(e).id);
       }
       for (std::size_t q = 0; q < term.components.size(); ++q) {
         if (term.ParamName(q) == name.get<std::string>())
-          throw Error(path + ": field '" + pw + "name': " + name.dump() + " is listed twice");
+          throw Error(path + ": field '" + pw + "name': " + JsonExcerpt(name) + " is listed twice");
       }
       term.components.push_back(c);
       if (Field(params[i], "unit", pw, path) != EffectUnit(term)) {
@@ -157,9 +162,14 @@ void ParseSphereForm(const json& j, const std::string& path, CalibrationFile& ca
     }
     cal.form_terms.push_back(term);
     cal.form_values_mm.push_back(v * kMmPerUm);
-    if (t.contains("std_um") && t["std_um"].is_number() && std::isfinite(t["std_um"].get<double>()) &&
-        t["std_um"].get<double>() >= 0.0) {
-      cal.form_std_mm.push_back(t["std_um"].get<double>() * kMmPerUm);
+    if (t.contains("std_um")) {
+      const double u = Number(t, "std_um", where, path);
+      if (!(u >= 0.0 && u <= kMaxEffectUm)) {
+        throw Error(path + ": field '" + where + "std_um' is " + Format("%g", u) +
+                    " um: a standard uncertainty is >= 0, and one of a form term within " + Format("%g", kMaxEffectUm) +
+                    " um");
+      }
+      cal.form_std_mm.push_back(u * kMmPerUm);
     } else {
       with_std = false;
     }
@@ -167,39 +177,64 @@ void ParseSphereForm(const json& j, const std::string& path, CalibrationFile& ca
   if (!with_std) cal.form_std_mm.clear();
 }
 
-// One parameter of the file's covariance: its name, the unit it is stored in and the internal
-// units per stored unit.
+// One parameter of the file's covariance: its name, the unit it is stored in, the internal
+// units per stored unit, and the largest magnitude its value may have (stored units).
 struct StoredParameter {
   std::string name;
   std::string unit;
   double scale;
+  double max_abs;
 };
 
 std::vector<StoredParameter> StoredParameters(const CalibrationFile& cal) {
   std::vector<StoredParameter> v;
   for (int p = 0; p < kNumScmsParams; ++p) {
-    v.push_back({kScmsParamInfo[static_cast<std::size_t>(p)].name, UnitOf(p), FromReportUnits(p, 1.0)});
+    const ScmsParamInfo& info = kScmsParamInfo[static_cast<std::size_t>(p)];
+    v.push_back({info.name, UnitOf(p), FromReportUnits(p, 1.0),
+                 p == kDPrime ? std::min(info.max_abs_report, cal.probe_offset_mm) : info.max_abs_report});
   }
   for (const EffectTerm& term : cal.effects.terms) {
+    const double max_abs = term.info().quantity == Quantity::kAngle ? kMaxEffectArcsec : kMaxEffectUm;
     for (std::size_t i = 0; i < term.components.size(); ++i) {
-      v.push_back({term.ParamName(i), EffectUnit(term), EffectScale(term)});
+      v.push_back({term.ParamName(i), EffectUnit(term), EffectScale(term), max_abs});
     }
   }
   for (const FormTerm& t : cal.form_terms) {
-    v.push_back({"sphere_form.S(" + std::to_string(t.l) + "," + std::to_string(t.m) + ")", "um", kMmPerUm});
+    v.push_back(
+        {"sphere_form.S(" + std::to_string(t.l) + "," + std::to_string(t.m) + ")", "um", kMmPerUm, kMaxEffectUm});
   }
   return v;
 }
 
+// The smallest eigenvalue of D^-1 m D^-1, D = diag(sd): of m's correlation matrix when sd are
+// its own standard deviations; judged so, a matrix is semi-definite or not whatever its units.
+double MinCorrelationEigenvalue(const Eigen::MatrixXd& m, const Eigen::VectorXd& sd) {
+  const Eigen::VectorXd inv = sd.cwiseMax(1e-300).cwiseInverse();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(inv.asDiagonal() * m * inv.asDiagonal(),
+                                                           Eigen::EigenvaluesOnly);
+  return eig.eigenvalues().minCoeff();
+}
+
+// How far below zero an eigenvalue of a correlation matrix may lie from rounding.
+constexpr double kSemiDefiniteTolerance = 1e-8;
+
 // A covariance matrix must be one: symmetric, with variances >= 0, positive semi-definite (to
-// rounding). Else the draws of sph_measure's uncertainty would be nonsense, or NaN. `c` in stored
-// units.
+// rounding), and of a calibration: no parameter's standard uncertainty larger than any value the
+// parameter may take (a file's bound on it), which says the calibration did not determine it.
+// Else the draws of sph_measure's uncertainty would be nonsense, or NaN, and a linearised
+// budget would step outside the model. `c` in stored units.
 void CheckCovariance(const Eigen::MatrixXd& c, const std::vector<StoredParameter>& params, const std::string& path) {
   const Eigen::Index n = c.rows();
   for (Eigen::Index p = 0; p < n; ++p) {
+    const StoredParameter& param = params[static_cast<std::size_t>(p)];
     if (!(c(p, p) >= 0.0) || !std::isfinite(c(p, p))) {
-      throw Error(path + ": covariance.matrix: the variance of " + params[static_cast<std::size_t>(p)].name + " is " +
-                  Format("%g", c(p, p)) + ": a variance is finite and >= 0");
+      throw Error(path + ": covariance.matrix: the variance of " + param.name + " is " + Format("%g", c(p, p)) +
+                  ": a variance is finite and >= 0");
+    }
+    if (std::sqrt(c(p, p)) > param.max_abs) {
+      throw Error(path + ": covariance.matrix: the standard uncertainty of " + param.name + " is " +
+                  Format("%g", std::sqrt(c(p, p))) + " " + param.unit + ", more than any value of it (within " +
+                  Format("%g", param.max_abs) + " " + param.unit + "): not the covariance of a calibration");
     }
   }
   for (Eigen::Index p = 0; p < n; ++p) {
@@ -212,14 +247,70 @@ void CheckCovariance(const Eigen::MatrixXd& c, const std::vector<StoredParameter
       }
     }
   }
-  // Positive semi-definite, judged on the correlation matrix so that units do not matter.
-  const Eigen::VectorXd s = c.diagonal().cwiseSqrt().cwiseMax(1e-300);
-  const Eigen::MatrixXd corr = s.cwiseInverse().asDiagonal() * c * s.cwiseInverse().asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(corr);
-  if (eig.eigenvalues().minCoeff() < -1e-8) {
+  const double min_eigenvalue = MinCorrelationEigenvalue(c, c.diagonal().cwiseSqrt());
+  if (min_eigenvalue < -kSemiDefiniteTolerance) {
     throw Error(path + ": covariance.matrix is not positive semi-definite (its correlation matrix has the eigenvalue " +
-                Format("%.3g", eig.eigenvalues().minCoeff()) + "): it is not the covariance of any estimate");
+                Format("%.3g", min_eigenvalue) + "): it is not the covariance of any estimate");
   }
+}
+
+// The largest standard uncertainty of a budget's input, by its unit: what a points file's header
+// accepts for the same input (kConditionFields: R0's in um, the temperature's in K, the probe
+// scale's relative).
+std::optional<double> MaxInputU(const std::string& unit) {
+  constexpr std::pair<const char*, const char*> kFieldOfUnit[] = {
+      {"um", "sphere_radius_u_um"}, {"K", "sphere_temperature_u_c"}, {"relative", "probe_scale_u"}};
+  for (const auto& [u, key] : kFieldOfUnit) {
+    if (unit != u) continue;
+    for (const ConditionField& f : kConditionFields) {
+      if (std::string(f.key) == key) return f.max;
+    }
+  }
+  return std::nullopt;
+}
+
+// The covariance holds its inputs (matrix = A + sum_j s_j s_j^T u_j^2): what is left without
+// them, the Type A part A, is a covariance too. `c` and the sensitivities `s` in stored units.
+void CheckTypeA(const Eigen::MatrixXd& c, const std::vector<Eigen::VectorXd>& s,
+                const std::vector<CalibrationFile::CovarianceInput>& inputs, const std::vector<StoredParameter>& params,
+                const std::string& path) {
+  if (inputs.empty()) return;
+  const Eigen::VectorXd sd = c.diagonal().cwiseSqrt();
+  auto without = [&](std::size_t only) {  // c less input `only`'s part, or all inputs' (npos)
+    Eigen::MatrixXd a = c;
+    for (std::size_t k = 0; k < inputs.size(); ++k) {
+      if (only != std::string::npos && k != only) continue;
+      const Eigen::VectorXd su = s[k] * inputs[k].u;
+      a -= su * su.transpose();
+    }
+    return a;
+  };
+  const Eigen::MatrixXd a = without(std::string::npos);
+  for (Eigen::Index p = 0; p < c.rows(); ++p) {
+    if (a(p, p) >= -kSemiDefiniteTolerance * c(p, p)) continue;
+    std::size_t largest = 0;
+    for (std::size_t k = 1; k < inputs.size(); ++k) {
+      if (std::abs(s[k](p) * inputs[k].u) > std::abs(s[largest](p) * inputs[largest].u)) largest = k;
+    }
+    const StoredParameter& param = params[static_cast<std::size_t>(p)];
+    throw Error(path + ": covariance.inputs: the inputs give " + param.name + " a variance of " +
+                Format("%g", c(p, p) - a(p, p)) + " " + param.unit + "^2, more than covariance.matrix holds (" +
+                Format("%g", c(p, p)) + " " + param.unit + "^2; the largest part from covariance.inputs[" +
+                std::to_string(largest) + "], " + internal::Quoted(inputs[largest].input) +
+                "): the matrix is not the sum of a Type A part and these inputs");
+  }
+  const double min_eigenvalue = MinCorrelationEigenvalue(a, sd);
+  if (min_eigenvalue >= -kSemiDefiniteTolerance) return;
+  std::string which = "together";
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    if (MinCorrelationEigenvalue(without(k), sd) < -kSemiDefiniteTolerance) {
+      which = "covariance.inputs[" + std::to_string(k) + "], " + internal::Quoted(inputs[k].input) + ", alone";
+      break;
+    }
+  }
+  throw Error(path + ": covariance.inputs: the matrix less its inputs (" + which +
+              ") is not positive semi-definite (eigenvalue " + Format("%.3g", min_eigenvalue) +
+              " of the correlation): the matrix is not the sum of a Type A part and these inputs");
 }
 
 json NamesOf(const std::vector<StoredParameter>& params, std::size_t n, bool units) {
@@ -274,6 +365,7 @@ void ParseCovariance(const json& cov, const std::string& path, CalibrationFile& 
   if (!cov.contains("inputs")) return;
   const json& inputs = cov["inputs"];
   if (!inputs.is_array()) throw Error(path + ": field 'covariance.inputs' must be an array");
+  std::vector<Eigen::VectorXd> sensitivities;  // stored units
   for (std::size_t k = 0; k < inputs.size(); ++k) {
     const std::string where = "covariance.inputs[" + std::to_string(k) + "].";
     CalibrationFile::CovarianceInput in;
@@ -284,22 +376,35 @@ void ParseCovariance(const json& cov, const std::string& path, CalibrationFile& 
     }
     in.input = name.get<std::string>();
     in.unit = unit.get<std::string>();
+    const std::optional<double> max_u = MaxInputU(in.unit);
+    if (!max_u) {
+      throw Error(path + ": field '" + where + "unit' is " + internal::Quoted(in.unit) +
+                  ": an input of the budget is in um, K or relative");
+    }
     in.u = Number(inputs[k], "u", where, path);
-    if (!(in.u >= 0.0) || !std::isfinite(in.u)) throw Error(path + ": field '" + where + "u' must be finite and >= 0");
+    if (!(in.u >= 0.0 && in.u <= *max_u)) {
+      throw Error(path + ": field '" + where + "u' is " + Format("%g", in.u) + " " + in.unit +
+                  ": the standard uncertainty of an input in " + in.unit + " lies within [0, " + Format("%g", *max_u) +
+                  "]");
+    }
     const json& s = Field(inputs[k], "sensitivity", where, path);
     if (!s.is_array() || s.size() != n) {
       throw Error(path + ": field '" + where + "sensitivity' must hold " + std::to_string(n) +
                   " numbers, one per covariance parameter");
     }
     in.per_unit.resize(static_cast<Eigen::Index>(n));
+    Eigen::VectorXd s_stored(static_cast<Eigen::Index>(n));
     for (std::size_t p = 0; p < n; ++p) {
       if (!s[p].is_number() || !std::isfinite(s[p].get<double>())) {
         throw Error(path + ": field '" + where + "sensitivity' has a non-number");
       }
+      s_stored(static_cast<Eigen::Index>(p)) = s[p].get<double>();
       in.per_unit(static_cast<Eigen::Index>(p)) = s[p].get<double>() * all[p].scale;
     }
     cal.covariance_inputs.push_back(in);
+    sensitivities.push_back(s_stored);
   }
+  CheckTypeA(stored, sensitivities, cal.covariance_inputs, all, path);
 }
 
 }  // namespace
@@ -387,22 +492,14 @@ CalibrationFile ReadCalibrationFile(const std::string& path) {
 }
 
 CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw Error(path + ": read error");
-  json j;
-  try {
-    j = json::parse(text.str());  // the whole text: one JSON value and nothing after it
-  } catch (const json::exception& e) {
-    throw Error(path + ": not valid JSON: " + e.what());
-  }
+  json j = internal::ParseJsonInput(in, path, "a calibration file", kMaxCalibrationFileBytes);
   if (!j.is_object() || !j.contains("format") || j["format"] != "sph-calibration") {
     throw Error(path + ": not an sph calibration file (field \"format\" must be \"sph-calibration\")");
   }
   const json& version = Field(j, "format_version", "", path);
   if (!version.is_number_integer() || version.get<int>() != kCalibrationFormatVersion) {
-    throw Error(path + ": calibration format version " + version.dump() + " is not supported (this program reads " +
-                std::to_string(kCalibrationFormatVersion) + ")");
+    throw Error(path + ": calibration format version " + JsonExcerpt(version) +
+                " is not supported (this program reads " + std::to_string(kCalibrationFormatVersion) + ")");
   }
   CalibrationFile cal;
   cal.probe_offset_mm = Number(j, "probe_offset_mm", "", path);
@@ -410,6 +507,15 @@ CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
   if (j.contains("sphere_radius_mm")) cal.sphere_radius_mm = Number(j, "sphere_radius_mm", "", path);
   if (j.contains("created_by") && j["created_by"].is_string()) cal.created_by = j["created_by"].get<std::string>();
   const json& geometry = Field(j, "geometry", "", path);
+  if (!geometry.is_object()) throw Error(path + ": field 'geometry' must be an object");
+  for (const auto& item : geometry.items()) {
+    bool known = false;
+    for (const ScmsParamInfo& p : kScmsParamInfo) known |= item.key() == p.name;
+    if (!known) {
+      throw Error(path + ": field " + internal::Quoted("geometry." + item.key()) +
+                  " is unknown (the seven errors: alpha a beta b epsilon c d_prime)");
+    }
+  }
   for (int p = 0; p < kNumScmsParams; ++p) {
     const char* name = kScmsParamInfo[static_cast<std::size_t>(p)].name;
     const json& entry = Field(geometry, name, "geometry.", path);

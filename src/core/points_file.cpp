@@ -21,6 +21,8 @@
 #include "sph/core/points_writer.hpp"
 #include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/model/form_model.hpp"
+#include "sph/model/units.hpp"
 
 namespace sph {
 namespace {
@@ -71,8 +73,7 @@ bool IsHeaderKey(std::string_view key) {
   const std::string_view name = key.substr(0, at);
   if (name.empty() || !std::all_of(name.begin(), name.end(), is_name_char)) return false;
   if (at == std::string_view::npos) return true;
-  const std::string_view setup = key.substr(at + 1);
-  return !setup.empty() && setup.find_first_of(" \t\r") == std::string_view::npos;
+  return key.substr(at + 1).find_first_of(" \t\r") == std::string_view::npos;
 }
 
 std::optional<HeaderField> HeaderFieldOf(std::string_view body) {
@@ -113,6 +114,13 @@ std::string MountRotationValue(const MountRotation& rotation) {
   return internal::Shortest(v.x()) + " " + internal::Shortest(v.y()) + " " + internal::Shortest(v.z());
 }
 
+bool SameOrientation(const MountRotation& a, const MountRotation& b) {
+  if (!a.known() || !b.known()) return a.known() == b.known();
+  const Eigen::Matrix3d between =
+      MountRotationMatrix(*a.rotation_deg).transpose() * MountRotationMatrix(*b.rotation_deg);
+  return Eigen::AngleAxisd(between).angle() * kDegPerRad <= kMountRotationToleranceDeg;
+}
+
 MountRotation ParseMountRotation(const std::string& value, const std::string& key, const std::string& where) {
   const std::vector<std::string> words = SplitWhitespace(value);
   if (words.size() == 1 && words[0] == "unknown") return MountRotation::Unknown();
@@ -123,8 +131,13 @@ MountRotation ParseMountRotation(const std::string& value, const std::string& ke
   }
   Eigen::Vector3d v;
   constexpr std::array<const char*, 3> kNames{"rx", "ry", "rz"};
-  for (int i = 0; i < 3; ++i) {
-    v(i) = ParseNumber(words[static_cast<std::size_t>(i)], key + " " + kNames[static_cast<std::size_t>(i)], where);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const std::string what = key + " " + kNames[i];
+    v(static_cast<Eigen::Index>(i)) = ParseNumber(words[i], what, where);
+    if (std::abs(v(static_cast<Eigen::Index>(i))) > kMaxMountRotationDeg) {
+      throw Error(where + what + ": must be within [-" + internal::Format("%g", kMaxMountRotationDeg) + ", " +
+                  internal::Format("%g", kMaxMountRotationDeg) + "] deg, got " + Quoted(words[i]));
+    }
   }
   return MountRotation::Known(v);
 }
@@ -162,11 +175,23 @@ class PointsParser {
     if (text.empty()) return;
     if (text[0] != '#') return SampleLine(text, fail);
     // Between samples, comments are skipped, but for the fields of a setup that a later run
-    // appended to the file (its mount rotation, its sphere's radius).
+    // appended to the file before the setup's first row (its mount rotation, its sphere's
+    // radius), and header fields this reader knows, which would apply to no row here.
     if (!header_done_) return HeaderLine(Trim(text.substr(1)), text, fail);
     const std::optional<HeaderField> f = HeaderFieldOf(text.substr(1));
-    const auto at = f ? f->key.find('@') : std::string::npos;
-    if (at != std::string::npos) SetupLine(f->key, at, f->value, fail);
+    if (!f) return;
+    const auto at = f->key.find('@');
+    if (at != std::string::npos) {
+      SetupLine(f->key, at, f->value, fail);
+    } else if (IsKnownKey(f->key)) {
+      const std::string first = std::to_string(data_.sample_lines.front());
+      if (f->key == kColumnsKey) {
+        fail("a columns line after the first sample (line " + first +
+             "): the columns are named once, before the samples, and the rows above were read without it");
+      }
+      fail("header field " + Quoted(f->key) + " after the first sample (line " + first +
+           "): header fields stand before the samples");
+    }
   }
 
   // The data, once every line was read.
@@ -207,6 +232,15 @@ class PointsParser {
     data_.header.metadata.emplace_back(key, value);
   }
 
+  // A header key this reader takes a value from (not metadata).
+  static bool IsKnownKey(const std::string& key) {
+    if (key == kRadiusKey || key == kProbeOffsetKey || key == kColumnsKey) return true;
+    for (const ConditionField& c : kConditionFields) {
+      if (key == c.key) return true;
+    }
+    return false;
+  }
+
   static void FormatLine(const std::string& body, const std::string& text, const LineError& fail) {
     const auto words = SplitWhitespace(body);
     if (words.size() != 2 || words[0] != "sph-points") fail("malformed format line " + Quoted(text));
@@ -222,15 +256,21 @@ class PointsParser {
     const std::string name = key.substr(0, at);
     const bool rotation = name == kMountRotationKey;
     if (!rotation && !(name == kRadiusKey && at != std::string::npos)) return false;
-    if (at == std::string::npos) {
-      fail(std::string(kMountRotationKey) + " belongs to one setup: write '" + kMountRotationKey +
-           "@<setup>: rx ry rz'");
-    }
+    const std::string form = name + "@<setup>: " + (rotation ? "rx ry rz" : "R");
+    if (at == std::string::npos) fail(name + " belongs to one setup: write '" + form + "'");
+    if (at + 1 == key.size()) fail(key + " names no setup: write '" + form + "'");
     const int setup = ParseInteger(key.substr(at + 1), key + ": setup id", fail.where());
+    const std::string what = rotation ? "the mount rotation" : "the sphere radius";
     const auto [it, inserted] = setup_lines_.emplace(std::make_pair(name, setup), line_no_);
     if (!inserted) {
-      fail(std::string(rotation ? "the mount rotation" : "the sphere radius") + " of setup " + std::to_string(setup) +
-           " is given twice (first at line " + std::to_string(it->second) + ")");
+      fail(what + " of setup " + std::to_string(setup) + " is given twice (first at line " +
+           std::to_string(it->second) + ")");
+    }
+    const auto first_row = first_rows_.find(setup);
+    if (first_row != first_rows_.end()) {
+      fail(key + ": setup " + std::to_string(setup) + " has rows before this line (the first at line " +
+           std::to_string(first_row->second) + "): " + what +
+           " of a setup applies to all of its rows and stands before the first of them");
     }
     if (rotation) {
       data_.header.mount_rotations[setup] = ParseMountRotation(value, key, fail.where());
@@ -295,11 +335,18 @@ class PointsParser {
     s.theta_deg = ParseNumber(col(kTheta), name(kTheta), fail.where());
     s.phi_deg = ParseNumber(col(kPhi), name(kPhi), fail.where());
     s.r_mm = ParseNumber(col(kR), name(kR), fail.where());
-    s.t_s =
-        data_.has_time ? ParseNumber(col(kTime), name(kTime), fail.where()) : static_cast<double>(data_.samples.size());
+    s.t_s = static_cast<double>(data_.samples.size());
+    if (data_.has_time) {
+      s.t_s = ParseNumber(col(kTime), name(kTime), fail.where());
+      if (std::abs(s.t_s) > kMaxTimeS) {
+        fail(name(kTime) + ": " + Quoted(col(kTime)) + " is beyond " + internal::Format("%g", kMaxTimeS) +
+             " s from 0: not a time of a measurement");
+      }
+    }
     s.setup = data_.has_setup ? ParseInteger(col(kSetup), name(kSetup), fail.where()) : 0;
     data_.samples.push_back(s);
     data_.sample_lines.push_back(line_no_);
+    first_rows_.emplace(s.setup, line_no_);
   }
 
   // A field of a setup that has no samples: a typo in the setup id, or a setup whose rows went
@@ -323,9 +370,10 @@ class PointsParser {
   PointsData data_;
   std::set<std::string> seen_keys_;
   std::map<std::pair<std::string, int>, long> setup_lines_;  // the header line of each (field, setup)
-  std::array<int, kNumColumns> index_{};  // file column index of each known column, -1 if absent
-  bool columns_fixed_ = false;            // set at the columns line or the first sample
-  bool header_done_ = false;              // set at the first sample
+  std::map<int, long> first_rows_;                           // the line of each setup's first row
+  std::array<int, kNumColumns> index_{};                     // file column index of each known column, -1 if absent
+  bool columns_fixed_ = false;                               // set at the columns line or the first sample
+  bool header_done_ = false;                                 // set at the first sample
   long line_no_ = 0;
 };
 

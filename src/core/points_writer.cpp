@@ -1,6 +1,7 @@
 #include "sph/core/points_writer.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -8,6 +9,7 @@
 #include <sstream>
 
 #include "sph/core/error.hpp"
+#include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
 
 namespace sph {
@@ -56,20 +58,39 @@ std::map<std::string, std::string> HeaderFields(const std::string& text) {
   return fields;
 }
 
-// The per-setup fields written anywhere in the file at `path` ("mount_rotation_deg@<setup>" and
-// "sphere_radius_mm@<setup>" to their values): in its header, or between samples where an
-// appending run wrote those of a new setup.
-std::map<std::string, std::string> SetupFieldsOf(const std::string& path) {
+// What the file at `path` holds of its setups: the per-setup fields ("mount_rotation_deg@<setup>"
+// and "sphere_radius_mm@<setup>" to their values) written anywhere in it (in its header, or
+// between samples where an appending run wrote those of a new setup), and the line of each
+// setup's first row (the setup id is the last column when the file has one, else 0).
+struct FileSetups {
   std::map<std::string, std::string> fields;
-  std::ifstream in(path);
+  std::map<int, long> first_rows;
+};
+
+FileSetups SetupsOf(const std::string& path, bool has_setup) {
+  FileSetups out;
+  std::ifstream in = OpenInputFile(path);
+  // NUL bytes are kept: a row holding one is no row of any setup, and the reader names it.
+  TextLines lines(in, path, "a points file", TextLines::Nul::kKeep);
   const std::string rotation = std::string(kMountRotationKey) + "@", radius = std::string(kRadiusKey) + "@";
-  for (std::string line; std::getline(in, line);) {
+  for (std::string line; lines.Next(line);) {
     const std::string text = Trim(line);
-    if (text.empty() || text[0] != '#') continue;
-    const std::optional<HeaderField> f = HeaderFieldOf(std::string_view(text).substr(1));
-    if (f && (f->key.rfind(rotation, 0) == 0 || f->key.rfind(radius, 0) == 0)) fields.emplace(f->key, f->value);
+    if (text.empty()) continue;
+    if (text[0] == '#') {
+      const std::optional<HeaderField> f = HeaderFieldOf(std::string_view(text).substr(1));
+      if (f && (f->key.rfind(rotation, 0) == 0 || f->key.rfind(radius, 0) == 0)) out.fields.emplace(f->key, f->value);
+      continue;
+    }
+    if (!lines.complete()) break;  // a row cut short by a crash, cut off when the file is opened
+    int setup = 0;
+    if (has_setup) {
+      const std::string last = text.substr(text.find_last_of(" \t\r") + 1);
+      const auto [ptr, ec] = std::from_chars(last.data(), last.data() + last.size(), setup);
+      if (ec != std::errc() || ptr != last.data() + last.size()) continue;  // no row: the reader names it
+    }
+    out.first_rows.emplace(setup, lines.line_no());
   }
-  return fields;
+  return out;
 }
 
 void CheckSameNumber(const std::string& path, const std::map<std::string, std::string>& fields, const char* key,
@@ -112,18 +133,37 @@ PointsWriter::SetupFields PointsWriter::Continuable(const std::string& path, con
     CheckSameNumber(path, fields, kRadiusKey, header.sphere_radius_mm);
     CheckSameNumber(path, fields, kProbeOffsetKey, header.probe_offset_mm);
     if (header.mount_rotations.empty() && header.sphere_radii_mm.empty()) return {};
-    const SetupFields in_file = SetupFieldsOf(path);
+    const FileSetups file = SetupsOf(path, options.has_setup);
+    SetupFields in_file = file.fields;  // and the fields this run need not write
+    // A setup that has rows was recorded with the fields the file gives it, none meaning the
+    // reference orientation and sphere: a field now would apply to those rows too.
+    const auto rows_of = [&](int setup, const std::string& key, const std::string& were, const std::string& ours) {
+      const auto rows = file.first_rows.find(setup);
+      if (rows == file.first_rows.end()) return;  // a new setup: its fields are written before its first row
+      throw Error(path + ": setup " + std::to_string(setup) + " has rows (the first at line " +
+                  std::to_string(rows->second) + ") " + were + " (no " + key + " before them): this run's " + key +
+                  " " + ours + " would apply to them too: give this placement a setup of its own");
+    };
     for (const auto& [setup, ours] : header.mount_rotations) {
       const std::string key = MountRotationKey(setup);
-      const auto field = in_file.find(key);
-      if (field == in_file.end()) continue;  // a new setup: written before its first row
-      if (ParseMountRotation(field->second, key, path + ": ") != ours) {
+      const auto field = file.fields.find(key);
+      if (field == file.fields.end()) {
+        if (SameOrientation(ours, MountRotation::Known(Eigen::Vector3d::Zero()))) {
+          in_file.emplace(key, "");  // the reference orientation, which the setup's rows have
+        } else {
+          rows_of(setup, key, "in the reference orientation", MountRotationValue(ours));
+        }
+      } else if (!SameOrientation(ParseMountRotation(field->second, key, path + ": "), ours)) {
         throw Error(path + ": has " + key + " " + field->second + " but this run writes " + MountRotationValue(ours) +
                     ": use another file");
       }
     }
     for (const auto& [setup, ours] : header.sphere_radii_mm) {
-      CheckSameNumber(path, in_file, SphereRadiusKey(setup).c_str(), ours);
+      const std::string key = SphereRadiusKey(setup);
+      if (file.fields.count(key) == 0) {
+        rows_of(setup, key, "of the reference sphere", internal::Shortest(ours));
+      }
+      CheckSameNumber(path, file.fields, key.c_str(), ours);
     }
     return in_file;
   }

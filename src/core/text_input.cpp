@@ -24,16 +24,41 @@ std::ifstream OpenInputFile(const std::string& path) {
 }
 
 bool TextLines::Next(std::string& line) {
+  line.clear();
+  const long number = line_no_ + 1;
+  // In pieces of at most kPiece bytes, each checked as it comes: a NUL or an endless line is
+  // refused after kMaxLineBytes at most, whatever follows.
+  constexpr std::size_t kPiece = 4096;
+  char piece[kPiece + 1];
+  bool any = false;
   errno = 0;
-  if (!std::getline(in_, line)) {
+  for (;;) {
+    in_.getline(piece, sizeof piece);
     if (in_.bad()) {
       throw Error(source_ + ": read error" + (errno != 0 ? std::string(": ") + std::strerror(errno) : std::string()));
     }
-    return false;
+    const auto got = static_cast<std::size_t>(in_.gcount());
+    // The '\n' ended the piece (and is counted in gcount), or the input ended, or the piece is full.
+    const bool ended = !in_.fail() && !in_.eof();
+    const std::size_t n = ended ? got - 1 : got;
+    any |= got > 0;
+    if (nul_ == Nul::kRefuse && std::memchr(piece, '\0', n) != nullptr) {
+      throw Error(Where(number) + "binary data (NUL byte): this is not " + kind_);
+    }
+    if (line.size() + n > kMaxLineBytes) {
+      throw Error(Where(number) + "the line is longer than " + std::to_string(kMaxLineBytes) + " bytes: this is not " +
+                  kind_);
+    }
+    line.append(piece, n);
+    if (ended || in_.eof()) {
+      if (!any) return false;
+      complete_ = ended;
+      break;
+    }
+    in_.clear();  // the piece was full: the line goes on
   }
-  ++line_no_;
+  line_no_ = number;
   if (line_no_ == 1 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
-  if (line.find('\0') != std::string::npos) throw Error(Where() + "binary data (NUL byte): this is not " + kind_);
   return true;
 }
 

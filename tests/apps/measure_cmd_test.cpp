@@ -474,6 +474,8 @@ TEST_F(MeasureCmd, BrokenFilesGiveOneMessageAndExitTwo) {
   o.calibration_path = dir_ + "/missing.json";
   expect_one_error(o, o.calibration_path + ": cannot open for reading");
   o.calibration_path = WriteFile("garbage.json", std::string("\0\x01\x02{[", 5));
+  expect_one_error(o, o.calibration_path + ":1: binary data (NUL byte): this is not a calibration file");
+  o.calibration_path = WriteFile("garbage2.json", "{[\x01");
   expect_one_error(o, o.calibration_path + ": not valid JSON");
   o.calibration_path = WriteFile("empty.json", "");
   expect_one_error(o, o.calibration_path + ": not valid JSON");

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include <fstream>
+#include <sstream>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -301,7 +302,7 @@ TEST(CalibrationFile, FullCovarianceOfErrorsEffectsAndFormRoundTrips) {
   Eigen::VectorXd s_r0 = Eigen::VectorXd::Zero(12);
   s_r0(6) = 1.0056e-3;  // d' per um of R0 [mm/um]
   s_r0(9) = 2e-5;
-  cal.covariance_inputs = {{"R0 (certificate)", "um", 0.1, s_r0}};
+  cal.covariance_inputs = {{"R0 (certificate)", "um", 0.02, s_r0}};  // within what the matrix holds
   cal.covariance_type_a_dof = 571;
   WriteCalibrationFile(dir + "/cal.json", cal);
 
@@ -318,7 +319,7 @@ TEST(CalibrationFile, FullCovarianceOfErrorsEffectsAndFormRoundTrips) {
   ASSERT_EQ(back.covariance_inputs.size(), 1u);
   EXPECT_EQ(back.covariance_inputs[0].input, "R0 (certificate)");
   EXPECT_EQ(back.covariance_inputs[0].unit, "um");
-  EXPECT_DOUBLE_EQ(back.covariance_inputs[0].u, 0.1);
+  EXPECT_DOUBLE_EQ(back.covariance_inputs[0].u, 0.02);
   EXPECT_TRUE(back.covariance_inputs[0].per_unit.isApprox(s_r0, 1e-14));
   EXPECT_DOUBLE_EQ(back.covariance_type_a_dof, 571.0);
 
@@ -361,6 +362,164 @@ TEST(CalibrationFile, FullCovarianceOfErrorsEffectsAndFormRoundTrips) {
   WriteText(dir + "/short.json", short_input.dump());
   EXPECT_THAT(ErrorReading(dir + "/short.json"),
               HasSubstr("field 'covariance.inputs[0].sensitivity' must hold 12 numbers, one per covariance parameter"));
+}
+
+// ---- input a calibration file must not get through ---------------------------------------------------
+
+// `depth` arrays around `inner`.
+std::string Nested(int depth, const std::string& inner) {
+  return std::string(static_cast<std::size_t>(depth), '[') + inner + std::string(static_cast<std::size_t>(depth), ']');
+}
+
+// A field nested 70 000 deep (a 140 KB file) is refused before anything recurses over it: the
+// reader's message, the copy of "source".
+TEST(CalibrationFile, DeepNestingIsRefusedBeforeAnythingRecursesOverIt) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_deep");
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {R"("format_version": 1)", R"("format_version": )" + Nested(70000, "1")},
+      {R"("effects": [])", R"("effects": [{"id": )" + Nested(70000, "\"x\"") + "}]"},
+      {R"("effects": [])", R"("effects": [], "source": {"points_file": )" + Nested(70000, "") + "}"},
+  };
+  int i = 0;
+  for (const auto& [from, to] : cases) {
+    const std::string path = dir + "/d" + std::to_string(i++) + ".json";
+    WriteText(path, ValidFile(from, to));
+    EXPECT_THAT(ErrorReading(path), HasSubstr(path + ": arrays and objects nested deeper than 64 levels (at '"));
+  }
+  EXPECT_THAT(ErrorReading(dir + "/d0.json"), HasSubstr("(at 'format_version[0][0][0][0][0][0][0][0][0...' ("));
+  // Within the bound a value of "source" is copied as JSON.
+  WriteText(dir + "/ok.json",
+            ValidFile(R"("effects": [])", R"("effects": [], "source": {"x": )" + Nested(62, "1") + ", \"y\": \"s\"}"));
+  const CalibrationFile ok = ReadCalibrationFile(dir + "/ok.json");
+  EXPECT_EQ(ok.source, (std::vector<std::pair<std::string, std::string>>{{"x", Nested(62, "1")}, {"y", "s"}}));
+  // A message quotes an excerpt of a value, never the whole of it.
+  WriteText(dir + "/long.json",
+            ValidFile(R"("effects": [])", R"("effects": [{"id": ")" + std::string(100000, 'x') + "\"}]"));
+  EXPECT_THAT(ErrorReading(dir + "/long.json"), HasSubstr("field 'effects[0].id': unknown effect \"" +
+                                                          std::string(40, 'x') + "\"... (100000 characters)"));
+  WriteText(dir + "/array.json", ValidFile(R"("format_version": 1)", R"("format_version": [1, 2, 3])"));
+  EXPECT_THAT(ErrorReading(dir + "/array.json"),
+              HasSubstr("calibration format version an array of 3 values is not supported"));
+}
+
+// JSON keeps one of two values of a key silently: the reader refuses the file, naming the key.
+TEST(CalibrationFile, AKeyGivenTwiceIsRefusedNamingIt) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_twice");
+  const std::vector<std::pair<std::pair<std::string, std::string>, std::string>> cases{
+      {{R"("a": {"value": 0.002, "unit": "mm"},)",
+        R"("a": {"value": 0.002, "unit": "mm"}, "alpha": {"value": 5, "unit": "deg"},)"},
+       "key 'geometry.alpha' is given twice (JSON would keep one of them silently): give each key once"},
+      {{R"("probe_offset_mm": 25,)", R"("probe_offset_mm": 25, "probe_offset_mm": 30,)"},
+       "key 'probe_offset_mm' is given twice"},
+      {{R"("effects": [])",
+        R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.u1", "value": 1, "unit": "um",
+           "value": 900}]}])"},
+       "key 'effects[0].parameters[0].value' is given twice"},
+  };
+  int i = 0;
+  for (const auto& [edit, message] : cases) {
+    const std::string path = dir + "/t" + std::to_string(i++) + ".json";
+    WriteText(path, ValidFile(edit.first, edit.second));
+    EXPECT_THAT(ErrorReading(path), HasSubstr(path + ": " + message)) << edit.second;
+  }
+}
+
+TEST(CalibrationFile, AFieldOfGeometryTheFormatDoesNotKnowIsRefused) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_geometry");
+  WriteText(dir + "/g.json", ValidFile(R"("d_prime": {"value": -0.062, "unit": "mm"})",
+                                       R"("d_prime": {"value": -0.062, "unit": "mm"}, "gamma": {"value": 1})"));
+  EXPECT_THAT(
+      ErrorReading(dir + "/g.json"),
+      HasSubstr("g.json: field 'geometry.gamma' is unknown (the seven errors: alpha a beta b epsilon c d_prime)"));
+  WriteText(dir + "/h.json", ValidFile(R"("geometry": {)", R"("geometry": [{)"));
+  EXPECT_THAT(ErrorReading(dir + "/h.json"), HasSubstr("not valid JSON"));
+}
+
+TEST(CalibrationFile, AFormTermsStandardUncertaintyIsChecked) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_std");
+  const std::string form = R"("effects": [], "sphere_form": {"normalisation": "schmidt_semi_normalised",
+      "frame": "body", "unit": "um", "terms": [{"l": 2, "m": 0, "value_um": 0.06, "std_um": STD}]})";
+  const auto with = [&](const std::string& std_um) {
+    std::string f = form;
+    f.replace(f.find("STD"), 3, std_um);
+    return ValidFile(R"("effects": [])", f);
+  };
+  WriteText(dir + "/neg.json", with("-1"));
+  EXPECT_THAT(ErrorReading(dir + "/neg.json"),
+              HasSubstr("neg.json: field 'sphere_form.terms[0].std_um' is -1 um: a standard uncertainty is >= 0, and "
+                        "one of a form term within 1000 um"));
+  WriteText(dir + "/huge.json", with("1e308"));
+  EXPECT_THAT(ErrorReading(dir + "/huge.json"), HasSubstr("field 'sphere_form.terms[0].std_um' is 1e+308 um"));
+  WriteText(dir + "/text.json", with("\"small\""));
+  EXPECT_THAT(ErrorReading(dir + "/text.json"), HasSubstr("field 'sphere_form.terms[0].std_um' must be a number"));
+  WriteText(dir + "/ok.json", with("0.004"));
+  EXPECT_NEAR(ReadCalibrationFile(dir + "/ok.json").form_std_mm.at(0), 4e-6, 1e-18);
+}
+
+// A covariance is a calibration's: no standard uncertainty larger than any value of its
+// parameter, and the Type B inputs it says it holds within it.
+TEST(CalibrationFile, ACovarianceThatIsNoCalibrationsIsRefused) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_cov");
+  const std::vector<std::pair<std::pair<std::string, std::string>, std::string>> cases{
+      {{"[0, 0, 0, 0, 0, 0, 1e-12]]", "[0, 0, 0, 0, 0, 0, 1e300]]"},
+       "covariance.matrix: the standard uncertainty of d_prime is 1e+150 mm, more than any value of it (within 25 "
+       "mm): not the covariance of a calibration"},
+      {{"[[1e-8, 0,", "[[200, 0,"},
+       "covariance.matrix: the standard uncertainty of alpha is 14.1421 deg, more than any value of it (within 10 "
+       "deg)"},
+      // An input larger than the matrix holds: the Type A part would be negative.
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "R0 (certificate)", "unit": "um", "u": 10,
+          "sensitivity": [0, 0, 0, 0, 0, 0, 1e-3]}]})x"},
+       "covariance.inputs: the inputs give d_prime a variance of 0.0001 mm^2, more than covariance.matrix holds "
+       "(1e-12 mm^2; the largest part from covariance.inputs[0], 'R0 (certificate)'): the matrix is not the sum of a "
+       "Type A part and these inputs"},
+      // Within every variance, but not in the correlation of c and d': the Type A part is indefinite.
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "R0 (certificate)", "unit": "um", "u": 1,
+          "sensitivity": [0, 0, 0, 0, 0, 0.8e-6, 0.8e-6]}]})x"},
+       "covariance.inputs: the matrix less its inputs (covariance.inputs[0], 'R0 (certificate)', alone) is not "
+       "positive semi-definite (eigenvalue -0.28 of the correlation)"},
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "R0 (certificate)", "unit": "um", "u": 1e308,
+          "sensitivity": [0, 0, 0, 0, 0, 0, 0]}]})x"},
+       "field 'covariance.inputs[0].u' is 1e+308 um: the standard uncertainty of an input in um lies within [0, "
+       "1000]"},
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "sphere temperature", "unit": "K", "u": 51,
+          "sensitivity": [0, 0, 0, 0, 0, 0, 0]}]})x"},
+       "field 'covariance.inputs[0].u' is 51 K: the standard uncertainty of an input in K lies within [0, 50]"},
+      {{"1e-12]]}", R"x(1e-12]], "inputs": [{"input": "R0", "unit": "furlong", "u": 1,
+          "sensitivity": [0, 0, 0, 0, 0, 0, 0]}]})x"},
+       "field 'covariance.inputs[0].unit' is 'furlong': an input of the budget is in um, K or relative"},
+  };
+  int i = 0;
+  for (const auto& [edit, message] : cases) {
+    const std::string path = dir + "/c" + std::to_string(i++) + ".json";
+    WriteText(path, ValidFile(edit.first, edit.second));
+    EXPECT_THAT(ErrorReading(path), HasSubstr(path + ": " + message)) << edit.second;
+  }
+  // Inputs the matrix holds, to its last digit: read.
+  WriteText(dir + "/held.json",
+            ValidFile("1e-12]]}", R"x(1e-12]], "inputs": [{"input": "probe scale", "unit": "relative", "u": 0.5,
+                "sensitivity": [0, 0, 0, 0, 0, 0, 2e-6]}]})x"));
+  EXPECT_EQ(ReadCalibrationFile(dir + "/held.json").covariance_inputs.size(), 1u);
+}
+
+// /dev/zero as a calibration file is refused at its first NUL byte, after a bounded read.
+TEST(CalibrationFile, ANulIsRefusedAfterABoundedRead) {
+  sph::testing::RepeatedBytes zeros('\0', std::size_t{64} << 20);
+  std::istream z(&zeros);
+  try {
+    ParseCalibration(z, "zero");
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "zero:1: binary data (NUL byte): this is not a calibration file");
+  }
+  EXPECT_LE(zeros.consumed(), std::size_t{1} << 17);
+  std::istringstream text(ValidFile() + "\n\n" + std::string(1, '\0'));  // the NUL at line 13
+  try {
+    ParseCalibration(text, "t.json");
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "t.json:13: binary data (NUL byte): this is not a calibration file");
+  }
 }
 
 }  // namespace

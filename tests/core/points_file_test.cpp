@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
+#include "sph/core/text_input.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -99,7 +100,8 @@ TEST(PointsFile, WritesTheLargestFiniteValuesWhole) {
   constexpr double kMax = std::numeric_limits<double>::max();
   PointsData d;
   d.has_time = d.has_setup = true;
-  d.samples = {{-kMax, kMax, -kMax, -kMax, std::numeric_limits<int>::min()}, {1.5, 2.5, 3.5, 4.5, 1}};
+  // The time at the reader's bound (kMaxTimeS): a larger one is refused when read.
+  d.samples = {{-kMax, kMax, -kMax, -kMaxTimeS, std::numeric_limits<int>::min()}, {1.5, 2.5, 3.5, 4.5, 1}};
   std::ostringstream out;
   WritePoints(out, d);
   const PointsData back = Parse(out.str());
@@ -107,7 +109,7 @@ TEST(PointsFile, WritesTheLargestFiniteValuesWhole) {
   EXPECT_EQ(back.samples[0].theta_deg, -kMax);
   EXPECT_EQ(back.samples[0].phi_deg, kMax);
   EXPECT_EQ(back.samples[0].r_mm, -kMax);
-  EXPECT_EQ(back.samples[0].t_s, -kMax);
+  EXPECT_EQ(back.samples[0].t_s, -kMaxTimeS);
   EXPECT_EQ(back.samples[0].setup, std::numeric_limits<int>::min());
   EXPECT_EQ(back.samples[1].t_s, 4.5);
 }
@@ -142,10 +144,10 @@ TEST(PointsFile, ErrorsNameFileLineAndProblem) {
 }
 
 TEST(PointsFile, ALongFieldIsCutInTheMessage) {
-  const std::string field(1 << 20, '7');
+  const std::string field(1 << 19, '7');  // within a line's bound (kMaxLineBytes)
   const std::string message = ErrorOf("1 2 3x" + field + "\n");
   EXPECT_THAT(message, HasSubstr("pts.txt:1: column r_mm: '3x" + field.substr(0, 38) +
-                                 "...' (1048578 characters) is "
+                                 "...' (524290 characters) is "
                                  "not a number"));
   EXPECT_LT(message.size(), 200u);
 }
@@ -331,11 +333,126 @@ TEST(PointsFile, RadiiOfSetupsRoundTripExactly) {
 }
 
 TEST(IsHeaderKey, NamesAndPerSetupNames) {
-  for (const char* key : {"sphere_radius_mm", "operator", "x-y", "mount_rotation_deg@1", "a@x", "a@-1"}) {
+  // A key with '@' and no setup id is a key: the reader refuses it for the keys it knows, where a
+  // comment would hide it.
+  for (const char* key : {"sphere_radius_mm", "operator", "x-y", "mount_rotation_deg@1", "a@x", "a@-1", "a@"}) {
     EXPECT_TRUE(IsHeaderKey(key)) << key;
   }
-  for (const char* key : {"", "@1", "a b", "a@", "a@1 2", "a.b", "mount rotation@1"})
-    EXPECT_FALSE(IsHeaderKey(key)) << key;
+  for (const char* key : {"", "@1", "a b", "a@1 2", "a.b", "mount rotation@1"}) EXPECT_FALSE(IsHeaderKey(key)) << key;
+}
+
+// ---- fields that would apply to rows recorded before them -------------------------------------------
+
+TEST(PointsFile, ASetupFieldAfterARowOfItsSetupIsRefused) {
+  const std::string h = kHeader;  // 3 lines; kTwoSetups: the columns at line 4, rows of setups 0 and 1 at 5 and 6
+  EXPECT_EQ(ErrorOf(h + kTwoSetups + "# mount_rotation_deg@0: 0 0 90\n"),
+            "pts.txt:7: mount_rotation_deg@0: setup 0 has rows before this line (the first at line 5): the mount "
+            "rotation of a setup applies to all of its rows and stands before the first of them");
+  EXPECT_EQ(ErrorOf(h + kTwoSetups + "# sphere_radius_mm@1: 10\n15 7.5 5.2 1\n"),
+            "pts.txt:7: sphere_radius_mm@1: setup 1 has rows before this line (the first at line 6): the sphere "
+            "radius of a setup applies to all of its rows and stands before the first of them");
+  // Between samples, before the first row of its setup: where an appending run writes a new setup's.
+  const PointsData d =
+      Parse(h + kTwoSetups + "# mount_rotation_deg@2: 0 90 0\n# sphere_radius_mm@2: 10\n30 7.5 5.3 2\n");
+  EXPECT_EQ(d.header.mount_rotations.at(2), MountRotation::Known(Eigen::Vector3d(0, 90, 0)));
+  EXPECT_EQ(d.header.sphere_radii_mm.at(2), 10.0);
+  // Without a setup column every row is setup 0.
+  EXPECT_THAT(ErrorOf("1 2 3\n# mount_rotation_deg@0: unknown\n"),
+              HasSubstr("pts.txt:2: mount_rotation_deg@0: setup 0 has rows before this line (the first at line 1)"));
+}
+
+TEST(PointsFile, AColumnsLineOrAHeaderFieldAfterTheFirstSampleIsRefused) {
+  const std::string h = std::string(kHeader) + "0 7.5 5.1\n15 7.5 5.2\n";  // rows at lines 4 and 5
+  EXPECT_EQ(ErrorOf(h + "# columns: theta_deg phi_deg r_mm t_s\n30 7.5 5.3 2\n"),
+            "pts.txt:6: a columns line after the first sample (line 4): the columns are named once, before the "
+            "samples, and the rows above were read without it");
+  EXPECT_EQ(ErrorOf(h + "# probe_offset_mm: 30\n"),
+            "pts.txt:6: header field 'probe_offset_mm' after the first sample (line 4): header fields stand before "
+            "the samples");
+  EXPECT_THAT(ErrorOf(h + "#sphere_temperature_c: 21\n"),
+              HasSubstr("pts.txt:6: header field 'sphere_temperature_c' after the first sample"));
+  // Other comments between samples, "key: value" ones too, are comments.
+  EXPECT_EQ(Parse(h + "# stop: 3\n# resumed at: 12:00\n30 7.5 5.3\n").samples.size(), 3u);
+}
+
+// ---- bounds ---------------------------------------------------------------------------------------
+
+TEST(PointsFile, MountRotationsAreBoundedAsTheOptionsAre) {
+  const std::string h = kHeader;
+  const auto with = [&](const std::string& field) { return h + "# " + field + "\n" + kTwoSetups; };
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1: 0 0 360000")),
+              HasSubstr("pts.txt:4: mount_rotation_deg@1 rz: must be within [-360, 360] deg, got '360000'"));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1: 1e10 0 0")),
+              HasSubstr("pts.txt:4: mount_rotation_deg@1 rx: must be within [-360, 360] deg, got '1e10'"));
+  EXPECT_THAT(ErrorOf(with("mount_rotation_deg@1: 0 -1e308 0")), HasSubstr("mount_rotation_deg@1 ry: must be within"));
+  EXPECT_EQ(Parse(with("mount_rotation_deg@1: -360 0 360")).header.mount_rotations.at(1),
+            MountRotation::Known(Eigen::Vector3d(-360, 0, 360)));
+}
+
+TEST(PointsFile, ASetupFieldThatNamesNoSetupIsRefused) {
+  const std::string h = kHeader;
+  EXPECT_EQ(ErrorOf(h + "# mount_rotation_deg@: 0 0 90\n" + kTwoSetups),
+            "pts.txt:4: mount_rotation_deg@ names no setup: write 'mount_rotation_deg@<setup>: rx ry rz'");
+  EXPECT_EQ(ErrorOf(h + "# sphere_radius_mm@: -10\n" + kTwoSetups),
+            "pts.txt:4: sphere_radius_mm@ names no setup: write 'sphere_radius_mm@<setup>: R'");
+  // Between samples too (a key with a space in it is prose).
+  EXPECT_EQ(ErrorOf(h + kTwoSetups + "# sphere_radius_mm @: 10\n# mount_rotation_deg@ : 0 0 90\n"),
+            "pts.txt:8: mount_rotation_deg@ names no setup: write 'mount_rotation_deg@<setup>: rx ry rz'");
+}
+
+TEST(PointsFile, TimesAreBounded) {
+  const std::string h = std::string(kHeader) + "# columns: theta_deg phi_deg r_mm t_s\n0 7.5 5.1 0\n";
+  EXPECT_EQ(ErrorOf(h + "15 7.5 5.2 1e308\n"),
+            "pts.txt:6: column t_s: '1e308' is beyond 1e+12 s from 0: not a time of a measurement");
+  EXPECT_THAT(ErrorOf(h + "15 7.5 5.2 -1e308\n"), HasSubstr("pts.txt:6: column t_s: '-1e308' is beyond 1e+12 s"));
+  EXPECT_THAT(ErrorOf(h + "15 7.5 5.2 1.0000001e12\n"), HasSubstr("pts.txt:6: column t_s: '1.0000001e12' is beyond"));
+  const PointsData d = Parse(h + "15 7.5 5.2 -1e12\n30 7.5 5.3 1e12\n45 7.5 5.4 1700000000.123456\n");
+  EXPECT_EQ(d.samples[1].t_s, -1e12);
+  EXPECT_EQ(d.samples[2].t_s, 1e12);
+}
+
+// /dev/zero, or a file without line breaks, costs a line's bound at most.
+TEST(PointsFile, ANulOrAnEndlessLineIsRefusedAfterABoundedRead) {
+  sph::testing::RepeatedBytes zeros('\0', std::size_t{64} << 20);
+  std::istream z(&zeros);
+  try {
+    ParsePoints(z, "zero");
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "zero:1: binary data (NUL byte): this is not a points file");
+  }
+  EXPECT_LE(zeros.consumed(), 8192u);
+  sph::testing::RepeatedBytes digits('7', std::size_t{64} << 20);
+  std::istream d(&digits);
+  try {
+    ParsePoints(d, "digits");
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "digits:1: the line is longer than 1048576 bytes: this is not a points file");
+  }
+  EXPECT_LE(digits.consumed(), kMaxLineBytes + 8192);
+  // A NUL after a long run of text on its line is found where it is read.
+  std::string text = "# sph-points 1\n0 7.5 " + std::string(100000, '5');
+  text += '\0';
+  EXPECT_EQ(ErrorOf(text + "\n"), "pts.txt:2: binary data (NUL byte): this is not a points file");
+  // The longest line is read whole, with or without its line break.
+  EXPECT_EQ(Parse("# " + std::string(kMaxLineBytes - 2, 'c') + "\n1 2 3").samples.size(), 1u);
+  EXPECT_EQ(Parse("1 2 3\n#" + std::string(kMaxLineBytes - 1, 'c')).samples.size(), 1u);
+}
+
+// ---- orientations compared as rotations --------------------------------------------------------------
+
+TEST(SameOrientation, ComparesRotationsNotNumbers) {
+  const auto known = [](double x, double y, double z) { return MountRotation::Known(Eigen::Vector3d(x, y, z)); };
+  EXPECT_TRUE(SameOrientation(known(0, -270, 0), known(0, 90, 0)));
+  EXPECT_TRUE(SameOrientation(known(0, 0, 0), known(0, 0, 360)));
+  EXPECT_TRUE(SameOrientation(known(180, 0, 0), known(-180, 0, 0)));
+  EXPECT_TRUE(SameOrientation(known(0, 0, 90), known(0, 0, 90 + 0.5e-6)));
+  EXPECT_FALSE(SameOrientation(known(0, 0, 90), known(0, 0, 90 + 2e-6)));
+  EXPECT_FALSE(SameOrientation(known(90, 0, 0), known(0, 90, 0)));
+  EXPECT_FALSE(SameOrientation(known(0, 0, 90), known(0, 0, -90)));
+  EXPECT_TRUE(SameOrientation(MountRotation::Unknown(), MountRotation::Unknown()));
+  EXPECT_FALSE(SameOrientation(MountRotation::Unknown(), known(0, 0, 0)));
 }
 
 }  // namespace

@@ -58,7 +58,8 @@ TEST(PointsWriter, WritesWhatReadPointsFileReads) {
 
 TEST(PointsWriter, FormatsRowsOfTheLargestFiniteValuesWhole) {
   constexpr double kMax = std::numeric_limits<double>::max();
-  const Sample s{-kMax, -kMax, -kMax, -kMax, std::numeric_limits<int>::min()};
+  // The time at the reader's bound: a larger one is written as whole, but refused when read.
+  const Sample s{-kMax, -kMax, -kMax, -kMaxTimeS, std::numeric_limits<int>::min()};
   const std::string row = PointsWriter::FormatRow(s, true, true);
   ASSERT_FALSE(row.empty());
   EXPECT_EQ(row.back(), '\n');
@@ -68,7 +69,7 @@ TEST(PointsWriter, FormatsRowsOfTheLargestFiniteValuesWhole) {
   ASSERT_EQ(d.samples.size(), 1U);
   EXPECT_EQ(d.samples[0].theta_deg, -kMax);
   EXPECT_EQ(d.samples[0].r_mm, -kMax);
-  EXPECT_EQ(d.samples[0].t_s, -kMax);
+  EXPECT_EQ(d.samples[0].t_s, -kMaxTimeS);
   EXPECT_EQ(d.samples[0].setup, std::numeric_limits<int>::min());
 }
 
@@ -169,6 +170,91 @@ TEST(PointsWriter, WritesTheRadiusOfAnotherSphereAndContinuesOnlyAFileOfTheSame)
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), path + ": has sphere_radius_mm@2 12.5 but this run writes 12: use another file");
   }
+}
+
+// A setup's fields apply to all of its rows: a run that continues a file may not give a setup
+// that has rows an orientation or a sphere they were not recorded with.
+TEST(PointsWriter, RefusesToRelabelTheRowsOfASetup) {
+  const std::string path = sph::testing::MakeTempDir("pw_relabel") + "/p.txt";
+  {
+    PointsWriter w(path, Header(), WithSetup());  // setup 0 in the reference orientation, of the reference sphere
+    w.Write({1.0, 2.0, 3.0, 4.0, 0});
+    w.Write({1.0, 2.0, 3.0, 5.0, 0});
+  }
+  const std::string before = sph::testing::ReadWholeFile(path);
+  PointsHeader turned = Header();
+  turned.mount_rotations = {{0, MountRotation::Known(Eigen::Vector3d(0, 90, 0))}};
+  const std::string rotation_refused =
+      path +
+      ": setup 0 has rows (the first at line 6) in the reference orientation (no mount_rotation_deg@0 before them): "
+      "this run's mount_rotation_deg@0 0 90 0 would apply to them too: give this placement a setup of its own";
+  try {
+    PointsWriter::CheckContinuable(path, turned, WithSetup());
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), rotation_refused);
+  }
+  try {
+    PointsWriter w(path, turned, WithSetup());
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), rotation_refused);
+  }
+  PointsHeader other = Header();
+  other.sphere_radii_mm = {{0, 10.0}};
+  try {
+    PointsWriter w(path, other, WithSetup());
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              path +
+                  ": setup 0 has rows (the first at line 6) of the reference sphere (no sphere_radius_mm@0 before "
+                  "them): this run's sphere_radius_mm@0 10 would apply to them too: give this placement a setup "
+                  "of its own");
+  }
+  EXPECT_EQ(sph::testing::ReadWholeFile(path), before);
+  // The reference orientation, however written, is what the rows have: continued, no field written.
+  PointsHeader reference = Header();
+  reference.mount_rotations = {{0, MountRotation::Known(Eigen::Vector3d(0, 0, 360))}};
+  {
+    PointsWriter w(path, reference, WithSetup());
+    w.Write({1.0, 2.0, 3.0, 6.0, 0});
+  }
+  // A new setup gets its fields before its first row.
+  turned.mount_rotations = {{1, MountRotation::Known(Eigen::Vector3d(0, 90, 0))}};
+  turned.sphere_radii_mm = {{1, 10.0}};
+  {
+    PointsWriter w(path, turned, WithSetup());
+    w.Write({1.0, 2.0, 3.0, 7.0, 1});
+  }
+  const PointsData d = ReadPointsFile(path);
+  EXPECT_EQ(d.samples.size(), 4u);
+  EXPECT_EQ(d.header.mount_rotations, turned.mount_rotations);
+  EXPECT_EQ(d.header.sphere_radii_mm, turned.sphere_radii_mm);
+}
+
+// "0 -270 0" is the file's "0 90 0": one orientation.
+TEST(PointsWriter, ComparesMountRotationsAsRotations) {
+  const std::string path = sph::testing::MakeTempDir("pw_same") + "/p.txt";
+  PointsHeader h = Header();
+  h.mount_rotations = {{1, MountRotation::Known(Eigen::Vector3d(0, 90, 0))}};
+  {
+    PointsWriter w(path, h, WithSetup());
+    w.Write({1.0, 2.0, 3.0, 4.0, 1});
+  }
+  PointsHeader same = Header();
+  same.mount_rotations = {{1, MountRotation::Known(Eigen::Vector3d(0, -270, 0))}};
+  PointsWriter::CheckContinuable(path, same, WithSetup());
+  {
+    PointsWriter w(path, same, WithSetup());
+    w.Write({1.0, 2.0, 3.0, 5.0, 1});
+  }
+  const PointsData d = ReadPointsFile(path);
+  EXPECT_EQ(d.samples.size(), 2u);
+  EXPECT_EQ(d.header.mount_rotations, h.mount_rotations);  // the file's field, written once
+  PointsHeader other = Header();
+  other.mount_rotations = {{1, MountRotation::Known(Eigen::Vector3d(0, 90.001, 0))}};
+  EXPECT_THROW(PointsWriter::CheckContinuable(path, other, WithSetup()), Error);
 }
 
 TEST(PointsWriter, AnIncompleteLastLineIsCutOff) {

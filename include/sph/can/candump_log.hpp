@@ -21,6 +21,7 @@
 
 #include "sph/can/frame.hpp"
 #include "sph/core/append_file.hpp"
+#include "sph/core/text_input.hpp"
 
 namespace sph::can {
 
@@ -48,17 +49,16 @@ class CandumpReader {
   /// Reads from `in` (not owned); `source` names it in messages.
   CandumpReader(std::istream& in, std::string source);
 
-  /// The next frame, or kMalformed for a line that is not one (reading goes on after it), or
-  /// kEnd. Empty lines are skipped. A read error throws sph::Error.
+  /// The next frame, or kMalformed for a line that is not one (reading goes on after it; a line
+  /// with a NUL byte is one), or kEnd. Empty lines are skipped. A read error, or a line longer
+  /// than sph::kMaxLineBytes, throws sph::Error.
   Result Next();
-  std::int64_t line_number() const { return line_no_; }
+  std::int64_t line_number() const { return lines_.line_no(); }
 
  private:
   std::unique_ptr<std::istream> owned_;
-  std::istream* in_;
-  std::string source_;
+  TextLines lines_;
   std::string line_;
-  std::int64_t line_no_ = 0;
 };
 
 /// What a replay reads of a candump log: the frames of one interface (a log of `candump -l any`

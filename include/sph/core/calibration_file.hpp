@@ -10,6 +10,7 @@
 #ifndef SPH_CORE_CALIBRATION_FILE_HPP_
 #define SPH_CORE_CALIBRATION_FILE_HPP_
 
+#include <cstddef>
 #include <iosfwd>
 #include <limits>
 #include <optional>
@@ -28,6 +29,12 @@
 namespace sph {
 
 inline constexpr int kCalibrationFormatVersion = 1;
+
+/// The largest calibration file the reader takes [bytes], twice the largest the writer makes:
+/// the covariance of every parameter the format can hold (1965: the seven errors, every
+/// component of every effect, the form's terms to degree 40) takes 127 MB in its layout.
+/// Anything larger is no calibration file (a device, a stream that never ends).
+inline constexpr std::size_t kMaxCalibrationFileBytes = std::size_t{256} << 20;
 
 /// Contents of a calibration file, in internal units (rad, mm).
 struct CalibrationFile {
@@ -67,7 +74,11 @@ void WriteCalibrationFile(const std::string& path, const CalibrationFile& cal);
 void WriteCalibration(std::ostream& out, const CalibrationFile& cal);
 
 /// Reads a calibration file. Throws sph::Error naming the file and the problem when it is not
-/// JSON, is of another format or version, or lacks a field.
+/// JSON (or holds a NUL byte, is larger than kMaxCalibrationFileBytes, nests deeper than any
+/// calibration file, gives a key twice), is of another format or version, lacks a field, has a
+/// field the format does not know in "geometry", a value out of its range, or a covariance that
+/// is none (not symmetric, not positive semi-definite, a standard uncertainty larger than any
+/// value of its parameter, inputs the matrix does not hold: see the file comment).
 CalibrationFile ReadCalibrationFile(const std::string& path);
 
 /// As ReadCalibrationFile(), from a stream; `source` names it in messages.

@@ -49,9 +49,24 @@ struct MountRotation {
   bool known() const { return rotation_deg.has_value(); }
   static MountRotation Known(const Eigen::Vector3d& rotation_deg) { return {rotation_deg}; }
   static MountRotation Unknown() { return {}; }
+  /// The same statement, number for number (SameOrientation() compares them as rotations).
   bool operator==(const MountRotation& other) const { return rotation_deg == other.rotation_deg; }
   bool operator!=(const MountRotation& other) const { return !(*this == other); }
 };
+
+/// The largest magnitude of each component of a mount rotation's rotation vector that files and
+/// options accept [deg]: a turn either way about any axis, written as the user likes it.
+inline constexpr double kMaxMountRotationDeg = 360.0;
+
+/// How far apart two mount rotations may be and still be one orientation [deg]: far above the
+/// rounding of a rotation vector's conversion (1e-13 deg), far below any mount's repeatability
+/// (a point of a 20 mm sphere moves 0.35 nm).
+inline constexpr double kMountRotationToleranceDeg = 1e-6;
+
+/// Whether `a` and `b` state one orientation of the sphere: both unknown, or both known and the
+/// rotation between them within kMountRotationToleranceDeg ("0 -270 0" is "0 90 0"; "0 0 0",
+/// "0 0 360" and a setup without the field are the reference orientation).
+bool SameOrientation(const MountRotation& a, const MountRotation& b);
 
 /// Header fields of a points file.
 struct PointsHeader {
@@ -135,11 +150,14 @@ struct PointsData {
 };
 
 /// Reads a points file. Throws sph::Error with "path:line: problem" on any defect: unreadable
-/// file, unsupported format version, duplicate header key, bad or non-positive radius or offset,
-/// a bad mount rotation (not three numbers nor "unknown") or radius of a setup's sphere, a per-setup
-/// field whose setup id is not an integer, is given twice or has no samples (named at its header
-/// line), unknown, duplicate or missing column, wrong column count, a value that is not a number
-/// or not finite, a non-integer setup id, no samples.
+/// file, a NUL byte or a line longer than kMaxLineBytes (sph/core/text_input.hpp), unsupported
+/// format version, duplicate header key, bad or non-positive radius or offset, a bad mount
+/// rotation (not three numbers within kMaxMountRotationDeg nor "unknown") or radius of a setup's
+/// sphere, a per-setup field that names no setup or whose setup id is not an integer, is given
+/// twice, stands after a row of its setup (it would apply to rows recorded before it) or has no
+/// samples (named at its header line), a columns line or another header field the reader takes
+/// after the first sample, unknown, duplicate or missing column, wrong column count, a value that
+/// is not a number or not finite, a time beyond kMaxTimeS, a non-integer setup id, no samples.
 PointsData ReadPointsFile(const std::string& path);
 
 /// As ReadPointsFile(), from a stream; `source` names it in messages.
@@ -164,6 +182,12 @@ void WritePointsFile(const std::string& path, const PointsData& data);
 inline constexpr double kMaxSphereRadiusMm = 1000.0;
 inline constexpr double kMaxProbeOffsetMm = 10000.0;
 
+/// The largest magnitude of a time (column t_s) that files accept [s], 31 700 years: every time
+/// sph writes (Unix times of acquisitions; a simulation's 1e7 samples a day apart end at
+/// 8.6e11 s), with a span between two times that no computation overflows and a resolution of
+/// 0.1 ms left in a double.
+inline constexpr double kMaxTimeS = 1e12;
+
 /// The header field "key: value" for the radius and offset, and the allowed column names.
 inline constexpr const char* kRadiusKey = "sphere_radius_mm";
 inline constexpr const char* kProbeOffsetKey = "probe_offset_mm";
@@ -173,8 +197,8 @@ inline constexpr const char* kMountRotationKey = "mount_rotation_deg";
 
 /// Whether `key` (the text before a header line's ':', trimmed) is a header key: a name of
 /// letters, digits, '_' and '-', optionally followed by '@' and a setup id (any text without
-/// spaces here; the reader checks that it is an integer for the keys it knows). Anything else
-/// before a colon is prose in a comment.
+/// spaces here, none too; the reader checks that it is an integer for the keys it knows).
+/// Anything else before a colon is prose in a comment.
 bool IsHeaderKey(std::string_view key);
 
 /// A header field: its key and value.
@@ -204,7 +228,8 @@ std::string MountRotationValue(const MountRotation& rotation);
 
 /// Parses the value of a mount rotation's header field ("rx ry rz" in deg, or "unknown"). Throws
 /// sph::Error "<where><key>: expected ..." on a wrong count of values or a value that is not a
-/// finite number; `key` names the field in the message ("mount_rotation_deg@1").
+/// finite number within kMaxMountRotationDeg; `key` names the field in the message
+/// ("mount_rotation_deg@1").
 MountRotation ParseMountRotation(const std::string& value, const std::string& key, const std::string& where);
 
 }  // namespace sph

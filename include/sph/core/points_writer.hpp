@@ -25,11 +25,18 @@ struct PointsWriterOptions {
 /// A new or empty file gets the header first (format line, sphere_radius_mm, probe_offset_mm,
 /// the mount rotations, the radii of other spheres, the metadata, columns). An existing file is
 /// continued, never rewritten: its header must name the same columns and, where both give them,
-/// the same radius, probe offset, and mount rotation and sphere radius of each setup (the fields
-/// of a setup the file does not hold yet are written before its first row), else the
-/// constructor throws sph::Error ("points.txt: has columns 'theta_deg phi_deg r_mm' but this run
-/// writes 'theta_deg phi_deg r_mm t_s': use another file"). An incomplete last line is cut off
-/// (see AppendFile). Rows have the same 10 decimals as WritePoints() (t_s: 6).
+/// the same radius, probe offset, mount rotation (the same orientation: SameOrientation()) and
+/// sphere radius of each setup, else the constructor throws sph::Error ("points.txt: has columns
+/// 'theta_deg phi_deg r_mm' but this run writes 'theta_deg phi_deg r_mm t_s': use another
+/// file"). The fields of a setup the file does not hold yet are written before its first row.
+/// A setup that already has rows keeps the orientation and sphere they were recorded with: a
+/// mount rotation (other than the reference orientation) or another sphere's radius for a setup
+/// whose rows the file holds without one is refused ("points.txt: setup 1 has rows (the first at
+/// line 7) in the reference orientation (...): give this placement a setup of its own"), since
+/// the field would relabel the rows before it. Such a run is refused rather than moved to a new
+/// setup id: the id is the user's name of a placement, which their notes and later runs use.
+/// An incomplete last line is cut off (see AppendFile). Rows have the same 10 decimals as
+/// WritePoints() (t_s: 6).
 ///
 /// The existing file is checked before it is opened: a file that is not a points file (its
 /// first line is not "# sph-points 1") or whose header does not match is refused untouched.
@@ -63,9 +70,10 @@ class PointsWriter {
 
  private:
   /// The per-setup fields ("mount_rotation_deg@<setup>", "sphere_radius_mm@<setup>" to its
-  /// value) the file at `path` holds anywhere (header, or between samples where an appending run
-  /// wrote a new setup's), read only when `header` has such fields to check; throws as
-  /// CheckContinuable() says.
+  /// value) that this run does not write: those the file at `path` holds anywhere (header, or
+  /// between samples where an appending run wrote a new setup's), and a reference orientation
+  /// its setup's rows already have; the file is read only when `header` has such fields to
+  /// check. Throws as CheckContinuable() says.
   using SetupFields = std::map<std::string, std::string>;
   static SetupFields Continuable(const std::string& path, const PointsHeader& header,
                                  const PointsWriterOptions& options);

@@ -3,6 +3,7 @@
 #ifndef SPH_CORE_TEXT_INPUT_HPP_
 #define SPH_CORE_TEXT_INPUT_HPP_
 
+#include <cstddef>
 #include <fstream>
 #include <istream>
 #include <string>
@@ -13,20 +14,33 @@ namespace sph {
 /// such file or directory", "<path>: is a directory, not a file".
 std::ifstream OpenInputFile(const std::string& path);
 
+/// The longest line a text input may have [bytes]: far beyond any line sph writes (a points row
+/// of the largest doubles is about 1300 bytes) or a person types, and a bound on what one line
+/// costs in memory whatever the input is (/dev/zero, a file without line breaks).
+inline constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;
+
 /// The lines of a text input, with their numbers, for messages "<source>:<line>: <problem>".
 /// A UTF-8 byte-order mark at the start is skipped (editors on some systems write one); a NUL
-/// byte is refused as binary data; a read error throws.
+/// byte is refused as binary data as soon as it is read, before its line ends; a line longer
+/// than kMaxLineBytes is refused once that many bytes are read; a read error throws.
 class TextLines {
  public:
-  /// `kind` names what the file should be, for the message about binary data ("a points file").
-  TextLines(std::istream& in, std::string source, std::string kind)
-      : in_(in), source_(std::move(source)), kind_(std::move(kind)) {}
+  /// What a NUL byte is: binary data, refused (the default), or a byte of the line like any
+  /// other, for a reader that reports a bad line and goes on (a log whose tail a crash filled
+  /// with zeros).
+  enum class Nul { kRefuse, kKeep };
+  /// `kind` names what the file should be, for the messages ("a points file").
+  TextLines(std::istream& in, std::string source, std::string kind, Nul nul = Nul::kRefuse)
+      : in_(in), source_(std::move(source)), kind_(std::move(kind)), nul_(nul) {}
 
-  /// The next line (without its '\n'), or false at the end. Throws sph::Error on a read error or
-  /// a NUL byte ("points.txt:3: binary data (NUL byte): this is not a points file").
+  /// The next line (without its '\n'), or false at the end. Throws sph::Error on a read error,
+  /// a NUL byte ("points.txt:3: binary data (NUL byte): this is not a points file") or a line too
+  /// long ("points.txt:3: the line is longer than 1048576 bytes: this is not a points file").
   bool Next(std::string& line);
   /// The number of the line Next() returned last (1 for the first).
   long line_no() const { return line_no_; }
+  /// Whether the line Next() returned last ended with '\n' (false for a last line cut short).
+  bool complete() const { return complete_; }
   /// "<source>:<line>: ", the start of a message about the current line.
   std::string Where() const { return Where(line_no_); }
   std::string Where(long line) const { return source_ + ":" + std::to_string(line) + ": "; }
@@ -36,7 +50,9 @@ class TextLines {
   std::istream& in_;
   std::string source_;
   std::string kind_;
+  Nul nul_;
   long line_no_ = 0;
+  bool complete_ = false;
 };
 
 /// A whole token as a finite number; else throws sph::Error "<where><what>: '<token>' is not a
