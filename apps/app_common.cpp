@@ -57,19 +57,6 @@ Eigen::Vector3d Direction(const std::vector<double>& v, std::size_t first, const
 
 }  // namespace
 
-bool ValidRange::Contains(double v) const {
-  return std::isfinite(v) && (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
-}
-
-std::string ValidRange::Text() const {
-  return Format("%g %s x %s %g", lo, lo_open ? "<" : "<=", hi_open ? "<" : "<=", hi) + (*unit ? " " : "") + unit;
-}
-
-std::string ValidRange::Refusal(const std::string& text) const {
-  return Format("must be %s %g and %s %g", lo_open ? ">" : ">=", lo, hi_open ? "<" : "<=", hi) + (*unit ? " " : "") +
-         unit + ", got " + (text.size() > 40 ? Quoted(text) : text);
-}
-
 CLI::Validator InRange(const ValidRange& range) {
   return CLI::Validator(
       [range](std::string& text) -> std::string {
@@ -112,11 +99,6 @@ void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std:
     const ValidRange range{c.min, c.max, c.unit};
     app.add_option(name, conditions.*c.field, std::string(c.what) + " " + source + c.key + ")")->check(InRange(range));
   }
-}
-
-double CheckedValue(double value, const ValidRange& range, const std::string& what, const std::string& text) {
-  if (!range.Contains(value)) throw Error(what + ": " + range.Refusal(text));
-  return value;
 }
 
 std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,

@@ -20,6 +20,7 @@
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/core/valid_range.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph::apps {
@@ -31,30 +32,10 @@ enum ExitCode : int {
   kExitBadInput = 2,   ///< bad input or usage
 };
 
-/// The valid values of a numeric option: finite, between `lo` and `hi` (excluded where open), in
-/// `unit`. Every numeric option of the apps has one; --help shows it ("0 < x <= 1000 mm").
-struct ValidRange {
-  double lo;
-  double hi;
-  const char* unit;  ///< "mm", "deg", "s", ...; "" for a pure number
-  bool lo_open = false;
-  bool hi_open = false;
-
-  bool Contains(double v) const;
-  /// "0 < x <= 1000 mm"
-  std::string Text() const;
-  /// "must be > 0 and <= 1000 mm, got 1e308"
-  std::string Refusal(const std::string& text) const;
-};
-
 /// A CLI11 check for a numeric option in `range`. CLI11 prefixes the option's name:
 /// "--sphere-radius-mm: must be > 0 and <= 1000 mm, got 1e308". (CLI11 2.1's own PositiveNumber
 /// and Range print their 300-digit bounds and let infinity through.)
 CLI::Validator InRange(const ValidRange& range);
-
-/// Checks a number the app parsed itself (a part of "x,y,z", the value of "id.param=v"): returns
-/// it, or throws sph::Error "<what>: must be ..., got <text>".
-double CheckedValue(double value, const ValidRange& range, const std::string& what, const std::string& text);
 
 /// Ranges shared by several apps.
 namespace ranges {

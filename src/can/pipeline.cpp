@@ -30,6 +30,8 @@ const char* DeviceName(int device) {
   }
 }
 
+const char* ToString(Mode mode) { return mode == Mode::kPoints ? "points" : "stream"; }
+
 const char* ToString(LogLevel level) {
   switch (level) {
     case LogLevel::kError:

@@ -1,6 +1,8 @@
 // SDO frames, abort codes and the client's transfer state machine (CiA 301 §7.2.4).
 #include "sph/can/sdo.hpp"
 
+#include "sph/core/error.hpp"
+#include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
 
 namespace sph::can {
@@ -71,6 +73,16 @@ std::string FrameText(const CanFrame& f) { return ToString(f); }
 }  // namespace
 
 std::string ToString(const ObjectAddress& o) { return internal::Format("0x%04X:%02X", o.index, o.subindex); }
+
+ObjectAddress ParseObjectAddress(const std::string& text, const std::string& what) {
+  const auto colon = text.find(':');
+  unsigned long long index = 0, sub = 0;
+  if (colon == std::string::npos || !ParseHex(text.substr(0, colon), 0xFFFF, &index) || index == 0 ||
+      !ParseHex(text.substr(colon + 1), 0xFF, &sub)) {
+    throw Error(what + ": expected INDEX:SUB in hex, e.g. 0x2000:00");
+  }
+  return {static_cast<std::uint16_t>(index), static_cast<std::uint8_t>(sub)};
+}
 
 const char* SdoAbortName(std::uint32_t code) {
   switch (code) {  // CiA 301 §7.2.4.3.17, Table 22

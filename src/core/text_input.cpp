@@ -90,4 +90,15 @@ int ParseInteger(const std::string& token, const std::string& what, const std::s
   return v;
 }
 
+bool ParseHex(const std::string& token, unsigned long long max, unsigned long long* value) {
+  const char* first = token.data();
+  const char* last = token.data() + token.size();
+  if (last - first > 2 && first[0] == '0' && (first[1] == 'x' || first[1] == 'X')) first += 2;
+  unsigned long long v = 0;  // from_chars takes no sign for an unsigned type
+  const auto [ptr, ec] = std::from_chars(first, last, v, 16);
+  if (ec != std::errc() || ptr != last || v > max) return false;
+  *value = v;
+  return true;
+}
+
 }  // namespace sph

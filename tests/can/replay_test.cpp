@@ -83,10 +83,11 @@ struct Replay {
 
 // Replays `log` (written into a folder of its own) with the default devices; `extra` adjusts the
 // options.
-Replay ReplayLog(const std::string& name, const std::string& log, void (*extra)(AcquireOptions&) = nullptr) {
+Replay ReplayLog(const std::string& name, const std::string& log, void (*extra)(can::AcquisitionOptions&) = nullptr) {
   const std::string dir = sph::testing::MakeTempDir("replay_" + name);
   std::ofstream(dir + "/x.log") << log;
-  AcquireOptions o;
+  AcquireOptions cli;
+  can::AcquisitionOptions& o = cli.acq;
   o.replay_path = dir + "/x.log";
   o.output_path = dir + "/p.txt";
   o.sphere_radius_mm = 20.0;
@@ -96,7 +97,7 @@ Replay ReplayLog(const std::string& name, const std::string& log, void (*extra)(
   std::ostringstream err;
   Replay r;
   r.dir = dir;
-  r.code = RunAcquire(o, err);
+  r.code = RunAcquire(cli, err);
   r.err = err.str();
   if (std::ifstream(o.output_path)) {
     r.file = sph::testing::ReadWholeFile(o.output_path);
@@ -131,7 +132,8 @@ TEST(ReplayFromLines, ALogOfTwoInterfacesIsRefusedUntilOneIsChosen) {
                                  "one with --replay-iface"));
   EXPECT_EQ(any.file, "") << "no points file is made";
 
-  const Replay can0 = ReplayLog("two_buses_can0", TwoBuses(), [](AcquireOptions& o) { o.replay_iface = "can0"; });
+  const Replay can0 =
+      ReplayLog("two_buses_can0", TwoBuses(), [](can::AcquisitionOptions& o) { o.replay_iface = "can0"; });
   EXPECT_EQ(can0.code, kExitSamplesLost) << can0.err;
   ASSERT_EQ(can0.rows.size(), 5U) << can0.err;
   for (const Sample& s : can0.rows) {  // each row is can0's own cycle: theta k * 1000 counts at t0 + k * 10 ms
@@ -141,12 +143,14 @@ TEST(ReplayFromLines, ALogOfTwoInterfacesIsRefusedUntilOneIsChosen) {
   EXPECT_THAT(can0.file, HasSubstr("theta no frame"));
   EXPECT_THAT(can0.err, HasSubstr("replayed the frames of can0; 24 frames of can1 left out"));
 
-  const Replay can1 = ReplayLog("two_buses_can1", TwoBuses(), [](AcquireOptions& o) { o.replay_iface = "can1"; });
+  const Replay can1 =
+      ReplayLog("two_buses_can1", TwoBuses(), [](can::AcquisitionOptions& o) { o.replay_iface = "can1"; });
   EXPECT_EQ(can1.code, kExitOk) << can1.err;
   ASSERT_EQ(can1.rows.size(), 6U);
   for (const Sample& s : can1.rows) EXPECT_NEAR(s.theta_deg, ThetaDeg(0x4C4C4C), 1e-9);  // 107.294 deg
 
-  const Replay none = ReplayLog("two_buses_can2", TwoBuses(), [](AcquireOptions& o) { o.replay_iface = "can2"; });
+  const Replay none =
+      ReplayLog("two_buses_can2", TwoBuses(), [](can::AcquisitionOptions& o) { o.replay_iface = "can2"; });
   EXPECT_EQ(none.code, kExitBadInput);
   EXPECT_THAT(none.err,
               HasSubstr("x.log: no frame of interface can2 (the log holds can0 (from line 1) and can1 (from line 2))"));
@@ -156,14 +160,15 @@ TEST(ReplayFromLines, ALogOfTwoInterfacesIsRefusedUntilOneIsChosen) {
 TEST(ReplayFromLines, TheOnlyInterfaceOfALogIsReplayedAndNamedInTheFrameLog) {
   std::string log;
   for (int k = 0; k < 3; ++k) log += Cycle(k, "vcan1");
-  const Replay r = ReplayLog("one_bus", log, [](AcquireOptions& o) { o.can_log_path = o.output_path + ".log"; });
+  const Replay r =
+      ReplayLog("one_bus", log, [](can::AcquisitionOptions& o) { o.can_log_path = o.output_path + ".log"; });
   EXPECT_EQ(r.code, kExitOk) << r.err;
   EXPECT_EQ(r.rows.size(), 3U);
   EXPECT_THAT(sph::testing::ReadWholeFile(r.dir + "/p.txt.log"), HasSubstr(") vcan1 080#"));
 }
 
 // The devices carry the counter of the SYNC they answer in their PDO's fifth byte.
-void CountedPdos(AcquireOptions& o) {
+void CountedPdos(can::AcquisitionOptions& o) {
   o.devices.sync_counter_max = 240;
   o.devices.theta.sync_counter_byte = 4;
   o.devices.phi.sync_counter_byte = 4;
@@ -221,7 +226,8 @@ TEST(ReplayFromLines, ASyncRepeatedWithItsCounterIsTakenOnce) {
     }
     log += c;
   }
-  const Replay r = ReplayLog("repeated_sync", log, [](AcquireOptions& o) { o.devices.sync_counter_max = 240; });
+  const Replay r =
+      ReplayLog("repeated_sync", log, [](can::AcquisitionOptions& o) { o.devices.sync_counter_max = 240; });
   EXPECT_EQ(r.code, kExitOk) << r.err;
   ASSERT_EQ(r.rows.size(), 6U) << r.err;
   EXPECT_NEAR(r.rows[2].t_s, 1700000000.02, 1e-7);
@@ -236,7 +242,7 @@ TEST(ReplayFromLines, ASyncRepeatedWithItsCounterIsTakenOnce) {
 TEST(ReplayFromLines, WithoutItsPeriodALogIsReplayedAtTheObservedPeriod) {
   std::string log;
   for (int k = 0; k < 50; ++k) log += Cycle(k);
-  const Replay r = ReplayLog("no_period", log, [](AcquireOptions& o) { o.devices.sync_period_ms.reset(); });
+  const Replay r = ReplayLog("no_period", log, [](can::AcquisitionOptions& o) { o.devices.sync_period_ms.reset(); });
   EXPECT_EQ(r.code, kExitOk) << r.err;
   EXPECT_EQ(r.rows.size(), 50U);
   EXPECT_THAT(r.err, HasSubstr("missed SYNC 0,"));
@@ -248,7 +254,8 @@ TEST(ReplayFromLines, WithoutItsPeriodALogIsReplayedAtTheObservedPeriod) {
     if (k == 30) c.erase(0, c.find('\n') + 1);
     gap += c;
   }
-  const Replay g = ReplayLog("no_period_gap", gap, [](AcquireOptions& o) { o.devices.sync_period_ms.reset(); });
+  const Replay g =
+      ReplayLog("no_period_gap", gap, [](can::AcquisitionOptions& o) { o.devices.sync_period_ms.reset(); });
   EXPECT_EQ(g.code, kExitOk) << g.err;
   EXPECT_EQ(g.rows.size(), 50U);
   EXPECT_THAT(g.err, HasSubstr("missed SYNC 1,"));
@@ -274,7 +281,7 @@ TEST(ReplayFromLines, ARecoveredCycleCountsAsACycle) {
 TEST(ReplayFromLines, SyncCountersOutOfRangeAreWarnedAboutAndNotUsed) {
   std::string log;
   for (int k = 0; k < 6; ++k) log += Cycle(k, "can0", 10000, -1, k == 3 ? 250 : k + 1);
-  const Replay r = ReplayLog("counter_250", log, [](AcquireOptions& o) { o.devices.sync_counter_max = 240; });
+  const Replay r = ReplayLog("counter_250", log, [](can::AcquisitionOptions& o) { o.devices.sync_counter_max = 240; });
   EXPECT_EQ(r.code, kExitOk) << r.err;
   EXPECT_EQ(r.rows.size(), 6U);
   EXPECT_THAT(r.err, HasSubstr("the SYNC at t_s 1700000000.030000 carries counter 250, outside 1..240 (the SYNC "
@@ -298,7 +305,7 @@ TEST(ReplayFromLines, ADwellTakesTheSameSamplesAtAnyStartTime) {
       log += Line(t, "can0", "080#") + Line(t + 100, "can0", Pdo(0x181, 1000)) +
              Line(t + 230, "can0", Pdo(0x182, kPhi45)) + Line(t + 360, "can0", Pdo(0x183, 5000000));
     }
-    const Replay r = ReplayLog("dwell", log, [](AcquireOptions& o) { o.mode = "points"; });
+    const Replay r = ReplayLog("dwell", log, [](can::AcquisitionOptions& o) { o.mode = can::Mode::kPoints; });
     EXPECT_EQ(r.code, kExitOk) << r.err;
     ASSERT_EQ(r.rows.size(), 1U) << r.err;
     EXPECT_THAT(r.file, HasSubstr("scatter of the point above: n 60,")) << "start " << t0;

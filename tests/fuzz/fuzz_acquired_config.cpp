@@ -1,8 +1,8 @@
 // libFuzzer target: sph_acquired's --config file (CLI11 config, 'name = value') on arbitrary
 // bytes, read as the daemon reads its file (the strict line checks of UseStrictConfig, then CLI11's
 // values and the options' checks) but from memory, then turned into the pipeline and master
-// configurations. The CLI app is made once and reset for each input: making it anew per input,
-// with a temporary file to read, took most of the time.
+// configurations by the library. The CLI app is made once and reset for each input: making it
+// anew per input, with a temporary file to read, took most of the time.
 #include <cstddef>
 #include <cstdint>
 #include <sstream>
@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "acquire_cmd.hpp"
+#include "sph/can/acquisition.hpp"
 #include "sph/can/master.hpp"
 #include "sph/can/pipeline.hpp"
 #include "sph/core/error.hpp"
@@ -41,8 +42,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return 0;
   }
   try {
-    const sph::can::PipelineConfig pc = sph::apps::MakePipelineConfig(daemon.options);
-    (void)sph::apps::MakeMasterConfig(daemon.options, pc);
+    const sph::can::PipelineConfig pc = sph::can::AcquisitionPipelineConfig(daemon.options.acq);
+    (void)sph::can::AcquisitionMasterConfig(daemon.options.acq, pc);
     sph::can::AcquisitionPipeline pipeline(pc, {});
     pipeline.OnFrame(sph::can::EncodeSync());
     pipeline.Finish();

@@ -36,6 +36,8 @@ enum Device : int { kTheta = 0, kPhi = 1, kProbe = 2, kNumDevices = 3 };
 const char* DeviceName(int device);
 
 enum class Mode { kStream, kPoints };
+/// "stream", "points".
+const char* ToString(Mode mode);
 
 enum class LogLevel : int { kError = 0, kWarning = 1, kInfo = 2, kDebug = 3 };
 const char* ToString(LogLevel level);

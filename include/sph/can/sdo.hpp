@@ -46,6 +46,9 @@ struct ObjectAddress {
 };
 /// "0x1018:04".
 std::string ToString(const ObjectAddress& object);
+/// "INDEX:SUB" in hex, with or without "0x" ("0x2000:00", "1A00:1"): index 1..0xFFFF, sub-index
+/// 0..0xFF. Throws sph::Error "<what>: expected INDEX:SUB in hex, e.g. 0x2000:00" otherwise.
+ObjectAddress ParseObjectAddress(const std::string& text, const std::string& what);
 
 // CiA 301 Table 22: the abort codes this code sends or names.
 inline constexpr std::uint32_t kAbortToggleBit = 0x05030000;

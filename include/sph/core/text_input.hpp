@@ -64,6 +64,11 @@ double ParseNumber(const std::string& token, const std::string& what, const std:
 /// or "... is out of the range of an integer (-2147483648 to 2147483647)".
 int ParseInteger(const std::string& token, const std::string& what, const std::string& where);
 
+/// A whole token as a hexadecimal integer of at most `max`, with or without "0x" ("0x2000",
+/// "8130"): true with it in `*value`; false for anything else (a sign, a space, no digit, a larger
+/// value), the caller saying what it expected.
+bool ParseHex(const std::string& token, unsigned long long max, unsigned long long* value);
+
 }  // namespace sph
 
 #endif  // SPH_CORE_TEXT_INPUT_HPP_

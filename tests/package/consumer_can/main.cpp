@@ -1,9 +1,15 @@
 // What instrument host software does with the installed sph::can, without a CAN bus: decode a
 // CiA 406 position PDO, read an object over SDO from a server in memory, build the NMT start of
-// a node and feed the acquisition pipeline one SYNC cycle.
+// a node, feed the acquisition pipeline one SYNC cycle, and replay a candump log into a points
+// file through the acquisition's one call.
+#include <stdlib.h>
+#include <unistd.h>
+
 #include <cstdio>
+#include <fstream>
 #include <string>
 
+#include "sph/can/acquisition.hpp"
 #include "sph/can/canopen.hpp"
 #include "sph/can/master.hpp"
 #include "sph/can/pipeline.hpp"
@@ -42,7 +48,26 @@ int main() {
   const bool nodes_ok = MasterNodesFor(c).size() == 3;
   std::string why;
   const bool supported = CanSupported(&why);  // links the socket code; no bus needed
-  std::printf("sdo %d, nmt %d, samples %d, nodes %d, CAN_RAW here: %s\n", sdo_ok, nmt_ok, samples, nodes_ok,
-              supported ? "yes" : why.c_str());
-  return sdo_ok && nmt_ok && samples == 1 && nodes_ok ? 0 : 1;
+  // Three SYNC cycles of a log replayed into a points file, as sph_acquired --replay does.
+  char dir[] = "/tmp/sph_consumer_can_XXXXXX";
+  if (::mkdtemp(dir) == nullptr) return 1;
+  AcquisitionOptions replay;
+  replay.replay_path = std::string(dir) + "/bus.log";
+  replay.output_path = std::string(dir) + "/points.txt";
+  {
+    std::ofstream log(replay.replay_path);
+    for (int k = 0; k < 3; ++k) {
+      const std::string t = "(1700000000.0" + std::to_string(k) + "0000) can0 ";
+      log << t << "080#\n" << t << "181#00004000\n" << t << "182#00002000\n" << t << "183#40420F00\n";
+    }
+  }
+  RunControl control;
+  const AcquisitionResult r = ReplayAcquisition(replay, control, {});
+  std::remove(replay.output_path.c_str());
+  std::remove(replay.replay_path.c_str());
+  ::rmdir(dir);
+  std::printf("sdo %d, nmt %d, samples %d, nodes %d, replayed rows %llu, CAN_RAW here: %s\n", sdo_ok, nmt_ok, samples,
+              nodes_ok, static_cast<unsigned long long>(r.rows_written), supported ? "yes" : why.c_str());
+  const bool replayed = r.status == AcquisitionStatus::kOk && r.rows_written == 3;
+  return sdo_ok && nmt_ok && samples == 1 && nodes_ok && replayed ? 0 : 1;
 }

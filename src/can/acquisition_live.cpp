@@ -1,6 +1,6 @@
-// sph_acquired --iface: the SocketCAN poll loop. One ppoll() waits for frames, the SYNC timer,
-// the master's next timeout and signals (blocked outside ppoll, so a signal between the flag
-// check and the wait is not lost). The socket echoes the daemon's own frames (NMT, SDO, SYNC),
+// The live acquisition: the SocketCAN poll loop. One ppoll() waits for frames, the SYNC timer,
+// the master's next timeout and the run's wake signals (blocked outside ppoll, so a signal
+// between the flag check and the wait is not lost). The socket echoes the daemon's own frames (NMT, SDO, SYNC),
 // so the frame log holds them and the replay sees what the master saw. Time-outs are handled
 // after the received frames are read, as the replay, which knows only frame times, does. The
 // SYNC timer starts when the devices are started. A lost interface (ENETDOWN, ENODEV) closes the
@@ -19,26 +19,18 @@
 #include <limits>
 #include <optional>
 #include <utility>
+#include <vector>
 
-#include "acquire_internal.hpp"
-#include "app_common.hpp"
+#include "acquisition_internal.hpp"
+#include "clock.hpp"
 #include "sph/can/socket.hpp"
+#include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
 
-namespace sph::apps {
+namespace sph::can {
 namespace {
 
-std::int64_t RealtimeNs() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
-}
-
-double MonotonicS() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
-}
+double MonotonicS() { return static_cast<double>(MonotonicNs()) * 1e-9; }
 
 timespec ToTimespec(double s) {
   timespec ts{};
@@ -49,24 +41,24 @@ timespec ToTimespec(double s) {
 
 // The frames the daemon wants: SYNC, the three PDOs, heartbeats and EMCY of the nodes, the SDO
 // answers, and its own NMT and SDO requests (echoed).
-can::CanSocketOptions SocketOptions(const AcquireOptions& o, const can::PipelineConfig& c) {
-  can::CanSocketOptions s;
+CanSocketOptions SocketOptions(const AcquisitionOptions& o, const PipelineConfig& c) {
+  CanSocketOptions s;
   s.iface = o.iface;
-  const std::uint32_t sff = can::kEffFlag | can::kRtrFlag | can::kSffMask;
-  const std::uint32_t eff = can::kEffFlag | can::kRtrFlag | can::kEffMask;
+  const std::uint32_t sff = kEffFlag | kRtrFlag | kSffMask;
+  const std::uint32_t eff = kEffFlag | kRtrFlag | kEffMask;
   s.filters.emplace_back(c.sync_cob_id, sff);
   for (const std::uint32_t id : {c.theta.field.can_id, c.phi.field.can_id, c.probe.field.can_id}) {
-    s.filters.emplace_back(id, (id & can::kEffFlag) ? eff : sff);
+    s.filters.emplace_back(id, (id & kEffFlag) ? eff : sff);
   }
   for (const int node : {c.theta.node_id, c.phi.node_id, c.probe.node_id}) {
     if (node == 0) continue;
-    s.filters.emplace_back(can::kHeartbeatBase + static_cast<std::uint32_t>(node), sff);
-    s.filters.emplace_back(can::kEmcyBase + static_cast<std::uint32_t>(node), sff);
-    s.filters.emplace_back(can::kSdoResponseBase + static_cast<std::uint32_t>(node), sff);
-    s.filters.emplace_back(can::kSdoRequestBase + static_cast<std::uint32_t>(node), sff);
+    s.filters.emplace_back(kHeartbeatBase + static_cast<std::uint32_t>(node), sff);
+    s.filters.emplace_back(kEmcyBase + static_cast<std::uint32_t>(node), sff);
+    s.filters.emplace_back(kSdoResponseBase + static_cast<std::uint32_t>(node), sff);
+    s.filters.emplace_back(kSdoRequestBase + static_cast<std::uint32_t>(node), sff);
   }
-  s.filters.emplace_back(can::kNmtCobId, sff);
-  s.error_mask = can::kDefaultErrorMask;
+  s.filters.emplace_back(kNmtCobId, sff);
+  s.error_mask = kDefaultErrorMask;
   s.receive_own = true;  // our SYNC comes back with its kernel time, our NMT and SDO into the log
   s.rcvbuf_bytes = o.rcvbuf_bytes;
   return s;
@@ -100,15 +92,15 @@ class SyncTimer {
   int fd_ = -1;
 };
 
-// Signals are delivered only inside ppoll (see the file comment): blocked for the object's
-// lifetime, and `wait_mask` is the mask ppoll waits with.
+// The wake signals are delivered only inside ppoll (see the file comment): blocked for the
+// object's lifetime, and `wait_mask` is the mask ppoll waits with.
 class BlockedSignals {
  public:
-  BlockedSignals() {
+  explicit BlockedSignals(const std::vector<int>& signals) {
     sigemptyset(&blocked_);
-    for (const int s : {SIGTERM, SIGINT, SIGUSR1}) sigaddset(&blocked_, s);
+    for (const int s : signals) sigaddset(&blocked_, s);
     pthread_sigmask(SIG_BLOCK, &blocked_, &wait_mask_);
-    for (const int s : {SIGTERM, SIGINT, SIGUSR1}) sigdelset(&wait_mask_, s);
+    for (const int s : signals) sigdelset(&wait_mask_, s);
   }
   ~BlockedSignals() { pthread_sigmask(SIG_UNBLOCK, &blocked_, nullptr); }
   BlockedSignals(const BlockedSignals&) = delete;
@@ -125,44 +117,42 @@ class BlockedSignals {
 class LiveLoop {
  public:
   // `socket` is open with `socket_options`, which reopen it after the interface was lost.
-  LiveLoop(AcquireContext& ctx, can::CanSocketOptions socket_options, can::CanSocket socket)
+  LiveLoop(AcquisitionContext& ctx, CanSocketOptions socket_options, CanSocket socket)
       : ctx_(ctx),
         o_(ctx.options),
         config_(ctx.pipeline_config),
         socket_options_(std::move(socket_options)),
-        produce_(o_.sync_mode == "produce"),
+        produce_(o_.sync_mode == SyncMode::kProduce),
         sock_(std::move(socket)),
-        session_(*ctx.session) {
-    session_.set_send([this](const can::CanFrame& f) {
+        session_(*ctx.session),
+        signals_(ctx.control.wake_signals) {
+    session_.set_send([this](const CanFrame& f) {
       if (sock_) sock_->Send(f);
     });
   }
 
-  // The loop until a stop signal, --duration-s, a refused start, an output that failed or a
-  // ppoll error; then the NMT command at exit. The exit code.
-  int Run() {
+  // The loop until a stop, --duration-s, a refused start, an output that failed or a ppoll
+  // error; then the NMT command at exit.
+  AcquisitionStatus Run() {
     const double t_start = MonotonicS();
     session_.Begin(RealtimeNs());
-    int result = kExitOk;
-    while (!ctx_.signals.stop) {
-      if (session_.state() == AcquireSession::State::kStartRefused ||
-          session_.state() == AcquireSession::State::kOutputFailed) {
+    AcquisitionStatus result = AcquisitionStatus::kOk;
+    while (ctx_.control.stop.load() == 0) {
+      if (session_.state() == AcquisitionSession::State::kStartRefused ||
+          session_.state() == AcquisitionSession::State::kOutputFailed) {
         break;
       }
       if (produce_ && session_.acquiring() && !timer_) timer_.emplace(config_.sync_period_s);
-      if (ctx_.signals.summary) {
-        ctx_.signals.summary = 0;
-        ctx_.print_summary();
-      }
+      if (ctx_.control.summary.exchange(0) != 0) ctx_.Summary();
       const double now = MonotonicS();
       if (o_.duration_s > 0.0 && now - t_start >= o_.duration_s) {
-        ctx_.log(can::LogLevel::kInfo, "--duration-s reached");
+        ctx_.Log(LogLevel::kInfo, "--duration-s reached");
         break;
       }
       if (!sock_) {
         WaitForInterface(now);
       } else if (!ServeSocket()) {
-        result = kExitInterfaceError;
+        result = AcquisitionStatus::kInterfaceError;
         break;
       }
       session_.OnTime(RealtimeNs());
@@ -177,16 +167,16 @@ class LiveLoop {
   void WaitForInterface(double now) {
     if (now >= next_reopen_) {
       next_reopen_ = now + o_.reopen_interval_s;
-      if (can::InterfaceIsUp(o_.iface)) {
+      if (InterfaceIsUp(o_.iface)) {
         try {
           sock_.emplace(socket_options_);
-          ctx_.log(can::LogLevel::kWarning, o_.iface + ": up again after " +
-                                                internal::Format("%.2f", now - down_since_) + " s; socket reopened");
+          ctx_.Log(LogLevel::kWarning, o_.iface + ": up again after " + internal::Format("%.2f", now - down_since_) +
+                                           " s; socket reopened");
           session_.OnLinkEvent("interface " + o_.iface + " up again, acquisition resumed", RealtimeNs());
           if (timer_) timer_->Expirations();  // no burst of SYNCs for the time we were down
           return;
         } catch (const std::exception& e) {
-          ctx_.log(can::LogLevel::kDebug, std::string("reopen failed: ") + e.what());
+          ctx_.Log(LogLevel::kDebug, std::string("reopen failed: ") + e.what());
         }
       }
     }
@@ -207,7 +197,7 @@ class LiveLoop {
     const timespec wait = ToTimespec(wait_s);
     const int rc = ::ppoll(fds, timer_ ? 2 : 1, &wait, signals_.wait_mask());
     if (rc < 0 && errno != EINTR) {
-      ctx_.log(can::LogLevel::kError, std::string("ppoll: ") + std::strerror(errno));
+      ctx_.Fail(AcquisitionStatus::kInterfaceError, std::string("ppoll: ") + std::strerror(errno));
       return false;
     }
     int down_errno = 0;
@@ -222,15 +212,15 @@ class LiveLoop {
     const std::uint64_t n = timer_->Expirations();
     if (n > 1) {
       sync_overruns_ += n - 1;
-      ctx_.log(can::LogLevel::kWarning, "SYNC timer overrun: " + std::to_string(n - 1) + " SYNC periods skipped");
+      ctx_.Log(LogLevel::kWarning, "SYNC timer overrun: " + std::to_string(n - 1) + " SYNC periods skipped");
     }
     if (n == 0) return true;
     std::optional<std::uint8_t> c;
-    if (config_.sync_counter_max != 0) c = counter_ = can::NextSyncCounter(counter_, config_.sync_counter_max);
-    const can::TxStatus tx = sock_->Send(can::EncodeSync(c, config_.sync_cob_id), down_errno);
-    if (tx == can::TxStatus::kOk) {
+    if (config_.sync_counter_max != 0) c = counter_ = NextSyncCounter(counter_, config_.sync_counter_max);
+    const TxStatus tx = sock_->Send(EncodeSync(c, config_.sync_cob_id), down_errno);
+    if (tx == TxStatus::kOk) {
       ++syncs_sent_;
-    } else if (tx == can::TxStatus::kBusy) {
+    } else if (tx == TxStatus::kBusy) {
       ++tx_busy_;
     } else {
       return false;
@@ -242,17 +232,17 @@ class LiveLoop {
   // interface went down, with its errno.
   bool ReadFrames(int* down_errno) {
     for (int i = 0; i < 256; ++i) {
-      const can::RxResult r = sock_->Receive();
+      const RxResult r = sock_->Receive();
       if (r.new_drops > 0) session_.OnRxOverflow(r.new_drops, RealtimeNs());
-      if (r.status == can::RxStatus::kNone) {  // queue empty: drops that no frame followed
+      if (r.status == RxStatus::kNone) {  // queue empty: drops that no frame followed
         session_.OnRxOverflow(sock_->TakeDrops(), RealtimeNs());
         return true;
       }
-      if (r.status == can::RxStatus::kDown) {
+      if (r.status == RxStatus::kDown) {
         *down_errno = r.error;
         return false;
       }
-      if (r.status == can::RxStatus::kMalformed) {
+      if (r.status == RxStatus::kMalformed) {
         session_.OnMalformedInput(o_.iface + ": a read of unexpected size");
       } else {
         session_.OnFrame(r.frame);
@@ -264,7 +254,7 @@ class LiveLoop {
   // The interface went down: the socket is closed until it is up again.
   void LinkLost(int down_errno) {
     session_.OnRxOverflow(sock_->TakeDrops(), RealtimeNs());
-    ctx_.log(can::LogLevel::kWarning,
+    ctx_.Log(LogLevel::kWarning,
              o_.iface + ": " + std::strerror(down_errno) + ": waiting for the interface to come back");
     session_.OnLinkEvent("interface " + o_.iface + " lost (" + std::strerror(down_errno) + ")", RealtimeNs());
     sock_.reset();
@@ -275,27 +265,26 @@ class LiveLoop {
   // The drops after the last frame read, the NMT command at exit, the SYNC counts.
   void Finish() {
     if (sock_) session_.OnRxOverflow(sock_->TakeDrops(), RealtimeNs());
-    if (ctx_.signals.stop) ctx_.log(can::LogLevel::kInfo, "stop requested: flushing and closing");
+    if (ctx_.control.stop.load() != 0) ctx_.Log(LogLevel::kInfo, "stop requested: flushing and closing");
     if (sock_ && (o_.nmt_stop_at_exit || o_.nmt_preop_at_exit)) {
-      const auto command = o_.nmt_stop_at_exit ? can::NmtCommand::kStop : can::NmtCommand::kEnterPreOperational;
-      for (const can::CanFrame& f : session_.master().CommandAll(command)) sock_->Send(f);
-      ctx_.log(can::LogLevel::kInfo, "NMT " + can::NmtCommandName(static_cast<std::uint8_t>(command)) + " sent");
+      const auto command = o_.nmt_stop_at_exit ? NmtCommand::kStop : NmtCommand::kEnterPreOperational;
+      for (const CanFrame& f : session_.master().CommandAll(command)) sock_->Send(f);
+      ctx_.Log(LogLevel::kInfo, "NMT " + NmtCommandName(static_cast<std::uint8_t>(command)) + " sent");
     }
     session_.set_send(nullptr);  // the socket goes with this loop; the session lives on
     if (produce_ && timer_) {
-      ctx_.log(can::LogLevel::kInfo, "SYNC sent " + std::to_string(syncs_sent_) + ", timer overruns " +
-                                         std::to_string(sync_overruns_) + ", TX queue full " +
-                                         std::to_string(tx_busy_));
+      ctx_.Log(LogLevel::kInfo, "SYNC sent " + std::to_string(syncs_sent_) + ", timer overruns " +
+                                    std::to_string(sync_overruns_) + ", TX queue full " + std::to_string(tx_busy_));
     }
   }
 
-  AcquireContext& ctx_;
-  const AcquireOptions& o_;
-  const can::PipelineConfig& config_;
-  const can::CanSocketOptions socket_options_;
+  AcquisitionContext& ctx_;
+  const AcquisitionOptions& o_;
+  const PipelineConfig& config_;
+  const CanSocketOptions socket_options_;
   const bool produce_;
-  std::optional<can::CanSocket> sock_;
-  AcquireSession& session_;
+  std::optional<CanSocket> sock_;
+  AcquisitionSession& session_;
   const BlockedSignals signals_;
   std::optional<SyncTimer> timer_;
   std::uint8_t counter_ = 0;
@@ -305,34 +294,31 @@ class LiveLoop {
 
 }  // namespace
 
-int RunLive(AcquireContext& ctx) {
-  const AcquireOptions& o = ctx.options;
-  const can::PipelineConfig& config = ctx.pipeline_config;
-  const bool produce = o.sync_mode == "produce";
+AcquisitionStatus RunLive(AcquisitionContext& ctx) {
+  const AcquisitionOptions& o = ctx.options;
+  const PipelineConfig& config = ctx.pipeline_config;
+  const bool produce = o.sync_mode == SyncMode::kProduce;
   if (produce && !(config.sync_period_s > 0.0)) {
-    ctx.log(can::LogLevel::kError, "--sync-mode produce needs a --sync-period-ms above 0");
-    return kExitBadInput;
+    return ctx.Fail(AcquisitionStatus::kBadInput, "--sync-mode produce needs a --sync-period-ms above 0");
   }
-  const can::CanSocketOptions socket_options = SocketOptions(o, config);
-  std::optional<can::CanSocket> sock;
+  const CanSocketOptions socket_options = SocketOptions(o, config);
+  std::optional<CanSocket> sock;
   try {
     sock.emplace(socket_options);
   } catch (const std::exception& e) {
-    ctx.log(can::LogLevel::kError, e.what());
-    return kExitInterfaceError;
+    return ctx.Fail(AcquisitionStatus::kInterfaceError, e.what());
   }
-  ctx.session =
-      std::make_unique<AcquireSession>(o, config, ctx.master_config, ctx.log, "CAN interface " + o.iface, o.iface);
-  ctx.log(can::LogLevel::kInfo,
-          o.iface + ": " +
-              (ctx.master_config.nmt || ctx.master_config.sdo ? std::string("starting the devices")
-                                                              : std::string("listening")) +
-              " (SYNC " +
-              (produce ? "produced every " + internal::Format("%g", config.sync_period_s * 1e3) + " ms"
-                       : std::string("from an external producer")) +
-              ", timestamps: " + can::ToString(sock->timestamp_mode()) + ")");
+  ctx.session = std::make_unique<AcquisitionSession>(o, config, ctx.master_config, ctx.hooks.log,
+                                                     "CAN interface " + o.iface, o.iface);
+  ctx.Log(LogLevel::kInfo, o.iface + ": " +
+                               (ctx.master_config.nmt || ctx.master_config.sdo ? std::string("starting the devices")
+                                                                               : std::string("listening")) +
+                               " (SYNC " +
+                               (produce ? "produced every " + internal::Format("%g", config.sync_period_s * 1e3) + " ms"
+                                        : std::string("from an external producer")) +
+                               ", timestamps: " + ToString(sock->timestamp_mode()) + ")");
   LiveLoop loop(ctx, socket_options, std::move(*sock));
   return loop.Run();
 }
 
-}  // namespace sph::apps
+}  // namespace sph::can

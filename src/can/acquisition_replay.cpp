@@ -1,5 +1,5 @@
-// sph_acquired --replay: the master and the pipeline offline, from a candump log: the frames of one
-// interface (--replay-iface, or the log's only one), those of others left out. The master
+// The replayed acquisition: the master and the pipeline offline, from a candump log: the frames
+// of one interface (--replay-iface, or the log's only one), those of others left out. The master
 // runs as it did live, its frames going nowhere: the log holds what it sent, and its answers
 // drive it. A log without the master's NMT commands or SDO requests (recorded while another
 // master ran the bus, or made by sph_cansim -o) is replayed as with --no-nmt or --no-sdo.
@@ -10,29 +10,22 @@
 #include <limits>
 #include <optional>
 
-#include "acquire_internal.hpp"
-#include "app_common.hpp"
+#include "acquisition_internal.hpp"
+#include "clock.hpp"
 #include "sph/can/candump_log.hpp"
 #include "sph/can/canopen.hpp"
 #include "sph/can/sdo.hpp"
 
-namespace sph::apps {
+namespace sph::can {
 namespace {
 
-std::int64_t MonotonicNs() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
-}
-
-void SleepUntil(std::int64_t mono_ns) {
+// Sleeps until `mono_ns`, or until a stop is asked (a signal interrupts the sleep).
+void SleepUntil(std::int64_t mono_ns, const RunControl& control) {
   timespec ts{static_cast<time_t>(mono_ns / 1000000000), static_cast<long>(mono_ns % 1000000000)};
   while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-    if (ProcessSignals().stop) return;
+    if (control.stop.load() != 0) return;
   }
 }
-
-}  // namespace
 
 // Whether the log holds NMT commands, and SDO requests to the configured nodes; when the first
 // of them came.
@@ -41,20 +34,19 @@ struct MasterTraffic {
   bool sdo = false;
   std::optional<std::int64_t> first_ns;
 };
-MasterTraffic ScanForMaster(const std::string& path, const std::string& iface, const can::MasterConfig& master) {
+MasterTraffic ScanForMaster(const std::string& path, const std::string& iface, const MasterConfig& master) {
   MasterTraffic t;
-  can::CandumpReader reader(path);
+  CandumpReader reader(path);
   for (;;) {
-    const can::CandumpReader::Result r = reader.Next();
-    if (r.status == can::CandumpReader::Status::kEnd) break;
-    if (r.status != can::CandumpReader::Status::kFrame || r.iface != iface || r.frame.IsExtended() ||
-        r.frame.IsRemote()) {
+    const CandumpReader::Result r = reader.Next();
+    if (r.status == CandumpReader::Status::kEnd) break;
+    if (r.status != CandumpReader::Status::kFrame || r.iface != iface || r.frame.IsExtended() || r.frame.IsRemote()) {
       continue;
     }
     bool ours = false;
-    if (r.frame.id == can::kNmtCobId && can::DecodeNmt(r.frame)) ours = t.nmt = true;
-    for (const can::MasterNode& n : master.nodes) {
-      if (r.frame.id == can::kSdoRequestBase + static_cast<std::uint32_t>(n.node_id)) ours = t.sdo = true;
+    if (r.frame.id == kNmtCobId && DecodeNmt(r.frame)) ours = t.nmt = true;
+    for (const MasterNode& n : master.nodes) {
+      if (r.frame.id == kSdoRequestBase + static_cast<std::uint32_t>(n.node_id)) ours = t.sdo = true;
     }
     if (ours && !t.first_ns) t.first_ns = r.frame.t_ns;
     if (t.nmt && t.sdo) break;
@@ -62,20 +54,18 @@ MasterTraffic ScanForMaster(const std::string& path, const std::string& iface, c
   return t;
 }
 
-namespace {
-
 // The master's configuration for the log: as with --no-nmt when the log holds no NMT command, as
 // with --no-sdo when it holds no SDO request.
-can::MasterConfig MasterForLog(const AcquireContext& ctx, const MasterTraffic& traffic) {
-  can::MasterConfig master = ctx.master_config;
+MasterConfig MasterForLog(const AcquisitionContext& ctx, const MasterTraffic& traffic) {
+  MasterConfig master = ctx.master_config;
   if (master.nmt && !traffic.nmt) {
-    ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no NMT command in it: replayed as with --no-nmt");
+    ctx.Log(LogLevel::kDebug, ctx.options.replay_path + ": no NMT command in it: replayed as with --no-nmt");
     master.nmt = false;
     master.configure_pdo = false;
     master.reset_communication = false;
   }
   if (master.sdo && !traffic.sdo) {
-    ctx.log(can::LogLevel::kDebug, ctx.options.replay_path + ": no SDO request in it: replayed as with --no-sdo");
+    ctx.Log(LogLevel::kDebug, ctx.options.replay_path + ": no SDO request in it: replayed as with --no-sdo");
     master.sdo = false;
     master.configure_pdo = false;
   }
@@ -85,7 +75,7 @@ can::MasterConfig MasterForLog(const AcquireContext& ctx, const MasterTraffic& t
 // The time of the first frame replayed. The daemon that recorded the log began just before its
 // first request; a log that another program (candump) began earlier holds frames the daemon never
 // saw: they are left out.
-std::int64_t ReplayBeginNs(const can::MasterConfig& master, const MasterTraffic& traffic) {
+std::int64_t ReplayBeginNs(const MasterConfig& master, const MasterTraffic& traffic) {
   const bool uses_master = master.nmt || master.sdo;
   return uses_master && traffic.first_ns ? *traffic.first_ns - 10000000 : std::numeric_limits<std::int64_t>::min();
 }
@@ -97,31 +87,28 @@ struct ReplayProgress {
   std::uint64_t n = 0, before = 0, other_iface = 0;
 };
 
-// Whether a stop was requested (and logged); prints the summary when it was asked for.
-bool StopRequested(AcquireContext& ctx) {
-  if (ctx.signals.stop) {
-    ctx.log(can::LogLevel::kInfo, "stop requested: ending the replay");
+// Whether a stop was requested (and logged); reports the summary when it was asked for.
+bool StopRequested(AcquisitionContext& ctx) {
+  if (ctx.control.stop.load() != 0) {
+    ctx.Log(LogLevel::kInfo, "stop requested: ending the replay");
     return true;
   }
-  if (ctx.signals.summary) {
-    ctx.signals.summary = 0;
-    ctx.print_summary();
-  }
+  if (ctx.control.summary.exchange(0) != 0) ctx.Summary();
   return false;
 }
 
 // Begins the session at the first frame replayed, after logging how many frames were left out.
-void BeginReplay(AcquireContext& ctx, std::int64_t t_ns, std::uint64_t before) {
+void BeginReplay(AcquisitionContext& ctx, std::int64_t t_ns, std::uint64_t before) {
   if (before > 0) {
-    ctx.log(can::LogLevel::kInfo, ctx.options.replay_path + ": " + std::to_string(before) +
-                                      " frames before the daemon's first request are left out");
+    ctx.Log(LogLevel::kInfo, ctx.options.replay_path + ": " + std::to_string(before) +
+                                 " frames before the daemon's first request are left out");
   }
   ctx.session->Begin(t_ns);
 }
 
 // Waits until the frame at `t_ns` is due at `speed` times the log's pace; the first frame sets the
 // clocks.
-void KeepPace(AcquireSession& session, double speed, std::int64_t t_ns, ReplayProgress& p) {
+void KeepPace(AcquisitionContext& ctx, double speed, std::int64_t t_ns, ReplayProgress& p) {
   if (p.n == 0) {
     p.first_frame_ns = t_ns;
     p.start_mono_ns = MonotonicNs();
@@ -129,17 +116,17 @@ void KeepPace(AcquireSession& session, double speed, std::int64_t t_ns, ReplayPr
   }
   const auto due = p.start_mono_ns + static_cast<std::int64_t>(static_cast<double>(t_ns - p.first_frame_ns) / speed);
   if (due > MonotonicNs()) {
-    session.FlushOutputs();  // idle anyway: make what we have visible
-    SleepUntil(due);
+    ctx.session->FlushOutputs();  // idle anyway: make what we have visible
+    SleepUntil(due, ctx.control);
   }
 }
 
 // Gives one frame to the session (at the log's pace with a --replay-speed), flushing the outputs
 // every 4096 frames.
-void ReplayFrame(AcquireContext& ctx, const can::CanFrame& frame, ReplayProgress& p) {
-  AcquireSession& session = *ctx.session;
+void ReplayFrame(AcquisitionContext& ctx, const CanFrame& frame, ReplayProgress& p) {
+  AcquisitionSession& session = *ctx.session;
   if (p.n == 0) BeginReplay(ctx, frame.t_ns, p.before);
-  if (ctx.options.replay_speed > 0.0) KeepPace(session, ctx.options.replay_speed, frame.t_ns, p);
+  if (ctx.options.replay_speed > 0.0) KeepPace(ctx, ctx.options.replay_speed, frame.t_ns, p);
   session.OnTime(frame.t_ns);
   session.OnFrame(frame);
   p.last_ns = frame.t_ns;
@@ -148,34 +135,33 @@ void ReplayFrame(AcquireContext& ctx, const can::CanFrame& frame, ReplayProgress
 
 // After the last frame: a start the log ends in the middle of has its timeouts run out, and an
 // acquiring session's outputs are flushed.
-void FinishReplay(AcquireContext& ctx, std::int64_t last_ns) {
-  AcquireSession& session = *ctx.session;
-  if (session.state() == AcquireSession::State::kStarting && !ctx.signals.stop) {
+void FinishReplay(AcquisitionContext& ctx, std::int64_t last_ns) {
+  AcquisitionSession& session = *ctx.session;
+  if (session.state() == AcquisitionSession::State::kStarting && ctx.control.stop.load() == 0) {
     session.OnTime(last_ns + 3600LL * 1000000000LL);
   }
-  if (session.state() == AcquireSession::State::kAcquiring) session.FlushOutputs();
+  if (session.state() == AcquisitionSession::State::kAcquiring) session.FlushOutputs();
 }
 
 // Replays the frames of `reader` from `begin_ns` on into the session until the log ends, a stop is
-// requested or the session can go no further; returns the exit code.
-int ReplayFrames(AcquireContext& ctx, can::CandumpReader& reader, std::int64_t begin_ns) {
-  AcquireSession& session = *ctx.session;
+// requested or the session can go no further.
+AcquisitionStatus ReplayFrames(AcquisitionContext& ctx, CandumpReader& reader, std::int64_t begin_ns) {
+  AcquisitionSession& session = *ctx.session;
   ReplayProgress p;
   for (;;) {
-    if (session.state() == AcquireSession::State::kStartRefused ||
-        session.state() == AcquireSession::State::kOutputFailed) {
-      return kExitOk;
+    if (session.state() == AcquisitionSession::State::kStartRefused ||
+        session.state() == AcquisitionSession::State::kOutputFailed) {
+      return AcquisitionStatus::kOk;
     }
     if (StopRequested(ctx)) break;
-    can::CandumpReader::Result r;
+    CandumpReader::Result r;
     try {
       r = reader.Next();
     } catch (const std::exception& e) {
-      ctx.log(can::LogLevel::kError, e.what());
-      return kExitBadInput;
+      return ctx.Fail(AcquisitionStatus::kBadInput, e.what());
     }
-    if (r.status == can::CandumpReader::Status::kEnd) break;
-    if (r.status == can::CandumpReader::Status::kMalformed) {
+    if (r.status == CandumpReader::Status::kEnd) break;
+    if (r.status == CandumpReader::Status::kMalformed) {
       session.OnMalformedInput(r.error);
       continue;
     }
@@ -195,29 +181,28 @@ int ReplayFrames(AcquireContext& ctx, can::CandumpReader& reader, std::int64_t b
     for (const std::string& i : ctx.replay.interfaces) {
       if (i != ctx.replay.iface) others += (others.empty() ? "" : ", ") + i;
     }
-    ctx.log(can::LogLevel::kInfo, ctx.options.replay_path + ": replayed the frames of " + ctx.replay.iface + "; " +
-                                      std::to_string(p.other_iface) + " frames of " + others + " left out");
+    ctx.Log(LogLevel::kInfo, ctx.options.replay_path + ": replayed the frames of " + ctx.replay.iface + "; " +
+                                 std::to_string(p.other_iface) + " frames of " + others + " left out");
   }
-  return kExitOk;
+  return AcquisitionStatus::kOk;
 }
 
 }  // namespace
 
-int RunReplay(AcquireContext& ctx) {
-  std::unique_ptr<can::CandumpReader> reader;
-  can::MasterConfig master;
+AcquisitionStatus RunReplay(AcquisitionContext& ctx) {
+  std::unique_ptr<CandumpReader> reader;
+  MasterConfig master;
   MasterTraffic traffic;
   try {
     traffic = ScanForMaster(ctx.options.replay_path, ctx.replay.iface, ctx.master_config);
     master = MasterForLog(ctx, traffic);
-    reader = std::make_unique<can::CandumpReader>(ctx.options.replay_path);
+    reader = std::make_unique<CandumpReader>(ctx.options.replay_path);
   } catch (const std::exception& e) {
-    ctx.log(can::LogLevel::kError, e.what());
-    return kExitBadInput;
+    return ctx.Fail(AcquisitionStatus::kBadInput, e.what());
   }
-  ctx.session = std::make_unique<AcquireSession>(ctx.options, ctx.pipeline_config, master, ctx.log,
-                                                 "replay of " + ctx.options.replay_path, ctx.replay.iface);
+  ctx.session = std::make_unique<AcquisitionSession>(ctx.options, ctx.pipeline_config, master, ctx.hooks.log,
+                                                     "replay of " + ctx.options.replay_path, ctx.replay.iface);
   return ReplayFrames(ctx, *reader, ReplayBeginNs(master, traffic));
 }
 
-}  // namespace sph::apps
+}  // namespace sph::can
