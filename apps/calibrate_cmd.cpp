@@ -14,6 +14,11 @@ namespace sph::apps {
 
 namespace {
 
+// CLI11's check of an integer option in `range` ("INT in [1 - 3]" in --help).
+CLI::Range IntRange(const ValidRange& range) {
+  return CLI::Range(static_cast<int>(range.lo), static_cast<int>(range.hi));
+}
+
 // The trace's options, the Type B inputs and the coverage.
 void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
   std::string ids;
@@ -51,7 +56,7 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
          "seven-error residual (4, or one above its highest significant harmonic), at most what the "
          "pattern resolves ((n - 1) / 2 for n distinct angles, at most 12)")
       ->default_str(std::to_string(o.workflow.tracing.harmonics.theta))
-      ->check(CLI::Range(0, 12));
+      ->check(IntRange(ranges::kHarmonicOrder));
   app.add_option("--phi-wobble-pivot-mm", o.workflow.tracing.phi_wobble_pivot_mm,
                  "Distance along the Phi axis from its frame's origin to the bearing it tilts about (phi_wobble), "
                  "from the machine's drawing [mm]")
@@ -59,7 +64,7 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
       ->check(InRange(ranges::kPivotMm));
   app.add_option("--drift-order", o.workflow.tracing.drift_order, "Highest power of time of probe_drift")
       ->capture_default_str()
-      ->check(CLI::Range(1, 3));
+      ->check(IntRange(ranges::kDriftOrder));
   AddSeedOption(app, o.workflow.tracing.seed, "Seed of the cross-validation folds")->capture_default_str();
   AddConditionOptions(app, o.workflow.conditions, "(overrides the file's ");
   app.add_option("--coverage", o.workflow.coverage,
@@ -91,7 +96,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
       ->check(InRange(ranges::kStdUm));
   app.add_option("--max-iterations", o.workflow.fit.max_iterations, "Levenberg-Marquardt iteration limit")
       ->capture_default_str()
-      ->check(CLI::Range(1, 100000));
+      ->check(IntRange(ranges::kMaxIterations));
   app.add_flag("-q,--quiet", o.quiet, "No text report on stdout (warnings still go to stderr)");
   AddProgressOptions(app, o.progress);
   AddTraceOptions(app, o);

@@ -1,21 +1,18 @@
 #include "sph/calib/calibrate_workflow.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <exception>
 #include <utility>
 
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
+#include "sph/core/ranges.hpp"
 #include "sph/core/setup_checks.hpp"
-#include "sph/internal/format.hpp"
-#include "sph/model/effect_terms.hpp"
+#include "sph/core/valid_range.hpp"
 
 namespace sph {
 
 namespace {
-
-using internal::Format;
 
 // Every parameter of a fit in the analysis' order: the seven errors, each setup's centre, the
 // effects' values in term order (rad, mm), then the sphere form's coefficients per group (mm).
@@ -122,25 +119,20 @@ void Tell(const std::function<void(const std::string&)>& f, const std::string& t
 }  // namespace
 
 void CalibrationWorkflowOptions::Check() const {
-  auto need = [](bool ok, const std::string& what) {
-    if (!ok) throw Error("calibration options: " + what);
-  };
-  need(!sphere_radius_mm || (*sphere_radius_mm > 0.0 && *sphere_radius_mm <= kMaxSphereRadiusMm),
-       Format("sphere_radius_mm must be > 0 and <= %g mm", kMaxSphereRadiusMm));
-  need(!probe_offset_mm || (*probe_offset_mm > 0.0 && *probe_offset_mm <= kMaxProbeOffsetMm),
-       Format("probe_offset_mm must be > 0 and <= %g mm", kMaxProbeOffsetMm));
-  need(fit.max_std_um > 0.0 && fit.max_std_um <= 1e6, "fit.max_std_um must be > 0 and <= 1e+06 um");
-  need(fit.max_iterations >= 1 && fit.max_iterations <= 100000, "fit.max_iterations must be from 1 to 100000");
-  need(tracing.harmonics.theta >= 0 && tracing.harmonics.theta <= 12 && tracing.harmonics.phi >= 0 &&
-           tracing.harmonics.phi <= 12,
-       "tracing.harmonics must be from 0 to 12");
-  need(tracing.drift_order >= 1 && tracing.drift_order <= 3, "tracing.drift_order must be from 1 to 3");
-  need(std::isfinite(tracing.phi_wobble_pivot_mm) && std::abs(tracing.phi_wobble_pivot_mm) <= kMaxPivotMm,
-       Format("tracing.phi_wobble_pivot_mm must be within +-%g mm", kMaxPivotMm));
-  need(!coverage || (*coverage >= 0.5 && *coverage <= 0.9999), "coverage must be >= 0.5 and <= 0.9999");
-  need(trace || effects.empty(), "effects need trace (a fixed model is fitted in the trace's place)");
-  need(trace || validate_path.empty(),
-       "validate_path needs trace (it compares the seven errors with the trace's model)");
+  const std::string what = "calibration options: ";
+  if (sphere_radius_mm) CheckedValue(*sphere_radius_mm, ranges::kSphereRadiusMm, what + "sphere_radius_mm");
+  if (probe_offset_mm) CheckedValue(*probe_offset_mm, ranges::kProbeOffsetMm, what + "probe_offset_mm");
+  CheckedValue(fit.max_std_um, ranges::kStdUm, what + "fit.max_std_um");
+  CheckedValue(fit.max_iterations, ranges::kMaxIterations, what + "fit.max_iterations");
+  CheckedValue(tracing.harmonics.theta, ranges::kHarmonicOrder, what + "tracing.harmonics.theta");
+  CheckedValue(tracing.harmonics.phi, ranges::kHarmonicOrder, what + "tracing.harmonics.phi");
+  CheckedValue(tracing.drift_order, ranges::kDriftOrder, what + "tracing.drift_order");
+  CheckedValue(tracing.phi_wobble_pivot_mm, ranges::kPivotMm, what + "tracing.phi_wobble_pivot_mm");
+  if (coverage) CheckedValue(*coverage, ranges::kCoverageProbability, what + "coverage");
+  if (!trace && !effects.empty()) throw Error(what + "effects need trace (a fixed model is fitted in its place)");
+  if (!trace && !validate_path.empty()) {
+    throw Error(what + "validate_path needs trace (it compares the seven errors with the trace's model)");
+  }
 }
 
 bool CalibrationWorkflowResult::Extended() const {

@@ -98,20 +98,20 @@ TEST(CalibrateWorkflow, CheckNamesTheSettingOutOfRange) {
   CalibrationWorkflowOptions o;
   EXPECT_EQ(CheckMessage(o), "");
   o.fit.max_std_um = 0.0;
-  EXPECT_THAT(CheckMessage(o), HasSubstr("fit.max_std_um must be > 0"));
+  EXPECT_THAT(CheckMessage(o), HasSubstr("fit.max_std_um: must be > 0 and <= 1e+06 um, got 0"));
   o = {};
   o.sphere_radius_mm = -1.0;
-  EXPECT_THAT(CheckMessage(o), HasSubstr("sphere_radius_mm must be > 0"));
+  EXPECT_THAT(CheckMessage(o), HasSubstr("sphere_radius_mm: must be > 0 and <= 1000 mm, got -1"));
   o = {};
   o.tracing.drift_order = 4;
-  EXPECT_THAT(CheckMessage(o), HasSubstr("tracing.drift_order must be from 1 to 3"));
+  EXPECT_THAT(CheckMessage(o), HasSubstr("tracing.drift_order: must be >= 1 and <= 3, got 4"));
   o = {};
   o.trace = false;
   o.effects = {Effect::kProbeGain};
   EXPECT_THAT(CheckMessage(o), HasSubstr("effects need trace"));
   o = {};
   o.coverage = 1.0;
-  EXPECT_THAT(CheckMessage(o), HasSubstr("coverage must be"));
+  EXPECT_THAT(CheckMessage(o), HasSubstr("coverage: must be >= 0.5 and <= 0.9999, got 1"));
   // The run refuses them as Check() does.
   EXPECT_THROW(RunCalibrationWorkflow(ReadPointsFile(kPoints), kPoints, o), Error);
 }

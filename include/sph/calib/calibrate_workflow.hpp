@@ -19,8 +19,16 @@
 #include "sph/calib/usability.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/points_file.hpp"
+#include "sph/core/ranges.hpp"
 
 namespace sph {
+
+/// The ranges of the workflow's integer settings (the others: sph/core/ranges.hpp).
+namespace ranges {
+inline constexpr ValidRange kMaxIterations{1.0, 100000.0, ""};
+inline constexpr ValidRange kHarmonicOrder{0.0, 12.0, ""};  ///< TraceOptions::harmonics, each axis
+inline constexpr ValidRange kDriftOrder{1.0, 3.0, ""};      ///< TraceOptions::drift_order
+}  // namespace ranges
 
 /// What a calibration run takes besides the points. The defaults are the fit's and the trace's own
 /// (CalibrationOptions, TraceOptions); sph_calibrate's options are these fields.
@@ -44,7 +52,8 @@ struct CalibrationWorkflowOptions {
   std::function<void(const std::string& stage)> on_stage;
   std::function<void(const std::string& warning)> on_warning;
 
-  /// Throws sph::Error naming the first setting that is out of its range or needs another.
+  /// Throws sph::Error naming the first setting that is out of its range (sph::ranges) or needs
+  /// another: "calibration options: fit.max_std_um: must be > 0 and <= 1e+06 um, got 0".
   void Check() const;
 };
 
