@@ -58,9 +58,6 @@ void AddPlotTimeoutOption(CLI::App& app, double& timeout_s);
 /// "(overrides the file's " gives "... (overrides the file's sphere_radius_u_um)".
 void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source);
 
-/// The most grid points (theta steps times phi rings) a simulation makes: 10 million.
-inline constexpr long kMaxGridPoints = 10000000;
-
 /// The simulated machine and measurement shared by sph_simulate and sph_montecarlo: the true
 /// errors, the sphere, the pattern and the noise (defaults: the paper's study).
 struct MachineOptions {

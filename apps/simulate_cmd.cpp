@@ -1,8 +1,6 @@
 #include "simulate_cmd.hpp"
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <map>
 #include <set>
 #include <sstream>
@@ -142,10 +140,8 @@ void AddEffectValue(const std::string& text, Quantity unit, SimulatedEffects& ef
     throw Error(opt + " " + text + ": " + id + " is " + (unit == Quantity::kAngle ? "a length" : "an angle") +
                 "; give it with " + (unit == Quantity::kAngle ? "--effect-um" : "--effect-arcsec"));
   }
-  char* end = nullptr;
   const std::string value_text = text.substr(eq + 1);
-  const double value = std::strtod(value_text.c_str(), &end);
-  if (value_text.empty() || *end != '\0') throw Error(opt + " " + text + ": '" + value_text + "' is not a number");
+  const double value = ParseNumber(value_text, text, opt + " ");
   CheckedValue(value, unit == Quantity::kAngle ? ranges::kEffectArcsec : ranges::kEffectUm, opt + " " + text,
                value_text);
   EffectComponent comp;

@@ -244,6 +244,10 @@ std::vector<MatrixCase> CalibrateCases() {
        {"P.txt", "--sphere-radius-mm", "-3"},
        2,
        "--sphere-radius-mm: must be > 0 and <= 1000 mm, got -3"},
+      {"radius_option_hex",  // a number is decimal: strtod read 0x10 as 16 mm
+       {"P.txt", "--sphere-radius-mm", "0x10"},
+       2,
+       "--sphere-radius-mm: must be > 0 and <= 1000 mm, got 0x10"},
       {"offset_option_infinite",
        {"P.txt", "--probe-offset-mm", "inf"},
        2,
@@ -482,6 +486,8 @@ std::vector<MatrixCase> SimulateCases() {
       {"effect_malformed", {"--effect-arcsec", "theta_encoder"}, 2, "expected id.param=value"},
       {"form_too_large", {"--form-um", "3,2,1e308"}, 2, e + "--form-um 3,2,1e308: must be >= -1000 and <= 1000 um"},
       {"form_bad_degree", {"--form-um", "30,2,0.1"}, 2, "expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l"},
+      // sscanf read a hexadecimal amplitude (0x1p-3 um)
+      {"form_hex_amplitude", {"--form-um", "2,0,0x1p-3"}, 2, "--form-um 2,0,0x1p-3: expected l,m,amplitude_um"},
       {"outlier_fraction_above_one", {"--outlier-fraction", "2"}, 2, "--outlier-fraction: Value 2 not in range"},
       {"mount_rotation_without_setup",
        {"--mount-rotation-deg", "0,0,90"},
