@@ -335,6 +335,15 @@ class PointsParser {
     s.theta_deg = ParseNumber(col(kTheta), name(kTheta), fail.where());
     s.phi_deg = ParseNumber(col(kPhi), name(kPhi), fail.where());
     s.r_mm = ParseNumber(col(kR), name(kR), fail.where());
+    for (const auto& [k, value, limit, unit, what] :
+         {std::make_tuple(kTheta, s.theta_deg, kMaxAngleDeg, " deg", "an encoder's angle"),
+          std::make_tuple(kPhi, s.phi_deg, kMaxAngleDeg, " deg", "an encoder's angle"),
+          std::make_tuple(kR, s.r_mm, kMaxReadingMm, " mm", "a probe reading in mm")}) {
+      if (std::abs(value) > limit) {
+        fail(name(k) + ": " + Quoted(col(k)) + " is beyond " + internal::Format("%g", limit) + unit +
+             " from 0: not " + what);
+      }
+    }
     s.t_s = static_cast<double>(data_.samples.size());
     if (data_.has_time) {
       s.t_s = ParseNumber(col(kTime), name(kTime), fail.where());

@@ -205,6 +205,16 @@ std::vector<MatrixCase> CalibrateCases() {
        2,
        e + "x.txt:6: column t_s: '1e308' is beyond 1e+12 s from 0: not a time of a measurement",
        {{"x.txt", h + "# columns: theta_deg phi_deg r_mm t_s\n0 7.5 4.8 0\n15 7.5 4.8 1e308\n"}}},
+      {"reading_beyond_any_machine",
+       {"x.txt"},
+       2,
+       e + "x.txt:5: column r_mm: '1e150' is beyond 1e+06 mm from 0: not a probe reading in mm",
+       {{"x.txt", h + "0 7.5 4.8\n15 7.5 1e150\n"}}},
+      {"angle_beyond_any_encoder",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: column phi_deg: '-1e153' is beyond 1e+09 deg from 0: not an encoder's angle",
+       {{"x.txt", h + "0 -1e153 4.8\n"}}},
       {"setup_id_out_of_range",
        {"x.txt"},
        2,
@@ -223,8 +233,8 @@ std::vector<MatrixCase> CalibrateCases() {
       {"absurd_reading_named",
        {"x.txt", "--no-trace", "-q"},
        0,
-       "x.txt:107: r_mm 1e+10",
-       {{"x.txt", ExampleWithR(100, "1e10")}}},
+       "x.txt:107: r_mm 100000",
+       {{"x.txt", ExampleWithR(100, "1e5")}}},
       {"huge_constant_readings_no_solver_log",
        {"x.txt", "-q"},
        1,
@@ -233,7 +243,7 @@ std::vector<MatrixCase> CalibrateCases() {
          [] {
            std::string t = kHeader;
            for (int i = 0; i < 288; ++i)
-             t += std::to_string(15 * (i % 24)) + " " + std::to_string(7.5 + 15 * (i / 24)) + " 1e9\n";
+             t += std::to_string(15 * (i % 24)) + " " + std::to_string(7.5 + 15 * (i / 24)) + " 1e6\n";
            return t;
          }()}}},
       {"radius_option_too_large",

@@ -1,5 +1,7 @@
 #include "sph/core/points_file.hpp"
 
+#include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -97,21 +99,38 @@ TEST(PointsFile, WriteThenReadRoundTrips) {
 // The largest finite values take 320 characters each in fixed point: rows of any length are
 // written whole and read back exactly.
 TEST(PointsFile, WritesTheLargestFiniteValuesWhole) {
-  constexpr double kMax = std::numeric_limits<double>::max();
+  // Values at the reader's bounds (kMaxAngleDeg, kMaxReadingMm, kMaxTimeS) come back exactly.
   PointsData d;
   d.has_time = d.has_setup = true;
-  // The time at the reader's bound (kMaxTimeS): a larger one is refused when read.
-  d.samples = {{-kMax, kMax, -kMax, -kMaxTimeS, std::numeric_limits<int>::min()}, {1.5, 2.5, 3.5, 4.5, 1}};
+  d.samples = {{-kMaxAngleDeg, std::nextafter(kMaxAngleDeg, 0.0), -kMaxReadingMm, -kMaxTimeS,
+                std::numeric_limits<int>::min()},
+               {1.5, 2.5, std::nextafter(kMaxReadingMm, 0.0), 4.5, 1}};
   std::ostringstream out;
   WritePoints(out, d);
   const PointsData back = Parse(out.str());
   ASSERT_EQ(back.samples.size(), 2u);
-  EXPECT_EQ(back.samples[0].theta_deg, -kMax);
-  EXPECT_EQ(back.samples[0].phi_deg, kMax);
-  EXPECT_EQ(back.samples[0].r_mm, -kMax);
+  EXPECT_EQ(back.samples[0].theta_deg, -kMaxAngleDeg);
+  EXPECT_EQ(back.samples[0].phi_deg, std::nextafter(kMaxAngleDeg, 0.0));
+  EXPECT_EQ(back.samples[0].r_mm, -kMaxReadingMm);
   EXPECT_EQ(back.samples[0].t_s, -kMaxTimeS);
   EXPECT_EQ(back.samples[0].setup, std::numeric_limits<int>::min());
+  EXPECT_EQ(back.samples[1].r_mm, std::nextafter(kMaxReadingMm, 0.0));
   EXPECT_EQ(back.samples[1].t_s, 4.5);
+
+  // The largest finite double is written whole (no overflow to inf, no rounding), for the reader to refuse.
+  constexpr double kMax = std::numeric_limits<double>::max();
+  d.samples = {{-kMax, kMax, -kMax, 0.0, 0}};
+  std::ostringstream big;
+  WritePoints(big, d);
+  std::string last = big.str();
+  last.pop_back();
+  std::istringstream row(last.substr(last.rfind('\n') + 1));
+  std::string theta, phi, r;
+  row >> theta >> phi >> r;
+  EXPECT_EQ(std::strtod(theta.c_str(), nullptr), -kMax);
+  EXPECT_EQ(std::strtod(phi.c_str(), nullptr), kMax);
+  EXPECT_EQ(std::strtod(r.c_str(), nullptr), -kMax);
+  EXPECT_THAT(ErrorOf(big.str()), HasSubstr("column theta_deg: '-179769313486231570814527423731704356798"));
 }
 
 TEST(PointsFile, ErrorsNameFileLineAndProblem) {
@@ -171,12 +190,12 @@ TEST(PointsFile, ADirectoryIsNamedAsOne) {
 
 TEST(PointsFile, AnAbsurdReadingIsNamedByItsLine) {
   std::string text = std::string(kHeader) + "# columns: theta_deg phi_deg r_mm\n";
-  for (int i = 0; i < 20; ++i) text += std::to_string(15 * i) + " 45 " + (i == 7 ? "1e10" : "4.9") + "\n";
+  for (int i = 0; i < 20; ++i) text += std::to_string(15 * i) + " 45 " + (i == 7 ? "1e5" : "4.9") + "\n";
   const std::vector<std::string> w = PlausibilityWarnings(Parse(text));
   ASSERT_EQ(w.size(), 1u);
   EXPECT_THAT(w[0], HasSubstr("1 probe reading(s) lie farther from the median reading (4.9 mm) than the sphere's "
                               "diameter (40 mm)"));
-  EXPECT_THAT(w[0], HasSubstr("pts.txt:12: r_mm 1e+10"));
+  EXPECT_THAT(w[0], HasSubstr("pts.txt:12: r_mm 100000"));
 }
 
 TEST(PointsFile, MissingFileIsAnError) {
@@ -398,6 +417,21 @@ TEST(PointsFile, ASetupFieldThatNamesNoSetupIsRefused) {
   // Between samples too (a key with a space in it is prose).
   EXPECT_EQ(ErrorOf(h + kTwoSetups + "# sphere_radius_mm @: 10\n# mount_rotation_deg@ : 0 0 90\n"),
             "pts.txt:8: mount_rotation_deg@ names no setup: write 'mount_rotation_deg@<setup>: rx ry rz'");
+}
+
+TEST(PointsFile, AnglesAndReadingsAreBounded) {
+  const std::string h = std::string(kHeader) + "0 7.5 5.1\n";
+  EXPECT_EQ(ErrorOf(h + "15 7.5 1e150\n"),
+            "pts.txt:5: column r_mm: '1e150' is beyond 1e+06 mm from 0: not a probe reading in mm");
+  EXPECT_THAT(ErrorOf(h + "15 7.5 -1000001\n"), HasSubstr("pts.txt:5: column r_mm: '-1000001' is beyond"));
+  EXPECT_EQ(ErrorOf(h + "1e10 7.5 5.2\n"),
+            "pts.txt:5: column theta_deg: '1e10' is beyond 1e+09 deg from 0: not an encoder's angle");
+  EXPECT_THAT(ErrorOf(h + "15 -2e9 5.2\n"), HasSubstr("pts.txt:5: column phi_deg: '-2e9' is beyond 1e+09 deg"));
+  const PointsData d = Parse(h + "-1e9 1e9 1e6\n15 7.5 -1e6\n");
+  EXPECT_EQ(d.samples[1].theta_deg, -1e9);
+  EXPECT_EQ(d.samples[1].phi_deg, 1e9);
+  EXPECT_EQ(d.samples[1].r_mm, 1e6);
+  EXPECT_EQ(d.samples[2].r_mm, -1e6);
 }
 
 TEST(PointsFile, TimesAreBounded) {

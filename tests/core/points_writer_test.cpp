@@ -6,6 +6,7 @@
 
 #include <csignal>
 #include <fstream>
+#include <cstdlib>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -57,9 +58,8 @@ TEST(PointsWriter, WritesWhatReadPointsFileReads) {
 }
 
 TEST(PointsWriter, FormatsRowsOfTheLargestFiniteValuesWhole) {
-  constexpr double kMax = std::numeric_limits<double>::max();
-  // The time at the reader's bound: a larger one is written as whole, but refused when read.
-  const Sample s{-kMax, -kMax, -kMax, -kMaxTimeS, std::numeric_limits<int>::min()};
+  // Values at the reader's bounds come back exactly.
+  const Sample s{-kMaxAngleDeg, kMaxAngleDeg, -kMaxReadingMm, -kMaxTimeS, std::numeric_limits<int>::min()};
   const std::string row = PointsWriter::FormatRow(s, true, true);
   ASSERT_FALSE(row.empty());
   EXPECT_EQ(row.back(), '\n');
@@ -67,10 +67,20 @@ TEST(PointsWriter, FormatsRowsOfTheLargestFiniteValuesWhole) {
   std::istringstream in("# columns: theta_deg phi_deg r_mm t_s setup\n" + row);
   const PointsData d = ParsePoints(in, "row");
   ASSERT_EQ(d.samples.size(), 1U);
-  EXPECT_EQ(d.samples[0].theta_deg, -kMax);
-  EXPECT_EQ(d.samples[0].r_mm, -kMax);
+  EXPECT_EQ(d.samples[0].theta_deg, -kMaxAngleDeg);
+  EXPECT_EQ(d.samples[0].phi_deg, kMaxAngleDeg);
+  EXPECT_EQ(d.samples[0].r_mm, -kMaxReadingMm);
   EXPECT_EQ(d.samples[0].t_s, -kMaxTimeS);
   EXPECT_EQ(d.samples[0].setup, std::numeric_limits<int>::min());
+
+  // The largest finite double is written whole (no inf, no rounding); the reader refuses it.
+  constexpr double kMax = std::numeric_limits<double>::max();
+  std::istringstream big(PointsWriter::FormatRow({-kMax, kMax, -kMax, 0.0, 0}, false, false));
+  std::string theta, phi, r;
+  big >> theta >> phi >> r;
+  EXPECT_EQ(std::strtod(theta.c_str(), nullptr), -kMax);
+  EXPECT_EQ(std::strtod(phi.c_str(), nullptr), kMax);
+  EXPECT_EQ(std::strtod(r.c_str(), nullptr), -kMax);
 }
 
 TEST(PointsWriter, CommentsBeforeTheFirstSampleNeverBecomeHeaderFields) {

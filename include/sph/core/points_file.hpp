@@ -157,7 +157,8 @@ struct PointsData {
 /// twice, stands after a row of its setup (it would apply to rows recorded before it) or has no
 /// samples (named at its header line), a columns line or another header field the reader takes
 /// after the first sample, unknown, duplicate or missing column, wrong column count, a value that
-/// is not a number or not finite, a time beyond kMaxTimeS, a non-integer setup id, no samples.
+/// is not a number or not finite, an angle beyond kMaxAngleDeg, a reading beyond kMaxReadingMm, a
+/// time beyond kMaxTimeS, a non-integer setup id, no samples.
 PointsData ReadPointsFile(const std::string& path);
 
 /// As ReadPointsFile(), from a stream; `source` names it in messages.
@@ -187,6 +188,14 @@ inline constexpr double kMaxProbeOffsetMm = 10000.0;
 /// 8.6e11 s), with a span between two times that no computation overflows and a resolution of
 /// 0.1 ms left in a double.
 inline constexpr double kMaxTimeS = 1e12;
+
+/// The largest magnitude of a probe reading (column r_mm) that files accept [mm]: the reach of
+/// points (kMaxPointCoordinateMm), beyond which the readings are not in mm of any machine.
+inline constexpr double kMaxReadingMm = 1e6;
+
+/// The largest magnitude of an angle (columns theta_deg, phi_deg) that files accept [deg]:
+/// 2.8 million turns of a multi-turn encoder, where a double still resolves 1e-7 deg.
+inline constexpr double kMaxAngleDeg = 1e9;
 
 /// The header field "key: value" for the radius and offset, and the allowed column names.
 inline constexpr const char* kRadiusKey = "sphere_radius_mm";
