@@ -8,7 +8,7 @@
 // more setups, the transfer between setups, weighs it against a pattern fixed on the sphere (or,
 // with the form separable, against the form of the highest degree searched), and adds the best one
 // that qualifies; ambiguities are reported with the measurement that would separate them. The rules
-// and every threshold of TraceOptions: docs/method/closing-the-loop.md; the form:
+// and every threshold of TraceOptions: docs/method/tracing-the-residual.md; the form:
 // docs/method/form-separation.md.
 //
 // Units: the fits in rad and mm; the results' *_um fields in um. Candidates are scored in parallel;
@@ -193,7 +193,7 @@ struct TraceResult {
 /// kMaxEffectHarmonic (a scan with a reading per SYNC has thousands of distinct angles).
 HarmonicOrders PatternOrders(const PointsData& points);
 
-/// Traces the residual of `points` (docs/method/closing-the-loop.md). `base` is the seven-error
+/// Traces the residual of `points` (docs/method/tracing-the-residual.md). `base` is the seven-error
 /// calibration of the same points and options; the readings it left out as outliers are left out of the
 /// selection and judged again under the final model. The effect reference is that of all the
 /// readings (EffectReferenceOf).
