@@ -247,6 +247,11 @@ void CheckSimulationSetup(const SimulationSpec& spec);
 /// seeded from spec.seed.
 void AddReadingNoise(PointsData& data, const SimulationSpec& spec);
 
+/// The truth file (JSON, "format": "sph-truth") of the simulation of `spec` that made `data` with
+/// `reference`: the seven errors, centres, setups, R0, d, noise, seed, effects, the form and the
+/// outliers, each in its report unit (sph_simulate --truth).
+std::string SimulationTruthJson(const SimulationSpec& spec, const EffectReference& reference, const PointsData& data);
+
 }  // namespace sph
 
 #endif  // SPH_CORE_SIMULATE_HPP_
