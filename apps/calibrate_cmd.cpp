@@ -8,6 +8,7 @@
 #include "calibrate_plots.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/output_files.hpp"
+#include "sph/core/parameter_settings.hpp"
 #include "sph/model/effect_terms.hpp"
 
 namespace sph::apps {
@@ -67,6 +68,29 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
       ->check(IntRange(ranges::kDriftOrder));
   AddSeedOption(app, o.workflow.tracing.seed, "Seed of the cross-validation folds")->capture_default_str();
   AddConditionOptions(app, o.workflow.conditions, "(overrides the file's ");
+  const std::string told = "Fix, inform and weight (sph/core/parameter_settings.hpp)";
+  app.add_option("--fix", o.fix,
+                 "Hold a parameter instead of fitting it: NAME at its start value (the seven errors: 0), or "
+                 "NAME_UNIT=VALUE, e.g. d_prime_mm=-0.062 (units deg, arcsec, urad, mm, um); a parameter is one of "
+                 "the seven errors or an effect's (theta_encoder.c2); repeatable; overrides the file's 'fix'")
+      ->group(told);
+  app.add_option("--prior", o.prior,
+                 "A Gaussian prior from an independent measurement: NAME_UNIT=VALUE,U with U its standard "
+                 "uncertainty, e.g. alpha_deg=0.02,0.0005; listed in the uncertainty budget as an input of its own; "
+                 "repeatable; overrides the file's 'prior'")
+      ->group(told);
+  auto* robust =
+      app.add_option("--robust-loss", o.robust_loss,
+                     "Fit with a robust loss instead of least squares and the outlier rule, every reading kept at a "
+                     "weight: huber or cauchy (with --no-trace or --effects)")
+          ->check(CLI::IsMember({"huber", "cauchy"}))
+          ->group(told);
+  app.add_option("--robust-scale-sigma", o.workflow.fit.robust_scale_sigma,
+                 "The robust loss' scale in units of the readings' noise (1.4826 median absolute deviation of the "
+                 "residuals); default: huber 1.345, cauchy 2.385")
+      ->check(CLI::Range(0.01, 100.0))
+      ->needs(robust)
+      ->group(told);
   app.add_option("--coverage", o.workflow.coverage,
                  "Coverage probability of the expanded uncertainties U = k u (k from the effective degrees of "
                  "freedom); default: k = 2")
@@ -134,6 +158,24 @@ void StageCalibrationFile(const CalibrateOptions& o, const CalibrationWorkflowRe
   files.Stage(o.output_path, [&](std::ostream& f) { WriteCalibration(f, file); });
 }
 
+// The workflow's options: the app's as parsed, the texts of --fix, --prior, --robust-loss and
+// --effects read.
+CalibrationWorkflowOptions WorkflowOf(const CalibrateOptions& o) {
+  CalibrationWorkflowOptions workflow = o.workflow;
+  workflow.program = "sph_calibrate " SPH_VERSION;
+  for (const std::string& text : o.fix) workflow.fit.fixed.push_back(ParseFixedParameter(text, "--fix " + text));
+  for (const std::string& text : o.prior) {
+    workflow.fit.priors.push_back(ParseParameterPrior(text, "--prior " + text));
+  }
+  if (!o.robust_loss.empty()) {
+    workflow.fit.robust_loss = o.robust_loss == "cauchy" ? RobustLoss::kCauchy : RobustLoss::kHuber;
+  }
+  for (const std::string& id : o.effects) {
+    EffectFromId(id, &workflow.effects.emplace_back());  // an id the option checked
+  }
+  return workflow;
+}
+
 }  // namespace
 
 int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err) {
@@ -143,11 +185,7 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     const bool text = !o.quiet && o.json_path != "-";
     PathsOf(o, text);
     Progress progress(prog, err, o.progress);
-    CalibrationWorkflowOptions workflow = o.workflow;
-    workflow.program = prog + " " SPH_VERSION;
-    for (const std::string& id : o.effects) {
-      EffectFromId(id, &workflow.effects.emplace_back());  // an id the option checked
-    }
+    CalibrationWorkflowOptions workflow = WorkflowOf(o);
     workflow.on_stage = [&](const std::string& stage) { progress.Stage(stage); };
     workflow.on_warning = [&](const std::string& warning) {
       progress.Finish();

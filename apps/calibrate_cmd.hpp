@@ -20,6 +20,9 @@ struct CalibrateOptions {
   std::string points_path;
   CalibrationWorkflowOptions workflow;
   std::vector<std::string> effects;              ///< --effects' ids, into workflow.effects
+  std::vector<std::string> fix;                  ///< parameters held: NAME or NAME_UNIT=VALUE, into workflow.fit.fixed
+  std::vector<std::string> prior;                ///< Gaussian priors: NAME_UNIT=VALUE,U, into workflow.fit.priors
+  std::string robust_loss;                       ///< "huber" or "cauchy", into workflow.fit.robust_loss
   std::string json_path;                         ///< JSON report ("-" for stdout), empty: none
   std::string output_path;                       ///< calibration file, empty: none
   bool quiet = false;                            ///< no text report on stdout

@@ -1,7 +1,5 @@
 #include "montecarlo_cmd.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -12,6 +10,7 @@
 #include <CLI/CLI.hpp>
 
 #include "gnuplot.hpp"
+#include "progress.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"
 #include "sph/calib/montecarlo.hpp"
@@ -54,23 +53,6 @@ MonteCarloStudyOptions ToSpec(const MonteCarloAppOptions& o) {
   }
   return spec;
 }
-
-class ProgressBar {
- public:
-  ProgressBar(std::ostream& err, bool enabled) : err_(err), enabled_(enabled && ::isatty(STDERR_FILENO) == 1) {}
-  void operator()(long done, long total) {
-    if (!enabled_) return;
-    const int width = 40;
-    const int filled = static_cast<int>(width * done / total);
-    err_ << "\rsph_montecarlo: [" << std::string(static_cast<std::size_t>(filled), '#')
-         << std::string(static_cast<std::size_t>(width - filled), '.') << "] " << (100 * done / total) << "% (" << done
-         << "/" << total << ")" << (done == total ? "\n" : "") << std::flush;
-  }
-
- private:
-  std::ostream& err_;
-  bool enabled_;
-};
 
 // Figure 4: std against eccentricity with the Cramer-Rao curve, and the spread of the estimates:
 // the data, the script and the three images, staged in the folder `dir` (PlotFolder::Make()).
@@ -222,7 +204,9 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloAppOptions& o) {
       ->capture_default_str()
       ->needs(orient)
       ->check(InRange(ranges::kPivotMm));
-  app.add_flag("!--no-progress", o.progress, "No progress bar");
+  app.add_flag("!--no-progress", o.progress,
+               "No progress on stderr (default: on a terminal once the run takes longer than a second; into a log "
+               "once it takes longer than ten seconds, a line now and then)");
 }
 
 int RunMonteCarloApp(const MonteCarloAppOptions& o, std::ostream& out, std::ostream& err) {
@@ -244,9 +228,10 @@ int RunMonteCarloApp(const MonteCarloAppOptions& o, std::ostream& out, std::ostr
     if (o.plan) return RunPlan(o, spec, out, files);
     if (o.target_std_um) throw Error("--target-std-um goes with --plan");
     if (o.plan_orientations) return RunOrientationPlan(o, spec, out, files);
-    ProgressBar bar(err, o.progress);
+    Progress progress("sph_montecarlo", err, o.progress ? ProgressMode::kAuto : ProgressMode::kNever);
     const auto t0 = std::chrono::steady_clock::now();
-    const MonteCarloStudy r = RunMonteCarlo(spec, [&](long d, long t) { bar(d, t); });
+    const MonteCarloStudy r = RunMonteCarlo(spec, [&](long d, long t) { progress.Update("calibrating", d, t); });
+    progress.Finish();
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const bool text = o.json_path != "-";
     if (text) WriteStudyTables(out, spec, r);

@@ -37,7 +37,7 @@ struct MonteCarloAppOptions {
   double plot_timeout_s = kDefaultPlotTimeoutS;  ///< gnuplot is stopped after this long
   bool plan = false;                             ///< predict only, no simulation
   std::optional<double> target_std_um;           ///< with plan: search the smallest eccentricity
-  bool progress = true;                          ///< progress bar on stderr when it is a terminal
+  bool progress = true;                          ///< progress on stderr (ProgressMode::kAuto), or none
   /// --plan-orientations: the mount orientations that separate the sphere's form from the machine.
   bool plan_orientations = false;
   std::vector<std::string> effects;              ///< the machine's effects (ids); empty: the whole library

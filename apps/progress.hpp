@@ -12,7 +12,9 @@ namespace sph::apps {
 
 /// When a program shows its progress (--progress / --no-progress).
 enum class ProgressMode {
-  kAuto,    ///< on a terminal, once the run has taken longer than a second
+  /// On a terminal, once the run has taken longer than a second; elsewhere (a log), once it has
+  /// taken longer than ten seconds, a line per stage and at most one every ten seconds
+  kAuto,
   kAlways,  ///< from the start, on a terminal or not (a line per update when not)
   kNever,
 };
@@ -21,11 +23,14 @@ enum class ProgressMode {
 void AddProgressOptions(CLI::App& app, ProgressMode& mode);
 
 /// Progress on `err`, as "<program>: <stage> 45% (90/200)". On a terminal the line is redrawn in
-/// place; elsewhere (kAlways only) each update is a line of its own. Updates come at most ten
-/// times a second, except the last of a stage. Not thread-safe: callers serialise the updates.
+/// place; elsewhere each update is a line of its own (kAuto: only in runs longer than ten seconds,
+/// a line per stage and one every ten seconds). Updates come at most ten times a second, except
+/// the last of a stage. Not thread-safe: callers serialise the updates.
 class Progress {
  public:
-  Progress(std::string program, std::ostream& err, ProgressMode mode);
+  /// `log_after`: how long a run must take before kAuto writes into a log (ten seconds).
+  Progress(std::string program, std::ostream& err, ProgressMode mode,
+           std::chrono::milliseconds log_after = std::chrono::seconds(10));
   ~Progress();  ///< ends the line (Finish())
   Progress(const Progress&) = delete;
   Progress& operator=(const Progress&) = delete;
@@ -44,6 +49,8 @@ class Progress {
   bool enabled_;
   bool terminal_;
   bool delayed_;  ///< shown only once a second has passed since the start
+  bool log_;      ///< kAuto into a log: after log_after_, a line per stage and at most one every ten seconds
+  std::chrono::milliseconds log_after_;
   Clock::time_point start_ = Clock::now();
   Clock::time_point last_{};
   std::string last_stage_;

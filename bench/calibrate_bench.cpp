@@ -9,6 +9,7 @@
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "study_designs.hpp"
 
 namespace {
 
@@ -38,7 +39,7 @@ void RunCalibrations(benchmark::State& state, const sph::PointsData& data, const
   state.counters["lm_iterations"] = iterations;
 }
 
-// Solve only: problem building and Levenberg-Marquardt.
+// Solve only: problem building and the solve.
 void BM_CalibrateSolve(benchmark::State& state) {
   RunCalibrations(state, Data(static_cast<int>(state.range(0)), static_cast<int>(state.range(1))), Options(false));
 }
@@ -54,6 +55,16 @@ void BM_CalibrateFull(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_CalibrateFull)->Unit(benchmark::kMillisecond);
+
+// Growth over the number of setups: calibrations of `setups` placements of 12 readings each, with
+// the analysis and the outlier rule (what sph_calibrate --no-trace computes), which eliminate
+// each setup's centre first (a Schur complement): the cost grows with the setups, not their cube.
+void BM_CalibrateSetups(benchmark::State& state) {
+  const sph::PointsData data = sph::Simulate(sph::bench::ManySetups(static_cast<int>(state.range(0))));
+  RunCalibrations(state, data, Options(true));
+  state.counters["setups"] = static_cast<double>(state.range(0));
+}
+BENCHMARK(BM_CalibrateSetups)->Arg(25)->Arg(50)->Arg(100)->Arg(200)->Unit(benchmark::kMillisecond);
 
 // Solve only, of the points file named by SPH_BENCH_POINTS (its header's R0 and d): the same data
 // another implementation is timed on (bench/peer_scipy.sh). Registered only when it is set.

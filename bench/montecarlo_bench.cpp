@@ -49,6 +49,25 @@ BENCHMARK(BM_StudyPoints)
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
+// Growth over the number of placements: 2 calibrations of `setups` placements of the paper's 288
+// readings at 2 mm (sph_montecarlo --trials 2 --no-table3 --setups N --eccentricities-mm 2), each
+// with the prediction of its design (PredictUncertainty(), through the block structure of the
+// Jacobian), on 2 threads.
+void BM_StudySetups(benchmark::State& state) {
+  sph::MonteCarloSpec spec;
+  spec.eccentricities_mm = {2.0};
+  spec.trials = 2;
+  spec.setups = static_cast<int>(state.range(0));
+  spec.threads = 2;
+  for (auto _ : state) {
+    const sph::MonteCarloResult r = sph::RunMonteCarlo(spec);
+    benchmark::DoNotOptimize(r.rows.data());
+  }
+  state.counters["setups"] = static_cast<double>(spec.setups);
+  state.counters["peak_rss_MB"] = sph::bench::PeakRssMb();
+}
+BENCHMARK(BM_StudySetups)->Arg(25)->Arg(50)->Arg(100)->UseRealTime()->Unit(benchmark::kMillisecond);
+
 }  // namespace
 
 BENCHMARK_MAIN();

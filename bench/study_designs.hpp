@@ -2,9 +2,11 @@
 #ifndef SPH_BENCH_STUDY_DESIGNS_HPP_
 #define SPH_BENCH_STUDY_DESIGNS_HPP_
 
+#include <cmath>
 #include <vector>
 
 #include "sph/core/simulate.hpp"
+#include "sph/model/units.hpp"
 
 namespace sph::bench {
 
@@ -15,6 +17,21 @@ inline const std::vector<FormComponent>& Form28() {
       {2, 0, 0.062},  {2, 2, -0.049}, {3, 1, 0.049},  {3, -3, 0.037}, {4, 0, -0.043}, {4, 2, 0.031}, {5, -2, 0.037},
       {5, 4, -0.025}, {6, 1, 0.031},  {6, -5, 0.025}, {7, 3, -0.025}, {8, 0, 0.025},  {8, -6, 0.019}};
   return form;
+}
+
+/// Many small setups: the 4 x 3 grid (12 readings) in each of `setups` placements of the sphere at
+/// 2 mm eccentricity, setup k turned by 7 k 360 / setups deg about the Theta axis and at height
+/// 0.3 (k mod 9 - 4) mm: what an acquisition that starts a setup every few readings gives.
+inline SimulationSpec ManySetups(int setups) {
+  SimulationSpec spec;
+  spec.pattern = GridPattern(4, 3);
+  spec.seed = 5;
+  spec.centers_mm.clear();
+  for (int k = 0; k < setups; ++k) {
+    const double a = 7.0 * 2.0 * kPi * k / setups;
+    spec.centers_mm.emplace_back(2.0 * std::cos(a), 2.0 * std::sin(a), 0.3 * (k % 9 - 4));
+  }
+  return spec;
 }
 
 }  // namespace sph::bench

@@ -107,6 +107,22 @@ void BM_Trace1440FiveOrientations(benchmark::State& state) {
 }
 BENCHMARK(BM_Trace1440FiveOrientations)->UseRealTime()->Unit(benchmark::kMillisecond);
 
+// Growth over the number of setups: the seven-error calibration and its trace (what sph_calibrate
+// computes by default) of `setups` placements of 12 readings each (the 200 setups: 2400 readings).
+void BM_TraceSetups(benchmark::State& state) {
+  const sph::PointsData data = sph::Simulate(sph::bench::ManySetups(static_cast<int>(state.range(0))));
+  const sph::CalibrationOptions o = Options();
+  sph::TraceOptions trace;
+  trace.threads = 2;
+  for (auto _ : state) {
+    const sph::CalibrationResult base = sph::Calibrate(data, o);
+    const sph::TraceResult r = sph::TraceResidual(data, o, base, trace);
+    benchmark::DoNotOptimize(r.after.cv_rms_um);
+  }
+  state.counters["setups"] = static_cast<double>(state.range(0));
+}
+BENCHMARK(BM_TraceSetups)->Arg(25)->Arg(50)->Arg(100)->Arg(200)->UseRealTime()->Unit(benchmark::kMillisecond);
+
 // One fit with one effect term of 6 parameters (Theta encoder harmonics 2..4), with the analysis.
 void BM_FitOneEffect(benchmark::State& state) {
   const sph::PointsData data = Data(false);

@@ -50,12 +50,32 @@ CalibrationInputs CalibrationInputs::With(const SphereConditions& stated) const 
 }
 
 CalibrationBudget MakeCalibrationBudget(const PointsData& fitted, const CalibrationOptions& options,
+                                        const CalibrationResult& fit, const CalibrationInputs& inputs,
+                                        const BudgetRefit& refit) {
+  CalibrationOptions o = options;
+  o.prior_sigma_mm = fit.prior_sigma_mm;
+  o.robust_sigma_mm = fit.robust_sigma_mm;
+  return MakeCalibrationBudget(fitted, o, fit.analysis, fit.n_points, inputs, refit);
+}
+
+CalibrationBudget MakeCalibrationBudget(const PointsData& fitted, const CalibrationOptions& options,
                                         const ObservabilityReport& analysis, int n_points, const CalibrationInputs& in,
                                         const BudgetRefit& refit) {
   if (analysis.Empty()) throw Error("uncertainty budget: the fit was not analysed");
   const auto n = static_cast<Eigen::Index>(analysis.parameters.size());
   CalibrationBudget b;
-  b.type_a_dof = static_cast<double>(n_points) - static_cast<double>(n);
+  // The priors on parameters of the fit that it did not hold: inputs of their own.
+  std::vector<std::pair<std::size_t, Eigen::Index>> priors;  // (prior, parameter)
+  for (std::size_t k = 0; k < options.priors.size(); ++k) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (analysis.parameters[static_cast<std::size_t>(i)].name == options.priors[k].name &&
+          !analysis.IsHeld(static_cast<int>(i))) {
+        priors.emplace_back(k, i);
+      }
+    }
+  }
+  b.type_a_dof = analysis.degrees_of_freedom > 0.0 ? analysis.degrees_of_freedom
+                                                   : static_cast<double>(n_points) - static_cast<double>(n);
   b.coverage = in.coverage;
 
   // Sensitivities by refits of the same readings, the search started where the fit ended.
@@ -96,11 +116,39 @@ CalibrationBudget MakeCalibrationBudget(const PointsData& fitted, const Calibrat
   BudgetSensitivity scale{"probe scale", "probe scale", "relative", in.probe_scale_u, kInfiniteDof, s_scale, ""};
   scale.note = in.probe_scale_u > 0.0 ? "of the probe reading" : "not stated (probe_scale_u)";
   b.inputs = {radius, temperature, scale};
+  // Each prior by refits with its value moved by its own uncertainty (the fit is linear in it).
+  Eigen::MatrixXd type_a = analysis.covariance;
+  for (const auto& [k, i] : priors) {
+    const ParameterPrior& prior = options.priors[k];
+    CalibrationOptions moved_up = o, moved_down = o;
+    moved_up.priors[k].value += prior.u;
+    moved_down.priors[k].value -= prior.u;
+    const std::string& name = analysis.parameters[static_cast<std::size_t>(i)].name;
+    const Eigen::VectorXd per_internal =
+        CentralDifference(refit(fitted, moved_up), refit(fitted, moved_down), prior.u, ("prior on " + name).c_str());
+    const bool angle = analysis.parameters[static_cast<std::size_t>(i)].quantity == Quantity::kAngle;
+    const double unit = angle ? 1.0 / kUradPerRad : kMmPerUm;  // internal units per urad or um
+    BudgetSensitivity s{"prior on " + name,
+                        "prior " + name,
+                        angle ? "urad" : "um",
+                        prior.u / unit,
+                        kInfiniteDof,
+                        per_internal * unit,
+                        "the standard uncertainty of an independent measurement of it"};
+    type_a -= s.per_unit * s.per_unit.transpose() * (s.u * s.u);
+    b.inputs.push_back(s);
+  }
 
-  b.covariance = analysis.covariance;
+  b.covariance = type_a;
   for (const BudgetSensitivity& s : b.inputs) b.covariance += s.per_unit * s.per_unit.transpose() * (s.u * s.u);
 
   for (Eigen::Index i = 0; i < n; ++i) {
+    if (analysis.IsHeld(static_cast<int>(i))) {  // held: no uncertainty of its own
+      UncertaintyStatement none;
+      none.u = none.U = 0.0;
+      b.statements.push_back(none);
+      continue;
+    }
     if (!analysis.determined[static_cast<std::size_t>(i)] || !std::isfinite(analysis.std(i))) {
       UncertaintyStatement none;
       none.u = none.U = std::numeric_limits<double>::infinity();
@@ -108,8 +156,9 @@ CalibrationBudget MakeCalibrationBudget(const PointsData& fitted, const Calibrat
       continue;
     }
     std::vector<BudgetInput> inputs;
-    inputs.push_back({"fit (scatter of the points)", EvaluationType::kA, analysis.std(i), 1.0, b.type_a_dof, "",
-                      "the fit's covariance"});
+    const double std_a = priors.empty() ? analysis.std(i) : std::sqrt(std::max(type_a(i, i), 0.0));
+    inputs.push_back(
+        {"fit (scatter of the points)", EvaluationType::kA, std_a, 1.0, b.type_a_dof, "", "the fit's covariance"});
     for (const BudgetSensitivity& s : b.inputs) {
       inputs.push_back({s.input, EvaluationType::kB, s.u, s.per_unit(i), s.dof, s.unit, s.note});
     }

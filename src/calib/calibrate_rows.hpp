@@ -6,7 +6,6 @@
 #include <vector>
 
 #include "fit_problem.hpp"
-#include "levenberg_marquardt.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 
@@ -32,14 +31,13 @@ std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOpt
 
 /// One least-squares fit of the samples of `table` (the readings of `points`) not marked in
 /// `left_out` (table-indexed; null: all). Residuals in file order of the samples fitted.
-/// `workspace` (optional) is reused across calls; `start_spheres`: StartSpheres() when known.
+/// `start_spheres`: StartSpheres() when known.
 CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
-                                const CalibrationOptions& options, LmWorkspace* workspace = nullptr,
-                                const std::vector<Sphere>* start_spheres = nullptr);
+                                const CalibrationOptions& options, const std::vector<Sphere>* start_spheres = nullptr);
 
 /// Calibrate() of `points` whose readings `table` holds.
-CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& table, const CalibrationOptions& options,
-                                 LmWorkspace* workspace = nullptr);
+CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& table,
+                                 const CalibrationOptions& options);
 
 }  // namespace sph::internal
 

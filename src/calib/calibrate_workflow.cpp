@@ -6,6 +6,7 @@
 
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
+#include "sph/core/parameter_settings.hpp"
 #include "sph/core/ranges.hpp"
 #include "sph/core/setup_checks.hpp"
 #include "sph/core/valid_range.hpp"
@@ -49,8 +50,7 @@ void MakeBudget(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions
     return ParameterVector(fit.calibration, fit.values, fit.form_values);
   };
   try {
-    run.budget = MakeCalibrationBudget(WithoutOutliers(run.points, result), run.settings, result.analysis,
-                                       result.n_points, run.inputs, refit);
+    run.budget = MakeCalibrationBudget(WithoutOutliers(run.points, result), run.settings, result, run.inputs, refit);
   } catch (const std::exception& e) {
     run.warnings.push_back(std::string("no uncertainty budget: ") + e.what());
     if (o.on_warning) o.on_warning(run.warnings.back());
@@ -82,6 +82,29 @@ void Settle(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o)
     run.settings.sphere_radii_mm[setup] = run.inputs.RadiusAtTemperatureMm(radius_mm);  // same temperature, CTE
   }
   run.settings.probe_offset_mm = *offset;
+  // What the header holds and informs, then the options' (which win for a parameter both name).
+  auto named = [&](const std::string& name) {
+    return std::any_of(o.fit.fixed.begin(), o.fit.fixed.end(),
+                       [&](const FixedParameter& f) { return f.name == name; }) ||
+           std::any_of(o.fit.priors.begin(), o.fit.priors.end(),
+                       [&](const ParameterPrior& p) { return p.name == name; });
+  };
+  run.settings.fixed.clear();
+  run.settings.priors.clear();
+  for (const FixedParameter& f : FixedParametersOf(header)) {
+    if (!named(f.name)) run.settings.fixed.push_back(f);
+  }
+  for (const ParameterPrior& p : ParameterPriorsOf(header)) {
+    if (!named(p.name)) run.settings.priors.push_back(p);
+  }
+  run.settings.fixed.insert(run.settings.fixed.end(), o.fit.fixed.begin(), o.fit.fixed.end());
+  run.settings.priors.insert(run.settings.priors.end(), o.fit.priors.begin(), o.fit.priors.end());
+  if (o.fit.robust_loss != RobustLoss::kNone && o.trace && o.effects.empty()) {
+    throw Error(
+        "--robust-loss keeps every reading at a weight, which the trace's selection of effects does not "
+        "(it judges outliers by their residuals): use it with --no-trace, or with --effects for a fixed "
+        "model");
+  }
   run.probe_range_mm = o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(header).probe_range_mm;
   if (run.probe_range_mm) {
     CheckReadingsInProbeRange(run.points, *run.probe_range_mm,

@@ -1,4 +1,4 @@
-// The seven-error calibration: start values, Levenberg-Marquardt, outliers, analysis.
+// The seven-error calibration: start values, the solve, outliers, analysis.
 #include "sph/calib/calibrator.hpp"
 
 #include <algorithm>
@@ -12,6 +12,7 @@
 #include "calibrate_rows.hpp"
 #include "fit_problem.hpp"
 #include "problem_eval.hpp"
+#include "solve_fit.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
@@ -142,8 +143,7 @@ std::vector<Sphere> StartSpheres(const ReadingTable& table, const CalibrationOpt
 }
 
 CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
-                                const CalibrationOptions& options, LmWorkspace* workspace,
-                                const std::vector<Sphere>* start_spheres) {
+                                const CalibrationOptions& options, const std::vector<Sphere>* start_spheres) {
   CheckFitOptions(points, options);
   RowsOfSetup rows = AllRows(table, left_out);
   CalibrationResult result;
@@ -167,13 +167,11 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
     result.centers_mm.push_back(fit.center);
   }
 
-  // One residual per sample (the residual of sph/ceres/sphere_residual.hpp's functor), the gradient
-  // derived by hand (sph/model/residual_gradient.hpp), Levenberg-Marquardt on the normal equations.
+  // One residual per sample (sph/ceres/sphere_residual.hpp), the gradient derived by hand
+  // (sph/model/residual_gradient.hpp), solved by Ceres (solve_fit.hpp).
   const SphereFitProblem problem(table, std::move(rows), EffectModel{}, options);
   Eigen::VectorXd x = problem.Pack(result.geometry, result.centers_mm, {});
-  LmWorkspace local;
-  LmWorkspace& lm = workspace ? *workspace : local;
-  SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
+  const SolvedFit solved = SolveFit(problem, x, options, n_samples, result, points.source);
   problem.Unpack(x, &result.geometry, &result.centers_mm, nullptr);
   if (!options.analyse) return result;
 
@@ -188,9 +186,10 @@ CalibrationResult CalibrateRows(const PointsData& points, const ReadingTable& ta
     rss += all[i] * all[i];
   }
   SetResidualStatistics(result);
+  NoteWeightedReadings(points, solved, all, result);
   std::vector<ParameterDescription> desc = BaseParameterDescriptions(result.setup_ids, options.sphere_radius_mm);
-  result.analysis = AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples), rss,
-                               std::move(desc), options.max_std_um);
+  result.analysis = AnalyseSolved(problem, x, solved, solved.Plain() ? rss : WeightedRss(problem, solved, all),
+                                  std::move(desc), options.max_std_um);
   ExplainUndetermined(points, left_out, options, result);
   return result;
 }
@@ -227,18 +226,40 @@ std::vector<double> ResidualsOf(const internal::ReadingTable& table, const Calib
 
 }  // namespace
 
-std::string DescribeOutliers(const PointsData& points, const std::vector<Outlier>& outliers) {
+namespace {
+
+// "sample 18 (line 24, theta 240 deg, phi 7.5 deg, residual +999 um<more>)" for each of `count`
+// readings (sample(k), residual_um(k), more(k)), cut after about 400 characters.
+template <typename SampleOf, typename Residual, typename More>
+std::string DescribeSamples(const PointsData& points, std::size_t count, SampleOf sample, Residual residual_um,
+                            More more) {
   std::string rows;
-  for (const Outlier& o : outliers) {
+  for (std::size_t k = 0; k < count; ++k) {
     if (rows.size() >= 400) return rows + "; ...";
-    const Sample& s = points.samples[o.sample];
+    const std::size_t i = sample(k);
+    const Sample& s = points.samples[i];
     const std::string line =
-        o.sample < points.sample_lines.size() ? "line " + std::to_string(points.sample_lines[o.sample]) + ", " : "";
-    rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(o.sample + 1) + " (" + line + "theta " +
+        i < points.sample_lines.size() ? "line " + std::to_string(points.sample_lines[i]) + ", " : "";
+    rows += std::string(rows.empty() ? "" : "; ") + "sample " + std::to_string(i + 1) + " (" + line + "theta " +
             Format("%g", s.theta_deg) + " deg, phi " + Format("%g", s.phi_deg) + " deg, residual " +
-            Format("%+.3g", o.residual_um) + " um)";
+            Format("%+.3g", residual_um(k)) + " um" + more(k) + ")";
   }
   return rows;
+}
+
+}  // namespace
+
+std::string DescribeOutliers(const PointsData& points, const std::vector<Outlier>& outliers) {
+  return DescribeSamples(
+      points, outliers.size(), [&](std::size_t k) { return outliers[k].sample; },
+      [&](std::size_t k) { return outliers[k].residual_um; }, [](std::size_t) { return std::string(); });
+}
+
+std::string DescribeWeightedReadings(const PointsData& points, const std::vector<WeightedReading>& readings) {
+  return DescribeSamples(
+      points, readings.size(), [&](std::size_t k) { return readings[k].sample; },
+      [&](std::size_t k) { return readings[k].residual_um; },
+      [&](std::size_t k) { return ", weight " + Format("%.3g", readings[k].weight); });
 }
 
 PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& result) {
@@ -316,10 +337,9 @@ std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, const 
 
 namespace internal {
 
-CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& table, const CalibrationOptions& options,
-                                 LmWorkspace* workspace) {
-  if (!options.analyse || !(options.outlier_sigma > 0.0))
-    return CalibrateRows(points, table, nullptr, options, workspace);
+CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& table,
+                                 const CalibrationOptions& options) {
+  if (!options.analyse || !options.LeavesOutOutliers()) return CalibrateRows(points, table, nullptr, options);
   // Robust rejection: the median and the median absolute deviation of the residuals do not follow
   // a few gross errors, as a least-squares fit does. Marked first at the start values, so that the
   // first fit is not pulled away by them; then judged again under each fit.
@@ -331,7 +351,7 @@ CalibrationResult CalibrateTable(const PointsData& points, const ReadingTable& t
         !MarkOutliers(StartResiduals(table, options, out, &spheres), table.setup, options.outlier_sigma, out);
   }
   auto fit_kept = [&] {
-    CalibrationResult r = CalibrateRows(points, table, &out, options, workspace, spheres_of_out ? &spheres : nullptr);
+    CalibrationResult r = CalibrateRows(points, table, &out, options, spheres_of_out ? &spheres : nullptr);
     spheres_of_out = false;
     for (std::size_t i = 0; i < out.size(); ++i) {
       if (out[i]) r.outliers.push_back({i, 0.0});

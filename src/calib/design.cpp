@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include "block_factor.hpp"
+#include "fit_problem.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/error.hpp"
 #include "sph/model/units.hpp"
@@ -50,19 +52,18 @@ PredictedUncertainty PredictUncertainty(const SimulationSpec& spec) {
   CalibrationOptions o;
   o.sphere_radius_mm = spec.sphere_radius_mm;
   o.probe_offset_mm = spec.probe_offset_mm;
-  Eigen::MatrixXd jac = ResidualJacobian(exact, o, spec.truth, spec.centers_mm);
   const double sr = spec.noise_r_um * kMmPerUm;
   const double st = spec.noise_theta_arcsec * kRadPerArcsec;
   const double sp = spec.noise_phi_arcsec * kRadPerArcsec;
-  Eigen::VectorXd jac_weight(jac.rows());  // 1 / s_i
-  for (std::size_t i = 0; i < exact.samples.size(); ++i) {
-    const Sample& s = exact.samples[i];
+  const auto m = static_cast<Eigen::Index>(exact.samples.size());
+  Eigen::VectorXd weight(m);  // 1 / s_i
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const Sample& s = exact.samples[static_cast<std::size_t>(i)];
     const ReadingSlopes k = Slopes(spec.truth, s, spec.probe_offset_mm,
                                    spec.centers_mm[static_cast<std::size_t>(s.setup)], spec.sphere_radius_mm);
     const double var = sr * sr * k.d_r * k.d_r + st * st * k.d_theta * k.d_theta + sp * sp * k.d_phi * k.d_phi;
     if (!(var > 0.0)) throw Error("design: the noise is zero, so every parameter would be known exactly");
-    jac_weight(static_cast<Eigen::Index>(i)) = 1.0 / std::sqrt(var);
-    jac.row(static_cast<Eigen::Index>(i)) *= jac_weight(static_cast<Eigen::Index>(i));
+    weight(i) = 1.0 / std::sqrt(var);
   }
 
   PredictedUncertainty out;
@@ -72,9 +73,22 @@ PredictedUncertainty PredictUncertainty(const SimulationSpec& spec) {
     for (const char* axis : {"center_x", "center_y", "center_z"})
       out.parameters.push_back({axis + suffix, Quantity::kLength, 1.0});
   }
-  // Covariance through the SVD of the column-equilibrated Jacobian (observability.hpp).
-  const NormalInverse inv = InvertNormalMatrix(jac);
-  const Eigen::Index n = jac.cols();
+  // Covariance through the SVD of the column-equilibrated weighted Jacobian (observability.hpp); with
+  // many placements through its block structure (every reading depends on the seven errors and
+  // its own centre), at a cost linear in their number.
+  const internal::ReadingTable table(exact);
+  const internal::SphereFitProblem problem(table, internal::AllRows(table), EffectModel{}, o);
+  const Eigen::VectorXd x = problem.Pack(spec.truth, spec.centers_mm, {});
+  const int setups = problem.NumSetups();
+  NormalInverse inv;
+  if (internal::AnalyseByBlocks(setups, kNumScmsParams)) {
+    inv = problem.FactorBlocks(x.data(), nullptr, weight.data()).Invert();
+  } else {
+    Eigen::MatrixXd jac = problem.DenseJacobian(x.data());
+    jac = weight.asDiagonal() * jac;
+    inv = InvertNormalMatrix(jac);
+  }
+  const Eigen::Index n = problem.NumParams();
   out.condition_number = inv.condition_number;
   out.std = Eigen::VectorXd(n);
   for (Eigen::Index j = 0; j < n; ++j) {
@@ -86,30 +100,47 @@ PredictedUncertainty PredictUncertainty(const SimulationSpec& spec) {
     return out;
   }
 
-  // Box's second-order bias. C = (J^T W J)^-1; H_i by central differences of the (exact,
-  // hand-derived) Jacobian: column k of H_i = (J_i(x + h e_k) - J_i(x - h e_k)) / 2h.
+  // Box's second-order bias. C = (J^T W J)^-1, H_i = d^2 e_i / dx^2 by central differences of the
+  // Jacobian. Reading i depends on the seven errors and its own centre only: d_i = tr(C H_i) sums
+  // over those ten (local) parameters, H_i's columns from moving one of the errors, or one
+  // coordinate of every centre at once (each reading sees its own move).
+  constexpr int kLocal = kNumScmsParams + 3;
   const Eigen::MatrixXd& cov = inv.inverse;
-  const Eigen::Index m = jac.rows();
+  auto local_jacobian = [&](const Eigen::VectorXd& at) {
+    Eigen::Matrix<double, Eigen::Dynamic, kLocal, Eigen::RowMajor> rows(m, kLocal);
+    problem.ForEachBlock(at.data(), nullptr, true, [&](const internal::RowBlock& b) {
+      for (int i = 0; i < b.count; ++i) {
+        for (int c = 0; c < kLocal; ++c) rows(b.rows[i], c) = b.cols[c * internal::SphereFitProblem::kBlockRows + i];
+      }
+    });
+    return rows;
+  };
+  auto global = [&](int local, int setup) -> Eigen::Index {
+    return local < kNumScmsParams ? local : kNumScmsParams + 3 * setup + (local - kNumScmsParams);
+  };
   Eigen::VectorXd d = Eigen::VectorXd::Zero(m);
-  for (Eigen::Index k = 0; k < n; ++k) {
+  for (int k = 0; k < kLocal; ++k) {
     const double h =
         k < kNumScmsParams && kScmsParamInfo[static_cast<std::size_t>(k)].quantity == Quantity::kAngle ? 1e-6 : 1e-5;
-    auto shifted = [&](double step) {
-      ScmsGeometry g = spec.truth;
-      std::vector<Eigen::Vector3d> c = spec.centers_mm;
-      if (k < kNumScmsParams) {
-        g[static_cast<std::size_t>(k)] += step;
-      } else {
-        c[static_cast<std::size_t>((k - kNumScmsParams) / 3)]((k - kNumScmsParams) % 3) += step;
-      }
-      return ResidualJacobian(exact, o, g, c);
-    };
-    const Eigen::MatrixXd dj = (shifted(h) - shifted(-h)) / (2 * h);  // row i: column k of H_i
-    d += dj * cov.col(k);                                             // sum_j H_i(j, k) C(j, k)
+    Eigen::VectorXd plus = x, minus = x;
+    for (int s = 0; s < (k < kNumScmsParams ? 1 : setups); ++s) {
+      plus(global(k, s)) += h;
+      minus(global(k, s)) -= h;
+    }
+    const auto dj = ((local_jacobian(plus) - local_jacobian(minus)) / (2 * h)).eval();  // row i: column k of H_i
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const int s = table.setup[static_cast<std::size_t>(i)];
+      for (int j = 0; j < kLocal; ++j) d(i) += dj(i, j) * cov(global(j, s), global(k, s));
+    }
   }
-  // jac is already weighted by W^(1/2); d_i must be too.
-  for (Eigen::Index i = 0; i < m; ++i) d(i) *= jac_weight(i);
-  out.bias = -0.5 * cov * (jac.transpose() * d);
+  // bias = -1/2 C J^T W d, with J^T W d summed reading by reading over their local parameters.
+  const auto jac = local_jacobian(x);
+  Eigen::VectorXd jtwd = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const int s = table.setup[static_cast<std::size_t>(i)];
+    for (int j = 0; j < kLocal; ++j) jtwd(global(j, s)) += jac(i, j) * weight(i) * weight(i) * d(i);
+  }
+  out.bias = -0.5 * cov * jtwd;
   return out;
 }
 

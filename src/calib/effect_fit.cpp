@@ -10,6 +10,7 @@
 #include "effect_fit_rows.hpp"
 #include "fit_problem.hpp"
 #include "problem_eval.hpp"
+#include "solve_fit.hpp"
 #include "sph/core/error.hpp"
 
 namespace sph {
@@ -97,8 +98,7 @@ double FormAt(const EffectFit& fit, int setup_id, const Eigen::Vector3d& offset)
 namespace internal {
 
 EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
-                         const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start,
-                         LmWorkspace* workspace) {
+                         const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start) {
   const std::string& src = points.source;
   CheckFitOptions(points, options);
   EffectFit fit;
@@ -121,9 +121,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
   }
   const SphereFitProblem problem(table, std::move(rows), model, options);
   Eigen::VectorXd x = problem.Pack(start.geometry, start.centers_mm, values, start.form_values);
-  LmWorkspace local;
-  LmWorkspace& lm = workspace ? *workspace : local;
-  SolveCalibration(problem, x, options.max_iterations, n_samples, lm, result);
+  const SolvedFit solved = SolveFit(problem, x, options, n_samples, result, src);
   problem.Unpack(x, &result.geometry, &result.centers_mm, &fit.values, &fit.form_values);
   std::vector<double> all(table.size(), 0.0);
   problem.Residuals(x.data(), all.data());
@@ -134,11 +132,12 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
     fit.rss_mm2 += all[i] * all[i];
   }
   SetResidualStatistics(result);
+  NoteWeightedReadings(points, solved, all, result);
   if (!options.analyse) return fit;
 
   result.analysis =
-      AnalyseFit(NormalInverseAtSolution(problem, x, lm), static_cast<Eigen::Index>(n_samples), fit.rss_mm2,
-                 ParameterDescriptions(result.setup_ids, model, options.sphere_radius_mm), options.max_std_um);
+      AnalyseSolved(problem, x, solved, solved.Plain() ? fit.rss_mm2 : WeightedRss(problem, solved, all),
+                    ParameterDescriptions(result.setup_ids, model, options.sphere_radius_mm), options.max_std_um);
   return fit;
 }
 
@@ -174,14 +173,18 @@ void StructureJacobian::ForEach(const BlockFn& fn) const {
   const auto n = static_cast<int>(problem_.NumParams());
   problem_.ForEachGlobalBlock(
       x_.data(), offset_.empty() ? nullptr : offset_.data(),
-      [&](const std::uint32_t* rows, int count, double* jacobian) { fn(rows, count, jacobian, n); });
+      [&](const std::uint32_t* rows, int count, double* jacobian, int setup) { fn(rows, count, jacobian, n, setup); });
+}
+
+std::vector<Eigen::Index> StructureJacobian::GroupColumns() const {
+  std::vector<Eigen::Index> first;
+  for (int k = 0; k < problem_.NumSetups(); ++k) first.push_back(kNumScmsParams + 3 * static_cast<Eigen::Index>(k));
+  return first;
 }
 
 NormalInverse NormalInverseAt(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit) {
   const ProblemAt at(table, nullptr, options, fit, "");
-  LmWorkspace lm;
-  at.problem.Evaluate(at.x.data(), &lm.at_x);
-  return NormalInverseAtSolution(at.problem, at.x, lm);
+  return NormalInverseAtSolution(at.problem, at.x);
 }
 
 std::vector<double> ResidualsAt(const ReadingTable& table, const std::vector<bool>* left_out,

@@ -6,7 +6,6 @@
 #include <vector>
 
 #include "fit_problem.hpp"
-#include "levenberg_marquardt.hpp"
 #include "sph/calib/effect_fit.hpp"
 #include "sph/calib/observability.hpp"
 #include "sph/calib/residual_structure.hpp"
@@ -16,8 +15,7 @@ namespace sph::internal {
 /// FitEffects() of the samples of `table` (the readings of `points`) not marked in `left_out`
 /// (table-indexed; null: all). Residuals in file order of the samples fitted.
 EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
-                         const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start,
-                         LmWorkspace* workspace = nullptr);
+                         const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start);
 
 /// The Jacobian of `fit` over every sample of `table` (the readings it was fitted to, all of them),
 /// block by block, as the residual structure analysis needs it: at the readings the fit expects,
@@ -28,6 +26,8 @@ class StructureJacobian final : public JacobianBlocks {
   StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit);
   Eigen::Index Cols() const override { return problem_.NumParams(); }
   void ForEach(const BlockFn& fn) const override;
+  /// Each setup's centre (the rows come setup after setup).
+  std::vector<Eigen::Index> GroupColumns() const override;
 
  private:
   SphereFitProblem problem_;

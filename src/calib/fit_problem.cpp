@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <map>
 
@@ -631,16 +632,16 @@ SphereFitProblem::Incidence SphereFitProblem::IncidenceAt(const double* g, const
   return result;
 }
 
-void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
-                                  const std::uint32_t* idx, int count, double* e, double* cols) const {
+void SphereFitProblem::EffectRows(const SetupParams& p, const ScmsErrorTrig<double>& et, double d_plus_dprime,
+                                  int setup, const std::uint32_t* idx, int count, double* e, double* cols) const {
   Scratch& s = *scratch_;
-  const double* center = x + kNumScmsParams + 3 * setup;
+  const double* center = p.center;
   const bool form = num_form_terms_ > 0;
-  const double* form_values = x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_;
+  const double* form_values = p.form;
   const Eigen::Matrix3d& rotation = form_rotation_[static_cast<std::size_t>(setup)];
   const double radius_mm = radius_mm_[static_cast<std::size_t>(setup)];
-  const double* g = x;
-  const double* effect_values = x + first_effect_;
+  const double* g = p.geometry;
+  const double* effect_values = p.effects;
   BlockBasis(idx, count);
   SumTerms(effect_values, count);  // each term's sums, per target, as EffectScmsPoint() adds them
   const int n_eff = num_effect_params_;
@@ -724,49 +725,106 @@ void SphereFitProblem::EffectRows(const double* x, const ScmsErrorTrig<double>& 
   }
 }
 
+SetupParams SphereFitProblem::ParamsOf(const double* x, int setup) const {
+  SetupParams p;
+  p.geometry = x;
+  p.center = x + kNumScmsParams + 3 * setup;
+  p.effects = num_effect_params_ > 0 ? x + first_effect_ : nullptr;
+  p.form =
+      num_form_terms_ > 0 ? x + first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_ : nullptr;
+  return p;
+}
+
+void SphereFitProblem::EvaluateBlock(int k, const SetupParams& p, const ScmsErrorTrig<double>& et,
+                                     const std::uint32_t* idx, int count, const double* r_offset, bool jacobian) const {
+  Scratch& s = *scratch_;
+  const double d_plus_dprime = probe_offset_mm_ + p.geometry[kDPrime];
+  double* e = s.cols.data() + num_local_ * kRows;
+  double* cols = jacobian ? s.cols.data() : nullptr;
+  for (int i = 0; i < count; ++i) {
+    const std::uint32_t row = idx[i];
+    s.ct[i] = table_.cos_theta[row];
+    s.st[i] = table_.sin_theta[row];
+    s.cp[i] = table_.cos_phi[row];
+    s.sp[i] = table_.sin_phi[row];
+    s.r[i] = r_offset ? table_.r_mm[row] + r_offset[row] : table_.r_mm[row];
+  }
+  const auto setup = static_cast<std::size_t>(k);
+  if (model_.terms.empty() && num_form_terms_ == 0) {
+    const GatheredReadings gathered{s.ct, s.st, s.cp, s.sp, s.r, count};
+    if (jacobian) {
+      SevenErrors<true>(p.geometry, et, d_plus_dprime, p.center, radius_mm_[setup], gathered, e, cols);
+    } else {
+      SevenErrors<false>(p.geometry, et, d_plus_dprime, p.center, radius_mm_[setup], gathered, e, nullptr);
+    }
+  } else {
+    EffectRows(p, et, d_plus_dprime, k, idx, count, e, cols);
+  }
+}
+
 void SphereFitProblem::ForEachBlock(const double* x, const double* r_offset, bool jacobian,
                                     const std::function<void(const RowBlock&)>& fn) const {
   Scratch& s = *scratch_;
-  const double* g = x;
-  const ScmsErrorTrig<double> et = ErrorTrigOf(g);
-  const double d_plus_dprime = probe_offset_mm_ + g[kDPrime];
-  const int local = num_local_;
-  double* e = s.cols.data() + local * kRows;
-  double* cols = jacobian ? s.cols.data() : nullptr;
+  const ScmsErrorTrig<double> et = ErrorTrigOf(x);
   for (std::size_t k = 0; k < setups_.size(); ++k) {
-    const double* center = x + kNumScmsParams + 3 * k;
+    const SetupParams p = ParamsOf(x, static_cast<int>(k));
     const std::vector<std::uint32_t>& rows = rows_[k];
     for (std::size_t first = 0; first < rows.size(); first += kRows) {
       const int count = static_cast<int>(std::min<std::size_t>(kRows, rows.size() - first));
       const std::uint32_t* idx = rows.data() + first;
-      for (int i = 0; i < count; ++i) {
-        const std::uint32_t row = idx[i];
-        s.ct[i] = table_.cos_theta[row];
-        s.st[i] = table_.sin_theta[row];
-        s.cp[i] = table_.cos_phi[row];
-        s.sp[i] = table_.sin_phi[row];
-        s.r[i] = r_offset ? table_.r_mm[row] + r_offset[row] : table_.r_mm[row];
-      }
-      if (model_.terms.empty() && num_form_terms_ == 0) {
-        const GatheredReadings gathered{s.ct, s.st, s.cp, s.sp, s.r, count};
-        if (jacobian) {
-          SevenErrors<true>(g, et, d_plus_dprime, center, radius_mm_[k], gathered, e, cols);
-        } else {
-          SevenErrors<false>(g, et, d_plus_dprime, center, radius_mm_[k], gathered, e, nullptr);
-        }
-      } else {
-        EffectRows(x, et, d_plus_dprime, static_cast<int>(k), idx, count, e, cols);
-      }
+      EvaluateBlock(static_cast<int>(k), p, et, idx, count, r_offset, jacobian);
       RowBlock block;
       block.setup = static_cast<int>(k);
       block.rows = idx;
       block.count = count;
-      block.e = e;
-      block.cols = cols;
-      block.num_cols = local;
+      block.e = s.cols.data() + num_local_ * kRows;
+      block.cols = jacobian ? s.cols.data() : nullptr;
+      block.num_cols = num_local_;
       fn(block);
     }
   }
+}
+
+bool SphereFitProblem::EvaluateSetupRows(int setup, const SetupParams& p, int first, int count, double* residuals,
+                                         double* const* jacobians) const {
+  Scratch& s = *scratch_;
+  const ScmsErrorTrig<double> et = ErrorTrigOf(p.geometry);
+  const std::uint32_t* rows = rows_[static_cast<std::size_t>(setup)].data() + first;
+  const bool jacobian = jacobians != nullptr && std::any_of(jacobians, jacobians + NumSetupBlocks(),
+                                                            [](const double* j) { return j != nullptr; });
+  // Each block's columns within the local columns of RowBlock::cols: first and width.
+  const int n_eff = num_effect_params_;
+  const std::array<std::array<int, 2>, 4> blocks{{{0, kNumScmsParams},
+                                                  {kNumScmsParams, 3},
+                                                  {kNumScmsParams + 3, n_eff},
+                                                  {kNumScmsParams + 3 + n_eff, num_form_terms_}}};
+  const double* e = s.cols.data() + num_local_ * kRows;
+  bool finite = true;
+  for (int done = 0; done < count; done += kRows) {
+    const int n = std::min(kRows, count - done);
+    EvaluateBlock(setup, p, et, rows + done, n, nullptr, jacobian);
+    for (int i = 0; i < n; ++i) {
+      residuals[done + i] = e[i];
+      finite &= std::isfinite(e[i]);
+    }
+    if (!jacobian) continue;
+    int b = 0;
+    for (std::size_t which = 0; which < blocks.size(); ++which) {
+      const auto [col0, width] = blocks[which];
+      if (width == 0) continue;
+      double* jac = jacobians[b++];
+      if (jac == nullptr) continue;
+      for (int c = 0; c < width; ++c) {
+        const double* column = s.cols.data() + (col0 + c) * kRows;
+        for (int i = 0; i < n; ++i) {
+          const double v = column[i];
+          jac[(done + i) * width + c] = v;
+          finite &= std::isfinite(v);
+        }
+      }
+    }
+  }
+  return finite;
 }
 
 bool SphereFitProblem::Evaluate(const double* x, NormalEquations* ne) const {
@@ -807,41 +865,72 @@ bool SphereFitProblem::Evaluate(const double* x, NormalEquations* ne) const {
   return std::isfinite(ne->cost);
 }
 
-bool SphereFitProblem::EvaluateCost(const double* x, double* cost) const {
-  // Summed as Evaluate() sums e^T e (AddGram's lanes, per setup), so that both give the same cost.
-  *cost = 0.0;
-  int current = -1;
-  double sum = 0.0;
-  ForEachBlock(x, nullptr, false, [&](const RowBlock& block) {
-    if (block.setup != current) {
-      if (current >= 0) *cost += 0.5 * sum;
-      sum = 0.0;
-      current = block.setup;
-    }
-    double* e = scratch_->cols.data() + num_local_ * kRows;
-    PadToLanes(e, 1, block.count);
-    AddGram(e, kRows, 1, block.count, &sum);
-  });
-  if (current >= 0) *cost += 0.5 * sum;
-  return std::isfinite(*cost);
-}
-
 void SphereFitProblem::Residuals(const double* x, double* out) const {
   ForEachBlock(x, nullptr, false, [&](const RowBlock& block) {
     for (int i = 0; i < block.count; ++i) out[block.rows[i]] = block.e[i];
   });
 }
 
-RowQr SphereFitProblem::FactorJacobian(const double* x, const double* r_offset) const {
+RowQr SphereFitProblem::FactorJacobian(const double* x, const double* r_offset, const double* row_weight) const {
   RowQr qr(num_params_);
-  ForEachGlobalBlock(x, r_offset,
-                     [&](const std::uint32_t*, int count, double* rows) { qr.AddRows(rows, num_params_, count); });
+  ForEachGlobalBlock(x, r_offset, [&](const std::uint32_t* table_rows, int count, double* rows, int) {
+    if (row_weight != nullptr) {
+      for (int i = 0; i < count; ++i) {
+        const double w = row_weight[table_rows[i]];
+        for (Eigen::Index j = 0; j < num_params_; ++j) rows[i * num_params_ + j] *= w;
+      }
+    }
+    qr.AddRows(rows, num_params_, count);
+  });
   return qr;
+}
+
+BlockFactor SphereFitProblem::FactorBlocks(const double* x, const double* r_offset, const double* row_weight) const {
+  std::vector<Eigen::Index> f_columns, e_first;
+  for (Eigen::Index j = 0; j < kNumScmsParams; ++j) f_columns.push_back(j);
+  for (Eigen::Index j = first_effect_; j < num_params_; ++j) f_columns.push_back(j);
+  for (std::size_t k = 0; k < setups_.size(); ++k) e_first.push_back(kNumScmsParams + 3 * static_cast<Eigen::Index>(k));
+  BlockFactor factor(std::move(f_columns), std::move(e_first), num_params_);
+  // Each setup's rows over its local columns, the centre's first: [centre | g | effects | form].
+  const int local = num_local_;
+  std::vector<double> rows(static_cast<std::size_t>(kRows * local));
+  std::vector<int> f_of_local(static_cast<std::size_t>(local - 3));
+  RowQr qr;
+  int current = -1;
+  Eigen::Index count = 0;
+  auto finish = [&] {
+    if (current >= 0) factor.AddSetup(current, qr.r(), f_of_local, count);
+  };
+  ForEachBlock(x, r_offset, true, [&](const RowBlock& b) {
+    if (b.setup != current) {
+      finish();
+      current = b.setup;
+      qr.Reset(local);
+      count = 0;
+      const int group = form_group_[static_cast<std::size_t>(current)];
+      for (int j = 0; j < local - 3; ++j) {
+        const int shared = j - kNumScmsParams - num_effect_params_;  // a form term, when >= 0
+        f_of_local[static_cast<std::size_t>(j)] =
+            shared < 0 ? j : kNumScmsParams + num_effect_params_ + group * num_form_terms_ + shared;
+      }
+    }
+    for (int i = 0; i < b.count; ++i) {
+      const double w = row_weight != nullptr ? row_weight[b.rows[i]] : 1.0;
+      double* row = rows.data() + static_cast<std::size_t>(i * local);
+      for (int c = 0; c < 3; ++c) row[c] = w * b.cols[(kNumScmsParams + c) * kRows + i];
+      for (int c = 0; c < kNumScmsParams; ++c) row[3 + c] = w * b.cols[c * kRows + i];
+      for (int c = kNumScmsParams + 3; c < local; ++c) row[c] = w * b.cols[c * kRows + i];
+    }
+    qr.AddRows(rows.data(), local, b.count);
+    count += b.count;
+  });
+  finish();
+  return factor;
 }
 
 void SphereFitProblem::ForEachGlobalBlock(
     const double* x, const double* r_offset,
-    const std::function<void(const std::uint32_t* rows, int count, double* jacobian)>& fn) const {
+    const std::function<void(const std::uint32_t* rows, int count, double* jacobian, int setup)>& fn) const {
   Scratch& s = *scratch_;
   const auto n = static_cast<std::size_t>(num_params_);
   s.global.assign(n * kRows, 0.0);
@@ -851,7 +940,7 @@ void SphereFitProblem::ForEachGlobalBlock(
       const auto col = static_cast<std::size_t>(GlobalColumn(block.setup, c));
       for (int i = 0; i < block.count; ++i) s.global[static_cast<std::size_t>(i) * n + col] = block.cols[c * kRows + i];
     }
-    fn(block.rows, block.count, s.global.data());
+    fn(block.rows, block.count, s.global.data(), block.setup);
   });
 }
 

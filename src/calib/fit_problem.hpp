@@ -8,8 +8,8 @@
 // outliers, cross-validation folds and the candidates of a trace share one table. The residuals
 // and their gradients come from the hand-derived SphereResidualGradient() in blocks of rows (the
 // fixed part of each reading gathered once per block, the loop over the rows vectorised), and
-// whoever needs them takes them block by block: the normal equations of Levenberg-Marquardt, the
-// triangular factor of the Jacobian for the analysis, the residuals. Nothing of size rows x
+// whoever needs them takes them block by block: Ceres' residual blocks (EvaluateSetupRows()), the
+// normal equations and the triangular factor of the Jacobian for the analysis, the residuals. Nothing of size rows x
 // parameters is ever held.
 //
 // The effect terms' basis functions are evaluated per block: harmonics by the angle-addition
@@ -34,7 +34,7 @@
 #include <memory>
 #include <vector>
 
-#include "levenberg_marquardt.hpp"
+#include "block_factor.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/model/effects.hpp"
@@ -42,6 +42,19 @@
 #include "sph/model/row_qr.hpp"
 
 namespace sph::internal {
+
+/// J^T J (full, symmetric), J^T e and the cost 1/2 e^T e at one point.
+struct NormalEquations {
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd jte;
+  double cost = 0.0;
+
+  void SetZero(Eigen::Index n) {
+    jtj.setZero(n, n);
+    jte.setZero(n);
+    cost = 0.0;
+  }
+};
 
 /// Each setup id of `ids` to its index there.
 inline std::map<int, std::size_t> IndexOfSetups(const std::vector<int>& ids) {
@@ -72,6 +85,15 @@ RowsOfSetup AllRows(const ReadingTable& table, const std::vector<bool>* left_out
 /// The ids of the setups that have rows, ascending (a fit's CalibrationResult::setup_ids), appended
 /// to `setup_ids`; returns the number of rows in all.
 std::size_t SetupsWithRows(const ReadingTable& table, const RowsOfSetup& rows, std::vector<int>* setup_ids);
+
+/// The parameters that the rows of one setup depend on (pointers into x, or into a solver's own
+/// copy of each parameter block).
+struct SetupParams {
+  const double* geometry = nullptr;  ///< the seven errors
+  const double* center = nullptr;    ///< the setup's centre
+  const double* effects = nullptr;   ///< every effect parameter, in term order (null: none)
+  const double* form = nullptr;      ///< the form coefficients of the setup's group (null: none)
+};
 
 /// One block of rows as the evaluation produced it.
 struct RowBlock {
@@ -125,10 +147,33 @@ class SphereFitProblem {
     return first_form_ + form_group_[static_cast<std::size_t>(setup)] * num_form_terms_ + (effect - num_effect_params_);
   }
 
-  /// Levenberg-Marquardt's evaluation: J^T J, J^T e and cost at x. Not thread-safe (scratch).
+  /// The number of rows of problem setup `setup`.
+  int SetupRows(int setup) const { return static_cast<int>(rows_[static_cast<std::size_t>(setup)].size()); }
+  /// The table rows of problem setup `setup`, ascending.
+  const std::vector<std::uint32_t>& RowsOf(int setup) const { return rows_[static_cast<std::size_t>(setup)]; }
+  /// The group of the form that problem setup `setup` belongs to.
+  int FormGroupOf(int setup) const { return form_group_[static_cast<std::size_t>(setup)]; }
+  int NumEffectParams() const { return num_effect_params_; }
+  /// The parameter blocks a setup's rows depend on: the seven errors, its centre, the effects (when
+  /// the model has any), its form group's coefficients (when it has a form).
+  int NumSetupBlocks() const { return 2 + (num_effect_params_ > 0 ? 1 : 0) + (num_form_terms_ > 0 ? 1 : 0); }
+  /// The first column of x of the effects, and of form group `group`.
+  Eigen::Index FirstEffectColumn() const { return first_effect_; }
+  Eigen::Index FirstFormColumn(int group) const { return first_form_ + group * num_form_terms_; }
+  int NumFormTerms() const { return num_form_terms_; }
+  /// The parameters of problem setup `setup` in x.
+  SetupParams ParamsOf(const double* x, int setup) const;
+
+  /// Rows first.. first + count - 1 of problem setup `setup` at p: their residuals into
+  /// residuals[0..count) and, for each non-null jacobians[b] (b: 0 the seven errors, 1 the centre,
+  /// 2 the effects, 3 the form; 2 and 3 only where the model has them), that block's Jacobian,
+  /// row-major, one row per residual. False when a residual or a derivative is not finite.
+  bool EvaluateSetupRows(int setup, const SetupParams& p, int first, int count, double* residuals,
+                         double* const* jacobians) const;
+
+  /// The normal equations at x (the analysis of a fit of few setups): J^T J, J^T e and the cost,
+  /// summed in one pass over the rows. Not thread-safe (scratch).
   bool Evaluate(const double* x, NormalEquations* ne) const;
-  /// The cost at x alone, the same number as Evaluate()'s, at about a third of its price.
-  bool EvaluateCost(const double* x, double* cost) const;
 
   /// Calls fn for every block of rows at x, setup after setup, rows in table order. With r_offset
   /// (table-indexed, mm) the probe readings are r + r_offset[row]; with jacobian the blocks carry
@@ -139,13 +184,20 @@ class SphereFitProblem {
   /// Residuals at x into out (table-indexed; rows not in the problem untouched).
   void Residuals(const double* x, double* out) const;
 
-  /// The triangular factor of the Jacobian at x (readings r + r_offset when given), columns as x.
-  RowQr FactorJacobian(const double* x, const double* r_offset = nullptr) const;
+  /// The triangular factor of the Jacobian at x (readings r + r_offset when given, each row times
+  /// row_weight[its table row] when given), columns as x.
+  RowQr FactorJacobian(const double* x, const double* r_offset = nullptr, const double* row_weight = nullptr) const;
 
-  /// ForEachBlock() with the Jacobian's rows in the columns of x: fn(rows, count, jacobian) with
-  /// the table row of each and the rows one after the other (NumParams() values each; writable).
-  void ForEachGlobalBlock(const double* x, const double* r_offset,
-                          const std::function<void(const std::uint32_t* rows, int count, double* jacobian)>& fn) const;
+  /// The Jacobian's triangular factor at x in blocks, the centres eliminated first (block_factor.hpp),
+  /// readings r + r_offset when given, each row times row_weight[its table row] when given.
+  BlockFactor FactorBlocks(const double* x, const double* r_offset = nullptr, const double* row_weight = nullptr) const;
+
+  /// ForEachBlock() with the Jacobian's rows in the columns of x: fn(rows, count, jacobian, setup)
+  /// with the table row of each, the rows one after the other (NumParams() values each; writable),
+  /// and the problem setup they belong to.
+  void ForEachGlobalBlock(
+      const double* x, const double* r_offset,
+      const std::function<void(const std::uint32_t* rows, int count, double* jacobian, int setup)>& fn) const;
 
   /// The Jacobian at x (readings r + r_offset when given), one row per table row of the problem in
   /// table order (rows not in the problem left out), columns as x.
@@ -155,8 +207,12 @@ class SphereFitProblem {
   struct Scratch;
   // The residuals (and with cols, the Jacobian) of `count` gathered rows with effects and form, of
   // problem setup `setup`.
-  void EffectRows(const double* x, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
+  void EffectRows(const SetupParams& p, const ScmsErrorTrig<double>& et, double d_plus_dprime, int setup,
                   const std::uint32_t* idx, int count, double* e, double* cols) const;
+  // One block (at most kBlockRows) of rows idx[0..count) of problem setup k at p into the scratch's
+  // residuals and, with jacobian, its columns (RowBlock::cols).
+  void EvaluateBlock(int k, const SetupParams& p, const ScmsErrorTrig<double>& et, const std::uint32_t* idx, int count,
+                     const double* r_offset, bool jacobian) const;
   // Its parts: the readings and basis functions of the block's rows (idx), each target's sum of
   // the terms' components, and probe_incidence's change of row i's reading with its derivatives.
   void BlockBasis(const std::uint32_t* idx, int count) const;

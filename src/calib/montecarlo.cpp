@@ -84,12 +84,10 @@ std::vector<PointsData> ExactReadings(const MonteCarloStudyOptions& spec) {
 }
 
 // What a thread keeps from trial to trial: the readings' table of each eccentricity (with fixed
-// placements and no noise on the angles only r changes, so its sines and cosines are kept) and
-// the solver's scratch.
+// placements and no noise on the angles only r changes, so its sines and cosines are kept).
 struct TrialScratch {
   explicit TrialScratch(std::size_t n_ecc) : tables(n_ecc) {}
   std::vector<std::unique_ptr<internal::ReadingTable>> tables;
-  internal::LmWorkspace workspace;
 };
 
 // Trial t of eccentricity index k: its noisy readings, calibrated. `exact`: ExactReadings().
@@ -117,7 +115,7 @@ Trial RunTrial(const MonteCarloStudyOptions& spec, std::size_t k, std::size_t t,
   } else {
     table->SetReadings(data);
   }
-  const CalibrationResult r = internal::CalibrateTable(data, *table, copts, &scratch.workspace);
+  const CalibrationResult r = internal::CalibrateTable(data, *table, copts);
   Trial trial;
   trial.geometry = r.geometry;
   trial.converged = r.converged;

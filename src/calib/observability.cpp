@@ -123,7 +123,8 @@ ObservabilityReport Analyse(const Invert& invert, Eigen::Index m, Eigen::Index n
   rep.condition_number = std::numeric_limits<double>::infinity();
   if (m <= n || n == 0) return rep;
 
-  rep.residual_sigma_mm = std::sqrt(rss / static_cast<double>(m - n));
+  rep.degrees_of_freedom = static_cast<double>(m - n);
+  rep.residual_sigma_mm = std::sqrt(rss / rep.degrees_of_freedom);
 
   const NormalInverse inv = invert();
   rep.condition_number = inv.condition_number;
@@ -152,9 +153,10 @@ ObservabilityReport Analyse(const Invert& invert, Eigen::Index m, Eigen::Index n
   if (!(sv_max > 0.0)) return rep;
 
   // Nearly dependent combinations, weakest first, in displacement-equivalent coefficients.
-  for (Eigen::Index k = n - 1; k >= 0; --k) {
+  const Eigen::Index listed = sv.size();  // n, or fewer where only the weakest are known (many setups)
+  for (Eigen::Index k = listed - 1; k >= 0; --k) {
     const double ratio = sv(k) / sv_max;
-    if (ratio >= kWeakRatio && k != n - 1) break;
+    if (ratio >= kWeakRatio && k != listed - 1) break;
     WeakCombination w;
     w.relative_singular_value = ratio;
     Eigen::VectorXd coef(n);
@@ -195,6 +197,43 @@ ObservabilityReport AnalyseFactor(const Eigen::MatrixXd& r, Eigen::Index rows, d
 ObservabilityReport AnalyseFit(const NormalInverse& inverse, Eigen::Index rows, double rss,
                                std::vector<ParameterDescription> params, double max_std_um) {
   return Analyse([&] { return inverse; }, rows, inverse.scale.size(), rss, std::move(params), max_std_um);
+}
+
+ObservabilityReport WithHeldParameters(const ObservabilityReport& free, std::vector<ParameterDescription> parameters,
+                                       const std::vector<Held>& held) {
+  const auto n = static_cast<Eigen::Index>(parameters.size());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Eigen::Index> full;  // the column of each free parameter among all
+  for (Eigen::Index j = 0; j < n; ++j) {
+    if (held[static_cast<std::size_t>(j)] == Held::kNo) full.push_back(j);
+  }
+  ObservabilityReport out;
+  out.parameters = std::move(parameters);
+  out.held = held;
+  out.std = Eigen::VectorXd::Zero(n);
+  out.covariance = Eigen::MatrixXd::Zero(n, n);
+  out.correlation = Eigen::MatrixXd::Constant(n, n, nan);
+  out.determined.assign(static_cast<std::size_t>(n), true);
+  out.vif = Eigen::VectorXd::Constant(n, nan);
+  out.residual_sigma_mm = free.residual_sigma_mm;
+  out.degrees_of_freedom = free.degrees_of_freedom;
+  out.condition_number = free.condition_number;
+  for (std::size_t a = 0; a < full.size(); ++a) {
+    const auto i = static_cast<Eigen::Index>(a);
+    out.std(full[a]) = free.std(i);
+    out.vif(full[a]) = free.vif(i);
+    out.determined[static_cast<std::size_t>(full[a])] = free.determined[a];
+    for (std::size_t b = 0; b < full.size(); ++b) {
+      const auto j = static_cast<Eigen::Index>(b);
+      out.covariance(full[a], full[b]) = free.covariance(i, j);
+      out.correlation(full[a], full[b]) = free.correlation(i, j);
+    }
+  }
+  for (WeakCombination w : free.weak) {
+    for (auto& [index, coefficient] : w.terms) index = static_cast<int>(full[static_cast<std::size_t>(index)]);
+    out.weak.push_back(std::move(w));
+  }
+  return out;
 }
 
 }  // namespace sph

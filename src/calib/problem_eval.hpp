@@ -1,4 +1,4 @@
-// Private to sph::calib: the solver settings, parameter descriptions and residual statistics of
+// Private to sph::calib: the checks, parameter descriptions, analysis and residual statistics of
 // every fit.
 #ifndef SPH_SRC_CALIB_PROBLEM_EVAL_HPP_
 #define SPH_SRC_CALIB_PROBLEM_EVAL_HPP_
@@ -10,8 +10,9 @@
 
 #include <Eigen/Core>
 
+#include "ceres_fit.hpp"
 #include "fit_problem.hpp"
-#include "levenberg_marquardt.hpp"
+#include "solve_fit.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/observability.hpp"
 #include "sph/core/error.hpp"
@@ -19,22 +20,12 @@
 
 namespace sph::internal {
 
-/// The Levenberg-Marquardt settings of every calibration: stops on a relative cost change of 1e-6
-/// or a relative step of 1e-12.
-inline LmOptions CalibrationSolverOptions(int max_iterations) {
-  LmOptions o;
-  o.max_iterations = max_iterations;
-  o.function_tolerance = 1e-6;
-  o.gradient_tolerance = 1e-16;
-  o.parameter_tolerance = 1e-12;
-  return o;
-}
-
 /// Throws sph::Error naming the points' source when the options cannot fit them: a sphere radius
 /// or the probe offset not positive, a setup that the header says measured another sphere without
 /// its radius in the options.
 inline void CheckFitOptions(const PointsData& points, const CalibrationOptions& options) {
   const std::string& source = points.source;
+  CheckParameterSettings(options, source);
   if (!(options.sphere_radius_mm > 0.0)) throw Error(source + ": the sphere radius must be positive");
   if (!(options.probe_offset_mm > 0.0)) throw Error(source + ": the probe offset must be positive");
   for (const auto& [setup, radius_mm] : options.sphere_radii_mm) {
@@ -59,26 +50,16 @@ inline void CheckEnoughSamples(const std::string& source, std::size_t n_samples,
               " parameters" + (which.empty() ? "" : " (" + which + ")"));
 }
 
-/// Solves `problem` from x (in place) with CalibrationSolverOptions() in the workspace `lm`, and
-/// records the run in `result`: converged, iterations, the solver's message, the number of
-/// samples, and a warning when it did not converge.
-inline void SolveCalibration(const SphereFitProblem& problem, Eigen::VectorXd& x, int max_iterations,
-                             std::size_t n_samples, LmWorkspace& lm, CalibrationResult& result) {
-  const LmSummary summary = SolveLevenbergMarquardt(problem, x, CalibrationSolverOptions(max_iterations), lm);
-  result.converged = summary.converged;
-  result.iterations = summary.iterations;
-  result.solver_message = summary.message;
-  result.n_points = static_cast<int>(n_samples);
-  if (!result.converged) result.warnings.push_back("the solver did not converge: " + summary.message);
-}
-
-/// (J^T J)^-1 at the solution x of a Levenberg-Marquardt run (whose workspace holds J^T J there):
-/// from the normal equations when J is well conditioned, else from the Jacobian's triangular
-/// factor (another pass over the rows).
-inline NormalInverse NormalInverseAtSolution(const SphereFitProblem& problem, const Eigen::VectorXd& x,
-                                             const LmWorkspace& lm) {
+/// (J^T J)^-1 at x: with many setups through the Jacobian's block structure (block_factor.hpp),
+/// else from the normal equations when J is well conditioned, else from
+/// the Jacobian's triangular factor (another pass over the rows).
+inline NormalInverse NormalInverseAtSolution(const SphereFitProblem& problem, const Eigen::VectorXd& x) {
   const auto rows = static_cast<Eigen::Index>(problem.NumRows());
-  std::optional<NormalInverse> inverse = InvertNormalEquations(lm.at_x.jtj, rows);
+  const auto shared = static_cast<int>(problem.NumParams()) - 3 * problem.NumSetups();
+  if (AnalyseByBlocks(problem.NumSetups(), shared)) return problem.FactorBlocks(x.data()).Invert();
+  NormalEquations at_x;
+  problem.Evaluate(x.data(), &at_x);
+  std::optional<NormalInverse> inverse = InvertNormalEquations(at_x.jtj, rows);
   if (inverse) return *inverse;
   return InvertNormalFactor(problem.FactorJacobian(x.data()).r(), rows);
 }

@@ -25,6 +25,12 @@ double ParamValue(const CalibrationResult& r, std::size_t i) {
   return r.centers_mm[k](static_cast<Eigen::Index>((i - kNumScmsParams) % 3));
 }
 
+// How parameter i was held, in words ("fixed", "at bound"), or empty when fitted.
+std::string HeldText(const ObservabilityReport& rep, std::size_t i) {
+  if (!rep.IsHeld(static_cast<int>(i))) return "";
+  return rep.held[i] == Held::kFixed ? "fixed" : "at bound";
+}
+
 std::string WeakText(const ObservabilityReport& rep, const WeakCombination& w) {
   std::string s;
   for (const auto& [j, c] : w.terms) {
@@ -45,8 +51,9 @@ void WriteBudgetText(std::ostream& out, const CalibrationResult& r, const Calibr
     const UncertaintyStatement& st = b.statements[i];
     const ReportUnits u = ReportUnitsOf(kScmsParamInfo[i].quantity);
     const std::string name = r.analysis.Empty() ? kScmsParamInfo[i].name : r.analysis.parameters[i].name;
-    if (st.inputs.empty()) {
-      out << Format("%-12s %10s\n", name.c_str(), "undetermined");
+    const std::string held = r.analysis.Empty() ? "" : HeldText(r.analysis, i);
+    if (!held.empty() || st.inputs.empty()) {
+      out << Format("%-12s %10s\n", name.c_str(), held.empty() ? "undetermined" : held.c_str());
       continue;
     }
     out << Format("%-12s", name.c_str());
@@ -109,6 +116,12 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
       const double disp = rep.StdAsDisplacementUm(static_cast<int>(i));
       out << Format("%-12s %15s  (std %s um as a displacement: not determined by these data)\n", name.c_str(),
                     "undetermined", std::isfinite(disp) ? Format("%.3g", disp).c_str() : "infinite");
+      continue;
+    }
+    const std::string held = analysed ? HeldText(rep, i) : "";
+    if (!held.empty()) {
+      out << Format("%-12s %15.9f %12s %-4s | %12.4f %10s %-4s\n", name.c_str(), value * u.to_coarse, held.c_str(),
+                    u.coarse, value * u.to_fine, held.c_str(), u.fine);
       continue;
     }
     const double sd = analysed ? rep.std(static_cast<Eigen::Index>(i)) : std::nan("");
@@ -184,6 +197,11 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
       const double sd = rep.std(static_cast<Eigen::Index>(i));
       p["std"] = std::isfinite(sd) ? json(sd * u.to_coarse) : json(nullptr);
       p["determined"] = static_cast<bool>(rep.determined[i]);
+      if (rep.IsHeld(static_cast<int>(i))) {
+        p["held"] = rep.held[i] == Held::kFixed          ? "fixed"
+                    : rep.held[i] == Held::kAtLowerBound ? "lower bound"
+                                                         : "upper bound";
+      }
     }
     if (ctx.budget != nullptr && i < ctx.budget->statements.size() && !ctx.budget->statements[i].inputs.empty()) {
       p.update(BudgetJson(ctx.budget->statements[i], u.to_coarse, u.coarse));
@@ -245,6 +263,17 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   json outliers = json::array();
   for (const Outlier& o : r.outliers) outliers.push_back({{"sample", o.sample + 1}, {"residual_um", o.residual_um}});
   j["outliers"] = outliers;
+  if (r.robust_loss != RobustLoss::kNone) {
+    json weighted = json::array();
+    for (const WeightedReading& w : r.weighted) {
+      weighted.push_back({{"sample", w.sample + 1}, {"weight", w.weight}, {"residual_um", w.residual_um}});
+    }
+    j["robust_loss"] = {{"loss", r.robust_loss == RobustLoss::kHuber ? "huber" : "cauchy"},
+                        {"noise_um", r.robust_sigma_mm * kUmPerMm},
+                        {"scale_um", r.robust_scale_mm * kUmPerMm},
+                        {"weighted_readings", weighted}};
+  }
+  if (r.prior_sigma_mm > 0.0) j["prior_noise_um"] = r.prior_sigma_mm * kUmPerMm;
   j["warnings"] = r.warnings;
   if (ctx.trace != nullptr) internal::AddTraceJson(j, *ctx.trace, ctx.validation);
   return j.dump(2) + "\n";

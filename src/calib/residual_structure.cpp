@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <limits>
 
+#include "block_factor.hpp"
 #include "sph/core/gum.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/row_qr.hpp"
@@ -30,6 +31,9 @@ struct Basis {
   std::string variable, description;
   Eigen::MatrixXd columns;
   std::vector<std::string> names;
+  Eigen::VectorXd norms;  ///< of the columns before projection (StructureFactor::norms); empty: theirs
+
+  double NormOf(Eigen::Index j) const { return norms.size() > 0 ? norms(j) : columns.col(j).norm(); }
 };
 
 // Regresses e on the columns of `basis` projected off `q` (orthonormal basis of col(J)); vectors
@@ -48,7 +52,7 @@ StructureGroup Regress(const Basis& basis, const Eigen::MatrixXd& q, const Eigen
   Eigen::MatrixXd b(e.size(), basis.columns.cols());
   Eigen::Index kept = 0;
   for (Eigen::Index j = 0; j < basis.columns.cols(); ++j) {
-    const double norm = basis.columns.col(j).norm();
+    const double norm = basis.NormOf(j);
     if (!(norm > 0.0)) continue;
     Eigen::VectorXd rest = basis.columns.col(j) / norm;
     for (int pass = 0; pass < 2; ++pass) {  // twice: classical Gram-Schmidt loses orthogonality once
@@ -72,7 +76,7 @@ StructureGroup Regress(const Basis& basis, const Eigen::MatrixXd& q, const Eigen
   // The single function that explains most, with its coefficient in the raw (unprojected) units.
   double best = -1.0;
   for (Eigen::Index j = 0; j < basis.columns.cols(); ++j) {
-    const double norm = basis.columns.col(j).norm();
+    const double norm = basis.NormOf(j);
     if (!(norm > 0.0)) continue;
     const Eigen::VectorXd col = basis.columns.col(j) - q * (q.transpose() * basis.columns.col(j));
     const double nn = col.squaredNorm();
@@ -185,11 +189,17 @@ void FunctionsAt(const Sample& s, double e, const EffectReference& ref, const Ei
   sphere.Evaluate(dir.x(), dir.y(), dir.z(), out + kSphereFirst);
 }
 
-// Orthonormal basis of the column space of `jacobian` (its numerical rank), in R's coordinates.
-Eigen::MatrixXd ColumnSpace(const Eigen::MatrixXd& jacobian) {
-  Eigen::MatrixXd jn = jacobian;
+// The norm of column j of the factor's [J | functions | e] over all the rows.
+double NormOf(const StructureFactor& factor, Eigen::Index j) {
+  return factor.norms.size() > 0 ? factor.norms(j) : factor.r.col(j).norm();
+}
+
+// Orthonormal basis of the column space of the factor's J columns (their numerical rank, without
+// the eliminated ones), in R's coordinates; the columns equilibrated by their norms over all rows.
+Eigen::MatrixXd ColumnSpace(const StructureFactor& factor) {
+  Eigen::MatrixXd jn = factor.r.leftCols(factor.jacobian_cols);
   for (Eigen::Index j = 0; j < jn.cols(); ++j) {
-    const double norm = jn.col(j).norm();
+    const double norm = NormOf(factor, j);
     if (norm > 0.0) jn.col(j) /= norm;
   }
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(jn);
@@ -197,9 +207,15 @@ Eigen::MatrixXd ColumnSpace(const Eigen::MatrixXd& jacobian) {
   return qr.householderQ() * Eigen::MatrixXd::Identity(jn.rows(), qr.rank());
 }
 
+// The norms of `count` columns of the factor from `first` (Basis::norms), empty when R has them.
+Eigen::VectorXd Norms(const StructureFactor& factor, Eigen::Index first, Eigen::Index count) {
+  return factor.norms.size() > 0 ? Eigen::VectorXd(factor.norms.segment(first, count)) : Eigen::VectorXd();
+}
+
 Basis GroupBasis(const StructureFactor& factor, const Group& group, Eigen::Index first_function) {
-  return {group.variable, group.description,
-          factor.r.middleCols(factor.jacobian_cols + first_function + group.first, group.count), group.names};
+  const Eigen::Index first = factor.jacobian_cols + first_function + group.first;
+  return {group.variable, group.description, factor.r.middleCols(first, group.count), group.names,
+          Norms(factor, first, group.count)};
 }
 
 }  // namespace
@@ -213,40 +229,97 @@ void DenseJacobianBlocks::ForEach(const BlockFn& fn) const {
     for (Eigen::Index i = 0; i < count; ++i)
       samples[static_cast<std::size_t>(i)] = static_cast<std::uint32_t>(first + i);
     rows = jacobian_.middleRows(first, count);
-    fn(samples.data(), static_cast<int>(count), rows.data(), static_cast<int>(rows.cols()));
+    fn(samples.data(), static_cast<int>(count), rows.data(), static_cast<int>(rows.cols()), -1);
   }
 }
 
 StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vector<double>* signal_mm) {
   StructureFactor factor;
-  factor.jacobian_cols = fit.jacobian.Cols();
   factor.has_signal = signal_mm != nullptr;
-  const Eigen::Index n = factor.jacobian_cols;
-  // [J | functions | e], or [J | sphere functions | signal].
-  const Eigen::Index cols = n + (factor.has_signal ? kSphereFunctions : kFunctions) + 1;
-  RowQr qr(cols);
+  const Eigen::Index n = fit.jacobian.Cols();
+  const Eigen::Index functions_cols = (factor.has_signal ? kSphereFunctions : kFunctions) + 1;
+  // With many groups of rows each group's three own columns are eliminated from its rows first
+  // (block_factor.hpp's reasoning): R holds the shared columns, the functions and e.
+  const std::vector<Eigen::Index> group_columns = fit.jacobian.GroupColumns();
+  const auto groups = static_cast<int>(group_columns.size());
+  const bool eliminate = groups > 0 && internal::AnalyseByBlocks(groups, static_cast<int>(n) - 3 * groups);
+  std::vector<Eigen::Index> shared;  // the columns of J that R keeps
+  {
+    std::vector<bool> own(static_cast<std::size_t>(n), false);
+    if (eliminate) {
+      for (const Eigen::Index c : group_columns) {
+        for (int k = 0; k < 3; ++k) own[static_cast<std::size_t>(c + k)] = true;
+      }
+    }
+    for (Eigen::Index j = 0; j < n; ++j) {
+      if (!own[static_cast<std::size_t>(j)]) shared.push_back(j);
+    }
+  }
+  const auto ns = static_cast<Eigen::Index>(shared.size());
+  factor.jacobian_cols = ns;
+  const Eigen::Index cols = ns + functions_cols;          // [shared J | functions | e]
+  const Eigen::Index local = (eliminate ? 3 : 0) + cols;  // a group's rows: [own | shared J | functions | e]
+  RowQr qr(cols), group_qr;
+  Eigen::VectorXd norms2 = Eigen::VectorXd::Zero(cols);
+  if (eliminate) factor.gram = Eigen::MatrixXd::Zero(functions_cols, functions_cols);
+  int current = -1;
+  auto fold_group = [&] {
+    if (current < 0) return;
+    // What the group's rows leave of the other columns, off its own three: rows 3.. of its factor.
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rest =
+        group_qr.r().bottomRightCorner(cols, cols);
+    qr.AddRows(rest.data(), cols, cols);
+    Eigen::Matrix3d own = group_qr.r().topLeftCorner<3, 3>();
+    for (int k = 0; k < 3; ++k) {
+      const double norm = own.col(k).norm();
+      if (norm > 0.0) own.col(k) /= norm;
+    }
+    Eigen::ColPivHouseholderQR<Eigen::Matrix3d> rank(own);
+    rank.setThreshold(1e-12);
+    factor.eliminated += rank.rank();
+  };
   std::vector<double> block, functions(kFunctions);
   SchmidtHarmonics sphere(2, kSphereDegree);
-  fit.jacobian.ForEach([&](const std::uint32_t* samples, int count, const double* jac, int stride) {
-    block.resize(static_cast<std::size_t>(count * cols));
+  fit.jacobian.ForEach([&](const std::uint32_t* samples, int count, const double* jac, int stride, int group) {
+    if (eliminate && group != current) {
+      fold_group();
+      current = group;
+      group_qr.Reset(local);
+    }
+    const Eigen::Index own_first = eliminate ? group_columns[static_cast<std::size_t>(group)] : 0;
+    block.resize(static_cast<std::size_t>(count * local));
     for (int i = 0; i < count; ++i) {
       const std::uint32_t sample = samples[i];
-      double* row = block.data() + i * cols;
-      std::copy(jac + i * stride, jac + i * stride + n, row);
+      double* row = block.data() + i * local;
+      const double* in = jac + i * stride;
+      if (eliminate) {
+        for (int k = 0; k < 3; ++k) *row++ = in[own_first + k];
+      }
+      for (Eigen::Index j = 0; j < ns; ++j) row[j] = in[shared[static_cast<std::size_t>(j)]];
       FunctionsAt(fit.points.samples[sample], fit.residuals_mm[sample], fit.reference, fit.directions[sample], sphere,
                   functions.data());
       if (factor.has_signal) {
-        std::copy(functions.begin() + kSphereFirst, functions.end(), row + n);
+        std::copy(functions.begin() + kSphereFirst, functions.end(), row + ns);
         row[cols - 1] = (*signal_mm)[sample];
       } else {
-        std::copy(functions.begin(), functions.end(), row + n);
+        std::copy(functions.begin(), functions.end(), row + ns);
         row[cols - 1] = fit.residuals_mm[sample];
       }
+      if (eliminate) {
+        for (Eigen::Index j = 0; j < cols; ++j) norms2(j) += row[j] * row[j];
+        const Eigen::Map<const Eigen::VectorXd> tail(row + ns, functions_cols);
+        factor.gram.selfadjointView<Eigen::Lower>().rankUpdate(tail);
+      }
     }
-    qr.AddRows(block.data(), cols, count);
+    (eliminate ? group_qr : qr).AddRows(block.data(), local, count);
+    factor.rows += count;
   });
+  if (eliminate) {
+    fold_group();
+    factor.norms = norms2.cwiseSqrt();
+    factor.gram = factor.gram.selfadjointView<Eigen::Lower>();
+  }
   factor.r = qr.r();
-  factor.rows = qr.rows();
   return factor;
 }
 
@@ -254,11 +327,12 @@ ResidualStructure AnalyseResidualStructure(const StructureFactor& factor) {
   const Eigen::Index m = factor.rows;
   const Eigen::Index n = factor.jacobian_cols;
   const Eigen::VectorXd e = factor.r.col(n + kFunctions);
-  const Eigen::MatrixXd q = ColumnSpace(factor.r.leftCols(n));
-  const int n_fit = static_cast<int>(q.cols());  // the Jacobian's rank: the parameters the fit determines
+  const Eigen::MatrixXd q = ColumnSpace(factor);
+  // The Jacobian's rank: the parameters the fit determines.
+  const int n_fit = static_cast<int>(q.cols() + factor.eliminated);
 
   ResidualStructure out;
-  Basis all{"all", "all of the above", factor.r.middleCols(n, kFunctions), {}};
+  Basis all{"all", "all of the above", factor.r.middleCols(n, kFunctions), {}, Norms(factor, n, kFunctions)};
   for (const Group& group : Groups()) {
     out.groups.push_back(Regress(GroupBasis(factor, group, 0), q, e, n_fit, m));
     all.names.insert(all.names.end(), group.names.begin(), group.names.end());
@@ -266,13 +340,20 @@ ResidualStructure AnalyseResidualStructure(const StructureFactor& factor) {
   out.all = Regress(all, q, e, n_fit, m);
   for (int k = 1; k <= kThetaHarmonics; ++k) {
     const Eigen::MatrixXd two = factor.r.middleCols(n + 2 * k - 2, 2);
-    const Eigen::Vector2d coef = two.colPivHouseholderQr().solve(e);
+    // Fitted alone: on the functions as they are (before the elimination of the centres, if any).
+    const Eigen::Vector2d coef = factor.gram.size() == 0
+                                     ? Eigen::Vector2d(two.colPivHouseholderQr().solve(e))
+                                     : Eigen::Vector2d(factor.gram.block<2, 2>(2 * k - 2, 2 * k - 2)
+                                                           .colPivHouseholderQr()
+                                                           .solve(factor.gram.block<2, 1>(2 * k - 2, kFunctions)));
     out.theta_harmonics_um.push_back(coef.norm() * kUmPerMm);
-    out.theta_harmonic_p.push_back(Regress({"theta", "", two, {"cos", "sin"}}, q, e, n_fit, m).p_value);
+    out.theta_harmonic_p.push_back(
+        Regress({"theta", "", two, {"cos", "sin"}, Norms(factor, n + 2 * k - 2, 2)}, q, e, n_fit, m).p_value);
   }
   for (int k = 1; k <= kPhiTerms; ++k) {
-    const Eigen::MatrixXd one = factor.r.middleCols(n + 2 * kThetaHarmonics + k - 1, 1);
-    out.phi_cos_p.push_back(Regress({"phi", "", one, {"cos"}}, q, e, n_fit, m).p_value);
+    const Eigen::Index col = n + 2 * kThetaHarmonics + k - 1;
+    out.phi_cos_p.push_back(
+        Regress({"phi", "", factor.r.middleCols(col, 1), {"cos"}, Norms(factor, col, 1)}, q, e, n_fit, m).p_value);
   }
   return out;
 }
@@ -290,13 +371,13 @@ SpherePattern BestSpherePattern(const StructureFactor& factor) {
   const auto m = factor.rows;
   const Eigen::Index n = factor.jacobian_cols;
   const Eigen::VectorXd e = factor.r.col(n + kFunctions);
-  const Eigen::MatrixXd q = ColumnSpace(factor.r.leftCols(n));
+  const Eigen::MatrixXd q = ColumnSpace(factor);
   const Basis sphere = GroupBasis(factor, Groups()[4], 0);
   // Unit remainders of the functions off col(J), as in Regress().
   std::vector<Eigen::VectorXd> rest;
   std::vector<std::string> names;
   for (Eigen::Index j = 0; j < sphere.columns.cols(); ++j) {
-    const double norm = sphere.columns.col(j).norm();
+    const double norm = sphere.NormOf(j);
     if (!(norm > 0.0)) continue;
     Eigen::VectorXd r = sphere.columns.col(j) / norm;
     r -= q * (q.transpose() * r);
@@ -348,13 +429,14 @@ SpherePattern BestSpherePattern(const FitResiduals& fit) { return BestSpherePatt
 double SpherePatternFraction(const StructureFactor& factor) {
   const Eigen::Index m = factor.rows;
   const Eigen::Index n = factor.jacobian_cols;
-  const Eigen::MatrixXd q = ColumnSpace(factor.r.leftCols(n));
+  const Eigen::MatrixXd q = ColumnSpace(factor);
   const Eigen::VectorXd raw = factor.r.col(n + kSphereFunctions);
   const Eigen::VectorXd s = raw - q * (q.transpose() * raw);
   const double total = s.squaredNorm();
   if (!(total > 0.0)) return 0.0;
   // The sphere group's columns follow J directly in a factor with a signal.
-  const StructureGroup g = Regress(GroupBasis(factor, Groups()[4], -kSphereFirst), q, s, static_cast<int>(q.cols()), m);
+  const StructureGroup g =
+      Regress(GroupBasis(factor, Groups()[4], -kSphereFirst), q, s, static_cast<int>(q.cols() + factor.eliminated), m);
   const double explained = g.explained_rms_um * g.explained_rms_um / (kUmPerMm * kUmPerMm) * static_cast<double>(m);
   return explained / total;
 }
@@ -371,10 +453,10 @@ double DeltaBicBeyondSphere(const StructureFactor& factor, const std::string& va
   if (group == nullptr || variable == "sphere") return 0.0;
   // With A = Q R, |A_S x - e| = |R_S x - r_e| for any set S of columns: the fits come from R alone.
   // The columns equilibrated, so that the rank decision does not depend on their units.
-  auto rss_and_rank = [&](const Eigen::MatrixXd& a, Eigen::Index* rank) {
+  auto rss_and_rank = [&](const Eigen::MatrixXd& a, const std::vector<double>& norms, Eigen::Index* rank) {
     Eigen::MatrixXd an = a;
     for (Eigen::Index j = 0; j < an.cols(); ++j) {
-      const double norm = an.col(j).norm();
+      const double norm = norms[static_cast<std::size_t>(j)];
       if (norm > 0.0) an.col(j) /= norm;
     }
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(an);
@@ -382,15 +464,19 @@ double DeltaBicBeyondSphere(const StructureFactor& factor, const std::string& va
     *rank = qr.rank();
     return (e - an * qr.solve(e)).squaredNorm();
   };
-  Eigen::MatrixXd base(factor.r.rows(), n + kSphereFunctions);
-  base << factor.r.leftCols(n), factor.r.middleCols(n + kSphereFirst, kSphereFunctions);
-  Eigen::MatrixXd with(base.rows(), base.cols() + static_cast<Eigen::Index>(functions.size()));
-  with.leftCols(base.cols()) = base;
-  for (std::size_t k = 0; k < functions.size(); ++k) {
-    with.col(base.cols() + static_cast<Eigen::Index>(k)) = factor.r.col(n + group->first + functions[k]);
+  std::vector<Eigen::Index> columns;  // of R: J, the sphere's functions, then the variable's
+  for (Eigen::Index j = 0; j < n; ++j) columns.push_back(j);
+  for (Eigen::Index j = 0; j < kSphereFunctions; ++j) columns.push_back(n + kSphereFirst + j);
+  const auto base_cols = static_cast<Eigen::Index>(columns.size());
+  for (const int k : functions) columns.push_back(n + group->first + k);
+  Eigen::MatrixXd with(factor.r.rows(), static_cast<Eigen::Index>(columns.size()));
+  std::vector<double> norms;
+  for (std::size_t k = 0; k < columns.size(); ++k) {
+    with.col(static_cast<Eigen::Index>(k)) = factor.r.col(columns[k]);
+    norms.push_back(NormOf(factor, columns[k]));
   }
   Eigen::Index rank0 = 0, rank1 = 0;
-  const double rss0 = rss_and_rank(base, &rank0), rss1 = rss_and_rank(with, &rank1);
+  const double rss0 = rss_and_rank(with.leftCols(base_cols), norms, &rank0), rss1 = rss_and_rank(with, norms, &rank1);
   if (!(rss0 > 0.0)) return 0.0;
   return static_cast<double>(m) * std::log(std::max(rss1, 1e-300) / rss0) +
          static_cast<double>(rank1 - rank0) * std::log(static_cast<double>(m));

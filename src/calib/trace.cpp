@@ -192,6 +192,11 @@ std::vector<Drop> Eliminate(const ObservabilityReport& rep, std::vector<double> 
                             double rows, const TraceOptions& trace) {
   std::vector<Drop> drops;
   std::vector<bool> alive(static_cast<std::size_t>(size), true);
+  // A component held at a value given (CalibrationOptions::fixed) stays: it is known, not fitted.
+  for (int j = 0; j < size; ++j) {
+    if (rep.IsHeld(offset + j)) alive[static_cast<std::size_t>(j)] = false;
+  }
+  if (std::find(alive.begin(), alive.end(), true) == alive.end()) return drops;
   Eigen::MatrixXd c = rep.covariance;
   const double dof = rows - static_cast<double>(c.rows());
   double rss_ratio = 1.0;  // (residual sum of squares) / (sigma^2 dof) of the fit
@@ -240,6 +245,14 @@ std::vector<Drop> Eliminate(const ObservabilityReport& rep, std::vector<double> 
   return drops;
 }
 
+// Whether the options hold parameter `name` or give it a prior.
+bool Told(const CalibrationOptions& options, const std::string& name) {
+  return std::any_of(options.fixed.begin(), options.fixed.end(),
+                     [&](const FixedParameter& f) { return f.name == name; }) ||
+         std::any_of(options.priors.begin(), options.priors.end(),
+                     [&](const ParameterPrior& p) { return p.name == name; });
+}
+
 // `names` separated by spaces; past the first eight, their count ("... and 13 more").
 std::string Listed(const std::vector<std::string>& names) {
   constexpr std::size_t kNamed = 8;
@@ -279,6 +292,9 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
     int worst = -1;
     double vif_max = trace.max_vif;
     for (int j = 0; j < cand.size(); ++j) {
+      // A component held or informed (CalibrationOptions::fixed, priors) is known beyond these
+      // readings: the fit, not the linearised problem without it, decides.
+      if (Told(options, cand.ParamName(static_cast<std::size_t>(j)))) continue;
       const auto col = static_cast<Eigen::Index>(offset + j);
       const double vif = inv.in_null[static_cast<std::size_t>(col)]
                              ? std::numeric_limits<double>::infinity()
@@ -609,7 +625,7 @@ void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, c
                      const TraceOptions& trace, TracedFit& after) {
   std::vector<std::size_t> outliers;
   for (const Outlier& o : base.outliers) outliers.push_back(o.sample);
-  if (options.outlier_sigma > 0.0) {
+  if (options.LeavesOutOutliers()) {
     for (int round = 0; round < 5; ++round) {
       const std::vector<std::size_t> judged = OutliersUnder(all, options, after.fit);
       if (judged == outliers) break;
@@ -656,7 +672,6 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
   CalibrationOptions quick = options;
   quick.analyse = false;
   double sum2 = 0.0;
-  internal::LmWorkspace workspace;
   std::vector<bool> fold(m), others(m);  // fitted without the fold, then predicted on it
   for (int f = 0; f < folds; ++f) {
     bool any = false;
@@ -666,7 +681,7 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
       any |= fold[i];
     }
     if (!any) continue;
-    const EffectFit fit = internal::FitEffectsRows(data.points, data.table, &fold, quick, model, start, &workspace);
+    const EffectFit fit = internal::FitEffectsRows(data.points, data.table, &fold, quick, model, start);
     const std::vector<double> e = internal::ResidualsAt(data.table, &others, options, fit, data.points.source);
     for (std::size_t i = 0; i < m; ++i) {
       if (fold[i]) sum2 += e[i] * e[i];
@@ -735,10 +750,11 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
   const std::vector<int>& ids = fit.calibration.setup_ids;
   if (ids.size() < 2) return {};
   const std::size_t m = points.samples.size();
-  // The fits without a setup are analysed when `fit` is, to see whether the others determine it.
+  // The fits without a setup are analysed when `fit` is, to see whether the others determine its
+  // effects and form (DeterminedWithout(); the seven errors alone need no such check).
   CalibrationOptions rest_options = options;
-  rest_options.analyse = loose != nullptr && !fit.calibration.analysis.Empty();
-  internal::LmWorkspace workspace;
+  rest_options.analyse = loose != nullptr && !fit.calibration.analysis.Empty() &&
+                         fit.n_params > kNumScmsParams + 3 * static_cast<int>(fit.calibration.setup_ids.size());
   std::vector<double> errors(points.samples.size(), std::numeric_limits<double>::quiet_NaN());
   std::vector<bool> held(m), others(m);  // fitted without the setup, then predicted on it
   for (std::size_t k = 0; k < ids.size(); ++k) {
@@ -754,7 +770,7 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
     start.centers_mm.erase(start.centers_mm.begin() + static_cast<std::ptrdiff_t>(k));
     EffectFit rest;
     try {
-      rest = internal::FitEffectsRows(points, data.table, &held, rest_options, fit.model, start, &workspace);
+      rest = internal::FitEffectsRows(points, data.table, &held, rest_options, fit.model, start);
     } catch (const Error&) {
       continue;  // the other setups cannot be fitted without it (too few readings): not predicted
     }

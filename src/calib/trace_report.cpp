@@ -222,6 +222,11 @@ void WriteEffectValues(std::ostream& out, const TraceResult& r) {
     out << "  " << term.info().id << ": " << term.info().description << iso << "\n";
     for (std::size_t i = 0; i < term.components.size(); ++i) {
       const int col = a.fit.TermOffset(t) + static_cast<int>(i);
+      if (!rep.Empty() && rep.IsHeld(col)) {
+        out << Format("    %-30s %12.5f %s (%s)\n", term.ParamName(i).c_str(), a.fit.values[t][i] * u.per_internal,
+                      u.name, rep.held[static_cast<std::size_t>(col)] == Held::kFixed ? "fixed" : "at bound");
+        continue;
+      }
       if (!rep.Empty() && !rep.determined[static_cast<std::size_t>(col)]) {
         const double disp = rep.StdAsDisplacementUm(col);
         out << Format("    %-30s %12s  (std %s um as a displacement: not determined by these data)\n",
@@ -368,6 +373,9 @@ json EffectsJson(const EffectFit& a) {
                         {"value", a.values[t][i] * u.per_internal},
                         {"std", rep.Empty() ? json(nullptr) : json(rep.std(col) * u.per_internal)},
                         {"unit", u.name}});
+      if (!rep.Empty() && rep.IsHeld(col)) {
+        params.back()["held"] = rep.held[static_cast<std::size_t>(col)] == Held::kFixed ? "fixed" : "at bound";
+      }
     }
     effects.push_back({{"id", term.info().id},
                        {"iso_name", term.info().iso_name},

@@ -221,6 +221,8 @@ class PointsParser {
       if (data_.header.columns.empty()) fail("the columns line names no columns");
       return FixColumns(fail);
     }
+    if (key == kFixKey) ParseFixedParameters(value, fail.where() + key);
+    if (key == kPriorKey) ParseParameterPriors(value, fail.where() + key);
     for (const ConditionField& c : kConditionFields) {
       if (key != c.key) continue;
       const double v = ParseNumber(value, key, fail.where());
@@ -479,6 +481,22 @@ SphereConditions ConditionsOf(const PointsHeader& header) {
     }
   }
   return c;
+}
+
+std::vector<FixedParameter> FixedParametersOf(const PointsHeader& header) {
+  std::vector<FixedParameter> out;
+  for (const auto& [key, value] : header.metadata) {
+    if (key == kFixKey) out = ParseFixedParameters(value, "header " + key);
+  }
+  return out;
+}
+
+std::vector<ParameterPrior> ParameterPriorsOf(const PointsHeader& header) {
+  std::vector<ParameterPrior> out;
+  for (const auto& [key, value] : header.metadata) {
+    if (key == kPriorKey) out = ParseParameterPriors(value, "header " + key);
+  }
+  return out;
 }
 
 void WritePoints(std::ostream& out, const PointsData& data) {

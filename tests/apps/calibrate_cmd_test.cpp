@@ -122,6 +122,50 @@ TEST_F(CalibrateCmd, ProgressOnRequestNamesEachStageAndEveryRoundOfTheTrace) {
   }
 }
 
+// What the file's header holds and informs, and the options over it: a held parameter reported as
+// held, a prior an input of the budget, the options winning for a parameter both name.
+TEST_F(CalibrateCmd, FixAndPriorFromTheHeaderAndTheOptions) {
+  std::string text = sph::testing::ReadWholeFile(SPH_SOURCE_DIR "/data/example/points.txt");
+  text.insert(text.find("# columns"), "# fix: d_prime_mm=-0.05 beta\n# prior: alpha_deg=0.0202,0.0001\n");
+  CalibrateOptions o;
+  o.points_path = WriteFile("told.txt", text);
+  o.workflow.trace = false;
+  o.json_path = dir_ + "/report.json";
+  o.fix = {"d_prime_mm=-0.062"};  // over the header's -0.05
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("d_prime         -0.062000000        fixed mm   |     -62.0000      fixed um"));
+  EXPECT_THAT(r.out, HasSubstr("beta             0.000000000        fixed deg"));
+  EXPECT_THAT(r.out, HasSubstr("prior on alpha: u = 1.74533 urad"));
+  const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
+  EXPECT_EQ(j["parameters"]["d_prime"]["held"], "fixed");
+  EXPECT_EQ(j["parameters"]["d_prime"]["value"], -0.062);
+  EXPECT_FALSE(j["parameters"]["alpha"].contains("held"));
+  EXPECT_GT(j["prior_noise_um"].get<double>(), 0.0);
+}
+
+TEST_F(CalibrateCmd, RobustLossNamesTheReadingsItWeightedDown) {
+  SimulationSpec spec;
+  spec.effects.outlier_fraction = 0.02;
+  spec.effects.outlier_um = 20.0;
+  CalibrateOptions o;
+  o.points_path = Simulated("dirty.txt", spec);
+  o.workflow.trace = false;
+  o.robust_loss = "huber";
+  o.json_path = dir_ + "/report.json";
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("robust loss: "));
+  EXPECT_THAT(r.out, HasSubstr("readings weighted down (scale "));
+  EXPECT_THAT(r.out, HasSubstr(", weight "));
+  EXPECT_THAT(r.out, Not(HasSubstr("outlier(s) left out")));
+  const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
+  EXPECT_EQ(j["robust_loss"]["loss"], "huber");
+  EXPECT_NEAR(j["robust_loss"]["noise_um"].get<double>(), 0.05, 0.02);
+  EXPECT_GE(j["robust_loss"]["weighted_readings"].size(), 5u);
+  EXPECT_TRUE(j["outliers"].empty());
+}
+
 TEST_F(CalibrateCmd, CentredSphereExitsOneAndWritesNoCalibration) {
   SimulationSpec spec;
   spec.centers_mm = {Eigen::Vector3d(0.01, 0, 0)};

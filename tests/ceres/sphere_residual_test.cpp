@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "calib/calib_test_util.hpp"
+#include "ceres_fit.hpp"
+#include "fit_problem.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/effect_fit.hpp"
 #include "sph/core/simulate.hpp"
@@ -278,8 +280,77 @@ TEST(JacobianAt, EqualsTheAutodiffJacobianWithEveryEffect) {
   EXPECT_LE(worst, 1e-12);
 }
 
-// The calibration's own Levenberg-Marquardt against Ceres' on the per-reading autodiff functors
-// (one AutoDiffCostFunction per reading, dense QR), same start and tolerances.
+// What Ceres solves: the fits' cost functions (src/calib/ceres_fit.cpp, the hand-derived Jacobian
+// of every reading of a setup in one residual block) as Ceres evaluates them, against the
+// per-reading functors differentiated by Ceres, with every effect of the library and two setups.
+TEST(FitSolver, CeresSeesThePerReadingFunctorsDifferentiated) {
+  SimulationSpec spec;
+  spec.pattern = GridPattern(12, 6);
+  spec.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, -1.5, 0.5)};
+  const PointsData points = Simulate(spec);
+  EffectModel model;
+  std::vector<std::vector<double>> values;
+  for (int e = 0; e < kNumEffects; ++e) {
+    model.terms.push_back(DefaultTerm(static_cast<Effect>(e), 2, 2));
+    std::vector<double> v;
+    for (int i = 0; i < model.terms.back().size(); ++i) v.push_back(2e-5 * (i + 1) * (e % 2 ? -1 : 1));
+    values.push_back(v);
+  }
+  values[static_cast<std::size_t>(model.Find(Effect::kProbeIncidence))] = {50e-3};
+  model.reference = EffectReferenceOf(points.samples);
+  model.phi_wobble_pivot_mm = 60.0;
+  const ScmsGeometry g = SomeGeometry();
+  const std::vector<Eigen::Vector3d> centers{{2.001, 0.002, -0.001}, {0.0, -1.499, 0.503}};
+  const internal::ReadingTable table(points);
+  const internal::SphereFitProblem problem(table, internal::AllRows(table), model, sph::testing::PaperOptions());
+  const Eigen::VectorXd x = problem.Pack(g, centers, values);
+  internal::FitSolver solver(problem);
+  Eigen::VectorXd e;
+  Eigen::MatrixXd jac;
+  solver.Evaluate(x, &e, &jac);
+  ASSERT_EQ(e.size(), static_cast<Eigen::Index>(points.samples.size()));
+  ASSERT_EQ(jac.cols(), x.size());
+  double worst = 0.0, worst_e = 0.0;
+  Eigen::Index row = 0;
+  for (int k = 0; k < problem.NumSetups(); ++k) {
+    for (const std::uint32_t i : problem.RowsOf(k)) {
+      const Sample& s = points.samples[i];
+      ceres::DynamicAutoDiffCostFunction<EffectReadingResidual, 8> cost(
+          new EffectReadingResidual{&model, EffectReading(s.theta_deg, s.phi_deg, s.r_mm, s.t_s)});
+      cost.AddParameterBlock(kNumScmsParams);
+      cost.AddParameterBlock(3);
+      for (const auto& v : values) cost.AddParameterBlock(static_cast<int>(v.size()));
+      cost.SetNumResiduals(1);
+      std::vector<const double*> blocks{g.data(), centers[static_cast<std::size_t>(k)].data()};
+      for (const auto& v : values) blocks.push_back(v.data());
+      std::vector<std::vector<double>> jb;
+      std::vector<double*> jp;
+      for (int size : cost.parameter_block_sizes()) jb.emplace_back(static_cast<std::size_t>(size));
+      for (auto& b : jb) jp.push_back(b.data());
+      double reference = 0.0;
+      ASSERT_TRUE(cost.Evaluate(blocks.data(), &reference, jp.data()));
+      worst_e = std::max(worst_e, std::abs(e(row) - reference));
+      // The columns of x: the seven errors, the centre of setup k, then the effects.
+      std::vector<Eigen::Index> columns;
+      for (int j = 0; j < kNumScmsParams; ++j) columns.push_back(j);
+      for (int j = 0; j < 3; ++j) columns.push_back(kNumScmsParams + 3 * k + j);
+      for (int j = 0; j < model.NumParams(); ++j) columns.push_back(problem.FirstEffectColumn() + j);
+      std::size_t c = 0;
+      Eigen::RowVectorXd expected = Eigen::RowVectorXd::Zero(x.size());
+      for (const auto& b : jb) {
+        for (const double d : b) expected(columns[c++]) = d;
+      }
+      worst = std::max(worst, (jac.row(row) - expected).cwiseAbs().maxCoeff());
+      ++row;
+    }
+  }
+  EXPECT_LE(worst_e, 1e-12);
+  EXPECT_LE(worst, 1e-12);
+}
+
+// The calibration (its block cost functions, the hand-derived Jacobian) against Ceres on the
+// per-reading autodiff functors (one AutoDiffCostFunction per reading, dense QR), same start and
+// tolerances.
 TEST(Calibrate, AgreesWithCeresOnThePerReadingFunctors) {
   for (const double noise_um : {0.0, 0.05}) {
     SimulationSpec spec;

@@ -12,6 +12,7 @@
 
 #include "sph/core/error.hpp"
 #include "sph/core/text_input.hpp"
+#include "sph/model/units.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -56,6 +57,52 @@ TEST(PointsFile, ReadsHeaderColumnsAndSamples) {
   EXPECT_DOUBLE_EQ(d.samples[1].t_s, 1.5);
   EXPECT_EQ(d.samples[1].setup, 3);
   EXPECT_EQ(d.SetupIds(), (std::vector<int>{0, 3}));
+}
+
+// "fix" and "prior": what the run states about the calibration's parameters, units in the names,
+// checked at their line and kept (as metadata, written back as they were).
+TEST(PointsFile, FixAndPriorHeaderFields) {
+  const PointsData d = Parse(std::string(kHeader) +
+                             "# fix: d_prime_mm=-0.062 beta\n"
+                             "# prior: alpha_deg=0.02,0.0005 theta_encoder.c2_arcsec=6,1.5\n1 2 3\n");
+  const std::vector<FixedParameter> fixed = FixedParametersOf(d.header);
+  ASSERT_EQ(fixed.size(), 2u);
+  EXPECT_EQ(fixed[0].name, "d_prime");
+  EXPECT_DOUBLE_EQ(*fixed[0].value, -0.062);
+  EXPECT_EQ(fixed[1].name, "beta");
+  EXPECT_FALSE(fixed[1].value.has_value());
+  const std::vector<ParameterPrior> priors = ParameterPriorsOf(d.header);
+  ASSERT_EQ(priors.size(), 2u);
+  EXPECT_EQ(priors[0].name, "alpha");
+  EXPECT_DOUBLE_EQ(priors[0].value, 0.02 * kRadPerDeg);
+  EXPECT_DOUBLE_EQ(priors[0].u, 0.0005 * kRadPerDeg);
+  EXPECT_EQ(priors[1].name, "theta_encoder.c2");
+  EXPECT_DOUBLE_EQ(priors[1].u, 1.5 * kRadPerArcsec);
+  std::ostringstream out;
+  WritePoints(out, d);
+  EXPECT_THAT(out.str(), HasSubstr("# fix: d_prime_mm=-0.062 beta\n"));
+  EXPECT_THAT(out.str(), HasSubstr("# prior: alpha_deg=0.02,0.0005 theta_encoder.c2_arcsec=6,1.5\n"));
+  EXPECT_EQ(ParameterPriorText(priors[0]), "alpha_deg=0.02,0.0005");
+  EXPECT_EQ(FixedParameterText(fixed[0]), "d_prime_mm=-0.062");
+  EXPECT_EQ(ParameterPriorText(priors[1]), "theta_encoder.c2_arcsec=6,1.5");
+}
+
+TEST(PointsFile, BadFixAndPriorNamedAtTheirLine) {
+  const std::string h = kHeader;
+  EXPECT_THAT(ErrorOf(h + "# fix: d_primo\n1 2 3\n"), HasSubstr("pts.txt:4: fix: unknown parameter 'd_primo'"));
+  EXPECT_THAT(ErrorOf(h + "# fix: d_prime=-0.06\n1 2 3\n"),
+              HasSubstr("pts.txt:4: fix: the value of d_prime needs its unit in the name: d_prime_mm or _um"));
+  EXPECT_THAT(ErrorOf(h + "# fix: alpha_mm=0.1\n1 2 3\n"),
+              HasSubstr("pts.txt:4: fix: alpha is an angle: give it in deg, arcsec or urad"));
+  EXPECT_THAT(ErrorOf(h + "# prior: alpha_deg=0.02\n1 2 3\n"),
+              HasSubstr("pts.txt:4: prior: expected NAME_UNIT=VALUE,U"));
+  EXPECT_THAT(ErrorOf(h + "# prior: alpha_deg=0.02,0\n1 2 3\n"),
+              HasSubstr("pts.txt:4: prior: the standard uncertainty of alpha must be positive, got '0'"));
+  EXPECT_THAT(ErrorOf(h + "# prior: theta_encoder.q2_arcsec=1,1\n1 2 3\n"),
+              HasSubstr("pts.txt:4: prior: unknown parameter 'theta_encoder.q2'"));
+  EXPECT_THAT(ErrorOf(h + "# prior: alpha_deg=x,1\n1 2 3\n"),
+              HasSubstr("pts.txt:4: prior: alpha: 'x' is not a number"));
+  EXPECT_THAT(ErrorOf(h + "# fix:\n1 2 3\n"), HasSubstr("pts.txt:4: fix: names no parameter"));
 }
 
 TEST(PointsFile, DefaultColumnsAndRowIndexAsTime) {

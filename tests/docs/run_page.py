@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Runs the commands of a page of the manual and checks the outputs the page quotes.
 
-Usage: run_page.py PAGE --source-dir DIR [--path DIR ...] [--examples DIR]
+Usage: run_page.py PAGE --source-dir DIR [--path DIR ...] [--examples DIR] [--skip NAME ...]
 
 The page's fenced blocks are taken in order:
 - a ```sh block is run by bash (-e -o pipefail), all of them in one fresh folder that holds a link
   `data` to the source tree's data/, with every --path folder first on PATH;
 - a ```cpp block preceded by the comment <!-- example: NAME (LIBRARY) --> is run as the program NAME of
-  the --examples folder (compiled from the block by tests/docs/CMakeLists.txt), in the same folder;
+  the --examples folder (compiled from the block by tests/docs/CMakeLists.txt), in the same folder,
+  unless --skip names it (its library is not built here: it is neither run nor its output checked);
 - a ```text block right after one of those (only blank lines between) quotes its output (stdout
   and stderr together): every quoted line must equal a line of the output, in the same order,
   lines between them skipped; a `…` in a quoted line stands for any text, a line of `…` alone for
@@ -84,19 +85,24 @@ def main():
     ap.add_argument("--source-dir", required=True)
     ap.add_argument("--path", action="append", default=[])
     ap.add_argument("--examples")
+    ap.add_argument("--skip", action="append", default=[])
     args = ap.parse_args()
     with open(args.page, encoding="utf-8") as f:
         lines = f.read().splitlines()
     env = dict(os.environ)
     env["PATH"] = os.pathsep.join([os.path.abspath(p) for p in args.path] + [env.get("PATH", "")])
     env["LC_ALL"] = "C.UTF-8"
-    ran = checked = 0
+    ran = checked = skipped = 0
     with tempfile.TemporaryDirectory(prefix="sph-docs-") as work:
         os.symlink(os.path.join(os.path.abspath(args.source_dir), "data"), os.path.join(work, "data"))
         output = None  # of the last block run, for the quote that follows it
         for kind, start, body, example, adjacent in blocks(lines):
             if kind == "sh":
                 command = ["bash", "-e", "-o", "pipefail", "-c", "\n".join(body)]
+            elif kind == "cpp" and example in args.skip:
+                skipped += 1
+                output = None
+                continue
             elif kind == "cpp" and example:
                 if not args.examples:
                     raise SystemExit(f"{args.page}:{start}: example {example}: no --examples folder")
@@ -120,7 +126,8 @@ def main():
     if ran == 0:
         sys.stderr.write(f"{args.page}: nothing to run\n")
         return 1
-    print(f"{args.page}: {ran} blocks run, {checked} quoted outputs found")
+    print(f"{args.page}: {ran} blocks run, {checked} quoted outputs found"
+          + (f", {skipped} examples not built here: {' '.join(args.skip)}" if skipped else ""))
     return 0
 
 

@@ -65,11 +65,21 @@ struct CalibrationBudget {
 using BudgetRefit = std::function<Eigen::VectorXd(const PointsData&, const CalibrationOptions&)>;
 
 /// The budget of a fit (docs/method/uncertainty.md). `fitted`: the readings the fit used (outliers
-/// left out); `analysis`: the fit's covariance and determinacy; `n_points`: m. Throws sph::Error
-/// if the refits fail.
+/// left out); `analysis`: the fit's covariance and determinacy; `n_points`: m. Each prior of
+/// `options` on a parameter of the analysis is an input of its own (its standard uncertainty,
+/// the sensitivity by refits with its value moved), and the fit's covariance less what the priors
+/// contribute to it is the Type A part; the refits weight the priors (and scale a robust loss) by
+/// the noise of `options` (prior_sigma_mm, robust_sigma_mm: the fit's). A held parameter has no
+/// uncertainty. Throws sph::Error if the refits fail.
 CalibrationBudget MakeCalibrationBudget(const PointsData& fitted, const CalibrationOptions& options,
                                         const ObservabilityReport& analysis, int n_points,
                                         const CalibrationInputs& inputs, const BudgetRefit& refit);
+
+/// The same for the fit `fit` of `fitted` under `options`: its analysis, number of readings and
+/// the noise its priors and robust loss were scaled by.
+CalibrationBudget MakeCalibrationBudget(const PointsData& fitted, const CalibrationOptions& options,
+                                        const CalibrationResult& fit, const CalibrationInputs& inputs,
+                                        const BudgetRefit& refit);
 
 }  // namespace sph
 

@@ -35,8 +35,11 @@ inline constexpr ValidRange kDriftOrder{1.0, 3.0, ""};      ///< TraceOptions::d
 struct CalibrationWorkflowOptions {
   std::optional<double> sphere_radius_mm;  ///< R0 at 20 deg C; overrides the points' header [mm]
   std::optional<double> probe_offset_mm;   ///< nominal d; overrides the points' header [mm]
-  /// The fit's settings: max_std_um, max_iterations, ... (the radii and d are the workflow's, from
-  /// the two fields above or the header, R0 corrected to the measuring temperature).
+  /// The fit's settings: max_std_um, max_iterations, the parameters held (`fixed`) and informed
+  /// (`priors`), which win over the points' header's "fix" and "prior" for a parameter both name, a
+  /// robust loss (only without the trace's selection: trace false or `effects` given), ... The radii
+  /// and d are the workflow's, from the two fields above or the header, R0 corrected to the
+  /// measuring temperature.
   CalibrationOptions fit;
   bool trace = true;  ///< trace the residual to the effects the model lacks; false: the seven errors only
   /// The trace's settings: harmonics, drift_order, seed, hold_confounded, phi_wobble_pivot_mm,

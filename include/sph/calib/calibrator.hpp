@@ -19,10 +19,26 @@
 #include <Eigen/Core>
 
 #include "sph/calib/observability.hpp"
+#include "sph/core/parameter_settings.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph {
+
+/// Bounds of a parameter besides its physical ones (internal units: rad, mm; -inf or +inf where
+/// it has none).
+struct ParameterBound {
+  std::string name;  ///< as FixedParameter::name
+  double lower = -std::numeric_limits<double>::infinity();
+  double upper = std::numeric_limits<double>::infinity();
+};
+
+/// A robust loss of the readings' residuals, in place of least squares.
+enum class RobustLoss {
+  kNone,    ///< least squares
+  kHuber,   ///< quadratic within the scale, linear beyond: a reading beyond it weighs scale / |e|
+  kCauchy,  ///< log(1 + (e / scale)^2): a reading weighs 1 / (1 + (e / scale)^2)
+};
 
 struct CalibrationOptions {
   double sphere_radius_mm = 0.0;  ///< R0 (required, > 0)
@@ -48,11 +64,48 @@ struct CalibrationOptions {
   /// outliers no longer changes. The limit is at least 1 nm. 0 keeps every reading. Needs `analyse`.
   double outlier_sigma = 5.0;
 
+  /// Parameters held at a value instead of fitted (sph/core/parameter_settings.hpp): reported as
+  /// held, not with an uncertainty. A parameter of an effect holds where the fit's model has it.
+  std::vector<FixedParameter> fixed;
+  /// Gaussian priors from independent measurements: each adds the residual (p - value) sigma / u to
+  /// the readings' (sigma: the readings' noise, prior_sigma_mm), and the uncertainty budget lists
+  /// it as an input of its own. Not on a parameter also held.
+  std::vector<ParameterPrior> priors;
+  /// The readings' noise the priors are weighted with [mm]; 0: from the fit itself (the residual
+  /// sigma of the readings and the priors together, found by refitting until it holds).
+  /// CalibrationResult::prior_sigma_mm is the one used: refits of the same readings pass it on.
+  double prior_sigma_mm = 0.0;
+  /// Bounds besides the physical ones, which every fit has: |alpha|, |beta|, |epsilon| below 90
+  /// deg, d' above -d (the probe's zero beyond the axes' common point). A parameter that ends at a
+  /// bound is reported as held there.
+  std::vector<ParameterBound> bounds;
+  /// A robust loss instead of least squares, with every reading kept at a weight, in place of the
+  /// outlier rule (outlier_sigma is then not used). Its scale is robust_scale_sigma times the
+  /// readings' noise, estimated as 1.4826 times the median absolute deviation of the residuals
+  /// (each setup about its own median) and refitted until it holds.
+  RobustLoss robust_loss = RobustLoss::kNone;
+  /// The loss' scale in units of the noise; 0: the usual (Huber 1.345, Cauchy 2.385: 95 % of the
+  /// efficiency of least squares on Gaussian noise).
+  double robust_scale_sigma = 0.0;
+  /// The noise the loss' scale is in units of [mm]; 0: estimated as above. Refits of the same
+  /// readings pass the fit's on (CalibrationResult::robust_sigma_mm).
+  double robust_sigma_mm = 0.0;
+
+  /// Whether outliers are left out (outlier_sigma > 0 and no robust loss).
+  bool LeavesOutOutliers() const { return outlier_sigma > 0.0 && robust_loss == RobustLoss::kNone; }
+
   /// The radius of the sphere measured in `setup`: its entry in sphere_radii_mm, else R0 [mm].
   double SphereRadiusMm(int setup) const {
     const auto it = sphere_radii_mm.find(setup);
     return it == sphere_radii_mm.end() ? sphere_radius_mm : it->second;
   }
+};
+
+/// A reading that a robust loss weighted down.
+struct WeightedReading {
+  std::size_t sample = 0;    ///< index in the points file's samples (0-based, file order)
+  double weight = 1.0;       ///< rho'(e^2): what it counts for against a reading within the scale
+  double residual_um = 0.0;  ///< its residual under the fit
 };
 
 /// A reading left out of the fit as an outlier.
@@ -72,6 +125,14 @@ struct CalibrationResult {
   double pv_um = 0.0;                       ///< residual peak to valley of the readings fitted
   int n_points = 0;                         ///< readings fitted (outliers not counted)
   std::vector<Outlier> outliers;            ///< readings left out, in file order
+  /// Under a robust loss: the readings it weighted down (weight below 1), in file order, the noise
+  /// it estimated and its scale [mm].
+  std::vector<WeightedReading> weighted;
+  RobustLoss robust_loss = RobustLoss::kNone;
+  double robust_sigma_mm = 0.0;
+  double robust_scale_mm = 0.0;
+  /// The readings' noise the priors were weighted with [mm] (0 without priors).
+  double prior_sigma_mm = 0.0;
   int iterations = 0;
   bool converged = false;
   std::string solver_message;  ///< the solver's termination message
@@ -104,6 +165,10 @@ std::vector<bool> RobustOutliers(const std::vector<double>& residuals_mm, const 
 /// "sample 18 (theta 240 deg, phi 7.5 deg, residual +999 um); ...": the outliers of `points` in
 /// words, cut after about 400 characters.
 std::string DescribeOutliers(const PointsData& points, const std::vector<Outlier>& outliers);
+
+/// "sample 18 (line 24, theta 240 deg, phi 7.5 deg, residual +999 um, weight 0.001); ...": readings
+/// a robust loss weighted down, in words, cut after about 400 characters.
+std::string DescribeWeightedReadings(const PointsData& points, const std::vector<WeightedReading>& readings);
 
 /// `points` without the samples that `result` left out as outliers.
 PointsData WithoutOutliers(const PointsData& points, const CalibrationResult& result);

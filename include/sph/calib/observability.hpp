@@ -35,8 +35,20 @@ struct WeakCombination {
   std::vector<std::pair<int, double>> terms;
 };
 
+/// How a parameter entered a fit.
+enum class Held {
+  kNo,            ///< fitted
+  kFixed,         ///< held at a value given (CalibrationOptions::fixed)
+  kAtLowerBound,  ///< fitted, but ended at its lower bound: held there
+  kAtUpperBound,  ///< ... at its upper bound
+};
+
 struct ObservabilityReport {
   std::vector<ParameterDescription> parameters;
+  /// Per parameter; empty: every one fitted. A held parameter has std 0, no covariance with the
+  /// others (zero), no correlation (NaN) and counts as determined; the rest of the analysis is
+  /// that of the fit of the others.
+  std::vector<Held> held;
   Eigen::VectorXd std;         ///< standard uncertainty, internal units; +inf in the null space
   Eigen::MatrixXd covariance;  ///< internal units (rad, mm); rows of null-space parameters are NaN
   Eigen::MatrixXd correlation;
@@ -45,12 +57,16 @@ struct ObservabilityReport {
   /// column of the Jacobian orthogonal to all others (1: independent; +inf: in the null space).
   /// 1 - 1/vif is the squared multiple correlation with the other parameters.
   Eigen::VectorXd vif;
-  double residual_sigma_mm = 0.0;     ///< s = sqrt(sum e^2 / (m - n))
+  double residual_sigma_mm = 0.0;  ///< s = sqrt(sum e^2 / dof)
+  /// The degrees of freedom of s: m - n, or with priors m - n plus what the priors determine of
+  /// the parameters (the sum of their leverages; see src/calib/solve_fit.hpp).
+  double degrees_of_freedom = 0.0;
   double condition_number = 0.0;      ///< of the column-equilibrated Jacobian
   std::vector<WeakCombination> weak;  ///< weakest first
 
   bool Empty() const { return parameters.empty(); }
   bool AllDetermined() const;
+  bool IsHeld(int i) const { return !held.empty() && held[static_cast<std::size_t>(i)] != Held::kNo; }
   /// Standard uncertainty of parameter i as a displacement [um] (angles times their lever arm).
   double StdAsDisplacementUm(int i) const;
 };
@@ -62,7 +78,9 @@ struct NormalInverse {
   Eigen::MatrixXd inverse;          ///< (J^T J)^-1; rows and columns of null-space parameters are NaN
   std::vector<bool> in_null;        ///< parameter j lies in the numerical null space of J
   double condition_number = 0.0;    ///< sigma_max / sigma_min of J D (inf when singular)
-  Eigen::VectorXd singular_values;  ///< of J D, descending
+  /// Of J D, descending: all of them, or (a fit of many setups, analysed through its block
+  /// structure) the largest and the weakest ones.
+  Eigen::VectorXd singular_values;
   Eigen::MatrixXd v;                ///< right singular vectors of J D, in the same order
   Eigen::VectorXd scale;            ///< the diagonal of D: 1 / |J_:,j|, 0 for a zero column
 };
@@ -98,6 +116,11 @@ ObservabilityReport AnalyseFactor(const Eigen::MatrixXd& r, Eigen::Index rows, d
 /// AnalyseFit() from the inverse of the normal matrix as any of the functions above gives it.
 ObservabilityReport AnalyseFit(const NormalInverse& inverse, Eigen::Index rows, double rss,
                                std::vector<ParameterDescription> params, double max_std_um);
+
+/// The report `free` of the parameters a fit did not hold as one of all its `parameters`, `held`
+/// saying which it held (see ObservabilityReport::held).
+ObservabilityReport WithHeldParameters(const ObservabilityReport& free, std::vector<ParameterDescription> parameters,
+                                       const std::vector<Held>& held);
 
 }  // namespace sph
 

@@ -59,12 +59,18 @@ struct ResidualStructure {
 /// The rows of a fit's Jacobian, given block by block (any order, each row once).
 class JacobianBlocks {
  public:
-  /// fn(samples, count, rows, stride): `count` rows of J, samples[i] the index in the fit's points
-  /// of row i, its column j at rows[i * stride + j].
-  using BlockFn = std::function<void(const std::uint32_t* samples, int count, const double* rows, int stride)>;
+  /// fn(samples, count, rows, stride, group): `count` rows of J, samples[i] the index in the fit's
+  /// points of row i, its column j at rows[i * stride + j]; `group` the group of rows the block
+  /// belongs to (GroupColumns()), or -1.
+  using BlockFn =
+      std::function<void(const std::uint32_t* samples, int count, const double* rows, int stride, int group)>;
   virtual ~JacobianBlocks() = default;
   virtual Eigen::Index Cols() const = 0;
   virtual void ForEach(const BlockFn& fn) const = 0;
+  /// Where the rows come in groups that each depend on three columns of their own besides the
+  /// shared ones (a setup's readings on its centre): the first of each group's three columns;
+  /// ForEach() then gives each block's group, a group's blocks one after the other. Empty: none.
+  virtual std::vector<Eigen::Index> GroupColumns() const { return {}; }
 };
 
 /// A Jacobian held in memory (row i: sample i) as JacobianBlocks.
@@ -94,8 +100,16 @@ struct FitResiduals {
 struct StructureFactor {
   Eigen::MatrixXd r;               ///< R, upper triangular, columns in the order above
   Eigen::Index rows = 0;           ///< m
-  Eigen::Index jacobian_cols = 0;  ///< n
+  Eigen::Index jacobian_cols = 0;  ///< n (with `eliminated`: the shared columns of J)
   bool has_signal = false;         ///< the columns are those with a signal
+  /// With many groups of rows (JacobianBlocks::GroupColumns(), a fit of many setups) each group's
+  /// own three columns are eliminated from its rows first, at a cost linear in the number of
+  /// groups: R then holds the other columns projected off them, `eliminated` is their rank and
+  /// `norms` the norm of every column of R's before that projection, `gram` the inner products of
+  /// the functions' and e's columns before it. Otherwise 0 and empty (R's columns then have them).
+  Eigen::Index eliminated = 0;
+  Eigen::VectorXd norms;
+  Eigen::MatrixXd gram;
 };
 
 /// The factor of a fit; with `signal_mm` (file order) its column is added (SpherePatternFraction()).

@@ -25,6 +25,7 @@
 
 #include <Eigen/Core>
 
+#include "sph/core/parameter_settings.hpp"
 #include "sph/model/reading.hpp"
 
 namespace sph {
@@ -131,6 +132,14 @@ inline constexpr ConditionField kConditionFields[] = {
 
 /// The conditions among the header's metadata (values the reader has checked).
 SphereConditions ConditionsOf(const PointsHeader& header);
+
+/// The header fields "fix" and "prior" (sph/core/parameter_settings.hpp): what the run that made
+/// the file states about the calibration's parameters, checked when the file is read and kept
+/// among the header's metadata. Empty: none.
+inline constexpr const char* kFixKey = "fix";
+inline constexpr const char* kPriorKey = "prior";
+std::vector<FixedParameter> FixedParametersOf(const PointsHeader& header);
+std::vector<ParameterPrior> ParameterPriorsOf(const PointsHeader& header);
 
 /// A whole points file in memory.
 struct PointsData {

@@ -1,0 +1,271 @@
+// The Ceres problem of a SphereFitProblem: the only translation unit of the fits with Ceres in it.
+#include "ceres_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include <ceres/cost_function.h>
+#include <ceres/crs_matrix.h>
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+#include <ceres/ordered_groups.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+namespace sph::internal {
+namespace {
+
+// The readings first.. first + count - 1 of one setup as a Ceres cost function, its parameter
+// blocks those of SphereFitProblem::EvaluateSetupRows().
+class SetupCost final : public ceres::CostFunction {
+ public:
+  SetupCost(const SphereFitProblem& problem, int setup, int first, int count)
+      : problem_(problem), setup_(setup), first_(first), count_(count) {
+    set_num_residuals(count);
+    std::vector<int>& sizes = *mutable_parameter_block_sizes();
+    sizes = {kNumScmsParams, 3};
+    if (problem.NumEffectParams() > 0) sizes.push_back(problem.NumEffectParams());
+    if (problem.NumFormTerms() > 0) sizes.push_back(problem.NumFormTerms());
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    SetupParams p;
+    int b = 0;
+    p.geometry = parameters[b++];
+    p.center = parameters[b++];
+    if (problem_.NumEffectParams() > 0) p.effects = parameters[b++];
+    if (problem_.NumFormTerms() > 0) p.form = parameters[b++];
+    return problem_.EvaluateSetupRows(setup_, p, first_, count_, residuals, jacobians);
+  }
+
+ private:
+  const SphereFitProblem& problem_;
+  int setup_, first_, count_;
+};
+
+// A Gaussian prior on entry `index` of a parameter block of `size`: the residual w (x - value).
+class PriorCost final : public ceres::CostFunction {
+ public:
+  PriorCost(int size, int index, double value, double weight) : index_(index), value_(value), weight_(weight) {
+    set_num_residuals(1);
+    *mutable_parameter_block_sizes() = {size};
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    residuals[0] = weight_ * (parameters[0][index_] - value_);
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      std::fill_n(jacobians[0], parameter_block_sizes()[0], 0.0);
+      jacobians[0][index_] = weight_;
+    }
+    return std::isfinite(residuals[0]);
+  }
+
+ private:
+  int index_;
+  double value_, weight_;
+};
+
+std::unique_ptr<ceres::LossFunction> LossOf(LossKind kind, double scale) {
+  switch (kind) {
+    case LossKind::kHuber:
+      return std::make_unique<ceres::HuberLoss>(scale);
+    case LossKind::kCauchy:
+      return std::make_unique<ceres::CauchyLoss>(scale);
+    case LossKind::kNone:
+      break;
+  }
+  return nullptr;
+}
+
+// Readings of one setup above which the centres are eliminated first (see Impl::Impl()).
+constexpr std::size_t kSchurRows = 2000;
+
+}  // namespace
+
+struct FitSolver::Impl {
+  const SphereFitProblem& problem;
+  Eigen::VectorXd state;            // the parameter blocks' memory, laid out as x
+  std::vector<double*> blocks;      // each parameter block's start in `state`
+  std::vector<int> block_sizes;     // and its size
+  std::vector<Eigen::Index> first;  // and its first column of x
+  std::vector<Eigen::Index> fixed;  // columns held
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
+  std::unique_ptr<ceres::LossFunction> loss;
+  std::vector<std::unique_ptr<ceres::Manifold>> manifolds;
+  std::unique_ptr<ceres::Problem> ceres_problem;
+  ceres::Solver::Options options;
+
+  Impl(const SphereFitProblem& p, const SolveConstraints& c);
+  // The block holding column `column` of x, and the column's index in it.
+  std::pair<int, int> BlockOf(Eigen::Index column) const {
+    const auto it = std::upper_bound(first.begin(), first.end(), column);
+    const auto b = static_cast<int>(it - first.begin()) - 1;
+    return {b, static_cast<int>(column - first[static_cast<std::size_t>(b)])};
+  }
+};
+
+FitSolver::Impl::Impl(const SphereFitProblem& p, const SolveConstraints& c)
+    : problem(p), state(Eigen::VectorXd::Zero(p.NumParams())), fixed(c.fixed) {
+  // Parameter blocks in the column order of x.
+  auto add_block = [&](Eigen::Index column, int size) {
+    first.push_back(column);
+    blocks.push_back(state.data() + column);
+    block_sizes.push_back(size);
+  };
+  add_block(0, kNumScmsParams);
+  for (int k = 0; k < p.NumSetups(); ++k) add_block(kNumScmsParams + 3 * k, 3);
+  const int effects_block = p.NumEffectParams() > 0 ? static_cast<int>(blocks.size()) : -1;
+  if (effects_block >= 0) add_block(p.FirstEffectColumn(), p.NumEffectParams());
+  const int first_form_block = static_cast<int>(blocks.size());
+  const int groups = p.NumFormTerms() > 0 ? p.model().form.NumGroups() : 0;
+  for (int g = 0; g < groups; ++g) add_block(p.FirstFormColumn(g), p.NumFormTerms());
+
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres_problem = std::make_unique<ceres::Problem>(po);
+  ceres::Problem& problem_ = *ceres_problem;
+  for (std::size_t b = 0; b < blocks.size(); ++b) problem_.AddParameterBlock(blocks[b], block_sizes[b]);
+  loss = LossOf(c.loss, c.loss_scale_mm);
+  for (int k = 0; k < p.NumSetups(); ++k) {
+    std::vector<double*> used{blocks[0], blocks[static_cast<std::size_t>(1 + k)]};
+    if (effects_block >= 0) used.push_back(blocks[static_cast<std::size_t>(effects_block)]);
+    if (groups > 0) used.push_back(blocks[static_cast<std::size_t>(first_form_block + p.FormGroupOf(k))]);
+    // Under a loss each reading is a residual block of its own (Ceres applies a loss to a block's
+    // squared norm); without one a setup's readings are one block.
+    const int rows = p.SetupRows(k);
+    const int piece = loss ? 1 : rows;
+    for (int first_row = 0; first_row < rows; first_row += piece) {
+      costs.push_back(std::make_unique<SetupCost>(p, k, first_row, std::min(piece, rows - first_row)));
+      problem_.AddResidualBlock(costs.back().get(), loss.get(), used);
+    }
+  }
+  for (const ColumnPrior& prior : c.priors) {
+    const auto [b, index] = BlockOf(prior.column);
+    costs.push_back(std::make_unique<PriorCost>(block_sizes[static_cast<std::size_t>(b)], index, prior.value,
+                                                c.prior_sigma_mm / prior.u));
+    problem_.AddResidualBlock(costs.back().get(), nullptr, blocks[static_cast<std::size_t>(b)]);
+  }
+  // Fixed columns: a block wholly fixed is constant, a block partly fixed moves on the others.
+  std::map<int, std::vector<int>> fixed_of_block;
+  for (const Eigen::Index column : c.fixed) {
+    const auto [b, index] = BlockOf(column);
+    fixed_of_block[b].push_back(index);
+  }
+  for (auto& [b, indices] : fixed_of_block) {
+    std::sort(indices.begin(), indices.end());
+    indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
+    const int size = block_sizes[static_cast<std::size_t>(b)];
+    if (static_cast<int>(indices.size()) == size) {
+      problem_.SetParameterBlockConstant(blocks[static_cast<std::size_t>(b)]);
+    } else {
+      manifolds.push_back(std::make_unique<ceres::SubsetManifold>(size, indices));
+      problem_.SetManifold(blocks[static_cast<std::size_t>(b)], manifolds.back().get());
+    }
+  }
+  for (const ColumnBound& bound : c.bounds) {
+    const auto [b, index] = BlockOf(bound.column);
+    if (std::isfinite(bound.lower))
+      problem_.SetParameterLowerBound(blocks[static_cast<std::size_t>(b)], index, bound.lower);
+    if (std::isfinite(bound.upper))
+      problem_.SetParameterUpperBound(blocks[static_cast<std::size_t>(b)], index, bound.upper);
+  }
+
+  // The linear solver (measured, bench/calibrate_bench.cpp): one setup of up to a few thousand
+  // readings solves fastest on the normal equations; several setups, or more readings, eliminate
+  // the centres first (a Schur complement over the seven errors, the effects and the form), which
+  // keeps the cost linear in the number of setups.
+  bool free_f = false;  // a block other than a centre that moves
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    const bool centre = b >= 1 && b <= static_cast<std::size_t>(p.NumSetups());
+    const auto it = fixed_of_block.find(static_cast<int>(b));
+    if (!centre && (it == fixed_of_block.end() || static_cast<int>(it->second.size()) < block_sizes[b])) free_f = true;
+  }
+  const bool schur = free_f && (p.NumSetups() > 1 || p.NumRows() > kSchurRows);
+  options.linear_solver_type = schur ? ceres::DENSE_SCHUR : ceres::DENSE_NORMAL_CHOLESKY;
+  if (schur) {
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (std::size_t b = 0; b < blocks.size(); ++b) {
+      const bool centre = b >= 1 && b <= static_cast<std::size_t>(p.NumSetups());
+      ordering->AddElementToGroup(blocks[b], centre ? 0 : 1);
+    }
+    options.linear_solver_ordering = ordering;
+  }
+  options.num_threads = 1;
+  options.logging_type = ceres::SILENT;
+  options.minimizer_progress_to_stdout = false;
+  options.function_tolerance = 1e-6;
+  options.gradient_tolerance = 1e-16;
+  options.parameter_tolerance = 1e-12;
+}
+
+FitSolver::FitSolver(const SphereFitProblem& problem, const SolveConstraints& constraints)
+    : impl_(std::make_unique<Impl>(problem, constraints)) {}
+
+FitSolver::~FitSolver() = default;
+
+SolveSummary FitSolver::Solve(Eigen::VectorXd& x, int max_iterations) {
+  Impl& s = *impl_;
+  s.state = x;
+  s.options.max_num_iterations = max_iterations;
+  ceres::Solver::Summary summary;
+  ceres::Solve(s.options, s.ceres_problem.get(), &summary);
+  x = s.state;
+  SolveSummary out;
+  out.converged = summary.termination_type == ceres::CONVERGENCE;
+  out.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);  // iteration 0 is the start
+  out.message = summary.message;
+  return out;
+}
+
+void FitSolver::Evaluate(const Eigen::VectorXd& x, Eigen::VectorXd* residuals, Eigen::MatrixXd* jacobian) {
+  Impl& s = *impl_;
+  s.state = x;
+  ceres::Problem::EvaluateOptions eval;
+  eval.parameter_blocks = s.blocks;
+  eval.apply_loss_function = false;
+  double cost = 0.0;
+  std::vector<double> e;
+  ceres::CRSMatrix crs;
+  s.ceres_problem->Evaluate(eval, &cost, &e, nullptr, &crs);
+  *residuals = Eigen::Map<const Eigen::VectorXd>(e.data(), static_cast<Eigen::Index>(e.size()));
+  // Columns: the blocks in `blocks` order, which is the column order of x; a block partly fixed
+  // (SubsetManifold) has a column for each of its free entries only.
+  *jacobian = Eigen::MatrixXd::Zero(crs.num_rows, x.size());
+  std::vector<Eigen::Index> column_of;
+  for (std::size_t b = 0; b < s.blocks.size(); ++b) {
+    const bool partly_fixed = s.ceres_problem->ParameterBlockTangentSize(s.blocks[b]) < s.block_sizes[b];
+    for (int j = 0; j < s.block_sizes[b]; ++j) {
+      const Eigen::Index column = s.first[b] + j;
+      if (partly_fixed && std::find(s.fixed.begin(), s.fixed.end(), column) != s.fixed.end()) continue;
+      column_of.push_back(column);
+    }
+  }
+  for (int row = 0; row < crs.num_rows; ++row) {
+    for (int k = crs.rows[static_cast<std::size_t>(row)]; k < crs.rows[static_cast<std::size_t>(row) + 1]; ++k) {
+      (*jacobian)(row, column_of[static_cast<std::size_t>(crs.cols[static_cast<std::size_t>(k)])]) =
+          crs.values[static_cast<std::size_t>(k)];
+    }
+  }
+}
+
+void FitSolver::LossWeights(const Eigen::VectorXd& x, double* weights) const {
+  const Impl& s = *impl_;
+  const SphereFitProblem& p = s.problem;
+  std::vector<double> e;
+  for (int k = 0; k < p.NumSetups(); ++k) {
+    const std::vector<std::uint32_t>& rows = p.RowsOf(k);
+    e.resize(rows.size());
+    p.EvaluateSetupRows(k, p.ParamsOf(x.data(), k), 0, static_cast<int>(rows.size()), e.data(), nullptr);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      double rho[3] = {e[i] * e[i], 1.0, 0.0};
+      if (s.loss) s.loss->Evaluate(e[i] * e[i], rho);
+      weights[rows[i]] = rho[1];
+    }
+  }
+}
+
+}  // namespace sph::internal
