@@ -54,13 +54,13 @@ BENCHMARK(BM_StudyPoints)
 // with the prediction of its design (PredictUncertainty(), through the block structure of the
 // Jacobian), on 2 threads.
 void BM_StudySetups(benchmark::State& state) {
-  sph::MonteCarloSpec spec;
+  sph::MonteCarloStudyOptions spec;
   spec.eccentricities_mm = {2.0};
   spec.trials = 2;
   spec.setups = static_cast<int>(state.range(0));
   spec.threads = 2;
   for (auto _ : state) {
-    const sph::MonteCarloResult r = sph::RunMonteCarlo(spec);
+    const sph::MonteCarloStudy r = sph::RunMonteCarlo(spec);
     benchmark::DoNotOptimize(r.rows.data());
   }
   state.counters["setups"] = static_cast<double>(spec.setups);
