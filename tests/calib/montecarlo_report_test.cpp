@@ -57,5 +57,20 @@ TEST(MonteCarloReport, PlanPredictsWithoutSimulating) {
   EXPECT_THAT(json, HasSubstr("\"smallest_eccentricity_mm\""));
 }
 
+TEST(MonteCarloReport, OrientationPlanNamesTheOrientationsThatSeparateTheForm) {
+  MonteCarloStudyOptions spec;
+  spec.eccentricities_mm = {2.0};
+  OrientationPlanOptions options;  // the form alone beside the seven errors and the centre
+  options.form_degree_max = 2;
+  std::ostringstream text;
+  const std::string json = PlanOrientationsReport(text, spec, options, "24 x 12 grid");
+  EXPECT_THAT(text.str(), HasSubstr("separate its form (degrees 2..2) from the seven errors, the centres and no "
+                                    "further effect"));
+  EXPECT_THAT(text.str(), HasSubstr("24 x 12 grid in every orientation"));
+  EXPECT_THAT(text.str(), HasSubstr("e = 2 mm, sphere centre (2, 0, 0) mm"));
+  EXPECT_THAT(json, HasSubstr("\"form_degree_max\": 2"));
+  EXPECT_THAT(json, HasSubstr("\"separable\": true"));
+}
+
 }  // namespace
 }  // namespace sph

@@ -1,7 +1,7 @@
 // The reports of the Monte Carlo study (sph/calib/montecarlo.hpp) and of its plan, as
 // sph_montecarlo writes them: the paper's Tables 2 and 3 in text, the JSON report (every key:
 // docs/formats/reports.md), the CSV, the data of Figure 4, and the predicted uncertainties of a
-// design without simulation.
+// design without simulation, and the orientation plan of --plan-orientations.
 #ifndef SPH_CALIB_MONTECARLO_REPORT_HPP_
 #define SPH_CALIB_MONTECARLO_REPORT_HPP_
 
@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "sph/calib/montecarlo.hpp"
+#include "sph/calib/orientation_plan.hpp"
 
 namespace sph {
 
@@ -50,6 +51,13 @@ void WriteFigure4Spread(std::ostream& out, const MonteCarloStudyOptions& spec, c
 /// this pattern and, with `other_grids`, for six grids. Returns the plan's JSON report.
 std::string PlanStudy(std::ostream& out, const MonteCarloStudyOptions& spec, const std::string& pattern,
                       std::optional<double> target_std_um, bool other_grids);
+
+/// The orientation plan (PlanOrientations()) of the sphere at each eccentricity of `spec`, in the
+/// first placement's direction: a table per eccentricity on `out` (`pattern` names the pattern in
+/// its title) with the orientations, the form terms still confounded, the effects not seen and
+/// the pairs not told apart with the placement that would; returns its JSON report.
+std::string PlanOrientationsReport(std::ostream& out, const MonteCarloStudyOptions& spec,
+                                   const OrientationPlanOptions& options, const std::string& pattern);
 
 }  // namespace sph
 
