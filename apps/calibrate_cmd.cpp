@@ -20,6 +20,33 @@ CLI::Range IntRange(const ValidRange& range) {
   return CLI::Range(static_cast<int>(range.lo), static_cast<int>(range.hi));
 }
 
+// --fix, --prior and the robust loss.
+void AddFitSettingOptions(CLI::App& app, CalibrateOptions& o) {
+  const std::string told = "Fix, inform and weight (sph/core/parameter_settings.hpp)";
+  app.add_option("--fix", o.fix,
+                 "Hold a parameter instead of fitting it: NAME at its start value (the seven errors: 0), or "
+                 "NAME_UNIT=VALUE, e.g. d_prime_mm=-0.062 (units deg, arcsec, urad, mm, um); a parameter is one of "
+                 "the seven errors or an effect's (theta_encoder.c2); repeatable; overrides the file's 'fix'")
+      ->group(told);
+  app.add_option("--prior", o.prior,
+                 "A Gaussian prior from an independent measurement: NAME_UNIT=VALUE,U with U its standard "
+                 "uncertainty, e.g. alpha_deg=0.02,0.0005; listed in the uncertainty budget as an input of its own; "
+                 "repeatable; overrides the file's 'prior'")
+      ->group(told);
+  auto* robust =
+      app.add_option("--robust-loss", o.robust_loss,
+                     "Fit with a robust loss instead of least squares and the outlier rule, every reading kept at a "
+                     "weight: huber or cauchy (with --no-trace or --effects)")
+          ->check(CLI::IsMember({"huber", "cauchy"}))
+          ->group(told);
+  app.add_option("--robust-scale-sigma", o.workflow.fit.robust_scale_sigma,
+                 "The robust loss' scale in units of the readings' noise (1.4826 median absolute deviation of the "
+                 "residuals); default: huber 1.345, cauchy 2.385")
+      ->check(CLI::Range(0.01, 100.0))
+      ->needs(robust)
+      ->group(told);
+}
+
 // The trace's options, the Type B inputs and the coverage.
 void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
   std::string ids;
@@ -68,29 +95,7 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
       ->check(IntRange(ranges::kDriftOrder));
   AddSeedOption(app, o.workflow.tracing.seed, "Seed of the cross-validation folds")->capture_default_str();
   AddConditionOptions(app, o.workflow.conditions, "(overrides the file's ");
-  const std::string told = "Fix, inform and weight (sph/core/parameter_settings.hpp)";
-  app.add_option("--fix", o.fix,
-                 "Hold a parameter instead of fitting it: NAME at its start value (the seven errors: 0), or "
-                 "NAME_UNIT=VALUE, e.g. d_prime_mm=-0.062 (units deg, arcsec, urad, mm, um); a parameter is one of "
-                 "the seven errors or an effect's (theta_encoder.c2); repeatable; overrides the file's 'fix'")
-      ->group(told);
-  app.add_option("--prior", o.prior,
-                 "A Gaussian prior from an independent measurement: NAME_UNIT=VALUE,U with U its standard "
-                 "uncertainty, e.g. alpha_deg=0.02,0.0005; listed in the uncertainty budget as an input of its own; "
-                 "repeatable; overrides the file's 'prior'")
-      ->group(told);
-  auto* robust =
-      app.add_option("--robust-loss", o.robust_loss,
-                     "Fit with a robust loss instead of least squares and the outlier rule, every reading kept at a "
-                     "weight: huber or cauchy (with --no-trace or --effects)")
-          ->check(CLI::IsMember({"huber", "cauchy"}))
-          ->group(told);
-  app.add_option("--robust-scale-sigma", o.workflow.fit.robust_scale_sigma,
-                 "The robust loss' scale in units of the readings' noise (1.4826 median absolute deviation of the "
-                 "residuals); default: huber 1.345, cauchy 2.385")
-      ->check(CLI::Range(0.01, 100.0))
-      ->needs(robust)
-      ->group(told);
+  AddFitSettingOptions(app, o);
   app.add_option("--coverage", o.workflow.coverage,
                  "Coverage probability of the expanded uncertainties U = k u (k from the effective degrees of "
                  "freedom); default: k = 2")

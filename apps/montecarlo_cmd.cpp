@@ -128,6 +128,47 @@ int RunPlan(const MonteCarloAppOptions& o, const MonteCarloStudyOptions& spec, s
   return kExitOk;
 }
 
+// --plan-orientations and the options that go with it.
+void AddOrientationPlanOptions(CLI::App& app, MonteCarloAppOptions& o) {
+  auto* orient = app.add_flag("--plan-orientations", o.plan_orientations,
+                              "Propose the orientations of the sphere on its mount that separate its form from the "
+                              "machine (--effects, --form-degree-max), at each eccentricity, without simulating noise");
+  orient->excludes(app.get_option("--plan"))->excludes(app.get_option("--random-direction"));
+  std::string ids;
+  std::vector<std::string> all_ids;
+  for (const EffectInfo& e : kEffectInfo) {
+    ids += (ids.empty() ? "" : ", ") + std::string(e.id);
+    all_ids.emplace_back(e.id);
+  }
+  app.add_option("--effects", o.effects,
+                 "With --plan-orientations: the machine's effects beyond the seven errors (comma-separated; default "
+                 "the whole library): " +
+                     ids)
+      ->delimiter(',')
+      ->needs(orient)
+      ->check(CLI::IsMember(all_ids));
+  app.add_option("--form-degree-max", o.form_degree_max,
+                 "With --plan-orientations: separate the form's terms of degrees 2 to this")
+      ->capture_default_str()
+      ->needs(orient)
+      ->check(CLI::Range(2, 12));
+  app.add_option("--max-orientations", o.max_orientations,
+                 "With --plan-orientations: at most this many orientations, the reference one included")
+      ->capture_default_str()
+      ->needs(orient)
+      ->check(CLI::Range(1, 20));
+  app.add_option("--candidate-rotation-deg", o.candidate_rotations,
+                 "With --plan-orientations: a mount rotation to choose from, a rotation vector rx,ry,rz [deg] "
+                 "(axis times angle; repeat the option; default: turns by 90, 180, 270 deg about z, by +-90 and 180 "
+                 "deg about x and y, and 120 deg about (1,1,1))")
+      ->needs(orient);
+  app.add_option("--phi-wobble-pivot-mm", o.phi_wobble_pivot_mm,
+                 "With --plan-orientations: the Phi axis wobble's pivot distance along the axis [mm]")
+      ->capture_default_str()
+      ->needs(orient)
+      ->check(InRange(ranges::kPivotMm));
+}
+
 }  // namespace
 
 void SetupMonteCarloApp(CLI::App& app, MonteCarloAppOptions& o) {
@@ -167,43 +208,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloAppOptions& o) {
   app.add_option("--target-std-um", o.target_std_um,
                  "With --plan: find the smallest eccentricity (and per grid) meeting this std as a displacement [um]")
       ->check(InRange(ranges::kStdUm));
-  auto* orient = app.add_flag("--plan-orientations", o.plan_orientations,
-                              "Propose the orientations of the sphere on its mount that separate its form from the "
-                              "machine (--effects, --form-degree-max), at each eccentricity, without simulating noise");
-  orient->excludes(app.get_option("--plan"))->excludes(app.get_option("--random-direction"));
-  std::string ids;
-  std::vector<std::string> all_ids;
-  for (const EffectInfo& e : kEffectInfo) {
-    ids += (ids.empty() ? "" : ", ") + std::string(e.id);
-    all_ids.emplace_back(e.id);
-  }
-  app.add_option("--effects", o.effects,
-                 "With --plan-orientations: the machine's effects beyond the seven errors (comma-separated; default "
-                 "the whole library): " +
-                     ids)
-      ->delimiter(',')
-      ->needs(orient)
-      ->check(CLI::IsMember(all_ids));
-  app.add_option("--form-degree-max", o.form_degree_max,
-                 "With --plan-orientations: separate the form's terms of degrees 2 to this")
-      ->capture_default_str()
-      ->needs(orient)
-      ->check(CLI::Range(2, 12));
-  app.add_option("--max-orientations", o.max_orientations,
-                 "With --plan-orientations: at most this many orientations, the reference one included")
-      ->capture_default_str()
-      ->needs(orient)
-      ->check(CLI::Range(1, 20));
-  app.add_option("--candidate-rotation-deg", o.candidate_rotations,
-                 "With --plan-orientations: a mount rotation to choose from, a rotation vector rx,ry,rz [deg] "
-                 "(axis times angle; repeat the option; default: turns by 90, 180, 270 deg about z, by +-90 and 180 "
-                 "deg about x and y, and 120 deg about (1,1,1))")
-      ->needs(orient);
-  app.add_option("--phi-wobble-pivot-mm", o.phi_wobble_pivot_mm,
-                 "With --plan-orientations: the Phi axis wobble's pivot distance along the axis [mm]")
-      ->capture_default_str()
-      ->needs(orient)
-      ->check(InRange(ranges::kPivotMm));
+  AddOrientationPlanOptions(app, o);
   app.add_flag("!--no-progress", o.progress,
                "No progress on stderr (default: on a terminal once the run takes longer than a second; into a log "
                "once it takes longer than ten seconds, a line now and then)");
