@@ -14,8 +14,11 @@ namespace sph::apps {
 
 using internal::Format;
 
-void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
-               const TraceResult& r, double timeout_s, OutputFiles& files) {
+namespace {
+
+// The residuals of every reading before and after the trace, over theta and phi and against time.
+void PlotResiduals(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
+                   const TraceResult& r, double timeout_s, OutputFiles& files) {
   const std::string folder = dir + "/";
   // Every reading under each model (outliers too: they show at the end of the colour scale).
   const std::vector<double> before = EffectResiduals(points, options, r.before.fit);
@@ -67,7 +70,11 @@ void PlotTrace(const std::string& dir, const PointsData& points, const Calibrati
   run.Draw("map_png", folder + "residual_map.png", files);
   run.Draw("time_png", folder + "residual_time.png", files);
   RunGnuplot(run, "--plot-dir " + dir);
-  // The sphere's form, when the trace separated it: a map over its body frame.
+}
+
+// The sphere's form, when the trace separated it: a map over its body frame.
+void PlotSphereForm(const std::string& dir, const TraceResult& r, double timeout_s, OutputFiles& files) {
+  const std::string folder = dir + "/";
   const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
   if (forms.empty()) return;
   const SphereFormResult& form = forms.front();
@@ -102,6 +109,14 @@ void PlotTrace(const std::string& dir, const PointsData& points, const Calibrati
   form_run.Set("data", files.StagedName(folder + "sphere_form.dat"));
   form_run.Draw("png", folder + "sphere_form_map.png", files);
   RunGnuplot(form_run, "--plot-dir " + dir);
+}
+
+}  // namespace
+
+void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
+               const TraceResult& r, double timeout_s, OutputFiles& files) {
+  PlotResiduals(dir, points, options, r, timeout_s, files);
+  PlotSphereForm(dir, r, timeout_s, files);
 }
 
 }  // namespace sph::apps
