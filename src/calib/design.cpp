@@ -101,9 +101,9 @@ PredictedUncertainty PredictUncertainty(const SimulationSpec& spec) {
   }
 
   // Box's second-order bias. C = (J^T W J)^-1, H_i = d^2 e_i / dx^2 by central differences of the
-  // Jacobian. Reading i depends on the seven errors and its own centre only: d_i = tr(C H_i) sums
-  // over those ten (local) parameters, H_i's columns from moving one of the errors, or one
-  // coordinate of every centre at once (each reading sees its own move).
+  // (exact, hand-derived) Jacobian. Reading i depends on the seven errors and its own centre only:
+  // d_i = tr(C H_i) sums over those ten (local) parameters, H_i's columns from moving one of the
+  // errors, or one coordinate of every centre at once (each reading sees its own move).
   constexpr int kLocal = kNumScmsParams + 3;
   const Eigen::MatrixXd& cov = inv.inverse;
   auto local_jacobian = [&](const Eigen::VectorXd& at) {

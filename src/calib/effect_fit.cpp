@@ -159,20 +159,19 @@ struct ProblemAt {
 
 }  // namespace
 
-StructureJacobian::StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit)
-    : problem_(table, AllRows(table), fit.model, options) {
+StructureJacobian::StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit,
+                                     const std::vector<double>& expected_r_mm)
+    : problem_(table, AllRows(table), fit.model, options), offset_(expected_r_mm) {
   x_ = problem_.Pack(fit.calibration.geometry,
                      CentersFor(table, AllRows(table), fit.calibration.setup_ids, fit.calibration.centers_mm, ""),
                      fit.values, fit.form_values);
-  if (fit.model.Find(Effect::kProbeGain) >= 0 || fit.model.Find(Effect::kProbeNonlinearity) >= 0) {
-    offset_ = fit.calibration.residuals_mm;  // table-indexed: the fit covers every sample
-  }
+  for (std::size_t i = 0; i < offset_.size(); ++i) offset_[i] -= table.r_mm[i];
 }
 
 void StructureJacobian::ForEach(const BlockFn& fn) const {
   const auto n = static_cast<int>(problem_.NumParams());
   problem_.ForEachGlobalBlock(
-      x_.data(), offset_.empty() ? nullptr : offset_.data(),
+      x_.data(), offset_.data(),
       [&](const std::uint32_t* rows, int count, double* jacobian, int setup) { fn(rows, count, jacobian, n, setup); });
 }
 

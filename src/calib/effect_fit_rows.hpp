@@ -18,12 +18,12 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
                          const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start);
 
 /// The Jacobian of `fit` over every sample of `table` (the readings it was fitted to, all of them),
-/// block by block, as the residual structure analysis needs it: at the readings the fit expects,
-/// r + e, when the model has a probe gain or nonlinearity (the measured r carries the noise that
-/// the residual is, and columns computed from it would let the analysis fit that noise).
+/// block by block, as the residual structure analysis needs it: at the readings `expected_r_mm`
+/// (table-indexed) where the fit's residual vanishes (ExpectedReadings()).
 class StructureJacobian final : public JacobianBlocks {
  public:
-  StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit);
+  StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit,
+                    const std::vector<double>& expected_r_mm);
   Eigen::Index Cols() const override { return problem_.NumParams(); }
   void ForEach(const BlockFn& fn) const override;
   /// Each setup's centre (the rows come setup after setup).
@@ -32,7 +32,7 @@ class StructureJacobian final : public JacobianBlocks {
  private:
   SphereFitProblem problem_;
   Eigen::VectorXd x_;
-  std::vector<double> offset_;  // r + offset: the readings the fit expects (empty: r)
+  std::vector<double> offset_;  // r + offset: the readings where the fit's residual vanishes
 };
 
 /// (J^T J)^-1 of `fit`'s model at its parameters, over every sample of `table`.

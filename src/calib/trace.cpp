@@ -140,15 +140,13 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
 double RmsUmOf(const std::vector<double>& errors_mm);
 std::vector<double> WithoutSetups(std::vector<double> errors_mm, const std::set<int>& setups, const PointsData& points);
 
-// Unit directions from the fitted centre to each probed point, at the readings the fit expects
-// (r + e, as the structure analysis' other functions of r): the measured r would carry the noise
+// Unit directions from the fitted centre to each probed point, at the readings `expected_r_mm`
+// where the fit's residual vanishes (residual_structure.hpp): the measured r would carry the noise
 // that the residual is into the directions.
 std::vector<Eigen::Vector3d> Directions(const PointsData& points, const CalibrationOptions& options,
-                                        const EffectFit& fit) {
+                                        const EffectFit& fit, const std::vector<double>& expected_r_mm) {
   PointsData expected = points;
-  for (std::size_t i = 0; i < expected.samples.size(); ++i) {
-    expected.samples[i].r_mm += fit.calibration.residuals_mm[i];
-  }
+  for (std::size_t i = 0; i < expected.samples.size(); ++i) expected.samples[i].r_mm = expected_r_mm[i];
   std::vector<Eigen::Vector3d> d = OffsetsFromCentre(expected, options, fit);
   for (Eigen::Vector3d& v : d) v.normalize();
   return d;
@@ -156,14 +154,15 @@ std::vector<Eigen::Vector3d> Directions(const PointsData& points, const Calibrat
 
 // What the residual analyses need of a traced fit.
 FitResiduals ResidualsOfTraced(const Readings& data, const TracedFit& t, const JacobianBlocks& jacobian) {
-  return {data.points, t.fit.calibration.residuals_mm, jacobian, t.fit.model.reference, t.directions};
+  return {data.points, t.fit.calibration.residuals_mm, t.expected_r_mm, jacobian, t.fit.model.reference, t.directions};
 }
 
 TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions& options, const TraceOptions& trace) {
   TracedFit t;
-  t.directions = Directions(data.points, options, fit);
+  t.expected_r_mm = ExpectedReadings(data.points, options, fit);
+  t.directions = Directions(data.points, options, fit, t.expected_r_mm);
   t.fit = std::move(fit);
-  const internal::StructureJacobian jacobian(data.table, options, t.fit);
+  const internal::StructureJacobian jacobian(data.table, options, t.fit, t.expected_r_mm);
   t.factor = FactorResidualStructure(ResidualsOfTraced(data, t, jacobian));
   t.structure = AnalyseResidualStructure(t.factor);
   t.cv_rms_um = CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace.folds, trace.seed);
@@ -1065,7 +1064,7 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
     signal[i] = current.fit.calibration.residuals_mm[i] - with.calibration.residuals_mm[i];
   }
   {
-    const internal::StructureJacobian jacobian(data.table, options, current.fit);
+    const internal::StructureJacobian jacobian(data.table, options, current.fit, current.expected_r_mm);
     chosen.sphere_fraction =
         SpherePatternFraction(FactorResidualStructure(ResidualsOfTraced(data, current, jacobian), &signal));
   }

@@ -131,12 +131,14 @@ TEST(BlockFactor, ResidualStructureAsWithEveryColumn) {
   std::vector<Eigen::Vector3d> directions = OffsetsFromCentre(points, options, fit);
   for (Eigen::Vector3d& d : directions) d.normalize();
   const internal::ReadingTable table(points);
-  const internal::StructureJacobian grouped(table, options, fit);
+  std::vector<double> r_mm;  // both at the measured readings
+  for (const Sample& s : points.samples) r_mm.push_back(s.r_mm);
+  const internal::StructureJacobian grouped(table, options, fit, r_mm);
   const Eigen::MatrixXd jacobian = JacobianAt(points, options, fit);
   const DenseJacobianBlocks dense(jacobian);
   const std::vector<double>& e = fit.calibration.residuals_mm;
-  const StructureFactor by_setup = FactorResidualStructure({points, e, grouped, fit.model.reference, directions});
-  const StructureFactor all = FactorResidualStructure({points, e, dense, fit.model.reference, directions});
+  const StructureFactor by_setup = FactorResidualStructure({points, e, r_mm, grouped, fit.model.reference, directions});
+  const StructureFactor all = FactorResidualStructure({points, e, r_mm, dense, fit.model.reference, directions});
   ASSERT_EQ(by_setup.eliminated, 3 * 20);
   ASSERT_EQ(all.eliminated, 0);
   const ResidualStructure a = AnalyseResidualStructure(by_setup), b = AnalyseResidualStructure(all);

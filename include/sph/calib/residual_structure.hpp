@@ -9,6 +9,14 @@
 //   F = (explained / r) / ((RSS - explained) / (m - n - r))
 // follows F(r, m - n - r). A small p-value means structure that the fitted model does not have.
 //
+// That holds where J and the functions carry none of the noise that e is. The probe reading r is
+// noisy, and J's columns (a probe gain's through u, an incidence error's through the point), the
+// powers of u and the directions depend on it: all are evaluated at the readings where the fitted
+// model's residual vanishes (ExpectedReadings()), which differ from the true ones by the part of
+// the noise that the fit absorbed, independent of e to first order. [J | functions] can be nearly
+// rank-deficient, and then even a small share of the noise left there shows as structure
+// (docs/method/closing-the-loop.md).
+//
 // Everything here depends on the columns of J, of the functions and of e only through their inner
 // products, so it is computed from the triangular factor R of [J | functions | e] (J = Q R),
 // accumulated in one pass over the rows (StructureFactor): memory O(columns^2) for any number of
@@ -24,6 +32,7 @@
 
 #include <Eigen/Core>
 
+#include "sph/calib/effect_fit.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/model/effects.hpp"
 
@@ -84,12 +93,14 @@ class DenseJacobianBlocks final : public JacobianBlocks {
   const Eigen::MatrixXd& jacobian_;
 };
 
-/// What the analysis needs of a fit to `points`: its residuals (file order, mm), its Jacobian (at
-/// the readings the fit expects: with probe terms, at r + e), the reference that normalises r and
-/// t, and the unit direction from the fitted centre to each probed point (sphere frame).
+/// What the analysis needs of a fit to `points`: its residuals (file order, mm), the readings at
+/// which its residual vanishes (ExpectedReadings(), file order, mm: u is taken there), its Jacobian
+/// and the unit direction from the fitted centre to each probed point (sphere frame), both at those
+/// readings, and the reference that normalises r and t.
 struct FitResiduals {
   const PointsData& points;
   const std::vector<double>& residuals_mm;
+  const std::vector<double>& expected_r_mm;
   const JacobianBlocks& jacobian;
   const EffectReference& reference;
   const std::vector<Eigen::Vector3d>& directions;
@@ -111,6 +122,11 @@ struct StructureFactor {
   Eigen::VectorXd norms;
   Eigen::MatrixXd gram;
 };
+
+/// The probe reading of each sample of `points` (file order, mm) at which the residual of `fit`
+/// vanishes: the reading the fitted model expects at the sample's angles and time, found by the
+/// secant method on r (to 1e-12 mm). Every setup of `points` must be one of the fit's.
+std::vector<double> ExpectedReadings(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);
 
 /// The factor of a fit; with `signal_mm` (file order) its column is added (SpherePatternFraction()).
 StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vector<double>* signal_mm = nullptr);

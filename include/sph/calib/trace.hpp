@@ -158,6 +158,9 @@ struct Unexplained {
 /// The fit, its residual analysis and its cross-validated RMS.
 struct TracedFit {
   EffectFit fit;
+  /// The reading of each sample at which the fit's residual vanishes (ExpectedReadings()): where
+  /// the residual analyses evaluate the Jacobian, the functions of r and `directions`.
+  std::vector<double> expected_r_mm;
   std::vector<Eigen::Vector3d> directions;  ///< from the fitted centre to each probed point (unit)
   StructureFactor factor;                   ///< what the residual analyses of this fit are computed from
   ResidualStructure structure;
