@@ -4,11 +4,8 @@
 #include <charconv>
 #include <csignal>
 #include <cstdint>
-#include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <limits>
-#include <sstream>
 
 #include <CLI/CLI.hpp>
 
@@ -23,29 +20,16 @@ namespace {
 using internal::Format;
 using internal::Quoted;
 
-std::vector<AnglePair> ReadAngles(const std::string& path) {
-  std::ifstream in = OpenInputFile(path);
-  TextLines lines(in, path, "a file of angles");
-  std::vector<AnglePair> out;
-  std::string line;
-  while (lines.Next(line)) {
-    const auto hash = line.find('#');
-    if (hash != std::string::npos) line.resize(hash);
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    std::istringstream ls(line);
-    AnglePair a;
-    std::string extra;
-    if (!(ls >> a.theta_deg >> a.phi_deg) || (ls >> extra) || !std::isfinite(a.theta_deg) ||
-        !std::isfinite(a.phi_deg)) {
-      throw Error(lines.Where() + "expected 'theta_deg phi_deg'");
-    }
-    if (static_cast<long>(out.size()) == kMaxGridPoints) {
-      throw Error(lines.Where() + "more than " + std::to_string(kMaxGridPoints) + " pattern points");
-    }
-    out.push_back(a);
+// The parts of "a,b,c" (none for an empty text; "a," has two, the second empty).
+std::vector<std::string> SplitCommas(const std::string& text) {
+  std::vector<std::string> parts;
+  if (text.empty()) return parts;
+  std::size_t start = 0;
+  for (std::size_t comma; (comma = text.find(',', start)) != std::string::npos; start = comma + 1) {
+    parts.push_back(text.substr(start, comma - start));
   }
-  if (out.empty()) throw Error(path + ": no angles");
-  return out;
+  parts.push_back(text.substr(start));
+  return parts;
 }
 
 // A direction of three parsed values, refused when it has no length.
@@ -60,9 +44,11 @@ Eigen::Vector3d Direction(const std::vector<double>& v, std::size_t first, const
 CLI::Validator InRange(const ValidRange& range) {
   return CLI::Validator(
       [range](std::string& text) -> std::string {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        return end != text.c_str() && *end == '\0' && range.Contains(v) ? "" : range.Refusal(text);
+        try {
+          if (range.Contains(ParseNumber(text, "", ""))) return "";
+        } catch (const Error&) {
+        }
+        return range.Refusal(text);
       },
       range.Text());
 }
@@ -103,10 +89,8 @@ void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std:
 
 std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,
                                 const std::vector<Field>& fields) {
-  std::vector<std::string> parts;
-  std::stringstream ss(text);
-  for (std::string part; std::getline(ss, part, ',');) parts.push_back(part);
-  if (parts.size() != fields.size() || text.empty() || text.back() == ',') throw Error(what + ": expected " + expected);
+  const std::vector<std::string> parts = SplitCommas(text);
+  if (parts.size() != fields.size() || text.back() == ',') throw Error(what + ": expected " + expected);
   std::vector<double> values;
   for (std::size_t i = 0; i < parts.size(); ++i) {
     const double v = ParseNumber(parts[i], fields[i].name, what + ": ");
@@ -135,10 +119,15 @@ void AddFormOptions(CLI::App& app, FormOptions& o, const std::string& group) {
 
 void AddForm(const FormOptions& o, double sphere_radius_mm, SimulatedEffects& effects) {
   for (const std::string& f : o.harmonics_um) {
+    const std::vector<std::string> parts = SplitCommas(f);
     FormComponent c;
-    char tail = 0;
-    if (std::sscanf(f.c_str(), "%d,%d,%lf%c", &c.l, &c.m, &c.amplitude_um, &tail) != 3 || c.l < 0 || c.l > 20 ||
-        std::abs(c.m) > c.l) {
+    try {
+      if (parts.size() != 3) throw Error("");
+      c = {ParseInteger(parts[0], "l", ""), ParseInteger(parts[1], "m", ""), ParseNumber(parts[2], "amplitude_um", "")};
+    } catch (const Error&) {
+      c.l = -1;  // refused below
+    }
+    if (c.l < 0 || c.l > 20 || std::abs(c.m) > c.l) {
       throw Error("--form-um " + f + ": expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l");
     }
     CheckedValue(c.amplitude_um, ranges::kEffectUm, "--form-um " + f, Format("%g", c.amplitude_um));
@@ -175,18 +164,13 @@ Eigen::Vector3d ParseRotationDeg(const std::string& text, const std::string& wha
 }
 
 Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what) {
-  std::vector<std::string> parts;
-  std::stringstream ss(text);
-  for (std::string part; std::getline(ss, part, ',');) parts.push_back(part);
+  const std::vector<std::string> parts = SplitCommas(text);
   if (parts.size() != 3 || text.back() == ',') throw Error(what + " " + Quoted(text) + ": expected x,y,z in mm");
   Eigen::Vector3d c;
   for (int i = 0; i < 3; ++i) {
     const std::string& part = parts[static_cast<std::size_t>(i)];
-    const auto [ptr, ec] = std::from_chars(part.data(), part.data() + part.size(), c(i));
-    if (part.empty() || ec != std::errc() || ptr != part.data() + part.size()) {
-      throw Error(what + " " + Quoted(text) + ": " + Quoted(part) + " is not a number");
-    }
-    CheckedValue(c(i), ranges::kCenterMm, what + " " + Quoted(text), part);
+    c(i) =
+        CheckedValue(ParseNumber(part, Quoted(text), what + " "), ranges::kCenterMm, what + " " + Quoted(text), part);
   }
   return c;
 }
@@ -236,12 +220,12 @@ SimulationSpec ToSimulationSpec(const MachineOptions& o) {
                 "smaller than the distance itself (--probe-offset-mm " +
                 Format("%g", o.probe_offset_mm) + ")");
   }
-  if (o.angles_path.empty() && static_cast<long>(o.theta_steps) * o.phi_steps > kMaxGridPoints) {
+  if (o.angles_path.empty() && static_cast<long>(o.theta_steps) * o.phi_steps > kMaxPatternPoints) {
     throw Error("--theta-steps " + std::to_string(o.theta_steps) + " x --phi-steps " + std::to_string(o.phi_steps) +
                 " is a grid of " + std::to_string(static_cast<long>(o.theta_steps) * o.phi_steps) +
-                " points; at most " + std::to_string(kMaxGridPoints) + " are simulated");
+                " points; at most " + std::to_string(kMaxPatternPoints) + " are simulated");
   }
-  spec.pattern = o.angles_path.empty() ? GridPattern(o.theta_steps, o.phi_steps) : ReadAngles(o.angles_path);
+  spec.pattern = o.angles_path.empty() ? GridPattern(o.theta_steps, o.phi_steps) : ReadAnglePattern(o.angles_path);
   spec.noise_r_um = o.noise_r_um;
   spec.noise_theta_arcsec = o.noise_theta_arcsec;
   spec.noise_phi_arcsec = o.noise_phi_arcsec;
@@ -255,7 +239,8 @@ int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI
   const StandardOutput standard_output;
   CLI::App app;
   setup(app);
-  app.footer("Manual: docs/apps/" + std::string(name) + ".md in sph's source tree (this help is the option reference).");
+  app.footer("Manual: docs/apps/" + std::string(name) +
+             ".md in sph's source tree (this help is the option reference).");
   app.set_version_flag("--version", std::string(name) + " " SPH_VERSION);
   int code = kExitOk;
   try {

@@ -20,6 +20,7 @@
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/core/ranges.hpp"
 #include "sph/core/valid_range.hpp"
 #include "sph/model/scms_model.hpp"
 
@@ -37,30 +38,10 @@ enum ExitCode : int {
 /// and Range print their 300-digit bounds and let infinity through.)
 CLI::Validator InRange(const ValidRange& range);
 
-/// Ranges shared by several apps.
+/// The ranges of the apps' options: the library's and the apps' own.
 namespace ranges {
+using namespace sph::ranges;  // the library's (sph/core/ranges.hpp)
 inline constexpr ValidRange kPlotTimeoutS{0.0, 86400.0, "s", true};
-inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};
-inline constexpr ValidRange kProbeOffsetMm{0.0, kMaxProbeOffsetMm, "mm", true};
-/// The seven errors: kScmsParamInfo's bounds, in deg or mm (and |d'| < d).
-constexpr ValidRange ErrorRange(int p) {
-  return {-kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report,
-          kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report, ReportUnitsOf(p).coarse};
-}
-inline constexpr ValidRange kNoiseUm{0.0, 1000.0, "um"};
-inline constexpr ValidRange kNoiseArcsec{0.0, 3600.0, "arcsec"};
-inline constexpr ValidRange kCenterMm{-1000.0, 1000.0, "mm"};  ///< each coordinate of a centre
-inline constexpr ValidRange kEffectArcsec{-kMaxEffectArcsec, kMaxEffectArcsec, "arcsec"};
-inline constexpr ValidRange kEffectUm{-kMaxEffectUm, kMaxEffectUm, "um"};
-inline constexpr ValidRange kStdUm{0.0, 1e6, "um", true};
-/// The Phi axis wobble's pivot distance along the axis (phi_wobble).
-inline constexpr ValidRange kPivotMm{-kMaxPivotMm, kMaxPivotMm, "mm"};
-/// The sphere on its mount and its form (sph_simulate).
-inline constexpr ValidRange kMountRotationDeg{-kMaxMountRotationDeg, kMaxMountRotationDeg, "deg"};  ///< each component
-inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
-inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
-inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
-inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
 }  // namespace ranges
 
 /// Adds --seed: a decimal integer from 0 to 2^64 - 1 ("--seed: must be an integer from 0 to
@@ -76,9 +57,6 @@ void AddPlotTimeoutOption(CLI::App& app, double& timeout_s);
 /// for the header field sphere_radius_u_um), with the same ranges. `source` ends the help text:
 /// "(overrides the file's " gives "... (overrides the file's sphere_radius_u_um)".
 void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source);
-
-/// The most grid points (theta steps times phi rings) a simulation makes: 10 million.
-inline constexpr long kMaxGridPoints = 10000000;
 
 /// The simulated machine and measurement shared by sph_simulate and sph_montecarlo: the true
 /// errors, the sphere, the pattern and the noise (defaults: the paper's study).

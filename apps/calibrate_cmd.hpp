@@ -2,8 +2,6 @@
 #ifndef SPH_APPS_CALIBRATE_CMD_HPP_
 #define SPH_APPS_CALIBRATE_CMD_HPP_
 
-#include <cstdint>
-#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -12,35 +10,24 @@
 
 #include "gnuplot.hpp"
 #include "progress.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/calib/calibrate_workflow.hpp"
 
 namespace sph::apps {
 
+/// sph_calibrate's options: the workflow's (sph/calib/calibrate_workflow.hpp, whose defaults they
+/// take) and the app's own: where the points come from and the outputs go.
 struct CalibrateOptions {
   std::string points_path;
-  std::optional<double> sphere_radius_mm;  ///< overrides the file's header
-  std::optional<double> probe_offset_mm;   ///< overrides the file's header
-  std::string json_path;                   ///< JSON report ("-" for stdout), empty: none
-  std::string output_path;                 ///< calibration file, empty: none
-  double max_std_um = 10.0;
-  int max_iterations = 100;
+  CalibrationWorkflowOptions workflow;
+  std::vector<std::string> effects;              ///< --effects' ids, into workflow.effects
+  std::vector<std::string> fix;                  ///< parameters held: NAME or NAME_UNIT=VALUE, into workflow.fit.fixed
+  std::vector<std::string> prior;                ///< Gaussian priors: NAME_UNIT=VALUE,U, into workflow.fit.priors
+  std::string robust_loss;                       ///< "huber" or "cauchy", into workflow.fit.robust_loss
+  std::string json_path;                         ///< JSON report ("-" for stdout), empty: none
+  std::string output_path;                       ///< calibration file, empty: none
   bool quiet = false;                            ///< no text report on stdout
-  bool no_extend = false;                        ///< fit the seven errors only, no residual tracing
-  bool hold_confounded = false;                  ///< add neither of two effects the data cannot tell apart
-  std::vector<std::string> effects;              ///< a fixed model: these effects, no selection
-  std::string validate_path;                     ///< another sphere measured on the same machine
   std::string plot_dir;                          ///< residual plots (PNG, gnuplot) into this folder
   double plot_timeout_s = kDefaultPlotTimeoutS;  ///< gnuplot is stopped after this long
-  int harmonics = 0;                             ///< highest harmonic order searched; 0: what the pattern resolves
-  int drift_order = 2;                           ///< highest power of time of probe_drift
-  double phi_wobble_pivot_mm = 0.0;              ///< where the Phi axis pivots, along it (the drawing's) [mm]
-  std::uint64_t seed = 1;                        ///< of the cross-validation folds
-  SphereConditions conditions;                   ///< uncertainty inputs; override the file's header
-  std::optional<double> coverage;                ///< coverage probability of U (default: k = 2)
-  std::vector<std::string> fix;                  ///< parameters held: NAME or NAME_UNIT=VALUE (override the file's)
-  std::vector<std::string> prior;                ///< Gaussian priors: NAME_UNIT=VALUE,U (override the file's)
-  std::string robust_loss;                       ///< "huber" or "cauchy"; empty: least squares and the outlier rule
-  double robust_scale_sigma = 0.0;               ///< the loss' scale in units of the noise; 0: the loss' usual
   ProgressMode progress = ProgressMode::kAuto;   ///< progress on stderr
 };
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "gnuplot.hpp"
 #include "sph/calib/form_report.hpp"
@@ -14,8 +16,27 @@ namespace sph::apps {
 
 using internal::Format;
 
-void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
-               const TraceResult& r, double timeout_s, OutputFiles& files) {
+namespace {
+
+// Stages `script` as <name>.gp in `dir` and runs it by gnuplot on the staged <name>.dat, drawing
+// each image (its script variable, its file name without .png) into `dir` through `files`.
+void Draw(const std::string& dir, const std::string& name, const std::string& script, const char* description,
+          const std::vector<std::pair<std::string, std::string>>& images, double timeout_s, OutputFiles& files) {
+  const std::string folder = dir + "/";
+  files.Stage(folder + name + ".gp", [&](std::ostream& f) { f << script; });
+  GnuplotRun run;  // gnuplot reads the staged data and draws into the staged images
+  run.folder = dir;
+  run.script = script;
+  run.description = description;
+  run.timeout_s = timeout_s;
+  run.Set("data", files.StagedName(folder + name + ".dat"));
+  for (const auto& [variable, image] : images) run.Draw(variable, folder + image + ".png", files);
+  RunGnuplot(run, "--plot-dir " + dir);
+}
+
+// The residuals of every reading before and after the trace, over theta and phi and against time.
+void PlotResiduals(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
+                   const TraceResult& r, double timeout_s, OutputFiles& files) {
   const std::string folder = dir + "/";
   // Every reading under each model (outliers too: they show at the end of the colour scale).
   const std::vector<double> before = EffectResiduals(points, options, r.before.fit);
@@ -56,18 +77,13 @@ void PlotTrace(const std::string& dir, const PointsData& points, const Calibrati
          << "set key top left\n"
          << "plot data using 3:4 with points pt 7 ps 0.6 lc rgb '#c03030' title 'before', "
             "data using 3:5 with points pt 7 ps 0.6 lc rgb '#3050c0' title 'after'\n";
-  files.Stage(folder + "residuals.gp", [&](std::ostream& f) { f << script.str(); });
-  // gnuplot reads the staged data and draws into the staged images.
-  GnuplotRun run;
-  run.folder = dir;
-  run.script = script.str();
-  run.description = "the residual plots";
-  run.timeout_s = timeout_s;
-  run.Set("data", files.StagedName(folder + "residuals.dat"));
-  run.Draw("map_png", folder + "residual_map.png", files);
-  run.Draw("time_png", folder + "residual_time.png", files);
-  RunGnuplot(run, "--plot-dir " + dir);
-  // The sphere's form, when the trace separated it: a map over its body frame.
+  Draw(dir, "residuals", script.str(), "the residual plots",
+       {{"map_png", "residual_map"}, {"time_png", "residual_time"}}, timeout_s, files);
+}
+
+// The sphere's form, when the trace separated it: a map over its body frame.
+void PlotSphereForm(const std::string& dir, const TraceResult& r, double timeout_s, OutputFiles& files) {
+  const std::string folder = dir + "/";
   const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
   if (forms.empty()) return;
   const SphereFormResult& form = forms.front();
@@ -93,15 +109,15 @@ void PlotTrace(const std::string& dir, const PointsData& points, const Calibrati
               << "set xrange [0:360]\nset yrange [180:0]\nset palette defined (-1 'blue', 0 'white', 1 'red')\n"
               << Format("set cbrange [%.6f:%.6f]\n", -form_lim, form_lim)
               << "set cblabel 'radial form [um]'\nplot data using 1:2:3 with image notitle\n";
-  files.Stage(folder + "sphere_form.gp", [&](std::ostream& f) { f << form_script.str(); });
-  GnuplotRun form_run;
-  form_run.folder = dir;
-  form_run.script = form_script.str();
-  form_run.description = "the sphere's form map";
-  form_run.timeout_s = timeout_s;
-  form_run.Set("data", files.StagedName(folder + "sphere_form.dat"));
-  form_run.Draw("png", folder + "sphere_form_map.png", files);
-  RunGnuplot(form_run, "--plot-dir " + dir);
+  Draw(dir, "sphere_form", form_script.str(), "the sphere's form map", {{"png", "sphere_form_map"}}, timeout_s, files);
+}
+
+}  // namespace
+
+void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
+               const TraceResult& r, double timeout_s, OutputFiles& files) {
+  PlotResiduals(dir, points, options, r, timeout_s, files);
+  PlotSphereForm(dir, r, timeout_s, files);
 }
 
 }  // namespace sph::apps

@@ -14,12 +14,12 @@
 #include "gnuplot.hpp"
 
 namespace sph {
-struct MonteCarloSpec;
+struct MonteCarloStudyOptions;
 }  // namespace sph
 
 namespace sph::apps {
 
-struct MonteCarloOptions {
+struct MonteCarloAppOptions {
   MachineOptions machine;  ///< truth, sphere, pattern, noise
   std::vector<double> eccentricities_mm{0.5, 1.0, 1.5, 2.0};
   std::string direction = "1,0,0";
@@ -47,15 +47,15 @@ struct MonteCarloOptions {
   double phi_wobble_pivot_mm = 0.0;
 };
 
-void SetupMonteCarloApp(CLI::App& app, MonteCarloOptions& options);
+void SetupMonteCarloApp(CLI::App& app, MonteCarloAppOptions& options);
 
 /// Runs the study (or the plan); tables go to `out`, progress and errors to `err`.
 /// Returns kExitOk, or kExitBadInput on bad options or a failed output.
-int RunMonteCarloApp(const MonteCarloOptions& options, std::ostream& out, std::ostream& err);
+int RunMonteCarloApp(const MonteCarloAppOptions& options, std::ostream& out, std::ostream& err);
 
 /// The --plan-orientations run (orientation_plan_cmd.cpp): the plan for the sphere at each
 /// eccentricity of `options`, as text on `out` or JSON through `files`. Throws sph::Error.
-int RunOrientationPlan(const MonteCarloOptions& options, const MonteCarloSpec& spec, std::ostream& out,
+int RunOrientationPlan(const MonteCarloAppOptions& options, const MonteCarloStudyOptions& spec, std::ostream& out,
                        OutputFiles& files);
 
 }  // namespace sph::apps

@@ -5,7 +5,7 @@
 #include "montecarlo_cmd.hpp"
 
 int main(int argc, char** argv) {
-  return sph::apps::AppMain<sph::apps::MonteCarloOptions>(
+  return sph::apps::AppMain<sph::apps::MonteCarloAppOptions>(
       argc, argv, "sph_montecarlo", sph::apps::SetupMonteCarloApp,
-      [](const sph::apps::MonteCarloOptions& o) { return sph::apps::RunMonteCarloApp(o, std::cout, std::cerr); });
+      [](const sph::apps::MonteCarloAppOptions& o) { return sph::apps::RunMonteCarloApp(o, std::cout, std::cerr); });
 }

@@ -57,7 +57,7 @@ void BM_CalibrateFull(benchmark::State& state) {
 BENCHMARK(BM_CalibrateFull)->Unit(benchmark::kMillisecond);
 
 // Growth over the number of setups: calibrations of `setups` placements of 12 readings each, with
-// the analysis and the outlier rule (what sph_calibrate --no-extend computes), which eliminate
+// the analysis and the outlier rule (what sph_calibrate --no-trace computes), which eliminate
 // each setup's centre first (a Schur complement): the cost grows with the setups, not their cube.
 void BM_CalibrateSetups(benchmark::State& state) {
   const sph::PointsData data = sph::Simulate(sph::bench::ManySetups(static_cast<int>(state.range(0))));

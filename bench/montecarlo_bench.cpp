@@ -12,10 +12,10 @@ namespace {
 
 // The default study: 4 eccentricities x 1000 calibrations of 288 points, on all cores.
 void BM_DefaultStudy(benchmark::State& state) {
-  sph::MonteCarloSpec spec;
+  sph::MonteCarloStudyOptions spec;
   spec.threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    const sph::MonteCarloResult r = sph::RunMonteCarlo(spec);
+    const sph::MonteCarloStudy r = sph::RunMonteCarlo(spec);
     benchmark::DoNotOptimize(r.rows.data());
   }
   state.counters["calibrations_per_s"] =
@@ -26,13 +26,13 @@ BENCHMARK(BM_DefaultStudy)->Arg(2)->Arg(1)->Iterations(1)->UseRealTime()->Unit(b
 
 // 200 calibrations at 2 mm with theta_steps x phi_steps points, on `threads` threads.
 void BM_StudyPoints(benchmark::State& state) {
-  sph::MonteCarloSpec spec;
+  sph::MonteCarloStudyOptions spec;
   spec.eccentricities_mm = {2.0};
   spec.trials = 200;
   spec.base.pattern = sph::GridPattern(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   spec.threads = static_cast<int>(state.range(2));
   for (auto _ : state) {
-    const sph::MonteCarloResult r = sph::RunMonteCarlo(spec);
+    const sph::MonteCarloStudy r = sph::RunMonteCarlo(spec);
     benchmark::DoNotOptimize(r.rows.data());
   }
   state.counters["points"] = static_cast<double>(spec.base.pattern.size());
@@ -54,13 +54,13 @@ BENCHMARK(BM_StudyPoints)
 // with the prediction of its design (PredictUncertainty(), through the block structure of the
 // Jacobian), on 2 threads.
 void BM_StudySetups(benchmark::State& state) {
-  sph::MonteCarloSpec spec;
+  sph::MonteCarloStudyOptions spec;
   spec.eccentricities_mm = {2.0};
   spec.trials = 2;
   spec.setups = static_cast<int>(state.range(0));
   spec.threads = 2;
   for (auto _ : state) {
-    const sph::MonteCarloResult r = sph::RunMonteCarlo(spec);
+    const sph::MonteCarloStudy r = sph::RunMonteCarlo(spec);
     benchmark::DoNotOptimize(r.rows.data());
   }
   state.counters["setups"] = static_cast<double>(spec.setups);

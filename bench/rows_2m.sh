@@ -35,7 +35,7 @@ for n in $rows; do
     --center-mm 1,1,0.5 --seed 3
   m=$((theta * phi))
   timed "sph_calibrate, $m rows" "$build/apps/sph_calibrate" "$work/cal_rows.txt" -q --no-progress
-  timed "sph_calibrate --no-extend, $m rows" "$build/apps/sph_calibrate" "$work/cal_rows.txt" -q --no-extend \
+  timed "sph_calibrate --no-trace, $m rows" "$build/apps/sph_calibrate" "$work/cal_rows.txt" -q --no-trace \
     --no-progress
   timed "sph_measure (200 draws), $m rows" "$build/apps/sph_measure" "$work/measure_rows.txt" -c "$work/cal.json" -q \
     --no-progress

@@ -13,7 +13,7 @@
 // design), "form" or "noform",
 // "0.03" or "0.05" (sigma), or any other word, which the effects' names must contain (e.g.
 // "phi_encoder+probe_gain"). "-v" prints each run's effects added and its candidates' notes.
-// "hold" runs the trace with TraceOptions::add_confounded false: of two effects it cannot tell
+// "hold" runs the trace with TraceOptions::hold_confounded: of two effects it cannot tell
 // apart it adds neither.
 //
 // Prints a row per cell (right: exactly the simulated effects added; wrong: an effect added that
@@ -194,7 +194,7 @@ struct Filter {
   std::set<std::string> setups, forms, sigmas;
   std::vector<std::string> names;
   bool verbose = false;
-  bool hold = false;  // "hold": TraceOptions::add_confounded false
+  bool hold = false;  // "hold": TraceOptions::hold_confounded
 
   bool Wants(const Case& c, Setups setups_, bool form, double noise) const {
     const auto in = [](const std::set<std::string>& s, const std::string& v) { return s.empty() || s.count(v) > 0; };
@@ -240,7 +240,7 @@ int main(int argc, char** argv) {
   o.probe_offset_mm = 25.0;
   sph::TraceOptions trace;
   trace.phi_wobble_pivot_mm = kPivotMm;
-  trace.add_confounded = !filter.hold;
+  trace.hold_confounded = filter.hold;
   std::printf(
       "separation matrix: %d runs per cell (seeds 1..%d), the paper's pattern at 2 mm; form: 0.050 um rms of\n"
       "degrees 2..8; three: the sphere also turned by 90 deg about z and tilted by 90 deg about x; five: and\n"

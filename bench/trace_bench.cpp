@@ -1,4 +1,4 @@
-// Cost of closing the loop: the residual trace that sph_calibrate runs by default.
+// Cost of tracing the residual: the trace that sph_calibrate runs by default.
 //
 //   build/bench/trace_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>

@@ -1,6 +1,6 @@
 // How often the residual trace adds an effect: on data without any (false additions) and on data
 // with one effect of a given size (detection), over independent noise seeds. A study program, run
-// by hand (docs/validation.md, "Closing the loop"); it prints one line per case.
+// by hand (docs/validation.md, "Tracing the residual"); it prints one line per case.
 //
 //   build/bench/trace_study [trials]      (default 100 for the clean case, 40 for the others)
 //   build/bench/trace_study --false-additions [runs]   (default 500)

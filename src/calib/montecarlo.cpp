@@ -29,7 +29,7 @@ std::uint64_t SplitMix64(std::uint64_t x) {
 }
 
 // Centres of one trial: `setups` placements at eccentricity e, random or the fixed design.
-std::vector<Eigen::Vector3d> Centers(const MonteCarloSpec& spec, double e_mm, std::uint64_t trial_seed) {
+std::vector<Eigen::Vector3d> Centers(const MonteCarloStudyOptions& spec, double e_mm, std::uint64_t trial_seed) {
   std::vector<Eigen::Vector3d> out;
   if (spec.random_direction) {
     gum::Random rng(SplitMix64(trial_seed ^ 0xD1B54A32D192ED03ULL));
@@ -45,7 +45,7 @@ std::vector<Eigen::Vector3d> Centers(const MonteCarloSpec& spec, double e_mm, st
 
 }  // namespace
 
-std::vector<Eigen::Vector3d> PlacementCenters(const MonteCarloSpec& spec, double e_mm) {
+std::vector<Eigen::Vector3d> PlacementCenters(const MonteCarloStudyOptions& spec, double e_mm) {
   std::vector<Eigen::Vector3d> out;
   const Eigen::Vector3d d = spec.direction.normalized();
   for (int j = 0; j < spec.setups; ++j) {
@@ -72,7 +72,7 @@ struct Trial {
 
 // The exact readings of each eccentricity, when every trial measures the same placements (empty
 // readings with random directions, where each trial has its own).
-std::vector<PointsData> ExactReadings(const MonteCarloSpec& spec) {
+std::vector<PointsData> ExactReadings(const MonteCarloStudyOptions& spec) {
   std::vector<PointsData> exact(spec.eccentricities_mm.size());
   if (spec.random_direction) return exact;
   for (std::size_t k = 0; k < exact.size(); ++k) {
@@ -91,7 +91,7 @@ struct TrialScratch {
 };
 
 // Trial t of eccentricity index k: its noisy readings, calibrated. `exact`: ExactReadings().
-Trial RunTrial(const MonteCarloSpec& spec, std::size_t k, std::size_t t, const std::vector<PointsData>& exact,
+Trial RunTrial(const MonteCarloStudyOptions& spec, std::size_t k, std::size_t t, const std::vector<PointsData>& exact,
                TrialScratch& scratch) {
   CalibrationOptions copts;
   copts.sphere_radius_mm = spec.base.sphere_radius_mm;
@@ -132,7 +132,7 @@ Trial RunTrial(const MonteCarloSpec& spec, std::size_t k, std::size_t t, const s
 // Every trial of the study (eccentricity after eccentricity, trial after trial) on a pool of
 // threads. Each trial's noise comes from its own seed, so the result does not depend on the
 // threads; the first error stops nothing but is thrown at the end.
-std::vector<Trial> RunTrials(const MonteCarloSpec& spec, const std::function<void(long, long)>& progress) {
+std::vector<Trial> RunTrials(const MonteCarloStudyOptions& spec, const std::function<void(long, long)>& progress) {
   const std::size_t n_ecc = spec.eccentricities_mm.size();
   const std::size_t n_trials = static_cast<std::size_t>(spec.trials);
   const long total = static_cast<long>(n_ecc * n_trials);
@@ -165,7 +165,7 @@ std::vector<Trial> RunTrials(const MonteCarloSpec& spec, const std::function<voi
 // `trials`: all of that eccentricity's, in trial order). crlb2_sum, bias_sum: sums over the
 // converged trials of their own predicted variance and bias (random directions); fixed: the
 // prediction of the one design (fixed placements).
-ParameterStats StatsOf(const MonteCarloSpec& spec, const EccentricityResult& row, const Trial* trials, int p,
+ParameterStats StatsOf(const MonteCarloStudyOptions& spec, const EccentricityResult& row, const Trial* trials, int p,
                        const std::array<double, kNumScmsParams>& crlb2_sum,
                        const std::array<double, kNumScmsParams>& bias_sum, const PredictedUncertainty& fixed) {
   ParameterStats st;
@@ -219,7 +219,7 @@ ParameterStats StatsOf(const MonteCarloSpec& spec, const EccentricityResult& row
 }
 
 // The row of eccentricity index k from its spec.trials trials (in trial order).
-EccentricityResult Summarise(const MonteCarloSpec& spec, std::size_t k, const Trial* trials) {
+EccentricityResult Summarise(const MonteCarloStudyOptions& spec, std::size_t k, const Trial* trials) {
   EccentricityResult row;
   row.eccentricity_mm = spec.eccentricities_mm[k];
   row.trials = spec.trials;
@@ -251,14 +251,14 @@ EccentricityResult Summarise(const MonteCarloSpec& spec, std::size_t k, const Tr
 
 }  // namespace
 
-MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec, const std::function<void(long, long)>& progress) {
+MonteCarloStudy RunMonteCarlo(const MonteCarloStudyOptions& spec, const std::function<void(long, long)>& progress) {
   if (spec.trials < 2) throw Error("Monte Carlo: at least 2 trials are needed");
   if (spec.setups < 1) throw Error("Monte Carlo: at least one setup per trial is needed");
   if (spec.eccentricities_mm.empty()) throw Error("Monte Carlo: no eccentricity given");
   if (!spec.random_direction && !(spec.direction.norm() > 0.0)) throw Error("Monte Carlo: the direction is zero");
   if (!(spec.max_std_um > 0.0)) throw Error("Monte Carlo: max_std_um must be positive");
   const std::vector<Trial> trials = RunTrials(spec, progress);
-  MonteCarloResult result;
+  MonteCarloStudy result;
   for (std::size_t k = 0; k < spec.eccentricities_mm.size(); ++k) {
     result.rows.push_back(Summarise(spec, k, trials.data() + k * static_cast<std::size_t>(spec.trials)));
   }
@@ -301,7 +301,7 @@ std::optional<double> EccentricityForNominalSphericity(const SimulationSpec& bas
   return 0.5 * (lo + hi);
 }
 
-std::vector<SphericityRow> SphericityStudy(const MonteCarloSpec& spec, const MonteCarloResult& result,
+std::vector<SphericityRow> SphericityStudy(const MonteCarloStudyOptions& spec, const MonteCarloStudy& result,
                                            const std::vector<double>& before_targets_um, double calibration_e_mm) {
   SimulationSpec cal_spec = spec.base;
   cal_spec.centers_mm = PlacementCenters(spec, calibration_e_mm);

@@ -132,7 +132,7 @@ void CheckFoldsCanFit(const PointsData& points, int folds, int n_params, const s
               std::to_string(n_params) + " parameters) to the samples outside each fold, here as few as " +
               std::to_string(f.fewest_fitted) + " (a fold leaves out up to " + std::to_string(f.most_left_out) +
               "), and a fit needs more samples than parameters" + needed +
-              "; the seven errors alone (--no-extend) need more than " + std::to_string(base_params));
+              "; the seven errors alone (--no-trace) need more than " + std::to_string(base_params));
 }
 
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
@@ -1012,7 +1012,7 @@ std::string CheckedSeparation(const Readings& data, const CalibrationOptions& op
 // least half the chosen one's) and, with both beside the current model, a component of the two
 // has a variance inflation above internal::kSeparatedVif on the readings as measured. A BIC gap
 // between two such terms comes from which components each kept, not from the data telling them
-// apart. Where that decides whether anything is added (TraceOptions::add_confounded false), the
+// apart. Where that decides whether anything is added (TraceOptions::hold_confounded), the
 // inflation that each term causes the other's components is judged instead (PairInflationNow(),
 // above kSeparatedPairInflation):
 // a term whose components are poorly determined beside the model anyway must not hold back every
@@ -1025,7 +1025,7 @@ bool ConfoundedByDesign(const Readings& data, const CalibrationOptions& options,
   }
   const EffectTerm& a = chosen_fit.model.terms.back();
   const EffectTerm& b = c_fit.model.terms.back();
-  if (trace.add_confounded) {
+  if (!trace.hold_confounded) {
     return internal::PairVifNow(data.table, options, current, a, chosen_fit.values.back(), b, c_fit.values.back()) >
            internal::kSeparatedVif;
   }
@@ -1043,7 +1043,7 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
   for (std::size_t i = 0; i < tried.size(); ++i) {
     const CandidateScore& c = tried[i].first;
     if (i == best || !Admissible(c, current, trace)) continue;
-    // A candidate held back in an earlier round (TraceOptions::add_confounded) may score better than
+    // A candidate held back in an earlier round (TraceOptions::hold_confounded) may score better than
     // the one chosen now: it is about equal only when the two are within ambiguity_bic either way.
     const double gap = c.delta_bic - chosen.delta_bic;
     const bool close = (c.held ? std::abs(gap) : gap) < trace.ambiguity_bic;
@@ -1222,10 +1222,10 @@ void RefreshComponents(const Readings& data, const CalibrationOptions& options, 
   }
 }
 
-// Whether effect e was held back in this trace (TraceOptions::add_confounded false).
+// Whether effect e was held back in this trace (TraceOptions::hold_confounded).
 bool IsHeld(const TraceResult& r, Effect e) { return std::find(r.held.begin(), r.held.end(), e) != r.held.end(); }
 
-// With TraceOptions::add_confounded false: whether the candidate `c` just chosen is confounded with
+// With TraceOptions::hold_confounded: whether the candidate `c` just chosen is confounded with
 // another library effect (an ambiguity of r.ambiguous from `first_new` on names one). Then neither
 // is added: both are held back from later rounds (a third effect chosen later is still judged
 // against them, for they are scored every round), the ambiguities say so, and what else was noted
@@ -1316,7 +1316,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     ChosenAmbiguities(data, options, current, tried, static_cast<std::size_t>(best), sphere, form_better,
                       r.form.separable, trace, c, &r.ambiguous);
     chosen = &c;
-    if (!trace.add_confounded) hold = HoldConfounded(first_new, c, r);
+    if (trace.hold_confounded) hold = HoldConfounded(first_new, c, r);
     if (hold) {
       for (auto& [other, fit] : tried) other.held = IsHeld(r, other.effect);  // its partners too
       if (form_better) form.note += "; the effect it was compared with is held back";

@@ -165,7 +165,7 @@ namespace {
 void WriteTraceSummary(std::ostream& out, const TraceResult& r) {
   const TracedFit& b = r.before;
   const TracedFit& a = r.after;
-  out << "\nclosing the loop (residual traced to effects the seven-error model lacks)\n";
+  out << "\ntracing the residual (to the effects the seven-error model lacks)\n";
   out << Format("  %-34s %10s %10s %10s %12s\n", "", "rms um", "p-v um", "cv rms um", "structure p");
   out << Format("  %-34s %10.4f %10.4f %10.4f %12.2g\n", "before (seven errors)", b.fit.calibration.rms_um,
                 b.fit.calibration.pv_um, b.cv_rms_um, b.structure.all.p_value);

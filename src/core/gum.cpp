@@ -343,8 +343,8 @@ double SampleStd(const std::vector<double>& v) {
   return std::sqrt(ss / static_cast<double>(v.size() - 1));
 }
 
-MonteCarloResult PropagateDistributions(const std::function<double(const std::vector<double>&)>& model,
-                                        const std::vector<Distribution>& inputs, const MonteCarloOptions& options) {
+PropagationResult PropagateDistributions(const std::function<double(const std::vector<double>&)>& model,
+                                         const std::vector<Distribution>& inputs, const PropagationOptions& options) {
   if (!(options.probability > 0.0 && options.probability < 1.0)) {
     throw Error("Monte Carlo: the coverage probability must lie in (0, 1)");
   }
@@ -354,7 +354,7 @@ MonteCarloResult PropagateDistributions(const std::function<double(const std::ve
   Random random(options.seed);
   std::vector<double> x(inputs.size()), all, batch;
   std::vector<BatchSummary> batches;
-  MonteCarloResult r;
+  PropagationResult r;
   for (;;) {
     batch.resize(static_cast<std::size_t>(m));
     for (long i = 0; i < m; ++i) {
@@ -407,7 +407,7 @@ MonteCarloResult PropagateDistributions(const std::function<double(const std::ve
   return r;
 }
 
-bool GufValidated(double y_guf, double U, const MonteCarloResult& mc) {
+bool GufValidated(double y_guf, double U, const PropagationResult& mc) {
   return std::abs(y_guf - U - mc.low) <= mc.tolerance && std::abs(y_guf + U - mc.high) <= mc.tolerance;
 }
 

@@ -4,9 +4,11 @@
 #include <array>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <utility>
 
@@ -15,6 +17,7 @@
 
 #include "sph/core/error.hpp"
 #include "sph/core/gum.hpp"
+#include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
@@ -41,6 +44,34 @@ std::vector<AnglePair> GridPattern(int theta_steps, int phi_steps) {
       out.push_back({360.0 * i / theta_steps, 180.0 * (j + 0.5) / phi_steps});
     }
   }
+  return out;
+}
+
+std::vector<AnglePair> ReadAnglePattern(const std::string& path) {
+  std::ifstream in = OpenInputFile(path);
+  TextLines lines(in, path, "a file of angles");
+  std::vector<AnglePair> out;
+  std::string line;
+  while (lines.Next(line)) {
+    const auto hash = line.find('#');
+    if (hash != std::string::npos) line.resize(hash);
+    std::istringstream fields(line);
+    std::vector<std::string> tokens;
+    for (std::string token; fields >> token;) tokens.push_back(token);
+    if (tokens.empty()) continue;
+    AnglePair a;
+    try {
+      if (tokens.size() != 2) throw Error("");
+      a = {ParseNumber(tokens[0], "theta_deg", ""), ParseNumber(tokens[1], "phi_deg", "")};
+    } catch (const Error&) {
+      throw Error(lines.Where() + "expected 'theta_deg phi_deg'");
+    }
+    if (static_cast<long>(out.size()) == kMaxPatternPoints) {
+      throw Error(lines.Where() + "more than " + std::to_string(kMaxPatternPoints) + " pattern points");
+    }
+    out.push_back(a);
+  }
+  if (out.empty()) throw Error(path + ": no angles");
   return out;
 }
 

@@ -230,9 +230,9 @@ gum::UncertaintyStatement MeasurementBudget(const std::string& type_a_name, doub
   return gum::Combine(std::move(inputs), coverage);
 }
 
-gum::MonteCarloResult CheckByMonteCarlo(MeasuredResult which, const std::vector<RawReading>& readings,
-                                        const AppliedCalibration& applied, const SphereEvaluation& nominal,
-                                        double type_a_u, double type_a_dof, const gum::MonteCarloOptions& options) {
+gum::PropagationResult CheckByMonteCarlo(MeasuredResult which, const std::vector<RawReading>& readings,
+                                         const AppliedCalibration& applied, const SphereEvaluation& nominal,
+                                         double type_a_u, double type_a_dof, const gum::PropagationOptions& options) {
   if (applied.covariance.size() == 0) throw std::invalid_argument("the calibration has no covariance to propagate");
   const Eigen::MatrixXd l = FactorOf(applied.inputs.empty() ? applied.covariance : applied.TypeACovariance());
   const Eigen::Index n = l.rows();

@@ -104,7 +104,7 @@ class Matrix : public ::testing::TestWithParam<MatrixCase> {
   static void SetUpTestSuite() {
     base_ = MakeTempDir("matrix_base");
     std::ofstream(base_ + "/P.txt") << Example();
-    const ProgramResult r = RunProgram({SPH_CALIBRATE, "P.txt", "--no-extend", "-q", "-o", "cal.json"}, base_);
+    const ProgramResult r = RunProgram({SPH_CALIBRATE, "P.txt", "--no-trace", "-q", "-o", "cal.json"}, base_);
     ASSERT_EQ(r.code, 0) << r.err;
     nodes_ = MakeDeviceNodes(base_);
   }
@@ -152,7 +152,7 @@ std::vector<MatrixCase> CalibrateCases() {
        {{"x.txt", std::string("\x7f"
                               "ELF\x02\x01\x01\0\0\0",
                               10)}}},
-      {"byte_order_mark", {"x.txt", "--no-extend", "-q"}, 0, "", {{"x.txt", "\xEF\xBB\xBF" + Example()}}},
+      {"byte_order_mark", {"x.txt", "--no-trace", "-q"}, 0, "", {{"x.txt", "\xEF\xBB\xBF" + Example()}}},
       {"bad_columns_line_named_at_its_line",
        {"x.txt"},
        2,
@@ -231,7 +231,7 @@ std::vector<MatrixCase> CalibrateCases() {
        e + "x.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 2",
        {{"x.txt", h + "1 2\n"}}},
       {"absurd_reading_named",
-       {"x.txt", "--no-extend", "-q"},
+       {"x.txt", "--no-trace", "-q"},
        0,
        "x.txt:107: r_mm 100000",
        {{"x.txt", ExampleWithR(100, "1e5")}}},
@@ -254,6 +254,10 @@ std::vector<MatrixCase> CalibrateCases() {
        {"P.txt", "--sphere-radius-mm", "-3"},
        2,
        "--sphere-radius-mm: must be > 0 and <= 1000 mm, got -3"},
+      {"radius_option_hex",  // a number is decimal: strtod read 0x10 as 16 mm
+       {"P.txt", "--sphere-radius-mm", "0x10"},
+       2,
+       "--sphere-radius-mm: must be > 0 and <= 1000 mm, got 0x10"},
       {"offset_option_infinite",
        {"P.txt", "--probe-offset-mm", "inf"},
        2,
@@ -293,45 +297,45 @@ std::vector<MatrixCase> CalibrateCases() {
        2,
        e + "disk: is a block device: refusing to write onto it"},
       {"output_onto_full_device",
-       {"P.txt", "--no-extend", "-q", "-o", "full"},
+       {"P.txt", "--no-trace", "-q", "-o", "full"},
        2,
        e + "full: cannot write: No space left on device"},
-      {"output_onto_null_device", {"P.txt", "--no-extend", "-q", "-o", "null", "--json", "null"}, 0, ""},
+      {"output_onto_null_device", {"P.txt", "--no-trace", "-q", "-o", "null", "--json", "null"}, 0, ""},
       {"output_onto_directory", {"P.txt", "-o", "sub"}, 2, e + "sub: is a directory; give the name of a file"},
       {"output_into_missing_folder",
-       {"P.txt", "--no-extend", "-q", "-o", "no/c.json"},
+       {"P.txt", "--no-trace", "-q", "-o", "no/c.json"},
        2,
        e + "no/c.json: cannot create a file in 'no': No such file or directory"},
       {"json_and_output_written",
-       {"P.txt", "--no-extend", "-q", "-o", "c.json", "--json", "r.json"},
+       {"P.txt", "--no-trace", "-q", "-o", "c.json", "--json", "r.json"},
        0,
        "",
        {},
        {"c.json", "r.json"}},
       {"stdout_full",
-       {"P.txt", "--no-extend"},
+       {"P.txt", "--no-trace"},
        2,
        e + "cannot write to standard output: No space left on device",
        {},
        {},
        "full"},
       {"json_stdout_full",
-       {"P.txt", "--no-extend", "--json", "-"},
+       {"P.txt", "--no-trace", "--json", "-"},
        2,
        e + "cannot write to standard output: No space left on device",
        {},
        {},
        "full"},
-      {"validate_without_trace", {"P.txt", "--no-extend", "--validate", "P.txt"}, 2, "--no-extend excludes --validate"},
+      {"validate_without_trace", {"P.txt", "--no-trace", "--validate", "P.txt"}, 2, "--no-trace excludes --validate"},
       {"stdout_full_keeps_the_calibration",
-       {"P.txt", "--no-extend", "-o", "c.json"},
+       {"P.txt", "--no-trace", "-o", "c.json"},
        2,
        e + "cannot write to standard output: No space left on device",
        {{"c.json", "yesterday\n"}},
        {},
        "full"},
       {"stdout_closed_keeps_the_calibration",
-       {"P.txt", "--no-extend", "-o", "c.json"},
+       {"P.txt", "--no-trace", "-o", "c.json"},
        2,
        e + "cannot write to standard output: Broken pipe",
        {{"c.json", "yesterday\n"}},
@@ -379,7 +383,7 @@ std::vector<MatrixCase> CalibrateCases() {
            "of 288 readings do (they span 2.95877 to 6.92469 mm)",
        {{"x.txt", ExampleWithHeader("# probe_range_mm: 0.002\n")}}},
       {"probe_range_option_below_the_readings",
-       {"P.txt", "--no-extend", "-q", "--probe-range-mm", "6"},
+       {"P.txt", "--no-trace", "-q", "--probe-range-mm", "6"},
        2,
        e + "P.txt:65: r_mm 6.065184228 lies outside the probe's measuring range, 0 to 6 mm (--probe-range-mm): 56 of "
            "288 readings do"},
@@ -389,7 +393,7 @@ std::vector<MatrixCase> CalibrateCases() {
        "sph_calibrate: not usable: d' = -10.0601 mm is more than a tenth of the sphere's radius (10 mm): with the "
        "nominal d the points lie on a sphere of radius about R0 - d' = 20.0601 mm"},
       {"temperature_leaves_d_prime_uncertain_by_a_millimetre",
-       {"P.txt", "--no-extend", "-q", "--sphere-temperature-c", "100", "--sphere-cte-per-k", "1e-3",
+       {"P.txt", "--no-trace", "-q", "--sphere-temperature-c", "100", "--sphere-cte-per-k", "1e-3",
         "--sphere-temperature-u-c", "50", "-o", "c.json"},
        1,
        "sph_calibrate: not usable: d_prime has a combined standard uncertainty of 1005 um as a displacement (U = 2010 "
@@ -410,9 +414,9 @@ std::vector<MatrixCase> CalibrateCases() {
        e + "x.txt: 11 samples are too few to trace the residual: its 5-fold cross-validation fits the 7 errors and 3 "
            "centre coordinates for each of 1 setup(s) (10 parameters) to the samples outside each fold, here as few "
            "as 8 (a fold leaves out up to 3), and a fit needs more samples than parameters: at least 14 samples are "
-           "needed; the seven errors alone (--no-extend) need more than 10",
+           "needed; the seven errors alone (--no-trace) need more than 10",
        {{"x.txt", ExampleSamples(11)}}},
-      {"too_few_samples_for_the_seven_errors", {"x.txt", "--no-extend", "-q"}, 1, "", {{"x.txt", ExampleSamples(11)}}},
+      {"too_few_samples_for_the_seven_errors", {"x.txt", "--no-trace", "-q"}, 1, "", {{"x.txt", ExampleSamples(11)}}},
       {"few_samples_trace_what_they_can", {"x.txt", "-q"}, 0, "", {{"x.txt", ExampleSamples(20)}}},
       {"few_samples_of_four_orientations_trace_what_they_can",
        {"x.txt", "-q"},
@@ -446,7 +450,7 @@ std::vector<MatrixCase> CalibrateCases() {
        2,
        e + "--fix alpha_mm=0.001: alpha is an angle: give it in deg, arcsec or urad"},
       {"fix_beyond_a_physical_bound",
-       {"P.txt", "--no-extend", "--fix", "alpha_deg=100"},
+       {"P.txt", "--no-trace", "--fix", "alpha_deg=100"},
        2,
        e + "P.txt: alpha starts at 100 deg, outside its bounds (-90 deg to 90 deg)"},
       {"prior_without_uncertainty",
@@ -458,16 +462,16 @@ std::vector<MatrixCase> CalibrateCases() {
        2,
        e + "--prior alpha_deg=0.02,-0.001: the standard uncertainty of alpha must be positive, got '-0.001'"},
       {"fixed_and_informed",
-       {"P.txt", "--no-extend", "--fix", "alpha", "--prior", "alpha_deg=0.02,0.001"},
+       {"P.txt", "--no-trace", "--fix", "alpha", "--prior", "alpha_deg=0.02,0.001"},
        2,
        e + "P.txt: alpha is both held and given a prior"},
       {"header_fix_unknown_at_its_line",
-       {"x.txt", "--no-extend"},
+       {"x.txt", "--no-trace"},
        2,
        e + "x.txt:4: fix: unknown parameter 'gamma'",
        {{"x.txt", h + "# fix: gamma\n0 7.5 4.8\n"}}},
       {"header_prior_without_unit_at_its_line",
-       {"x.txt", "--no-extend"},
+       {"x.txt", "--no-trace"},
        2,
        e + "x.txt:4: prior: the value of alpha needs its unit in the name",
        {{"x.txt", h + "# prior: alpha=0.02,0.001\n0 7.5 4.8\n"}}},
@@ -475,13 +479,13 @@ std::vector<MatrixCase> CalibrateCases() {
        {"P.txt", "--robust-loss", "huber"},
        2,
        e + "--robust-loss keeps every reading at a weight"},
-      {"robust_loss_unknown", {"P.txt", "--no-extend", "--robust-loss", "tukey"}, 2, "--robust-loss: tukey not in"},
+      {"robust_loss_unknown", {"P.txt", "--no-trace", "--robust-loss", "tukey"}, 2, "--robust-loss: tukey not in"},
       {"robust_scale_without_loss",
-       {"P.txt", "--no-extend", "--robust-scale-sigma", "2"},
+       {"P.txt", "--no-trace", "--robust-scale-sigma", "2"},
        2,
        "--robust-scale-sigma requires --robust-loss"},
       {"fix_prior_robust_accepted",
-       {"P.txt", "--no-extend", "-q", "--fix", "d_prime_mm=-0.062", "--prior", "alpha_deg=0.02,0.0005", "--robust-loss",
+       {"P.txt", "--no-trace", "-q", "--fix", "d_prime_mm=-0.062", "--prior", "alpha_deg=0.02,0.0005", "--robust-loss",
         "cauchy", "--robust-scale-sigma", "3"},
        0,
        ""},
@@ -545,6 +549,8 @@ std::vector<MatrixCase> SimulateCases() {
       {"effect_malformed", {"--effect-arcsec", "theta_encoder"}, 2, "expected id.param=value"},
       {"form_too_large", {"--form-um", "3,2,1e308"}, 2, e + "--form-um 3,2,1e308: must be >= -1000 and <= 1000 um"},
       {"form_bad_degree", {"--form-um", "30,2,0.1"}, 2, "expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l"},
+      // sscanf read a hexadecimal amplitude (0x1p-3 um)
+      {"form_hex_amplitude", {"--form-um", "2,0,0x1p-3"}, 2, "--form-um 2,0,0x1p-3: expected l,m,amplitude_um"},
       {"outlier_fraction_above_one", {"--outlier-fraction", "2"}, 2, "--outlier-fraction: Value 2 not in range"},
       {"mount_rotation_without_setup",
        {"--mount-rotation-deg", "0,0,90"},
@@ -1128,7 +1134,7 @@ INSTANTIATE_TEST_SUITE_P(Measure, MeasureMatrix, ::testing::ValuesIn(MeasureCase
 TEST(PlotSignal, EndsGnuplotAndLeavesNothingBehind) {
   const std::string dir = MakeTempDir("plot_signal");
   std::ofstream(dir + "/P.txt") << Example();
-  ASSERT_EQ(RunProgram({SPH_CALIBRATE, "P.txt", "--no-extend", "-q", "-o", "cal.json"}, dir).code, 0);
+  ASSERT_EQ(RunProgram({SPH_CALIBRATE, "P.txt", "--no-trace", "-q", "-o", "cal.json"}, dir).code, 0);
   // Says that it started, then draws into its image (-e "png = '<name>'; ") half a second later.
   const std::string started = dir + ".started";
   const std::string gnuplot =

@@ -129,7 +129,7 @@ TEST_F(CalibrateCmd, FixAndPriorFromTheHeaderAndTheOptions) {
   text.insert(text.find("# columns"), "# fix: d_prime_mm=-0.05 beta\n# prior: alpha_deg=0.0202,0.0001\n");
   CalibrateOptions o;
   o.points_path = WriteFile("told.txt", text);
-  o.no_extend = true;
+  o.workflow.trace = false;
   o.json_path = dir_ + "/report.json";
   o.fix = {"d_prime_mm=-0.062"};  // over the header's -0.05
   const RunOutput r = Calibrate(o);
@@ -150,7 +150,7 @@ TEST_F(CalibrateCmd, RobustLossNamesTheReadingsItWeightedDown) {
   spec.effects.outlier_um = 20.0;
   CalibrateOptions o;
   o.points_path = Simulated("dirty.txt", spec);
-  o.no_extend = true;
+  o.workflow.trace = false;
   o.robust_loss = "huber";
   o.json_path = dir_ + "/report.json";
   const RunOutput r = Calibrate(o);
@@ -212,11 +212,11 @@ TEST_F(CalibrateCmd, OptionsOverrideTheHeader) {
   EXPECT_EQ(r.code, kExitBadInput);
   EXPECT_THAT(r.err, HasSubstr("the reference sphere radius R0 is not given: add a header line "
                                "'# sphere_radius_mm: <R0>' to the file or pass --sphere-radius-mm"));
-  o.sphere_radius_mm = 20.0;
+  o.workflow.sphere_radius_mm = 20.0;
   r = Calibrate(o);
   EXPECT_EQ(r.code, kExitBadInput);
   EXPECT_THAT(r.err, HasSubstr("'# probe_offset_mm: <d>' to the file or pass --probe-offset-mm"));
-  o.probe_offset_mm = 25.0;
+  o.workflow.probe_offset_mm = 25.0;
   EXPECT_EQ(Calibrate(o).code, kExitOk);
 }
 
@@ -304,14 +304,14 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
   SimulationSpec other = UndeclaredEffects();
   other.centers_mm = {Eigen::Vector3d(1.5, 1.5, -1.0)};
   other.seed = 8;
-  o.validate_path = Simulated("validate.txt", other);
+  o.workflow.validate_path = Simulated("validate.txt", other);
   o.json_path = dir_ + "/report.json";
   o.plot_dir = dir_ + "/plots";
   o.output_path = dir_ + "/cal.json";
   const RunOutput r = Calibrate(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
   EXPECT_THAT(r.err, HasSubstr("leaves out probe_drift"));
-  EXPECT_THAT(r.out, HasSubstr("closing the loop"));
+  EXPECT_THAT(r.out, HasSubstr("tracing the residual (to the effects"));
   EXPECT_THAT(r.out, HasSubstr("theta_encoder.c2"));
   const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
   EXPECT_EQ(j["effects_added"], nlohmann::json({"probe_drift", "theta_encoder"})) << j.dump(2);
@@ -345,7 +345,7 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
   const Calibration cal = LoadCalibration(o.output_path);
   ASSERT_EQ(cal.effects.terms.size(), 1u);
   EXPECT_EQ(cal.effects.terms[0].effect, Effect::kThetaEncoder);
-  const std::vector<Eigen::Vector3d> pts = CompensateAll(cal, ReadPointsFile(o.validate_path).samples);
+  const std::vector<Eigen::Vector3d> pts = CompensateAll(cal, ReadPointsFile(o.workflow.validate_path).samples);
   const LeastSquaresSphere ls = FitSphereLeastSquares(pts);
   ASSERT_TRUE(ls.sphere.ok);
   EXPECT_NEAR(RadialPeakToValley(pts, ls.sphere.center) * 1e3, j["validation"]["after_ls_sphericity_um"].get<double>(),
@@ -382,8 +382,8 @@ TEST_F(CalibrateCmd, TracesTheResidualToTheUndeclaredEffects) {
 TEST_F(CalibrateCmd, AValidationOnTheCalibrationsOwnPointsSaysItIsNoIndependentCheck) {
   CalibrateOptions o;
   o.points_path = WriteFile("points.txt", sph::testing::ReadWholeFile(SPH_SOURCE_DIR "/data/example/points.txt"));
-  o.validate_path = dir_ + "/same.txt";  // the same file by another name
-  ASSERT_EQ(::symlink("points.txt", o.validate_path.c_str()), 0);
+  o.workflow.validate_path = dir_ + "/same.txt";  // the same file by another name
+  ASSERT_EQ(::symlink("points.txt", o.workflow.validate_path.c_str()), 0);
   o.json_path = dir_ + "/report.json";
   const RunOutput r = Calibrate(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
@@ -398,10 +398,10 @@ TEST_F(CalibrateCmd, AValidationOnTheCalibrationsOwnPointsSaysItIsNoIndependentC
 TEST_F(CalibrateCmd, NoExtendFitsTheSevenErrorsOnly) {
   CalibrateOptions o;
   o.points_path = Simulated("points.txt", UndeclaredEffects());
-  o.no_extend = true;
+  o.workflow.trace = false;
   o.json_path = dir_ + "/report.json";
   const RunOutput r = Calibrate(o);
-  EXPECT_THAT(r.out, Not(HasSubstr("closing the loop")));
+  EXPECT_THAT(r.out, Not(HasSubstr("tracing the residual (to the effects")));
   const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
   EXPECT_FALSE(j.contains("effects_added"));
 }
@@ -427,7 +427,7 @@ TEST_F(CalibrateCmd, HoldConfoundedAddsNeitherOfTwoEffectsItCannotTellApart) {
   spec.effects.values = {{10 * kRadPerArcsec}};
   CalibrateOptions o;
   o.points_path = Simulated("points.txt", spec);
-  o.hold_confounded = true;
+  o.workflow.tracing.hold_confounded = true;
   o.json_path = dir_ + "/report.json";
   const RunOutput r = Calibrate(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
@@ -441,7 +441,7 @@ TEST_F(CalibrateCmd, HoldConfoundedAddsNeitherOfTwoEffectsItCannotTellApart) {
   CLI::App contradictory;
   CalibrateOptions o2;
   SetupCalibrateApp(contradictory, o2);
-  std::vector<std::string> args{"--no-extend", "--hold-confounded", "p.txt"};  // parse() takes them reversed
+  std::vector<std::string> args{"--no-trace", "--hold-confounded", "p.txt"};  // parse() takes them reversed
   EXPECT_THROW(contradictory.parse(args), CLI::ExcludesError);
 }
 
@@ -461,8 +461,8 @@ TEST_F(CalibrateCmd, StatesTheGumBudgetAndPutsTheCombinedCovarianceInTheCalibrat
   WritePointsFile(points, data);
   CalibrateOptions o;
   o.points_path = points;
-  o.no_extend = true;
-  o.conditions.probe_scale_u = 1e-5;
+  o.workflow.trace = false;
+  o.workflow.conditions.probe_scale_u = 1e-5;
   o.json_path = dir_ + "/report.json";
   o.output_path = dir_ + "/cal.json";
   const RunOutput r = Calibrate(o);
@@ -535,8 +535,8 @@ TEST_F(CalibrateCmd, AFormAloneIsFittedWithTheMachineAndStored) {
 TEST_F(CalibrateCmd, CoverageProbabilityGivesKFromTheDegreesOfFreedom) {
   CalibrateOptions o;
   o.points_path = SPH_SOURCE_DIR "/data/example/points.txt";
-  o.no_extend = true;
-  o.coverage = 0.99;
+  o.workflow.trace = false;
+  o.workflow.coverage = 0.99;
   o.json_path = dir_ + "/report.json";
   ASSERT_EQ(Calibrate(o).code, kExitOk);
   std::ifstream in(o.json_path);
@@ -552,8 +552,8 @@ TEST(CalibrateCli, ParsesOptions) {
   SetupCalibrateApp(app, o);
   ParseArgs(app, {"p.txt", "--json", "r.json", "--sphere-radius-mm=12.5", "--max-std-um", "0.5"});
   EXPECT_EQ(o.points_path, "p.txt");
-  EXPECT_DOUBLE_EQ(*o.sphere_radius_mm, 12.5);
-  EXPECT_DOUBLE_EQ(o.max_std_um, 0.5);
+  EXPECT_DOUBLE_EQ(*o.workflow.sphere_radius_mm, 12.5);
+  EXPECT_DOUBLE_EQ(o.workflow.fit.max_std_um, 0.5);
   EXPECT_EQ(o.json_path, "r.json");
   CLI::App bad;
   CalibrateOptions o2;
@@ -571,7 +571,7 @@ TEST(CalibrateCli, ParsesOptions) {
   CLI::App contradictory;
   CalibrateOptions o5;
   SetupCalibrateApp(contradictory, o5);
-  EXPECT_THROW(ParseArgs(contradictory, {"p.txt", "--no-extend", "--effects", "probe_gain"}), CLI::ExcludesError);
+  EXPECT_THROW(ParseArgs(contradictory, {"p.txt", "--no-trace", "--effects", "probe_gain"}), CLI::ExcludesError);
 }
 
 }  // namespace

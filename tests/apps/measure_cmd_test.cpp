@@ -100,7 +100,7 @@ TEST_F(MeasureCmd, XyzOfAllThirtyNistSetsGivesTheReferenceCentreAndDiameter) {
     const std::string name = "sph" + std::to_string(k);
     MeasureOptions o;
     o.points_path = kNistDir + name + ".ds";
-    o.xyz = true;
+    o.workflow.xyz = true;
     o.json_path = dir_ + "/" + name + ".json";
     o.quiet = true;
     const RunOutput r = Measure(o);
@@ -128,7 +128,7 @@ TEST_F(MeasureCmd, XyzOfAllThirtyNistSetsGivesTheReferenceCentreAndDiameter) {
 TEST_F(MeasureCmd, MeasuresWithACalibrationInTextAndJson) {
   MeasureOptions o;
   o.points_path = Simulated("measure.txt", {Eigen::Vector3d(1.0, 1.0, 0.5)});
-  o.calibration_path = Calibration();
+  o.workflow.calibration_path = Calibration();
   o.json_path = dir_ + "/m.json";
   const RunOutput r = Measure(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
@@ -168,7 +168,7 @@ TEST_F(MeasureCmd, MeasuresWithACalibrationInTextAndJson) {
 TEST_F(MeasureCmd, StatesAGumBudgetOfEachResult) {
   MeasureOptions o;
   o.points_path = Simulated("budget.txt", {Eigen::Vector3d(1.0, 1.0, 0.5)});
-  o.calibration_path = Calibration();
+  o.workflow.calibration_path = Calibration();
   o.json_path = dir_ + "/b.json";
   const RunOutput r = Measure(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
@@ -208,8 +208,8 @@ TEST_F(MeasureCmd, StatesAGumBudgetOfEachResult) {
     EXPECT_GT(mc["tolerance_um"].get<double>(), 0.0);
   }
   // A coverage probability: k from the effective degrees of freedom.
-  o.coverage = 0.95;
-  o.mc_max_trials = 0;
+  o.workflow.coverage = 0.95;
+  o.workflow.mc_max_trials = 0;
   ASSERT_EQ(Measure(o).code, kExitOk);
   const json p = ReadJson(o.json_path);
   EXPECT_NEAR(p["budget"]["radius"]["k"].get<double>(), 1.96, 0.02);
@@ -219,11 +219,11 @@ TEST_F(MeasureCmd, StatesAGumBudgetOfEachResult) {
 TEST_F(MeasureCmd, CompensatedPointsRoundTripThroughXyz) {
   MeasureOptions o;
   o.points_path = Simulated("measure.txt", {Eigen::Vector3d(-1.0, 0.5, 0.0)});
-  o.calibration_path = Calibration();
+  o.workflow.calibration_path = Calibration();
   o.json_path = dir_ + "/a.json";
   o.output_path = dir_ + "/points.xyz";
   o.quiet = true;
-  o.mc_max_trials = 0;  // the budget's Monte Carlo check is not what this test is about
+  o.workflow.mc_max_trials = 0;  // the budget's Monte Carlo check is not what this test is about
   ASSERT_EQ(Measure(o).code, kExitOk);
   std::ifstream in(o.output_path);
   std::string first, second;
@@ -233,7 +233,7 @@ TEST_F(MeasureCmd, CompensatedPointsRoundTripThroughXyz) {
   EXPECT_EQ(second, "# columns: x_mm y_mm z_mm");
   MeasureOptions x;
   x.points_path = o.output_path;
-  x.xyz = true;
+  x.workflow.xyz = true;
   x.json_path = dir_ + "/b.json";
   x.quiet = true;
   ASSERT_EQ(Measure(x).code, kExitOk);
@@ -253,7 +253,7 @@ TEST_F(MeasureCmd, SaysWhenACapLeavesTheResultIllPosed) {
   }
   MeasureOptions o;
   o.points_path = WriteFile("cap.xyz", cap.str());
-  o.xyz = true;
+  o.workflow.xyz = true;
   o.json_path = dir_ + "/cap.json";
   const RunOutput r = Measure(o);
   EXPECT_EQ(r.code, kExitOk) << r.err;
@@ -277,7 +277,7 @@ TEST_F(MeasureCmd, SaysWhenACapLeavesTheResultIllPosed) {
 TEST_F(MeasureCmd, ReportsTheMinimumZonesCertificateAndStarts) {
   MeasureOptions o;
   o.points_path = SPH_TEST_DATA_DIR "/minimum-zone/two_minima_cap.xyz";
-  o.xyz = true;
+  o.workflow.xyz = true;
   o.json_path = dir_ + "/cap.json";
   const RunOutput r = Measure(o);
   EXPECT_EQ(r.code, kExitOk) << r.err;
@@ -299,10 +299,10 @@ TEST_F(MeasureCmd, ReportsTheMinimumZonesCertificateAndStarts) {
   EXPECT_GT(starts["center_spread_um"].get<double>(), 1000.0);
 
   o.points_path = Simulated("full.txt", {Eigen::Vector3d(2, 0, 0)});
-  o.xyz = false;
-  o.calibration_path = Calibration();
-  o.uncertainty_samples = 0;
-  o.noise_floor_draws = 0;
+  o.workflow.xyz = false;
+  o.workflow.calibration_path = Calibration();
+  o.workflow.uncertainty_samples = 0;
+  o.workflow.noise_floor_draws = 0;
   o.json_path = dir_ + "/full.json";
   const RunOutput full = Measure(o);
   ASSERT_EQ(full.code, kExitOk) << full.err;
@@ -324,7 +324,7 @@ TEST_F(MeasureCmd, ACalibrationWithoutCovarianceStillCompensates) {
   WriteCalibrationFile(path, cal);
   MeasureOptions o;
   o.points_path = Simulated("measure.txt", {Eigen::Vector3d(2.0, 0.0, 0.0)});
-  o.calibration_path = path;
+  o.workflow.calibration_path = path;
   o.json_path = dir_ + "/m.json";
   const RunOutput r = Measure(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
@@ -337,21 +337,21 @@ TEST_F(MeasureCmd, ACalibrationWithoutCovarianceStillCompensates) {
 TEST_F(MeasureCmd, ChoosesASetupOfSeveral) {
   MeasureOptions o;
   o.points_path = Simulated("two.txt", {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 3, 0)});
-  o.calibration_path = Calibration();
-  o.mc_max_trials = 0;  // the budget's Monte Carlo check is not what this test is about
+  o.workflow.calibration_path = Calibration();
+  o.workflow.mc_max_trials = 0;  // the budget's Monte Carlo check is not what this test is about
   o.json_path = dir_ + "/m.json";
   RunOutput r = Measure(o);
   EXPECT_EQ(r.code, kExitBadInput);
   EXPECT_THAT(r.err, HasSubstr("two.txt: the file holds several setups (0 1), each a placement of a sphere: choose "
                                "one with --setup"));
-  o.setup = 1;
+  o.workflow.setup = 1;
   r = Measure(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
   const json j = ReadJson(o.json_path);
   EXPECT_EQ(j["input"]["setup"], 1);
   EXPECT_EQ(j["input"]["n_points"], 288);
   EXPECT_NEAR(j["center_mm"][1].get<double>(), 3.0, 1e-3);
-  o.setup = 7;
+  o.workflow.setup = 7;
   EXPECT_THAT(Measure(o).err, HasSubstr("two.txt: there is no setup 7"));
 }
 
@@ -369,9 +369,9 @@ TEST_F(MeasureCmd, TheRadiusDeviationIsFromTheSetupsOwnSphere) {
   WriteCalibrationFile(dir_ + "/exact.json", cal);
   MeasureOptions o;
   o.points_path = points;
-  o.calibration_path = dir_ + "/exact.json";
-  o.setup = 1;
-  o.mc_max_trials = 0;
+  o.workflow.calibration_path = dir_ + "/exact.json";
+  o.workflow.setup = 1;
+  o.workflow.mc_max_trials = 0;
   o.json_path = dir_ + "/m.json";
   const RunOutput r = Measure(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
@@ -380,7 +380,7 @@ TEST_F(MeasureCmd, TheRadiusDeviationIsFromTheSetupsOwnSphere) {
   EXPECT_EQ(j["header_sphere_radius_mm"].get<double>(), 10.0);
   EXPECT_EQ(j["header_sphere_radius_key"], "sphere_radius_mm@1");
   EXPECT_NEAR(j["radius_deviation_um"].get<double>(), 0.0, 1e-6);  // exact readings, the exact calibration
-  o.setup = 0;
+  o.workflow.setup = 0;
   ASSERT_EQ(Measure(o).code, kExitOk);
   EXPECT_EQ(ReadJson(o.json_path)["header_sphere_radius_key"], "sphere_radius_mm");
   EXPECT_NEAR(ReadJson(o.json_path)["radius_deviation_um"].get<double>(), 0.0, 1e-6);
@@ -399,10 +399,10 @@ TEST_F(MeasureCmd, BadInputExitsTwoNamingTheFile) {
   expect_bad(o, readings +
                     ": readings (theta, phi, r) need a calibration to become points: pass --calibration FILE, "
                     "or --xyz when the file holds x y z coordinates");
-  o.xyz = true;
-  o.calibration_path = Calibration();
+  o.workflow.xyz = true;
+  o.workflow.calibration_path = Calibration();
   expect_bad(o, "--calibration compensates readings (theta, phi, r); " + readings + " is read as x y z coordinates");
-  o.calibration_path.clear();
+  o.workflow.calibration_path.clear();
   {  // readings taken for coordinates: the first row is refused, by file and line
     std::ifstream in(readings);
     std::string line;
@@ -427,12 +427,12 @@ TEST_F(MeasureCmd, BadInputExitsTwoNamingTheFile) {
 
   MeasureOptions c;
   c.points_path = readings;
-  c.calibration_path = WriteFile("v2.json", R"({"format": "sph-calibration", "format_version": 2})");
-  expect_bad(c, c.calibration_path + ": calibration format version 2 is not supported");
-  c.calibration_path = Calibration();
-  c.uncertainty_samples = 1;
+  c.workflow.calibration_path = WriteFile("v2.json", R"({"format": "sph-calibration", "format_version": 2})");
+  expect_bad(c, c.workflow.calibration_path + ": calibration format version 2 is not supported");
+  c.workflow.calibration_path = Calibration();
+  c.workflow.uncertainty_samples = 1;
   expect_bad(c, "--uncertainty-samples: 1 draw gives no spread");
-  c.uncertainty_samples = 200;
+  c.workflow.uncertainty_samples = 200;
   PointsData other = ReadPointsFile(readings);
   other.header.probe_offset_mm = 30.0;
   c.points_path = dir_ + "/d30.txt";
@@ -452,7 +452,7 @@ TEST_F(MeasureCmd, BrokenFilesGiveOneMessageAndExitTwo) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   };
   MeasureOptions o;
-  o.calibration_path = Calibration();
+  o.workflow.calibration_path = Calibration();
   o.points_path = WriteFile("empty.txt", "");
   expect_one_error(o, o.points_path + ": no samples (the file has 0 lines, none of them a sample)");
   o.points_path = WriteFile("header.txt", "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n");
@@ -471,17 +471,17 @@ TEST_F(MeasureCmd, BrokenFilesGiveOneMessageAndExitTwo) {
   o.points_path = dir_ + "/missing.txt";
   expect_one_error(o, o.points_path + ": cannot open for reading");
   o.points_path = Simulated("r.txt", {Eigen::Vector3d(2, 0, 0)});
-  o.calibration_path = dir_ + "/missing.json";
-  expect_one_error(o, o.calibration_path + ": cannot open for reading");
-  o.calibration_path = WriteFile("garbage.json", std::string("\0\x01\x02{[", 5));
-  expect_one_error(o, o.calibration_path + ":1: binary data (NUL byte): this is not a calibration file");
-  o.calibration_path = WriteFile("garbage2.json", "{[\x01");
-  expect_one_error(o, o.calibration_path + ": not valid JSON");
-  o.calibration_path = WriteFile("empty.json", "");
-  expect_one_error(o, o.calibration_path + ": not valid JSON");
+  o.workflow.calibration_path = dir_ + "/missing.json";
+  expect_one_error(o, o.workflow.calibration_path + ": cannot open for reading");
+  o.workflow.calibration_path = WriteFile("garbage.json", std::string("\0\x01\x02{[", 5));
+  expect_one_error(o, o.workflow.calibration_path + ":1: binary data (NUL byte): this is not a calibration file");
+  o.workflow.calibration_path = WriteFile("garbage2.json", "{[\x01");
+  expect_one_error(o, o.workflow.calibration_path + ": not valid JSON");
+  o.workflow.calibration_path = WriteFile("empty.json", "");
+  expect_one_error(o, o.workflow.calibration_path + ": not valid JSON");
 
   MeasureOptions x;
-  x.xyz = true;
+  x.workflow.xyz = true;
   x.points_path = WriteFile("empty.xyz", "");
   expect_one_error(x, x.points_path + ": no points (expected lines 'x y z')");
   x.points_path = WriteFile("comments.xyz", "# x y z\n# nothing else\n");
@@ -508,7 +508,7 @@ TEST_F(MeasureCmd, AnUnwritableOutputLeavesNoFileBehind) {
     return names;
   };
   MeasureOptions o;
-  o.xyz = true;
+  o.workflow.xyz = true;
   o.points_path = WriteFile("p.xyz", "1 0 0\n0 1 0\n0 0 1\n-1 0 0\n0 -1 0\n0 0 -1\n");
   const std::vector<std::string> before = entries();
   for (const std::string& target : {std::string("output"), std::string("json")}) {
@@ -532,9 +532,9 @@ TEST_F(MeasureCmd, DrawsTheFormErrorMap) {
   if (!HaveGnuplot()) GTEST_SKIP() << "gnuplot is not installed (apt-get install gnuplot-nox)";
   MeasureOptions o;
   o.points_path = Simulated("measure.txt", {Eigen::Vector3d(2.0, 0.0, 0.0)});
-  o.calibration_path = Calibration();
-  o.uncertainty_samples = 0;
-  o.mc_max_trials = 0;
+  o.workflow.calibration_path = Calibration();
+  o.workflow.uncertainty_samples = 0;
+  o.workflow.mc_max_trials = 0;
   o.quiet = true;
   // A folder whose name holds a space and a quote, to test the quoting.
   ASSERT_EQ(::mkdir((dir_ + "/plots 'A'").c_str(), 0755), 0);
@@ -562,7 +562,7 @@ TEST_F(MeasureCmd, DrawsTheFormErrorMap) {
 TEST_F(MeasureCmd, WithoutGnuplotSaysHowToGetIt) {
   MeasureOptions o;
   o.points_path = kNistDir + std::string("sph5.ds");
-  o.xyz = true;
+  o.workflow.xyz = true;
   o.quiet = true;
   o.plot_path = dir_ + "/map.png";
   o.gnuplot = dir_ + "/no-such-gnuplot";
@@ -584,9 +584,9 @@ void ParseArgs(CLI::App& app, std::vector<std::string> args) {
 TEST_F(MeasureCmd, ProgressOnRequestNamesEachStageAndEveryDrawByDefaultNone) {
   MeasureOptions o;
   o.points_path = Simulated("progress.txt", {Eigen::Vector3d(1.0, 1.0, 0.5)});
-  o.calibration_path = Calibration();
-  o.uncertainty_samples = 20;
-  o.mc_max_trials = 0;                 // the budget's Monte Carlo check is not what this test is about
+  o.workflow.calibration_path = Calibration();
+  o.workflow.uncertainty_samples = 20;
+  o.workflow.mc_max_trials = 0;                 // the budget's Monte Carlo check is not what this test is about
   const RunOutput quiet = Measure(o);  // stderr is no terminal here: nothing by default
   ASSERT_EQ(quiet.code, kExitOk) << quiet.err;
   EXPECT_THAT(quiet.err, Not(HasSubstr("sph_measure: reading")));
@@ -606,22 +606,22 @@ TEST(MeasureCli, ParsesOptions) {
   ParseArgs(app, {"p.txt", "-c", "cal.json", "--setup", "2", "--json", "-", "-o", "pts.xyz", "--plot", "m.png",
                   "--uncertainty-samples", "50", "--seed", "9", "--max-dilution", "20"});
   EXPECT_EQ(o.points_path, "p.txt");
-  EXPECT_EQ(o.calibration_path, "cal.json");
-  ASSERT_TRUE(o.setup.has_value());
-  EXPECT_EQ(*o.setup, 2);
+  EXPECT_EQ(o.workflow.calibration_path, "cal.json");
+  ASSERT_TRUE(o.workflow.setup.has_value());
+  EXPECT_EQ(*o.workflow.setup, 2);
   EXPECT_EQ(o.json_path, "-");
   EXPECT_EQ(o.output_path, "pts.xyz");
   EXPECT_EQ(o.plot_path, "m.png");
-  EXPECT_EQ(o.uncertainty_samples, 50);
-  EXPECT_EQ(o.seed, 9u);
-  EXPECT_EQ(o.max_dilution, 20.0);
-  EXPECT_FALSE(o.xyz);
+  EXPECT_EQ(o.workflow.uncertainty_samples, 50);
+  EXPECT_EQ(o.workflow.seed, 9u);
+  EXPECT_EQ(o.workflow.max_dilution, 20.0);
+  EXPECT_FALSE(o.workflow.xyz);
 
   CLI::App app2;
   MeasureOptions x;
   SetupMeasureApp(app2, x);
   ParseArgs(app2, {"--xyz", "sph1.ds"});
-  EXPECT_TRUE(x.xyz);
+  EXPECT_TRUE(x.workflow.xyz);
   EXPECT_EQ(x.points_path, "sph1.ds");
   CLI::App app3;
   MeasureOptions bad;
@@ -656,12 +656,12 @@ TEST_F(MeasureCmd, SubtractsTheCalibrationSpheresForm) {
   WriteCalibrationFile(dir_ + "/cal.json", cal);
   MeasureOptions o;
   o.points_path = points;
-  o.calibration_path = dir_ + "/cal.json";
+  o.workflow.calibration_path = dir_ + "/cal.json";
   o.json_path = dir_ + "/with.json";
   o.quiet = true;
   ASSERT_EQ(Measure(o).code, kExitOk);
   const double with_form_um = ReadJson(o.json_path)["sphericity_ls_um"].get<double>();
-  o.subtract_sphere_form = true;
+  o.workflow.subtract_sphere_form = true;
   o.json_path = dir_ + "/without.json";
   const RunOutput r = Measure(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
@@ -674,7 +674,7 @@ TEST_F(MeasureCmd, SubtractsTheCalibrationSpheresForm) {
   plain.form_terms.clear();
   plain.form_values_mm.clear();
   WriteCalibrationFile(dir_ + "/plain.json", plain);
-  o.calibration_path = dir_ + "/plain.json";
+  o.workflow.calibration_path = dir_ + "/plain.json";
   const RunOutput none = Measure(o);
   EXPECT_EQ(none.code, kExitBadInput);
   EXPECT_THAT(none.err, HasSubstr("holds no form of the calibration sphere"));
@@ -706,9 +706,9 @@ TEST_F(MeasureCmd, WarnsWithTheirCountWhenItExtrapolatesTheProbePolynomial) {
   EffectReference ref = WithProbeRange(EffectReference{}, 10.0);
   ref.r_fit_min_mm = 4.0;
   ref.r_fit_max_mm = 6.0;
-  o.calibration_path = WriteCalibrationWith(dir_ + "/cal.json", DefaultTerm(Effect::kProbeGain), {1e-3}, ref);
-  o.uncertainty_samples = 0;
-  o.noise_floor_draws = 0;
+  o.workflow.calibration_path = WriteCalibrationWith(dir_ + "/cal.json", DefaultTerm(Effect::kProbeGain), {1e-3}, ref);
+  o.workflow.uncertainty_samples = 0;
+  o.workflow.noise_floor_draws = 0;
   int outside = 0;
   const PointsData points = ReadPointsFile(o.points_path);
   for (const Sample& s : points.samples) outside += s.r_mm < 4.0 || s.r_mm > 6.0 ? 1 : 0;
@@ -734,12 +734,12 @@ TEST_F(MeasureCmd, CompensatesAProbeIncidenceErrorWithTheMeasuredSpheresCentre) 
   WritePointsFile(o.points_path, Simulate(spec));
   o.json_path = dir_ + "/m.json";
   o.quiet = true;
-  o.uncertainty_samples = 0;
-  o.noise_floor_draws = 0;
-  o.calibration_path = WriteCalibrationWith(dir_ + "/cal.json", term, {30e-3}, EffectReference{});
+  o.workflow.uncertainty_samples = 0;
+  o.workflow.noise_floor_draws = 0;
+  o.workflow.calibration_path = WriteCalibrationWith(dir_ + "/cal.json", term, {30e-3}, EffectReference{});
   ASSERT_EQ(Measure(o).code, kExitOk);
   const double with_um = ReadJson(o.json_path)["sphericity_ls_um"].get<double>();
-  o.calibration_path = WriteCalibrationWith(dir_ + "/none.json", term, {0.0}, EffectReference{});
+  o.workflow.calibration_path = WriteCalibrationWith(dir_ + "/none.json", term, {0.0}, EffectReference{});
   ASSERT_EQ(Measure(o).code, kExitOk);
   const double without_um = ReadJson(o.json_path)["sphericity_ls_um"].get<double>();
   EXPECT_LT(with_um, 1e-4);

@@ -100,7 +100,7 @@ TEST(MeasurementUncertainty, CoversTheSpreadOfRepeatedEffectBearingCalibrations)
     // The sphericities are not linear in the parameters: the Monte Carlo propagation's u (what
     // sph_measure states when its JCGM 101 check does not validate the linear one), here from 100
     // trials a repetition, pooled over the 200.
-    gum::MonteCarloOptions mo;
+    gum::PropagationOptions mo;
     mo.adaptive = false;
     mo.batch_trials = 100;
     mo.seed = static_cast<std::uint64_t>(rep + 1);

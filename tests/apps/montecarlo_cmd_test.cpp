@@ -19,7 +19,7 @@ struct RunOutput {
   std::string out, err;
 };
 
-RunOutput RunApp(const MonteCarloOptions& o) {
+RunOutput RunApp(const MonteCarloAppOptions& o) {
   std::ostringstream out, err;
   const int code = RunMonteCarloApp(o, out, err);
   return {code, out.str(), err.str()};
@@ -27,7 +27,7 @@ RunOutput RunApp(const MonteCarloOptions& o) {
 
 TEST(MonteCarloCmd, TablesJsonAndCsv) {
   const std::string dir = sph::testing::MakeTempDir("mccmd");
-  MonteCarloOptions o;
+  MonteCarloAppOptions o;
   o.trials = 30;
   o.eccentricities_mm = {1.0, 2.0};
   o.json_path = dir + "/mc.json";
@@ -59,7 +59,7 @@ TEST(MonteCarloCmd, TablesJsonAndCsv) {
 TEST(MonteCarloCmd, FigureFourAsPng) {
   if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) GTEST_SKIP() << "gnuplot is not installed";
   const std::string dir = sph::testing::MakeTempDir("mcplot") + "/figures";
-  MonteCarloOptions o;
+  MonteCarloAppOptions o;
   o.trials = 20;
   o.table3 = false;
   o.plot_dir = dir;
@@ -74,7 +74,7 @@ TEST(MonteCarloCmd, FigureFourAsPng) {
 }
 
 TEST(MonteCarloCmd, PlanPredictsAndFindsTheEccentricity) {
-  MonteCarloOptions o;
+  MonteCarloAppOptions o;
   o.plan = true;
   o.target_std_um = 2.0;
   const RunOutput r = RunApp(o);
@@ -90,7 +90,7 @@ TEST(MonteCarloCmd, PlanPredictsAndFindsTheEccentricity) {
 // infinite bound.
 TEST(MonteCarloCmd, SaysUndeterminedWhereTheDesignDeterminesNothing) {
   const std::string dir = sph::testing::MakeTempDir("mcundetermined");
-  MonteCarloOptions o;
+  MonteCarloAppOptions o;
   o.trials = 10;
   o.table3 = false;
   o.eccentricities_mm = {0.0};
@@ -134,7 +134,7 @@ TEST(MonteCarloCmd, SaysUndeterminedWhereTheDesignDeterminesNothing) {
 // mount separates them (sph/calib/orientation_plan.hpp), and the JSON says the same as the table.
 TEST(MonteCarloCmd, PlansTheOrientationsThatSeparateTheForm) {
   const std::string dir = sph::testing::MakeTempDir("mcplan");
-  MonteCarloOptions o;
+  MonteCarloAppOptions o;
   o.plan_orientations = true;
   o.eccentricities_mm = {0.0};
   o.effects = {"phi_radial_motion"};
@@ -170,7 +170,7 @@ TEST(MonteCarloCmd, PlansTheOrientationsThatSeparateTheForm) {
 // them apart, as text and JSON.
 TEST(MonteCarloCmd, PlansThePlacementThatTellsTwoEffectsApart) {
   const std::string dir = sph::testing::MakeTempDir("mcplanfx");
-  MonteCarloOptions o;
+  MonteCarloAppOptions o;
   o.plan_orientations = true;
   o.eccentricities_mm = {2.0};
   o.effects = {"theta_axial_motion", "theta_tilt_motion", "probe_drift"};
@@ -198,24 +198,24 @@ TEST(MonteCarloCmd, PlansThePlacementThatTellsTwoEffectsApart) {
 }
 
 TEST(MonteCarloCmd, BadOptionsExitTwo) {
-  MonteCarloOptions o;
+  MonteCarloAppOptions o;
   o.direction = "0,0,0";
   RunOutput r = RunApp(o);
   EXPECT_EQ(r.code, kExitBadInput);
   EXPECT_THAT(r.err, HasSubstr("--direction must not be zero"));
-  o = MonteCarloOptions();
+  o = MonteCarloAppOptions();
   o.eccentricities_mm = {30.0};
   r = RunApp(o);
   EXPECT_EQ(r.code, kExitBadInput);
   EXPECT_THAT(r.err, HasSubstr("is not in [0, R0)"));
-  o = MonteCarloOptions();
+  o = MonteCarloAppOptions();
   o.target_std_um = 1.0;
   r = RunApp(o);
   EXPECT_EQ(r.code, kExitBadInput);
   EXPECT_THAT(r.err, HasSubstr("--target-std-um goes with --plan"));
   // Outputs that cannot be written: one message, exit 2, nothing left behind.
   const std::string dir = sph::testing::MakeTempDir("mccmd_bad");
-  o = MonteCarloOptions();
+  o = MonteCarloAppOptions();
   o.trials = 5;
   o.eccentricities_mm = {2.0};
   o.json_path = dir + "/no/such/dir/mc.json";

@@ -73,12 +73,12 @@ TEST(SmallestEccentricityMm, MeetsTheTargetExactlyThere) {
 // mean of 1.045 and a std of 0.035: 17 of them lie beyond 1.10. The bound is then a lower bound, and
 // the ratio is held to three of its sampling std about that measured excess.
 TEST(PredictUncertainty, MatchesTheMonteCarloSpread) {
-  MonteCarloSpec mc;
+  MonteCarloStudyOptions mc;
   mc.eccentricities_mm = {1.0};
   mc.trials = 500;
   mc.seed = 11;
   mc.threads = 2;
-  const MonteCarloResult r = RunMonteCarlo(mc);
+  const MonteCarloStudy r = RunMonteCarlo(mc);
   const PredictedUncertainty u = PredictUncertainty(AtEccentricity(1.0));
   for (int p = 0; p < kNumScmsParams; ++p) {
     const double ratio = r.rows[0].params[static_cast<std::size_t>(p)].std / u.std(p);

@@ -11,14 +11,14 @@ namespace sph {
 namespace {
 
 TEST(RunMonteCarlo, DependsOnTheSeedOnlyNotOnThreads) {
-  MonteCarloSpec spec;
+  MonteCarloStudyOptions spec;
   spec.trials = 40;
   spec.eccentricities_mm = {1.0, 2.0};
   spec.threads = 1;
-  const MonteCarloResult one = RunMonteCarlo(spec);
+  const MonteCarloStudy one = RunMonteCarlo(spec);
   for (int threads : {2, 8}) {
     spec.threads = threads;
-    const MonteCarloResult many = RunMonteCarlo(spec);
+    const MonteCarloStudy many = RunMonteCarlo(spec);
     for (std::size_t k = 0; k < 2; ++k) {
       ASSERT_EQ(many.rows[k].estimates.size(), one.rows[k].estimates.size());
       for (std::size_t t = 0; t < one.rows[k].estimates.size(); ++t) {
@@ -36,14 +36,14 @@ TEST(RunMonteCarlo, DependsOnTheSeedOnlyNotOnThreads) {
 class PaperStudy : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    MonteCarloSpec spec;  // the paper's defaults: Table 1, 24 x 12, 0.5 ... 2 mm, 0.05 um, 1000 trials
+    MonteCarloStudyOptions spec;  // the paper's defaults: Table 1, 24 x 12, 0.5 ... 2 mm, 0.05 um, 1000 trials
     spec.threads = 2;
-    result_ = new MonteCarloResult(RunMonteCarlo(spec));
+    result_ = new MonteCarloStudy(RunMonteCarlo(spec));
   }
   static void TearDownTestSuite() { delete result_; }
-  static MonteCarloResult* result_;
+  static MonteCarloStudy* result_;
 };
-MonteCarloResult* PaperStudy::result_ = nullptr;
+MonteCarloStudy* PaperStudy::result_ = nullptr;
 
 TEST_F(PaperStudy, UnbiasedAndAtTheCramerRaoBound) {
   ASSERT_EQ(result_->rows.size(), 4u);
@@ -76,11 +76,11 @@ TEST_F(PaperStudy, SecondOrderBiasOfDPrime) {
 }
 
 TEST(RunMonteCarlo, DPrimeAtHalfAMillimetreIsFirstOrderAtLowNoise) {
-  MonteCarloSpec spec;
+  MonteCarloStudyOptions spec;
   spec.eccentricities_mm = {0.5};
   spec.base.noise_r_um = 0.005;
   spec.threads = 2;
-  const MonteCarloResult r = RunMonteCarlo(spec);
+  const MonteCarloStudy r = RunMonteCarlo(spec);
   for (int p = 0; p < kNumScmsParams; ++p) {
     const ParameterStats& s = r.rows[0].params[static_cast<std::size_t>(p)];
     EXPECT_LT(std::abs(s.z_bias), 4.0) << kScmsParamInfo[static_cast<std::size_t>(p)].name;
@@ -90,18 +90,18 @@ TEST(RunMonteCarlo, DPrimeAtHalfAMillimetreIsFirstOrderAtLowNoise) {
 }
 
 TEST(RunMonteCarlo, SeveralSetupsAndRandomDirections) {
-  MonteCarloSpec spec;
+  MonteCarloStudyOptions spec;
   spec.trials = 200;
   spec.eccentricities_mm = {2.0};
   spec.setups = 2;
-  const MonteCarloResult two = RunMonteCarlo(spec);
+  const MonteCarloStudy two = RunMonteCarlo(spec);
   spec.setups = 1;
-  const MonteCarloResult one = RunMonteCarlo(spec);
+  const MonteCarloStudy one = RunMonteCarlo(spec);
   // Two placements (x and y) halve the variance of the tangential errors.
   EXPECT_NEAR(two.rows[0].params[kC].crlb / one.rows[0].params[kC].crlb, 1.0 / std::sqrt(2.0), 0.03);
   EXPECT_LT(two.rows[0].params[kC].std, one.rows[0].params[kC].std);
   spec.random_direction = true;
-  const MonteCarloResult rnd = RunMonteCarlo(spec);
+  const MonteCarloStudy rnd = RunMonteCarlo(spec);
   EXPECT_GT(rnd.rows[0].converged, 150);
   EXPECT_EQ(rnd.rows[0].converged + static_cast<int>(rnd.rows[0].not_converged.size()), spec.trials);
   // Each random placement has its own bound: the estimates normalised by their trial's CRLB
@@ -121,10 +121,10 @@ TEST(RunMonteCarlo, SeveralSetupsAndRandomDirections) {
 // Theta axis some of them not at all (an infinite bound): each is undetermined, with no ratio to
 // its bound and no second-order bias; at 2 mm along x every one is determined.
 TEST(RunMonteCarlo, MarksWhatTheDesignDoesNotDetermine) {
-  MonteCarloSpec spec;
+  MonteCarloStudyOptions spec;
   spec.trials = 10;
   spec.eccentricities_mm = {0.0, 2.0};
-  const MonteCarloResult r = RunMonteCarlo(spec);
+  const MonteCarloStudy r = RunMonteCarlo(spec);
   for (int p = 0; p < kNumScmsParams; ++p) {
     const std::string name = kScmsParamInfo[static_cast<std::size_t>(p)].name;
     const ParameterStats& at_zero = r.rows[0].params[static_cast<std::size_t>(p)];
@@ -169,11 +169,11 @@ TEST(Sphericity, ReproducesThePapersBeforeColumn) {
 // Table 3, "after": with sigma_r = 0.05 um the typical (median) calibration leaves sphericities of
 // the paper's order: within a factor of two of its column for every sphere.
 TEST(Sphericity, AfterColumnIsOfThePapersOrder) {
-  MonteCarloSpec spec;
+  MonteCarloStudyOptions spec;
   spec.eccentricities_mm = {2.0};
   spec.trials = 101;
   spec.threads = 2;
-  const MonteCarloResult r = RunMonteCarlo(spec);
+  const MonteCarloStudy r = RunMonteCarlo(spec);
   const std::vector<double> before{1.786, 1.796, 1.811, 1.828, 1.842, 2.641, 3.097, 3.256, 3.306, 3.528};
   const std::vector<double> after{0.00529, 0.00541, 0.00541, 0.00558, 0.00606,
                                   0.01656, 0.02519, 0.02927, 0.03838, 0.04541};

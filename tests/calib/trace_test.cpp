@@ -238,7 +238,7 @@ TEST(TraceResidual, SaysWhenAnEncoderErrorAndASpindleMotionCannotBeTold) {
 TEST(TraceResidual, HeldBackAddsNeitherOfTwoEffectsItCannotTellApart) {
   const PointsData points = WithEffect(Effect::kThetaEncoder, {{2, 0, false}}, {10 * kRadPerArcsec});
   TraceOptions hold;
-  hold.add_confounded = false;
+  hold.hold_confounded = true;
   const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), hold);
   EXPECT_TRUE(r.added.empty()) << Describe(r);
   const auto held = [&r](Effect e) { return std::find(r.held.begin(), r.held.end(), e) != r.held.end(); };
@@ -480,7 +480,7 @@ TEST(TraceResidual, SaysWhatTheCrossValidationNeedsOfASmallFile) {
               "small.txt: 11 samples are too few to trace the residual: its 5-fold cross-validation fits the 7 errors "
               "and 3 centre coordinates for each of 1 setup(s) (10 parameters) to the samples outside each fold, here "
               "as few as 8 (a fold leaves out up to 3), and a fit needs more samples than parameters: at least 14 "
-              "samples are needed; the seven errors alone (--no-extend) need more than 10");
+              "samples are needed; the seven errors alone (--no-trace) need more than 10");
   }
   const PointsData fourteen = first(14, 20);
   const TraceResult r = TraceResidual(fourteen, PaperOptions(), Calibrate(fourteen, PaperOptions()), TraceOptions{});

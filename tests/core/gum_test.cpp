@@ -256,9 +256,9 @@ double Sum(const std::vector<double>& x) { return x[0] + x[1] + x[2] + x[3]; }
 // u(y) = 2.00, 95 % interval [-3.92, 3.92], which the GUM uncertainty framework gives as well.
 TEST(MonteCarlo, AdditiveModelWithNormalInputsOfClause922) {
   const std::vector<Distribution> in(4, Distribution::Gaussian(0.0, 1.0));
-  MonteCarloOptions o;
+  PropagationOptions o;
   o.significant_digits = 3;  // delta = 0.005
-  const MonteCarloResult r = PropagateDistributions(Sum, in, o);
+  const PropagationResult r = PropagateDistributions(Sum, in, o);
   ASSERT_TRUE(r.converged);
   EXPECT_EQ(r.tolerance, 0.005);
   EXPECT_PRED_FORMAT3(Agrees, r.y, 0.00, r.tolerance);
@@ -274,9 +274,9 @@ TEST(MonteCarlo, AdditiveModelWithNormalInputsOfClause922) {
 TEST(MonteCarlo, AdditiveModelWithRectangularInputsOfClause923) {
   const double a = std::sqrt(3.0);
   const std::vector<Distribution> in(4, Distribution::Rectangular(-a, a));
-  MonteCarloOptions o;
+  PropagationOptions o;
   o.significant_digits = 3;
-  const MonteCarloResult r = PropagateDistributions(Sum, in, o);
+  const PropagationResult r = PropagateDistributions(Sum, in, o);
   ASSERT_TRUE(r.converged);
   EXPECT_PRED_FORMAT3(Agrees, r.u, 2.00, r.tolerance);
   EXPECT_PRED_FORMAT3(Agrees, r.low, -3.88, r.tolerance);
@@ -290,9 +290,9 @@ TEST(MonteCarlo, AdditiveModelWithADominantRectangularInputOfClause924) {
   const double a = std::sqrt(3.0);
   const std::vector<Distribution> in = {Distribution::Rectangular(-a, a), Distribution::Rectangular(-a, a),
                                         Distribution::Rectangular(-a, a), Distribution::Rectangular(-10 * a, 10 * a)};
-  MonteCarloOptions o;
+  PropagationOptions o;
   o.significant_digits = 3;  // delta = 0.05
-  const MonteCarloResult r = PropagateDistributions(Sum, in, o);
+  const PropagationResult r = PropagateDistributions(Sum, in, o);
   ASSERT_TRUE(r.converged);
   EXPECT_EQ(r.tolerance, 0.05);
   EXPECT_PRED_FORMAT3(Agrees, r.u, 10.1, r.tolerance);
@@ -322,7 +322,7 @@ TEST(MonteCarlo, MassCalibrationOfClause93) {
   const std::vector<Distribution> in = {Distribution::Gaussian(100000.000, 0.050), Distribution::Gaussian(1.234, 0.020),
                                         Distribution::Rectangular(1.10, 1.30), Distribution::Rectangular(7000, 9000),
                                         Distribution::Rectangular(7950, 8050)};
-  const MonteCarloResult r = PropagateDistributions(model, in, {});
+  const PropagationResult r = PropagateDistributions(model, in, {});
   ASSERT_TRUE(r.converged);
   EXPECT_EQ(r.tolerance, 0.0005);
   EXPECT_PRED_FORMAT3(Agrees, r.y, 1.2341, r.tolerance);

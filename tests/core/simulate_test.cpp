@@ -581,5 +581,22 @@ TEST(Simulate, RefusesFormsThatCannotBeASurface) {
   EXPECT_THROW(Simulate(spec), Error);
 }
 
+TEST(SimulationTruthJson, StatesWhatThePointsWereMadeOf) {
+  SimulationSpec spec;
+  spec.pattern = GridPattern(12, 6);
+  spec.seed = 7;
+  spec.truth[kB] = 0.01;  // mm
+  spec.effects.outlier_fraction = 0.25;
+  spec.effects.outlier_um = 3.0;
+  EffectReference reference;
+  const PointsData data = Simulate(spec, &reference);
+  const std::string truth = SimulationTruthJson(spec, reference, data);
+  EXPECT_THAT(truth, ::testing::HasSubstr("\"format\": \"sph-truth\""));
+  EXPECT_THAT(truth, ::testing::HasSubstr("\"n_points\": 72"));
+  EXPECT_THAT(truth, ::testing::HasSubstr("\"seed\": 7"));
+  EXPECT_THAT(truth, ::testing::HasSubstr("\"fraction\": 0.25"));
+  EXPECT_THAT(truth, ::testing::ContainsRegex("\"b\": \\{\\s*\"unit\": \"mm\",\\s*\"value\": 0.01"));
+}
+
 }  // namespace
 }  // namespace sph

@@ -333,13 +333,13 @@ TEST(PropagateCalibrationUncertainty, DrawsTheEffectsWithTheSevenErrors) {
   const Eigen::Vector4d moved = -(jac.transpose() * jac).ldlt().solve(jac.transpose() * de);
   EXPECT_NEAR(c[0].per_parameter(9), moved(3), 0.01 * std::abs(moved(3)));
   // The radius is linear in the parameters: the JCGM 101 check agrees with the GUM interval.
-  gum::MonteCarloOptions mo;
+  gum::PropagationOptions mo;
   mo.probability = 0.9545;
   mo.batch_trials = 1000;
   mo.max_trials = 40000;
   mo.significant_digits = 1;
   const gum::UncertaintyStatement st = MeasurementBudget("", 0.0, gum::kInfiniteDof, c[0], applied, {});
-  const gum::MonteCarloResult mc =
+  const gum::PropagationResult mc =
       CheckByMonteCarlo(MeasuredResult::kRadius, readings, applied, nominal, 0.0, gum::kInfiniteDof, mo);
   EXPECT_TRUE(mc.converged);
   EXPECT_TRUE(gum::GufValidated(nominal.ls.sphere.radius, st.U, mc))

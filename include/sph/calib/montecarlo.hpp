@@ -20,7 +20,7 @@
 
 namespace sph {
 
-struct MonteCarloSpec {
+struct MonteCarloStudyOptions {
   /// Truth, R0, d, pattern and noise; its centres and seed are replaced per trial.
   SimulationSpec base;
   std::vector<double> eccentricities_mm{0.5, 1.0, 1.5, 2.0};
@@ -56,7 +56,7 @@ struct ParameterStats {
   double std_over_crlb = 0.0;
   double z_bias = 0.0;  ///< (mean - truth - bias) / se
   /// The CRLB as a displacement [um] (angles times R0), and whether it is at most
-  /// MonteCarloSpec::max_std_um. When it is not, the design does not determine the parameter:
+  /// MonteCarloStudyOptions::max_std_um. When it is not, the design does not determine the parameter:
   /// std_over_crlb, bias and z_bias are NaN (a bound that does not hold the estimate near the
   /// truth, or an infinite one, gives no ratio and no second-order bias), crlb is kept (+inf in
   /// the design's null space). With random directions each trial is judged against its own bound
@@ -75,21 +75,21 @@ struct EccentricityResult {
   std::vector<ScmsGeometry> estimates;  ///< one per converged trial, in trial order
 };
 
-struct MonteCarloResult {
+struct MonteCarloStudy {
   std::vector<EccentricityResult> rows;
 };
 
 /// The sphere centres of the fixed-direction design at eccentricity e_mm: spec.setups centres,
 /// setup j along spec.direction turned by j * 360/setups deg about the Theta axis (z).
-std::vector<Eigen::Vector3d> PlacementCenters(const MonteCarloSpec& spec, double e_mm);
+std::vector<Eigen::Vector3d> PlacementCenters(const MonteCarloStudyOptions& spec, double e_mm);
 
 /// The seed of trial t at eccentricity index k (a SplitMix64 mix of the three).
 std::uint64_t TrialSeed(std::uint64_t seed, std::size_t k, std::size_t t);
 
 /// Runs the study. `progress(done, total)` is called from the worker threads, serialised, about
 /// a hundred times over the run; it may be empty. Throws sph::Error on an impossible spec.
-MonteCarloResult RunMonteCarlo(const MonteCarloSpec& spec,
-                               const std::function<void(long done, long total)>& progress = {});
+MonteCarloStudy RunMonteCarlo(const MonteCarloStudyOptions& spec,
+                              const std::function<void(long done, long total)>& progress = {});
 
 /// Least-squares sphericity [um] of a sphere centred at `center_mm`, read exactly (no noise) from
 /// the machine of `base` (truth, R0, d, pattern) and evaluated with `geometry` (all zero: the
@@ -118,7 +118,7 @@ struct SphericityRow {
 /// one calibration uses spec.base's noise at `calibration_e_mm` with spec.seed; the median and
 /// mean use the study's estimates at that eccentricity if `result` has it. A target that no
 /// eccentricity below R0/2 reaches gives a row of NaN.
-std::vector<SphericityRow> SphericityStudy(const MonteCarloSpec& spec, const MonteCarloResult& result,
+std::vector<SphericityRow> SphericityStudy(const MonteCarloStudyOptions& spec, const MonteCarloStudy& result,
                                            const std::vector<double>& before_targets_um, double calibration_e_mm);
 
 }  // namespace sph

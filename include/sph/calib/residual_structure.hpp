@@ -15,7 +15,7 @@
 // model's residual vanishes (ExpectedReadings()), which differ from the true ones by the part of
 // the noise that the fit absorbed, independent of e to first order. [J | functions] can be nearly
 // rank-deficient, and then even a small share of the noise left there shows as structure
-// (docs/method/closing-the-loop.md).
+// (docs/method/tracing-the-residual.md).
 //
 // Everything here depends on the columns of J, of the functions and of e only through their inner
 // products, so it is computed from the triangular factor R of [J | functions | e] (J = Q R),

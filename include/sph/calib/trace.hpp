@@ -1,4 +1,4 @@
-// Closing the loop: the residual of the seven-error fit traced to the effects of the library
+// Tracing the residual: what the seven-error fit leaves, traced to the effects of the library
 // (sph/model/effect_terms.hpp) that the model lacks, with the sphere's own form fitted where the
 // design separates it from the machine (TraceResidual()); or a given list of effects fitted without
 // selection (FitFixedEffects()).
@@ -8,7 +8,7 @@
 // more setups, the transfer between setups, weighs it against a pattern fixed on the sphere (or,
 // with the form separable, against the form of the highest degree searched), and adds the best one
 // that qualifies; ambiguities are reported with the measurement that would separate them. The rules
-// and every threshold of TraceOptions: docs/method/closing-the-loop.md; the form:
+// and every threshold of TraceOptions: docs/method/tracing-the-residual.md; the form:
 // docs/method/form-separation.md.
 //
 // Units: the fits in rad and mm; the results' *_um fields in um. Candidates are scored in parallel;
@@ -48,11 +48,11 @@ struct TraceOptions {
   double min_t = 3.0;              ///< components with |value| / std below this are left out
   int max_effects = 4;             ///< at most this many effects are added
   /// When the effect a round would add cannot be told from another library effect (their BICs
-  /// within ambiguity_bic, or the design confounds their terms): true, add the one that explains
-  /// more and name the other as ambiguous; false, add neither, hold both back from later rounds
+  /// within ambiguity_bic, or the design confounds their terms): false, add the one that explains
+  /// more and name the other as ambiguous; true, add neither, hold both back from later rounds
   /// and report them as two explanations (the split is not presented as known; the residual they
   /// explain stays uncompensated). A round that holds back counts among max_effects.
-  bool add_confounded = true;
+  bool hold_confounded = false;
   int threads = 0;                 ///< candidates scored in parallel; 0: one per hardware thread
   double structure_p = 1e-3;       ///< remaining structure with a p-value below this is reported
   /// An added effect whose signal is at least this much a pattern fixed on the sphere is reported
@@ -98,7 +98,7 @@ struct CandidateScore {
   double loso_t = std::numeric_limits<double>::quiet_NaN();
   bool determined = false;  ///< every parameter of the model with it is determined
   bool added = false;
-  /// Held back, never added: it cannot be told from another effect (TraceOptions::add_confounded).
+  /// Held back, never added: it cannot be told from another effect (TraceOptions::hold_confounded).
   bool held = false;
   double sphere_fraction = 0.0;  ///< of the added effect's signal (SpherePatternFraction); 0 when not added
   std::string note;              ///< why it was not added, or what was left out
@@ -125,7 +125,7 @@ struct Ambiguity {
   /// those tried would; empty for the form.
   std::string checked = "";
   /// For two effects: neither was added, for the design cannot tell them apart and the trace does
-  /// not pick one (TraceOptions::add_confounded false).
+  /// not pick one (TraceOptions::hold_confounded).
   bool neither_added = false;
   /// For two effects: named because the design cannot tell them apart (a variance inflation of
   /// their terms fitted together above 100) though the other scored clearly worse, rather than
@@ -179,7 +179,7 @@ struct TraceResult {
   TracedFit before;           ///< seven errors only
   TracedFit after;            ///< with the effects added
   std::vector<Effect> added;  ///< in the order added (less those removed)
-  /// Effects held back as confounded with another (TraceOptions::add_confounded false).
+  /// Effects held back as confounded with another (TraceOptions::hold_confounded).
   std::vector<Effect> held;
   /// Effects removed by the backward step, with the BIC without them minus with them.
   std::vector<std::pair<Effect, double>> removed;
@@ -196,7 +196,7 @@ struct TraceResult {
 /// kMaxEffectHarmonic (a scan with a reading per SYNC has thousands of distinct angles).
 HarmonicOrders PatternOrders(const PointsData& points);
 
-/// Traces the residual of `points` (docs/method/closing-the-loop.md). `base` is the seven-error
+/// Traces the residual of `points` (docs/method/tracing-the-residual.md). `base` is the seven-error
 /// calibration of the same points and options; the readings it left out as outliers are left out of the
 /// selection and judged again under the final model. The effect reference is that of all the
 /// readings (EffectReferenceOf).

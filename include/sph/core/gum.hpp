@@ -182,7 +182,8 @@ struct Distribution {
   double Draw(Random& random) const;
 };
 
-struct MonteCarloOptions {
+/// How PropagateDistributions() runs (JCGM 101 7.9).
+struct PropagationOptions {
   double probability = 0.95;   ///< of the coverage interval
   int significant_digits = 2;  ///< of u(y), which set the numerical tolerance (JCGM 101 7.9.2)
   std::uint64_t seed = 1;
@@ -191,7 +192,8 @@ struct MonteCarloOptions {
   bool adaptive = true;         ///< false: exactly one batch of batch_trials
 };
 
-struct MonteCarloResult {
+/// The output's distribution as PropagateDistributions() found it (JCGM 101 7.6, 7.7).
+struct PropagationResult {
   double y = 0.0;    ///< mean of the model values
   double u = 0.0;    ///< their standard deviation
   double low = 0.0;  ///< probabilistically symmetric coverage interval
@@ -209,8 +211,9 @@ double NumericalTolerance(double u, int digits);
 
 /// Propagates the distributions of `inputs` through `model` (JCGM 101 7, adaptive as 7.9.4).
 /// `model` gets one draw of every input, in order.
-MonteCarloResult PropagateDistributions(const std::function<double(const std::vector<double>&)>& model,
-                                        const std::vector<Distribution>& inputs, const MonteCarloOptions& options = {});
+PropagationResult PropagateDistributions(const std::function<double(const std::vector<double>&)>& model,
+                                         const std::vector<Distribution>& inputs,
+                                         const PropagationOptions& options = {});
 
 /// The coverage interval of `values` for probability p (JCGM 101 7.7): the values are sorted in
 /// place; symmetric: the (1 - p)/2 and (1 + p)/2 points; shortest: the shortest of all intervals
@@ -220,7 +223,7 @@ void CoverageIntervals(std::vector<double>& values, double p, double* low, doubl
 
 /// Whether the GUM interval y_guf +- U agrees with the Monte Carlo one to the tolerance
 /// (JCGM 101 8.2): both ends within delta.
-bool GufValidated(double y_guf, double U, const MonteCarloResult& mc);
+bool GufValidated(double y_guf, double U, const PropagationResult& mc);
 
 }  // namespace sph::gum
 

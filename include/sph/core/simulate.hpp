@@ -34,6 +34,7 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -54,6 +55,14 @@ struct AnglePair {
 /// A theta x phi grid: theta = 0, 360/nt, ...; phi = (j + 0.5) * 180/np (the paper's 24 x 12 grid
 /// is theta 0, 15, ..., 345 deg and phi 7.5, 22.5, ..., 172.5 deg). Rows: phi outer, theta inner.
 std::vector<AnglePair> GridPattern(int theta_steps, int phi_steps);
+
+/// The most points a pattern of the simulators has (a grid or a file of angles): 10 million.
+inline constexpr long kMaxPatternPoints = 10000000;
+
+/// A pattern from a text file of "theta_deg phi_deg" lines ('#' starts a comment, blank lines are
+/// skipped). Throws sph::Error naming the file and line: "angles.txt:3: expected 'theta_deg
+/// phi_deg'", more than kMaxPatternPoints points, or no angles at all.
+std::vector<AnglePair> ReadAnglePattern(const std::string& path);
 
 /// The order in which a setup measures the pattern's points (the same points, another time
 /// order), so that time and direction on the sphere are not one function of the other.
@@ -237,6 +246,11 @@ void CheckSimulationSetup(const SimulationSpec& spec);
 /// the same noise whatever sigmas are zero; then the outliers of spec.effects, from a second generator
 /// seeded from spec.seed.
 void AddReadingNoise(PointsData& data, const SimulationSpec& spec);
+
+/// The truth file (JSON, "format": "sph-truth") of the simulation of `spec` that made `data` with
+/// `reference`: the seven errors, centres, setups, R0, d, noise, seed, effects, the form and the
+/// outliers, each in its report unit (sph_simulate --truth).
+std::string SimulationTruthJson(const SimulationSpec& spec, const EffectReference& reference, const PointsData& data);
 
 }  // namespace sph
 

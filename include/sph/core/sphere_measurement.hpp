@@ -155,9 +155,9 @@ gum::UncertaintyStatement MeasurementBudget(const std::string& type_a_name, doub
 /// and, for the probe scale, the readings), the measurement's own Type A as an additive t
 /// variable of std `type_a_u` and `type_a_dof` (Gaussian when infinite), the result evaluated for
 /// each draw. `options.probability`: the coverage probability of the statement checked.
-gum::MonteCarloResult CheckByMonteCarlo(MeasuredResult which, const std::vector<RawReading>& readings,
-                                        const AppliedCalibration& applied, const SphereEvaluation& nominal,
-                                        double type_a_u, double type_a_dof, const gum::MonteCarloOptions& options);
+gum::PropagationResult CheckByMonteCarlo(MeasuredResult which, const std::vector<RawReading>& readings,
+                                         const AppliedCalibration& applied, const SphereEvaluation& nominal,
+                                         double type_a_u, double type_a_dof, const gum::PropagationOptions& options);
 
 struct UncertaintyOptions {
   int samples = 200;       ///< calibration draws (the std of a std from 200 draws is about 5 %)

@@ -1,0 +1,105 @@
+// The calibration workflow in one call (what sph_calibrate does, for a host program): the points'
+// header merged with the options, the seven errors, the residual traced to further effects (or a
+// fixed set of effects fitted), the sphere's form, the GUM budget, the validation on another file,
+// and the calibration file's content, all in one result that renders the reports.
+#ifndef SPH_CALIB_CALIBRATE_WORKFLOW_HPP_
+#define SPH_CALIB_CALIBRATE_WORKFLOW_HPP_
+
+#include <functional>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "sph/calib/budget.hpp"
+#include "sph/calib/calibrator.hpp"
+#include "sph/calib/report.hpp"
+#include "sph/calib/trace.hpp"
+#include "sph/calib/trace_report.hpp"
+#include "sph/calib/usability.hpp"
+#include "sph/core/calibration_file.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/core/ranges.hpp"
+
+namespace sph {
+
+/// The ranges of the workflow's integer settings (the others: sph/core/ranges.hpp).
+namespace ranges {
+inline constexpr ValidRange kMaxIterations{1.0, 100000.0, ""};
+inline constexpr ValidRange kHarmonicOrder{0.0, 12.0, ""};  ///< TraceOptions::harmonics, each axis
+inline constexpr ValidRange kDriftOrder{1.0, 3.0, ""};      ///< TraceOptions::drift_order
+}  // namespace ranges
+
+/// What a calibration run takes besides the points. The defaults are the fit's and the trace's own
+/// (CalibrationOptions, TraceOptions); sph_calibrate's options are these fields.
+struct CalibrationWorkflowOptions {
+  std::optional<double> sphere_radius_mm;  ///< R0 at 20 deg C; overrides the points' header [mm]
+  std::optional<double> probe_offset_mm;   ///< nominal d; overrides the points' header [mm]
+  /// The fit's settings: max_std_um, max_iterations, the parameters held (`fixed`) and informed
+  /// (`priors`), which win over the points' header's "fix" and "prior" for a parameter both name, a
+  /// robust loss (only without the trace's selection: trace false or `effects` given), ... The radii
+  /// and d are the workflow's, from the two fields above or the header, R0 corrected to the
+  /// measuring temperature.
+  CalibrationOptions fit;
+  bool trace = true;  ///< trace the residual to the effects the model lacks; false: the seven errors only
+  /// The trace's settings: harmonics, drift_order, seed, hold_confounded, phi_wobble_pivot_mm,
+  /// progress, ... (probe_range_mm is the workflow's: conditions.probe_range_mm, else the header's).
+  TraceOptions tracing;
+  std::vector<Effect> effects;     ///< a fixed model: these effects fitted, no selection (needs trace)
+  std::string validate_path;       ///< another points file of the machine, compensated before and after (needs trace)
+  SphereConditions conditions;     ///< the uncertainty inputs and the probe range; override the header's
+  std::optional<double> coverage;  ///< coverage probability of U; empty: k = 2
+  std::string program;             ///< the reports' "program"; empty: "sph_calibrate <version>"
+  /// Told each stage as it starts ("calibrating the seven errors") and each warning as it is found
+  /// (the result keeps the warnings too); either may be empty.
+  std::function<void(const std::string& stage)> on_stage;
+  std::function<void(const std::string& warning)> on_warning;
+
+  /// Throws sph::Error naming the first setting that is out of its range (sph::ranges) or needs
+  /// another: "calibration options: fit.max_std_um: must be > 0 and <= 1e+06 um, got 0".
+  void Check() const;
+};
+
+/// A calibration run: its inputs as used and every result. The reports and the calibration file
+/// are rendered from it.
+struct CalibrationWorkflowResult {
+  PointsData points;
+  std::string points_path;      ///< as the reports name it
+  CalibrationOptions settings;  ///< the fit's settings as used (radii, d, ...)
+  CalibrationInputs inputs;     ///< the Type B inputs: the header's, then the options'
+  std::optional<double> probe_range_mm;
+  std::string program;
+  CalibrationResult seven;                  ///< the seven-error fit
+  std::optional<TraceResult> trace;         ///< when traced (or a fixed set of effects fitted)
+  std::optional<Validation> validation;     ///< when a validation file was given
+  std::optional<CalibrationBudget> budget;  ///< none when the fit was not analysed or a refit failed
+  std::vector<std::string> warnings;        ///< the readings' plausibility, the budget's absence
+  Usability usability;
+
+  /// Whether the reported calibration is the trace's (it added effects or a form).
+  bool Extended() const;
+  /// The calibration reported: the trace's final fit when Extended(), else the seven errors.
+  const CalibrationResult& Reported() const;
+  /// The reports' context (points into this result: do not keep it past a move).
+  ReportContext Context() const;
+  void WriteTextReport(std::ostream& out) const;
+  std::string JsonReport() const;
+  /// The calibration file for compensation: the seven errors, the trace's effects but
+  /// probe_drift (`*drift_left_out` says whether one was left out), the covariance. Throws
+  /// sph::Error when the calibration is not usable.
+  CalibrationFile MakeCalibrationFile(bool* drift_left_out = nullptr) const;
+};
+
+/// Runs the workflow on the points file `points_path` (read with ReadPointsFile()). Throws
+/// sph::Error on bad input: a setting out of range, R0 or d given nowhere, a reading beyond the
+/// probe's range, a fit that fails, an unreadable validation file.
+CalibrationWorkflowResult RunCalibrationWorkflow(const std::string& points_path,
+                                                 const CalibrationWorkflowOptions& options);
+
+/// The same on points already read; `points_path` names them in messages and reports.
+CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::string& points_path,
+                                                 const CalibrationWorkflowOptions& options);
+
+}  // namespace sph
+
+#endif  // SPH_CALIB_CALIBRATE_WORKFLOW_HPP_

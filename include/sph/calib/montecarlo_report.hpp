@@ -1,0 +1,64 @@
+// The reports of the Monte Carlo study (sph/calib/montecarlo.hpp) and of its plan, as
+// sph_montecarlo writes them: the paper's Tables 2 and 3 in text, the JSON report (every key:
+// docs/formats/reports.md), the CSV, the data of Figure 4, and the predicted uncertainties of a
+// design without simulation, and the orientation plan of --plan-orientations.
+#ifndef SPH_CALIB_MONTECARLO_REPORT_HPP_
+#define SPH_CALIB_MONTECARLO_REPORT_HPP_
+
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "sph/calib/montecarlo.hpp"
+#include "sph/calib/orientation_plan.hpp"
+
+namespace sph {
+
+/// Table 2 (the mean of the calibrations per eccentricity) and each eccentricity's statistics
+/// against the Cramer-Rao bound, with the parameters the design does not determine.
+void WriteStudyTables(std::ostream& out, const MonteCarloStudyOptions& spec, const MonteCarloStudy& study);
+
+/// The paper's Table 3 reproduced from a study (SphericityStudy() of the paper's ten "before"
+/// values), calibrated at `calibration_eccentricity_mm`.
+struct PaperTable3 {
+  double calibration_eccentricity_mm = 0.0;
+  std::vector<SphericityRow> rows;
+};
+PaperTable3 MakePaperTable3(const MonteCarloStudyOptions& spec, const MonteCarloStudy& study,
+                            double calibration_eccentricity_mm);
+/// Table 3 beside the paper's values.
+void WritePaperTable3(std::ostream& out, const MonteCarloStudyOptions& spec, const PaperTable3& table);
+
+/// The JSON report of a study: its settings (`direction` as the user gave it), `wall_time_s`, every
+/// eccentricity's statistics and, when given, Table 3.
+std::string StudyJson(const MonteCarloStudyOptions& spec, const MonteCarloStudy& study, const std::string& direction,
+                      double wall_time_s, const PaperTable3* table3);
+
+/// One line per eccentricity and parameter: eccentricity_mm, parameter, unit, true, mean, std, se,
+/// z, crlb, std_over_crlb, converged, trials, determined (a number that is not finite: empty).
+void WriteStudyCsv(std::ostream& out, const MonteCarloStudy& study);
+
+/// Figure 4's data: the std of b, c [um], beta, epsilon [urad] per eccentricity; the Cramer-Rao std
+/// on 61 eccentricities spanning the study's; every converged trial's error of b and c [um].
+void WriteFigure4Std(std::ostream& out, const MonteCarloStudy& study);
+void WriteFigure4Crlb(std::ostream& out, const MonteCarloStudyOptions& spec, const MonteCarloStudy& study);
+void WriteFigure4Spread(std::ostream& out, const MonteCarloStudyOptions& spec, const MonteCarloStudy& study);
+
+/// The plan: the predicted std of every error at each eccentricity of `spec` (no simulation),
+/// written as a table to `out` (`pattern` names the pattern in its title); with `target_std_um`,
+/// the smallest eccentricity at which every error's std as a displacement is at most it, for
+/// this pattern and, with `other_grids`, for six grids. Returns the plan's JSON report.
+std::string PlanStudy(std::ostream& out, const MonteCarloStudyOptions& spec, const std::string& pattern,
+                      std::optional<double> target_std_um, bool other_grids);
+
+/// The orientation plan (PlanOrientations()) of the sphere at each eccentricity of `spec`, in the
+/// first placement's direction: a table per eccentricity on `out` (`pattern` names the pattern in
+/// its title) with the orientations, the form terms still confounded, the effects not seen and
+/// the pairs not told apart with the placement that would; returns its JSON report.
+std::string PlanOrientationsReport(std::ostream& out, const MonteCarloStudyOptions& spec,
+                                   const OrientationPlanOptions& options, const std::string& pattern);
+
+}  // namespace sph
+
+#endif  // SPH_CALIB_MONTECARLO_REPORT_HPP_

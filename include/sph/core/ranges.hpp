@@ -1,0 +1,41 @@
+// The valid ranges of the numbers the calibration side takes (sph/core/valid_range.hpp): one place
+// for each limit, so that a host program's settings and the apps' options are refused with the
+// same words.
+#ifndef SPH_CORE_RANGES_HPP_
+#define SPH_CORE_RANGES_HPP_
+
+#include <cstddef>
+
+#include "sph/core/points_file.hpp"
+#include "sph/core/valid_range.hpp"
+#include "sph/model/effect_terms.hpp"
+#include "sph/model/scms_model.hpp"
+
+namespace sph::ranges {
+
+inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};
+inline constexpr ValidRange kProbeOffsetMm{0.0, kMaxProbeOffsetMm, "mm", true};
+/// The seven errors: kScmsParamInfo's bounds, in deg or mm (and |d'| < d).
+constexpr ValidRange ErrorRange(int p) {
+  return {-kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report,
+          kScmsParamInfo[static_cast<std::size_t>(p)].max_abs_report, ReportUnitsOf(p).coarse};
+}
+inline constexpr ValidRange kNoiseUm{0.0, 1000.0, "um"};
+inline constexpr ValidRange kNoiseArcsec{0.0, 3600.0, "arcsec"};
+inline constexpr ValidRange kCenterMm{-1000.0, 1000.0, "mm"};  ///< each coordinate of a centre
+inline constexpr ValidRange kEffectArcsec{-kMaxEffectArcsec, kMaxEffectArcsec, "arcsec"};
+inline constexpr ValidRange kEffectUm{-kMaxEffectUm, kMaxEffectUm, "um"};
+/// A standard uncertainty as a displacement of the probed point (CalibrationOptions::max_std_um).
+inline constexpr ValidRange kStdUm{0.0, 1e6, "um", true};
+/// The Phi axis wobble's pivot distance along the axis (phi_wobble).
+inline constexpr ValidRange kPivotMm{-kMaxPivotMm, kMaxPivotMm, "mm"};
+/// The sphere on its mount and its form (the simulator).
+inline constexpr ValidRange kMountRotationDeg{-kMaxMountRotationDeg, kMaxMountRotationDeg, "deg"};  ///< each component
+inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
+inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
+inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
+inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
+
+}  // namespace sph::ranges
+
+#endif  // SPH_CORE_RANGES_HPP_

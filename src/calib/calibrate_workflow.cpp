@@ -1,0 +1,231 @@
+#include "sph/calib/calibrate_workflow.hpp"
+
+#include <algorithm>
+#include <exception>
+#include <utility>
+
+#include "sph/core/error.hpp"
+#include "sph/core/output_files.hpp"
+#include "sph/core/parameter_settings.hpp"
+#include "sph/core/ranges.hpp"
+#include "sph/core/setup_checks.hpp"
+#include "sph/core/valid_range.hpp"
+
+namespace sph {
+
+namespace {
+
+// Every parameter of a fit in the analysis' order: the seven errors, each setup's centre, the
+// effects' values in term order (rad, mm), then the sphere form's coefficients per group (mm).
+Eigen::VectorXd ParameterVector(const CalibrationResult& r, const std::vector<std::vector<double>>& effects = {},
+                                const std::vector<std::vector<double>>& form = {}) {
+  std::size_t n = kNumScmsParams + 3 * r.centers_mm.size();
+  for (const auto& block : effects) n += block.size();
+  for (const auto& block : form) n += block.size();
+  Eigen::VectorXd v(static_cast<Eigen::Index>(n));
+  Eigen::Index k = 0;
+  for (double g : r.geometry) v(k++) = g;
+  for (const Eigen::Vector3d& c : r.centers_mm) v.segment<3>(k) = c, k += 3;
+  for (const auto& blocks : {&effects, &form}) {
+    for (const auto& block : *blocks) {
+      for (double x : block) v(k++) = x;
+    }
+  }
+  return v;
+}
+
+// The budget of the calibration reported (the trace's final fit when `extended`); none, with a
+// warning, when the fit was not analysed or a refit fails.
+void MakeBudget(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+  const CalibrationResult& result = run.Reported();
+  if (result.analysis.Empty() || !result.converged) return;
+  const EffectFit* extended = run.Extended() ? &run.trace->after.fit : nullptr;
+  BudgetRefit refit = [&](const PointsData& p, const CalibrationOptions& q) {
+    if (extended == nullptr) {
+      CalibrationOptions start = q;
+      start.initial_geometry = result.geometry;
+      return ParameterVector(Calibrate(p, start));
+    }
+    const EffectFit fit = FitEffects(p, q, extended->model, EffectFitStart::From(*extended));
+    return ParameterVector(fit.calibration, fit.values, fit.form_values);
+  };
+  try {
+    run.budget = MakeCalibrationBudget(WithoutOutliers(run.points, result), run.settings, result, run.inputs, refit);
+  } catch (const std::exception& e) {
+    run.warnings.push_back(std::string("no uncertainty budget: ") + e.what());
+    if (o.on_warning) o.on_warning(run.warnings.back());
+  }
+}
+
+// The fit's settings from the options and the points' header (the options win); run.inputs gets
+// the measuring conditions of both.
+void Settle(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+  const PointsHeader& header = run.points.header;
+  const auto radius = o.sphere_radius_mm ? o.sphere_radius_mm : header.sphere_radius_mm;
+  const auto offset = o.probe_offset_mm ? o.probe_offset_mm : header.probe_offset_mm;
+  if (!radius) {
+    throw Error(run.points_path +
+                ": the reference sphere radius R0 is not given: add a header line "
+                "'# sphere_radius_mm: <R0>' to the file or pass --sphere-radius-mm");
+  }
+  if (!offset) {
+    throw Error(run.points_path +
+                ": the nominal probe zero distance d is not given: add a header line "
+                "'# probe_offset_mm: <d>' to the file or pass --probe-offset-mm");
+  }
+  run.inputs = CalibrationInputs().With(ConditionsOf(header)).With(o.conditions);
+  if (o.coverage) run.inputs.coverage.probability = *o.coverage;
+  run.settings = o.fit;
+  run.settings.sphere_radius_mm = run.inputs.RadiusAtTemperatureMm(*radius);
+  run.settings.sphere_radii_mm.clear();
+  for (const auto& [setup, radius_mm] : header.sphere_radii_mm) {
+    run.settings.sphere_radii_mm[setup] = run.inputs.RadiusAtTemperatureMm(radius_mm);  // same temperature, CTE
+  }
+  run.settings.probe_offset_mm = *offset;
+  // What the header holds and informs, then the options' (which win for a parameter both name).
+  auto named = [&](const std::string& name) {
+    return std::any_of(o.fit.fixed.begin(), o.fit.fixed.end(),
+                       [&](const FixedParameter& f) { return f.name == name; }) ||
+           std::any_of(o.fit.priors.begin(), o.fit.priors.end(),
+                       [&](const ParameterPrior& p) { return p.name == name; });
+  };
+  run.settings.fixed.clear();
+  run.settings.priors.clear();
+  for (const FixedParameter& f : FixedParametersOf(header)) {
+    if (!named(f.name)) run.settings.fixed.push_back(f);
+  }
+  for (const ParameterPrior& p : ParameterPriorsOf(header)) {
+    if (!named(p.name)) run.settings.priors.push_back(p);
+  }
+  run.settings.fixed.insert(run.settings.fixed.end(), o.fit.fixed.begin(), o.fit.fixed.end());
+  run.settings.priors.insert(run.settings.priors.end(), o.fit.priors.begin(), o.fit.priors.end());
+  if (o.fit.robust_loss != RobustLoss::kNone && o.trace && o.effects.empty()) {
+    throw Error(
+        "--robust-loss keeps every reading at a weight, which the trace's selection of effects does not "
+        "(it judges outliers by their residuals): use it with --no-trace, or with --effects for a fixed "
+        "model");
+  }
+  run.probe_range_mm = o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(header).probe_range_mm;
+  if (run.probe_range_mm) {
+    CheckReadingsInProbeRange(run.points, *run.probe_range_mm,
+                              o.conditions.probe_range_mm ? "--probe-range-mm" : "probe_range_mm");
+  }
+}
+
+// The residual traced to further effects (or the fixed effects fitted), and its validation.
+void Trace(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+  TraceOptions topts = o.tracing;
+  topts.probe_range_mm = run.probe_range_mm;
+  if (o.effects.empty()) {
+    run.trace = TraceResidual(run.points, run.settings, run.seven, topts);
+  } else {
+    std::vector<Effect> fixed;
+    for (const Effect& e : o.effects) {
+      if (std::find(fixed.begin(), fixed.end(), e) == fixed.end()) fixed.push_back(e);
+    }
+    run.trace = FitFixedEffects(run.points, run.settings, run.seven, fixed, topts);
+  }
+  if (o.validate_path.empty()) return;
+  Validation& v = run.validation.emplace(Validate(o.validate_path, run.settings.probe_offset_mm, *run.trace));
+  if (SameFile(o.validate_path, run.points_path)) {
+    v.note =
+        "the validation file is the calibration's own points file: this shows how the model fits its own data, "
+        "not an independent check" +
+        (v.note.empty() ? std::string() : "; " + v.note);
+  }
+}
+
+void Tell(const std::function<void(const std::string&)>& f, const std::string& text) {
+  if (f) f(text);
+}
+
+}  // namespace
+
+void CalibrationWorkflowOptions::Check() const {
+  const std::string what = "calibration options: ";
+  if (sphere_radius_mm) CheckedValue(*sphere_radius_mm, ranges::kSphereRadiusMm, what + "sphere_radius_mm");
+  if (probe_offset_mm) CheckedValue(*probe_offset_mm, ranges::kProbeOffsetMm, what + "probe_offset_mm");
+  CheckedValue(fit.max_std_um, ranges::kStdUm, what + "fit.max_std_um");
+  CheckedValue(fit.max_iterations, ranges::kMaxIterations, what + "fit.max_iterations");
+  CheckedValue(tracing.harmonics.theta, ranges::kHarmonicOrder, what + "tracing.harmonics.theta");
+  CheckedValue(tracing.harmonics.phi, ranges::kHarmonicOrder, what + "tracing.harmonics.phi");
+  CheckedValue(tracing.drift_order, ranges::kDriftOrder, what + "tracing.drift_order");
+  CheckedValue(tracing.phi_wobble_pivot_mm, ranges::kPivotMm, what + "tracing.phi_wobble_pivot_mm");
+  if (coverage) CheckedValue(*coverage, ranges::kCoverageProbability, what + "coverage");
+  if (!trace && !effects.empty()) throw Error(what + "effects need trace (a fixed model is fitted in its place)");
+  if (!trace && !validate_path.empty()) {
+    throw Error(what + "validate_path needs trace (it compares the seven errors with the trace's model)");
+  }
+}
+
+bool CalibrationWorkflowResult::Extended() const {
+  return trace && !(trace->after.fit.model.Empty() && trace->after.fit.model.form.Empty());
+}
+
+const CalibrationResult& CalibrationWorkflowResult::Reported() const {
+  return Extended() ? trace->after.fit.calibration : seven;
+}
+
+ReportContext CalibrationWorkflowResult::Context() const {
+  ReportContext ctx;
+  ctx.budget = budget ? &*budget : nullptr;
+  ctx.program = program;
+  ctx.points_path = points_path;
+  ctx.sphere_radius_mm = settings.sphere_radius_mm;
+  ctx.sphere_radii_mm = settings.sphere_radii_mm;
+  ctx.probe_offset_mm = settings.probe_offset_mm;
+  ctx.max_std_um = settings.max_std_um;
+  ctx.probe_range_mm = probe_range_mm;
+  ctx.metadata = points.header.metadata;
+  ctx.trace = trace ? &*trace : nullptr;
+  ctx.validation = validation ? &*validation : nullptr;
+  return ctx;
+}
+
+void CalibrationWorkflowResult::WriteTextReport(std::ostream& out) const {
+  sph::WriteTextReport(out, Reported(), Context());
+}
+
+std::string CalibrationWorkflowResult::JsonReport() const { return sph::JsonReport(Reported(), Context()); }
+
+CalibrationFile CalibrationWorkflowResult::MakeCalibrationFile(bool* drift_left_out) const {
+  if (!usability.usable) throw Error("the calibration is not usable: no calibration file");
+  CalibrationFile file = sph::MakeCalibrationFile(Reported(), Context());
+  const bool drift = Extended() && AddEffectsToCalibrationFile(trace->after.fit, file);
+  if (drift_left_out != nullptr) *drift_left_out = drift;
+  std::vector<int> columns;
+  for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
+  if (Extended()) columns = AppliedColumns(trace->after.fit);
+  AddCovarianceToCalibrationFile(columns, Reported(), budget ? &*budget : nullptr, file);
+  return file;
+}
+
+CalibrationWorkflowResult RunCalibrationWorkflow(const std::string& points_path,
+                                                 const CalibrationWorkflowOptions& options) {
+  Tell(options.on_stage, "reading " + points_path);
+  return RunCalibrationWorkflow(ReadPointsFile(points_path), points_path, options);
+}
+
+CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::string& points_path,
+                                                 const CalibrationWorkflowOptions& options) {
+  options.Check();
+  CalibrationWorkflowResult run;
+  run.points = std::move(points);
+  run.points_path = points_path;
+  run.program = options.program.empty() ? std::string("sph_calibrate " SPH_VERSION) : options.program;
+  Settle(run, options);
+  // Readings that parse but look wrong: said first, whatever follows.
+  Tell(options.on_stage, "checking " + std::to_string(run.points.samples.size()) + " samples");
+  for (const std::string& w : PlausibilityWarnings(run.points)) {
+    run.warnings.push_back(w);
+    Tell(options.on_warning, w);
+  }
+  Tell(options.on_stage, "calibrating the seven errors");
+  run.seven = Calibrate(run.points, run.settings);
+  if (options.trace) Trace(run, options);
+  MakeBudget(run, options);
+  run.usability = JudgeUsability(run.Reported(), run.Context());
+  return run;
+}
+
+}  // namespace sph
