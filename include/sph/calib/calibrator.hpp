@@ -2,8 +2,8 @@
 //
 // Minimises
 //   S = sum_i (|p_sphere(g; theta_i, phi_i, r_i) - O_setup(i)| - R_setup(i))^2
-// over g (seven errors) and one centre O per setup, by Levenberg-Marquardt on normal equations
-// built from the hand-derived gradient (docs/architecture.md, "The solver"); the errors start at
+// over g (seven errors) and one centre O per setup, by Ceres' Levenberg-Marquardt (ceres::Solve)
+// on the hand-derived gradient (docs/architecture.md, "The solver"); the errors start at
 // zero (the paper's initial guess) and each centre at an algebraic sphere fit of that setup's
 // nominal-model points. Outliers and the analysis: docs/method/model.md.
 //

@@ -4,7 +4,7 @@
 //   S = sum_i (|EffectScmsPoint(g, effects; reading_i) - O_setup(i)| - R_setup(i) - F(form; reading_i))^2
 // over the seven errors g, one centre per setup, one parameter block per effect term and the form's
 // coefficients, from a given start (usually the seven-error calibration, with the effects at zero),
-// by the Levenberg-Marquardt iteration of every calibration on normal equations built from the
+// solved as every calibration is, by Ceres' Levenberg-Marquardt (ceres::Solve) on the
 // hand-derived gradient (docs/architecture.md, "The solver"). With no terms and no form it is the
 // seven-error calibration of sph/calib/calibrator.hpp. A term's size is data: it holds only the
 // components the measurement determines (sph/calib/trace.hpp leaves the others out).
