@@ -1,7 +1,5 @@
 // The calibration's HTML report: rendered from the JSON report (the numbers are the JSON's), with
 // the residual map drawn from the reported fit's residuals.
-#include <chrono>
-#include <ctime>
 #include <string>
 #include <vector>
 
@@ -9,6 +7,7 @@
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/core/html_report.hpp"
+#include "sph/internal/html_json.hpp"
 #include "sph/internal/format.hpp"
 
 namespace sph {
@@ -18,39 +17,16 @@ namespace {
 using nlohmann::json;
 using html::Escape;
 using html::Section;
+std::string Cell(const json& v) { return html::JsonText(v); }
 
-// A JSON value as the report prints it: numbers by html::Number, text escaped, null "-".
-std::string Cell(const json& v) {
-  if (v.is_null()) return "-";
-  if (v.is_number()) return html::Number(v.get<double>());
-  if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
-  if (v.is_string()) return Escape(v.get<std::string>());
-  return Escape(v.dump());
-}
-
-std::string At(const json& j, const char* key) { return j.contains(key) ? Cell(j.at(key)) : "-"; }
-
-std::string List(const json& items) {
-  if (!items.is_array() || items.empty()) return "<p>None.</p>\n";
-  std::string out = "<ul>\n";
-  for (const json& i : items) out += "<li>" + Cell(i) + "</li>\n";
-  return out + "</ul>\n";
-}
-
-std::string UtcNow() {
-  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M UTC", &tm);
-  return text;
-}
+std::string At(const json& j, const char* key) { return html::JsonField(j, key); }
+std::string List(const json& items) { return html::JsonList(items); }
 
 std::string Identification(const json& j, const CalibrationWorkflowResult& run) {
   std::vector<std::vector<std::string>> rows = {
       {"points file", At(j, "points_file")},
       {"program", At(j, "program")},
-      {"report made", Escape(UtcNow())},
+      {"report made", Escape(html::UtcNow())},
       {"readings", internal::Format("%zu", run.points.samples.size())},
       {"R0 [mm]", At(j, "sphere_radius_mm")},
       {"d (nominal) [mm]", At(j, "probe_offset_mm")},

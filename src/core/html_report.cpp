@@ -3,9 +3,14 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <chrono>
 #include <cstddef>
+#include <ctime>
+
+#include <nlohmann/json.hpp>
 
 #include "sph/core/error.hpp"
+#include "sph/internal/html_json.hpp"
 #include "sph/internal/format.hpp"
 
 namespace sph::html {
@@ -32,6 +37,39 @@ std::string Number(double value) {
   if (!std::isfinite(value)) return "-";
   if (value == 0.0) return "0";  // not "-0"
   return Format("%.6g", value);
+}
+
+std::string Fixed(double value, int decimals) {
+  if (!std::isfinite(value)) return "-";
+  return Format("%.*f", decimals, value);
+}
+
+std::string JsonText(const nlohmann::json& v) {
+  if (v.is_null()) return "-";
+  if (v.is_number()) return Number(v.get<double>());
+  if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
+  if (v.is_string()) return Escape(v.get<std::string>());
+  return Escape(v.dump());
+}
+
+std::string JsonField(const nlohmann::json& j, const char* key) {
+  return j.is_object() && j.contains(key) ? JsonText(j.at(key)) : "-";
+}
+
+std::string JsonList(const nlohmann::json& items) {
+  if (!items.is_array() || items.empty()) return "<p>None.</p>\n";
+  std::string out = "<ul>\n";
+  for (const nlohmann::json& i : items) out += "<li>" + JsonText(i) + "</li>\n";
+  return out + "</ul>\n";
+}
+
+std::string UtcNow() {
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M UTC", &tm);
+  return text;
 }
 
 namespace {

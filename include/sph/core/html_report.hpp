@@ -19,6 +19,12 @@ std::string Escape(std::string_view text);
 /// NaN or infinity.
 std::string Number(double value);
 
+/// "2026-12-04 23:16 UTC": now, as the reports date themselves.
+std::string UtcNow();
+
+/// A number with `decimals` digits after the point ("20.000000"); "-" for NaN or infinity.
+std::string Fixed(double value, int decimals);
+
 /// A whole HTML document: `title` (escaped) and `body` (HTML as given), with the style sheet.
 std::string Page(const std::string& title, const std::string& body);
 
