@@ -1,13 +1,17 @@
-// The calibration's HTML report: rendered from the JSON report (the numbers are the JSON's), with
-// the residual map drawn from the reported fit's residuals.
+// The calibration's HTML report: rendered from the JSON report (the numbers are the JSON's, the
+// form map drawn from its coefficients), with the residual map from the reported fit's residuals.
+#include <cmath>
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/core/html_report.hpp"
 #include "sph/internal/html_json.hpp"
+#include "sph/model/form_model.hpp"
+#include "sph/model/units.hpp"
 #include "sph/internal/format.hpp"
 
 namespace sph {
@@ -160,8 +164,35 @@ std::string Form(const json& j) {
   for (const json& t : f.value("terms", json::array())) {
     rows.push_back({At(t, "l"), At(t, "m"), At(t, "value_um"), At(t, "std_um")});
   }
-  if (!rows.empty()) body += html::Table({"degree l", "order m", "coefficient [um]", "u [um]"}, rows);
-  return body;
+  if (rows.empty()) return body;
+  // The map of the form over the sphere's body frame, from the coefficients as reported.
+  std::vector<FormTerm> terms;
+  std::vector<double> c_um;
+  for (const json& t : f.at("terms")) {
+    terms.push_back({t.at("l").get<int>(), t.at("m").get<int>()});
+    c_um.push_back(t.at("value_um").get<double>());
+  }
+  constexpr double kStep = 5.0;
+  std::vector<double> azimuth, polar, form_um;
+  for (double p = kStep / 2; p < 180; p += kStep) {
+    for (double a = kStep / 2; a < 360; a += kStep) {
+      const double pr = p * kRadPerDeg, ar = a * kRadPerDeg;
+      const Eigen::Vector3d u(std::sin(pr) * std::cos(ar), std::sin(pr) * std::sin(ar), std::cos(pr));
+      azimuth.push_back(a);
+      polar.push_back(p);
+      form_um.push_back(FormValue(terms, c_um.data(), u));
+    }
+  }
+  html::MapAxes axes;
+  axes.title = "The sphere's form in its body frame";
+  axes.x_label = "azimuth [deg]";
+  axes.y_label = "polar angle from the body's z [deg]";
+  axes.value_label = "form [um]";
+  axes.cell_deg = kStep;
+  body += html::Figure(html::SvgMap(axes, azimuth, polar, form_um), axes.title,
+                       "The fitted form F(u) [um] at each direction u of the sphere's body frame [deg], from the "
+                       "coefficients below.");
+  return body + html::Table({"degree l", "order m", "coefficient [um]", "u [um]"}, rows);
 }
 
 std::string Ambiguous(const json& j) {

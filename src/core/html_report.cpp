@@ -200,8 +200,16 @@ std::string SvgMap(const MapAxes& a, const std::vector<double>& x_deg, const std
   s += Format("<text transform=\"translate(16 %.0f) rotate(-90)\" text-anchor=\"middle\">", kTop + kH / 2) +
        Escape(a.y_label) + "</text>\n";
   for (std::size_t i = 0; i < value.size(); ++i) {
-    s += Format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"%s\"/>\n", px(x_deg[i]), py(y_deg[i]),
-                Colour((value[i] - lo) / (hi - lo)).c_str());
+    const std::string colour = Colour((value[i] - lo) / (hi - lo));
+    if (a.cell_deg > 0) {
+      const double x0 = std::max(a.x_lo, x_deg[i] - a.cell_deg / 2), x1 = std::min(a.x_hi, x_deg[i] + a.cell_deg / 2);
+      const double y0 = std::max(a.y_lo, y_deg[i] - a.cell_deg / 2), y1 = std::min(a.y_hi, y_deg[i] + a.cell_deg / 2);
+      s += Format("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"%s\"/>\n", px(x0), py(y0),
+                  px(x1) - px(x0) + 0.3, py(y1) - py(y0) + 0.3, colour.c_str());
+    } else {
+      s += Format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"%s\"/>\n", px(x_deg[i]), py(y_deg[i]),
+                  colour.c_str());
+    }
   }
   // The legend: the scale from lo (bottom) to hi (top), with its unit.
   constexpr int kSteps = 32;

@@ -50,6 +50,8 @@ struct MapAxes {
   std::string y_label;
   std::string value_label;  ///< with its unit, e.g. "residual [um]"
   double x_lo = 0.0, x_hi = 360.0, y_lo = 0.0, y_hi = 180.0;
+  /// > 0: the values are on a grid of this step [deg], each drawn as the cell it centres; 0: a dot each
+  double cell_deg = 0.0;
 };
 std::string SvgMap(const MapAxes& axes, const std::vector<double>& x_deg, const std::vector<double>& y_deg,
                    const std::vector<double>& value);
