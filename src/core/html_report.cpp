@@ -82,7 +82,8 @@ h2 { font-size: 1.25em; border-bottom: 1px solid #888; margin-top: 1.6em; }
 table { border-collapse: collapse; margin: 0.5em 0; max-width: 100%; }
 th, td { border: 1px solid #999; padding: 0.15em 0.45em; text-align: left; vertical-align: top;
          overflow-wrap: anywhere; }
-th { background: #e8e8e8; overflow-wrap: normal; }
+th, td:first-child { overflow-wrap: normal; }  /* names and headers break between words only */
+th { background: #e8e8e8; }
 td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 .note { color: #333; font-size: 0.95em; }
 .warn { border-left: 4px solid #000; padding-left: 0.5em; }
@@ -151,8 +152,11 @@ std::string Table(const std::vector<std::string>& header, const std::vector<std:
   for (const auto& row : rows) {
     out += "<tr>";
     for (const std::string& cell : row) {
-      // A cell that is a number alone is right-aligned.
-      const bool number = !cell.empty() && cell.find_first_not_of("0123456789.eE+-") == std::string::npos;
+      // A number, alone or with its unit ("20.000000 mm"), is right-aligned and kept on one line.
+      const std::size_t space = cell.find(' ');
+      const std::string lead = cell.substr(0, space);
+      const bool number = !lead.empty() && lead.find_first_not_of("0123456789.eE+-") == std::string::npos &&
+                          (space == std::string::npos || cell.size() - space <= 8);
       out += (number ? "<td class=\"n\">" : "<td>") + cell + "</td>";
     }
     out += "</tr>\n";

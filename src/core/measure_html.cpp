@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -74,7 +75,9 @@ std::string Budget(const json& j) {
   const json& b = j.at("budget");
   std::string body;
   std::vector<std::vector<std::string>> results;
-  for (const char* key : {"radius", "sphericity_ls", "sphericity_mz"}) {
+  const std::pair<const char*, const char*> kResults[] = {
+      {"radius", "radius"}, {"sphericity_ls", "least-squares sphericity"}, {"sphericity_mz", "minimum-zone sphericity"}};
+  for (const auto& [key, name] : kResults) {
     if (!b.contains(key)) continue;
     const json& r = b.at(key);
     const std::string unit = JsonField(r, "unit");
@@ -89,7 +92,7 @@ std::string Budget(const json& j) {
       verdict = JsonField(r, "mc_note");
     }
     const bool mm = r.value("value_unit", "") == "mm";
-    results.push_back({Escape(key), mm ? Mm(r, "value") + " mm" : JsonField(r, "value") + " " + JsonField(r, "value_unit"),
+    results.push_back({name, mm ? Mm(r, "value") + " mm" : JsonField(r, "value") + " " + JsonField(r, "value_unit"),
                        unit, JsonField(r, "u"), JsonField(r, "k"),
                        JsonField(r, "U"), JsonField(r, "dof"), verdict});
     std::vector<std::vector<std::string>> rows;
@@ -98,15 +101,15 @@ std::string Budget(const json& j) {
                       JsonField(in, "u_input"), JsonField(in, "sensitivity"), JsonField(in, "u_contribution"),
                       JsonField(in, "dof")});
     }
-    body += "<h3>Budget of " + Escape(key) + " [" + unit + "]</h3>\n" +
+    body += "<h3>Budget of the " + std::string(name) + " [" + unit + "]</h3>\n" +
             html::Table({"input", "type", "u of the input (input's unit)", "sensitivity",
                          "contribution to u [" + unit + "]", "degrees of freedom"},
                         rows);
   }
-  return html::Table({"result", "value", "unit of u and U", "u", "k", "U = k u", "degrees of freedom",
+  return html::Table({"result", "value", "unit of u, U", "u", "k", "U = k u", "degrees of freedom",
                       "JCGM 101 check"},
                      results) +
-         "<p class=\"note\">" + JsonField(b, "type_a_sphericity") + "</p>\n" + body;
+         "<p class=\"note\">Type A of the sphericities: " + JsonField(b, "type_a_sphericity") + ".</p>\n" + body;
 }
 
 }  // namespace
