@@ -116,6 +116,8 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "Nominal probe zero distance d [mm] (overrides the file's probe_offset_mm)")
       ->check(InRange(ranges::kProbeOffsetMm));
   app.add_option("--json", o.json_path, "Write the report as JSON to this file ('-' for stdout)");
+  app.add_option("--report", o.report_path,
+                 "Write the report as one self-contained HTML document (printable: A4) to this file ('-' for stdout)");
   app.add_option("-o,--output", o.output_path,
                  "Write the calibration file (JSON) that compensation loads; written only when usable");
   app.add_option("--max-std-um", o.workflow.fit.max_std_um,
@@ -140,6 +142,7 @@ RunPaths PathsOf(const CalibrateOptions& o, bool text) {
       .Input("--validate", o.workflow.validate_path)
       .Output("the text report (-q leaves it out)", text ? "-" : "")
       .Output("--json", o.json_path)
+      .Output("--report", o.report_path)
       .Output("--output", o.output_path);
   if (!o.plot_dir.empty()) {
     for (const std::string& f : kTracePlotFiles) paths.Output("--plot-dir", o.plot_dir + "/" + f);
@@ -187,7 +190,7 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
   const std::string prog = "sph_calibrate";
   const PlotFolder plot_folder(o.plot_dir);  // removed again when a failed run leaves it empty
   try {
-    const bool text = !o.quiet && o.json_path != "-";
+    const bool text = !o.quiet && o.json_path != "-" && o.report_path != "-";
     PathsOf(o, text);
     Progress progress(prog, err, o.progress);
     CalibrationWorkflowOptions workflow = WorkflowOf(o);
@@ -205,6 +208,10 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     if (!o.json_path.empty()) {
       const std::string json = run.JsonReport();
       files.Stage(o.json_path, [&](std::ostream& f) { f << json; });
+    }
+    if (!o.report_path.empty()) {
+      const std::string report = run.HtmlReport();
+      files.Stage(o.report_path, [&](std::ostream& f) { f << report; });
     }
     if (!o.output_path.empty()) StageCalibrationFile(o, run, files, err);
     if (run.trace && !o.plot_dir.empty()) {

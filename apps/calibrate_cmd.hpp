@@ -24,6 +24,7 @@ struct CalibrateOptions {
   std::vector<std::string> prior;                ///< Gaussian priors: NAME_UNIT=VALUE,U, into workflow.fit.priors
   std::string robust_loss;                       ///< "huber" or "cauchy", into workflow.fit.robust_loss
   std::string json_path;                         ///< JSON report ("-" for stdout), empty: none
+  std::string report_path;                       ///< HTML report ("-" for stdout), empty: none
   std::string output_path;                       ///< calibration file, empty: none
   bool quiet = false;                            ///< no text report on stdout
   std::string plot_dir;                          ///< residual plots (PNG, gnuplot) into this folder

@@ -117,6 +117,8 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
   app.add_option("-c,--calibration", o.workflow.calibration_path, "Calibration file (JSON, from sph_calibrate -o)");
   app.add_option("--setup", o.workflow.setup, "Setup id to measure, when the points file holds several");
   app.add_option("--json", o.json_path, "Write the results as JSON to this file ('-' for stdout)");
+  app.add_option("--report", o.report_path,
+                 "Write the report as one self-contained HTML document (printable: A4) to this file ('-' for stdout)");
   app.add_option("-o,--output", o.output_path, "Write the compensated points (x_mm y_mm z_mm) to this file");
   app.add_option("--plot", o.plot_path, "Draw the form-error map to this PNG file (needs gnuplot)");
   app.add_option("--plot-script", o.plot_script_path,
@@ -166,12 +168,13 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
 int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
   try {
     o.workflow.Check();
-    const bool text = !o.quiet && o.json_path != "-";
+    const bool text = !o.quiet && o.json_path != "-" && o.report_path != "-";
     RunPaths()
         .Input("points", o.points_path)
         .Input("--calibration", o.workflow.calibration_path)
         .Output("the text report (-q leaves it out)", text ? "-" : "")
         .Output("--json", o.json_path)
+        .Output("--report", o.report_path)
         .Output("--output", o.output_path)
         .Output("--plot", o.plot_path)
         .Output("--plot-script", o.plot_script_path);
@@ -190,6 +193,10 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
     if (!o.json_path.empty()) {
       const std::string report = run.JsonReport();
       files.Stage(o.json_path, [&](std::ostream& f) { f << report; });
+    }
+    if (!o.report_path.empty()) {
+      const std::string report = run.HtmlReport();
+      files.Stage(o.report_path, [&](std::ostream& f) { f << report; });
     }
     if (!o.output_path.empty()) files.Stage(o.output_path, [&](std::ostream& f) { run.WritePoints(f); });
     if (!o.plot_path.empty() || !o.plot_script_path.empty()) {

@@ -23,6 +23,7 @@ struct MeasureOptions {
   std::string points_path;  ///< sph-points 1 readings, or x y z coordinates with workflow.xyz
   MeasurementWorkflowOptions workflow;
   std::string json_path;                         ///< JSON report ("-" for stdout), empty: none
+  std::string report_path;                       ///< HTML report ("-" for stdout), empty: none
   std::string output_path;                       ///< compensated points (x_mm y_mm z_mm), empty: none
   std::string plot_path;                         ///< form-error map (PNG, drawn by gnuplot), empty: none
   std::string plot_script_path;                  ///< the gnuplot script of the map, empty: none

@@ -9,9 +9,10 @@ set -eu
 # libunwind-dev is named although libceres-dev pulls it in: glog's CMake package (which Ceres' needs)
 # finds libunwind 1.6 through it, and installing libc++-14-dev replaces it by libunwind-14-dev, which
 # satisfies the package's dependency but not glog-config.cmake ("Failed to find Ceres - Missing
-# required Ceres dependency: glog").
+# required Ceres dependency: glog"). chromium, poppler-utils and libxml2-utils: the test that renders
+# the HTML reports (tests/apps/render_reports.sh).
 packages="cmake ninja-build g++ ccache libeigen3-dev libceres-dev libunwind-dev libcli11-dev nlohmann-json3-dev \
-libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox python3"
+libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox python3 chromium poppler-utils libxml2-utils"
 case "${1:-}" in
   --sanitizers) packages="$packages clang-14 libclang-rt-14-dev" ;;
   "") ;;

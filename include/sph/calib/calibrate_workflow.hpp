@@ -84,6 +84,10 @@ struct CalibrationWorkflowResult {
   ReportContext Context() const;
   void WriteTextReport(std::ostream& out) const;
   std::string JsonReport() const;
+  /// The report as one self-contained HTML document (sph/core/html_report.hpp): its numbers are
+  /// JsonReport()'s, with the date it was made, the points file's header fields (escaped) and the
+  /// residual map as inline SVG.
+  std::string HtmlReport() const;
   /// The calibration file for compensation: the seven errors, the trace's effects but
   /// probe_drift (`*drift_left_out` says whether one was left out), the covariance. Throws
   /// sph::Error when the calibration is not usable.

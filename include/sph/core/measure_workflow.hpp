@@ -104,6 +104,9 @@ struct MeasurementWorkflowResult {
   std::string Program() const;
   void WriteTextReport(std::ostream& out) const;
   std::string JsonReport() const;
+  /// The report as one self-contained HTML document (sph/core/html_report.hpp): its numbers are
+  /// JsonReport()'s, with the date it was made and the form map as embedded SVG.
+  std::string HtmlReport() const;
   /// The compensated points (x_mm y_mm z_mm) with a header naming their source.
   void WritePoints(std::ostream& out) const;
 };

@@ -1,0 +1,252 @@
+// The calibration's HTML report: rendered from the JSON report (the numbers are the JSON's, the
+// form map drawn from its coefficients), with the residual map from the reported fit's residuals.
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "sph/calib/calibrate_workflow.hpp"
+#include "sph/core/html_report.hpp"
+#include "sph/internal/html_json.hpp"
+#include "sph/model/form_model.hpp"
+#include "sph/model/units.hpp"
+#include "sph/internal/format.hpp"
+
+namespace sph {
+
+namespace {
+
+using nlohmann::json;
+using html::Escape;
+using html::Section;
+std::string Cell(const json& v) { return html::JsonText(v); }
+
+std::string At(const json& j, const char* key) { return html::JsonField(j, key); }
+std::string List(const json& items) { return html::JsonList(items); }
+
+std::string Identification(const json& j, const CalibrationWorkflowResult& run) {
+  std::vector<std::vector<std::string>> rows = {
+      {"points file", At(j, "points_file")},
+      {"program", At(j, "program")},
+      {"report made", Escape(html::UtcNow())},
+      {"readings", internal::Format("%zu", run.points.samples.size())},
+      {"R0 [mm]", At(j, "sphere_radius_mm")},
+      {"d (nominal) [mm]", At(j, "probe_offset_mm")},
+  };
+  std::string body = html::Table({"item", "value"}, rows);
+  body += "<h3>The points file's header</h3>\n";
+  std::vector<std::vector<std::string>> meta;
+  if (j.contains("metadata")) {
+    for (const auto& [key, value] : j.at("metadata").items()) meta.push_back({Escape(key), Cell(value)});
+  }
+  body += meta.empty() ? "<p>No further header fields.</p>\n" : html::Table({"field", "value"}, meta);
+  return body;
+}
+
+std::string Method(const json& j, const CalibrationWorkflowResult& run) {
+  const json& fit = j.at("fit");
+  std::string body = "<p>The seven geometric errors of the SCMS model fitted by least squares to the readings' "
+                     "distances from the sphere";
+  body += run.Extended() ? ", the residual traced to the effects the model lacks (selection by BIC and "
+                           "cross-validation).</p>\n"
+                         : ".</p>\n";
+  std::vector<std::vector<std::string>> rows = {
+      {"setups (placements)", At(fit, "n_setups")},
+      {"readings fitted", At(fit, "n_points")},
+      {"converged", At(fit, "converged")},
+      {"iterations", At(fit, "iterations")},
+      {"condition number", At(fit, "condition_number")},
+  };
+  if (j.contains("harmonic_orders_searched")) {
+    const json& h = j.at("harmonic_orders_searched");
+    rows.push_back({"harmonic orders searched (theta, phi)", At(h, "theta") + ", " + At(h, "phi")});
+  }
+  for (const auto& [setup, rotation] : run.points.header.mount_rotations) {
+    std::string text = "unknown";
+    if (rotation.known()) {
+      text = html::Number((*rotation.rotation_deg)(0)) + " " + html::Number((*rotation.rotation_deg)(1)) + " " +
+             html::Number((*rotation.rotation_deg)(2));
+    }
+    rows.push_back({internal::Format("mount rotation of setup %d [deg]", setup), text});
+  }
+  return body + html::Table({"item", "value"}, rows);
+}
+
+std::string Conditions(const json& j) {
+  std::vector<std::vector<std::string>> rows;
+  std::string assumed;
+  for (const json& in : j.value("uncertainty_inputs", json::array())) {
+    const std::string unit = in.contains("unit") ? " [" + Cell(in.at("unit")) + "]" : "";
+    rows.push_back({Cell(in.at("input")) + unit, At(in, "type"), in.contains("u") ? Cell(in.at("u")) : "-",
+                    in.contains("dof") ? Cell(in.at("dof")) : "-", in.contains("note") ? Cell(in.at("note")) : ""});
+    if (in.contains("note")) assumed += "<li>" + Cell(in.at("input")) + ": " + Cell(in.at("note")) + "</li>\n";
+  }
+  std::string body = html::Table({"input", "type", "u", "degrees of freedom", "note"}, rows);
+  body += "<h3>Inputs assumed</h3>\n";
+  body += assumed.empty() ? "<p>None: every input is stated.</p>\n" : "<ul>\n" + assumed + "</ul>\n";
+  return body;
+}
+
+std::string Errors(const json& j) {
+  std::vector<std::vector<std::string>> rows;
+  std::string budget;
+  for (const json& name : j.at("parameter_order")) {
+    const std::string key = name.get<std::string>();
+    const json& p = j.at("parameters").at(key);
+    if (key.find('@') != std::string::npos) continue;  // the sphere's centres: in the JSON
+    const std::string unit = Cell(p.at("unit"));
+    rows.push_back({Escape(key), At(p, "iso_name"), unit, At(p, "value"), At(p, "u"), At(p, "k"), At(p, "U"),
+                    At(p, "dof"), At(p, "determined")});
+    for (const json& b : p.value("budget", json::array())) {
+      budget += "<tr><td>" + Escape(key) + " [" + unit + "]</td><td>" + Cell(b.at("input")) + " [" +
+                Cell(b.at("input_unit")) + "]</td><td>" + Cell(b.at("type")) + "</td><td class=\"n\">" +
+                Cell(b.at("u_input")) + "</td><td class=\"n\">" + Cell(b.at("sensitivity")) + "</td><td class=\"n\">" +
+                Cell(b.at("u_contribution")) + "</td></tr>\n";
+    }
+  }
+  std::string body = html::Table({"parameter", "ISO 230 name", "unit", "value", "u", "k", "U = k u",
+                                  "degrees of freedom", "determined"},
+                                 rows);
+  body += "<p class=\"note\">u: standard uncertainty; U: expanded uncertainty with coverage factor k. The sphere "
+          "centres of each setup are in the JSON report.</p>\n";
+  body += "<h3>Uncertainty budget</h3>\n<table>\n<thead><tr><th>parameter</th><th>input</th><th>type</th>"
+          "<th>u of the input (input's unit)</th><th>sensitivity (parameter's unit per input's unit)</th>"
+          "<th>contribution to u (parameter's unit)</th></tr></thead>\n"
+          "<tbody>\n" +
+          budget + "</tbody>\n</table>\n";
+  return body;
+}
+
+std::string Effects(const json& j) {
+  std::vector<std::vector<std::string>> rows;
+  for (const json& e : j.value("effects", json::array())) {
+    for (const json& p : e.at("parameters")) {
+      rows.push_back({At(e, "id"), At(e, "iso_name"), At(p, "name"), At(p, "unit"), At(p, "value"), At(p, "std")});
+    }
+  }
+  std::string body = rows.empty() ? "<p>No effect beyond the seven errors.</p>\n"
+                                  : html::Table({"effect", "ISO 230 name", "parameter", "unit", "value", "u"}, rows);
+  if (j.contains("before") && j.contains("after")) {
+    const json &b = j.at("before"), &a = j.at("after");
+    body += "<h3>Before and after</h3>\n";
+    body += html::Table({"residual", "seven errors", "with the effects"},
+                        {{"rms [um]", At(b, "rms_um"), At(a, "rms_um")},
+                         {"peak to valley [um]", At(b, "pv_um"), At(a, "pv_um")},
+                         {"cross-validated rms [um]", At(b, "cv_rms_um"), At(a, "cv_rms_um")},
+                         {"leave-one-setup-out rms [um]", At(b, "loso_rms_um"), At(a, "loso_rms_um")},
+                         {"parameters", At(b, "n_params"), At(a, "n_params")}});
+  }
+  if (j.contains("validation")) {
+    const json& v = j.at("validation");
+    body += "<h3>Validation on " + At(v, "points_file") + "</h3>\n";
+    body += html::Table({"validation file", "before", "after"},
+                        {{"rms [um]", At(v, "before_rms_um"), At(v, "after_rms_um")},
+                         {"least-squares sphericity [um]", At(v, "before_ls_sphericity_um"),
+                          At(v, "after_ls_sphericity_um")}});
+    if (v.contains("note")) body += "<p class=\"note\">" + Cell(v.at("note")) + "</p>\n";
+  }
+  return body;
+}
+
+std::string Form(const json& j) {
+  if (!j.contains("sphere_form")) return "<p>Not analysed.</p>\n";
+  const json& f = j.at("sphere_form");
+  std::string body = "<p>" + At(f, "design") + "</p>\n";
+  if (f.contains("rms_um")) {
+    body += html::Table({"the sphere's form", "value"}, {{"rms [um]", At(f, "rms_um")},
+                                                         {"u of the rms [um]", At(f, "rms_std_um")},
+                                                         {"peak to valley [um]", At(f, "pv_um")},
+                                                         {"highest degree", At(f, "degree_max")}});
+  }
+  std::vector<std::vector<std::string>> rows;
+  for (const json& t : f.value("terms", json::array())) {
+    rows.push_back({At(t, "l"), At(t, "m"), At(t, "value_um"), At(t, "std_um")});
+  }
+  if (rows.empty()) return body;
+  // The map of the form over the sphere's body frame, from the coefficients as reported.
+  std::vector<FormTerm> terms;
+  std::vector<double> c_um;
+  for (const json& t : f.at("terms")) {
+    terms.push_back({t.at("l").get<int>(), t.at("m").get<int>()});
+    c_um.push_back(t.at("value_um").get<double>());
+  }
+  constexpr double kStep = 5.0;
+  std::vector<double> azimuth, polar, form_um;
+  for (double p = kStep / 2; p < 180; p += kStep) {
+    for (double a = kStep / 2; a < 360; a += kStep) {
+      const double pr = p * kRadPerDeg, ar = a * kRadPerDeg;
+      const Eigen::Vector3d u(std::sin(pr) * std::cos(ar), std::sin(pr) * std::sin(ar), std::cos(pr));
+      azimuth.push_back(a);
+      polar.push_back(p);
+      form_um.push_back(FormValue(terms, c_um.data(), u));
+    }
+  }
+  html::MapAxes axes;
+  axes.title = "The sphere's form in its body frame";
+  axes.x_label = "azimuth [deg]";
+  axes.y_label = "polar angle from the body's z [deg]";
+  axes.value_label = "form [um]";
+  axes.cell_deg = kStep;
+  body += html::Figure(html::SvgMap(axes, azimuth, polar, form_um), axes.title,
+                       "The fitted form F(u) [um] at each direction u of the sphere's body frame [deg], from the "
+                       "coefficients below.");
+  return body + html::Table({"degree l", "order m", "coefficient [um]", "u [um]"}, rows);
+}
+
+std::string Ambiguous(const json& j) {
+  std::string body;
+  for (const json& a : j.value("ambiguous", json::array())) {
+    body += "<li>" + At(a, "chosen") + " or " + At(a, "other") + ": separated by " + At(a, "separate_by") + "</li>\n";
+  }
+  for (const json& c : j.contains("sphere_form") ? j.at("sphere_form").value("confounded", json::array())
+                                                 : json::array()) {
+    body += "<li>" + Cell(c) + "</li>\n";
+  }
+  for (const json& n : j.value("nearly_dependent", json::array())) {
+    std::string terms;
+    for (const auto& [name, weight] : n.at("terms").items()) terms += (terms.empty() ? "" : ", ") + Escape(name);
+    body += "<li>nearly dependent (relative singular value " + At(n, "relative_singular_value") + "): " + terms +
+            "</li>\n";
+  }
+  return body.empty() ? "<p>Nothing.</p>\n" : "<ul>\n" + body + "</ul>\n";
+}
+
+}  // namespace
+
+std::string CalibrationWorkflowResult::HtmlReport() const {
+  const json j = json::parse(JsonReport());
+  const CalibrationResult& fit = Reported();
+  std::vector<double> theta, phi, residual_um;
+  for (std::size_t i = 0; i < points.samples.size() && i < fit.residuals_mm.size(); ++i) {
+    theta.push_back(points.samples[i].theta_deg);
+    phi.push_back(points.samples[i].phi_deg);
+    residual_um.push_back(fit.residuals_mm[i] * 1e3);
+  }
+  const std::string usable = j.value("usable", false) ? "usable" : "not usable";
+  std::string body = "<h1>Calibration report</h1>\n<p>" + At(j, "points_file") + " — " + At(j, "program") +
+                     " — the calibration is <strong>" + usable + "</strong>.</p>\n";
+  std::string told = List(j.value("warnings", json::array()));
+  if (!j.value("why_not_usable", json::array()).empty()) told += List(j.at("why_not_usable"));
+  body += "<div class=\"warn\"><h3>Warnings</h3>\n" + told + "</div>\n";
+  body += Section("Identification", Identification(j, *this), true);
+  body += Section("Method", Method(j, *this));
+  body += Section("Conditions and uncertainty inputs", Conditions(j));
+  body += Section("The seven errors", Errors(j));
+  body += Section("Effects found", Effects(j));
+  html::MapAxes axes;
+  axes.title = "Residuals of the reported fit";
+  axes.x_label = "theta [deg]";
+  axes.y_label = "phi [deg]";
+  axes.value_label = "residual [um]";
+  body += Section("Residual map",
+                  html::Figure(html::SvgMap(axes, theta, phi, residual_um), axes.title,
+                               "Each reading's residual |p - O| - R [um] at its axis readings theta, phi [deg]; the "
+                               "setups drawn over each other in file order."));
+  body += Section("The sphere's form", Form(j));
+  body += Section("What stays ambiguous", Ambiguous(j));
+  return html::Page("Calibration report: " + points_path, body);
+}
+
+}  // namespace sph

@@ -1,0 +1,51 @@
+#!/bin/sh
+# The HTML reports in a real browser: sph_calibrate's (the undeclared example) and sph_measure's
+# (NIST sphere 1) are well formed (xmllint --html), and headless Chromium renders each to a PNG and
+# prints it to an A4 PDF with at least one page per section (pdfinfo).
+# Usage: render_reports.sh SPH_CALIBRATE SPH_MEASURE SOURCE_DIR WORK_DIR
+# Exits 77 (skipped) when chromium, pdfinfo or xmllint is missing.
+set -eu
+calibrate=$1 measure=$2 source=$3 work=$4
+chromium=$(command -v chromium || command -v chromium-browser || true)
+for tool in "$chromium:chromium" "$(command -v pdfinfo || true):pdfinfo (poppler-utils)" \
+            "$(command -v xmllint || true):xmllint (libxml2-utils)"; do
+  if [ -z "${tool%%:*}" ]; then
+    echo "skipped: ${tool#*:} is not installed (cmake/install-deps.sh installs it)"
+    exit 77
+  fi
+done
+rm -rf "$work"
+mkdir -p "$work"
+"$calibrate" "$source/data/example/undeclared/points.txt" -q --report "$work/calibration.html"
+"$measure" --xyz "$source/tests/data/nist-ats-l2-sphere/sph1.ds" -q --report "$work/measurement.html"
+for name in calibration measurement; do
+  page=$work/$name.html
+  # libxml2's HTML parser: any complaint fails.
+  complaints=$(xmllint --html --noout "$page" 2>&1) || true
+  if [ -n "$complaints" ]; then
+    echo "$page: xmllint --html: $complaints"
+    exit 1
+  fi
+  # A profile of its own in the work folder: nothing read from or left in the user's.
+  "$chromium" --headless --no-sandbox --disable-gpu --hide-scrollbars --user-data-dir="$work/profile" \
+    --window-size=1000,1400 --screenshot="$work/$name.png" "file://$page" >/dev/null 2>&1
+  "$chromium" --headless --no-sandbox --disable-gpu --user-data-dir="$work/profile" --no-pdf-header-footer \
+    --print-to-pdf="$work/$name.pdf" "file://$page" >/dev/null 2>&1
+  if [ ! -s "$work/$name.png" ] || [ ! -s "$work/$name.pdf" ]; then
+    echo "$page: chromium wrote no PNG or no PDF"
+    exit 1
+  fi
+  info=$(pdfinfo "$work/$name.pdf")
+  pages=$(echo "$info" | sed -n 's/^Pages: *//p')
+  sections=$(grep -o 'class="section' "$page" | wc -l)
+  echo "$name: $sections sections, $pages pages"
+  if [ "$sections" -lt 4 ] || [ "$pages" -lt "$sections" ] || [ "$pages" -gt $((3 * sections)) ]; then
+    echo "$name.pdf: $pages pages for $sections sections (each starts a page; at most 3 pages each)"
+    exit 1
+  fi
+  if ! echo "$info" | grep -q '^Page size:.*(A4)'; then
+    echo "$name.pdf is not A4: $(echo "$info" | grep '^Page size')"
+    exit 1
+  fi
+done
+echo "rendered: $work"
