@@ -14,12 +14,12 @@
 #include "sph/calib/budget.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/report.hpp"
-#include "sph/calib/trace.hpp"
-#include "sph/calib/trace_report.hpp"
 #include "sph/calib/usability.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/ranges.hpp"
+#include "sph/select/trace.hpp"
+#include "sph/select/trace_report.hpp"
 
 namespace sph {
 

@@ -1,4 +1,4 @@
-#include "sph/calib/trace.hpp"
+#include "sph/select/trace.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,6 @@
 #include "effect_fit_rows.hpp"
 #include "fit_problem.hpp"
 #include "pair_separation.hpp"
-#include "sph/calib/identifiability.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/gum.hpp"
 #include "sph/core/setup_checks.hpp"
@@ -23,6 +22,8 @@
 #include "sph/internal/parallel.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/identifiability.hpp"
+#include "structure_jacobian.hpp"
 
 namespace sph {
 namespace {

@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "sph/calib/effect_fit.hpp"
-#include "sph/calib/residual_structure.hpp"
+#include "sph/select/residual_structure.hpp"
 
 namespace sph {
 
