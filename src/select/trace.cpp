@@ -85,8 +85,8 @@ std::string SeparateBy(Effect a, Effect b) {
 
 // The extended BIC's charge for the components `term` keeps of those its effect's default term
 // searched (FitCandidate() keeps only the separable and significant ones).
-double SearchPenalty(const EffectTerm& term, const TraceOptions& trace) {
-  const auto searched = DefaultTerm(term.effect, trace.harmonics, trace.drift_order).components.size();
+double SearchPenalty(const EffectTerm& term, const TraceOptions& trace_options) {
+  const auto searched = DefaultTerm(term.effect, trace_options.harmonics, trace_options.drift_order).components.size();
   return SubsetSearchPenalty(static_cast<int>(searched), static_cast<int>(term.components.size()));
 }
 
@@ -158,7 +158,8 @@ FitResiduals ResidualsOfTraced(const Readings& data, const TracedFit& t, const J
   return {data.points, t.fit.calibration.residuals_mm, t.expected_r_mm, jacobian, t.fit.model.reference, t.directions};
 }
 
-TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions& options, const TraceOptions& trace) {
+TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions& options,
+                   const TraceOptions& trace_options) {
   TracedFit t;
   t.expected_r_mm = ExpectedReadings(data.points, options, fit);
   t.directions = Directions(data.points, options, fit, t.expected_r_mm);
@@ -166,7 +167,8 @@ TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions
   const internal::StructureJacobian jacobian(data.table, options, t.fit, t.expected_r_mm);
   t.factor = FactorResidualStructure(ResidualsOfTraced(data, t, jacobian));
   t.structure = AnalyseResidualStructure(t.factor);
-  t.cv_rms_um = CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace.folds, trace.seed);
+  t.cv_rms_um =
+      CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace_options.folds, trace_options.seed);
   std::set<int> loose;
   const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, t.fit, &loose);
   t.loso_rms_um = RmsUmOf(errors);
@@ -189,7 +191,7 @@ struct Drop {
 // sigma^2 (and the degrees of freedom by one), and each VIF scales with its C_kk. The caller
 // refits once without them all and applies the rule to that fit again.
 std::vector<Drop> Eliminate(const ObservabilityReport& rep, std::vector<double> values, int offset, int size,
-                            double rows, const TraceOptions& trace) {
+                            double rows, const TraceOptions& trace_options) {
   std::vector<Drop> drops;
   std::vector<bool> alive(static_cast<std::size_t>(size), true);
   // A component held at a value given (CalibrationOptions::fixed) stays: it is known, not fitted.
@@ -221,13 +223,13 @@ std::vector<Drop> Eliminate(const ObservabilityReport& rep, std::vector<double> 
       }
     }
     int drop = -1;
-    if (vif_max > trace.max_vif) {
+    if (vif_max > trace_options.max_vif) {
       drop = worst_vif;
-    } else if (t_min < trace.min_t) {
+    } else if (t_min < trace_options.min_t) {
       drop = weakest;
     }
     if (drop < 0) break;
-    drops.push_back({drop, vif_max > trace.max_vif});
+    drops.push_back({drop, vif_max > trace_options.max_vif});
     // Downdate, where the linearised problem is defined.
     const Eigen::Index k = offset + drop;
     const double ckk = c(k, k);
@@ -266,7 +268,7 @@ std::string Listed(const std::vector<std::string>& names) {
 // do not show are left out (Eliminate(): after each fit, all that the rule drops at it, then
 // refitted). The last term of the returned fit is the candidate (absent when nothing of it is left).
 EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
-                       EffectTerm term, const TraceOptions& trace, std::string* note) {
+                       EffectTerm term, const TraceOptions& trace_options, std::string* note) {
   EffectModel model = current.model;
   model.terms.push_back(term);
   EffectFitStart start = EffectFitStart::From(current);
@@ -290,7 +292,7 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
     EffectTerm& cand = model.terms.back();
     const int offset = at_start.TermOffset(model.terms.size() - 1);
     int worst = -1;
-    double vif_max = trace.max_vif;
+    double vif_max = trace_options.max_vif;
     for (int j = 0; j < cand.size(); ++j) {
       // A component held or informed (CalibrationOptions::fixed, priors) is known beyond these
       // readings: the fit, not the linearised problem without it, decides.
@@ -313,7 +315,7 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
       return current;
     }
   }
-  const std::size_t fewest = FoldSizesOf(data.points, trace.folds).fewest_fitted;
+  const std::size_t fewest = FoldSizesOf(data.points, trace_options.folds).fewest_fitted;
   if (static_cast<std::size_t>(current.n_params + model.terms.back().size()) >= fewest) {
     *note = "not tried: with its " + std::to_string(model.terms.back().size()) + " component(s) the model has " +
             std::to_string(current.n_params + model.terms.back().size()) + " parameters, and a cross-validation " +
@@ -325,7 +327,7 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
     EffectTerm& cand = model.terms.back();
     const std::vector<Drop> drops =
         Eliminate(fit.calibration.analysis, fit.values.back(), fit.TermOffset(model.terms.size() - 1), cand.size(),
-                  static_cast<double>(data.points.samples.size()), trace);
+                  static_cast<double>(data.points.samples.size()), trace_options);
     if (drops.empty()) {
       *note = "";
       if (!left_out_vif.empty()) *note += "left out, not separable from the other parameters: " + Listed(left_out_vif);
@@ -359,7 +361,7 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
 // Whether the design separates the sphere's form from the machine (the sphere measured in at least
 // two known orientations), and the highest degree the pattern resolves: a degree-L harmonic has L
 // cycles around the sphere, so it needs more than 2L points on each ring and more than L rings.
-FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
+FormSelection FormDesign(const PointsData& points, const TraceOptions& trace_options) {
   FormSelection f;
   std::vector<Eigen::Matrix3d> orientations;
   int own = 0;  // setups whose form is not the reference sphere's in a known orientation
@@ -385,10 +387,10 @@ FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
     return static_cast<int>(std::unique(v.begin(), v.end()) - v.begin());
   };
   const int resolved = std::min(distinct(phis) - 1, (distinct(thetas) - 1) / 2);
-  f.degree_limit = std::min(trace.form_degree_max, resolved);
+  f.degree_limit = std::min(trace_options.form_degree_max, resolved);
   // No higher than the cross-validation's folds can fit beside the seven errors and the centres.
   const int base_params = kNumScmsParams + 3 * static_cast<int>(points.SetupIds().size());
-  const auto fewest = static_cast<int>(FoldSizesOf(points, trace.folds).fewest_fitted);
+  const auto fewest = static_cast<int>(FoldSizesOf(points, trace_options.folds).fewest_fitted);
   int fitted = 1;
   while (fitted < f.degree_limit &&
          base_params + FormModelOf(points, FormTermsOfDegrees(2, fitted + 1)).NumParams() < fewest) {
@@ -423,12 +425,12 @@ FormSelection FormDesign(const PointsData& points, const TraceOptions& trace) {
 // (the form is fitted before any effect, so no machine term they are confounded with is in the
 // model with them); the report says that their split with the machine is not known.
 void ConfoundedFormTerms(const Readings& data, const CalibrationOptions& options, const EffectFit& base,
-                         const std::vector<Effect>& pool, const TraceOptions& trace, FormSelection* sel) {
+                         const std::vector<Effect>& pool, const TraceOptions& trace_options, FormSelection* sel) {
   EffectModel machine;
   machine.reference = base.model.reference;
   int judged = base.n_params + FormModelOf(data.points, FormTermsOfDegrees(2, sel->degree_limit)).NumParams();
   for (const Effect e : pool) {
-    machine.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
+    machine.terms.push_back(DefaultTerm(e, trace_options.harmonics, trace_options.drift_order));
     judged += machine.terms.back().size();
   }
   if (data.points.samples.size() <= static_cast<std::size_t>(judged)) {
@@ -454,7 +456,7 @@ void ConfoundedFormTerms(const Readings& data, const CalibrationOptions& options
 // the extended BIC (BIC + 2 ln N, N the degrees searched), or the model without a form when no L
 // lowers it by min_delta_bic. sel->delta_ebic gets each degree's score.
 EffectFit SelectFormDegree(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
-                           const TraceOptions& trace, FormSelection* sel) {
+                           const TraceOptions& trace_options, FormSelection* sel) {
   EffectModel plain = current.model;
   plain.form = FormModel{};
   EffectFitStart start = EffectFitStart::From(current);
@@ -475,7 +477,7 @@ EffectFit SelectFormDegree(const Readings& data, const CalibrationOptions& optio
     const double score = fit.Bic() + penalty;
     sel->delta_ebic.emplace_back(l, score - none.Bic());
     if (!fit.calibration.converged) continue;
-    if (score - none.Bic() <= -trace.min_delta_bic && score < best_score) {
+    if (score - none.Bic() <= -trace_options.min_delta_bic && score < best_score) {
       best_score = score;
       best = std::move(fit);
       sel->degree_max = l;
@@ -500,13 +502,13 @@ bool OnePlacement(const EffectFit& fit) {
 // (u^k of degree about k), and what it shows beyond degrees 2..5 is a higher degree of the form
 // (the sphere's own, of degree 6 and more) that the reading's small higher terms happen to follow.
 bool ShownBeyondSphere(const CandidateScore& c, const StructureFactor& factor, bool one_placement,
-                       const TraceOptions& trace) {
+                       const TraceOptions& trace_options) {
   const std::string v = InfoOf(c.effect).variable;
   if ((v != "t" && v != "r") || c.term.components.empty()) return false;
   if (v == "r" && one_placement) return false;
   std::vector<int> functions;
   for (const EffectComponent& comp : c.term.components) functions.push_back(comp.order - 1);
-  return DeltaBicBeyondSphere(factor, v, functions) <= -trace.min_delta_bic;
+  return DeltaBicBeyondSphere(factor, v, functions) <= -trace_options.min_delta_bic;
 }
 
 // The measurement that separates effect e from a form of the sphere when the sphere was measured
@@ -525,21 +527,21 @@ std::string SeparateFromForm(Effect e) {
 }
 
 // Whether the structure test of the variable effect e follows (time or probe reading) is significant.
-bool ShownByItsVariable(Effect e, const ResidualStructure& structure, const TraceOptions& trace) {
+bool ShownByItsVariable(Effect e, const ResidualStructure& structure, const TraceOptions& trace_options) {
   const std::string v = InfoOf(e).variable;
   if (v != "t" && v != "r") return false;
   for (const StructureGroup& g : structure.groups) {
-    if (g.variable == v) return g.p_value < trace.structure_p;
+    if (g.variable == v) return g.p_value < trace_options.structure_p;
   }
   return false;
 }
 
-std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const TraceOptions& trace) {
+std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const TraceOptions& trace_options) {
   std::vector<Unexplained> out;
-  if (!(s.all.p_value < trace.structure_p)) return out;
+  if (!(s.all.p_value < trace_options.structure_p)) return out;
   std::vector<const StructureGroup*> groups;
   for (const StructureGroup& g : s.groups) {
-    if (g.p_value < trace.structure_p) groups.push_back(&g);
+    if (g.p_value < trace_options.structure_p) groups.push_back(&g);
   }
   std::sort(groups.begin(), groups.end(),
             [](const StructureGroup* a, const StructureGroup* b) { return a->explained_rms_um > b->explained_rms_um; });
@@ -567,18 +569,18 @@ std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const Tr
 }
 
 // What the probe and drift terms of a trace of `all` are normalised by.
-EffectReference ReferenceOf(const PointsData& all, const TraceOptions& trace) {
+EffectReference ReferenceOf(const PointsData& all, const TraceOptions& trace_options) {
   const EffectReference of_data = EffectReferenceOf(all.samples);
-  return trace.probe_range_mm ? WithProbeRange(of_data, *trace.probe_range_mm) : of_data;
+  return trace_options.probe_range_mm ? WithProbeRange(of_data, *trace_options.probe_range_mm) : of_data;
 }
 
 // The seven-error calibration `base` as a fit with no effects over the readings it kept (`data`):
 // its solution, residuals and analysis as they are, not solved a second time.
 EffectFit FitNone(const Readings& data, const CalibrationResult& base, const EffectReference& reference,
-                  const TraceOptions& trace) {
+                  const TraceOptions& trace_options) {
   EffectFit fit;
   fit.model.reference = reference;
-  fit.model.phi_wobble_pivot_mm = trace.phi_wobble_pivot_mm;
+  fit.model.phi_wobble_pivot_mm = trace_options.phi_wobble_pivot_mm;
   fit.calibration = base;
   CalibrationResult& kept = fit.calibration;
   if (!base.outliers.empty()) {  // base's residuals cover every sample: keep those of `data`
@@ -622,7 +624,7 @@ PointsData Without(const PointsData& points, const std::vector<std::size_t>& out
 // refitted on the readings it keeps, until the set no longer changes. The final model's result then
 // names its outliers and says so.
 void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-                     const TraceOptions& trace, TracedFit& after) {
+                     const TraceOptions& trace_options, TracedFit& after) {
   std::vector<std::size_t> outliers;
   for (const Outlier& o : base.outliers) outliers.push_back(o.sample);
   if (options.LeavesOutOutliers()) {
@@ -633,7 +635,7 @@ void RejudgeOutliers(const PointsData& all, const CalibrationOptions& options, c
       const Readings kept(Without(all, outliers));
       EffectFitStart start = EffectFitStart::From(after.fit);
       after = Analysed(internal::FitEffectsRows(kept.points, kept.table, nullptr, options, after.fit.model, start),
-                       kept, options, trace);
+                       kept, options, trace_options);
     }
   }
   CalibrationResult& cal = after.fit.calibration;
@@ -857,10 +859,10 @@ namespace {
 using Tried = std::vector<std::pair<CandidateScore, EffectFit>>;
 
 // Each effect of `todo` added to `current`, fitted and scored. The candidates are independent:
-// they are scored on up to trace.threads threads, each writing only its own slot, so the result
+// they are scored on up to trace_options.threads threads, each writing only its own slot, so the result
 // does not depend on the number of threads.
 Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
-                      const std::vector<Effect>& todo, int round, const TraceOptions& trace) {
+                      const std::vector<Effect>& todo, int round, const TraceOptions& trace_options) {
   Tried tried(todo.size());
   std::vector<std::exception_ptr> failures(todo.size());
   std::mutex progress_mutex;
@@ -870,15 +872,16 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
       CandidateScore& c = tried[i].first;
       c.effect = todo[i];
       c.round = round;
-      EffectFit fit = FitCandidate(data, options, current.fit, DefaultTerm(todo[i], trace.harmonics, trace.drift_order),
-                                   trace, &c.note);
+      EffectFit fit = FitCandidate(data, options, current.fit,
+                                   DefaultTerm(todo[i], trace_options.harmonics, trace_options.drift_order),
+                                   trace_options, &c.note);
       if (fit.model.terms.size() == current.fit.model.terms.size()) {
         c.delta_bic = std::numeric_limits<double>::quiet_NaN();  // nothing of it left to fit
         c.rms_um = current.fit.calibration.rms_um;
         c.cv_rms_um = current.cv_rms_um;
       } else {
         c.term = fit.model.terms.back();
-        c.delta_bic = fit.Bic() - current.fit.Bic() + SearchPenalty(c.term, trace);
+        c.delta_bic = fit.Bic() - current.fit.Bic() + SearchPenalty(c.term, trace_options);
         c.rms_um = fit.calibration.rms_um;
         c.determined = fit.calibration.converged && fit.calibration.analysis.AllDetermined();
         if (!c.determined) {
@@ -886,8 +889,9 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
         }
         // The cross-validated RMS decides only between the candidates the BIC admits (Admissible()),
         // and costs `folds` fits: the others are not cross-validated.
-        c.cv_rms_um = c.determined && c.delta_bic <= -trace.min_delta_bic
-                          ? CrossValidated(data, options, fit.model, EffectFitStart::From(fit), trace.folds, trace.seed)
+        c.cv_rms_um = c.determined && c.delta_bic <= -trace_options.min_delta_bic
+                          ? CrossValidated(data, options, fit.model, EffectFitStart::From(fit), trace_options.folds,
+                                           trace_options.seed)
                           : std::numeric_limits<double>::quiet_NaN();
         // So does the transfer test, with two or more setups: `folds` more fits at most.
         if (c.cv_rms_um < current.cv_rms_um && std::isfinite(current.loso_rms_um)) {
@@ -901,11 +905,11 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
     } catch (...) {
       failures[i] = std::current_exception();
     }
-    if (!trace.progress) return;
+    if (!trace_options.progress) return;
     const std::lock_guard<std::mutex> lock(progress_mutex);
-    trace.progress(round, ++scored, static_cast<int>(todo.size()));
+    trace_options.progress(round, ++scored, static_cast<int>(todo.size()));
   };
-  ParallelFor(todo.size(), trace.threads, [&] { return score; });
+  ParallelFor(todo.size(), trace_options.threads, [&] { return score; });
   for (const std::exception_ptr& f : failures) {
     if (f) std::rethrow_exception(f);
   }
@@ -915,24 +919,26 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
 // Whether `c`, with two or more setups, predicts the setups left out clearly worse than the model
 // without it (CandidateScore::loso_t): what a form or another function of the sphere's direction
 // fitted as a machine error does (it turns with the sphere, a machine error does not).
-bool Untransferred(const CandidateScore& c, const TraceOptions& trace) { return c.loso_t > trace.min_t; }
+bool Untransferred(const CandidateScore& c, const TraceOptions& trace_options) {
+  return c.loso_t > trace_options.min_t;
+}
 
 // Whether a candidate may be added to `current`: a term with something to fit, every parameter
-// determined, a BIC lower by trace.min_delta_bic, a lower cross-validated RMS, and, with two or
+// determined, a BIC lower by trace_options.min_delta_bic, a lower cross-validated RMS, and, with two or
 // more setups, not Untransferred().
-bool Admissible(const CandidateScore& c, const TracedFit& current, const TraceOptions& trace) {
-  return !c.term.components.empty() && c.determined && c.delta_bic <= -trace.min_delta_bic &&
-         c.cv_rms_um < current.cv_rms_um && !Untransferred(c, trace);
+bool Admissible(const CandidateScore& c, const TracedFit& current, const TraceOptions& trace_options) {
+  return !c.term.components.empty() && c.determined && c.delta_bic <= -trace_options.min_delta_bic &&
+         c.cv_rms_um < current.cv_rms_um && !Untransferred(c, trace_options);
 }
 
 // The admissible candidate of `tried` with the lowest delta BIC among those `also` accepts; -1:
 // none.
 template <typename Also>
-int BestAdmissible(const Tried& tried, const TracedFit& current, const TraceOptions& trace, Also also) {
+int BestAdmissible(const Tried& tried, const TracedFit& current, const TraceOptions& trace_options, Also also) {
   int best = -1;
   for (std::size_t i = 0; i < tried.size(); ++i) {
     const CandidateScore& c = tried[i].first;
-    if (Admissible(c, current, trace) && !c.held && also(c) &&
+    if (Admissible(c, current, trace_options) && !c.held && also(c) &&
         (best < 0 || c.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic)) {
       best = static_cast<int>(i);
     }
@@ -968,7 +974,7 @@ std::string SphereCompetitorNote(const SpherePattern& sphere, bool form_better, 
 
 // Why candidate c was not added, appended to its note. `best`: the candidate added, if any.
 void NoteWhyNotAdded(CandidateScore& c, bool admissible, bool form_wins, const CandidateScore* best,
-                     const TracedFit& current, const TraceOptions& trace) {
+                     const TracedFit& current, const TraceOptions& trace_options) {
   if (c.added) return;
   std::string why;
   if (admissible && form_wins) {
@@ -976,8 +982,8 @@ void NoteWhyNotAdded(CandidateScore& c, bool admissible, bool form_wins, const C
   } else if (admissible && best != nullptr) {
     why = "qualifies; " + best->Id() + Format(" scored better (delta BIC %.1f)", best->delta_bic);
   } else if (!c.term.components.empty() && c.determined) {
-    if (c.delta_bic > -trace.min_delta_bic) {
-      why = "too small a gain (delta BIC above -" + Format("%g", trace.min_delta_bic) + ")";
+    if (c.delta_bic > -trace_options.min_delta_bic) {
+      why = "too small a gain (delta BIC above -" + Format("%g", trace_options.min_delta_bic) + ")";
     } else if (!(c.cv_rms_um < current.cv_rms_um)) {
       why = "no lower cross-validated RMS";
     } else {
@@ -1020,13 +1026,13 @@ std::string CheckedSeparation(const Readings& data, const CalibrationOptions& op
 // effect it is compared with.
 bool ConfoundedByDesign(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
                         const CandidateScore& c, const EffectFit& c_fit, const CandidateScore& chosen,
-                        const EffectFit& chosen_fit, const TraceOptions& trace) {
+                        const EffectFit& chosen_fit, const TraceOptions& trace_options) {
   if (!(c.delta_bic <= 0.5 * chosen.delta_bic) || c_fit.model.terms.size() != current.model.terms.size() + 1) {
     return false;
   }
   const EffectTerm& a = chosen_fit.model.terms.back();
   const EffectTerm& b = c_fit.model.terms.back();
-  if (!trace.hold_confounded) {
+  if (!trace_options.hold_confounded) {
     return internal::PairVifNow(data.table, options, current, a, chosen_fit.values.back(), b, c_fit.values.back()) >
            internal::kSeparatedVif;
   }
@@ -1039,17 +1045,17 @@ bool ConfoundedByDesign(const Readings& data, const CalibrationOptions& options,
 // the same change of the residual.
 void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
                        const Tried& tried, std::size_t best, const SpherePattern& sphere, bool form_better,
-                       bool form_separable, const TraceOptions& trace, CandidateScore& chosen,
+                       bool form_separable, const TraceOptions& trace_options, CandidateScore& chosen,
                        std::vector<Ambiguity>* ambiguous) {
   for (std::size_t i = 0; i < tried.size(); ++i) {
     const CandidateScore& c = tried[i].first;
-    if (i == best || !Admissible(c, current, trace)) continue;
+    if (i == best || !Admissible(c, current, trace_options)) continue;
     // A candidate held back in an earlier round (TraceOptions::hold_confounded) may score better than
     // the one chosen now: it is about equal only when the two are within ambiguity_bic either way.
     const double gap = c.delta_bic - chosen.delta_bic;
-    const bool close = (c.held ? std::abs(gap) : gap) < trace.ambiguity_bic;
+    const bool close = (c.held ? std::abs(gap) : gap) < trace_options.ambiguity_bic;
     if (close ||
-        ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second, trace)) {
+        ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second, trace_options)) {
       Ambiguity a{InfoOf(chosen.effect).id,           InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
                   SeparateBy(chosen.effect, c.effect)};
       a.by_design = !close;
@@ -1077,7 +1083,7 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
     a.chosen_rms_um = chosen_rms;
     a.other_rms_um = sphere.explained_rms_um;
     ambiguous->push_back(a);
-  } else if (!form_separable && chosen.sphere_fraction >= trace.max_sphere_fraction) {
+  } else if (!form_separable && chosen.sphere_fraction >= trace_options.max_sphere_fraction) {
     Ambiguity a{InfoOf(chosen.effect).id,
                 "sphere_form",
                 chosen.delta_bic,
@@ -1098,7 +1104,7 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
 // is the current model with that form (fitted once per round); *delta_ebic gets the candidate's
 // score beside it (NaN where it is not separable from that form).
 bool ShownBeyondForm(const Readings& data, const CalibrationOptions& options, const CandidateScore& c,
-                     const EffectFit& full, const TraceOptions& trace, double* delta_ebic) {
+                     const EffectFit& full, const TraceOptions& trace_options, double* delta_ebic) {
   // A fit that does not settle, the form's alone or with the candidate: not separable from it.
   *delta_ebic = std::numeric_limits<double>::quiet_NaN();
   if (!full.calibration.converged) return false;
@@ -1107,15 +1113,15 @@ bool ShownBeyondForm(const Readings& data, const CalibrationOptions& options, co
   const EffectFit with =
       internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(full));
   if (!with.calibration.converged) return false;
-  *delta_ebic = with.Bic() - full.Bic() + SearchPenalty(c.term, trace);
-  if (!(*delta_ebic <= -trace.min_delta_bic)) return false;
+  *delta_ebic = with.Bic() - full.Bic() + SearchPenalty(c.term, trace_options);
+  if (!(*delta_ebic <= -trace_options.min_delta_bic)) return false;
   // Its components must stay separable from that form, as FitCandidate() asks (that one of them
   // is less significant among that many form terms is no sign of the form explaining it).
   const int offset = with.TermOffset(model.terms.size() - 1);
   const Eigen::VectorXd& vif = with.calibration.analysis.vif;
   for (int k = 0; k < c.term.size(); ++k) {
     const int col = offset + k;
-    if (col >= vif.size() || !(vif(col) <= trace.max_vif)) {
+    if (col >= vif.size() || !(vif(col) <= trace_options.max_vif)) {
       *delta_ebic = std::numeric_limits<double>::quiet_NaN();
       return false;
     }
@@ -1141,16 +1147,16 @@ constexpr const char* kSeparateFromTurningForm =
 // qualify only without it get a note, go into *not_beyond_form and are reported in r.ambiguous as
 // two explanations with that form, once per candidate (a later round's sizes replace an earlier's).
 int BestBesideForm(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
-                   const TraceOptions& trace, Tried& tried, TraceResult& r, std::set<Effect>* not_beyond_form) {
+                   const TraceOptions& trace_options, Tried& tried, TraceResult& r, std::set<Effect>* not_beyond_form) {
   const EffectFit full = FullForm(data, options, current, r.form);
   std::map<Effect, double> beyond;  // the candidates tried: their extended BIC beside that form
-  const int best = BestAdmissible(tried, current, trace, [&](const CandidateScore& c) {
-    return ShownBeyondForm(data, options, c, full, trace, &beyond[c.effect]);
+  const int best = BestAdmissible(tried, current, trace_options, [&](const CandidateScore& c) {
+    return ShownBeyondForm(data, options, c, full, trace_options, &beyond[c.effect]);
   });
   const double cur_rms = current.fit.calibration.rms_um, full_rms = full.calibration.rms_um;
   for (auto& [c, fit] : tried) {
     const auto b = beyond.find(c.effect);
-    if (b == beyond.end() || b->second <= -trace.min_delta_bic) continue;
+    if (b == beyond.end() || b->second <= -trace_options.min_delta_bic) continue;
     not_beyond_form->insert(c.effect);
     c.note +=
         std::string(c.note.empty() ? "" : "; ") +
@@ -1193,11 +1199,11 @@ bool SameComponents(const EffectTerm& a, const EffectTerm& b) {
 // the linear part of a drift fitted before it, and a Theta encoder's c1 then takes the drift's
 // place). Each earlier term is fitted again from all of its components, beside every other term,
 // with FitCandidate()'s rule, and taken when the extended BIC falls.
-void RefreshComponents(const Readings& data, const CalibrationOptions& options, const TraceOptions& trace,
+void RefreshComponents(const Readings& data, const CalibrationOptions& options, const TraceOptions& trace_options,
                        TracedFit& current) {
   for (std::size_t t = 0; t + 1 < current.fit.model.terms.size(); ++t) {
     const EffectTerm& term = current.fit.model.terms[t];
-    const EffectTerm full = DefaultTerm(term.effect, trace.harmonics, trace.drift_order);
+    const EffectTerm full = DefaultTerm(term.effect, trace_options.harmonics, trace_options.drift_order);
     if (SameComponents(term, full)) continue;
     EffectModel model = current.fit.model;
     model.terms.erase(model.terms.begin() + static_cast<std::ptrdiff_t>(t));
@@ -1206,11 +1212,12 @@ void RefreshComponents(const Readings& data, const CalibrationOptions& options, 
     const EffectFit without = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
     if (!without.calibration.converged) continue;
     std::string note;
-    EffectFit again = FitCandidate(data, options, without, full, trace, &note);
+    EffectFit again = FitCandidate(data, options, without, full, trace_options, &note);
     if (again.model.terms.size() != current.fit.model.terms.size() || !again.calibration.converged) continue;
     const EffectTerm& chosen = again.model.terms.back();
     if (SameComponents(chosen, term)) continue;
-    const double change = again.Bic() + SearchPenalty(chosen, trace) - current.fit.Bic() - SearchPenalty(term, trace);
+    const double change =
+        again.Bic() + SearchPenalty(chosen, trace_options) - current.fit.Bic() - SearchPenalty(term, trace_options);
     if (!(change < 0.0)) continue;
     // The term moves to the end of the model; the one just added stays last.
     EffectFit reordered = std::move(again);
@@ -1218,7 +1225,7 @@ void RefreshComponents(const Readings& data, const CalibrationOptions& options, 
     std::rotate(reordered.values.end() - 2, reordered.values.end() - 1, reordered.values.end());
     reordered = internal::FitEffectsRows(data.points, data.table, nullptr, options, reordered.model,
                                          EffectFitStart::From(reordered));
-    current = Analysed(std::move(reordered), data, options, trace);
+    current = Analysed(std::move(reordered), data, options, trace_options);
     --t;  // the term now at index t is the next one to look at
   }
 }
@@ -1258,15 +1265,15 @@ bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r) {
 // best admissible one is added (true), or none is and the search ends (false). The round's scores
 // and ambiguities go into `r`.
 bool ForwardRound(const Readings& data, const CalibrationOptions& options, const std::vector<Effect>& pool, int round,
-                  const TraceOptions& trace, TracedFit& current, TraceResult& r) {
+                  const TraceOptions& trace_options, TracedFit& current, TraceResult& r) {
   std::vector<Effect> todo;
   for (Effect e : pool) {
     if (current.fit.model.Find(e) < 0) todo.push_back(e);
   }
-  Tried tried = ScoreCandidates(data, options, current, todo, round, trace);
+  Tried tried = ScoreCandidates(data, options, current, todo, round, trace_options);
   for (auto& [c, fit] : tried) c.held = IsHeld(r, c.effect);
   const auto any = [](const CandidateScore&) { return true; };
-  int best = BestAdmissible(tried, current, trace, any);
+  int best = BestAdmissible(tried, current, trace_options, any);
   // With a design that separates the form, it is in the model and no competitor. When the
   // competitor explains the residual better than the best effect, or about as well, no effect is
   // added.
@@ -1274,36 +1281,37 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   CandidateScore form = SphereCompetitor(sphere, current, round);
   // Within ambiguity_bic of the best effect the pattern counts as better: two explanations about
   // equal, and a machine effect is the claim that must be shown.
-  const bool form_better =
-      sphere.delta_bic <= -trace.min_delta_bic &&
-      (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic + trace.ambiguity_bic);
+  const bool form_better = sphere.delta_bic <= -trace_options.min_delta_bic &&
+                           (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic +
+                                                               trace_options.ambiguity_bic);
   // A pattern on the sphere never blocks an effect that its own variable shows: the best such
   // candidate is added, and both explanations are reported.
   if (form_better && best >= 0) {
     const bool one_placement = OnePlacement(current.fit);
-    best = BestAdmissible(tried, current, trace, [&](const CandidateScore& c) {
-      return ShownBeyondSphere(c, current.factor, one_placement, trace);
+    best = BestAdmissible(tried, current, trace_options, [&](const CandidateScore& c) {
+      return ShownBeyondSphere(c, current.factor, one_placement, trace_options);
     });
   }
   const bool form_wins = form_better && best < 0;
   form.note = SphereCompetitorNote(sphere, form_better, form_wins);
   std::set<Effect> not_beyond_form;  // admissible, but a form of a higher degree explains them as well
   if (r.form.separable && best >= 0 && r.form.degree_limit > r.form.degree_max) {
-    best = BestBesideForm(data, options, current, trace, tried, r, &not_beyond_form);
+    best = BestBesideForm(data, options, current, trace_options, tried, r, &not_beyond_form);
   }
   const CandidateScore* chosen = nullptr;
   bool hold = false;  // the chosen one cannot be told from another effect, and neither is added
   if (best < 0 || form_wins) {
     // An effect of the time or the probe reading that its variable shows, but no more than a form
     // would, and the best effect of the machine: both explanations, neither added.
-    const int best_machine =
-        form_wins
-            ? BestAdmissible(tried, current, trace, [](const CandidateScore& c) { return InfoOf(c.effect).harmonic; })
-            : -1;
+    const int best_machine = form_wins
+                                 ? BestAdmissible(tried, current, trace_options,
+                                                  [](const CandidateScore& c) { return InfoOf(c.effect).harmonic; })
+                                 : -1;
     for (std::size_t i = 0; i < tried.size(); ++i) {
       const CandidateScore& c = tried[i].first;
-      const bool shown = ShownByItsVariable(c.effect, current.structure, trace);
-      if (!form_wins || !Admissible(c, current, trace) || !(shown || static_cast<int>(i) == best_machine)) continue;
+      const bool shown = ShownByItsVariable(c.effect, current.structure, trace_options);
+      if (!form_wins || !Admissible(c, current, trace_options) || !(shown || static_cast<int>(i) == best_machine))
+        continue;
       const double cur_rms = current.fit.calibration.rms_um;
       Ambiguity a{"sphere_form", c.Id(), sphere.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};
       a.chosen_rms_um = sphere.explained_rms_um;
@@ -1315,9 +1323,9 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     c.added = true;
     const std::size_t first_new = r.ambiguous.size();
     ChosenAmbiguities(data, options, current, tried, static_cast<std::size_t>(best), sphere, form_better,
-                      r.form.separable, trace, c, &r.ambiguous);
+                      r.form.separable, trace_options, c, &r.ambiguous);
     chosen = &c;
-    if (trace.hold_confounded) hold = HoldConfounded(first_new, c, r);
+    if (trace_options.hold_confounded) hold = HoldConfounded(first_new, c, r);
     if (hold) {
       for (auto& [other, fit] : tried) other.held = IsHeld(r, other.effect);  // its partners too
       if (form_better) form.note += "; the effect it was compared with is held back";
@@ -1325,7 +1333,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   }
   for (auto& [c, fit] : tried) {
     if (not_beyond_form.count(c.effect) == 0 && !c.held) {
-      NoteWhyNotAdded(c, Admissible(c, current, trace), form_wins, chosen, current, trace);
+      NoteWhyNotAdded(c, Admissible(c, current, trace_options), form_wins, chosen, current, trace_options);
     } else if (c.held && !(hold && &c == chosen)) {
       c.note += std::string(c.note.empty() ? "" : "; ") + "held back: confounded with another effect, neither added";
     }
@@ -1335,14 +1343,14 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   if (hold) return true;  // the next round chooses among the others, still judged against those held
   if (chosen == nullptr) return false;
   r.added.push_back(chosen->effect);
-  current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), data, options, trace);
-  RefreshComponents(data, options, trace, current);
+  current = Analysed(std::move(tried[static_cast<std::size_t>(best)].second), data, options, trace_options);
+  RefreshComponents(data, options, trace_options, current);
   return true;
 }
 
 // Backward: an effect that the final model no longer needs (the BIC without it is less than
 // min_delta_bic higher) is removed, the least needed first, and the rest refitted.
-void RemoveUnneeded(const Readings& data, const CalibrationOptions& options, const TraceOptions& trace,
+void RemoveUnneeded(const Readings& data, const CalibrationOptions& options, const TraceOptions& trace_options,
                     TracedFit& current, TraceResult& r) {
   while (!current.fit.model.terms.empty()) {
     int weakest = -1;
@@ -1354,18 +1362,18 @@ void RemoveUnneeded(const Readings& data, const CalibrationOptions& options, con
       EffectFitStart start = EffectFitStart::From(current.fit);
       start.values.erase(start.values.begin() + static_cast<std::ptrdiff_t>(t));
       EffectFit w = internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
-      const double cost = w.Bic() - current.fit.Bic() - SearchPenalty(current.fit.model.terms[t], trace);
+      const double cost = w.Bic() - current.fit.Bic() - SearchPenalty(current.fit.model.terms[t], trace_options);
       if (w.calibration.converged && cost < least) {
         least = cost;
         weakest = static_cast<int>(t);
         without_weakest = std::move(w);
       }
     }
-    if (weakest < 0 || least >= trace.min_delta_bic) break;
+    if (weakest < 0 || least >= trace_options.min_delta_bic) break;
     const Effect e = current.fit.model.terms[static_cast<std::size_t>(weakest)].effect;
     r.removed.emplace_back(e, least);
     r.added.erase(std::find(r.added.begin(), r.added.end(), e));
-    current = Analysed(std::move(without_weakest), data, options, trace);
+    current = Analysed(std::move(without_weakest), data, options, trace_options);
   }
 }
 
@@ -1400,14 +1408,16 @@ int SearchedOrder(const std::vector<double>& order_p, double p, int pattern) {
   return std::min(std::max(kShortest, highest + 1), pattern);
 }
 
-// `trace` with the highest harmonic orders it leaves to the data (0) chosen by SearchedOrder()
-// from the seven-error fit's residual structure `before`.
-TraceOptions WithSearchedOrders(const TraceOptions& trace, const PointsData& points, const ResidualStructure& before) {
-  TraceOptions t = trace;
+// The highest harmonic orders searched: those of `trace_options`, the ones it leaves to the data (0)
+// chosen by SearchedOrder() from the seven-error fit's residual structure `before`.
+HarmonicOrders SearchedOrders(const TraceOptions& trace_options, const PointsData& points,
+                              const ResidualStructure& before) {
+  HarmonicOrders orders = trace_options.harmonics;
   const HarmonicOrders pattern = PatternOrders(points);
-  if (t.harmonics.theta <= 0) t.harmonics.theta = SearchedOrder(before.theta_harmonic_p, t.structure_p, pattern.theta);
-  if (t.harmonics.phi <= 0) t.harmonics.phi = SearchedOrder(before.phi_cos_p, t.structure_p, pattern.phi);
-  return t;
+  if (orders.theta <= 0)
+    orders.theta = SearchedOrder(before.theta_harmonic_p, trace_options.structure_p, pattern.theta);
+  if (orders.phi <= 0) orders.phi = SearchedOrder(before.phi_cos_p, trace_options.structure_p, pattern.phi);
+  return orders;
 }
 
 }  // namespace
@@ -1425,34 +1435,35 @@ HarmonicOrders PatternOrders(const PointsData& points) {
 
 namespace {
 
-// What a trace and a fit of fixed effects start from: the readings the seven-error fit used, the
-// probe's reference, and the options with the harmonic orders the seven-error residual asks for;
-// the start fills in the result's fit of no effect (`before`) and its orders.
+// What a trace and a fit of fixed effects start from: the readings the seven-error fit used and the
+// probe's reference. The start fills in the result's fit of no effect (`before`) and the harmonic
+// orders searched (SearchedOrders()), which it writes into `trace_options` too.
 struct TraceStart {
   Readings data;
   EffectReference reference;
-  TraceOptions trace;
 
   TraceStart(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-             const TraceOptions& asked, TraceResult* r)
-      : data(WithoutOutliers(all, base)), reference(ReferenceOf(all, asked)) {
-    if (asked.probe_range_mm) CheckReadingsInProbeRange(all, *asked.probe_range_mm, "probe_range_mm");
+             TraceOptions& trace_options, TraceResult* r)
+      : data(WithoutOutliers(all, base)), reference(ReferenceOf(all, trace_options)) {
+    if (trace_options.probe_range_mm) {
+      CheckReadingsInProbeRange(all, *trace_options.probe_range_mm, "probe_range_mm");
+    }
     const std::size_t setups = base.setup_ids.size();
     const int base_params = kNumScmsParams + 3 * static_cast<int>(setups);
-    CheckFoldsCanFit(data.points, asked.folds, base_params,
+    CheckFoldsCanFit(data.points, trace_options.folds, base_params,
                      "the 7 errors and 3 centre coordinates for each of " + std::to_string(setups) + " setup(s)",
                      base_params);
-    r->before = Analysed(FitNone(data, base, reference, asked), data, options, asked);
-    trace = WithSearchedOrders(asked, data.points, r->before.structure);
-    r->harmonics = trace.harmonics;
+    r->before = Analysed(FitNone(data, base, reference, trace_options), data, options, trace_options);
+    r->harmonics = SearchedOrders(trace_options, data.points, r->before.structure);
+    trace_options.harmonics = r->harmonics;
   }
 };
 
 // How both end: the outliers of the seven-error fit judged again under the final model, and the
 // structure it leaves unexplained.
 void Finish(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-            const TraceOptions& trace, TraceResult* r) {
-  RejudgeOutliers(all, options, base, trace, r->after);
+            const TraceOptions& trace_options, TraceResult* r) {
+  RejudgeOutliers(all, options, base, trace_options, r->after);
   if (r->after.fit.model.Find(Effect::kProbeDrift) >= 0 && !all.samples.empty()) {
     const auto [lo, hi] = std::minmax_element(all.samples.begin(), all.samples.end(),
                                               [](const Sample& a, const Sample& b) { return a.t_s < b.t_s; });
@@ -1462,55 +1473,53 @@ void Finish(const PointsData& all, const CalibrationOptions& options, const Cali
           " s), so a drift with time is not determined: probe_drift needs the times the readings were taken at");
     }
   }
-  r->unexplained = RemainingStructure(r->after.structure, trace);
+  r->unexplained = RemainingStructure(r->after.structure, trace_options);
 }
 
 }  // namespace
 
 TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-                          const TraceOptions& asked) {
+                          TraceOptions trace_options) {
   TraceResult r;
-  const TraceStart start(all, options, base, asked, &r);
+  const TraceStart start(all, options, base, trace_options, &r);
   const Readings& data = start.data;
-  const TraceOptions& trace = start.trace;
-  std::vector<Effect> pool = trace.candidates;
+  std::vector<Effect> pool = trace_options.candidates;
   if (pool.empty()) {
     for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
   }
   TracedFit current = r.before;
   // The sphere's form first, where the design separates it from the machine.
-  r.form = FormDesign(data.points, trace);
-  if (r.form.separable) ConfoundedFormTerms(data, options, r.before.fit, pool, trace, &r.form);
+  r.form = FormDesign(data.points, trace_options);
+  if (r.form.separable) ConfoundedFormTerms(data, options, r.before.fit, pool, trace_options, &r.form);
   if (r.form.separable) {
-    EffectFit with_form = SelectFormDegree(data, options, r.before.fit, trace, &r.form);
-    if (!with_form.model.form.Empty()) current = Analysed(std::move(with_form), data, options, trace);
+    EffectFit with_form = SelectFormDegree(data, options, r.before.fit, trace_options, &r.form);
+    if (!with_form.model.form.Empty()) current = Analysed(std::move(with_form), data, options, trace_options);
   }
-  for (int round = 1; round <= trace.max_effects; ++round) {
-    if (!ForwardRound(data, options, pool, round, trace, current, r)) break;
+  for (int round = 1; round <= trace_options.max_effects; ++round) {
+    if (!ForwardRound(data, options, pool, round, trace_options, current, r)) break;
   }
   // The effects chosen, the form's degree is chosen again with them in the model.
   if (r.form.separable && !r.added.empty()) {
-    EffectFit refit = SelectFormDegree(data, options, current.fit, trace, &r.form);
+    EffectFit refit = SelectFormDegree(data, options, current.fit, trace_options, &r.form);
     if (refit.model.form.terms.size() != current.fit.model.form.terms.size()) {
-      current = Analysed(std::move(refit), data, options, trace);
+      current = Analysed(std::move(refit), data, options, trace_options);
     }
   }
-  RemoveUnneeded(data, options, trace, current, r);
+  RemoveUnneeded(data, options, trace_options, current, r);
   r.after = std::move(current);
-  Finish(all, options, base, trace, &r);
+  Finish(all, options, base, trace_options, &r);
   return r;
 }
 
 TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-                            const std::vector<Effect>& effects, const TraceOptions& asked) {
+                            const std::vector<Effect>& effects, TraceOptions trace_options) {
   TraceResult r;
-  const TraceStart start(all, options, base, asked, &r);
-  const TraceOptions& trace = start.trace;
+  const TraceStart start(all, options, base, trace_options, &r);
   EffectModel model;
   model.reference = start.reference;
-  model.phi_wobble_pivot_mm = trace.phi_wobble_pivot_mm;
+  model.phi_wobble_pivot_mm = trace_options.phi_wobble_pivot_mm;
   for (Effect e : effects) {
-    if (model.Find(e) < 0) model.terms.push_back(DefaultTerm(e, trace.harmonics, trace.drift_order));
+    if (model.Find(e) < 0) model.terms.push_back(DefaultTerm(e, trace_options.harmonics, trace_options.drift_order));
   }
   int n_params = r.before.fit.n_params;
   std::string ids;
@@ -1519,11 +1528,12 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
     n_params += t.size();
     ids += (ids.empty() ? "" : ", ") + std::string(t.info().id);
   }
-  CheckFoldsCanFit(start.data.points, trace.folds, n_params, "the seven-error model and " + ids, r.before.fit.n_params);
+  CheckFoldsCanFit(start.data.points, trace_options.folds, n_params, "the seven-error model and " + ids,
+                   r.before.fit.n_params);
   r.after = Analysed(internal::FitEffectsRows(start.data.points, start.data.table, nullptr, options, model,
                                               EffectFitStart::From(r.before.fit)),
-                     start.data, options, trace);
-  Finish(all, options, base, trace, &r);
+                     start.data, options, trace_options);
+  Finish(all, options, base, trace_options, &r);
   return r;
 }
 
