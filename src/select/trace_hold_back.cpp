@@ -1,30 +1,29 @@
 // Ambiguities and hold-back in the trace: the candidates the design cannot tell from the effect
 // chosen, the measurement that would tell them apart, and, with TraceOptions::hold_confounded,
 // both held back.
+#include <string_view>
+
 #include "trace_steps.hpp"
 
 namespace sph::internal {
 namespace {
 
-bool IsThetaMachine(Effect e) {
-  return e == Effect::kThetaEncoder || e == Effect::kThetaRadialMotion || e == Effect::kThetaAxialMotion ||
-         e == Effect::kThetaTiltMotion;
-}
-
-bool IsPhiMachine(Effect e) {
-  return e == Effect::kPhiEncoder || e == Effect::kPhiWobble || e == Effect::kPhiRadialMotion ||
-         e == Effect::kPhiAxialMotion;
-}
-
-bool IsThetaMotion(Effect e) { return e == Effect::kThetaRadialMotion || e == Effect::kThetaAxialMotion; }
+// An effect's class, from the effect catalogue (EffectInfo::variable and quantity): an error of
+// the Theta axis, of the Phi axis, of the probe's reading over its range; a translation of the
+// Theta spindle (a radial or axial motion, not a rotation).
+bool Follows(Effect e, std::string_view variable) { return InfoOf(e).variable == variable; }
+bool IsThetaMachine(Effect e) { return Follows(e, "theta"); }
+bool IsPhiMachine(Effect e) { return Follows(e, "phi"); }
+bool IsProbe(Effect e) { return Follows(e, "r"); }
+bool IsThetaMotion(Effect e) { return IsThetaMachine(e) && InfoOf(e).quantity == Quantity::kLength; }
 
 bool IsPair(Effect a, Effect b, Effect x, Effect y) { return (a == x && b == y) || (a == y && b == x); }
 
-bool IsProbe(Effect e) { return e == Effect::kProbeGain || e == Effect::kProbeNonlinearity; }
-
-// The measurement that tells two effects apart, from how each maps onto the readings.
+// The measurement that tells two effects apart, from how each maps onto the readings: by what
+// their terms follow (EffectInfo), and for the pairs of one class that only a particular
+// measurement separates, by name.
 std::string SeparateBy(Effect a, Effect b) {
-  if (a == Effect::kProbeDrift || b == Effect::kProbeDrift) {
+  if (Follows(a, "t") || Follows(b, "t")) {
     return "repeated reference points: return to one position at the start, middle and end of the run, or measure "
            "the pattern in another order (drift follows time, the other follows the position)";
   }
@@ -32,7 +31,7 @@ std::string SeparateBy(Effect a, Effect b) {
     return "a second sphere of another radius (sphere_radius_mm@<setup>): at any eccentricity e both leave a term "
            "in sin^2 of the angle on the sphere proportional to e^2, the gain's as 1/R, the incidence's as 1/R^2";
   }
-  if (a == Effect::kProbeIncidence || b == Effect::kProbeIncidence) {
+  if (Follows(a, "psi") || Follows(b, "psi")) {
     return "a second sphere position at another eccentricity: the probe's incidence error grows with its square "
            "(sin psi reaches about e / R0), a machine error's signal on the sphere in proportion to it or not at all";
   }
