@@ -62,7 +62,7 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
         for (const EffectInfo& e : kEffectInfo) v.emplace_back(e.id);
         return v;
       }()));
-  app.add_flag("--hold-confounded", o.workflow.tracing.hold_confounded,
+  app.add_flag("--hold-confounded", o.workflow.trace_options.hold_confounded,
                "When the effect the trace would add cannot be told from another (by this design, or about equal "
                "scores), add neither and report both; default: add the one that explains more and name the other")
       ->excludes(no_trace);
@@ -78,22 +78,22 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
   app.add_option_function<int>(
          "--harmonics",
          [&o](const int& h) {
-           o.workflow.tracing.harmonics = {h, h};
+           o.workflow.trace_options.harmonics = {h, h};
          },
          "Highest harmonic order searched of the harmonic effects; 0: chosen on each axis from the "
          "seven-error residual (4, or one above its highest significant harmonic), at most what the "
          "pattern resolves ((n - 1) / 2 for n distinct angles, at most 12)")
-      ->default_str(std::to_string(o.workflow.tracing.harmonics.theta))
+      ->default_str(std::to_string(o.workflow.trace_options.harmonics.theta))
       ->check(IntRange(ranges::kHarmonicOrder));
-  app.add_option("--phi-wobble-pivot-mm", o.workflow.tracing.phi_wobble_pivot_mm,
+  app.add_option("--phi-wobble-pivot-mm", o.workflow.trace_options.phi_wobble_pivot_mm,
                  "Distance along the Phi axis from its frame's origin to the bearing it tilts about (phi_wobble), "
                  "from the machine's drawing [mm]")
       ->capture_default_str()
       ->check(InRange(ranges::kPivotMm));
-  app.add_option("--drift-order", o.workflow.tracing.drift_order, "Highest power of time of probe_drift")
+  app.add_option("--drift-order", o.workflow.trace_options.drift_order, "Highest power of time of probe_drift")
       ->capture_default_str()
       ->check(IntRange(ranges::kDriftOrder));
-  AddSeedOption(app, o.workflow.tracing.seed, "Seed of the cross-validation folds")->capture_default_str();
+  AddSeedOption(app, o.workflow.trace_options.seed, "Seed of the cross-validation folds")->capture_default_str();
   AddConditionOptions(app, o.workflow.conditions, "(overrides the file's ");
   AddFitSettingOptions(app, o);
   app.add_option("--coverage", o.workflow.coverage,
@@ -199,7 +199,7 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       progress.Finish();
       err << prog << ": warning: " << warning << "\n";
     };
-    workflow.tracing.progress = [&](int round, int done, int total) {
+    workflow.trace_options.progress = [&](int round, int done, int total) {
       progress.Update("tracing the residual, round " + std::to_string(round) + ": candidates", done, total);
     };
     const CalibrationWorkflowResult run = RunCalibrationWorkflow(o.points_path, workflow);

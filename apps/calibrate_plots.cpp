@@ -7,10 +7,10 @@
 #include <vector>
 
 #include "gnuplot.hpp"
-#include "sph/calib/form_report.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/form_report.hpp"
 
 namespace sph::apps {
 

@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "sph/calib/trace.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
+#include "sph/select/trace.hpp"
 
 namespace sph::apps {
 

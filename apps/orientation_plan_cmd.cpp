@@ -1,5 +1,5 @@
 // sph_montecarlo --plan-orientations: the mount orientations that separate the sphere's form from
-// the machine (sph/calib/orientation_plan.hpp), as a table or JSON.
+// the machine (sph/select/orientation_plan.hpp), as a table or JSON.
 #include <ostream>
 #include <sstream>
 #include <string>
@@ -8,9 +8,9 @@
 #include "montecarlo_cmd.hpp"
 #include "sph/calib/montecarlo.hpp"
 #include "sph/calib/montecarlo_report.hpp"
-#include "sph/calib/orientation_plan.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/select/orientation_plan.hpp"
 
 namespace sph::apps {
 namespace {

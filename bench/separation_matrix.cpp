@@ -32,10 +32,10 @@
 #include <string>
 #include <vector>
 
-#include "sph/calib/form_report.hpp"
-#include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/form_report.hpp"
+#include "sph/select/trace.hpp"
 #include "study_designs.hpp"
 
 namespace {

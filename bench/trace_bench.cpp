@@ -4,9 +4,9 @@
 #include <benchmark/benchmark.h>
 
 #include "peak_rss.hpp"
-#include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/trace.hpp"
 #include "study_designs.hpp"
 
 namespace {

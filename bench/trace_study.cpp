@@ -17,9 +17,9 @@
 #include <utility>
 #include <vector>
 
-#include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/trace.hpp"
 #include "study_designs.hpp"
 
 namespace {

@@ -22,7 +22,7 @@ if(TARGET sph_can)
 endif()
 
 if(SPH_BUILD_CALIBRATION)
-  install(DIRECTORY include/sph/ceres include/sph/calib DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph" COMPONENT calib)
+  install(DIRECTORY include/sph/ceres include/sph/calib include/sph/select DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph" COMPONENT calib)
   install(TARGETS sph_calib EXPORT sph-calib-targets ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}"
           LIBRARY DESTINATION "${CMAKE_INSTALL_LIBDIR}")
   install(EXPORT sph-calib-targets NAMESPACE sph:: DESTINATION "${SPH_INSTALL_CMAKEDIR}" COMPONENT calib)

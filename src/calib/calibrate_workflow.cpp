@@ -114,16 +114,16 @@ void Settle(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o)
 
 // The residual traced to further effects (or the fixed effects fitted), and its validation.
 void Trace(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
-  TraceOptions topts = o.tracing;
-  topts.probe_range_mm = run.probe_range_mm;
+  TraceOptions trace_options = o.trace_options;
+  trace_options.probe_range_mm = run.probe_range_mm;
   if (o.effects.empty()) {
-    run.trace = TraceResidual(run.points, run.settings, run.seven, topts);
+    run.trace = TraceResidual(run.points, run.settings, run.seven, trace_options);
   } else {
     std::vector<Effect> fixed;
     for (const Effect& e : o.effects) {
       if (std::find(fixed.begin(), fixed.end(), e) == fixed.end()) fixed.push_back(e);
     }
-    run.trace = FitFixedEffects(run.points, run.settings, run.seven, fixed, topts);
+    run.trace = FitFixedEffects(run.points, run.settings, run.seven, fixed, trace_options);
   }
   if (o.validate_path.empty()) return;
   Validation& v = run.validation.emplace(Validate(o.validate_path, run.settings.probe_offset_mm, *run.trace));
@@ -147,10 +147,10 @@ void CalibrationWorkflowOptions::Check() const {
   if (probe_offset_mm) CheckedValue(*probe_offset_mm, ranges::kProbeOffsetMm, what + "probe_offset_mm");
   CheckedValue(fit.max_std_um, ranges::kStdUm, what + "fit.max_std_um");
   CheckedValue(fit.max_iterations, ranges::kMaxIterations, what + "fit.max_iterations");
-  CheckedValue(tracing.harmonics.theta, ranges::kHarmonicOrder, what + "tracing.harmonics.theta");
-  CheckedValue(tracing.harmonics.phi, ranges::kHarmonicOrder, what + "tracing.harmonics.phi");
-  CheckedValue(tracing.drift_order, ranges::kDriftOrder, what + "tracing.drift_order");
-  CheckedValue(tracing.phi_wobble_pivot_mm, ranges::kPivotMm, what + "tracing.phi_wobble_pivot_mm");
+  CheckedValue(trace_options.harmonics.theta, ranges::kHarmonicOrder, what + "trace_options.harmonics.theta");
+  CheckedValue(trace_options.harmonics.phi, ranges::kHarmonicOrder, what + "trace_options.harmonics.phi");
+  CheckedValue(trace_options.drift_order, ranges::kDriftOrder, what + "trace_options.drift_order");
+  CheckedValue(trace_options.phi_wobble_pivot_mm, ranges::kPivotMm, what + "trace_options.phi_wobble_pivot_mm");
   if (coverage) CheckedValue(*coverage, ranges::kCoverageProbability, what + "coverage");
   if (!trace && !effects.empty()) throw Error(what + "effects need trace (a fixed model is fitted in its place)");
   if (!trace && !validate_path.empty()) {

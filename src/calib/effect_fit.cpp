@@ -14,26 +14,6 @@
 #include "sph/core/error.hpp"
 
 namespace sph {
-namespace {
-
-// The centre of each setup of `table` that has rows, from a fit over the setups `fit_ids`.
-std::vector<Eigen::Vector3d> CentersFor(const internal::ReadingTable& table, const internal::RowsOfSetup& rows,
-                                        const std::vector<int>& fit_ids, const std::vector<Eigen::Vector3d>& centers,
-                                        const std::string& source) {
-  const std::map<int, std::size_t> index = internal::IndexOfSetups(fit_ids);
-  std::vector<Eigen::Vector3d> out;
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    if (rows[k].empty()) continue;
-    const auto it = index.find(table.setup_ids[k]);
-    if (it == index.end()) {
-      throw Error(source + ": setup " + std::to_string(table.setup_ids[k]) + " is not one of the calibration's");
-    }
-    out.push_back(centers[it->second]);
-  }
-  return out;
-}
-
-}  // namespace
 
 EffectFitStart EffectFitStart::From(const CalibrationResult& calibration) {
   EffectFitStart s;
@@ -97,6 +77,22 @@ double FormAt(const EffectFit& fit, int setup_id, const Eigen::Vector3d& offset)
 
 namespace internal {
 
+std::vector<Eigen::Vector3d> CentersFor(const ReadingTable& table, const RowsOfSetup& rows,
+                                        const std::vector<int>& fit_ids, const std::vector<Eigen::Vector3d>& centers,
+                                        const std::string& source) {
+  const std::map<int, std::size_t> index = IndexOfSetups(fit_ids);
+  std::vector<Eigen::Vector3d> out;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    if (rows[k].empty()) continue;
+    const auto it = index.find(table.setup_ids[k]);
+    if (it == index.end()) {
+      throw Error(source + ": setup " + std::to_string(table.setup_ids[k]) + " is not one of the calibration's");
+    }
+    out.push_back(centers[it->second]);
+  }
+  return out;
+}
+
 EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
                          const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start) {
   const std::string& src = points.source;
@@ -158,28 +154,6 @@ struct ProblemAt {
 };
 
 }  // namespace
-
-StructureJacobian::StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit,
-                                     const std::vector<double>& expected_r_mm)
-    : problem_(table, AllRows(table), fit.model, options), offset_(expected_r_mm) {
-  x_ = problem_.Pack(fit.calibration.geometry,
-                     CentersFor(table, AllRows(table), fit.calibration.setup_ids, fit.calibration.centers_mm, ""),
-                     fit.values, fit.form_values);
-  for (std::size_t i = 0; i < offset_.size(); ++i) offset_[i] -= table.r_mm[i];
-}
-
-void StructureJacobian::ForEach(const BlockFn& fn) const {
-  const auto n = static_cast<int>(problem_.NumParams());
-  problem_.ForEachGlobalBlock(
-      x_.data(), offset_.data(),
-      [&](const std::uint32_t* rows, int count, double* jacobian, int setup) { fn(rows, count, jacobian, n, setup); });
-}
-
-std::vector<Eigen::Index> StructureJacobian::GroupColumns() const {
-  std::vector<Eigen::Index> first;
-  for (int k = 0; k < problem_.NumSetups(); ++k) first.push_back(kNumScmsParams + 3 * static_cast<Eigen::Index>(k));
-  return first;
-}
 
 NormalInverse NormalInverseAt(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit) {
   const ProblemAt at(table, nullptr, options, fit, "");

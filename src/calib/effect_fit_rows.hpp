@@ -3,12 +3,12 @@
 #ifndef SPH_SRC_CALIB_EFFECT_FIT_ROWS_HPP_
 #define SPH_SRC_CALIB_EFFECT_FIT_ROWS_HPP_
 
+#include <string>
 #include <vector>
 
 #include "fit_problem.hpp"
 #include "sph/calib/effect_fit.hpp"
 #include "sph/calib/observability.hpp"
-#include "sph/calib/residual_structure.hpp"
 
 namespace sph::internal {
 
@@ -17,23 +17,11 @@ namespace sph::internal {
 EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, const std::vector<bool>* left_out,
                          const CalibrationOptions& options, const EffectModel& model, const EffectFitStart& start);
 
-/// The Jacobian of `fit` over every sample of `table` (the readings it was fitted to, all of them),
-/// block by block, as the residual structure analysis needs it: at the readings `expected_r_mm`
-/// (table-indexed) where the fit's residual vanishes (ExpectedReadings()).
-class StructureJacobian final : public JacobianBlocks {
- public:
-  StructureJacobian(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit,
-                    const std::vector<double>& expected_r_mm);
-  Eigen::Index Cols() const override { return problem_.NumParams(); }
-  void ForEach(const BlockFn& fn) const override;
-  /// Each setup's centre (the rows come setup after setup).
-  std::vector<Eigen::Index> GroupColumns() const override;
-
- private:
-  SphereFitProblem problem_;
-  Eigen::VectorXd x_;
-  std::vector<double> offset_;  // r + offset: the readings where the fit's residual vanishes
-};
+/// The centre of each setup of `table` that has rows in `rows`, from a fit over the setups
+/// `fit_ids` with centres `centers`; a setup not among them is an error naming `source`.
+std::vector<Eigen::Vector3d> CentersFor(const ReadingTable& table, const RowsOfSetup& rows,
+                                        const std::vector<int>& fit_ids, const std::vector<Eigen::Vector3d>& centers,
+                                        const std::string& source);
 
 /// (J^T J)^-1 of `fit`'s model at its parameters, over every sample of `table`.
 NormalInverse NormalInverseAt(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit);

@@ -4,10 +4,10 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
-#include "sph/calib/trace_report.hpp"
 #include "sph/calib/usability.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/trace_report.hpp"
 #include "trace_json.hpp"
 
 namespace sph {

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "sph/calib/trace.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/trace.hpp"
 
 namespace sph {
 namespace {

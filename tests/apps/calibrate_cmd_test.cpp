@@ -427,7 +427,7 @@ TEST_F(CalibrateCmd, HoldConfoundedAddsNeitherOfTwoEffectsItCannotTellApart) {
   spec.effects.values = {{10 * kRadPerArcsec}};
   CalibrateOptions o;
   o.points_path = Simulated("points.txt", spec);
-  o.workflow.tracing.hold_confounded = true;
+  o.workflow.trace_options.hold_confounded = true;
   o.json_path = dir_ + "/report.json";
   const RunOutput r = Calibrate(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;

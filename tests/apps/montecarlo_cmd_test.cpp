@@ -131,7 +131,7 @@ TEST(MonteCarloCmd, SaysUndeterminedWhereTheDesignDeterminesNothing) {
 
 // The orientations that separate the form from a radial motion of the Phi axis: with the sphere
 // at the axes' common point the zonal terms are functions of phi, as that motion is; a tilt on the
-// mount separates them (sph/calib/orientation_plan.hpp), and the JSON says the same as the table.
+// mount separates them (sph/select/orientation_plan.hpp), and the JSON says the same as the table.
 TEST(MonteCarloCmd, PlansTheOrientationsThatSeparateTheForm) {
   const std::string dir = sph::testing::MakeTempDir("mcplan");
   MonteCarloAppOptions o;

@@ -103,8 +103,8 @@ TEST(CalibrateWorkflow, CheckNamesTheSettingOutOfRange) {
   o.sphere_radius_mm = -1.0;
   EXPECT_THAT(CheckMessage(o), HasSubstr("sphere_radius_mm: must be > 0 and <= 1000 mm, got -1"));
   o = {};
-  o.tracing.drift_order = 4;
-  EXPECT_THAT(CheckMessage(o), HasSubstr("tracing.drift_order: must be >= 1 and <= 3, got 4"));
+  o.trace_options.drift_order = 4;
+  EXPECT_THAT(CheckMessage(o), HasSubstr("trace_options.drift_order: must be >= 1 and <= 3, got 4"));
   o = {};
   o.trace = false;
   o.effects = {Effect::kProbeGain};

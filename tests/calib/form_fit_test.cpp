@@ -8,10 +8,10 @@
 
 #include "calib_test_util.hpp"
 #include "sph/calib/effect_fit.hpp"
-#include "sph/calib/form_report.hpp"
-#include "sph/calib/trace.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/form_report.hpp"
+#include "sph/select/trace.hpp"
 
 namespace sph {
 namespace {

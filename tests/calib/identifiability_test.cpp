@@ -1,7 +1,7 @@
-// What a design separates, from its null space (sph/calib/identifiability.hpp), on designs whose
+// What a design separates, from its null space (sph/select/identifiability.hpp), on designs whose
 // answer is known from their symmetry.
-#include "sph/calib/identifiability.hpp"
-#include "sph/calib/orientation_plan.hpp"
+#include "sph/select/identifiability.hpp"
+#include "sph/select/orientation_plan.hpp"
 
 #include <algorithm>
 #include <map>

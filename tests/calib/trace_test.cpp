@@ -1,4 +1,4 @@
-#include "sph/calib/trace.hpp"
+#include "sph/select/trace.hpp"
 
 #include <algorithm>
 #include <cmath>

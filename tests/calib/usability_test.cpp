@@ -8,10 +8,10 @@
 #include <gtest/gtest.h>
 
 #include "calib_test_util.hpp"
-#include "sph/calib/trace.hpp"
-#include "sph/calib/trace_report.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/trace.hpp"
+#include "sph/select/trace_report.hpp"
 
 namespace sph {
 namespace {

@@ -14,12 +14,12 @@
 #include "sph/calib/budget.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/report.hpp"
-#include "sph/calib/trace.hpp"
-#include "sph/calib/trace_report.hpp"
 #include "sph/calib/usability.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/ranges.hpp"
+#include "sph/select/trace.hpp"
+#include "sph/select/trace_report.hpp"
 
 namespace sph {
 
@@ -44,7 +44,7 @@ struct CalibrationWorkflowOptions {
   bool trace = true;  ///< trace the residual to the effects the model lacks; false: the seven errors only
   /// The trace's settings: harmonics, drift_order, seed, hold_confounded, phi_wobble_pivot_mm,
   /// progress, ... (probe_range_mm is the workflow's: conditions.probe_range_mm, else the header's).
-  TraceOptions tracing;
+  TraceOptions trace_options;
   std::vector<Effect> effects;     ///< a fixed model: these effects fitted, no selection (needs trace)
   std::string validate_path;       ///< another points file of the machine, compensated before and after (needs trace)
   SphereConditions conditions;     ///< the uncertainty inputs and the probe range; override the header's

@@ -7,7 +7,7 @@
 // solved as every calibration is, by Ceres' Levenberg-Marquardt (ceres::Solve) on the
 // hand-derived gradient (docs/architecture.md, "The solver"). With no terms and no form it is the
 // seven-error calibration of sph/calib/calibrator.hpp. A term's size is data: it holds only the
-// components the measurement determines (sph/calib/trace.hpp leaves the others out).
+// components the measurement determines (sph/select/trace.hpp leaves the others out).
 //
 // Plain C++ API: no Ceres type appears here. Units: rad and mm.
 #ifndef SPH_CALIB_EFFECT_FIT_HPP_

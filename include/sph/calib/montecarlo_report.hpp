@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "sph/calib/montecarlo.hpp"
-#include "sph/calib/orientation_plan.hpp"
+#include "sph/select/orientation_plan.hpp"
 
 namespace sph {
 

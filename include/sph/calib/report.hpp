@@ -17,8 +17,8 @@
 
 namespace sph {
 
-struct TraceResult;  // sph/calib/trace.hpp
-struct Validation;   // sph/calib/trace_report.hpp
+struct TraceResult;  // sph/select/trace.hpp
+struct Validation;   // sph/select/trace_report.hpp
 
 /// What the report says about where the data came from.
 struct ReportContext {
@@ -33,7 +33,7 @@ struct ReportContext {
   /// The uncertainty budget of the result's parameters (GUM), when made; not owned.
   const CalibrationBudget* budget = nullptr;
   /// The residual traced to further effects, when traced, and its validation on another sphere
-  /// (sph/calib/trace_report.hpp): both reports then carry them. Not owned.
+  /// (sph/select/trace_report.hpp): both reports then carry them. Not owned.
   const TraceResult* trace = nullptr;
   const Validation* validation = nullptr;
 };

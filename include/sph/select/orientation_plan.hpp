@@ -1,7 +1,7 @@
 // Planning a separation: which orientations of the sphere on its mount make its form separable
 // from a given machine, before anything is measured.
 //
-// The judgement is IdentifyForm()'s (sph/calib/identifiability.hpp): the null space of the design's
+// The judgement is IdentifyForm()'s (sph/select/identifiability.hpp): the null space of the design's
 // Jacobian. The plan is greedy. It starts from the sphere in its reference orientation and adds,
 // one at a time, the candidate mount rotation after which the fewest form terms remain
 // confounded (ties: the smaller largest variance inflation of a form term), until none is, or no
@@ -25,8 +25,8 @@
 
 #include <Eigen/Core>
 
-#include "sph/calib/identifiability.hpp"
 #include "sph/core/simulate.hpp"
+#include "sph/select/identifiability.hpp"
 
 namespace sph {
 

@@ -1,4 +1,4 @@
-#include "sph/calib/residual_structure.hpp"
+#include "sph/select/residual_structure.hpp"
 
 #include <Eigen/QR>
 #include <algorithm>

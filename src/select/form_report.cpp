@@ -1,4 +1,4 @@
-#include "sph/calib/form_report.hpp"
+#include "sph/select/form_report.hpp"
 
 #include <algorithm>
 #include <cmath>

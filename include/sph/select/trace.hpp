@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "sph/calib/effect_fit.hpp"
-#include "sph/calib/residual_structure.hpp"
+#include "sph/select/residual_structure.hpp"
 
 namespace sph {
 
@@ -201,12 +201,12 @@ HarmonicOrders PatternOrders(const PointsData& points);
 /// selection and judged again under the final model. The effect reference is that of all the
 /// readings (EffectReferenceOf).
 TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
-                          const TraceOptions& trace);
+                          TraceOptions trace_options);
 
 /// Fits a fixed model: the seven errors and the default terms of `effects` (no selection, nothing
 /// left out), with the same residual analysis and cross-validation; `after` holds the fit.
 TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
-                            const std::vector<Effect>& effects, const TraceOptions& trace);
+                            const std::vector<Effect>& effects, TraceOptions trace_options);
 
 /// The leave-one-setup-out RMS [um] of `fit` (a fit of `points`, TracedFit::loso_rms_um): for each
 /// setup of known orientation, `fit`'s model is fitted to the other setups' readings, from `fit`,

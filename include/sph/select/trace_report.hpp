@@ -1,5 +1,5 @@
 // The report of a residual trace: its text and the validation of its model on another sphere.
-// The trace's result (sph/calib/trace.hpp) is the report's data; this renders it. Its JSON is
+// The trace's result (sph/select/trace.hpp) is the report's data; this renders it. Its JSON is
 // part of JsonReport() (sph/calib/report.hpp), one document built as data, never text parsed
 // back.
 #ifndef SPH_CALIB_TRACE_REPORT_HPP_
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "sph/calib/trace.hpp"
+#include "sph/select/trace.hpp"
 
 namespace sph {
 

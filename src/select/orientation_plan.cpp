@@ -1,5 +1,5 @@
-// PlanOrientations(): see sph/calib/orientation_plan.hpp.
-#include "sph/calib/orientation_plan.hpp"
+// PlanOrientations(): see sph/select/orientation_plan.hpp.
+#include "sph/select/orientation_plan.hpp"
 
 #include <algorithm>
 #include <cmath>

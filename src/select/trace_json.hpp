@@ -5,7 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "sph/calib/trace_report.hpp"
+#include "sph/select/trace_report.hpp"
 
 namespace sph::internal {
 

@@ -1,4 +1,4 @@
-// The report of the orientation plan (sph/calib/orientation_plan.hpp) of sph_montecarlo
+// The report of the orientation plan (sph/select/orientation_plan.hpp) of sph_montecarlo
 // --plan-orientations: a table per eccentricity, and its JSON.
 #include <cmath>
 #include <ostream>
@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "sph/calib/montecarlo_report.hpp"
-#include "sph/calib/orientation_plan.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/select/orientation_plan.hpp"
 
 namespace sph {
 namespace {

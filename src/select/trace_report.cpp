@@ -1,4 +1,4 @@
-#include "sph/calib/trace_report.hpp"
+#include "sph/select/trace_report.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,13 +8,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "sph/calib/form_report.hpp"
 #include "sph/calib/report.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/setup_checks.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/form_report.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
 #include "trace_json.hpp"

@@ -1,5 +1,5 @@
-// IdentifyForm(): the design's null space, see sph/calib/identifiability.hpp.
-#include "sph/calib/identifiability.hpp"
+// IdentifyForm(): the design's null space, see sph/select/identifiability.hpp.
+#include "sph/select/identifiability.hpp"
 
 #include <algorithm>
 #include <cmath>
