@@ -11,7 +11,8 @@ set -eu
 # satisfies the package's dependency but not glog-config.cmake ("Failed to find Ceres - Missing
 # required Ceres dependency: glog").
 packages="cmake ninja-build g++ ccache libeigen3-dev libceres-dev libunwind-dev libcli11-dev nlohmann-json3-dev \
-libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox python3"
+libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox python3 \
+pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib"
 case "${1:-}" in
   --sanitizers) packages="$packages clang-14 libclang-rt-14-dev" ;;
   "") ;;
