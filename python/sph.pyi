@@ -84,3 +84,38 @@ def calibrate(
     probe_scale_u: float = ...,
     probe_range_mm: float = ...,
 ) -> CalibrationResult: ...
+
+def compensate(
+    readings: Union[Points, npt.ArrayLike],
+    calibration: Union[str, "os.PathLike[str]", CalibrationResult],
+    *,
+    center_mm: Optional[Sequence[float]] = None,
+) -> npt.NDArray[np.float64]: ...
+
+class MeasurementResult:
+    """A sphere measurement's result (sph.measure)."""
+    @property
+    def report(self) -> Dict[str, Any]: ...
+    @property
+    def text(self) -> str: ...
+    @property
+    def points_mm(self) -> npt.NDArray[np.float64]: ...
+
+def measure(
+    path: Union[str, "os.PathLike[str]"],
+    *,
+    calibration: Union[str, "os.PathLike[str]"] = ...,
+    xyz: bool = ...,
+    subtract_sphere_form: bool = ...,
+    setup: int = ...,
+    uncertainty_samples: int = ...,
+    seed: int = ...,
+    max_dilution: float = ...,
+    noise_um: float = ...,
+    noise_floor_draws: int = ...,
+    coverage: float = ...,
+    mc_max_trials: int = ...,
+    mc_batch_trials: int = ...,
+    mc_digits: int = ...,
+    mc_max_points: int = ...,
+) -> MeasurementResult: ...

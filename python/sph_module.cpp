@@ -15,6 +15,8 @@
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/measure_workflow.hpp"
+#include "sph/model/compensation.hpp"
 #include "sph/core/parameter_settings.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/model/effect_terms.hpp"
@@ -250,6 +252,111 @@ Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
   return c;
 }
 
+// The calibration a compensation uses: a calibration file's path, or a CalibrationResult's file.
+sph::Calibration CalibrationOf(const py::handle& calibration) {
+  if (py::isinstance<Calibration>(calibration)) {
+    const Calibration& c = py::cast<const Calibration&>(calibration);
+    if (c.calibration_file.empty()) throw sph::Error("calibration: the calibration is not usable (no calibration file)");
+    std::istringstream in(c.calibration_file);
+    return sph::ToCalibration(sph::ParseCalibration(in, "<calibration of " + std::string(py::str(c.report["points_file"])) + ">"));
+  }
+  const std::string path = PathOf(calibration);
+  py::gil_scoped_release release;
+  return sph::LoadCalibration(path);
+}
+
+// The compensated points [mm] of readings: sph.Points or an (n, 3) array of theta_deg phi_deg r_mm.
+py::array_t<double> Compensate(const py::object& readings, const py::object& calibration, const py::object& center_mm) {
+  std::vector<sph::RawReading> raw;
+  if (py::isinstance<Points>(readings)) {
+    for (const sph::Sample& s : py::cast<const Points&>(readings).data.samples) raw.push_back(s);
+  } else {
+    const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(readings);
+    if (!a || a.ndim() != 2 || a.shape(1) != 3) {
+      throw sph::Error("compensate: readings must be sph.Points or an (n, 3) array of theta_deg phi_deg r_mm");
+    }
+    const auto r = a.unchecked<2>();
+    for (py::ssize_t i = 0; i < a.shape(0); ++i) raw.push_back({r(i, 0), r(i, 1), r(i, 2)});
+  }
+  const sph::Calibration cal = CalibrationOf(calibration);
+  std::vector<Eigen::Vector3d> points;
+  {
+    std::optional<Eigen::Vector3d> center;
+    if (!center_mm.is_none()) {
+      const auto c = py::cast<std::vector<double>>(center_mm);
+      if (c.size() != 3) throw sph::Error("compensate: center_mm must be 3 numbers (x y z)");
+      center = Eigen::Vector3d(c[0], c[1], c[2]);
+    }
+    py::gil_scoped_release release;
+    points = center ? sph::CompensateAll(cal, raw, *center) : sph::CompensateAll(cal, raw);
+  }
+  py::array_t<double> out({static_cast<py::ssize_t>(points.size()), py::ssize_t{3}});
+  auto m = out.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (int k = 0; k < 3; ++k) m(static_cast<py::ssize_t>(i), k) = points[i][k];
+  }
+  return out;
+}
+
+// A measurement's result: the reports the library renders and the compensated points.
+struct Measurement {
+  py::dict report;
+  std::string text;
+  py::array_t<double> points_mm;
+};
+
+// sph_measure's options as keyword arguments (its names with '_' for '-', calibration for -c).
+sph::MeasurementWorkflowOptions MeasurementOptionsOf(const py::kwargs& kwargs) {
+  sph::MeasurementWorkflowOptions o;
+  for (auto item : kwargs) {
+    const std::string key = py::str(item.first);
+    const py::handle v = item.second;
+    if (v.is_none()) continue;
+    if (key == "calibration") o.calibration_path = PathOf(v);
+    else if (key == "xyz") o.xyz = py::cast<bool>(v);
+    else if (key == "subtract_sphere_form") o.subtract_sphere_form = py::cast<bool>(v);
+    else if (key == "setup") o.setup = py::cast<int>(v);
+    else if (key == "uncertainty_samples") o.uncertainty_samples = py::cast<int>(v);
+    else if (key == "seed") o.seed = py::cast<std::uint64_t>(v);
+    else if (key == "max_dilution") o.max_dilution = py::cast<double>(v);
+    else if (key == "noise_um") o.noise_um = py::cast<double>(v);
+    else if (key == "noise_floor_draws") o.noise_floor_draws = py::cast<int>(v);
+    else if (key == "coverage") o.coverage = py::cast<double>(v);
+    else if (key == "mc_max_trials") o.mc_max_trials = py::cast<long>(v);
+    else if (key == "mc_batch_trials") o.mc_batch_trials = py::cast<long>(v);
+    else if (key == "mc_digits") o.mc_digits = py::cast<int>(v);
+    else if (key == "mc_max_points") o.mc_max_points = py::cast<long>(v);
+    else throw py::type_error("measure() got an unexpected keyword argument '" + key + "'");
+  }
+  o.Check();
+  return o;
+}
+
+Measurement Measure(const py::object& path_like, const py::kwargs& kwargs) {
+  const sph::MeasurementWorkflowOptions options = MeasurementOptionsOf(kwargs);
+  const std::string path = PathOf(path_like);
+  std::string json, text;
+  std::vector<Eigen::Vector3d> points;
+  {
+    py::gil_scoped_release release;
+    const sph::MeasurementWorkflowResult run = sph::RunMeasurementWorkflow(path, options);
+    json = run.JsonReport();
+    std::ostringstream out;
+    run.WriteTextReport(out);
+    text = out.str();
+    points = run.input.points_mm;
+  }
+  Measurement r;
+  r.report = py::module_::import("json").attr("loads")(json);
+  r.text = std::move(text);
+  r.points_mm = py::array_t<double>({static_cast<py::ssize_t>(points.size()), py::ssize_t{3}});
+  auto m = r.points_mm.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (int k = 0; k < 3; ++k) m(static_cast<py::ssize_t>(i), k) = points[i][k];
+  }
+  return r;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(sph, m) {
@@ -340,4 +447,25 @@ PYBIND11_MODULE(sph, m) {
         "harmonics, phi_wobble_pivot_mm, drift_order, hold_confounded, seed, coverage and the\n"
         "conditions (sphere_radius_u_um, sphere_temperature_c, ...). Raises TypeError on an unknown\n"
         "option, sph.Error on bad input.");
+
+  m.def("compensate", &Compensate, py::arg("readings"), py::arg("calibration"), py::kw_only(),
+        py::arg("center_mm") = py::none(),
+        "The compensated points [mm], float64 shape (n, 3) x y z, of readings (sph.Points or an (n, 3)\n"
+        "array of theta_deg phi_deg r_mm) with a calibration (a calibration file's path or a\n"
+        "CalibrationResult). A probe_incidence term needs the measured sphere's centre, center_mm;\n"
+        "without it the term is left out (sph.measure finds the centre itself).");
+
+  py::class_<Measurement>(m, "MeasurementResult", "A sphere measurement's result (sph.measure).")
+      .def_readonly("report", &Measurement::report, "The report as sph_measure --json writes it, as a dict")
+      .def_readonly("text", &Measurement::text, "The text report as sph_measure prints it")
+      .def_readonly("points_mm", &Measurement::points_mm, "The compensated points [mm], shape (n, 3) x y z")
+      .def("__repr__", [](const Measurement& r) {
+        return "<sph.MeasurementResult: " + std::to_string(r.points_mm.shape(0)) + " points>";
+      });
+  m.def("measure", &Measure, py::arg("path"),
+        "Measures a sphere (what sph_measure does): readings compensated with calibration=<file>, the\n"
+        "least-squares and minimum-zone spheres, their uncertainties. Options are sph_measure's, '_'\n"
+        "for '-': calibration, xyz, subtract_sphere_form, setup, uncertainty_samples, seed,\n"
+        "max_dilution, noise_um, noise_floor_draws, coverage, mc_max_trials, mc_batch_trials,\n"
+        "mc_digits, mc_max_points. Raises TypeError on an unknown option, sph.Error on bad input.");
 }

@@ -125,3 +125,35 @@ def test_memory_is_stable_over_repeated_calibrations(example_points):
     # copied in are 11 kB) would grow RSS by more than 6 MB over 200 calls.
     assert grown < 2e6, f"RSS grew by {grown / 1e6:.2f} MB over 200 calibrations"
     assert r.usable
+
+
+def _undeclared(source_dir, name):
+    return os.path.join(source_dir, "data", "example", "undeclared", name)
+
+
+def test_measure_and_compensate_equal_sph_measure(source_dir, tmp_path):
+    cal, report = tmp_path / "cal.json", tmp_path / "measure.json"
+    subprocess.run([os.environ["SPH_CALIBRATE"], _undeclared(source_dir, "points.txt"), "-o", str(cal), "-q"],
+                   check=True, capture_output=True)
+    validate = _undeclared(source_dir, "validate.txt")
+    text = subprocess.run([os.environ["SPH_MEASURE"], validate, "-c", str(cal), "--json", str(report)],
+                          check=True, capture_output=True, text=True).stdout
+    m = sph.measure(validate, calibration=cal)
+    assert m.report == json.loads(report.read_text())
+    assert m.text == text
+    assert m.points_mm.shape == (288, 3) and m.points_mm.dtype == np.float64
+    p = sph.read_points(validate)
+    assert np.array_equal(sph.compensate(p, cal), m.points_mm)
+    columns = np.column_stack([p.theta_deg, p.phi_deg, p.r_mm])
+    assert np.array_equal(sph.compensate(columns, str(cal)), m.points_mm)
+    # A calibration result compensates as its calibration file does.
+    assert np.array_equal(sph.compensate(p, sph.calibrate(_undeclared(source_dir, "points.txt"))), m.points_mm)
+
+
+def test_measure_errors(source_dir):
+    with pytest.raises(TypeError, match="'calib'"):
+        sph.measure(_undeclared(source_dir, "validate.txt"), calib="x.json")
+    with pytest.raises(sph.Error, match="calibration"):
+        sph.measure(_undeclared(source_dir, "validate.txt"))
+    with pytest.raises(sph.Error, match=r"\(n, 3\)"):
+        sph.compensate(np.zeros((4, 2)), "x.json")
