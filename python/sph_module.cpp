@@ -20,6 +20,7 @@
 #include "sph/core/parameter_settings.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/model/effect_terms.hpp"
+#include "sph/model/units.hpp"
 
 namespace py = pybind11;
 
@@ -109,12 +110,36 @@ std::vector<std::string> Strings(const py::handle& value) {
   return py::cast<std::vector<std::string>>(value);
 }
 
+// The keywords of calibrate() besides the conditions (kConditionFields) and of measure().
+constexpr const char* kCalibrateKeywords[] = {
+    "no_trace",         "effects",      "validate",    "sphere_radius_mm", "probe_offset_mm",     "fix",
+    "prior",            "robust_loss",  "robust_scale_sigma", "max_std_um", "max_iterations",     "harmonics",
+    "phi_wobble_pivot_mm", "drift_order", "hold_confounded", "seed",       "coverage"};
+constexpr const char* kMeasureKeywords[] = {
+    "calibration", "xyz", "subtract_sphere_form", "setup", "uncertainty_samples", "seed", "max_dilution", "noise_um",
+    "noise_floor_draws", "coverage", "mc_max_trials", "mc_batch_trials", "mc_digits", "mc_max_points"};
+
+// Whether `key` is a keyword of `function`; a TypeError naming it when not, as Python's own.
+template <std::size_t N>
+void CheckKeyword(const std::string& key, const char* const (&keywords)[N], const char* function, bool conditions) {
+  for (const char* k : keywords) {
+    if (key == k) return;
+  }
+  if (conditions) {
+    for (const sph::ConditionField& f : sph::kConditionFields) {
+      if (key == f.key) return;
+    }
+  }
+  throw py::type_error(std::string(function) + "() got an unexpected keyword argument '" + key + "'");
+}
+
 // sph_calibrate's options as keyword arguments (its names with '_' for '-'), into the workflow's.
 sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
   sph::CalibrationWorkflowOptions o;
   for (auto item : kwargs) {
     const std::string key = py::str(item.first);
     const py::handle v = item.second;
+    CheckKeyword(key, kCalibrateKeywords, "calibrate", true);
     if (v.is_none()) continue;  // not given
     if (key == "no_trace") {
       o.trace = !py::cast<bool>(v);
@@ -163,14 +188,9 @@ sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
     } else if (key == "coverage") {
       o.coverage = py::cast<double>(v);
     } else {
-      bool condition = false;
       for (const sph::ConditionField& f : sph::kConditionFields) {
-        if (key == f.key) {
-          o.conditions.*f.field = py::cast<double>(v);
-          condition = true;
-        }
+        if (key == f.key) o.conditions.*f.field = py::cast<double>(v);
       }
-      if (!condition) throw py::type_error("calibrate() got an unexpected keyword argument '" + key + "'");
     }
   }
   o.Check();
@@ -186,11 +206,21 @@ struct Calibration {
   py::dict parameters;
   std::vector<std::string> parameter_names;
   py::array_t<double> covariance;
+  py::array_t<double> residuals_um;        // the reported calibration's, file order
+  py::array_t<double> residuals_seven_um;  // the seven-error fit's
 };
+
+py::array_t<double> Micrometres(const std::vector<double>& mm) {
+  py::array_t<double> a(static_cast<py::ssize_t>(mm.size()));
+  auto m = a.mutable_unchecked<1>();
+  for (std::size_t i = 0; i < mm.size(); ++i) m(static_cast<py::ssize_t>(i)) = mm[i] * sph::kUmPerMm;
+  return a;
+}
 
 Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
   const sph::CalibrationWorkflowOptions options = CalibrationOptionsOf(kwargs);
   std::string json, text, file;
+  std::vector<double> residuals_mm, residuals_seven_mm;
   if (py::isinstance<Points>(path_or_points)) {
     Points points = py::cast<Points>(path_or_points);  // a copy: the workflow takes its points
     py::gil_scoped_release release;
@@ -205,6 +235,8 @@ Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
       sph::WriteCalibration(cal, run.MakeCalibrationFile());
       file = cal.str();
     }
+    residuals_mm = run.Reported().residuals_mm;
+    residuals_seven_mm = run.seven.residuals_mm;
   } else {
     const std::string path = PathOf(path_or_points);
     py::gil_scoped_release release;
@@ -218,11 +250,15 @@ Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
       sph::WriteCalibration(cal, run.MakeCalibrationFile());
       file = cal.str();
     }
+    residuals_mm = run.Reported().residuals_mm;
+    residuals_seven_mm = run.seven.residuals_mm;
   }
   Calibration c;
   c.report = py::module_::import("json").attr("loads")(json);
   c.text = std::move(text);
   c.calibration_file = std::move(file);
+  c.residuals_um = Micrometres(residuals_mm);
+  c.residuals_seven_um = Micrometres(residuals_seven_mm);
   const py::dict params = c.report["parameters"];
   for (auto name : c.report["parameter_order"]) c.parameter_names.push_back(py::cast<std::string>(name));
   const auto n = static_cast<py::ssize_t>(c.parameter_names.size());
@@ -311,7 +347,8 @@ sph::MeasurementWorkflowOptions MeasurementOptionsOf(const py::kwargs& kwargs) {
   for (auto item : kwargs) {
     const std::string key = py::str(item.first);
     const py::handle v = item.second;
-    if (v.is_none()) continue;
+    CheckKeyword(key, kMeasureKeywords, "measure", false);
+    if (v.is_none()) continue;  // not given
     if (key == "calibration") o.calibration_path = PathOf(v);
     else if (key == "xyz") o.xyz = py::cast<bool>(v);
     else if (key == "subtract_sphere_form") o.subtract_sphere_form = py::cast<bool>(v);
@@ -326,7 +363,6 @@ sph::MeasurementWorkflowOptions MeasurementOptionsOf(const py::kwargs& kwargs) {
     else if (key == "mc_batch_trials") o.mc_batch_trials = py::cast<long>(v);
     else if (key == "mc_digits") o.mc_digits = py::cast<int>(v);
     else if (key == "mc_max_points") o.mc_max_points = py::cast<long>(v);
-    else throw py::type_error("measure() got an unexpected keyword argument '" + key + "'");
   }
   o.Check();
   return o;
@@ -424,6 +460,10 @@ PYBIND11_MODULE(sph, m) {
       .def_readonly("parameter_names", &Calibration::parameter_names, "The covariance's row and column order")
       .def_readonly("covariance", &Calibration::covariance,
                     "Covariance of the parameters in the report's units (squared), shape (n, n)")
+      .def_readonly("residuals_um", &Calibration::residuals_um,
+                    "Residual of each reading, |p - O| - R, of the calibration reported [um], file order (outliers too)")
+      .def_readonly("residuals_seven_um", &Calibration::residuals_seven_um,
+                    "The same of the seven-error fit [um] (before the effects the trace added)")
       .def_property_readonly("usable", [](const Calibration& c) { return py::cast<bool>(c.report["usable"]); },
                              "Whether the calibration is usable (the report's verdict)")
       .def("__repr__", [](const Calibration& c) {

@@ -157,3 +157,40 @@ def test_measure_errors(source_dir):
         sph.measure(_undeclared(source_dir, "validate.txt"))
     with pytest.raises(sph.Error, match=r"\(n, 3\)"):
         sph.compensate(np.zeros((4, 2)), "x.json")
+
+
+def test_residuals_are_the_reports(source_dir):
+    r = sph.calibrate(_undeclared(source_dir, "points.txt"))
+    assert r.residuals_um.shape == r.residuals_seven_um.shape == (576,)
+    assert math.isclose(np.sqrt(np.mean(r.residuals_um ** 2)), r.report["after"]["rms_um"], rel_tol=1e-12)
+    assert math.isclose(np.sqrt(np.mean(r.residuals_seven_um ** 2)), r.report["before"]["rms_um"], rel_tol=1e-12)
+
+
+def test_the_stubs_name_what_the_module_has():
+    import ast
+    stub = ast.parse(open(os.path.join(os.path.dirname(sph.__file__), "sph.pyi")).read())
+    stubbed = {n.name for n in stub.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    public = {name for name in dir(sph) if not name.startswith("_")}
+    assert stubbed == public
+    for cls in (n for n in stub.body if isinstance(n, ast.ClassDef)):
+        members = {n.name for n in cls.body if isinstance(n, ast.FunctionDef) and not n.name.startswith("_")}
+        assert members <= set(dir(getattr(sph, cls.name))), cls.name
+    for function in ("calibrate", "measure"):  # each keyword stubbed is one the module takes (None: not given)
+        stubbed = next(n for n in stub.body if isinstance(n, ast.FunctionDef) and n.name == function)
+        for keyword in (a.arg for a in stubbed.args.kwonlyargs if a.arg != "center_mm"):
+            with pytest.raises(sph.Error, match="/nonexistent"):
+                getattr(sph, function)("/nonexistent", **{keyword: None})
+    with pytest.raises(TypeError, match="'bogus'"):
+        sph.calibrate("/nonexistent", bogus=None)
+
+
+def test_the_python_example_runs(source_dir, tmp_path):
+    import sys
+    png = tmp_path / "map.png"
+    script = os.path.join(source_dir, "examples", "python", "calibrate_undeclared.py")
+    out = subprocess.run([sys.executable, script, os.path.join(source_dir, "data", "example", "undeclared"), str(png)],
+                         check=True, capture_output=True, text=True).stdout
+    assert "residual rms 0.1560 -> 0.0491 um" in out
+    assert "effects added: probe_drift, theta_encoder" in out
+    assert "validation rms 0.0507 -> 0.0472 um" in out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
