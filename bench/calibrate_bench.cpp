@@ -4,9 +4,12 @@
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
+#include <sstream>
 #include <string>
 
+#include "sph/calib/calibrate_workflow.hpp"
 #include "sph/calib/calibrator.hpp"
+#include "sph/core/calibration_file.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/simulate.hpp"
 #include "study_designs.hpp"
@@ -76,11 +79,26 @@ void BM_CalibrateFile(benchmark::State& state, const std::string& path) {
   RunCalibrations(state, data, o);
 }
 
+// The workflow of sph_calibrate on the points file named by SPH_BENCH_POINTS, with its three
+// outputs rendered: what the Python module's sph.calibrate(path) does in C++ (bench/python_overhead.py
+// compares the two). Registered only when it is set.
+void BM_CalibrateWorkflowFile(benchmark::State& state, const std::string& path) {
+  for (auto _ : state) {
+    const sph::CalibrationWorkflowResult run = sph::RunCalibrationWorkflow(path, {});
+    std::ostringstream text, file;
+    run.WriteTextReport(text);
+    if (run.usability.usable) sph::WriteCalibration(file, run.MakeCalibrationFile());
+    benchmark::DoNotOptimize(run.JsonReport());
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (const char* path = std::getenv("SPH_BENCH_POINTS")) {
     benchmark::RegisterBenchmark("BM_CalibrateFile", BM_CalibrateFile, std::string(path))
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark("BM_CalibrateWorkflowFile", BM_CalibrateWorkflowFile, std::string(path))
         ->Unit(benchmark::kMillisecond);
   }
   benchmark::Initialize(&argc, argv);

@@ -12,7 +12,8 @@ set -eu
 # required Ceres dependency: glog"). chromium, poppler-utils and libxml2-utils: the test that renders
 # the HTML reports (tests/apps/render_reports.sh).
 packages="cmake ninja-build g++ ccache libeigen3-dev libceres-dev libunwind-dev libcli11-dev nlohmann-json3-dev \
-libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox python3 chromium poppler-utils libxml2-utils"
+libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox python3 chromium poppler-utils libxml2-utils \
+pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib"
 case "${1:-}" in
   --sanitizers) packages="$packages clang-14 libclang-rt-14-dev" ;;
   "") ;;

@@ -1,0 +1,511 @@
+// The Python module `sph`: the library's points files and calibration workflow for scripts, with
+// NumPy arrays in and out. Thin, as the apps are: it converts, calls the library (the GIL released)
+// and returns what the library renders; sph::Error becomes sph.Error (a ValueError) with the
+// library's message.
+#include <cstdint>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "sph/calib/calibrate_workflow.hpp"
+#include "sph/core/calibration_file.hpp"
+#include "sph/core/error.hpp"
+#include "sph/core/measure_workflow.hpp"
+#include "sph/model/compensation.hpp"
+#include "sph/core/parameter_settings.hpp"
+#include "sph/core/points_file.hpp"
+#include "sph/model/effect_terms.hpp"
+#include "sph/model/units.hpp"
+
+namespace py = pybind11;
+
+namespace {
+
+// The header of `data` as the file states it: key -> value text, in file order (the columns
+// line too). One writing of the header: the library's writer, read back field by field.
+py::dict HeaderDict(const sph::PointsData& data) {
+  sph::PointsData header_only;
+  header_only.header = data.header;
+  header_only.has_time = data.has_time;
+  header_only.has_setup = data.has_setup;
+  std::ostringstream text;
+  sph::WritePoints(text, header_only);
+  py::dict header;
+  std::istringstream lines(text.str());
+  std::string line;
+  while (std::getline(lines, line)) {
+    if (line.empty() || line[0] != '#') continue;
+    if (const auto field = sph::HeaderFieldOf(std::string_view(line).substr(1))) {
+      header[py::str(field->key)] = field->value;
+    }
+  }
+  return header;
+}
+
+template <typename T>
+py::array_t<T> Column(const sph::PointsData& data, T (*get)(const sph::Sample&)) {
+  py::array_t<T> a(static_cast<py::ssize_t>(data.samples.size()));
+  auto m = a.template mutable_unchecked<1>();
+  for (std::size_t i = 0; i < data.samples.size(); ++i) m(static_cast<py::ssize_t>(i)) = get(data.samples[i]);
+  return a;
+}
+
+// Readings of a points file: the library's PointsData, its columns as NumPy arrays.
+struct Points {
+  sph::PointsData data;
+};
+
+// Points from arrays and a header dict: written as the file they state and read back by the
+// library's reader, so that they are checked as a file is ("<source>:<line>: problem").
+Points MakePoints(py::array_t<double, py::array::c_style | py::array::forcecast> theta_deg,
+                  py::array_t<double, py::array::c_style | py::array::forcecast> phi_deg,
+                  py::array_t<double, py::array::c_style | py::array::forcecast> r_mm, py::object t_s,
+                  py::object setup, py::object header, const std::string& source) {
+  const auto n = theta_deg.size();
+  if (theta_deg.ndim() != 1 || phi_deg.ndim() != 1 || r_mm.ndim() != 1 || phi_deg.size() != n || r_mm.size() != n) {
+    throw sph::Error(source + ": theta_deg, phi_deg and r_mm must be 1-D arrays of one length");
+  }
+  py::array_t<double, py::array::c_style | py::array::forcecast> t;
+  py::array_t<std::int64_t, py::array::c_style | py::array::forcecast> s;
+  const bool has_t = !t_s.is_none(), has_s = !setup.is_none();
+  if (has_t) t = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(t_s);
+  if (has_s) s = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(setup);
+  if ((has_t && (!t || t.ndim() != 1 || t.size() != n)) || (has_s && (!s || s.ndim() != 1 || s.size() != n))) {
+    throw sph::Error(source + ": t_s and setup must be 1-D arrays of the readings' length");
+  }
+  std::ostringstream text;
+  text.precision(17);
+  text << "# sph-points 1\n";
+  if (!header.is_none()) {
+    for (auto item : py::cast<py::dict>(header)) {
+      const std::string key = py::str(item.first);
+      if (key == sph::kColumnsKey) continue;  // the arrays given say which columns there are
+      text << "# " << key << ": " << std::string(py::str(item.second)) << "\n";
+    }
+  }
+  text << "# columns: theta_deg phi_deg r_mm" << (has_t ? " t_s" : "") << (has_s ? " setup" : "") << "\n";
+  const double *th = theta_deg.data(), *ph = phi_deg.data(), *r = r_mm.data();
+  for (py::ssize_t i = 0; i < n; ++i) {
+    text << th[i] << ' ' << ph[i] << ' ' << r[i];
+    if (has_t) text << ' ' << t.data()[i];
+    if (has_s) text << ' ' << s.data()[i];
+    text << '\n';
+  }
+  std::istringstream in(text.str());
+  return Points{sph::ParsePoints(in, source)};
+}
+
+// A path given as str or os.PathLike (pathlib.Path).
+std::string PathOf(const py::handle& path) {
+  return py::cast<std::string>(py::module_::import("os").attr("fspath")(path));
+}
+
+std::vector<std::string> Strings(const py::handle& value) {
+  if (py::isinstance<py::str>(value)) return {py::cast<std::string>(value)};
+  return py::cast<std::vector<std::string>>(value);
+}
+
+// The keywords of calibrate() besides the conditions (kConditionFields) and of measure().
+constexpr const char* kCalibrateKeywords[] = {
+    "no_trace",         "effects",      "validate",    "sphere_radius_mm", "probe_offset_mm",     "fix",
+    "prior",            "robust_loss",  "robust_scale_sigma", "max_std_um", "max_iterations",     "harmonics",
+    "phi_wobble_pivot_mm", "drift_order", "hold_confounded", "seed",       "coverage"};
+constexpr const char* kMeasureKeywords[] = {
+    "calibration", "xyz", "subtract_sphere_form", "setup", "uncertainty_samples", "seed", "max_dilution", "noise_um",
+    "noise_floor_draws", "coverage", "mc_max_trials", "mc_batch_trials", "mc_digits", "mc_max_points"};
+
+// Whether `key` is a keyword of `function`; a TypeError naming it when not, as Python's own.
+template <std::size_t N>
+void CheckKeyword(const std::string& key, const char* const (&keywords)[N], const char* function, bool conditions) {
+  for (const char* k : keywords) {
+    if (key == k) return;
+  }
+  if (conditions) {
+    for (const sph::ConditionField& f : sph::kConditionFields) {
+      if (key == f.key) return;
+    }
+  }
+  throw py::type_error(std::string(function) + "() got an unexpected keyword argument '" + key + "'");
+}
+
+// sph_calibrate's options as keyword arguments (its names with '_' for '-'), into the workflow's.
+sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
+  sph::CalibrationWorkflowOptions o;
+  for (auto item : kwargs) {
+    const std::string key = py::str(item.first);
+    const py::handle v = item.second;
+    CheckKeyword(key, kCalibrateKeywords, "calibrate", true);
+    if (v.is_none()) continue;  // not given
+    if (key == "no_trace") {
+      o.trace = !py::cast<bool>(v);
+    } else if (key == "effects") {
+      std::vector<std::string> ids;
+      for (const std::string& text : Strings(v)) {
+        std::istringstream list(text);
+        for (std::string id; std::getline(list, id, ',');) ids.push_back(id);
+      }
+      for (const std::string& id : ids) {
+        if (!sph::EffectFromId(id, &o.effects.emplace_back())) throw sph::Error("effects: unknown effect '" + id + "'");
+      }
+    } else if (key == "validate") {
+      o.validate_path = PathOf(v);
+    } else if (key == "sphere_radius_mm") {
+      o.sphere_radius_mm = py::cast<double>(v);
+    } else if (key == "probe_offset_mm") {
+      o.probe_offset_mm = py::cast<double>(v);
+    } else if (key == "fix") {
+      for (const std::string& t : Strings(v)) o.fit.fixed.push_back(sph::ParseFixedParameter(t, "fix " + t));
+    } else if (key == "prior") {
+      for (const std::string& t : Strings(v)) o.fit.priors.push_back(sph::ParseParameterPrior(t, "prior " + t));
+    } else if (key == "robust_loss") {
+      const std::string loss = py::cast<std::string>(v);
+      if (loss != "huber" && loss != "cauchy") {
+        throw sph::Error("robust_loss: expected 'huber' or 'cauchy', got '" + loss + "'");
+      }
+      o.fit.robust_loss = loss == "cauchy" ? sph::RobustLoss::kCauchy : sph::RobustLoss::kHuber;
+    } else if (key == "robust_scale_sigma") {
+      o.fit.robust_scale_sigma = py::cast<double>(v);
+    } else if (key == "max_std_um") {
+      o.fit.max_std_um = py::cast<double>(v);
+    } else if (key == "max_iterations") {
+      o.fit.max_iterations = py::cast<int>(v);
+    } else if (key == "harmonics") {
+      const int h = py::cast<int>(v);
+      o.trace_options.harmonics = {h, h};
+    } else if (key == "phi_wobble_pivot_mm") {
+      o.trace_options.phi_wobble_pivot_mm = py::cast<double>(v);
+    } else if (key == "drift_order") {
+      o.trace_options.drift_order = py::cast<int>(v);
+    } else if (key == "hold_confounded") {
+      o.trace_options.hold_confounded = py::cast<bool>(v);
+    } else if (key == "seed") {
+      o.trace_options.seed = py::cast<std::uint64_t>(v);
+    } else if (key == "coverage") {
+      o.coverage = py::cast<double>(v);
+    } else {
+      for (const sph::ConditionField& f : sph::kConditionFields) {
+        if (key == f.key) o.conditions.*f.field = py::cast<double>(v);
+      }
+    }
+  }
+  o.Check();
+  return o;
+}
+
+// A calibration's result: what the library renders (the JSON report, the text report, the
+// calibration file), the JSON parsed by Python's json module, and views of it.
+struct Calibration {
+  py::dict report;
+  std::string text;
+  std::string calibration_file;  // empty when the calibration is not usable
+  py::dict parameters;
+  std::vector<std::string> parameter_names;
+  py::array_t<double> covariance;
+  py::array_t<double> residuals_um;        // the reported calibration's, file order
+  py::array_t<double> residuals_seven_um;  // the seven-error fit's
+};
+
+py::array_t<double> Micrometres(const std::vector<double>& mm) {
+  py::array_t<double> a(static_cast<py::ssize_t>(mm.size()));
+  auto m = a.mutable_unchecked<1>();
+  for (std::size_t i = 0; i < mm.size(); ++i) m(static_cast<py::ssize_t>(i)) = mm[i] * sph::kUmPerMm;
+  return a;
+}
+
+Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
+  const sph::CalibrationWorkflowOptions options = CalibrationOptionsOf(kwargs);
+  std::string json, text, file;
+  std::vector<double> residuals_mm, residuals_seven_mm;
+  if (py::isinstance<Points>(path_or_points)) {
+    Points points = py::cast<Points>(path_or_points);  // a copy: the workflow takes its points
+    py::gil_scoped_release release;
+    const std::string source = points.data.source;
+    const sph::CalibrationWorkflowResult run = sph::RunCalibrationWorkflow(std::move(points.data), source, options);
+    json = run.JsonReport();
+    std::ostringstream out;
+    run.WriteTextReport(out);
+    text = out.str();
+    if (run.usability.usable) {
+      std::ostringstream cal;
+      sph::WriteCalibration(cal, run.MakeCalibrationFile());
+      file = cal.str();
+    }
+    residuals_mm = run.Reported().residuals_mm;
+    residuals_seven_mm = run.seven.residuals_mm;
+  } else {
+    const std::string path = PathOf(path_or_points);
+    py::gil_scoped_release release;
+    const sph::CalibrationWorkflowResult run = sph::RunCalibrationWorkflow(path, options);
+    json = run.JsonReport();
+    std::ostringstream out;
+    run.WriteTextReport(out);
+    text = out.str();
+    if (run.usability.usable) {
+      std::ostringstream cal;
+      sph::WriteCalibration(cal, run.MakeCalibrationFile());
+      file = cal.str();
+    }
+    residuals_mm = run.Reported().residuals_mm;
+    residuals_seven_mm = run.seven.residuals_mm;
+  }
+  Calibration c;
+  c.report = py::module_::import("json").attr("loads")(json);
+  c.text = std::move(text);
+  c.calibration_file = std::move(file);
+  c.residuals_um = Micrometres(residuals_mm);
+  c.residuals_seven_um = Micrometres(residuals_seven_mm);
+  const py::dict params = c.report["parameters"];
+  for (auto name : c.report["parameter_order"]) c.parameter_names.push_back(py::cast<std::string>(name));
+  const auto n = static_cast<py::ssize_t>(c.parameter_names.size());
+  std::vector<double> std_of(c.parameter_names.size());
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const py::dict p = params[py::str(c.parameter_names[i])];
+    std_of[i] = py::cast<double>(p["std"]);
+    py::dict entry;
+    entry["value"] = p["value"];
+    entry["std"] = p["std"];
+    entry["U"] = p["U"];
+    entry["unit"] = p["unit"];
+    c.parameters[py::str(c.parameter_names[i])] = entry;
+  }
+  // The covariance in the report's units: its correlations scaled by the standard uncertainties
+  // (a held parameter, std 0, has none with the others).
+  c.covariance = py::array_t<double>({n, n});
+  auto cov = c.covariance.mutable_unchecked<2>();
+  const py::list rows = c.report["correlation"];
+  for (py::ssize_t i = 0; i < n; ++i) {
+    const py::list row = rows[i];
+    for (py::ssize_t j = 0; j < n; ++j) {
+      const double rho = row[j].is_none() ? 0.0 : py::cast<double>(row[j]);
+      cov(i, j) = (std_of[i] == 0.0 || std_of[j] == 0.0) ? 0.0 : rho * (std_of[i] * std_of[j]);
+    }
+  }
+  return c;
+}
+
+// The calibration a compensation uses: a calibration file's path, or a CalibrationResult's file.
+sph::Calibration CalibrationOf(const py::handle& calibration) {
+  if (py::isinstance<Calibration>(calibration)) {
+    const Calibration& c = py::cast<const Calibration&>(calibration);
+    if (c.calibration_file.empty()) throw sph::Error("calibration: the calibration is not usable (no calibration file)");
+    std::istringstream in(c.calibration_file);
+    return sph::ToCalibration(sph::ParseCalibration(in, "<calibration of " + std::string(py::str(c.report["points_file"])) + ">"));
+  }
+  const std::string path = PathOf(calibration);
+  py::gil_scoped_release release;
+  return sph::LoadCalibration(path);
+}
+
+// The compensated points [mm] of readings: sph.Points or an (n, 3) array of theta_deg phi_deg r_mm.
+py::array_t<double> Compensate(const py::object& readings, const py::object& calibration, const py::object& center_mm) {
+  std::vector<sph::RawReading> raw;
+  if (py::isinstance<Points>(readings)) {
+    for (const sph::Sample& s : py::cast<const Points&>(readings).data.samples) raw.push_back(s);
+  } else {
+    const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(readings);
+    if (!a || a.ndim() != 2 || a.shape(1) != 3) {
+      throw sph::Error("compensate: readings must be sph.Points or an (n, 3) array of theta_deg phi_deg r_mm");
+    }
+    const auto r = a.unchecked<2>();
+    for (py::ssize_t i = 0; i < a.shape(0); ++i) raw.push_back({r(i, 0), r(i, 1), r(i, 2)});
+  }
+  const sph::Calibration cal = CalibrationOf(calibration);
+  std::vector<Eigen::Vector3d> points;
+  {
+    std::optional<Eigen::Vector3d> center;
+    if (!center_mm.is_none()) {
+      const auto c = py::cast<std::vector<double>>(center_mm);
+      if (c.size() != 3) throw sph::Error("compensate: center_mm must be 3 numbers (x y z)");
+      center = Eigen::Vector3d(c[0], c[1], c[2]);
+    }
+    py::gil_scoped_release release;
+    points = center ? sph::CompensateAll(cal, raw, *center) : sph::CompensateAll(cal, raw);
+  }
+  py::array_t<double> out({static_cast<py::ssize_t>(points.size()), py::ssize_t{3}});
+  auto m = out.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (int k = 0; k < 3; ++k) m(static_cast<py::ssize_t>(i), k) = points[i][k];
+  }
+  return out;
+}
+
+// A measurement's result: the reports the library renders and the compensated points.
+struct Measurement {
+  py::dict report;
+  std::string text;
+  py::array_t<double> points_mm;
+};
+
+// sph_measure's options as keyword arguments (its names with '_' for '-', calibration for -c).
+sph::MeasurementWorkflowOptions MeasurementOptionsOf(const py::kwargs& kwargs) {
+  sph::MeasurementWorkflowOptions o;
+  for (auto item : kwargs) {
+    const std::string key = py::str(item.first);
+    const py::handle v = item.second;
+    CheckKeyword(key, kMeasureKeywords, "measure", false);
+    if (v.is_none()) continue;  // not given
+    if (key == "calibration") o.calibration_path = PathOf(v);
+    else if (key == "xyz") o.xyz = py::cast<bool>(v);
+    else if (key == "subtract_sphere_form") o.subtract_sphere_form = py::cast<bool>(v);
+    else if (key == "setup") o.setup = py::cast<int>(v);
+    else if (key == "uncertainty_samples") o.uncertainty_samples = py::cast<int>(v);
+    else if (key == "seed") o.seed = py::cast<std::uint64_t>(v);
+    else if (key == "max_dilution") o.max_dilution = py::cast<double>(v);
+    else if (key == "noise_um") o.noise_um = py::cast<double>(v);
+    else if (key == "noise_floor_draws") o.noise_floor_draws = py::cast<int>(v);
+    else if (key == "coverage") o.coverage = py::cast<double>(v);
+    else if (key == "mc_max_trials") o.mc_max_trials = py::cast<long>(v);
+    else if (key == "mc_batch_trials") o.mc_batch_trials = py::cast<long>(v);
+    else if (key == "mc_digits") o.mc_digits = py::cast<int>(v);
+    else if (key == "mc_max_points") o.mc_max_points = py::cast<long>(v);
+  }
+  o.Check();
+  return o;
+}
+
+Measurement Measure(const py::object& path_like, const py::kwargs& kwargs) {
+  const sph::MeasurementWorkflowOptions options = MeasurementOptionsOf(kwargs);
+  const std::string path = PathOf(path_like);
+  std::string json, text;
+  std::vector<Eigen::Vector3d> points;
+  {
+    py::gil_scoped_release release;
+    const sph::MeasurementWorkflowResult run = sph::RunMeasurementWorkflow(path, options);
+    json = run.JsonReport();
+    std::ostringstream out;
+    run.WriteTextReport(out);
+    text = out.str();
+    points = run.input.points_mm;
+  }
+  Measurement r;
+  r.report = py::module_::import("json").attr("loads")(json);
+  r.text = std::move(text);
+  r.points_mm = py::array_t<double>({static_cast<py::ssize_t>(points.size()), py::ssize_t{3}});
+  auto m = r.points_mm.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (int k = 0; k < 3; ++k) m(static_cast<py::ssize_t>(i), k) = points[i][k];
+  }
+  return r;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(sph, m) {
+  m.doc() = "Calibration of spherical coordinate measuring systems: points files and the calibration workflow.";
+  m.attr("__version__") = SPH_VERSION;
+  static py::exception<sph::Error> error(m, "Error", PyExc_ValueError);
+  error.doc() = "Bad input: the library's message names the file, line and problem.";
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const sph::Error& e) {
+      PyErr_SetString(error.ptr(), e.what());
+    }
+  });
+
+  py::class_<Points>(m, "Points",
+                     "Readings of a points file (sph-points 1): the columns as NumPy arrays and the header.")
+      .def(py::init(&MakePoints), py::arg("theta_deg"), py::arg("phi_deg"), py::arg("r_mm"),
+           py::arg("t_s") = py::none(), py::arg("setup") = py::none(), py::arg("header") = py::none(),
+           py::arg("source") = "<points>",
+           "Points from arrays and a header dict (key -> value as a file states it), checked as a file is; "
+           "`source` names them in messages.")
+      .def_property_readonly("theta_deg", [](const Points& p) {
+        return Column<double>(p.data, [](const sph::Sample& s) { return s.theta_deg; });
+      }, "Theta axis readings [deg], float64, shape (n,)")
+      .def_property_readonly("phi_deg", [](const Points& p) {
+        return Column<double>(p.data, [](const sph::Sample& s) { return s.phi_deg; });
+      }, "Phi axis readings [deg], float64, shape (n,)")
+      .def_property_readonly("r_mm", [](const Points& p) {
+        return Column<double>(p.data, [](const sph::Sample& s) { return s.r_mm; });
+      }, "Probe readings [mm], float64, shape (n,)")
+      .def_property_readonly("t_s", [](const Points& p) {
+        return Column<double>(p.data, [](const sph::Sample& s) { return s.t_s; });
+      }, "Acquisition times [s] (the row index without a t_s column), float64, shape (n,)")
+      .def_property_readonly("setup", [](const Points& p) {
+        return Column<std::int32_t>(p.data, [](const sph::Sample& s) { return static_cast<std::int32_t>(s.setup); });
+      }, "Setup id of each reading (0 without a setup column), int32, shape (n,)")
+      .def_property_readonly("header", [](const Points& p) { return HeaderDict(p.data); },
+                             "The header fields, key -> value text, as the file states them")
+      .def_property_readonly("source", [](const Points& p) { return p.data.source; }, "Where they came from")
+      .def("__len__", [](const Points& p) { return p.data.samples.size(); })
+      .def("__repr__", [](const Points& p) {
+        return "<sph.Points '" + p.data.source + "': " + std::to_string(p.data.samples.size()) + " readings, " +
+               std::to_string(p.data.SetupIds().size()) + " setup(s)>";
+      });
+
+  m.def("read_points", [](const py::object& path_like) {
+    const std::string path = PathOf(path_like);
+    py::gil_scoped_release release;
+    return Points{sph::ReadPointsFile(path)};
+  }, py::arg("path"), "Reads a points file (sph-points 1). Raises sph.Error 'path:line: problem' on a defect.");
+  m.def("write_points", [](const py::object& path_like, const Points& points) {
+    const std::string path = PathOf(path_like);
+    py::gil_scoped_release release;
+    sph::WritePointsFile(path, points.data);
+  }, py::arg("path"), py::arg("points"), "Writes points as a points file (sph-points 1), atomically.");
+
+  py::class_<Calibration>(m, "CalibrationResult", "A calibration run's result (sph.calibrate).")
+      .def_readonly("report", &Calibration::report, "The report as sph_calibrate --json writes it, as a dict")
+      .def_readonly("text", &Calibration::text, "The text report as sph_calibrate prints it")
+      .def_readonly("calibration_file", &Calibration::calibration_file,
+                    "The calibration file's content (sph_calibrate -o), JSON text; '' when not usable")
+      .def_readonly("parameters", &Calibration::parameters,
+                    "name -> {'value', 'std', 'U', 'unit'} in the report's units")
+      .def_readonly("parameter_names", &Calibration::parameter_names, "The covariance's row and column order")
+      .def_readonly("covariance", &Calibration::covariance,
+                    "Covariance of the parameters in the report's units (squared), shape (n, n)")
+      .def_readonly("residuals_um", &Calibration::residuals_um,
+                    "Residual of each reading, |p - O| - R, of the calibration reported [um], file order (outliers too)")
+      .def_readonly("residuals_seven_um", &Calibration::residuals_seven_um,
+                    "The same of the seven-error fit [um] (before the effects the trace added)")
+      .def_property_readonly("usable", [](const Calibration& c) { return py::cast<bool>(c.report["usable"]); },
+                             "Whether the calibration is usable (the report's verdict)")
+      .def("__repr__", [](const Calibration& c) {
+        std::ostringstream s;
+        s << "<sph.CalibrationResult '" << std::string(py::str(c.report["points_file"])) << "': "
+          << (py::cast<bool>(c.report["usable"]) ? "usable" : "not usable") << ", rms ";
+        if (c.report.contains("after")) {
+          s << std::string(py::str(c.report["before"]["rms_um"])) << " -> "
+            << std::string(py::str(c.report["after"]["rms_um"]));
+        } else {
+          s << std::string(py::str(c.report["fit"]["rms_um"]));
+        }
+        s << " um, " << c.parameter_names.size() << " parameters>";
+        return s.str();
+      });
+
+  m.def("calibrate", &Calibrate, py::arg("path_or_points"),
+        "Runs the calibration workflow (what sph_calibrate does) on a points file's path or on sph.Points.\n"
+        "Options are sph_calibrate's, '_' for '-': no_trace, effects, validate, sphere_radius_mm,\n"
+        "probe_offset_mm, fix, prior, robust_loss, robust_scale_sigma, max_std_um, max_iterations,\n"
+        "harmonics, phi_wobble_pivot_mm, drift_order, hold_confounded, seed, coverage and the\n"
+        "conditions (sphere_radius_u_um, sphere_temperature_c, ...). Raises TypeError on an unknown\n"
+        "option, sph.Error on bad input.");
+
+  m.def("compensate", &Compensate, py::arg("readings"), py::arg("calibration"), py::kw_only(),
+        py::arg("center_mm") = py::none(),
+        "The compensated points [mm], float64 shape (n, 3) x y z, of readings (sph.Points or an (n, 3)\n"
+        "array of theta_deg phi_deg r_mm) with a calibration (a calibration file's path or a\n"
+        "CalibrationResult). A probe_incidence term needs the measured sphere's centre, center_mm;\n"
+        "without it the term is left out (sph.measure finds the centre itself).");
+
+  py::class_<Measurement>(m, "MeasurementResult", "A sphere measurement's result (sph.measure).")
+      .def_readonly("report", &Measurement::report, "The report as sph_measure --json writes it, as a dict")
+      .def_readonly("text", &Measurement::text, "The text report as sph_measure prints it")
+      .def_readonly("points_mm", &Measurement::points_mm, "The compensated points [mm], shape (n, 3) x y z")
+      .def("__repr__", [](const Measurement& r) {
+        return "<sph.MeasurementResult: " + std::to_string(r.points_mm.shape(0)) + " points>";
+      });
+  m.def("measure", &Measure, py::arg("path"),
+        "Measures a sphere (what sph_measure does): readings compensated with calibration=<file>, the\n"
+        "least-squares and minimum-zone spheres, their uncertainties. Options are sph_measure's, '_'\n"
+        "for '-': calibration, xyz, subtract_sphere_form, setup, uncertainty_samples, seed,\n"
+        "max_dilution, noise_um, noise_floor_draws, coverage, mc_max_trials, mc_batch_trials,\n"
+        "mc_digits, mc_max_points. Raises TypeError on an unknown option, sph.Error on bad input.");
+}

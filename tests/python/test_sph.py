@@ -1,0 +1,196 @@
+"""The Python module sph against the library's apps and files."""
+import json
+import math
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import sph
+
+
+def test_version_is_the_projects():
+    assert sph.__version__ == os.environ["SPH_VERSION"]
+
+
+def test_read_points_gives_arrays_of_the_readings(example_points):
+    p = sph.read_points(example_points)
+    assert len(p) == 288
+    for name in ("theta_deg", "phi_deg", "r_mm", "t_s"):
+        a = getattr(p, name)
+        assert a.dtype == np.float64 and a.shape == (288,), name
+    assert p.setup.dtype == np.int32 and p.setup.shape == (288,)
+    assert p.header["sphere_radius_mm"] == "20"
+    assert p.header["columns"] == "theta_deg phi_deg r_mm t_s"
+    first = open(example_points).read().splitlines()
+    row = next(line for line in first if not line.startswith("#")).split()
+    assert p.theta_deg[0] == float(row[0]) and p.r_mm[0] == float(row[2])
+    assert "288 readings" in repr(p)
+
+
+def test_write_points_reads_back_the_same(example_points, tmp_path):
+    p = sph.read_points(example_points)
+    out = tmp_path / "copy.txt"
+    sph.write_points(out, p)  # os.PathLike as str
+    q = sph.read_points(out)
+    for name in ("theta_deg", "phi_deg", "r_mm", "t_s", "setup"):
+        assert np.array_equal(getattr(p, name), getattr(q, name)), name
+    assert q.header == p.header
+
+
+def test_points_from_arrays_are_checked_as_a_file_is():
+    p = sph.Points([0.0, 90.0], [10.0, 20.0], [5.0, 5.1], header={"sphere_radius_mm": 20}, source="mine")
+    assert p.header["sphere_radius_mm"] == "20" and p.t_s.shape == (2,)
+    with pytest.raises(sph.Error, match=r"^mine:2: sphere_radius_mm"):
+        sph.Points([0.0], [10.0], [5.0], header={"sphere_radius_mm": -1}, source="mine")
+    with pytest.raises(sph.Error, match="one length"):
+        sph.Points([0.0, 1.0], [10.0], [5.0])
+
+
+def test_calibrate_report_equals_sph_calibrate_json(example_points, tmp_path):
+    out = tmp_path / "app.json"
+    subprocess.run([os.environ["SPH_CALIBRATE"], example_points, "--json", str(out), "-q"], check=True)
+    app = json.loads(out.read_text())
+    result = sph.calibrate(example_points)
+    assert result.report == app  # every key and number, exactly
+    assert result.report["program"] == "sph_calibrate " + sph.__version__
+    text = subprocess.run([os.environ["SPH_CALIBRATE"], example_points], check=True, capture_output=True, text=True)
+    assert result.text == text.stdout
+
+
+def test_calibrate_options_equal_the_apps(source_dir, tmp_path):
+    points = os.path.join(source_dir, "data", "example", "undeclared", "points.txt")
+    validate = os.path.join(source_dir, "data", "example", "undeclared", "validate.txt")
+    out, cal = tmp_path / "app.json", tmp_path / "cal.json"
+    subprocess.run([os.environ["SPH_CALIBRATE"], points, "--validate", validate, "--seed", "3", "--json", str(out),
+                    "-o", str(cal), "-q"], check=True)
+    result = sph.calibrate(points, validate=validate, seed=3)
+    assert result.report == json.loads(out.read_text())
+    assert result.calibration_file == cal.read_text()
+
+
+def test_calibrate_result_views(example_points):
+    r = sph.calibrate(example_points, no_trace=True)
+    names = r.report["parameter_order"]
+    assert r.parameter_names == names and len(names) == 10
+    assert r.covariance.shape == (10, 10) and r.covariance.dtype == np.float64
+    for i, name in enumerate(names):
+        p = r.report["parameters"][name]
+        assert r.parameters[name] == {"value": p["value"], "std": p["std"], "U": p["U"], "unit": p["unit"]}
+        assert math.isclose(r.covariance[i, i], p["std"] ** 2, rel_tol=1e-12)
+    # The report's correlations are symmetric to their last bit (2.2e-16 apart at most).
+    assert np.allclose(r.covariance, r.covariance.T, rtol=1e-15, atol=0)
+    assert r.usable and json.loads(r.calibration_file)
+    assert r.text.endswith("result: usable calibration\n")
+    assert "usable" in repr(r) and "10 parameters" in repr(r)
+
+
+def test_calibrate_takes_points_in_memory(example_points):
+    p = sph.read_points(example_points)
+    assert sph.calibrate(p, no_trace=True).report == sph.calibrate(example_points, no_trace=True).report
+
+
+def test_unknown_keyword_is_a_type_error_naming_it(example_points):
+    with pytest.raises(TypeError, match="'sphere_radius'"):
+        sph.calibrate(example_points, sphere_radius=20.0)
+
+
+def test_errors_carry_the_librarys_message(tmp_path, example_points):
+    bad = tmp_path / "bad.txt"
+    bad.write_text("# sph-points 1\n0 10 5\n0 20 x\n")
+    with pytest.raises(sph.Error, match=r"bad\.txt:3: ") as e:
+        sph.read_points(str(bad))
+    assert isinstance(e.value, ValueError)
+    with pytest.raises(sph.Error, match=r"max_std_um"):
+        sph.calibrate(example_points, max_std_um=0.0)
+    with pytest.raises(sph.Error, match=r"unknown effect 'no_such'"):
+        sph.calibrate(example_points, effects="no_such")
+
+
+def _rss_bytes():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def test_memory_is_stable_over_repeated_calibrations(example_points):
+    p = sph.read_points(example_points)
+    for _ in range(10):  # the allocator's and Ceres' first-use growth
+        sph.calibrate(p)
+    before = _rss_bytes()
+    for _ in range(200):
+        r = sph.calibrate(p)
+    grown = _rss_bytes() - before
+    # A result left behind each call (its report alone is 28 kB of JSON text, more as a dict; the points
+    # copied in are 11 kB) would grow RSS by more than 6 MB over 200 calls.
+    assert grown < 2e6, f"RSS grew by {grown / 1e6:.2f} MB over 200 calibrations"
+    assert r.usable
+
+
+def _undeclared(source_dir, name):
+    return os.path.join(source_dir, "data", "example", "undeclared", name)
+
+
+def test_measure_and_compensate_equal_sph_measure(source_dir, tmp_path):
+    cal, report = tmp_path / "cal.json", tmp_path / "measure.json"
+    subprocess.run([os.environ["SPH_CALIBRATE"], _undeclared(source_dir, "points.txt"), "-o", str(cal), "-q"],
+                   check=True, capture_output=True)
+    validate = _undeclared(source_dir, "validate.txt")
+    text = subprocess.run([os.environ["SPH_MEASURE"], validate, "-c", str(cal), "--json", str(report)],
+                          check=True, capture_output=True, text=True).stdout
+    m = sph.measure(validate, calibration=cal)
+    assert m.report == json.loads(report.read_text())
+    assert m.text == text
+    assert m.points_mm.shape == (288, 3) and m.points_mm.dtype == np.float64
+    p = sph.read_points(validate)
+    assert np.array_equal(sph.compensate(p, cal), m.points_mm)
+    columns = np.column_stack([p.theta_deg, p.phi_deg, p.r_mm])
+    assert np.array_equal(sph.compensate(columns, str(cal)), m.points_mm)
+    # A calibration result compensates as its calibration file does.
+    assert np.array_equal(sph.compensate(p, sph.calibrate(_undeclared(source_dir, "points.txt"))), m.points_mm)
+
+
+def test_measure_errors(source_dir):
+    with pytest.raises(TypeError, match="'calib'"):
+        sph.measure(_undeclared(source_dir, "validate.txt"), calib="x.json")
+    with pytest.raises(sph.Error, match="calibration"):
+        sph.measure(_undeclared(source_dir, "validate.txt"))
+    with pytest.raises(sph.Error, match=r"\(n, 3\)"):
+        sph.compensate(np.zeros((4, 2)), "x.json")
+
+
+def test_residuals_are_the_reports(source_dir):
+    r = sph.calibrate(_undeclared(source_dir, "points.txt"))
+    assert r.residuals_um.shape == r.residuals_seven_um.shape == (576,)
+    assert math.isclose(np.sqrt(np.mean(r.residuals_um ** 2)), r.report["after"]["rms_um"], rel_tol=1e-12)
+    assert math.isclose(np.sqrt(np.mean(r.residuals_seven_um ** 2)), r.report["before"]["rms_um"], rel_tol=1e-12)
+
+
+def test_the_stubs_name_what_the_module_has():
+    import ast
+    stub = ast.parse(open(os.path.join(os.path.dirname(sph.__file__), "sph.pyi")).read())
+    stubbed = {n.name for n in stub.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    public = {name for name in dir(sph) if not name.startswith("_")}
+    assert stubbed == public
+    for cls in (n for n in stub.body if isinstance(n, ast.ClassDef)):
+        members = {n.name for n in cls.body if isinstance(n, ast.FunctionDef) and not n.name.startswith("_")}
+        assert members <= set(dir(getattr(sph, cls.name))), cls.name
+    for function in ("calibrate", "measure"):  # each keyword stubbed is one the module takes (None: not given)
+        stubbed = next(n for n in stub.body if isinstance(n, ast.FunctionDef) and n.name == function)
+        for keyword in (a.arg for a in stubbed.args.kwonlyargs if a.arg != "center_mm"):
+            with pytest.raises(sph.Error, match="/nonexistent"):
+                getattr(sph, function)("/nonexistent", **{keyword: None})
+    with pytest.raises(TypeError, match="'bogus'"):
+        sph.calibrate("/nonexistent", bogus=None)
+
+
+def test_the_python_example_runs(source_dir, tmp_path):
+    import sys
+    png = tmp_path / "map.png"
+    script = os.path.join(source_dir, "examples", "python", "calibrate_undeclared.py")
+    out = subprocess.run([sys.executable, script, os.path.join(source_dir, "data", "example", "undeclared"), str(png)],
+                         check=True, capture_output=True, text=True).stdout
+    assert "residual rms 0.1560 -> 0.0491 um" in out
+    assert "effects added: probe_drift, theta_encoder" in out
+    assert "validation rms 0.0507 -> 0.0472 um" in out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
