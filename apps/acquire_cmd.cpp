@@ -17,8 +17,8 @@ extern "C" void OnSummarySignal(int) { g_control.summary.store(1); }
 
 can::LogLevel ParseLevel(const std::string& text, int verbose) {
   int level = text == "error" ? 0 : text == "warning" ? 1 : text == "info" ? 2 : 3;
-  level += verbose;
-  return static_cast<can::LogLevel>(level > 3 ? 3 : level);
+  level += verbose;  // a verbose of false (-1) takes one level off
+  return static_cast<can::LogLevel>(level > 3 ? 3 : level < 0 ? 0 : level);
 }
 
 int ExitCodeOf(can::AcquisitionStatus status) {

@@ -1,6 +1,7 @@
 // sph_acquired's command line: each option bound to its field of the library's
 // AcquisitionOptions, which holds the defaults and checks the values (the texts of a few options
 // are parsed here into the library's types).
+#include <cstdint>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -111,7 +112,20 @@ void AddRun(CLI::App& app, AcquireOptions& o) {
       ->check(InRange(r::kRcvbufBytes));
   app.add_option("--log-level", o.log_level, "error, warning, info or debug")
       ->check(CLI::IsMember({"error", "warning", "info", "debug"}));
-  app.add_flag("-v,--verbose", o.verbose, "One log level more (repeatable)");
+  // CLI11 sums a flag's values with std::stoll, which throws on a count beyond 64 bits ("stoll"),
+  // and takes any integer: each value is checked first (validators run before the sum).
+  app.add_flag("-v,--verbose", o.verbose, "One log level more (repeatable)")
+      ->check(CLI::Validator(
+          [](std::string& value) -> std::string {
+            std::int64_t count = 0;
+            try {
+              count = CLI::detail::to_flag_value(value);
+            } catch (const std::exception&) {
+              count = -2;
+            }
+            return count >= -1 && count <= 3 ? "" : "'" + value + "' is not a count of 0 to 3 levels";
+          },
+          "COUNT"));
 }
 
 void AddMaster(CLI::App& app, can::AcquisitionOptions& a) {
