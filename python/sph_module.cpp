@@ -217,48 +217,47 @@ py::array_t<double> Micrometres(const std::vector<double>& mm) {
   return a;
 }
 
-Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
-  const sph::CalibrationWorkflowOptions options = CalibrationOptionsOf(kwargs);
+// What a calibration run renders, taken while the GIL is released.
+struct RenderedCalibration {
   std::string json, text, file;
   std::vector<double> residuals_mm, residuals_seven_mm;
+};
+
+RenderedCalibration Render(const sph::CalibrationWorkflowResult& run) {
+  RenderedCalibration r;
+  r.json = run.JsonReport();
+  std::ostringstream out;
+  run.WriteTextReport(out);
+  r.text = out.str();
+  if (run.usability.usable) {
+    std::ostringstream cal;
+    sph::WriteCalibration(cal, run.MakeCalibrationFile());
+    r.file = cal.str();
+  }
+  r.residuals_mm = run.Reported().residuals_mm;
+  r.residuals_seven_mm = run.seven.residuals_mm;
+  return r;
+}
+
+Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
+  const sph::CalibrationWorkflowOptions options = CalibrationOptionsOf(kwargs);
+  RenderedCalibration r;
   if (py::isinstance<Points>(path_or_points)) {
     Points points = py::cast<Points>(path_or_points);  // a copy: the workflow takes its points
     py::gil_scoped_release release;
     const std::string source = points.data.source;
-    const sph::CalibrationWorkflowResult run = sph::RunCalibrationWorkflow(std::move(points.data), source, options);
-    json = run.JsonReport();
-    std::ostringstream out;
-    run.WriteTextReport(out);
-    text = out.str();
-    if (run.usability.usable) {
-      std::ostringstream cal;
-      sph::WriteCalibration(cal, run.MakeCalibrationFile());
-      file = cal.str();
-    }
-    residuals_mm = run.Reported().residuals_mm;
-    residuals_seven_mm = run.seven.residuals_mm;
+    r = Render(sph::RunCalibrationWorkflow(std::move(points.data), source, options));
   } else {
     const std::string path = PathOf(path_or_points);
     py::gil_scoped_release release;
-    const sph::CalibrationWorkflowResult run = sph::RunCalibrationWorkflow(path, options);
-    json = run.JsonReport();
-    std::ostringstream out;
-    run.WriteTextReport(out);
-    text = out.str();
-    if (run.usability.usable) {
-      std::ostringstream cal;
-      sph::WriteCalibration(cal, run.MakeCalibrationFile());
-      file = cal.str();
-    }
-    residuals_mm = run.Reported().residuals_mm;
-    residuals_seven_mm = run.seven.residuals_mm;
+    r = Render(sph::RunCalibrationWorkflow(path, options));
   }
   Calibration c;
-  c.report = py::module_::import("json").attr("loads")(json);
-  c.text = std::move(text);
-  c.calibration_file = std::move(file);
-  c.residuals_um = Micrometres(residuals_mm);
-  c.residuals_seven_um = Micrometres(residuals_seven_mm);
+  c.report = py::module_::import("json").attr("loads")(r.json);
+  c.text = std::move(r.text);
+  c.calibration_file = std::move(r.file);
+  c.residuals_um = Micrometres(r.residuals_mm);
+  c.residuals_seven_um = Micrometres(r.residuals_seven_mm);
   const py::dict params = c.report["parameters"];
   for (auto name : c.report["parameter_order"]) c.parameter_names.push_back(py::cast<std::string>(name));
   const auto n = static_cast<py::ssize_t>(c.parameter_names.size());
