@@ -11,29 +11,22 @@
 namespace sph::can {
 namespace {
 
-// "--dwell-s: must be >= 0 and <= 86400 s, got -1" for a value outside its range.
-template <typename T>
-void Check(T value, const ValidRange& range, const std::string& option) {
-  CheckedValue(static_cast<double>(value), range, option);
-}
-
 // The numbers of the run and its outputs (the pipeline's and the master's are checked where
 // their configurations are made).
 void CheckRunNumbers(const AcquisitionOptions& o) {
-  if (o.fsync_interval_s != -1.0 && !ranges::kFsyncIntervalS.Contains(o.fsync_interval_s)) {
-    throw Error("--fsync-interval-s: must be -1 (only at the end) or " +
-                ranges::kFsyncIntervalS.Refusal(internal::Shortest(o.fsync_interval_s)).substr(8));
+  CheckedValueOr(o.fsync_interval_s, -1.0, "only at the end", ranges::kFsyncIntervalS, "--fsync-interval-s");
+  if (o.sphere_radius_mm) CheckedValue(*o.sphere_radius_mm, ranges::kSphereRadiusMm, "--sphere-radius-mm");
+  if (o.probe_offset_mm) CheckedValue(*o.probe_offset_mm, ranges::kProbeOffsetMm, "--probe-offset-mm");
+  if (o.other_sphere_radius_mm) {
+    CheckedValue(*o.other_sphere_radius_mm, ranges::kSphereRadiusMm, "--other-sphere-radius-mm");
   }
-  if (o.sphere_radius_mm) Check(*o.sphere_radius_mm, ranges::kSphereRadiusMm, "--sphere-radius-mm");
-  if (o.probe_offset_mm) Check(*o.probe_offset_mm, ranges::kProbeOffsetMm, "--probe-offset-mm");
-  if (o.other_sphere_radius_mm) Check(*o.other_sphere_radius_mm, ranges::kSphereRadiusMm, "--other-sphere-radius-mm");
   if (o.mount_rotation && o.mount_rotation->known() && !o.mount_rotation->rotation_deg->allFinite()) {
     throw Error("--mount-rotation-deg: the rotation vector must be finite");
   }
-  Check(o.duration_s, ranges::kRunTimeS, "--duration-s");
-  Check(o.replay_speed, ranges::kReplaySpeed, "--replay-speed");
-  Check(o.reopen_interval_s, ranges::kReopenIntervalS, "--reopen-interval-s");
-  Check(o.rcvbuf_bytes, ranges::kRcvbufBytes, "--rcvbuf-bytes");
+  CheckedValue(o.duration_s, ranges::kRunTimeS, "--duration-s");
+  CheckedValue(o.replay_speed, ranges::kReplaySpeed, "--replay-speed");
+  CheckedValue(o.reopen_interval_s, ranges::kReopenIntervalS, "--reopen-interval-s");
+  CheckedValue(o.rcvbuf_bytes, ranges::kRcvbufBytes, "--rcvbuf-bytes");
 }
 
 void CheckMasterFlags(const AcquisitionOptions& o) {
@@ -50,9 +43,9 @@ void CheckMasterFlags(const AcquisitionOptions& o) {
     throw Error("--nmt-stop-at-exit and --nmt-preop-at-exit: give one of them");
   }
   if (o.configure_pdo && o.no_sdo) throw Error("--configure-pdo: writing the TPDO settings needs SDO (no --no-sdo)");
-  Check(o.node_heartbeat_ms, ranges::kNodeHeartbeatMs, "--node-heartbeat-ms");
-  Check(o.sdo_timeout_ms, ranges::kSdoTimeoutMs, "--sdo-timeout-ms");
-  Check(o.boot_timeout_s, ranges::kBootTimeoutS, "--boot-timeout-s");
+  CheckedValue(o.node_heartbeat_ms, ranges::kNodeHeartbeatMs, "--node-heartbeat-ms");
+  CheckedValue(o.sdo_timeout_ms, ranges::kSdoTimeoutMs, "--sdo-timeout-ms");
+  CheckedValue(o.boot_timeout_s, ranges::kBootTimeoutS, "--boot-timeout-s");
 }
 
 }  // namespace
@@ -67,11 +60,11 @@ void CheckAcquisitionOptions(const AcquisitionOptions& o) {
 }
 
 PipelineConfig AcquisitionPipelineConfig(const AcquisitionOptions& o) {
-  Check(o.heartbeat_timeout_s, ranges::kTimeoutS, "--heartbeat-timeout-s");
-  Check(o.standstill.tolerance_deg, ranges::kStandstillTolDeg, "--standstill-tol-deg");
-  Check(o.standstill.dwell_s, ranges::kTimeoutS, "--dwell-s");
-  Check(o.standstill.average_s, ranges::kTimeoutS, "--average-s");
-  Check(o.standstill.min_samples, ranges::kMinSamples, "--min-samples");
+  CheckedValue(o.heartbeat_timeout_s, ranges::kTimeoutS, "--heartbeat-timeout-s");
+  CheckedValue(o.standstill.tolerance_deg, ranges::kStandstillTolDeg, "--standstill-tol-deg");
+  CheckedValue(o.standstill.dwell_s, ranges::kTimeoutS, "--dwell-s");
+  CheckedValue(o.standstill.average_s, ranges::kTimeoutS, "--average-s");
+  CheckedValue(o.standstill.min_samples, ranges::kMinSamples, "--min-samples");
   PipelineConfig c = DevicesConfig(o.devices);
   // Gap detection: a SYNC of another producer, or of a log, comes at its own period unless given.
   if (!o.devices.sync_period_ms && (!o.replay_path.empty() || o.sync_mode == SyncMode::kFollow)) c.sync_period_s = 0.0;

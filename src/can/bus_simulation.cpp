@@ -43,52 +43,40 @@ double TimeOf(const std::string& text, const std::string& field, const std::stri
   return CheckedValue(ParseNumber(text, field, where + ": "), ranges::kRunTimeS, where + ": " + field, text);
 }
 
-// "--heartbeat-period-s: must be 0 (none) or >= 0.001 and <= 65.535 s, got 1e-300"
-void CheckZeroOr(double value, const ValidRange& range, const std::string& option) {
-  if (value == 0.0 || range.Contains(value)) return;
-  throw Error(option + ": must be 0 (none) or " +
-              range.Refusal(internal::Shortest(value)).substr(std::string("must be ").size()));
-}
-
-template <typename T>
-void Check(T value, const ValidRange& range, const std::string& option) {
-  CheckedValue(static_cast<double>(value), range, option);
-}
-
 void CheckFaults(const SimFaults& f) {
-  Check(f.drop_probability, ranges::kProbability, "--drop-probability");
-  Check(f.short_probability, ranges::kProbability, "--short-probability");
-  Check(f.sync_drop_probability, ranges::kProbability, "--sync-drop-probability");
-  Check(f.probe_out_of_range_probability, ranges::kProbability, "--probe-out-of-range-probability");
-  Check(f.jitter_us, ranges::kJitterUs, "--jitter-us");
-  CheckZeroOr(f.error_frame_period_s, ranges::kErrorFramePeriodS, "--error-frame-period-s");
-  for (const double t : f.bus_off_at_s) Check(t, ranges::kRunTimeS, "--bus-off-at-s");
+  CheckedValue(f.drop_probability, ranges::kProbability, "--drop-probability");
+  CheckedValue(f.short_probability, ranges::kProbability, "--short-probability");
+  CheckedValue(f.sync_drop_probability, ranges::kProbability, "--sync-drop-probability");
+  CheckedValue(f.probe_out_of_range_probability, ranges::kProbability, "--probe-out-of-range-probability");
+  CheckedValue(f.jitter_us, ranges::kJitterUs, "--jitter-us");
+  CheckedValueOr(f.error_frame_period_s, 0.0, "none", ranges::kErrorFramePeriodS, "--error-frame-period-s");
+  for (const double t : f.bus_off_at_s) CheckedValue(t, ranges::kRunTimeS, "--bus-off-at-s");
   for (const Silence& s : f.silences) {
     const std::string what = "--silence " + std::string(DeviceName(s.device)) + ":" + internal::Shortest(s.from_s) +
                              ":" + internal::Shortest(s.to_s);
     if (s.device < 0 || s.device >= kNumDevices) throw Error("--silence: device " + std::to_string(s.device));
-    Check(s.from_s, ranges::kRunTimeS, what + ": from_s");
-    Check(s.to_s, ranges::kRunTimeS, what + ": to_s");
+    CheckedValue(s.from_s, ranges::kRunTimeS, what + ": from_s");
+    CheckedValue(s.to_s, ranges::kRunTimeS, what + ": to_s");
     if (!(s.from_s < s.to_s)) throw Error(what + ": the window must end after it begins (from_s < to_s)");
   }
   for (const EmcyEvent& e : f.emergencies) {
     if (e.device < 0 || e.device >= kNumDevices) throw Error("--emcy: device " + std::to_string(e.device));
-    Check(e.at_s, ranges::kRunTimeS, "--emcy: at_s");
+    CheckedValue(e.at_s, ranges::kRunTimeS, "--emcy: at_s");
   }
-  for (const RebootEvent& r : f.reboots) Check(r.at_s, ranges::kRunTimeS, "--fault: T");
+  for (const RebootEvent& r : f.reboots) CheckedValue(r.at_s, ranges::kRunTimeS, "--fault: T");
 }
 
 void CheckTimes(const BusSimulationOptions& o) {
   const DeviceSimConfig& c = o.sim;
-  Check(c.move_s, ranges::kStepTimeS, "--move-s");
-  Check(c.stop_s, ranges::kStepTimeS, "--stop-s");
-  CheckZeroOr(c.heartbeat_period_s, ranges::kHeartbeatPeriodS, "--heartbeat-period-s");
-  Check(c.start_time_s, ranges::kEpochTimeS, "--start-time-s");
-  Check(c.boot_s, ranges::kBootS, "--boot-s");
-  Check(c.transmission_type, ranges::kTransmissionType, "--transmission-type");
-  Check(c.sync_counter_overflow, ranges::kNodesSyncCounterMax, "--nodes-sync-counter-max");
-  Check(o.duration_s, ranges::kRunTimeS, "--duration-s");
-  if (o.devices.sync_period_ms) Check(*o.devices.sync_period_ms, ranges::kSyncPeriodMs, "--sync-period-ms");
+  CheckedValue(c.move_s, ranges::kStepTimeS, "--move-s");
+  CheckedValue(c.stop_s, ranges::kStepTimeS, "--stop-s");
+  CheckedValueOr(c.heartbeat_period_s, 0.0, "none", ranges::kHeartbeatPeriodS, "--heartbeat-period-s");
+  CheckedValue(c.start_time_s, ranges::kEpochTimeS, "--start-time-s");
+  CheckedValue(c.boot_s, ranges::kBootS, "--boot-s");
+  CheckedValue(c.transmission_type, ranges::kTransmissionType, "--transmission-type");
+  CheckedValue(c.sync_counter_overflow, ranges::kNodesSyncCounterMax, "--nodes-sync-counter-max");
+  CheckedValue(o.duration_s, ranges::kRunTimeS, "--duration-s");
+  if (o.devices.sync_period_ms) CheckedValue(*o.devices.sync_period_ms, ranges::kSyncPeriodMs, "--sync-period-ms");
 }
 
 // The simulator's configuration for a log (`live` false) or a live play.

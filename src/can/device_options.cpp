@@ -9,24 +9,18 @@
 namespace sph::can {
 namespace {
 
-// "--theta-node: must be >= 0 and <= 127, got 128" for a value outside its range.
-template <typename T>
-void Check(T value, const ValidRange& range, const std::string& option) {
-  CheckedValue(static_cast<double>(value), range, option);
-}
-
 void CheckEncoder(const EncoderOptions& e, const std::string& name) {
   const std::string o = "--" + name;
-  Check(e.node, ranges::kNodeId, o + "-node");
-  Check(e.cob_id, ranges::kCobId, o + "-cob-id");
-  Check(e.offset_byte, ranges::kOffsetByte, o + "-offset-byte");
-  Check(e.width_bytes, ranges::kWidthBytes, o + "-width-bytes");
-  Check(e.counts_per_rev, ranges::kCountsPerRev, o + "-counts-per-rev");
+  CheckedValue(e.node, ranges::kNodeId, o + "-node");
+  CheckedValue(e.cob_id, ranges::kCobId, o + "-cob-id");
+  CheckedValue(e.offset_byte, ranges::kOffsetByte, o + "-offset-byte");
+  CheckedValue(e.width_bytes, ranges::kWidthBytes, o + "-width-bytes");
+  CheckedValue(e.counts_per_rev, ranges::kCountsPerRev, o + "-counts-per-rev");
   if (e.direction != 1 && e.direction != -1) {
     throw Error(o + "-direction: must be 1 or -1, got " + std::to_string(e.direction));
   }
-  Check(e.tpdo, ranges::kTpdo, o + "-tpdo");
-  Check(e.sync_counter_byte, ranges::kOptionalByte, o + "-sync-counter-byte");
+  CheckedValue(e.tpdo, ranges::kTpdo, o + "-tpdo");
+  CheckedValue(e.sync_counter_byte, ranges::kOptionalByte, o + "-sync-counter-byte");
   const int bits = 8 * e.width_bytes;
   if (bits < 64 && e.counts_per_rev > (std::uint64_t{1} << bits)) {
     int need = 1;
@@ -38,19 +32,19 @@ void CheckEncoder(const EncoderOptions& e, const std::string& name) {
 }
 
 void CheckProbe(const DeviceOptions& o) {
-  Check(o.probe_node, ranges::kNodeId, "--probe-node");
-  Check(o.probe_cob_id, ranges::kProbeCobId, "--probe-cob-id");
-  Check(o.probe_offset_byte, ranges::kOffsetByte, "--probe-offset-byte");
-  Check(o.probe_width_bytes, ranges::kWidthBytes, "--probe-width-bytes");
-  Check(o.probe_scale_nm_per_count, ranges::kScaleNmPerCount, "--probe-scale-nm-per-count");
+  CheckedValue(o.probe_node, ranges::kNodeId, "--probe-node");
+  CheckedValue(o.probe_cob_id, ranges::kProbeCobId, "--probe-cob-id");
+  CheckedValue(o.probe_offset_byte, ranges::kOffsetByte, "--probe-offset-byte");
+  CheckedValue(o.probe_width_bytes, ranges::kWidthBytes, "--probe-width-bytes");
+  CheckedValue(o.probe_scale_nm_per_count, ranges::kScaleNmPerCount, "--probe-scale-nm-per-count");
   if (o.probe_scale_um_per_count != 0.0) {
-    Check(o.probe_scale_um_per_count, ranges::kScaleUmPerCount, "--probe-scale-um-per-count");
+    CheckedValue(o.probe_scale_um_per_count, ranges::kScaleUmPerCount, "--probe-scale-um-per-count");
   }
-  Check(o.probe_offset_mm, ranges::kValueOffsetMm, "--probe-value-offset-mm");
-  Check(o.probe_status_byte, ranges::kOptionalByte, "--probe-status-byte");
-  Check(o.probe_status_error_mask, ranges::kStatusErrorMask, "--probe-status-error-mask");
-  Check(o.probe_tpdo, ranges::kTpdo, "--probe-tpdo");
-  Check(o.probe_sync_counter_byte, ranges::kOptionalByte, "--probe-sync-counter-byte");
+  CheckedValue(o.probe_offset_mm, ranges::kValueOffsetMm, "--probe-value-offset-mm");
+  CheckedValue(o.probe_status_byte, ranges::kOptionalByte, "--probe-status-byte");
+  CheckedValue(o.probe_status_error_mask, ranges::kStatusErrorMask, "--probe-status-error-mask");
+  CheckedValue(o.probe_tpdo, ranges::kTpdo, "--probe-tpdo");
+  CheckedValue(o.probe_sync_counter_byte, ranges::kOptionalByte, "--probe-sync-counter-byte");
   if (!o.probe_extended_id && o.probe_cob_id > kSffMask) {
     throw Error("--probe-cob-id " + internal::Format("0x%X", o.probe_cob_id) +
                 ": an 11-bit id is at most 0x7FF (--probe-extended-id for a 29-bit id)");
@@ -61,16 +55,10 @@ void CheckProbe(const DeviceOptions& o) {
 }
 
 void CheckSync(const DeviceOptions& o) {
-  Check(o.sync_cob_id, ranges::kCobId, "--sync-cob-id");
-  Check(o.sync_counter_max, ranges::kSyncCounterMax, "--sync-counter-max");
+  CheckedValue(o.sync_cob_id, ranges::kCobId, "--sync-cob-id");
+  CheckedValue(o.sync_counter_max, ranges::kSyncCounterMax, "--sync-counter-max");
   if (o.sync_counter_max == 1) throw Error("--sync-counter-max: 1 is not allowed (0 or 2..240)");
-  if (o.sync_period_ms && *o.sync_period_ms != 0.0) {
-    const ValidRange& r = ranges::kSyncPeriodMs;
-    if (!r.Contains(*o.sync_period_ms)) {
-      throw Error("--sync-period-ms: must be 0 (unknown) or " +
-                  r.Refusal(internal::Shortest(*o.sync_period_ms)).substr(std::string("must be ").size()));
-    }
-  }
+  if (o.sync_period_ms) CheckedValueOr(*o.sync_period_ms, 0.0, "unknown", ranges::kSyncPeriodMs, "--sync-period-ms");
 }
 
 EncoderConfig ToEncoder(const EncoderOptions& e) {

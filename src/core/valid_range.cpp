@@ -32,4 +32,12 @@ double CheckedValue(double value, const ValidRange& range, const std::string& wh
   return CheckedValue(value, range, what, internal::Shortest(value));
 }
 
+double CheckedValueOr(double value, double special, const char* meaning, const ValidRange& range,
+                      const std::string& what) {
+  if (value == special || range.Contains(value)) return value;
+  const std::string refusal = range.Refusal(internal::Shortest(value));
+  throw Error(what + ": must be " + internal::Shortest(special) + " (" + meaning + ") or " +
+              refusal.substr(std::string("must be ").size()));
+}
+
 }  // namespace sph

@@ -5,6 +5,7 @@
 #define SPH_CORE_VALID_RANGE_HPP_
 
 #include <string>
+#include <type_traits>
 
 namespace sph {
 
@@ -30,6 +31,18 @@ double CheckedValue(double value, const ValidRange& range, const std::string& wh
 /// CheckedValue() of a value that has no text of its own: the message shows it in its shortest
 /// exact form ("--dwell-s: must be >= 0 and <= 86400 s, got -1").
 double CheckedValue(double value, const ValidRange& range, const std::string& what);
+
+/// CheckedValue() of an integer or another arithmetic field, compared as a double.
+template <typename T, typename = std::enable_if_t<std::is_arithmetic_v<T> && !std::is_same_v<T, double>>>
+T CheckedValue(T value, const ValidRange& range, const std::string& what) {
+  CheckedValue(static_cast<double>(value), range, what);
+  return value;
+}
+
+/// CheckedValue() of a setting that also takes one value of its own meaning outside the range:
+/// "--heartbeat-period-s: must be 0 (none) or >= 0.001 and <= 65.535 s, got 1e-300".
+double CheckedValueOr(double value, double special, const char* meaning, const ValidRange& range,
+                      const std::string& what);
 
 }  // namespace sph
 
