@@ -47,6 +47,18 @@ double NoiseRmsUm(std::uint64_t seed = 1) {
   return std::sqrt(ss / static_cast<double>(noisy.samples.size())) * kUmPerMm;
 }
 
+// A probe gain of 10 um at the end of a 10 mm range, the sphere 1 mm off the Theta axis: the gain
+// nearly confounded with d' and the centre.
+PointsData NearlyConfoundedGain(std::uint64_t seed = 1) {
+  SimulationSpec spec;
+  spec.seed = seed;
+  spec.centers_mm = {Eigen::Vector3d(1.0, 0.0, 0.0)};
+  spec.probe_range_mm = 10.0;
+  spec.effects.model.terms = {{Effect::kProbeGain, {{1, 0, false}}}};
+  spec.effects.values = {{10.0 * kMmPerUm}};
+  return Simulate(spec);
+}
+
 TraceResult Trace(const PointsData& points) {
   const CalibrationResult base = Calibrate(points, PaperOptions());
   return TraceResidual(points, PaperOptions(), base, TraceOptions{});
@@ -155,12 +167,7 @@ TEST(ResidualStructure, PValuesAreUniformUnderWhiteNoiseAfterProbeTerms) {
 // The readings the structure analysis evaluates its Jacobian and functions at: the fitted model's
 // residual vanishes there (r + e misses by 1 + de/dr of e, here about 1e-3 of it).
 TEST(ResidualStructure, ExpectedReadingsAreWhereTheFittedResidualVanishes) {
-  SimulationSpec spec;
-  spec.centers_mm = {Eigen::Vector3d(1.0, 0.0, 0.0)};
-  spec.probe_range_mm = 10.0;
-  spec.effects.model.terms = {{Effect::kProbeGain, {{1, 0, false}}}};
-  spec.effects.values = {{10.0 * kMmPerUm}};
-  const PointsData points = Simulate(spec);
+  const PointsData points = NearlyConfoundedGain();
   TraceOptions options;
   options.probe_range_mm = 10.0;
   const EffectFit fit =
@@ -334,13 +341,7 @@ TEST(TraceResidual, NoStructureRemainsOnceTheProbeGainIsFitted) {
 // the Jacobian and u at r + e, these seeds gave p = 1e-3 to 1e-57.)
 TEST(TraceResidual, NoStructureRemainsOnceANearlyConfoundedProbeGainIsFitted) {
   for (const std::uint64_t seed : {1, 2, 3, 4, 11}) {
-    SimulationSpec spec;
-    spec.seed = seed;
-    spec.centers_mm = {Eigen::Vector3d(1.0, 0.0, 0.0)};
-    spec.probe_range_mm = 10.0;
-    spec.effects.model.terms = {{Effect::kProbeGain, {{1, 0, false}}}};
-    spec.effects.values = {{10.0 * kMmPerUm}};
-    const PointsData points = Simulate(spec);
+    const PointsData points = NearlyConfoundedGain(seed);
     TraceOptions options;
     options.probe_range_mm = 10.0;
     const TraceResult r =
