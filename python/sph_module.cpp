@@ -16,9 +16,9 @@
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/measure_workflow.hpp"
-#include "sph/model/compensation.hpp"
 #include "sph/core/parameter_settings.hpp"
 #include "sph/core/points_file.hpp"
+#include "sph/model/compensation.hpp"
 #include "sph/model/effect_terms.hpp"
 #include "sph/model/units.hpp"
 
@@ -64,8 +64,8 @@ struct Points {
 // library's reader, so that they are checked as a file is ("<source>:<line>: problem").
 Points MakePoints(py::array_t<double, py::array::c_style | py::array::forcecast> theta_deg,
                   py::array_t<double, py::array::c_style | py::array::forcecast> phi_deg,
-                  py::array_t<double, py::array::c_style | py::array::forcecast> r_mm, py::object t_s,
-                  py::object setup, py::object header, const std::string& source) {
+                  py::array_t<double, py::array::c_style | py::array::forcecast> r_mm, py::object t_s, py::object setup,
+                  py::object header, const std::string& source) {
   const auto n = theta_deg.size();
   if (theta_deg.ndim() != 1 || phi_deg.ndim() != 1 || r_mm.ndim() != 1 || phi_deg.size() != n || r_mm.size() != n) {
     throw sph::Error(source + ": theta_deg, phi_deg and r_mm must be 1-D arrays of one length");
@@ -111,13 +111,27 @@ std::vector<std::string> Strings(const py::handle& value) {
 }
 
 // The keywords of calibrate() besides the conditions (kConditionFields) and of measure().
-constexpr const char* kCalibrateKeywords[] = {
-    "no_trace",         "effects",      "validate",    "sphere_radius_mm", "probe_offset_mm",     "fix",
-    "prior",            "robust_loss",  "robust_scale_sigma", "max_std_um", "max_iterations",     "harmonics",
-    "phi_wobble_pivot_mm", "drift_order", "hold_confounded", "seed",       "coverage"};
+constexpr const char* kCalibrateKeywords[] = {"no_trace",
+                                              "effects",
+                                              "validate",
+                                              "sphere_radius_mm",
+                                              "probe_offset_mm",
+                                              "fix",
+                                              "prior",
+                                              "robust_loss",
+                                              "robust_scale_sigma",
+                                              "max_std_um",
+                                              "max_iterations",
+                                              "harmonics",
+                                              "phi_wobble_pivot_mm",
+                                              "drift_order",
+                                              "hold_confounded",
+                                              "seed",
+                                              "coverage"};
 constexpr const char* kMeasureKeywords[] = {
-    "calibration", "xyz", "subtract_sphere_form", "setup", "uncertainty_samples", "seed", "max_dilution", "noise_um",
-    "noise_floor_draws", "coverage", "mc_max_trials", "mc_batch_trials", "mc_digits", "mc_max_points"};
+    "calibration",  "xyz",          "subtract_sphere_form", "setup",    "uncertainty_samples", "seed",
+    "max_dilution", "noise_um",     "noise_floor_draws",    "coverage", "mc_max_trials",       "mc_batch_trials",
+    "mc_digits",    "mc_max_points"};
 
 // Whether `key` is a keyword of `function`; a TypeError naming it when not, as Python's own.
 template <std::size_t N>
@@ -291,9 +305,11 @@ Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
 sph::Calibration CalibrationOf(const py::handle& calibration) {
   if (py::isinstance<Calibration>(calibration)) {
     const Calibration& c = py::cast<const Calibration&>(calibration);
-    if (c.calibration_file.empty()) throw sph::Error("calibration: the calibration is not usable (no calibration file)");
+    if (c.calibration_file.empty())
+      throw sph::Error("calibration: the calibration is not usable (no calibration file)");
     std::istringstream in(c.calibration_file);
-    return sph::ToCalibration(sph::ParseCalibration(in, "<calibration of " + std::string(py::str(c.report["points_file"])) + ">"));
+    return sph::ToCalibration(
+        sph::ParseCalibration(in, "<calibration of " + std::string(py::str(c.report["points_file"])) + ">"));
   }
   const std::string path = PathOf(calibration);
   py::gil_scoped_release release;
@@ -348,20 +364,34 @@ sph::MeasurementWorkflowOptions MeasurementOptionsOf(const py::kwargs& kwargs) {
     const py::handle v = item.second;
     CheckKeyword(key, kMeasureKeywords, "measure", false);
     if (v.is_none()) continue;  // not given
-    if (key == "calibration") o.calibration_path = PathOf(v);
-    else if (key == "xyz") o.xyz = py::cast<bool>(v);
-    else if (key == "subtract_sphere_form") o.subtract_sphere_form = py::cast<bool>(v);
-    else if (key == "setup") o.setup = py::cast<int>(v);
-    else if (key == "uncertainty_samples") o.uncertainty_samples = py::cast<int>(v);
-    else if (key == "seed") o.seed = py::cast<std::uint64_t>(v);
-    else if (key == "max_dilution") o.max_dilution = py::cast<double>(v);
-    else if (key == "noise_um") o.noise_um = py::cast<double>(v);
-    else if (key == "noise_floor_draws") o.noise_floor_draws = py::cast<int>(v);
-    else if (key == "coverage") o.coverage = py::cast<double>(v);
-    else if (key == "mc_max_trials") o.mc_max_trials = py::cast<long>(v);
-    else if (key == "mc_batch_trials") o.mc_batch_trials = py::cast<long>(v);
-    else if (key == "mc_digits") o.mc_digits = py::cast<int>(v);
-    else if (key == "mc_max_points") o.mc_max_points = py::cast<long>(v);
+    if (key == "calibration")
+      o.calibration_path = PathOf(v);
+    else if (key == "xyz")
+      o.xyz = py::cast<bool>(v);
+    else if (key == "subtract_sphere_form")
+      o.subtract_sphere_form = py::cast<bool>(v);
+    else if (key == "setup")
+      o.setup = py::cast<int>(v);
+    else if (key == "uncertainty_samples")
+      o.uncertainty_samples = py::cast<int>(v);
+    else if (key == "seed")
+      o.seed = py::cast<std::uint64_t>(v);
+    else if (key == "max_dilution")
+      o.max_dilution = py::cast<double>(v);
+    else if (key == "noise_um")
+      o.noise_um = py::cast<double>(v);
+    else if (key == "noise_floor_draws")
+      o.noise_floor_draws = py::cast<int>(v);
+    else if (key == "coverage")
+      o.coverage = py::cast<double>(v);
+    else if (key == "mc_max_trials")
+      o.mc_max_trials = py::cast<long>(v);
+    else if (key == "mc_batch_trials")
+      o.mc_batch_trials = py::cast<long>(v);
+    else if (key == "mc_digits")
+      o.mc_digits = py::cast<int>(v);
+    else if (key == "mc_max_points")
+      o.mc_max_points = py::cast<long>(v);
   }
   o.Check();
   return o;
@@ -414,40 +444,54 @@ PYBIND11_MODULE(sph, m) {
            py::arg("source") = "<points>",
            "Points from arrays and a header dict (key -> value as a file states it), checked as a file is; "
            "`source` names them in messages.")
-      .def_property_readonly("theta_deg", [](const Points& p) {
-        return Column<double>(p.data, [](const sph::Sample& s) { return s.theta_deg; });
-      }, "Theta axis readings [deg], float64, shape (n,)")
-      .def_property_readonly("phi_deg", [](const Points& p) {
-        return Column<double>(p.data, [](const sph::Sample& s) { return s.phi_deg; });
-      }, "Phi axis readings [deg], float64, shape (n,)")
-      .def_property_readonly("r_mm", [](const Points& p) {
-        return Column<double>(p.data, [](const sph::Sample& s) { return s.r_mm; });
-      }, "Probe readings [mm], float64, shape (n,)")
-      .def_property_readonly("t_s", [](const Points& p) {
-        return Column<double>(p.data, [](const sph::Sample& s) { return s.t_s; });
-      }, "Acquisition times [s] (the row index without a t_s column), float64, shape (n,)")
-      .def_property_readonly("setup", [](const Points& p) {
-        return Column<std::int32_t>(p.data, [](const sph::Sample& s) { return static_cast<std::int32_t>(s.setup); });
-      }, "Setup id of each reading (0 without a setup column), int32, shape (n,)")
-      .def_property_readonly("header", [](const Points& p) { return HeaderDict(p.data); },
-                             "The header fields, key -> value text, as the file states them")
-      .def_property_readonly("source", [](const Points& p) { return p.data.source; }, "Where they came from")
+      .def_property_readonly(
+          "theta_deg",
+          [](const Points& p) { return Column<double>(p.data, [](const sph::Sample& s) { return s.theta_deg; }); },
+          "Theta axis readings [deg], float64, shape (n,)")
+      .def_property_readonly(
+          "phi_deg",
+          [](const Points& p) { return Column<double>(p.data, [](const sph::Sample& s) { return s.phi_deg; }); },
+          "Phi axis readings [deg], float64, shape (n,)")
+      .def_property_readonly(
+          "r_mm", [](const Points& p) { return Column<double>(p.data, [](const sph::Sample& s) { return s.r_mm; }); },
+          "Probe readings [mm], float64, shape (n,)")
+      .def_property_readonly(
+          "t_s", [](const Points& p) { return Column<double>(p.data, [](const sph::Sample& s) { return s.t_s; }); },
+          "Acquisition times [s] (the row index without a t_s column), float64, shape (n,)")
+      .def_property_readonly(
+          "setup",
+          [](const Points& p) {
+            return Column<std::int32_t>(p.data,
+                                        [](const sph::Sample& s) { return static_cast<std::int32_t>(s.setup); });
+          },
+          "Setup id of each reading (0 without a setup column), int32, shape (n,)")
+      .def_property_readonly(
+          "header", [](const Points& p) { return HeaderDict(p.data); },
+          "The header fields, key -> value text, as the file states them")
+      .def_property_readonly(
+          "source", [](const Points& p) { return p.data.source; }, "Where they came from")
       .def("__len__", [](const Points& p) { return p.data.samples.size(); })
       .def("__repr__", [](const Points& p) {
         return "<sph.Points '" + p.data.source + "': " + std::to_string(p.data.samples.size()) + " readings, " +
                std::to_string(p.data.SetupIds().size()) + " setup(s)>";
       });
 
-  m.def("read_points", [](const py::object& path_like) {
-    const std::string path = PathOf(path_like);
-    py::gil_scoped_release release;
-    return Points{sph::ReadPointsFile(path)};
-  }, py::arg("path"), "Reads a points file (sph-points 1). Raises sph.Error 'path:line: problem' on a defect.");
-  m.def("write_points", [](const py::object& path_like, const Points& points) {
-    const std::string path = PathOf(path_like);
-    py::gil_scoped_release release;
-    sph::WritePointsFile(path, points.data);
-  }, py::arg("path"), py::arg("points"), "Writes points as a points file (sph-points 1), atomically.");
+  m.def(
+      "read_points",
+      [](const py::object& path_like) {
+        const std::string path = PathOf(path_like);
+        py::gil_scoped_release release;
+        return Points{sph::ReadPointsFile(path)};
+      },
+      py::arg("path"), "Reads a points file (sph-points 1). Raises sph.Error 'path:line: problem' on a defect.");
+  m.def(
+      "write_points",
+      [](const py::object& path_like, const Points& points) {
+        const std::string path = PathOf(path_like);
+        py::gil_scoped_release release;
+        sph::WritePointsFile(path, points.data);
+      },
+      py::arg("path"), py::arg("points"), "Writes points as a points file (sph-points 1), atomically.");
 
   py::class_<Calibration>(m, "CalibrationResult", "A calibration run's result (sph.calibrate).")
       .def_readonly("report", &Calibration::report, "The report as sph_calibrate --json writes it, as a dict")
@@ -459,16 +503,18 @@ PYBIND11_MODULE(sph, m) {
       .def_readonly("parameter_names", &Calibration::parameter_names, "The covariance's row and column order")
       .def_readonly("covariance", &Calibration::covariance,
                     "Covariance of the parameters in the report's units (squared), shape (n, n)")
-      .def_readonly("residuals_um", &Calibration::residuals_um,
-                    "Residual of each reading, |p - O| - R, of the calibration reported [um], file order (outliers too)")
+      .def_readonly(
+          "residuals_um", &Calibration::residuals_um,
+          "Residual of each reading, |p - O| - R, of the calibration reported [um], file order (outliers too)")
       .def_readonly("residuals_seven_um", &Calibration::residuals_seven_um,
                     "The same of the seven-error fit [um] (before the effects the trace added)")
-      .def_property_readonly("usable", [](const Calibration& c) { return py::cast<bool>(c.report["usable"]); },
-                             "Whether the calibration is usable (the report's verdict)")
+      .def_property_readonly(
+          "usable", [](const Calibration& c) { return py::cast<bool>(c.report["usable"]); },
+          "Whether the calibration is usable (the report's verdict)")
       .def("__repr__", [](const Calibration& c) {
         std::ostringstream s;
-        s << "<sph.CalibrationResult '" << std::string(py::str(c.report["points_file"])) << "': "
-          << (py::cast<bool>(c.report["usable"]) ? "usable" : "not usable") << ", rms ";
+        s << "<sph.CalibrationResult '" << std::string(py::str(c.report["points_file"]))
+          << "': " << (py::cast<bool>(c.report["usable"]) ? "usable" : "not usable") << ", rms ";
         if (c.report.contains("after")) {
           s << std::string(py::str(c.report["before"]["rms_um"])) << " -> "
             << std::string(py::str(c.report["after"]["rms_um"]));
