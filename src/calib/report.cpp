@@ -99,14 +99,14 @@ void WriteComparisonText(std::ostream& out, const CalibrationComparison& cmp) {
   out << "\ncomparison with " << cmp.previous_source
       << " (difference = now - previous, U of the difference with k = " << Format("%g", cmp.k)
       << ", En = difference / U):\n";
-  out << Format("%-26s %13s %13s %12s %10s %7s %-6s\n", "parameter", "previous", "now", "difference", "U", "En",
+  out << Format("%-26s %13s %13s %12s %10s %7s %s\n", "parameter", "previous", "now", "difference", "U", "En",
                 "unit");
   auto number = [](double v, const char* format) { return std::isfinite(v) ? Format(format, v) : std::string("-"); };
   for (const ComparedParameter& c : cmp.parameters) {
     std::string previous = number(c.previous, "%.4f"), now = number(c.now, "%.4f");
     if (c.found == ComparedParameter::Found::kNowOnly) previous = "(now only)";
     if (c.found == ComparedParameter::Found::kPreviousOnly) now = "(previous only)";
-    out << Format("%-26s %13s %13s %12s %10s %7s %-6s\n", c.parameter.c_str(), previous.c_str(), now.c_str(),
+    out << Format("%-26s %13s %13s %12s %10s %7s %s\n", c.parameter.c_str(), previous.c_str(), now.c_str(),
                   number(c.difference, "%+.4f").c_str(), number(c.U, "%.4f").c_str(), number(c.En, "%+.2f").c_str(),
                   c.unit.c_str());
     if (!c.note.empty()) out << "  " << c.parameter << ": " << c.note << "\n";
