@@ -242,7 +242,9 @@ std::string Verdict(const CalibrationComparison& cmp) {
     return std::abs(a->En) > std::abs(b->En);
   });
   std::string v;
-  if (moved.empty()) {
+  if (compared == 0) {
+    v = "nothing compared with an uncertainty";
+  } else if (moved.empty()) {
     v = Format("unchanged within uncertainty (%d parameters compared, each |En| <= 1)", compared);
   } else {
     v = "moved:";
@@ -263,7 +265,9 @@ std::string Verdict(const CalibrationComparison& cmp) {
 }  // namespace
 
 bool CalibrationComparison::Unchanged() const {
-  return std::none_of(parameters.begin(), parameters.end(),
+  const auto compared = [](const ComparedParameter& c) { return c.Compared(); };
+  return std::any_of(parameters.begin(), parameters.end(), compared) &&
+         std::none_of(parameters.begin(), parameters.end(),
                       [](const ComparedParameter& c) { return c.Compared() && std::abs(c.En) > 1.0; });
 }
 

@@ -91,6 +91,29 @@ TEST(CalibrationComparison, SharedCertificateCancelsWhereItActsAlike) {
   EXPECT_NEAR(Find(cmp, "d_prime").U, 2.0 * std::sqrt(2.0 * (u_a * u_a + u_r0 * u_r0)), 1e-9);
 }
 
+// An older file whose covariance does not itemise its inputs: the certificate is counted
+// independent (U larger, never smaller), and said so; a file without a covariance gives no U.
+TEST(CalibrationComparison, OlderFilesCountTheirInputsIndependentOrGiveNoU) {
+  CalibrationFile before = SevenErrors();
+  before.covariance_inputs.clear();
+  const CalibrationFile now = SevenErrors();
+  CalibrationComparison cmp = CompareCalibrations(before, now, "before.json");
+  EXPECT_TRUE(cmp.correlated_inputs.empty());
+  EXPECT_THAT(cmp.notes.front(), HasSubstr("R0 (certificate): not itemised in the previous calibration's covariance: "
+                                           "counted independent"));
+  const double u_a = 0.1, u_r0 = 0.05;  // um
+  EXPECT_NEAR(Find(cmp, "d_prime").U, 2.0 * std::sqrt(2.0 * (u_a * u_a + u_r0 * u_r0)), 1e-9);
+  before.covariance.reset();
+  cmp = CompareCalibrations(before, now, "before.json");
+  const ComparedParameter& d = Find(cmp, "d_prime");
+  EXPECT_DOUBLE_EQ(d.difference, 0.0);
+  EXPECT_TRUE(std::isnan(d.U));
+  EXPECT_THAT(d.note, HasSubstr("no U: a calibration file states no covariance of it"));
+  EXPECT_THAT(cmp.verdict, HasSubstr("nothing compared with an uncertainty"));
+  EXPECT_FALSE(cmp.Unchanged());
+  EXPECT_THAT(cmp.verdict, HasSubstr("not compared: alpha, a, beta, b, epsilon, c, d_prime"));
+}
+
 TEST(CalibrationComparison, EffectOfOneCalibrationOnlyListedWithItsValueAndU) {
   const CalibrationFile before = SevenErrors();
   CalibrationFile now = before;

@@ -54,10 +54,11 @@ struct CalibrationComparison {
   std::vector<ComparedParameter> parameters;   ///< the seven errors, the effects' parameters, the form's RMS
   std::vector<std::string> correlated_inputs;  ///< the Type B inputs counted fully correlated
   std::vector<std::string> notes;              ///< how the rest was counted, and what could not be compared
-  /// "unchanged within uncertainty (9 parameters, |En| <= 1)", or which moved and by how many U,
-  /// then what one calibration holds alone.
+  /// "unchanged within uncertainty (9 parameters compared, each |En| <= 1)", or which moved and by
+  /// how many U, or "nothing compared with an uncertainty"; then what one calibration holds alone.
   std::string verdict;
-  /// Whether every parameter compared has |En| <= 1 (one found in one run only is no change of it).
+  /// Whether a parameter was compared and every one compared has |En| <= 1 (one found in one run
+  /// only is no change of it).
   bool Unchanged() const;
 };
 
