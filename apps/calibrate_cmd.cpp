@@ -70,6 +70,10 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
                  "Another points file of the same machine (another sphere or position): report its least-squares "
                  "sphericity compensated before and after")
       ->excludes(no_trace);
+  app.add_option("--compare", o.workflow.compare_path,
+                 "An earlier calibration file of this machine (-o): compare each of the seven errors and each "
+                 "effect parameter both hold, previous, now, difference, its U (k = 2) and En = difference / U, "
+                 "in the reports; the exit code stays the calibration's");
   app.add_option("--plot-dir", o.plot_dir,
                  "Write residual_map.png, residual_time.png and, when the sphere's form is fitted, "
                  "sphere_form_map.png (gnuplot) with their data into this folder")
@@ -140,6 +144,7 @@ RunPaths PathsOf(const CalibrateOptions& o, bool text) {
   RunPaths paths;
   paths.Input("points", o.points_path)
       .Input("--validate", o.workflow.validate_path)
+      .Input("--compare", o.workflow.compare_path)
       .Output("the text report (-q leaves it out)", text ? "-" : "")
       .Output("--json", o.json_path)
       .Output("--report", o.report_path)

@@ -67,6 +67,7 @@ def calibrate(
     no_trace: bool = ...,
     effects: Union[str, Sequence[str]] = ...,
     validate: str = ...,
+    compare: str = ...,
     sphere_radius_mm: float = ...,
     probe_offset_mm: float = ...,
     fix: Union[str, Sequence[str]] = ...,

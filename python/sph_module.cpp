@@ -114,6 +114,7 @@ std::vector<std::string> Strings(const py::handle& value) {
 constexpr const char* kCalibrateKeywords[] = {"no_trace",
                                               "effects",
                                               "validate",
+                                              "compare",
                                               "sphere_radius_mm",
                                               "probe_offset_mm",
                                               "fix",
@@ -168,6 +169,8 @@ sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
       }
     } else if (key == "validate") {
       o.validate_path = PathOf(v);
+    } else if (key == "compare") {
+      o.compare_path = PathOf(v);
     } else if (key == "sphere_radius_mm") {
       o.sphere_radius_mm = py::cast<double>(v);
     } else if (key == "probe_offset_mm") {
@@ -527,7 +530,7 @@ PYBIND11_MODULE(sph, m) {
 
   m.def("calibrate", &Calibrate, py::arg("path_or_points"),
         "Runs the calibration workflow (what sph_calibrate does) on a points file's path or on sph.Points.\n"
-        "Options are sph_calibrate's, '_' for '-': no_trace, effects, validate, sphere_radius_mm,\n"
+        "Options are sph_calibrate's, '_' for '-': no_trace, effects, validate, compare, sphere_radius_mm,\n"
         "probe_offset_mm, fix, prior, robust_loss, robust_scale_sigma, max_std_um, max_iterations,\n"
         "harmonics, phi_wobble_pivot_mm, drift_order, hold_confounded, seed, coverage and the\n"
         "conditions (sphere_radius_u_um, sphere_temperature_c, ...). Raises TypeError on an unknown\n"

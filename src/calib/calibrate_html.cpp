@@ -213,6 +213,32 @@ std::string Ambiguous(const json& j) {
   return body.empty() ? "<p>Nothing.</p>\n" : "<ul>\n" + body + "</ul>\n";
 }
 
+std::string Comparison(const json& j) {
+  const json& summary = j.at("comparison_summary");
+  std::string body =
+      "<p>With " + At(summary, "previous_file") + ": <strong>" + At(summary, "verdict") + "</strong></p>\n";
+  std::vector<std::vector<std::string>> rows;
+  std::string counted;
+  for (const json& c : j.at("comparison")) {
+    std::string previous = At(c, "previous"), now = At(c, "now");
+    if (c.at("found_in") == "now") previous = "(now only)";
+    if (c.at("found_in") == "previous") now = "(previous only)";
+    const std::string en = c.at("En").is_number() ? html::Fixed(c.at("En").get<double>(), 2) : "-";
+    rows.push_back({At(c, "parameter"), At(c, "unit"), previous, now, At(c, "difference"), At(c, "U"), en});
+    if (c.contains("note")) counted += "<li>" + At(c, "parameter") + ": " + At(c, "note") + "</li>\n";
+  }
+  body += html::Table({"parameter", "unit", "previous", "now", "difference", "U (k = 2)", "En"}, rows);
+  body +=
+      "<p class=\"note\">difference = now - previous; U: expanded uncertainty of the difference; "
+      "En = difference / U.</p>\n<h3>How the two calibrations' inputs were counted</h3>\n<ul>\n";
+  std::string correlated;
+  for (const json& name : summary.at("correlated_inputs")) correlated += (correlated.empty() ? "" : ", ") + Cell(name);
+  body += "<li>fully correlated (the same source in both, cancelling where it acts alike): " +
+          (correlated.empty() ? std::string("none") : correlated) + "</li>\n";
+  for (const json& note : summary.at("notes")) body += "<li>" + Cell(note) + "</li>\n";
+  return body + counted + "</ul>\n";
+}
+
 }  // namespace
 
 std::string CalibrationWorkflowResult::HtmlReport() const {
@@ -246,6 +272,7 @@ std::string CalibrationWorkflowResult::HtmlReport() const {
                                "setups drawn over each other in file order."));
   body += Section("The sphere's form", Form(j));
   body += Section("What stays ambiguous", Ambiguous(j));
+  if (j.contains("comparison")) body += Section("Comparison with an earlier calibration", Comparison(j));
   return html::Page("Calibration report: " + points_path, body);
 }
 

@@ -139,6 +139,19 @@ void Tell(const std::function<void(const std::string&)>& f, const std::string& t
   if (f) f(text);
 }
 
+// The calibration file's content, usable or not: the seven errors, the trace's effects but
+// probe_drift (`*drift_left_out` says whether one was left out), the covariance.
+CalibrationFile FileOf(const CalibrationWorkflowResult& run, bool* drift_left_out) {
+  CalibrationFile file = MakeCalibrationFile(run.Reported(), run.Context());
+  const bool drift = run.Extended() && AddEffectsToCalibrationFile(run.trace->after.fit, file);
+  if (drift_left_out != nullptr) *drift_left_out = drift;
+  std::vector<int> columns;
+  for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
+  if (run.Extended()) columns = AppliedColumns(run.trace->after.fit);
+  AddCovarianceToCalibrationFile(columns, run.Reported(), run.budget ? &*run.budget : nullptr, file);
+  return file;
+}
+
 }  // namespace
 
 void CalibrationWorkflowOptions::Check() const {
@@ -179,6 +192,7 @@ ReportContext CalibrationWorkflowResult::Context() const {
   ctx.metadata = points.header.metadata;
   ctx.trace = trace ? &*trace : nullptr;
   ctx.validation = validation ? &*validation : nullptr;
+  ctx.comparison = comparison ? &*comparison : nullptr;
   return ctx;
 }
 
@@ -190,14 +204,7 @@ std::string CalibrationWorkflowResult::JsonReport() const { return sph::JsonRepo
 
 CalibrationFile CalibrationWorkflowResult::MakeCalibrationFile(bool* drift_left_out) const {
   if (!usability.usable) throw Error("the calibration is not usable: no calibration file");
-  CalibrationFile file = sph::MakeCalibrationFile(Reported(), Context());
-  const bool drift = Extended() && AddEffectsToCalibrationFile(trace->after.fit, file);
-  if (drift_left_out != nullptr) *drift_left_out = drift;
-  std::vector<int> columns;
-  for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
-  if (Extended()) columns = AppliedColumns(trace->after.fit);
-  AddCovarianceToCalibrationFile(columns, Reported(), budget ? &*budget : nullptr, file);
-  return file;
+  return FileOf(*this, drift_left_out);
 }
 
 CalibrationWorkflowResult RunCalibrationWorkflow(const std::string& points_path,
@@ -214,6 +221,14 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   run.points_path = points_path;
   run.program = options.program.empty() ? std::string("sph_calibrate " SPH_VERSION) : options.program;
   Settle(run, options);
+  std::optional<CalibrationFile> previous;
+  if (!options.compare_path.empty()) {  // bad input is told before the fit
+    Tell(options.on_stage, "reading " + options.compare_path);
+    previous = ReadCalibrationFile(options.compare_path);
+    CalibrationFile now;
+    now.probe_offset_mm = run.settings.probe_offset_mm;
+    CheckComparable(*previous, now, options.compare_path);
+  }
   // Readings that parse but look wrong: said first, whatever follows.
   Tell(options.on_stage, "checking " + std::to_string(run.points.samples.size()) + " samples");
   for (const std::string& w : PlausibilityWarnings(run.points)) {
@@ -225,6 +240,10 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   if (options.trace) Trace(run, options);
   MakeBudget(run, options);
   run.usability = JudgeUsability(run.Reported(), run.Context());
+  if (previous) {
+    Tell(options.on_stage, "comparing with " + options.compare_path);
+    run.comparison = CompareCalibrations(*previous, FileOf(run, nullptr), options.compare_path);
+  }
   return run;
 }
 

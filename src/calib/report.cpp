@@ -90,6 +90,56 @@ json BudgetJson(const UncertaintyStatement& st, double to_report, const char* re
   return j;
 }
 
+const char* FoundText(ComparedParameter::Found f) {
+  return f == ComparedParameter::Found::kBoth ? "both" : f == ComparedParameter::Found::kNowOnly ? "now" : "previous";
+}
+
+// The comparison with an earlier calibration: a row per parameter, how the inputs were counted, the verdict.
+void WriteComparisonText(std::ostream& out, const CalibrationComparison& cmp) {
+  out << "\ncomparison with " << cmp.previous_source
+      << " (difference = now - previous, U of the difference with k = " << Format("%g", cmp.k)
+      << ", En = difference / U):\n";
+  out << Format("%-26s %13s %13s %12s %10s %7s %s\n", "parameter", "previous", "now", "difference", "U", "En",
+                "unit");
+  auto number = [](double v, const char* format) { return std::isfinite(v) ? Format(format, v) : std::string("-"); };
+  for (const ComparedParameter& c : cmp.parameters) {
+    std::string previous = number(c.previous, "%.4f"), now = number(c.now, "%.4f");
+    if (c.found == ComparedParameter::Found::kNowOnly) previous = "(now only)";
+    if (c.found == ComparedParameter::Found::kPreviousOnly) now = "(previous only)";
+    out << Format("%-26s %13s %13s %12s %10s %7s %s\n", c.parameter.c_str(), previous.c_str(), now.c_str(),
+                  number(c.difference, "%+.4f").c_str(), number(c.U, "%.4f").c_str(), number(c.En, "%+.2f").c_str(),
+                  c.unit.c_str());
+    if (!c.note.empty()) out << "  " << c.parameter << ": " << c.note << "\n";
+  }
+  out << "  counted fully correlated (the same source in both, cancelling where it acts alike): "
+      << (cmp.correlated_inputs.empty() ? std::string("none") : "");
+  for (std::size_t i = 0; i < cmp.correlated_inputs.size(); ++i) out << (i ? ", " : "") << cmp.correlated_inputs[i];
+  out << "\n";
+  for (const std::string& note : cmp.notes) out << "  " << note << "\n";
+  out << "verdict: " << cmp.verdict << "\n";
+}
+
+json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+void AddComparisonJson(json& j, const CalibrationComparison& cmp) {
+  json rows = json::array();
+  for (const ComparedParameter& c : cmp.parameters) {
+    json row = {{"parameter", c.parameter},       {"unit", c.unit},
+                {"found_in", FoundText(c.found)}, {"previous", NumberOrNull(c.previous)},
+                {"now", NumberOrNull(c.now)},     {"difference", NumberOrNull(c.difference)},
+                {"U", NumberOrNull(c.U)},         {"En", NumberOrNull(c.En)}};
+    if (!c.note.empty()) row["note"] = c.note;
+    rows.push_back(row);
+  }
+  j["comparison"] = rows;
+  j["comparison_summary"] = {{"previous_file", cmp.previous_source},
+                             {"k", cmp.k},
+                             {"unchanged", cmp.Unchanged()},
+                             {"verdict", cmp.verdict},
+                             {"correlated_inputs", cmp.correlated_inputs},
+                             {"notes", cmp.notes}};
+}
+
 }  // namespace
 
 void WriteTextReport(std::ostream& out, const CalibrationResult& r, const ReportContext& ctx) {
@@ -163,6 +213,7 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
   out << "\nresult: " << (usability.usable ? "usable calibration" : "NOT a usable calibration") << "\n";
   for (const std::string& why : usability.reasons) out << "  why: " << why << "\n";
   if (ctx.trace != nullptr) WriteTraceText(out, *ctx.trace, ctx.validation);
+  if (ctx.comparison != nullptr) WriteComparisonText(out, *ctx.comparison);
 }
 
 std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
@@ -276,6 +327,7 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   if (r.prior_sigma_mm > 0.0) j["prior_noise_um"] = r.prior_sigma_mm * kUmPerMm;
   j["warnings"] = r.warnings;
   if (ctx.trace != nullptr) internal::AddTraceJson(j, *ctx.trace, ctx.validation);
+  if (ctx.comparison != nullptr) AddComparisonJson(j, *ctx.comparison);
   return j.dump(2) + "\n";
 }
 

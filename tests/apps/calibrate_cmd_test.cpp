@@ -490,6 +490,59 @@ TEST_F(CalibrateCmd, StatesTheGumBudgetAndPutsTheCombinedCovarianceInTheCalibrat
   EXPECT_NEAR(std::sqrt((*cal.covariance)(6, 6)), u_mm, 1e-9);
 }
 
+// Yesterday's calibration and today's of the same machine with d' moved by 1 um: the comparison
+// names d' as moved, counts the shared certificate as correlated, and the exit code stays the
+// calibration's own; a calibration that is not usable is compared too and still exits 1.
+TEST_F(CalibrateCmd, ComparesWithAnEarlierCalibrationAndKeepsItsOwnExitCode) {
+  SimulationSpec spec;
+  spec.seed = 1;
+  CalibrateOptions o;
+  o.points_path = Simulated("yesterday.txt", spec);
+  o.workflow.trace = false;
+  o.workflow.conditions.sphere_radius_u_um = 0.1;
+  o.quiet = true;
+  o.output_path = dir_ + "/yesterday.json";
+  ASSERT_EQ(Calibrate(o).code, kExitOk);
+  spec.seed = 2;
+  spec.truth[kDPrime] += 1e-3;
+  o.points_path = Simulated("today.txt", spec);
+  o.output_path.clear();
+  o.quiet = false;
+  o.workflow.compare_path = dir_ + "/yesterday.json";
+  o.json_path = dir_ + "/today_report.json";
+  o.report_path = dir_ + "/today_report.html";
+  const RunOutput r = Calibrate(o);
+  ASSERT_EQ(r.code, kExitOk) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("comparison with " + o.workflow.compare_path));
+  EXPECT_THAT(r.out, HasSubstr("counted fully correlated (the same source in both, cancelling where it acts alike): "
+                               "R0 (certificate)"));
+  EXPECT_THAT(r.out, HasSubstr("verdict: moved: d_prime by +"));
+  std::ifstream in(o.json_path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["comparison"].size(), 7u);
+  const nlohmann::json& d = j["comparison"][6];
+  EXPECT_EQ(d["parameter"], "d_prime");
+  EXPECT_EQ(d["unit"], "um");
+  EXPECT_NEAR(d["difference"].get<double>(), d["now"].get<double>() - d["previous"].get<double>(), 1e-12);
+  EXPECT_NEAR(d["difference"].get<double>(), 1.0, 0.05);  // the 1 um moved, within the two fits' noise
+  // The certificate's 0.1 um acts alike on both: U is the fits' scatter alone, well below 2 x 0.1 um.
+  EXPECT_LT(d["U"].get<double>(), 0.1);
+  EXPECT_NEAR(d["En"].get<double>(), d["difference"].get<double>() / d["U"].get<double>(), 1e-12);
+  EXPECT_FALSE(j["comparison_summary"]["unchanged"].get<bool>());
+  for (int p = 0; p < kDPrime; ++p) EXPECT_LE(std::abs(j["comparison"][p]["En"].get<double>()), 3.0) << p;
+  std::ifstream html(o.report_path);
+  const std::string page((std::istreambuf_iterator<char>(html)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(page, HasSubstr("Comparison with an earlier calibration"));
+  EXPECT_THAT(page, HasSubstr("<td>d_prime</td>"));
+
+  spec.centers_mm = {Eigen::Vector3d(0.01, 0, 0)};  // centred: c undetermined, not usable
+  o.points_path = Simulated("centred.txt", spec);
+  o.report_path.clear();
+  const RunOutput centred = Calibrate(o);
+  EXPECT_EQ(centred.code, kExitNotUsable);
+  EXPECT_THAT(centred.out, HasSubstr("verdict: "));
+}
+
 // A sphere with a form of its own, turned on its mount, on a machine with only the seven errors:
 // the trace adds the form and nothing else, and what is reported and stored is the joint fit (the
 // seven errors fitted with the form), with the form in the calibration file.

@@ -9,6 +9,7 @@
 
 #include "sph/core/error.hpp"
 #include "sph/core/points_file.hpp"
+#include "test_util.hpp"
 
 namespace sph {
 namespace {
@@ -80,6 +81,35 @@ TEST(CalibrateWorkflow, TracesAndValidatesOnAnotherFile) {
   bool drift_left_out = false;
   const CalibrationFile file = run.MakeCalibrationFile(&drift_left_out);
   EXPECT_FALSE(file.effects.Empty());
+}
+
+// The same readings calibrated again and compared with the first calibration's file: the compare
+// file is read before the fit, every parameter is found in both, unchanged, and the reports say so.
+TEST(CalibrateWorkflow, ComparesWithAnEarlierCalibrationFile) {
+  CalibrationWorkflowOptions o;
+  o.trace = false;
+  o.conditions.sphere_radius_u_um = 0.1;
+  const std::string previous = sph::testing::MakeTempDir("workflow_compare") + "/previous.json";
+  WriteCalibrationFile(previous, RunCalibrationWorkflow(kPoints, o).MakeCalibrationFile());
+  o.compare_path = previous;
+  std::vector<std::string> stages;
+  o.on_stage = [&](const std::string& s) { stages.push_back(s); };
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(kPoints, o);
+  EXPECT_THAT(stages, ::testing::ElementsAre("reading " + kPoints, "reading " + previous, "checking 288 samples",
+                                             "calibrating the seven errors", "comparing with " + previous));
+  ASSERT_TRUE(run.comparison.has_value());
+  ASSERT_EQ(run.comparison->parameters.size(), 7u);
+  for (const ComparedParameter& c : run.comparison->parameters) {
+    EXPECT_TRUE(c.Compared()) << c.parameter;
+    EXPECT_NEAR(c.difference, 0.0, 1e-9) << c.parameter;
+  }
+  EXPECT_EQ(run.comparison->correlated_inputs, std::vector<std::string>{"R0 (certificate)"});
+  std::ostringstream text;
+  run.WriteTextReport(text);
+  EXPECT_THAT(text.str(), HasSubstr("comparison with " + previous));
+  EXPECT_THAT(text.str(), HasSubstr("verdict: unchanged within uncertainty (7 parameters compared"));
+  EXPECT_THAT(run.JsonReport(), HasSubstr("\"comparison\": ["));
+  EXPECT_THAT(run.HtmlReport(), HasSubstr("Comparison with an earlier calibration"));
 }
 
 TEST(CalibrateWorkflow, RefusesPointsWithoutARadius) {

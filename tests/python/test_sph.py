@@ -70,6 +70,18 @@ def test_calibrate_options_equal_the_apps(source_dir, tmp_path):
     assert result.calibration_file == cal.read_text()
 
 
+def test_calibrate_compare_equals_the_apps(source_dir, tmp_path):
+    points = os.path.join(source_dir, "data", "example", "undeclared", "points.txt")
+    cal, out = tmp_path / "yesterday.json", tmp_path / "today.json"
+    subprocess.run([os.environ["SPH_CALIBRATE"], points, "-o", str(cal), "-q"], check=True)
+    subprocess.run([os.environ["SPH_CALIBRATE"], points, "--compare", str(cal), "--json", str(out), "-q"], check=True)
+    result = sph.calibrate(points, compare=cal)
+    assert result.report == json.loads(out.read_text())
+    assert [c["parameter"] for c in result.report["comparison"]][:7] == ["alpha", "a", "beta", "b", "epsilon", "c",
+                                                                         "d_prime"]
+    assert result.report["comparison_summary"]["unchanged"]
+
+
 def test_calibrate_result_views(example_points):
     r = sph.calibrate(example_points, no_trace=True)
     names = r.report["parameter_order"]

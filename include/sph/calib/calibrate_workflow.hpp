@@ -1,7 +1,8 @@
 // The calibration workflow in one call (what sph_calibrate does, for a host program): the points'
 // header merged with the options, the seven errors, the residual traced to further effects (or a
 // fixed set of effects fitted), the sphere's form, the GUM budget, the validation on another file,
-// and the calibration file's content, all in one result that renders the reports.
+// the comparison with an earlier calibration and the calibration file's content, all in one result
+// that renders the reports.
 #ifndef SPH_CALIB_CALIBRATE_WORKFLOW_HPP_
 #define SPH_CALIB_CALIBRATE_WORKFLOW_HPP_
 
@@ -15,6 +16,7 @@
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/report.hpp"
 #include "sph/calib/usability.hpp"
+#include "sph/core/calibration_comparison.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/ranges.hpp"
@@ -47,6 +49,10 @@ struct CalibrationWorkflowOptions {
   TraceOptions trace_options;
   std::vector<Effect> effects;     ///< a fixed model: these effects fitted, no selection (needs trace)
   std::string validate_path;       ///< another points file of the machine, compensated before and after (needs trace)
+  /// An earlier calibration file of the machine (sph_calibrate -o): this run's calibration compared
+  /// with it (sph/core/calibration_comparison.hpp); read before the fit. The comparison informs: it
+  /// does not change the calibration nor whether it is usable.
+  std::string compare_path;
   SphereConditions conditions;     ///< the uncertainty inputs and the probe range; override the header's
   std::optional<double> coverage;  ///< coverage probability of U; empty: k = 2
   std::string program;             ///< the reports' "program"; empty: "sph_calibrate <version>"
@@ -73,6 +79,8 @@ struct CalibrationWorkflowResult {
   std::optional<TraceResult> trace;         ///< when traced (or a fixed set of effects fitted)
   std::optional<Validation> validation;     ///< when a validation file was given
   std::optional<CalibrationBudget> budget;  ///< none when the fit was not analysed or a refit failed
+  /// The comparison with an earlier calibration, when compare_path was given.
+  std::optional<CalibrationComparison> comparison;
   std::vector<std::string> warnings;        ///< the readings' plausibility, the budget's absence
   Usability usability;
 
@@ -96,7 +104,8 @@ struct CalibrationWorkflowResult {
 
 /// Runs the workflow on the points file `points_path` (read with ReadPointsFile()). Throws
 /// sph::Error on bad input: a setting out of range, R0 or d given nowhere, a reading beyond the
-/// probe's range, a fit that fails, an unreadable validation file.
+/// probe's range, a fit that fails, an unreadable validation file, a compare file that is no
+/// calibration file or one of another nominal d (CheckComparable()).
 CalibrationWorkflowResult RunCalibrationWorkflow(const std::string& points_path,
                                                  const CalibrationWorkflowOptions& options);
 

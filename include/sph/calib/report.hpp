@@ -12,6 +12,7 @@
 #include "sph/calib/budget.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/effect_fit.hpp"
+#include "sph/core/calibration_comparison.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/model/compensation.hpp"
 
@@ -36,6 +37,8 @@ struct ReportContext {
   /// (sph/select/trace_report.hpp): both reports then carry them. Not owned.
   const TraceResult* trace = nullptr;
   const Validation* validation = nullptr;
+  /// The comparison with an earlier calibration, when made: both reports end with it. Not owned.
+  const CalibrationComparison* comparison = nullptr;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,
