@@ -113,18 +113,30 @@ def _rss_bytes():
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 
-def test_memory_is_stable_over_repeated_calibrations(example_points):
+def test_memory_is_stable_over_repeated_calls(example_points, capsys):
+    """RSS over 100 calls of each workflow after 10 (the allocator's and Ceres' first-use growth), against
+    what a result left behind each call would add: at least its JSON text (its dict is larger) and, for
+    simulate, its four columns of float64. bench/python_memory.py measures 1000 calls of each."""
     p = sph.read_points(example_points)
-    for _ in range(10):  # the allocator's and Ceres' first-use growth
-        sph.calibrate(p)
-    before = _rss_bytes()
-    for _ in range(200):
-        r = sph.calibrate(p)
-    grown = _rss_bytes() - before
-    # A result left behind each call (its report alone is 28 kB of JSON text, more as a dict; the points
-    # copied in are 11 kB) would grow RSS by more than 6 MB over 200 calls.
-    assert grown < 2e6, f"RSS grew by {grown / 1e6:.2f} MB over 200 calibrations"
-    assert r.usable
+    workflows = {
+        "calibrate": (lambda: sph.calibrate(p), lambda r: len(json.dumps(r.report))),
+        "simulate": (lambda: sph.simulate(), lambda r: 4 * r[0].r_mm.nbytes + len(json.dumps(r[1]))),
+        "monte_carlo": (lambda: sph.monte_carlo(trials=2, eccentricities_mm=[2], table3=False, threads=1),
+                        lambda r: len(json.dumps(r.report))),
+    }
+    calls = 100
+    for name, (call, result_bytes) in workflows.items():
+        for _ in range(10):
+            r = call()
+        before = _rss_bytes()
+        for _ in range(calls):
+            r = call()
+        grown = _rss_bytes() - before
+        leak = calls * result_bytes(r)  # what results left behind would hold, at least
+        with capsys.disabled():
+            print(f"\n{name}: RSS grew by {grown / 1e3:.0f} kB over {calls} calls "
+                  f"(results left behind: {leak / 1e3:.0f} kB or more)", end="")
+        assert grown < leak / 2, f"{name}: RSS grew by {grown / 1e3:.0f} kB over {calls} calls"
 
 
 def _undeclared(source_dir, name):
