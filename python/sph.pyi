@@ -155,7 +155,7 @@ def simulate(
     probe_range_mm: float = ...,
     phi_wobble_pivot_mm: float = ...,
     mount_rotation_deg: Union[str, Sequence[str]] = ...,
-    mount_unknown: Union[str, Sequence[str]] = ...,
+    mount_unknown: Union[str, int, Sequence[Union[str, int]]] = ...,
     other_sphere_radius_mm: Union[str, Sequence[str]] = ...,
     form_um: _Texts = ...,
     form_flat_um: _Texts = ...,

@@ -441,9 +441,11 @@ std::string OptionText(const py::handle& value) {
   return text;
 }
 
-// The values of a repeatable option: one text (a str, or numbers as one value), or a sequence of them.
+// The values of a repeatable option: one text (a str, a number, or numbers as one value), or a
+// sequence of them.
 std::vector<std::string> OptionTexts(const py::handle& value) {
   if (py::isinstance<py::str>(value)) return {py::cast<std::string>(value)};
+  if (!py::isinstance<py::sequence>(value)) return {OptionText(py::make_tuple(value))};  // mount_unknown=1
   const py::sequence items = py::cast<py::sequence>(value);
   if (items.size() > 0 && !py::isinstance<py::str>(items[0]) && !py::isinstance<py::sequence>(items[0])) {
     return {OptionText(value)};  // (2, 0, 0): one value of numbers
@@ -556,7 +558,13 @@ Options OptionsOf(const py::kwargs& kwargs, const std::vector<Keyword<Options>>&
     if (k == keywords.end()) {
       throw py::type_error(std::string(function) + "() got an unexpected keyword argument '" + key + "'");
     }
-    if (!item.second.is_none()) k->set(o, item.second);  // None: not given
+    try {
+      if (!item.second.is_none()) k->set(o, item.second);  // None: not given
+    } catch (const py::cast_error&) {
+      throw py::type_error(std::string(function) + "() keyword argument '" + key + "' got a " +
+                           std::string(py::str(py::type::of(item.second).attr("__name__"))) +
+                           ", which it does not take");
+    }
   }
   return o;
 }

@@ -251,9 +251,20 @@ def test_simulate_defaults_are_the_papers_study():
     assert truth["centers_mm"] == [[2.0, 0.0, 0.0]] and truth["seed"] == 1
 
 
+def test_simulate_takes_a_setup_as_a_number():
+    points, _ = sph.simulate(center_mm=[(2, 0, 0), (0, 2, 0)], mount_rotation_deg="1:0,0,90", mount_unknown=1)
+    assert points.header["mount_rotation_deg@1"] == "unknown"
+    assert sph.simulate(center_mm=[(2, 0, 0), (0, 2, 0)], mount_rotation_deg="1:0,0,90",
+                        mount_unknown=[1])[0].header == points.header
+
+
 def test_simulate_errors():
     with pytest.raises(TypeError, match="'noise_um'"):
         sph.simulate(noise_um=0.1)
+    with pytest.raises(TypeError, match=r"^simulate\(\) keyword argument 'seed' got a str, which it does not take$"):
+        sph.simulate(seed="7")
+    with pytest.raises(TypeError, match="'center_mm' got a dict"):
+        sph.simulate(center_mm={"x": 2})
     with pytest.raises(sph.Error, match=r"^--noise-r-um: must be >= 0 and <= 1000 um, got -1$"):
         sph.simulate(noise_r_um=-1)
     with pytest.raises(sph.Error, match=r"^--center-mm '1,0': expected x,y,z in mm$"):
