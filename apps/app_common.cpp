@@ -4,7 +4,6 @@
 #include <charconv>
 #include <csignal>
 #include <cstdint>
-#include <cstdlib>
 #include <limits>
 
 #include <CLI/CLI.hpp>
@@ -12,34 +11,10 @@
 #include "sph/core/error.hpp"
 #include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
-#include "sph/model/units.hpp"
 
 namespace sph::apps {
-namespace {
 
-using internal::Format;
 using internal::Quoted;
-
-// The parts of "a,b,c" (none for an empty text; "a," has two, the second empty).
-std::vector<std::string> SplitCommas(const std::string& text) {
-  std::vector<std::string> parts;
-  if (text.empty()) return parts;
-  std::size_t start = 0;
-  for (std::size_t comma; (comma = text.find(',', start)) != std::string::npos; start = comma + 1) {
-    parts.push_back(text.substr(start, comma - start));
-  }
-  parts.push_back(text.substr(start));
-  return parts;
-}
-
-// A direction of three parsed values, refused when it has no length.
-Eigen::Vector3d Direction(const std::vector<double>& v, std::size_t first, const std::string& what) {
-  const Eigen::Vector3d d(v[first], v[first + 1], v[first + 2]);
-  if (!(d.norm() > 0.0)) throw Error(what + ": the direction nx,ny,nz has no length");
-  return d;
-}
-
-}  // namespace
 
 CLI::Validator InRange(const ValidRange& range) {
   return CLI::Validator(
@@ -87,18 +62,6 @@ void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std:
   }
 }
 
-std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,
-                                const std::vector<Field>& fields) {
-  const std::vector<std::string> parts = SplitCommas(text);
-  if (parts.size() != fields.size() || text.back() == ',') throw Error(what + ": expected " + expected);
-  std::vector<double> values;
-  for (std::size_t i = 0; i < parts.size(); ++i) {
-    const double v = ParseNumber(parts[i], fields[i].name, what + ": ");
-    values.push_back(CheckedValue(v, fields[i].range, what + ": " + fields[i].name, parts[i]));
-  }
-  return values;
-}
-
 void AddFormOptions(CLI::App& app, FormOptions& o, const std::string& group) {
   app.add_option(
          "--form-um", o.harmonics_um,
@@ -115,64 +78,6 @@ void AddFormOptions(CLI::App& app, FormOptions& o, const std::string& group) {
                      ", negative: a dent) and angular standard deviation (" + ranges::kFormWidthDeg.Text() +
                      ") about the body direction n; repeatable")
       ->group(group);
-}
-
-void AddForm(const FormOptions& o, double sphere_radius_mm, SimulatedEffects& effects) {
-  for (const std::string& f : o.harmonics_um) {
-    const std::vector<std::string> parts = SplitCommas(f);
-    FormComponent c;
-    try {
-      if (parts.size() != 3) throw Error("");
-      c = {ParseInteger(parts[0], "l", ""), ParseInteger(parts[1], "m", ""), ParseNumber(parts[2], "amplitude_um", "")};
-    } catch (const Error&) {
-      c.l = -1;  // refused below
-    }
-    if (c.l < 0 || c.l > 20 || std::abs(c.m) > c.l) {
-      throw Error("--form-um " + f + ": expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l");
-    }
-    CheckedValue(c.amplitude_um, ranges::kEffectUm, "--form-um " + f, Format("%g", c.amplitude_um));
-    effects.form.push_back(c);
-  }
-  for (const std::string& text : o.flats_um) {
-    const std::string what = "--form-flat-um " + Quoted(text);
-    const std::vector<double> v = ParseFields(text, what, "depth_um,nx,ny,nz",
-                                              {{"depth_um", ranges::kFormDepthUm},
-                                               {"nx", ranges::kDirection},
-                                               {"ny", ranges::kDirection},
-                                               {"nz", ranges::kDirection}});
-    if (!(v[0] * kMmPerUm < sphere_radius_mm))
-      throw Error(what + ": the depth must be smaller than the sphere's radius");
-    effects.flats.push_back({v[0], Direction(v, 1, what)});
-  }
-  for (const std::string& text : o.bumps_um) {
-    const std::string what = "--form-bump-um " + Quoted(text);
-    const std::vector<double> v = ParseFields(text, what, "height_um,width_deg,nx,ny,nz",
-                                              {{"height_um", ranges::kEffectUm},
-                                               {"width_deg", ranges::kFormWidthDeg},
-                                               {"nx", ranges::kDirection},
-                                               {"ny", ranges::kDirection},
-                                               {"nz", ranges::kDirection}});
-    effects.bumps.push_back({v[0], v[1], Direction(v, 2, what)});
-  }
-}
-
-Eigen::Vector3d ParseRotationDeg(const std::string& text, const std::string& what, const std::string& expected) {
-  const std::vector<double> v = ParseFields(
-      text, what, expected,
-      {{"rx", ranges::kMountRotationDeg}, {"ry", ranges::kMountRotationDeg}, {"rz", ranges::kMountRotationDeg}});
-  return {v[0], v[1], v[2]};
-}
-
-Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what) {
-  const std::vector<std::string> parts = SplitCommas(text);
-  if (parts.size() != 3 || text.back() == ',') throw Error(what + " " + Quoted(text) + ": expected x,y,z in mm");
-  Eigen::Vector3d c;
-  for (int i = 0; i < 3; ++i) {
-    const std::string& part = parts[static_cast<std::size_t>(i)];
-    c(i) =
-        CheckedValue(ParseNumber(part, Quoted(text), what + " "), ranges::kCenterMm, what + " " + Quoted(text), part);
-  }
-  return c;
 }
 
 void AddMachineOptions(CLI::App& app, MachineOptions& o, const std::string& group) {
@@ -201,35 +106,6 @@ void AddMachineOptions(CLI::App& app, MachineOptions& o, const std::string& grou
       ->check(InRange(kNoiseArcsec));
   add("--noise-phi-arcsec", o.noise_phi_arcsec, "Sigma of the noise on the phi reading [arcsec]")
       ->check(InRange(kNoiseArcsec));
-}
-
-SimulationSpec ToSimulationSpec(const MachineOptions& o) {
-  SimulationSpec spec;
-  spec.truth = {o.alpha_deg * kRadPerDeg,
-                o.a_mm,
-                o.beta_deg * kRadPerDeg,
-                o.b_mm,
-                o.epsilon_deg * kRadPerDeg,
-                o.c_mm,
-                o.d_prime_mm};
-  spec.sphere_radius_mm = o.sphere_radius_mm;
-  spec.probe_offset_mm = o.probe_offset_mm;
-  if (!(std::abs(o.d_prime_mm) < o.probe_offset_mm)) {
-    throw Error("--d-prime-mm " + Format("%g", o.d_prime_mm) +
-                ": the error of the probe zero distance must be "
-                "smaller than the distance itself (--probe-offset-mm " +
-                Format("%g", o.probe_offset_mm) + ")");
-  }
-  if (o.angles_path.empty() && static_cast<long>(o.theta_steps) * o.phi_steps > kMaxPatternPoints) {
-    throw Error("--theta-steps " + std::to_string(o.theta_steps) + " x --phi-steps " + std::to_string(o.phi_steps) +
-                " is a grid of " + std::to_string(static_cast<long>(o.theta_steps) * o.phi_steps) +
-                " points; at most " + std::to_string(kMaxPatternPoints) + " are simulated");
-  }
-  spec.pattern = o.angles_path.empty() ? GridPattern(o.theta_steps, o.phi_steps) : ReadAnglePattern(o.angles_path);
-  spec.noise_r_um = o.noise_r_um;
-  spec.noise_theta_arcsec = o.noise_theta_arcsec;
-  spec.noise_phi_arcsec = o.noise_phi_arcsec;
-  return spec;
 }
 
 int RunApp(int argc, char** argv, const char* name, const std::function<void(CLI::App&)>& setup,

@@ -19,8 +19,9 @@
 #include "sph/core/cleanup.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/points_file.hpp"
-#include "sph/core/simulate.hpp"
 #include "sph/core/ranges.hpp"
+#include "sph/core/simulate.hpp"
+#include "sph/core/simulation_options.hpp"
 #include "sph/core/valid_range.hpp"
 #include "sph/model/scms_model.hpp"
 
@@ -58,61 +59,12 @@ void AddPlotTimeoutOption(CLI::App& app, double& timeout_s);
 /// "(overrides the file's " gives "... (overrides the file's sphere_radius_u_um)".
 void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source);
 
-/// The simulated machine and measurement shared by sph_simulate and sph_montecarlo: the true
-/// errors, the sphere, the pattern and the noise (defaults: the paper's study).
-struct MachineOptions {
-  double alpha_deg = 0.02, a_mm = 0.002, beta_deg = 0.02, b_mm = 0.002;
-  double epsilon_deg = 0.02, c_mm = 0.002, d_prime_mm = -0.062;
-  double sphere_radius_mm = 20.0;
-  double probe_offset_mm = 25.0;
-  int theta_steps = 24;
-  int phi_steps = 12;
-  std::string angles_path;  ///< explicit pattern: "theta_deg phi_deg" per line
-  double noise_r_um = 0.05;
-  double noise_theta_arcsec = 0.0;
-  double noise_phi_arcsec = 0.0;
-};
-
 /// Adds the MachineOptions options (--alpha-deg ... --noise-phi-arcsec) to an app, listed under
 /// `group` in --help when it is not empty.
 void AddMachineOptions(CLI::App& app, MachineOptions& o, const std::string& group = "");
 
-/// The simulation spec of the options (centres and seed left at their defaults). Reads the
-/// --angles file; throws sph::Error on a bad one.
-SimulationSpec ToSimulationSpec(const MachineOptions& o);
-
-/// One number of a comma-separated option value: its name and its valid values.
-struct Field {
-  const char* name;
-  ValidRange range;
-};
-
-/// "v1,v2,..." as the numbers `fields`, each in its range; `what` ("--form-flat-um '0.1,0,0,1'")
-/// names the option and its value in messages, `expected` the layout ("depth_um,nx,ny,nz").
-std::vector<double> ParseFields(const std::string& text, const std::string& what, const std::string& expected,
-                                const std::vector<Field>& fields);
-
-/// A form error of the sphere on its body frame, as options: harmonics "l,m,amplitude_um", flats
-/// "depth_um,nx,ny,nz" and bumps "height_um,width_deg,nx,ny,nz", each.
-struct FormOptions {
-  std::vector<std::string> harmonics_um;
-  std::vector<std::string> flats_um;
-  std::vector<std::string> bumps_um;
-};
-
 /// Adds --form-um, --form-flat-um and --form-bump-um, listed under `group`.
 void AddFormOptions(CLI::App& app, FormOptions& o, const std::string& group);
-
-/// The form of the options into `effects` (form, flats, bumps) of a sphere of radius
-/// `sphere_radius_mm`; throws sph::Error naming the option and its value.
-void AddForm(const FormOptions& o, double sphere_radius_mm, SimulatedEffects& effects);
-
-/// "rx,ry,rz": a rotation vector [deg] (axis times angle), each component within
-/// ranges::kMountRotationDeg; messages as ParseFields().
-Eigen::Vector3d ParseRotationDeg(const std::string& text, const std::string& what, const std::string& expected);
-
-/// Parses "x,y,z" (mm); `what` names the option in the error.
-Eigen::Vector3d ParseVector3(const std::string& text, const std::string& what);
 
 /// The whole main() of an app: set up the options, parse, run. --help and --version exit 0, a parse
 /// error exits kExitBadInput, and an exception escaping `run` is printed as "<name>: error: <what>"

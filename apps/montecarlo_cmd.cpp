@@ -1,7 +1,6 @@
 #include "montecarlo_cmd.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -25,33 +24,11 @@ namespace {
 
 using internal::Format;
 
+// The study of the options; the plans make no Table 3.
 MonteCarloStudyOptions ToSpec(const MonteCarloAppOptions& o) {
-  MonteCarloStudyOptions spec;
-  spec.base = ToSimulationSpec(o.machine);
-  spec.eccentricities_mm = o.eccentricities_mm;
-  spec.direction = ParseVector3(o.direction, "--direction");
-  if (!o.random_direction && !(spec.direction.norm() > 0.0)) throw Error("--direction must not be zero");
-  spec.random_direction = o.random_direction;
-  spec.setups = o.setups;
-  spec.trials = o.trials;
-  spec.seed = o.seed;
-  spec.threads = o.threads;
-  spec.max_std_um = o.max_std_um;
-  for (double e : spec.eccentricities_mm) {
-    if (!(e >= 0.0) || !(e < o.machine.sphere_radius_mm)) {
-      throw Error("--eccentricities-mm: " + Format("%g", e) + " is not in [0, R0)");
-    }
-  }
-  const auto& es = spec.eccentricities_mm;
-  if (o.table3 && !o.plan && !o.plan_orientations &&
-      std::find(es.begin(), es.end(), o.table3_calibration_e_mm) == es.end()) {
-    std::string list;
-    for (double e : es) list += (list.empty() ? "" : ", ") + Format("%g", e);
-    throw Error("--table3-calibration-e-mm " + Format("%g", o.table3_calibration_e_mm) +
-                ": Table 3 uses the study's calibrations at one of the eccentricities studied (--eccentricities-mm " +
-                list + "); choose one of them, add it to the study, or leave Table 3 out (--no-table3)");
-  }
-  return spec;
+  MonteCarloOptions study = o;
+  if (o.plan || o.plan_orientations) study.table3 = false;
+  return MonteCarloSpecOf(study);
 }
 
 // Figure 4: std against eccentricity with the Cramer-Rao curve, and the spread of the estimates:
@@ -178,7 +155,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloAppOptions& o) {
   AddMachineOptions(app, o.machine);
   app.add_option("--trials", o.trials, "Calibrations per eccentricity")
       ->capture_default_str()
-      ->check(CLI::Range(2, 1000000));
+      ->check(InRange(ranges::kTrials));
   app.add_option("--eccentricities-mm", o.eccentricities_mm, "Eccentricities of the sphere [mm]")
       ->capture_default_str()
       ->delimiter(',');
@@ -186,7 +163,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloAppOptions& o) {
   app.add_flag("--random-direction", o.random_direction, "A random direction for every trial (and setup)");
   app.add_option("--setups", o.setups, "Sphere placements per trial, turned evenly about the Theta axis")
       ->capture_default_str()
-      ->check(CLI::Range(1, 100));
+      ->check(InRange(ranges::kSetups));
   AddSeedOption(app, o.seed, "Random seed (results depend on it alone, not on --threads)")->capture_default_str();
   app.add_option("--max-std-um", o.max_std_um,
                  "A parameter whose predicted standard deviation, as a displacement of the probed point (angles "
@@ -195,7 +172,7 @@ void SetupMonteCarloApp(CLI::App& app, MonteCarloAppOptions& o) {
       ->check(InRange(ranges::kStdUm));
   app.add_option("--threads", o.threads, "Worker threads (0: all cores)")
       ->capture_default_str()
-      ->check(CLI::Range(0, 1024));
+      ->check(InRange(ranges::kThreads));
   app.add_flag("!--no-table3", o.table3, "Skip Table 3 (sphericity of ten further spheres)");
   app.add_option("--table3-calibration-e-mm", o.table3_calibration_e_mm,
                  "Eccentricity of the calibration used for Table 3 [mm]")
@@ -234,22 +211,20 @@ int RunMonteCarloApp(const MonteCarloAppOptions& o, std::ostream& out, std::ostr
     if (o.target_std_um) throw Error("--target-std-um goes with --plan");
     if (o.plan_orientations) return RunOrientationPlan(o, spec, out, files);
     Progress progress("sph_montecarlo", err, o.progress ? ProgressMode::kAuto : ProgressMode::kNever);
-    const auto t0 = std::chrono::steady_clock::now();
-    const MonteCarloStudy r = RunMonteCarlo(spec, [&](long d, long t) { progress.Update("calibrating", d, t); });
+    const MonteCarloRun run = RunMonteCarloStudy(o, [&](long d, long t) { progress.Update("calibrating", d, t); });
     progress.Finish();
-    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const MonteCarloStudy& r = run.study;
     const bool text = o.json_path != "-";
     if (text) WriteStudyTables(out, spec, r);
-    std::optional<PaperTable3> table3;
-    if (o.table3) table3 = MakePaperTable3(spec, r, o.table3_calibration_e_mm);
-    if (table3 && text) WritePaperTable3(out, spec, *table3);
+    if (run.table3 && text) WritePaperTable3(out, spec, *run.table3);
     if (text) {
       out << "\n"
-          << o.trials * static_cast<int>(r.rows.size()) << " calibrations in " << Format("%.2f", wall_s) << " s\n"
+          << o.trials * static_cast<int>(r.rows.size()) << " calibrations in " << Format("%.2f", run.wall_time_s)
+          << " s\n"
           << std::flush;
     }
     if (!o.json_path.empty()) {
-      const std::string json = StudyJson(spec, r, o.direction, wall_s, table3 ? &*table3 : nullptr);
+      const std::string json = run.JsonReport();
       files.Stage(o.json_path, [&](std::ostream& f) { f << json; });
     }
     if (!o.csv_path.empty()) files.Stage(o.csv_path, [&](std::ostream& f) { WriteStudyCsv(f, r); });

@@ -2,7 +2,6 @@
 #ifndef SPH_APPS_MONTECARLO_CMD_HPP_
 #define SPH_APPS_MONTECARLO_CMD_HPP_
 
-#include <cstdint>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -12,25 +11,12 @@
 
 #include "app_common.hpp"
 #include "gnuplot.hpp"
-
-namespace sph {
-struct MonteCarloStudyOptions;
-}  // namespace sph
+#include "sph/calib/montecarlo_options.hpp"
 
 namespace sph::apps {
 
-struct MonteCarloAppOptions {
-  MachineOptions machine;  ///< truth, sphere, pattern, noise
-  std::vector<double> eccentricities_mm{0.5, 1.0, 1.5, 2.0};
-  std::string direction = "1,0,0";
-  bool random_direction = false;
-  int setups = 1;
-  int trials = 1000;
-  std::uint64_t seed = 1;
-  int threads = 0;
-  double max_std_um = 10.0;  ///< a parameter whose predicted std, as a displacement, exceeds this is undetermined
-  bool table3 = true;
-  double table3_calibration_e_mm = 2.0;
+/// What sph_montecarlo studies (the library's MonteCarloOptions), its plans and the files it writes.
+struct MonteCarloAppOptions : MonteCarloOptions {
   std::string json_path;
   std::string csv_path;
   std::string plot_dir;

@@ -1,6 +1,7 @@
-"""Calibration of spherical coordinate measuring systems: points files and the calibration workflow."""
+"""Calibration of spherical coordinate measuring systems: points files, the calibration and measurement
+workflows, simulated readings of a known machine and the Monte Carlo study."""
 import os
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -124,3 +125,81 @@ def measure(
     mc_digits: int = ...,
     mc_max_points: int = ...,
 ) -> MeasurementResult: ...
+
+# A value in the app's words ("2,0,0"), or numbers: (2, 0, 0).
+_Text = Union[str, Sequence[float]]
+# A repeatable option: one value or a sequence of them.
+_Texts = Union[_Text, Sequence[_Text]]
+
+def simulate(
+    *,
+    alpha_deg: float = ...,
+    a_mm: float = ...,
+    beta_deg: float = ...,
+    b_mm: float = ...,
+    epsilon_deg: float = ...,
+    c_mm: float = ...,
+    d_prime_mm: float = ...,
+    sphere_radius_mm: float = ...,
+    probe_offset_mm: float = ...,
+    theta_steps: int = ...,
+    phi_steps: int = ...,
+    angles: Union[str, "os.PathLike[str]"] = ...,
+    noise_r_um: float = ...,
+    noise_theta_arcsec: float = ...,
+    noise_phi_arcsec: float = ...,
+    center_mm: _Texts = ...,
+    seed: int = ...,
+    sample_period_s: float = ...,
+    effect_arcsec: Union[str, Sequence[str]] = ...,
+    effect_um: Union[str, Sequence[str]] = ...,
+    probe_range_mm: float = ...,
+    phi_wobble_pivot_mm: float = ...,
+    mount_rotation_deg: Union[str, Sequence[str]] = ...,
+    mount_unknown: Union[str, int, Sequence[Union[str, int]]] = ...,
+    other_sphere_radius_mm: Union[str, Sequence[str]] = ...,
+    form_um: _Texts = ...,
+    form_flat_um: _Texts = ...,
+    form_bump_um: _Texts = ...,
+    scan_order: Union[str, Sequence[str]] = ...,
+    outlier_fraction: float = ...,
+    outlier_um: float = ...,
+) -> Tuple[Points, Dict[str, Any]]:
+    """Readings of a known machine (sph_simulate): the points and the truth (sph_simulate --truth)."""
+
+class MonteCarloResult:
+    """A Monte Carlo study's result (sph.monte_carlo)."""
+    @property
+    def report(self) -> Dict[str, Any]: ...
+    @property
+    def trials(self) -> Dict[str, npt.NDArray[Any]]: ...
+
+def monte_carlo(
+    *,
+    trials: int = ...,
+    eccentricities_mm: Union[float, Sequence[float]] = ...,
+    direction: _Text = ...,
+    random_direction: bool = ...,
+    setups: int = ...,
+    seed: int = ...,
+    threads: int = ...,
+    max_std_um: float = ...,
+    table3: bool = ...,
+    table3_calibration_e_mm: float = ...,
+    alpha_deg: float = ...,
+    a_mm: float = ...,
+    beta_deg: float = ...,
+    b_mm: float = ...,
+    epsilon_deg: float = ...,
+    c_mm: float = ...,
+    d_prime_mm: float = ...,
+    sphere_radius_mm: float = ...,
+    probe_offset_mm: float = ...,
+    theta_steps: int = ...,
+    phi_steps: int = ...,
+    angles: Union[str, "os.PathLike[str]"] = ...,
+    noise_r_um: float = ...,
+    noise_theta_arcsec: float = ...,
+    noise_phi_arcsec: float = ...,
+) -> MonteCarloResult:
+    """The Monte Carlo study of the calibration (sph_montecarlo): its report and every trial's estimates."""

@@ -1,10 +1,14 @@
-// The Python module `sph`: the library's points files and calibration workflow for scripts, with
-// NumPy arrays in and out. Thin, as the apps are: it converts, calls the library (the GIL released)
-// and returns what the library renders; sph::Error becomes sph.Error (a ValueError) with the
-// library's message.
+// The Python module `sph`: the library's points files, its calibration and measurement workflows,
+// the simulator and the Monte Carlo study for scripts, with NumPy arrays in and out. Thin, as the
+// apps are: it converts, calls the library (the GIL released) and returns what the library renders;
+// sph::Error becomes sph.Error (a ValueError) with the library's message.
+#include <algorithm>
 #include <cstdint>
+#include <cstdio>
+#include <functional>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -13,11 +17,13 @@
 #include <pybind11/stl.h>
 
 #include "sph/calib/calibrate_workflow.hpp"
+#include "sph/calib/montecarlo_options.hpp"
 #include "sph/core/calibration_file.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/measure_workflow.hpp"
 #include "sph/core/parameter_settings.hpp"
 #include "sph/core/points_file.hpp"
+#include "sph/core/simulation_options.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/effect_terms.hpp"
 #include "sph/model/units.hpp"
@@ -425,10 +431,212 @@ Measurement Measure(const py::object& path_like, const py::kwargs& kwargs) {
   return r;
 }
 
+// A value of an option that the app takes as text ("2,0,0", "theta_encoder.c2=10"): a str as it
+// is, numbers joined by commas, each in its shortest exact form ("%.17g").
+std::string OptionText(const py::handle& value) {
+  if (py::isinstance<py::str>(value)) return py::cast<std::string>(value);
+  std::string text;
+  char buf[32];
+  for (const double x : py::cast<std::vector<double>>(value)) {
+    std::snprintf(buf, sizeof buf, "%.17g", x);
+    text += (text.empty() ? "" : ",") + std::string(buf);
+  }
+  return text;
+}
+
+// The values of a repeatable option: one text (a str, a number, or numbers as one value), or a
+// sequence of them.
+std::vector<std::string> OptionTexts(const py::handle& value) {
+  if (py::isinstance<py::str>(value)) return {py::cast<std::string>(value)};
+  if (!py::isinstance<py::sequence>(value)) return {OptionText(py::make_tuple(value))};  // mount_unknown=1
+  const py::sequence items = py::cast<py::sequence>(value);
+  if (items.size() > 0 && !py::isinstance<py::str>(items[0]) && !py::isinstance<py::sequence>(items[0])) {
+    return {OptionText(value)};  // (2, 0, 0): one value of numbers
+  }
+  std::vector<std::string> texts;
+  for (const py::handle item : items) texts.push_back(OptionText(item));
+  return texts;
+}
+
+// The keywords of a function taking an options struct: each sets its field from a Python value.
+template <typename Options>
+struct Keyword {
+  const char* name;
+  std::function<void(Options&, const py::handle&)> set;
+};
+
+template <typename Options, typename T>
+Keyword<Options> Number(const char* name, T Options::*field) {
+  return {name, [field](Options& o, const py::handle& v) { o.*field = py::cast<T>(v); }};
+}
+
+// The simulated machine's keywords (sph_simulate's and sph_montecarlo's --alpha-deg ... --noise-phi-arcsec).
+template <typename Options>
+void AddMachineKeywords(std::vector<Keyword<Options>>& k) {
+  const auto machine = [](const char* name, auto sph::MachineOptions::*field) {
+    using T = std::remove_reference_t<decltype(std::declval<sph::MachineOptions>().*field)>;
+    return Keyword<Options>{name, [field](Options& o, const py::handle& v) { o.machine.*field = py::cast<T>(v); }};
+  };
+  using M = sph::MachineOptions;
+  k.push_back(machine("alpha_deg", &M::alpha_deg));
+  k.push_back(machine("a_mm", &M::a_mm));
+  k.push_back(machine("beta_deg", &M::beta_deg));
+  k.push_back(machine("b_mm", &M::b_mm));
+  k.push_back(machine("epsilon_deg", &M::epsilon_deg));
+  k.push_back(machine("c_mm", &M::c_mm));
+  k.push_back(machine("d_prime_mm", &M::d_prime_mm));
+  k.push_back(machine("sphere_radius_mm", &M::sphere_radius_mm));
+  k.push_back(machine("probe_offset_mm", &M::probe_offset_mm));
+  k.push_back(machine("theta_steps", &M::theta_steps));
+  k.push_back(machine("phi_steps", &M::phi_steps));
+  k.push_back({"angles", [](Options& o, const py::handle& v) { o.machine.angles_path = PathOf(v); }});
+  k.push_back(machine("noise_r_um", &M::noise_r_um));
+  k.push_back(machine("noise_theta_arcsec", &M::noise_theta_arcsec));
+  k.push_back(machine("noise_phi_arcsec", &M::noise_phi_arcsec));
+}
+
+template <typename Options>
+Keyword<Options> Texts(const char* name, std::vector<std::string> Options::*field) {
+  return {name, [field](Options& o, const py::handle& v) { o.*field = OptionTexts(v); }};
+}
+
+// sph_simulate's options as keywords (its names with '_' for '-', without -o and --truth).
+const std::vector<Keyword<sph::SimulationOptions>>& SimulateKeywords() {
+  using S = sph::SimulationOptions;
+  static const std::vector<Keyword<S>> keywords = [] {
+    std::vector<Keyword<S>> k;
+    AddMachineKeywords(k);
+    k.push_back(Texts("center_mm", &S::centers_mm));
+    k.push_back(Number("seed", &S::seed));
+    k.push_back(Number("sample_period_s", &S::sample_period_s));
+    k.push_back(Texts("effect_arcsec", &S::effects_arcsec));
+    k.push_back(Texts("effect_um", &S::effects_um));
+    k.push_back({"probe_range_mm", [](S& o, const py::handle& v) { o.probe_range_mm = py::cast<double>(v); }});
+    k.push_back(Number("phi_wobble_pivot_mm", &S::phi_wobble_pivot_mm));
+    k.push_back(Texts("mount_rotation_deg", &S::mount_rotations_deg));
+    k.push_back(Texts("mount_unknown", &S::mount_unknown));
+    k.push_back(Texts("other_sphere_radius_mm", &S::sphere_radii_mm));
+    k.push_back({"form_um", [](S& o, const py::handle& v) { o.form.harmonics_um = OptionTexts(v); }});
+    k.push_back({"form_flat_um", [](S& o, const py::handle& v) { o.form.flats_um = OptionTexts(v); }});
+    k.push_back({"form_bump_um", [](S& o, const py::handle& v) { o.form.bumps_um = OptionTexts(v); }});
+    k.push_back(Texts("scan_order", &S::scan_orders));
+    k.push_back(Number("outlier_fraction", &S::outlier_fraction));
+    k.push_back(Number("outlier_um", &S::outlier_um));
+    return k;
+  }();
+  return keywords;
+}
+
+// sph_montecarlo's options of a study as keywords (without the plans and the files it writes).
+const std::vector<Keyword<sph::MonteCarloOptions>>& MonteCarloKeywords() {
+  using C = sph::MonteCarloOptions;
+  static const std::vector<Keyword<C>> keywords = [] {
+    std::vector<Keyword<C>> k;
+    AddMachineKeywords(k);
+    k.push_back({"eccentricities_mm", [](C& o, const py::handle& v) {
+                   o.eccentricities_mm = py::isinstance<py::sequence>(v) ? py::cast<std::vector<double>>(v)
+                                                                         : std::vector<double>{py::cast<double>(v)};
+                 }});
+    k.push_back({"direction", [](C& o, const py::handle& v) { o.direction = OptionText(v); }});
+    k.push_back(Number("random_direction", &C::random_direction));
+    k.push_back(Number("setups", &C::setups));
+    k.push_back(Number("trials", &C::trials));
+    k.push_back(Number("seed", &C::seed));
+    k.push_back(Number("threads", &C::threads));
+    k.push_back(Number("max_std_um", &C::max_std_um));
+    k.push_back(Number("table3", &C::table3));
+    k.push_back(Number("table3_calibration_e_mm", &C::table3_calibration_e_mm));
+    return k;
+  }();
+  return keywords;
+}
+
+// The options of `kwargs` by `keywords`; a TypeError naming an unknown one, as Python's own.
+template <typename Options>
+Options OptionsOf(const py::kwargs& kwargs, const std::vector<Keyword<Options>>& keywords, const char* function) {
+  Options o;
+  for (auto item : kwargs) {
+    const std::string key = py::str(item.first);
+    const auto k = std::find_if(keywords.begin(), keywords.end(), [&](const auto& w) { return key == w.name; });
+    if (k == keywords.end()) {
+      throw py::type_error(std::string(function) + "() got an unexpected keyword argument '" + key + "'");
+    }
+    try {
+      if (!item.second.is_none()) k->set(o, item.second);  // None: not given
+    } catch (const py::cast_error&) {
+      throw py::type_error(std::string(function) + "() keyword argument '" + key + "' got a " +
+                           std::string(py::str(py::type::of(item.second).attr("__name__"))) +
+                           ", which it does not take");
+    }
+  }
+  return o;
+}
+
+py::tuple Simulate(const py::kwargs& kwargs) {
+  const auto options = OptionsOf(kwargs, SimulateKeywords(), "simulate");
+  sph::SimulationRun run;
+  {
+    py::gil_scoped_release release;
+    run = sph::RunSimulation(options);
+  }
+  run.points.source = "<simulated>";
+  return py::make_tuple(Points{std::move(run.points)}, py::module_::import("json").attr("loads")(run.truth_json));
+}
+
+// A Monte Carlo study's result: its report and the estimate of every converged trial.
+struct MonteCarloResult {
+  py::dict report;
+  py::dict trials;
+};
+
+MonteCarloResult MonteCarlo(const py::kwargs& kwargs) {
+  const auto options = OptionsOf(kwargs, MonteCarloKeywords(), "monte_carlo");
+  sph::MonteCarloRun run;
+  std::string json;
+  {
+    py::gil_scoped_release release;
+    run = sph::RunMonteCarloStudy(options);
+    json = run.JsonReport();
+  }
+  MonteCarloResult r;
+  r.report = py::module_::import("json").attr("loads")(json);
+  // The per-trial table: one row per converged trial, eccentricity by eccentricity, trials numbered
+  // from 1 as the report's not_converged_trials; the estimates in the report's units.
+  py::ssize_t n = 0;
+  for (const auto& row : run.study.rows) n += static_cast<py::ssize_t>(row.estimates.size());
+  py::array_t<double> eccentricity(n);
+  py::array_t<std::int32_t> trial(n);
+  std::vector<py::array_t<double>> columns;
+  for (int p = 0; p < sph::kNumScmsParams; ++p) columns.emplace_back(n);
+  py::ssize_t i = 0;
+  for (const auto& row : run.study.rows) {
+    std::size_t next = 0;  // the next converged trial's estimate
+    for (int t = 0; t < row.trials && next < row.estimates.size(); ++t) {
+      if (std::find(row.not_converged.begin(), row.not_converged.end(), t) != row.not_converged.end()) continue;
+      eccentricity.mutable_at(i) = row.eccentricity_mm;
+      trial.mutable_at(i) = t + 1;
+      for (int p = 0; p < sph::kNumScmsParams; ++p) {
+        columns[static_cast<std::size_t>(p)].mutable_at(i) = row.estimates[next][p] * sph::ReportUnitsOf(p).to_coarse;
+      }
+      ++next;
+      ++i;
+    }
+  }
+  r.trials["eccentricity_mm"] = eccentricity;
+  r.trials["trial"] = trial;
+  for (int p = 0; p < sph::kNumScmsParams; ++p) {
+    r.trials[py::str(std::string(sph::kScmsParamInfo[static_cast<std::size_t>(p)].name) + "_" +
+                     sph::ReportUnitsOf(p).coarse)] = columns[static_cast<std::size_t>(p)];
+  }
+  return r;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(sph, m) {
-  m.doc() = "Calibration of spherical coordinate measuring systems: points files and the calibration workflow.";
+  m.doc() =
+      "Calibration of spherical coordinate measuring systems: points files, the calibration and measurement\n"
+      "workflows, simulated readings of a known machine and the Monte Carlo study.";
   m.attr("__version__") = SPH_VERSION;
   static py::exception<sph::Error> error(m, "Error", PyExc_ValueError);
   error.doc() = "Bad input: the library's message names the file, line and problem.";
@@ -556,4 +764,33 @@ PYBIND11_MODULE(sph, m) {
         "for '-': calibration, xyz, subtract_sphere_form, setup, uncertainty_samples, seed,\n"
         "max_dilution, noise_um, noise_floor_draws, coverage, mc_max_trials, mc_batch_trials,\n"
         "mc_digits, mc_max_points. Raises TypeError on an unknown option, sph.Error on bad input.");
+
+  m.def("simulate", &Simulate,
+        "Simulated readings of a known machine (what sph_simulate writes): returns (points, truth), the\n"
+        "readings as sph.Points and the truth as the dict sph_simulate --truth writes. Options are\n"
+        "sph_simulate's, '_' for '-': alpha_deg, a_mm, beta_deg, b_mm, epsilon_deg, c_mm, d_prime_mm,\n"
+        "sphere_radius_mm, probe_offset_mm, theta_steps, phi_steps, angles, noise_r_um,\n"
+        "noise_theta_arcsec, noise_phi_arcsec, center_mm, seed, sample_period_s, effect_arcsec,\n"
+        "effect_um, probe_range_mm, phi_wobble_pivot_mm, mount_rotation_deg, mount_unknown,\n"
+        "other_sphere_radius_mm, form_um, form_flat_um, form_bump_um, scan_order, outlier_fraction,\n"
+        "outlier_um. A repeatable option takes a str in the app's words (\"theta_encoder.c2=10\") or a\n"
+        "list of them; a value of numbers (center_mm) also a sequence of them: center_mm=[(2, 0, 0),\n"
+        "(0, 2, 0)]. Raises TypeError on an unknown option, sph.Error on bad input.");
+
+  py::class_<MonteCarloResult>(m, "MonteCarloResult", "A Monte Carlo study's result (sph.monte_carlo).")
+      .def_readonly("report", &MonteCarloResult::report, "The report as sph_montecarlo --json writes it, as a dict")
+      .def_readonly("trials", &MonteCarloResult::trials,
+                    "Every converged trial's estimates: 'eccentricity_mm', 'trial' (from 1, int32) and one\n"
+                    "float64 array per parameter in the report's units (alpha_deg, a_mm, ..., d_prime_mm)")
+      .def("__repr__", [](const MonteCarloResult& r) {
+        return "<sph.MonteCarloResult: " + std::string(py::str(r.report["trials"])) + " trials at " +
+               std::to_string(py::len(r.report["eccentricities"])) + " eccentricities, " +
+               std::to_string(py::len(r.trials["trial"])) + " converged>";
+      });
+  m.def("monte_carlo", &MonteCarlo,
+        "The Monte Carlo study of the calibration (what sph_montecarlo does): repeated calibrations of\n"
+        "simulated readings per eccentricity against the Cramer-Rao prediction. Options are\n"
+        "sph_montecarlo's, '_' for '-': trials, eccentricities_mm, direction, random_direction, setups,\n"
+        "seed, threads, max_std_um, table3, table3_calibration_e_mm and the machine's (alpha_deg ...\n"
+        "noise_phi_arcsec, as sph.simulate). Raises TypeError on an unknown option, sph.Error on bad input.");
 }

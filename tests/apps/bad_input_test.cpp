@@ -596,7 +596,10 @@ std::vector<MatrixCase> SimulateCases() {
       {"form_bad_degree", {"--form-um", "30,2,0.1"}, 2, "expected l,m,amplitude_um with 0 <= l <= 20 and |m| <= l"},
       // sscanf read a hexadecimal amplitude (0x1p-3 um)
       {"form_hex_amplitude", {"--form-um", "2,0,0x1p-3"}, 2, "--form-um 2,0,0x1p-3: expected l,m,amplitude_um"},
-      {"outlier_fraction_above_one", {"--outlier-fraction", "2"}, 2, "--outlier-fraction: Value 2 not in range"},
+      {"outlier_fraction_above_one",
+       {"--outlier-fraction", "2"},
+       2,
+       "--outlier-fraction: must be >= 0 and <= 1, got 2"},
       {"mount_rotation_without_setup",
        {"--mount-rotation-deg", "0,0,90"},
        2,
@@ -812,8 +815,8 @@ std::vector<MatrixCase> MonteCarloCases() {
     return args;
   };
   return {
-      {"trials_one", {"--trials", "1"}, 2, "--trials: Value 1 not in range"},
-      {"trials_too_many", {"--trials", "100000000"}, 2, "--trials: Value 100000000 not in range"},
+      {"trials_one", {"--trials", "1"}, 2, "--trials: must be >= 2 and <= 1e+06, got 1"},
+      {"trials_too_many", {"--trials", "100000000"}, 2, "--trials: must be >= 2 and <= 1e+06, got 100000000"},
       {"eccentricity_negative", with({"--eccentricities-mm", "-1"}), 2,
        e + "--eccentricities-mm: -1 is not in [0, R0)"},
       {"eccentricity_beyond_radius", with({"--eccentricities-mm", "25"}), 2,
@@ -826,8 +829,8 @@ std::vector<MatrixCase> MonteCarloCases() {
        e + "--table3-calibration-e-mm 1.7"},
       {"direction_zero", with({"--direction", "0,0,0"}), 2, e + "--direction must not be zero"},
       {"direction_bad", with({"--direction", "1,0"}), 2, e + "--direction '1,0': expected x,y,z in mm"},
-      {"setups_zero", with({"--setups", "0"}), 2, "--setups: Value 0 not in range"},
-      {"threads_too_many", with({"--threads", "5000"}), 2, "--threads: Value 5000 not in range"},
+      {"setups_zero", with({"--setups", "0"}), 2, "--setups: must be >= 1 and <= 100, got 0"},
+      {"threads_too_many", with({"--threads", "5000"}), 2, "--threads: must be >= 0 and <= 1024, got 5000"},
       {"target_without_plan", with({"--target-std-um", "1"}), 2, e + "--target-std-um goes with --plan"},
       {"target_zero", {"--plan", "--target-std-um", "0"}, 2, "--target-std-um: must be > 0 and <= 1e+06 um, got 0"},
       {"max_std_zero", {"--plan", "--max-std-um", "0"}, 2, "--max-std-um: must be > 0 and <= 1e+06 um, got 0"},

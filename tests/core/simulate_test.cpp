@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
+#include "sph/core/simulation_options.hpp"
 #include "sph/model/scms_model.hpp"
 #include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
@@ -596,6 +597,54 @@ TEST(SimulationTruthJson, StatesWhatThePointsWereMadeOf) {
   EXPECT_THAT(truth, ::testing::HasSubstr("\"seed\": 7"));
   EXPECT_THAT(truth, ::testing::HasSubstr("\"fraction\": 0.25"));
   EXPECT_THAT(truth, ::testing::ContainsRegex("\"b\": \\{\\s*\"unit\": \"mm\",\\s*\"value\": 0.01"));
+}
+
+}  // namespace
+}  // namespace sph
+
+namespace sph {
+namespace {
+
+// A host program's options are checked as the app's are, with the app's words.
+TEST(SimulationOptions, ValuesOutOfRangeAreRefusedAsTheAppsOptions) {
+  const auto message = [](const SimulationOptions& o) {
+    try {
+      RunSimulation(o);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  SimulationOptions o;
+  o.machine.noise_r_um = -1.0;  // a negative sigma was simulated before
+  EXPECT_EQ(message(o), "--noise-r-um: must be >= 0 and <= 1000 um, got -1");
+  o = SimulationOptions();
+  o.machine.theta_steps = 0;
+  EXPECT_EQ(message(o), "--theta-steps: must be >= 1 and <= 1e+06, got 0");
+  o = SimulationOptions();
+  o.outlier_fraction = 2.0;
+  EXPECT_EQ(message(o), "--outlier-fraction: must be >= 0 and <= 1, got 2");
+  o = SimulationOptions();
+  o.centers_mm = {"1,0"};
+  EXPECT_EQ(message(o), "--center-mm '1,0': expected x,y,z in mm");
+}
+
+TEST(SimulationOptions, RunSimulationIsSimulateOfTheSpecWithTheAppsHeader) {
+  SimulationOptions o;
+  o.centers_mm = {"2,0,0", "0,2,0"};
+  o.effects_arcsec = {"theta_encoder.c2=6"};
+  o.seed = 7;
+  const SimulationRun run = RunSimulation(o);
+  const PointsData direct = Simulate(SimulationSpecOf(o));
+  ASSERT_EQ(run.points.samples.size(), direct.samples.size());
+  for (std::size_t i = 0; i < direct.samples.size(); ++i) {
+    EXPECT_EQ(run.points.samples[i].r_mm, direct.samples[i].r_mm) << i;
+    EXPECT_EQ(run.points.samples[i].setup, direct.samples[i].setup) << i;
+  }
+  EXPECT_EQ(run.points.header.metadata.front().first, "generator");
+  EXPECT_THAT(run.points.header.metadata.front().second, ::testing::StartsWith("sph_simulate "));
+  EXPECT_EQ(run.points.header.metadata[1], (std::pair<std::string, std::string>("seed", "7")));
+  EXPECT_THAT(run.truth_json, ::testing::HasSubstr("\"sph-truth\""));
 }
 
 }  // namespace

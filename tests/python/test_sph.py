@@ -125,18 +125,30 @@ def _rss_bytes():
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 
-def test_memory_is_stable_over_repeated_calibrations(example_points):
+def test_memory_is_stable_over_repeated_calls(example_points, capsys):
+    """RSS over 100 calls of each workflow after 10 (the allocator's and Ceres' first-use growth), against
+    what a result left behind each call would add: at least its JSON text (its dict is larger) and, for
+    simulate, its four columns of float64. bench/python_memory.py measures 1000 calls of each."""
     p = sph.read_points(example_points)
-    for _ in range(10):  # the allocator's and Ceres' first-use growth
-        sph.calibrate(p)
-    before = _rss_bytes()
-    for _ in range(200):
-        r = sph.calibrate(p)
-    grown = _rss_bytes() - before
-    # A result left behind each call (its report alone is 28 kB of JSON text, more as a dict; the points
-    # copied in are 11 kB) would grow RSS by more than 6 MB over 200 calls.
-    assert grown < 2e6, f"RSS grew by {grown / 1e6:.2f} MB over 200 calibrations"
-    assert r.usable
+    workflows = {
+        "calibrate": (lambda: sph.calibrate(p), lambda r: len(json.dumps(r.report))),
+        "simulate": (lambda: sph.simulate(), lambda r: 4 * r[0].r_mm.nbytes + len(json.dumps(r[1]))),
+        "monte_carlo": (lambda: sph.monte_carlo(trials=2, eccentricities_mm=[2], table3=False, threads=1),
+                        lambda r: len(json.dumps(r.report))),
+    }
+    calls = 100
+    for name, (call, result_bytes) in workflows.items():
+        for _ in range(10):
+            r = call()
+        before = _rss_bytes()
+        for _ in range(calls):
+            r = call()
+        grown = _rss_bytes() - before
+        leak = calls * result_bytes(r)  # what results left behind would hold, at least
+        with capsys.disabled():
+            print(f"\n{name}: RSS grew by {grown / 1e3:.0f} kB over {calls} calls "
+                  f"(results left behind: {leak / 1e3:.0f} kB or more)", end="")
+        assert grown < leak / 2, f"{name}: RSS grew by {grown / 1e3:.0f} kB over {calls} calls"
 
 
 def _undeclared(source_dir, name):
@@ -194,6 +206,14 @@ def test_the_stubs_name_what_the_module_has():
                 getattr(sph, function)("/nonexistent", **{keyword: None})
     with pytest.raises(TypeError, match="'bogus'"):
         sph.calibrate("/nonexistent", bogus=None)
+    # simulate and monte_carlo: each keyword stubbed is taken (None: not given), a bad value stops the run.
+    for function, bad in (("simulate", {"theta_steps": 0, "noise_r_um": -1}), ("monte_carlo", {"trials": 1, "setups": 0})):
+        stubbed = next(n for n in stub.body if isinstance(n, ast.FunctionDef) and n.name == function)
+        assert stubbed.args.kwonlyargs
+        for keyword in (a.arg for a in stubbed.args.kwonlyargs):
+            other = next(k for k in bad if k != keyword)
+            with pytest.raises(sph.Error, match="^--" + other.replace("_", "-")):
+                getattr(sph, function)(**{other: bad[other], keyword: None})
 
 
 def test_the_python_example_runs(source_dir, tmp_path):
@@ -206,3 +226,134 @@ def test_the_python_example_runs(source_dir, tmp_path):
     assert "effects added: probe_drift, theta_encoder" in out
     assert "validation rms 0.0507 -> 0.0472 um" in out
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# sph_simulate's options and the same as keywords: setups, effects, form, mount, scan order, outliers.
+_SIMULATE_ARGS = ["--center-mm", "2,0,0", "--center-mm", "0,2,0", "--mount-rotation-deg", "1:0,0,90",
+                  "--form-flat-um", "0.5,1,0,0", "--form-bump-um", "0.2,3,0,0,1", "--scan-order", "1:serpentine",
+                  "--effect-arcsec", "theta_encoder.c2=6", "--effect-um", "probe_drift.t1=0.6", "--seed", "7",
+                  "--noise-theta-arcsec", "0.5", "--outlier-fraction", "0.01", "--outlier-um", "5",
+                  "--theta-steps", "36", "--alpha-deg", "0.01"]
+_SIMULATE_KEYWORDS = dict(center_mm=[(2, 0, 0), "0,2,0"], mount_rotation_deg="1:0,0,90", form_flat_um="0.5,1,0,0",
+                          form_bump_um=["0.2,3,0,0,1"], scan_order="1:serpentine", effect_arcsec="theta_encoder.c2=6",
+                          effect_um=["probe_drift.t1=0.6"], seed=7, noise_theta_arcsec=0.5, outlier_fraction=0.01,
+                          outlier_um=5, theta_steps=36, alpha_deg=0.01)
+
+
+def test_simulate_equals_sph_simulate(tmp_path):
+    app_points, app_truth = tmp_path / "app.txt", tmp_path / "truth.json"
+    subprocess.run([os.environ["SPH_SIMULATE"], "-o", str(app_points), "--truth", str(app_truth)] + _SIMULATE_ARGS,
+                   check=True)
+    points, truth = sph.simulate(**_SIMULATE_KEYWORDS)
+    assert truth == json.loads(app_truth.read_text())  # every key and number
+    assert len(points) == 2 * 36 * 12 and points.setup.dtype == np.int32
+    mine = tmp_path / "mine.txt"
+    sph.write_points(mine, points)
+    assert mine.read_bytes() == app_points.read_bytes()  # every reading as the file writes it
+    app = sph.read_points(app_points)
+    assert np.array_equal(points.setup, app.setup) and np.array_equal(points.t_s, app.t_s)
+    for name in ("theta_deg", "phi_deg", "r_mm"):  # the file rounds to 10 decimals
+        assert np.max(np.abs(getattr(points, name) - getattr(app, name))) <= 5.1e-11, name
+    assert points.header["generator"] == "sph_simulate " + sph.__version__
+
+
+def test_simulate_defaults_are_the_papers_study():
+    points, truth = sph.simulate()
+    assert len(points) == 288 and points.header["sphere_radius_mm"] == "20"
+    assert truth["centers_mm"] == [[2.0, 0.0, 0.0]] and truth["seed"] == 1
+
+
+def test_simulate_takes_a_setup_as_a_number():
+    points, _ = sph.simulate(center_mm=[(2, 0, 0), (0, 2, 0)], mount_rotation_deg="1:0,0,90", mount_unknown=1)
+    assert points.header["mount_rotation_deg@1"] == "unknown"
+    assert sph.simulate(center_mm=[(2, 0, 0), (0, 2, 0)], mount_rotation_deg="1:0,0,90",
+                        mount_unknown=[1])[0].header == points.header
+
+
+def test_simulate_errors():
+    with pytest.raises(TypeError, match="'noise_um'"):
+        sph.simulate(noise_um=0.1)
+    with pytest.raises(TypeError, match=r"^simulate\(\) keyword argument 'seed' got a str, which it does not take$"):
+        sph.simulate(seed="7")
+    with pytest.raises(TypeError, match="'center_mm' got a dict"):
+        sph.simulate(center_mm={"x": 2})
+    with pytest.raises(sph.Error, match=r"^--noise-r-um: must be >= 0 and <= 1000 um, got -1$"):
+        sph.simulate(noise_r_um=-1)
+    with pytest.raises(sph.Error, match=r"^--center-mm '1,0': expected x,y,z in mm$"):
+        sph.simulate(center_mm="1,0")
+    with pytest.raises(sph.Error, match="unknown effect 'probe_heat'"):
+        sph.simulate(effect_um="probe_heat.t1=1")
+    with pytest.raises(sph.Error, match="misses the sphere"):
+        sph.simulate(center_mm=(0, 40, 0))
+
+
+def test_monte_carlo_equals_sph_montecarlo(tmp_path):
+    out = tmp_path / "mc.json"
+    subprocess.run([os.environ["SPH_MONTECARLO"], "--trials", "4", "--eccentricities-mm", "1,2", "--seed", "5",
+                    "--noise-r-um", "0.1", "--json", str(out), "--no-progress"], check=True, capture_output=True)
+    app = json.loads(out.read_text())
+    r = sph.monte_carlo(trials=4, eccentricities_mm=[1, 2], seed=5, noise_r_um=0.1)
+    assert r.report["wall_time_s"] > 0
+    del app["wall_time_s"], r.report["wall_time_s"]  # the one number a run measures
+    assert r.report == app  # every other key and number, Table 3 too
+    names = [f"{n}_{u}" for n, u in zip(("alpha", "a", "beta", "b", "epsilon", "c", "d_prime"),
+                                        ("deg", "mm", "deg", "mm", "deg", "mm", "mm"))]
+    assert list(r.trials) == ["eccentricity_mm", "trial"] + names
+    converged = sum(row["converged"] for row in app["eccentricities"])
+    for name, column in r.trials.items():
+        assert column.shape == (converged,) and column.dtype == (np.int32 if name == "trial" else np.float64), name
+    for row in app["eccentricities"]:  # the table's means are the report's
+        at = r.trials["eccentricity_mm"] == row["eccentricity_mm"]
+        assert list(r.trials["trial"][at]) == [t for t in range(1, 5) if t not in row["not_converged_trials"]]
+        for name in names:
+            p = row["parameters"][name.rsplit("_", 1)[0]]
+            assert math.isclose(np.mean(r.trials[name][at]), p["mean"], rel_tol=1e-12), name
+    assert "4 trials at 2 eccentricities" in repr(r)
+
+
+def test_monte_carlo_errors():
+    with pytest.raises(TypeError, match="'trial'"):
+        sph.monte_carlo(trial=3)
+    with pytest.raises(sph.Error, match=r"^--trials: must be >= 2 and <= 1e\+06, got 1$"):
+        sph.monte_carlo(trials=1)
+    with pytest.raises(sph.Error, match=r"--eccentricities-mm: 25 is not in \[0, R0\)"):
+        sph.monte_carlo(trials=2, eccentricities_mm=25)
+    with pytest.raises(sph.Error, match="--table3-calibration-e-mm 2: Table 3 uses"):
+        sph.monte_carlo(trials=2, eccentricities_mm=[1])
+
+
+def test_monte_carlo_releases_the_gil():
+    import threading
+    import time
+    span = []
+
+    def study():
+        span.append(time.monotonic())
+        sph.monte_carlo(trials=200, eccentricities_mm=[1, 2], table3=False, threads=1)
+        span.append(time.monotonic())
+
+    worker = threading.Thread(target=study)
+    ticks = []
+    worker.start()
+    while worker.is_alive():
+        ticks.append(time.monotonic())
+        time.sleep(0.001)
+    worker.join()
+    start, end = span
+    quarter = (end - start) / 4
+    # Held, the GIL would keep this thread still from the call's start to its end.
+    inside = [t for t in ticks if start + quarter < t < end - quarter]
+    assert len(inside) > 5, f"{len(inside)} ticks in the middle of a {end - start:.3f} s study"
+
+
+def test_the_pages_examples_print_what_it_quotes(source_dir):
+    """Each ```python block of docs/python.md followed by a ```text block prints those lines, in order."""
+    import re
+    import sys
+    page = open(os.path.join(source_dir, "docs", "python.md")).read()
+    examples = re.findall(r"```python\n((?:(?!```).)*)```\n```text\n((?:(?!```).)*)```", page, re.S)
+    assert len(examples) == 2
+    for code, quoted in examples:
+        out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True,
+                             cwd=source_dir).stdout.splitlines()
+        assert out == quoted.splitlines(), code

@@ -35,6 +35,16 @@ inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
 inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
 inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
 inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
+/// The simulators' grid (positions per ring, rings), time step, outliers and probe range.
+inline constexpr ValidRange kGridSteps{1.0, 1000000.0, ""};
+inline constexpr ValidRange kSamplePeriodS{0.0, 86400.0, "s"};
+inline constexpr ValidRange kOutlierFraction{0.0, 1.0, ""};
+inline constexpr ValidRange kOutlierUm{0.0, 1e6, "um"};
+inline constexpr ValidRange kProbeRangeMm{0.002, 10000.0, "mm"};
+/// The Monte Carlo study: calibrations per eccentricity, sphere placements per trial, threads (0: all).
+inline constexpr ValidRange kTrials{2.0, 1000000.0, ""};
+inline constexpr ValidRange kSetups{1.0, 100.0, ""};
+inline constexpr ValidRange kThreads{0.0, 1024.0, ""};
 
 }  // namespace sph::ranges
 
