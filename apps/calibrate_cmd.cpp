@@ -70,6 +70,11 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
                  "Another points file of the same machine (another sphere or position): report its least-squares "
                  "sphericity compensated before and after")
       ->excludes(no_trace);
+  app.add_option("--sphere-form", o.workflow.sphere_form_path,
+                 "A calibration file holding the reference sphere's form (sph_calibrate -o of a run that separated "
+                 "it): the form enters the fit as known within its covariance, and the report says how the readings "
+                 "agree with it; the points' R0 must be the file's")
+      ->excludes(no_trace);
   app.add_option("--plot-dir", o.plot_dir,
                  "Write residual_map.png, residual_time.png and, when the sphere's form is fitted, "
                  "sphere_form_map.png (gnuplot) with their data into this folder")
@@ -140,6 +145,7 @@ RunPaths PathsOf(const CalibrateOptions& o, bool text) {
   RunPaths paths;
   paths.Input("points", o.points_path)
       .Input("--validate", o.workflow.validate_path)
+      .Input("--sphere-form", o.workflow.sphere_form_path)
       .Output("the text report (-q leaves it out)", text ? "-" : "")
       .Output("--json", o.json_path)
       .Output("--report", o.report_path)

@@ -67,6 +67,7 @@ def calibrate(
     no_trace: bool = ...,
     effects: Union[str, Sequence[str]] = ...,
     validate: str = ...,
+    sphere_form: Union[str, "os.PathLike[str]"] = ...,
     sphere_radius_mm: float = ...,
     probe_offset_mm: float = ...,
     fix: Union[str, Sequence[str]] = ...,
@@ -87,6 +88,7 @@ def calibrate(
     sphere_cte_per_k: float = ...,
     probe_scale_u: float = ...,
     probe_range_mm: float = ...,
+    sphere_form_rms_um: float = ...,
 ) -> CalibrationResult: ...
 
 def compensate(

@@ -114,6 +114,7 @@ std::vector<std::string> Strings(const py::handle& value) {
 constexpr const char* kCalibrateKeywords[] = {"no_trace",
                                               "effects",
                                               "validate",
+                                              "sphere_form",
                                               "sphere_radius_mm",
                                               "probe_offset_mm",
                                               "fix",
@@ -168,6 +169,8 @@ sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
       }
     } else if (key == "validate") {
       o.validate_path = PathOf(v);
+    } else if (key == "sphere_form") {
+      o.sphere_form_path = PathOf(v);
     } else if (key == "sphere_radius_mm") {
       o.sphere_radius_mm = py::cast<double>(v);
     } else if (key == "probe_offset_mm") {

@@ -22,8 +22,10 @@ import tempfile
 RUNS = [
     (["sph_calibrate data/example/undeclared/points.txt --validate data/example/undeclared/validate.txt -q "
       "--sphere-radius-u-um 0.1 --json calibrate_undeclared.json -o cal_undeclared.json",
-      "sph_calibrate data/example/separation/points.txt -q --json calibrate_separation.json -o cal_separation.json"],
-     ["calibrate_undeclared.json", "calibrate_separation.json"], "docs/formats/reports.md", "`sph_calibrate --json`"),
+      "sph_calibrate data/example/separation/points.txt -q --json calibrate_separation.json -o cal_separation.json",
+      "sph_calibrate data/example/separation/one_placement.txt -q --sphere-form cal_separation.json "
+      "--json calibrate_known_form.json"],
+     ["calibrate_undeclared.json", "calibrate_separation.json", "calibrate_known_form.json"], "docs/formats/reports.md", "`sph_calibrate --json`"),
     ([], ["cal_undeclared.json", "cal_separation.json"], "docs/formats/calibration-files.md", None),
     (["sph_measure data/example/undeclared/validate.txt -c cal_undeclared.json -q --json measure.json",
       "sph_measure data/example/points.txt -c cal_undeclared.json -q --uncertainty-samples 0 --noise-floor-draws 0 "

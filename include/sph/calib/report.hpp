@@ -18,6 +18,7 @@
 namespace sph {
 
 struct TraceResult;  // sph/select/trace.hpp
+struct KnownFormCheck;  // sph/calib/known_form.hpp
 struct Validation;   // sph/select/trace_report.hpp
 
 /// What the report says about where the data came from.
@@ -36,6 +37,8 @@ struct ReportContext {
   /// (sph/select/trace_report.hpp): both reports then carry them. Not owned.
   const TraceResult* trace = nullptr;
   const Validation* validation = nullptr;
+  /// How the readings agree with the sphere's known form, when one was given. Not owned.
+  const KnownFormCheck* known_form = nullptr;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,
