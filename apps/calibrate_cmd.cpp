@@ -74,6 +74,11 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
                  "An earlier calibration file of this machine (-o): compare each of the seven errors and each "
                  "effect parameter both hold, previous, now, difference, its U (k = 2) and En = difference / U, "
                  "in the reports; the exit code stays the calibration's");
+  app.add_option("--sphere-form", o.workflow.sphere_form_path,
+                 "A calibration file holding the reference sphere's form (sph_calibrate -o of a run that separated "
+                 "it): the form enters the fit as known within its covariance, and the report says how the readings "
+                 "agree with it; the points' R0 must be the file's")
+      ->excludes(no_trace);
   app.add_option("--plot-dir", o.plot_dir,
                  "Write residual_map.png, residual_time.png and, when the sphere's form is fitted, "
                  "sphere_form_map.png (gnuplot) with their data into this folder")
@@ -145,6 +150,7 @@ RunPaths PathsOf(const CalibrateOptions& o, bool text) {
   paths.Input("points", o.points_path)
       .Input("--validate", o.workflow.validate_path)
       .Input("--compare", o.workflow.compare_path)
+      .Input("--sphere-form", o.workflow.sphere_form_path)
       .Output("the text report (-q leaves it out)", text ? "-" : "")
       .Output("--json", o.json_path)
       .Output("--report", o.report_path)

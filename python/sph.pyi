@@ -69,6 +69,7 @@ def calibrate(
     effects: Union[str, Sequence[str]] = ...,
     validate: str = ...,
     compare: str = ...,
+    sphere_form: Union[str, "os.PathLike[str]"] = ...,
     sphere_radius_mm: float = ...,
     probe_offset_mm: float = ...,
     fix: Union[str, Sequence[str]] = ...,
@@ -89,6 +90,7 @@ def calibrate(
     sphere_cte_per_k: float = ...,
     probe_scale_u: float = ...,
     probe_range_mm: float = ...,
+    sphere_form_rms_um: float = ...,
 ) -> CalibrationResult: ...
 
 def compensate(

@@ -121,6 +121,7 @@ constexpr const char* kCalibrateKeywords[] = {"no_trace",
                                               "effects",
                                               "validate",
                                               "compare",
+                                              "sphere_form",
                                               "sphere_radius_mm",
                                               "probe_offset_mm",
                                               "fix",
@@ -177,6 +178,8 @@ sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
       o.validate_path = PathOf(v);
     } else if (key == "compare") {
       o.compare_path = PathOf(v);
+    } else if (key == "sphere_form") {
+      o.sphere_form_path = PathOf(v);
     } else if (key == "sphere_radius_mm") {
       o.sphere_radius_mm = py::cast<double>(v);
     } else if (key == "probe_offset_mm") {

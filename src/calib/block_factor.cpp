@@ -37,9 +37,13 @@ void BlockFactor::AddSetup(int k, const Eigen::MatrixXd& r_local, const std::vec
 }
 
 void BlockFactor::AddSharedRow(int f, double weight) {
-  const auto nf = static_cast<Eigen::Index>(f_columns_.size());
-  Eigen::VectorXd row = Eigen::VectorXd::Zero(nf);
+  Eigen::VectorXd row = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(f_columns_.size()));
   row(f) = weight;
+  AddSharedRow(row);
+}
+
+void BlockFactor::AddSharedRow(Eigen::VectorXd row) {
+  const auto nf = static_cast<Eigen::Index>(f_columns_.size());
   if (chosen_) {
     r_ff_chosen_.conservativeResize(r_ff_chosen_.rows() + 1, Eigen::NoChange);
     r_ff_chosen_.row(r_ff_chosen_.rows() - 1) = row.transpose();

@@ -47,6 +47,9 @@ class BlockFactor {
 
   /// Folds one more row in that has a single entry, `weight` in shared column f (a prior's row).
   void AddSharedRow(int f, double weight);
+  /// Folds one more row in over the shared columns (`row`: one entry per f column; a row of a
+  /// prior on several of them).
+  void AddSharedRow(Eigen::VectorXd row);
 
   /// The factor of the columns not held (held[j] for each of the n columns; centres are never
   /// held), numbered as they follow one another: the Jacobian of a fit of the others.

@@ -10,6 +10,7 @@
 #include "sph/core/ranges.hpp"
 #include "sph/core/setup_checks.hpp"
 #include "sph/core/valid_range.hpp"
+#include "sph/model/units.hpp"
 
 namespace sph {
 
@@ -54,6 +55,41 @@ void MakeBudget(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions
   } catch (const std::exception& e) {
     run.warnings.push_back(std::string("no uncertainty budget: ") + e.what());
     if (o.on_warning) o.on_warning(run.warnings.back());
+  }
+}
+
+// The certificate's bound of the form: the options', else the header's [um].
+std::optional<double> FormBoundUm(const CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+  return o.conditions.sphere_form_rms_um ? o.conditions.sphere_form_rms_um
+                                         : ConditionsOf(run.points.header).sphere_form_rms_um;
+}
+
+void Tell(const std::function<void(const std::string&)>& f, const std::string& text) {
+  if (f) f(text);
+}
+
+void Warn(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o, const std::string& warning) {
+  run.warnings.push_back(warning);
+  Tell(o.on_warning, warning);
+}
+
+// The reference sphere's form as known: a file's (the same sphere's), else the certificate's bound.
+void SettleKnownForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+  const std::optional<double> bound_um = FormBoundUm(run, o);
+  if (!o.sphere_form_path.empty()) {
+    const CalibrationFile file = ReadCalibrationFile(o.sphere_form_path);
+    CheckSameSphere(file, o.sphere_form_path, run.settings.sphere_radius_mm, run.inputs.sphere_radius_u_um,
+                    run.points_path);
+    std::vector<std::string> notes;
+    run.settings.form_prior = FormPriorOfFile(file, o.sphere_form_path, &notes);
+    for (const std::string& n : notes) Warn(run, o, n);
+  } else if (bound_um && o.trace) {
+    const int l_max = FormDegreeLimit(run.points, o.trace_options);
+    if (l_max >= 2) {
+      run.settings.form_prior = CertificateFormPrior(*bound_um * kMmPerUm, l_max);
+    } else {
+      Warn(run, o, "sphere_form_rms_um: the pattern resolves no form of degree 2 or more: the bound is not used");
+    }
   }
 }
 
@@ -105,6 +141,7 @@ void Settle(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o)
         "(it judges outliers by their residuals): use it with --no-trace, or with --effects for a fixed "
         "model");
   }
+  SettleKnownForm(run, o);
   run.probe_range_mm = o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(header).probe_range_mm;
   if (run.probe_range_mm) {
     CheckReadingsInProbeRange(run.points, *run.probe_range_mm,
@@ -135,8 +172,13 @@ void Trace(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) 
   }
 }
 
-void Tell(const std::function<void(const std::string&)>& f, const std::string& text) {
-  if (f) f(text);
+// How the readings agree with the known form, its warnings among the run's.
+void CheckForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+  if (run.settings.form_prior.Empty() || !run.trace || run.trace->after.fit.model.form.Empty()) return;
+  const std::string source = o.sphere_form_path.empty() ? "the certificate's bound" : o.sphere_form_path;
+  run.known_form = CheckKnownForm(run.points, run.settings, run.trace->after.fit, source, FormBoundUm(run, o),
+                                  !o.sphere_form_path.empty());
+  for (const std::string& w : run.known_form->warnings) Warn(run, o, w);
 }
 
 // The calibration file's content, usable or not: the seven errors, the trace's effects but
@@ -166,6 +208,9 @@ void CalibrationWorkflowOptions::Check() const {
   CheckedValue(trace_options.phi_wobble_pivot_mm, ranges::kPivotMm, what + "trace_options.phi_wobble_pivot_mm");
   if (coverage) CheckedValue(*coverage, ranges::kCoverageProbability, what + "coverage");
   if (!trace && !effects.empty()) throw Error(what + "effects need trace (a fixed model is fitted in its place)");
+  if (!trace && !sphere_form_path.empty()) {
+    throw Error(what + "sphere_form_path needs trace (the known form is fitted with the effects' model)");
+  }
   if (!trace && !validate_path.empty()) {
     throw Error(what + "validate_path needs trace (it compares the seven errors with the trace's model)");
   }
@@ -193,6 +238,7 @@ ReportContext CalibrationWorkflowResult::Context() const {
   ctx.trace = trace ? &*trace : nullptr;
   ctx.validation = validation ? &*validation : nullptr;
   ctx.comparison = comparison ? &*comparison : nullptr;
+  ctx.known_form = known_form ? &*known_form : nullptr;
   return ctx;
 }
 
@@ -238,6 +284,7 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   Tell(options.on_stage, "calibrating the seven errors");
   run.seven = Calibrate(run.points, run.settings);
   if (options.trace) Trace(run, options);
+  CheckForm(run, options);
   MakeBudget(run, options);
   run.usability = JudgeUsability(run.Reported(), run.Context());
   if (previous) {

@@ -388,3 +388,20 @@ CalibrationResult Calibrate(const PointsData& points, const CalibrationOptions& 
 }
 
 }  // namespace sph
+
+namespace sph {
+
+FormPrior CertificateFormPrior(double rms_mm, int l_max) {
+  if (!(rms_mm > 0.0) || !std::isfinite(rms_mm) || l_max < 2) {
+    throw Error("the certificate's form bound needs an RMS > 0 and degrees 2 to at least 2");
+  }
+  FormPrior prior;
+  prior.terms = FormTermsOfDegrees(2, l_max);
+  const auto k = static_cast<Eigen::Index>(prior.terms.size());
+  prior.mean_mm = Eigen::VectorXd::Zero(k);
+  const double variance = rms_mm * rms_mm / static_cast<double>(l_max - 1);
+  prior.covariance_mm2 = variance * Eigen::MatrixXd::Identity(k, k);
+  return prior;
+}
+
+}  // namespace sph

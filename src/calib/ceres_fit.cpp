@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <utility>
 
-#include <Eigen/Cholesky>
 #include <ceres/cost_function.h>
 #include <ceres/crs_matrix.h>
 #include <ceres/loss_function.h>
@@ -14,6 +14,7 @@
 #include <ceres/ordered_groups.h>
 #include <ceres/problem.h>
 #include <ceres/solver.h>
+#include <Eigen/Cholesky>
 
 namespace sph::internal {
 namespace {
@@ -113,8 +114,7 @@ class CompressedSetupCost final : public ceres::CostFunction {
         row[n_] = e_[static_cast<std::size_t>(i)];
       }
       // The rows, row after row, are the columns of [J e]^T.
-      gram_.selfadjointView<Eigen::Lower>().rankUpdate(
-          Eigen::Map<const Eigen::MatrixXd>(rows_.data(), stride, count));
+      gram_.selfadjointView<Eigen::Lower>().rankUpdate(Eigen::Map<const Eigen::MatrixXd>(rows_.data(), stride, count));
     }
     // G = P^T L D L^T P, hence F = D^(1/2) L^T P has F^T F = G. Where the readings leave a direction
     // undetermined G is singular: its pivots there are zero to rounding (clamped at 0, and Eigen's
@@ -172,6 +172,36 @@ class PriorCost final : public ceres::CostFunction {
  private:
   int index_;
   double value_, weight_;
+};
+
+// A Gaussian prior on entries `index` of a parameter block of `size`: the residuals
+// weight W (x_index - value), W lower triangular (the whitening of their covariance).
+class WhitenedPriorCost final : public ceres::CostFunction {
+ public:
+  WhitenedPriorCost(int size, std::vector<int> index, Eigen::VectorXd value, Eigen::MatrixXd w)
+      : index_(std::move(index)), value_(std::move(value)), w_(std::move(w)) {
+    set_num_residuals(static_cast<int>(index_.size()));
+    *mutable_parameter_block_sizes() = {size};
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const auto k = static_cast<Eigen::Index>(index_.size());
+    Eigen::VectorXd d(k);
+    for (Eigen::Index i = 0; i < k; ++i) d(i) = parameters[0][index_[static_cast<std::size_t>(i)]] - value_(i);
+    Eigen::Map<Eigen::VectorXd>(residuals, k) = w_ * d;
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      const int size = parameter_block_sizes()[0];
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobians[0], k, size);
+      jac.setZero();
+      for (Eigen::Index i = 0; i < k; ++i) jac.col(index_[static_cast<std::size_t>(i)]) = w_.col(i);
+    }
+    return Eigen::Map<const Eigen::VectorXd>(residuals, k).allFinite();
+  }
+
+ private:
+  std::vector<int> index_;
+  Eigen::VectorXd value_;
+  Eigen::MatrixXd w_;
 };
 
 std::unique_ptr<ceres::LossFunction> LossOf(LossKind kind, double scale) {
@@ -259,6 +289,14 @@ FitSolver::Impl::Impl(const SphereFitProblem& p, const SolveConstraints& c)
     const auto [b, index] = BlockOf(prior.column);
     costs.push_back(std::make_unique<PriorCost>(block_sizes[static_cast<std::size_t>(b)], index, prior.value,
                                                 c.prior_sigma_mm / prior.u));
+    problem_.AddResidualBlock(costs.back().get(), nullptr, blocks[static_cast<std::size_t>(b)]);
+  }
+  if (!c.form_prior.Empty()) {
+    const int b = BlockOf(c.form_prior.columns.front()).first;
+    std::vector<int> index;
+    for (const Eigen::Index column : c.form_prior.columns) index.push_back(BlockOf(column).second);
+    costs.push_back(std::make_unique<WhitenedPriorCost>(block_sizes[static_cast<std::size_t>(b)], std::move(index),
+                                                        c.form_prior.value, c.prior_sigma_mm * c.form_prior.whitening));
     problem_.AddResidualBlock(costs.back().get(), nullptr, blocks[static_cast<std::size_t>(b)]);
   }
   // Fixed columns: a block wholly fixed is constant, a block partly fixed moves on the others.

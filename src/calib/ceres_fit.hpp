@@ -33,6 +33,15 @@ struct ColumnPrior {
   double u = 0.0;  ///< > 0
 };
 
+/// A Gaussian prior on several columns of x at once: the residuals whitening (x_cols - value),
+/// whitening = L^-1 with L L^T their covariance (internal units), times the priors' sigma.
+struct ColumnsPrior {
+  std::vector<Eigen::Index> columns;  ///< of one parameter block
+  Eigen::VectorXd value;
+  Eigen::MatrixXd whitening;  ///< lower triangular, columns.size() square
+  bool Empty() const { return columns.empty(); }
+};
+
 /// Bounds of one column of x (internal units; -inf or +inf where it has none).
 struct ColumnBound {
   Eigen::Index column = 0;
@@ -49,12 +58,15 @@ struct SolveConstraints {
   /// Each prior is the residual (x_j - value) sigma / u beside the readings' residuals [mm]: with
   /// sigma the readings' noise, the sum of squares is then sigma^2 times the weighted one.
   std::vector<ColumnPrior> priors;
+  ColumnsPrior form_prior;      ///< the sphere's form as known: sigma whitening (c - value)
   double prior_sigma_mm = 0.0;  ///< sigma of the priors' weights (> 0 when there are priors)
   std::vector<ColumnBound> bounds;
   LossKind loss = LossKind::kNone;
   double loss_scale_mm = 0.0;  ///< the loss' scale: residuals beyond it are weighted down
 
-  bool Empty() const { return fixed.empty() && priors.empty() && bounds.empty() && loss == LossKind::kNone; }
+  bool Empty() const {
+    return fixed.empty() && priors.empty() && form_prior.Empty() && bounds.empty() && loss == LossKind::kNone;
+  }
 };
 
 /// How a solve ended.

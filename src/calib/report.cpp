@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "sph/calib/known_form.hpp"
 #include "sph/calib/usability.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
@@ -18,6 +19,33 @@ using gum::EvaluationType;
 using gum::UncertaintyStatement;
 using internal::Format;
 using nlohmann::json;
+
+// The known form's section of the text report.
+void WriteKnownFormText(std::ostream& out, const KnownFormCheck& k) {
+  out << "\nknown sphere form (" << k.source << "), " << k.terms << " coefficients as a prior:\n";
+  out << Format("  known %.4g um RMS over the sphere, fitted %.4g um RMS\n", k.known_rms_um, k.fitted_rms_um);
+  out << Format("  explains %.4g um RMS of the readings (residual RMS %.4g um with it, %.4g um without a form)\n",
+                k.explained_rms_um, k.rms_with_um, k.rms_without_um);
+  out << Format("  prior's chi-square %.4g for %d coefficients, p = %.3g\n", k.chi_square, k.terms, k.p_value);
+  if (k.bound_rms_um) out << Format("  certificate's bound %.4g um RMS (k = 1)\n", *k.bound_rms_um);
+  out << "  verdict: " << (k.agrees ? "agrees" : "DISAGREES") << ": " << k.verdict << "\n";
+}
+
+json KnownFormJson(const KnownFormCheck& k) {
+  return {{"source", k.source},
+          {"terms", k.terms},
+          {"known_rms_um", k.known_rms_um},
+          {"fitted_rms_um", k.fitted_rms_um},
+          {"explained_rms_um", k.explained_rms_um},
+          {"rms_with_um", k.rms_with_um},
+          {"rms_without_um", k.rms_without_um},
+          {"chi_square", k.chi_square},
+          {"p_value", k.p_value},
+          {"bound_rms_um", k.bound_rms_um ? json(*k.bound_rms_um) : json(nullptr)},
+          {"agrees", k.agrees},
+          {"verdict", k.verdict},
+          {"warnings", k.warnings}};
+}
 
 double ParamValue(const CalibrationResult& r, std::size_t i) {
   if (i < kNumScmsParams) return r.geometry[i];
@@ -212,6 +240,7 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
   const Usability usability = JudgeUsability(r, ctx);
   out << "\nresult: " << (usability.usable ? "usable calibration" : "NOT a usable calibration") << "\n";
   for (const std::string& why : usability.reasons) out << "  why: " << why << "\n";
+  if (ctx.known_form != nullptr) WriteKnownFormText(out, *ctx.known_form);
   if (ctx.trace != nullptr) WriteTraceText(out, *ctx.trace, ctx.validation);
   if (ctx.comparison != nullptr) WriteComparisonText(out, *ctx.comparison);
 }
@@ -326,6 +355,7 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   }
   if (r.prior_sigma_mm > 0.0) j["prior_noise_um"] = r.prior_sigma_mm * kUmPerMm;
   j["warnings"] = r.warnings;
+  if (ctx.known_form != nullptr) j["known_form"] = KnownFormJson(*ctx.known_form);
   if (ctx.trace != nullptr) internal::AddTraceJson(j, *ctx.trace, ctx.validation);
   if (ctx.comparison != nullptr) AddComparisonJson(j, *ctx.comparison);
   return j.dump(2) + "\n";

@@ -7,6 +7,8 @@
 #include <memory>
 #include <set>
 
+#include <Eigen/Cholesky>
+
 #include "block_factor.hpp"
 #include "problem_eval.hpp"
 #include "sph/core/error.hpp"
@@ -123,10 +125,16 @@ struct FreeInverse {
 };
 
 FreeInverse FreeInverseAt(const SphereFitProblem& problem, const Eigen::VectorXd& x, const std::vector<Held>& held_of,
-                          const std::vector<ColumnPrior>& priors, double prior_sigma_mm,
+                          const std::vector<ColumnPrior>& priors, const ColumnsPrior& form_prior, double prior_sigma_mm,
                           const std::vector<double>& weights) {
   const Eigen::Index n = problem.NumParams();
-  const auto rows = static_cast<Eigen::Index>(problem.NumRows() + priors.size());
+  const auto rows = static_cast<Eigen::Index>(problem.NumRows() + priors.size() + form_prior.columns.size());
+  // The form prior's rows over all columns: sigma W at its columns.
+  const auto k_form = static_cast<Eigen::Index>(form_prior.columns.size());
+  Eigen::MatrixXd form_rows = Eigen::MatrixXd::Zero(k_form, n);
+  for (Eigen::Index i = 0; i < k_form; ++i) {
+    form_rows.col(form_prior.columns[static_cast<std::size_t>(i)]) = prior_sigma_mm * form_prior.whitening.col(i);
+  }
   std::vector<bool> held(static_cast<std::size_t>(n), false);
   std::vector<Eigen::Index> free_index(static_cast<std::size_t>(n), -1);
   Eigen::Index n_free = 0;
@@ -145,12 +153,22 @@ FreeInverse FreeInverseAt(const SphereFitProblem& problem, const Eigen::VectorXd
       const auto f = static_cast<int>(q.column < kNumScmsParams ? q.column : q.column - 3 * setups);
       factor.AddSharedRow(f, prior_sigma_mm / q.u);
     }
+    for (Eigen::Index r = 0; r < k_form; ++r) {
+      Eigen::VectorXd row(n - 3 * setups);
+      row << form_rows.row(r).head(kNumScmsParams).transpose(),
+          form_rows.row(r).tail(n - kNumScmsParams - 3 * setups).transpose();
+      factor.AddSharedRow(row);
+    }
     out.inverse = factor.Without(held).Invert();
   } else {
     RowQr qr = problem.FactorJacobian(x.data(), nullptr, row_weight);
     for (const ColumnPrior& q : priors) {
       Eigen::VectorXd row = Eigen::VectorXd::Zero(n);
       row(q.column) = prior_sigma_mm / q.u;
+      qr.AddRows(row.data(), n, 1);
+    }
+    for (Eigen::Index r = 0; r < k_form; ++r) {
+      Eigen::VectorXd row = form_rows.row(r).transpose();
       qr.AddRows(row.data(), n, 1);
     }
     Eigen::MatrixXd r(n, n_free);
@@ -164,13 +182,54 @@ FreeInverse FreeInverseAt(const SphereFitProblem& problem, const Eigen::VectorXd
     const double c = out.inverse.inverse(j, j);
     out.leverage += std::isfinite(c) ? std::pow(prior_sigma_mm / q.u, 2) * c : 1.0;
   }
+  // The form prior's: trace(sigma^2 W C W^T) over its columns, C the inverse there.
+  if (k_form > 0) {
+    Eigen::MatrixXd c(k_form, k_form);
+    for (Eigen::Index i = 0; i < k_form; ++i) {
+      for (Eigen::Index j = 0; j < k_form; ++j) {
+        c(i, j) =
+            out.inverse.inverse(free_index[static_cast<std::size_t>(form_prior.columns[static_cast<std::size_t>(i)])],
+                                free_index[static_cast<std::size_t>(form_prior.columns[static_cast<std::size_t>(j)])]);
+      }
+    }
+    const double lev =
+        prior_sigma_mm * prior_sigma_mm * (form_prior.whitening * c * form_prior.whitening.transpose()).trace();
+    out.leverage += std::isfinite(lev) ? lev : static_cast<double>(k_form);
+  }
   return out;
 }
 
 }  // namespace
 
+ColumnsPrior FormPriorColumns(const SphereFitProblem& problem, const FormPrior& prior) {
+  ColumnsPrior out;
+  if (prior.Empty() || problem.NumFormTerms() == 0) return out;
+  const std::vector<FormTerm>& terms = problem.model().form.terms;
+  std::vector<Eigen::Index> of_prior;  // the prior's index of each column taken
+  for (std::size_t i = 0; i < prior.terms.size(); ++i) {
+    const auto it = std::find(terms.begin(), terms.end(), prior.terms[i]);
+    if (it == terms.end()) continue;
+    of_prior.push_back(static_cast<Eigen::Index>(i));
+    out.columns.push_back(problem.FirstFormColumn(0) + static_cast<Eigen::Index>(it - terms.begin()));
+  }
+  const auto k = static_cast<Eigen::Index>(of_prior.size());
+  if (k == 0) return out;
+  out.value.resize(k);
+  Eigen::MatrixXd c(k, k);
+  for (Eigen::Index i = 0; i < k; ++i) {
+    out.value(i) = prior.mean_mm(of_prior[static_cast<std::size_t>(i)]);
+    for (Eigen::Index j = 0; j < k; ++j) {
+      c(i, j) = prior.covariance_mm2(of_prior[static_cast<std::size_t>(i)], of_prior[static_cast<std::size_t>(j)]);
+    }
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(c);
+  if (llt.info() != Eigen::Success) throw Error("the sphere form's prior: its covariance is not positive definite");
+  out.whitening = llt.matrixL().solve(Eigen::MatrixXd::Identity(k, k));
+  return out;
+}
+
 bool SolvedFit::Plain() const {
-  return priors.empty() && weights.empty() &&
+  return priors.empty() && form_prior.Empty() && weights.empty() &&
          std::all_of(held.begin(), held.end(), [](Held h) { return h == Held::kNo; });
 }
 
@@ -226,6 +285,7 @@ SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const Ca
     const Eigen::Index column = ColumnOf(problem, p.name);
     if (column >= 0) out.priors.push_back({column, p.value, p.u});
   }
+  out.form_prior = FormPriorColumns(problem, options.form_prior);
   // The physical bounds go to Ceres only when a solution leaves them (below): with bounds Ceres
   // also searches along the projected step, which changes the iterations of a fit that never
   // comes near them.
@@ -241,7 +301,7 @@ SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const Ca
   result.n_points = static_cast<int>(n_samples);
 
   const auto m = static_cast<double>(problem.NumRows());
-  const auto p = static_cast<double>(out.priors.size());
+  const auto p = static_cast<double>(out.priors.size() + out.form_prior.columns.size());
   const double n_free = static_cast<double>(n) - static_cast<double>(c.fixed.size());
   std::vector<double> residuals(problem.table().size(), 0.0);
   SolveSummary summary;
@@ -254,7 +314,8 @@ SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const Ca
     if (keep != nullptr) *keep = std::move(solver);
   };
   const Eigen::VectorXd start = x;
-  const bool estimate_prior_sigma = !out.priors.empty() && !(options.prior_sigma_mm > 0.0);
+  const bool informed = !out.priors.empty() || !out.form_prior.Empty();
+  const bool estimate_prior_sigma = informed && !(options.prior_sigma_mm > 0.0);
   const double scale_sigma = options.robust_scale_sigma > 0.0
                                  ? options.robust_scale_sigma
                                  : (options.robust_loss == RobustLoss::kCauchy ? kCauchyScale : kHuberScale);
@@ -271,6 +332,10 @@ SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const Ca
         x(q.column) = q.value;
         informed_held.fixed.push_back(q.column);
       }
+      for (Eigen::Index i = 0; i < out.form_prior.value.size(); ++i) {
+        x(out.form_prior.columns[static_cast<std::size_t>(i)]) = out.form_prior.value(i);
+        informed_held.fixed.push_back(out.form_prior.columns[static_cast<std::size_t>(i)]);
+      }
       solve(informed_held);
       prior_sigma = std::sqrt(ReadingsRss(problem, residuals, {}) / std::max(1.0, m - (n_free - p)));
     }
@@ -278,8 +343,9 @@ SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const Ca
     double loss_sigma = options.robust_sigma_mm;
     for (int round = 0; round < kMaxRounds; ++round) {
       SolveConstraints with = c;
-      if (!out.priors.empty()) {
+      if (informed) {
         with.priors = out.priors;
+        with.form_prior = out.form_prior;
         with.prior_sigma_mm = prior_sigma;
       }
       if (loss && loss_sigma > 0.0) {
@@ -306,7 +372,8 @@ SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const Ca
         }
         std::vector<Held> held(static_cast<std::size_t>(n), Held::kNo);
         for (const Eigen::Index column : c.fixed) held[static_cast<std::size_t>(column)] = Held::kFixed;
-        const double leverage = FreeInverseAt(problem, x, held, out.priors, prior_sigma, weights).leverage;
+        const double leverage =
+            FreeInverseAt(problem, x, held, out.priors, out.form_prior, prior_sigma, weights).leverage;
         const double sigma = std::sqrt(ReadingsRss(problem, residuals, weights) / std::max(1.0, m - n_free + leverage));
         again |= !(std::abs(sigma - prior_sigma) <= kSigmaTolerance * sigma);
         prior_sigma = sigma;
@@ -365,11 +432,11 @@ ObservabilityReport AnalyseSolved(const SphereFitProblem& problem, const Eigen::
   }
   const auto n_free = static_cast<Eigen::Index>(free_desc.size());
   const FreeInverse inverse =
-      FreeInverseAt(problem, x, solved.held, solved.priors, solved.prior_sigma_mm, solved.weights);
+      FreeInverseAt(problem, x, solved.held, solved.priors, solved.form_prior, solved.prior_sigma_mm, solved.weights);
   // AnalyseFit() divides the sum of squares by (rows - free parameters): rows m + priors, and
   // the sum of squares that gives the residual variance of the readings over their degrees of
   // freedom m - n_free + the priors' leverage.
-  const Eigen::Index rows = m + static_cast<Eigen::Index>(solved.priors.size());
+  const Eigen::Index rows = m + static_cast<Eigen::Index>(solved.priors.size() + solved.form_prior.columns.size());
   const double dof = static_cast<double>(m - n_free) + inverse.leverage;
   ObservabilityReport free = AnalyseFit(inverse.inverse, rows, rss / dof * static_cast<double>(rows - n_free),
                                         std::move(free_desc), max_std_um);

@@ -34,12 +34,18 @@ namespace sph::internal {
 struct SolvedFit {
   std::vector<Held> held;           ///< per column of x
   std::vector<ColumnPrior> priors;  ///< on free columns
+  ColumnsPrior form_prior;          ///< CalibrationOptions::form_prior on the columns of the model's form
   double prior_sigma_mm = 0.0;
   std::vector<double> weights;  ///< each reading's rho'(e^2) (table-indexed; empty without a loss)
 
   /// Nothing held, informed or weighted: the plain least-squares fit.
   bool Plain() const;
 };
+
+/// CalibrationOptions::form_prior on the columns of `problem`'s form of the setups of known
+/// orientation (group 0): the prior's terms that the model has, their marginal; empty when the
+/// model has no form or none of them.
+ColumnsPrior FormPriorColumns(const SphereFitProblem& problem, const FormPrior& prior);
 
 /// Throws sph::Error naming `source` when the options' fixed, prior and bound parameters are not
 /// parameters of a calibration, are given twice, or a parameter is both held and informed.

@@ -557,6 +557,25 @@ Eigen::MatrixXd AppliedCovariance(const CalibrationFile& file) {
   return {};
 }
 
+Eigen::MatrixXd FormCovariance(const CalibrationFile& file, bool* correlated) {
+  if (correlated != nullptr) *correlated = false;
+  const auto k = static_cast<Eigen::Index>(file.form_terms.size());
+  const Eigen::MatrixXd all = AppliedCovariance(file);
+  if (k > 0 && all.rows() > kNumScmsParams && all.rows() >= k &&
+      all.rows() == static_cast<Eigen::Index>(StoredParameters(file).size())) {
+    if (correlated != nullptr) *correlated = true;
+    return all.bottomRightCorner(k, k);
+  }
+  if (k == 0 || file.form_std_mm.size() != file.form_terms.size()) return {};
+  Eigen::VectorXd variance(k);
+  for (Eigen::Index i = 0; i < k; ++i) {
+    const double u = file.form_std_mm[static_cast<std::size_t>(i)];
+    variance(i) = u * u;
+  }
+  const Eigen::MatrixXd diagonal = variance.asDiagonal();
+  return diagonal;
+}
+
 Calibration ToCalibration(const CalibrationFile& file) {
   Calibration cal;
   cal.geometry = file.geometry;

@@ -55,6 +55,39 @@ constexpr double kNormalDof = 1e12;
 
 }  // namespace
 
+double ChiSquareSf(double x, double dof) {
+  if (!(x > 0.0)) return 1.0;
+  const double a = 0.5 * dof, z = 0.5 * x;
+  const double log_front = a * std::log(z) - z - std::lgamma(a);
+  constexpr int kMaxTerms = 1000;
+  constexpr double kEps = 1e-15;
+  if (z < a + 1.0) {  // P(a, z) by its series; Q = 1 - P
+    double term = 1.0 / a, sum = term;
+    for (int n = 1; n < kMaxTerms; ++n) {
+      term *= z / (a + n);
+      sum += term;
+      if (std::abs(term) < std::abs(sum) * kEps) break;
+    }
+    return std::max(0.0, 1.0 - sum * std::exp(log_front));
+  }
+  // Q(a, z) by its continued fraction (modified Lentz).
+  constexpr double kTiny = 1e-300;
+  double b = z + 1.0 - a, c = 1.0 / kTiny, d = 1.0 / b, h = d;
+  for (int n = 1; n < kMaxTerms; ++n) {
+    const double an = -n * (n - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < kTiny) d = kTiny;
+    c = b + an / c;
+    if (std::abs(c) < kTiny) c = kTiny;
+    d = 1.0 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1.0) < kEps) break;
+  }
+  return std::exp(log_front) * h;
+}
+
 double RegularizedBeta(double x, double a, double b) {
   if (x <= 0.0) return 0.0;
   if (x >= 1.0) return 1.0;

@@ -142,6 +142,10 @@ namespace sph {
 using internal::DistinctAngles;
 using internal::ResolvedOrder;
 
+int FormDegreeLimit(const PointsData& points, const TraceOptions& trace_options) {
+  return internal::FormDesign(points, trace_options).degree_limit;
+}
+
 HarmonicOrders PatternOrders(const PointsData& points) {
   std::vector<double> theta_deg, phi_deg;
   theta_deg.reserve(points.samples.size());
@@ -181,6 +185,36 @@ struct TraceStart {
   }
 };
 
+// The model of `base` with the reference sphere's known form (options.form_prior's terms; setups
+// of unknown orientation and another sphere with forms of their own), fitted from the prior's
+// mean.
+EffectFit WithKnownForm(const Readings& data, const CalibrationOptions& options, const EffectFit& base) {
+  EffectModel model = base.model;
+  model.form = FormModelOf(data.points, options.form_prior.terms);
+  EffectFitStart start = EffectFitStart::From(base);
+  start.form_values.assign(static_cast<std::size_t>(model.form.NumGroups()),
+                           std::vector<double>(model.form.terms.size(), 0.0));
+  for (std::size_t k = 0; k < model.form.terms.size(); ++k) {
+    start.form_values[0][k] = options.form_prior.mean_mm(static_cast<Eigen::Index>(k));
+  }
+  return internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
+}
+
+// The form selection of a trace whose form is known (FormSelection::known).
+void KnownFormSelection(const CalibrationOptions& options, FormSelection* sel) {
+  int l_max = 0;
+  for (const FormTerm& t : options.form_prior.terms) l_max = std::max(l_max, t.l);
+  sel->known = true;
+  sel->separable = true;
+  sel->degree_max = l_max;
+  sel->degree_limit = l_max;
+  sel->confounded.clear();
+  sel->delta_ebic.clear();
+  sel->design = "the sphere's form known, degrees 2.." + std::to_string(l_max) +
+                ", in the model as a prior on its coefficients (it moves only within its covariance); every effect "
+                "is judged beside it";
+}
+
 // How both end: the outliers of the seven-error fit judged again under the final model, and the
 // structure it leaves unexplained.
 void Finish(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
@@ -208,10 +242,12 @@ using internal::ConfoundedFormTerms;
 using internal::Finish;
 using internal::FormDesign;
 using internal::ForwardRound;
+using internal::KnownFormSelection;
 using internal::Readings;
 using internal::RemoveUnneeded;
 using internal::SelectFormDegree;
 using internal::TraceStart;
+using internal::WithKnownForm;
 
 TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
                           TraceOptions trace_options) {
@@ -223,10 +259,13 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     for (int e = 0; e < kNumEffects; ++e) pool.push_back(static_cast<Effect>(e));
   }
   TracedFit current = r.before;
-  // The sphere's form first, where the design separates it from the machine.
+  // The sphere's form first: known, or where the design separates it from the machine.
   r.form = FormDesign(data.points, trace_options);
-  if (r.form.separable) ConfoundedFormTerms(data, options, r.before.fit, pool, trace_options, &r.form);
-  if (r.form.separable) {
+  if (!options.form_prior.Empty()) {
+    KnownFormSelection(options, &r.form);
+    current = Analysed(WithKnownForm(data, options, r.before.fit), data, options, trace_options);
+  } else if (r.form.separable) {
+    ConfoundedFormTerms(data, options, r.before.fit, pool, trace_options, &r.form);
     EffectFit with_form = SelectFormDegree(data, options, r.before.fit, trace_options, &r.form);
     if (!with_form.model.form.Empty()) current = Analysed(std::move(with_form), data, options, trace_options);
   }
@@ -234,7 +273,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     if (!ForwardRound(data, options, pool, round, trace_options, current, r)) break;
   }
   // The effects chosen, the form's degree is chosen again with them in the model.
-  if (r.form.separable && !r.added.empty()) {
+  if (r.form.separable && !r.form.known && !r.added.empty()) {
     EffectFit refit = SelectFormDegree(data, options, current.fit, trace_options, &r.form);
     if (refit.model.form.terms.size() != current.fit.model.form.terms.size()) {
       current = Analysed(std::move(refit), data, options, trace_options);
@@ -265,8 +304,14 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
   }
   CheckFoldsCanFit(start.data.points, trace_options.folds, n_params, "the seven-error model and " + ids,
                    r.before.fit.n_params);
+  EffectFit none = r.before.fit;
+  if (!options.form_prior.Empty()) {
+    KnownFormSelection(options, &r.form);
+    none = WithKnownForm(start.data, options, r.before.fit);
+    model.form = none.model.form;
+  }
   r.after = Analysed(internal::FitEffectsRows(start.data.points, start.data.table, nullptr, options, model,
-                                              EffectFitStart::From(r.before.fit)),
+                                              EffectFitStart::From(none)),
                      start.data, options, trace_options);
   Finish(all, options, base, trace_options, &r);
   return r;

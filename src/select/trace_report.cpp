@@ -255,7 +255,7 @@ void WriteForm(std::ostream& out, const TraceResult& r) {
   const TracedFit& a = r.after;
   out << "  sphere form: " << r.form.design << "\n";
   for (const std::string& c : r.form.confounded) out << "    confounded by the design: " << c << "\n";
-  if (r.form.separable) {
+  if (r.form.separable && !r.form.known) {
     std::string scores;
     for (const auto& [l, d] : r.form.delta_ebic) scores += Format(" %d: %.1f", l, d);
     out << "    extended BIC of the form of degrees 2..L against none, L =" << scores << "; chosen: "
@@ -444,6 +444,7 @@ json TraceFormJson(const TraceResult& r) {
   json scores = json::array();
   for (const auto& [l, d] : r.form.delta_ebic) scores.push_back({{"degree_max", l}, {"delta_ebic", d}});
   form["separable"] = r.form.separable;
+  form["known"] = r.form.known;
   form["design"] = r.form.design;
   for (const std::string& c : r.form.confounded) form["confounded"].push_back(c);
   form["delta_ebic"] = scores;

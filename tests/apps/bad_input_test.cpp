@@ -137,10 +137,54 @@ class Matrix : public ::testing::TestWithParam<MatrixCase> {
 class CalibrateMatrix : public Matrix {};
 TEST_P(CalibrateMatrix, Case) { Check(SPH_CALIBRATE); }
 
+// A calibration file by hand with the sphere's form (one term, its standard uncertainty) and R0
+// `radius`; without a form when `form` is false.
+std::string FormFile(const std::string& radius, bool form = true) {
+  std::string j = R"({"format": "sph-calibration", "format_version": 1, "probe_offset_mm": 25, "sphere_radius_mm": )" +
+                  radius + R"(, "geometry": {)";
+  for (const char* p : {"a", "b", "c", "d_prime"})
+    j += std::string("\"") + p + R"(": {"value": 0.001, "unit": "mm"}, )";
+  for (const char* p : {"alpha", "beta", "epsilon"})
+    j += std::string("\"") + p + R"(": {"value": 0.02, "unit": "deg"}, )";
+  j.resize(j.size() - 2);
+  j += R"(}, "effects": [])";
+  if (form) {
+    j += R"(, "sphere_form": {"normalisation": "schmidt_semi_normalised", "frame": "body", "unit": "um", )"
+         R"("terms": [{"l": 2, "m": 0, "value_um": 0.05, "std_um": 0.002}]})";
+  }
+  return j + "}\n";
+}
+
 std::vector<MatrixCase> CalibrateCases() {
   const std::string h = kHeader;
   const std::string e = "sph_calibrate: error: ";
   return {
+      // The sphere's known form: the same sphere's, from a file that holds one, with the trace.
+      {"sphere_form_of_another_sphere",
+       {"P.txt", "--sphere-form", "f.json"},
+       2,
+       e + "P.txt: sphere_radius_mm 20 mm (u 0 um) is not the radius of the sphere whose form f.json holds, 20.01 mm "
+           "(u 0 um): they differ by 10 um, more than their standard uncertainties together",
+       {{"f.json", FormFile("20.01")}}},
+      {"sphere_form_file_without_a_form",
+       {"P.txt", "--sphere-form", "f.json"},
+       2,
+       e + "f.json: holds no \"sphere_form\"",
+       {{"f.json", FormFile("20", false)}}},
+      {"sphere_form_without_trace",
+       {"P.txt", "--no-trace", "--sphere-form", "f.json"},
+       2,
+       "--no-trace excludes --sphere-form",
+       {{"f.json", FormFile("20")}}},
+      {"output_is_the_sphere_form_input",
+       {"P.txt", "--sphere-form", "f.json", "-o", "f.json"},
+       2,
+       e + "--output f.json is also the input --sphere-form f.json",
+       {{"f.json", FormFile("20")}}},
+      {"sphere_form_rms_zero",
+       {"P.txt", "--sphere-form-rms-um", "0"},
+       2,
+       "--sphere-form-rms-um: must be >= 1e-06 and <= 1000 um, got 0"},
       {"missing_file", {"nope.txt"}, 2, e + "nope.txt: cannot open for reading: No such file or directory"},
       {"directory", {"sub"}, 2, e + "sub: is a directory, not a file"},
       {"empty_file", {"x.txt"}, 2, e + "x.txt: no samples (the file has 0 lines", {{"x.txt", ""}}},
@@ -280,7 +324,9 @@ std::vector<MatrixCase> CalibrateCases() {
        {"P.txt", "--json", "r", "--report", "r"},
        2,
        e + "--json r and --report r are the same file"},
-      {"json_and_report_to_stdout", {"P.txt", "--json", "-", "--report", "-"}, 2,
+      {"json_and_report_to_stdout",
+       {"P.txt", "--json", "-", "--report", "-"},
+       2,
        e + "--json and --report both write to standard output"},
       {"report_written", {"P.txt", "--no-trace", "-q", "--report", "r.html"}, 0, "", {}, {"r.html"}},
       {"two_outputs_one_file",
@@ -1120,8 +1166,7 @@ std::vector<MatrixCase> MeasureCases() {
        e + "--report cal.json is also the input --calibration cal.json"},
       {"report_and_output_one_file", with({"P.txt", "--report", "m", "-o", "m"}), 2,
        e + "--report m and --output m are the same file"},
-      {"report_written", with({"P.txt", "-q", "--report", "m.html"}), 0, "", {},
-       {"m.html"}},
+      {"report_written", with({"P.txt", "-q", "--report", "m.html"}), 0, "", {}, {"m.html"}},
       {"plot_and_script_one_file", with({"P.txt", "--plot", "m", "--plot-script", "m"}), 2,
        e + "--plot m and --plot-script m are the same file"},
       {"output_to_stdout_beside_the_report", with({"P.txt", "-o", "-"}), 2,

@@ -364,6 +364,48 @@ TEST(CalibrationFile, FullCovarianceOfErrorsEffectsAndFormRoundTrips) {
               HasSubstr("field 'covariance.inputs[0].sensitivity' must hold 12 numbers, one per covariance parameter"));
 }
 
+// The form's covariance (FormCovariance()) is its block of the full covariance, read back as
+// written, correlations and all; a file with the form's standard uncertainties alone (older files,
+// or a covariance left out) gives their squares, uncorrelated, and says so.
+TEST(CalibrationFile, TheFormsCovarianceRoundTrips) {
+  const std::string dir = sph::testing::MakeTempDir("calfile_formcov");
+  CalibrationFile cal;
+  cal.probe_offset_mm = 25.0;
+  cal.sphere_radius_mm = 20.0;
+  cal.form_terms = {{2, 0}, {2, 1}, {3, -2}};
+  cal.form_values_mm = {6e-5, 1e-5, -2.5e-5};
+  cal.form_std_mm = {2e-6, 3e-6, 4e-6};
+  Eigen::VectorXd sd(10);
+  sd << 2e-6, 2e-4, 2e-5, 5e-4, 2e-5, 5e-4, 1e-4, 2e-6, 3e-6, 4e-6;
+  Eigen::MatrixXd corr = Eigen::MatrixXd::Identity(10, 10);
+  corr(7, 8) = corr(8, 7) = -0.6;  // S(2,0) with S(2,1)
+  corr(8, 9) = corr(9, 8) = 0.4;   // S(2,1) with S(3,-2)
+  corr(0, 9) = corr(9, 0) = 0.2;   // alpha with S(3,-2): not part of the form's block
+  cal.parameter_covariance = sd.asDiagonal() * corr * sd.asDiagonal();
+  cal.covariance = cal.parameter_covariance.topLeftCorner<7, 7>();
+  WriteCalibrationFile(dir + "/form.json", cal);
+  const CalibrationFile back = ReadCalibrationFile(dir + "/form.json");
+  bool correlated = false;
+  const Eigen::MatrixXd c = FormCovariance(back, &correlated);
+  EXPECT_TRUE(correlated);
+  ASSERT_EQ(c.rows(), 3);
+  EXPECT_TRUE(c.isApprox(cal.parameter_covariance.bottomRightCorner(3, 3), 1e-14));
+  EXPECT_NEAR(c(0, 1), -0.6 * 2e-6 * 3e-6, 1e-24);
+
+  CalibrationFile stds = cal;
+  stds.parameter_covariance.resize(0, 0);
+  WriteCalibrationFile(dir + "/stds.json", stds);
+  const Eigen::MatrixXd d = FormCovariance(ReadCalibrationFile(dir + "/stds.json"), &correlated);
+  EXPECT_FALSE(correlated);
+  ASSERT_EQ(d.rows(), 3);
+  EXPECT_NEAR(d(1, 1), 9e-12, 1e-26);
+  EXPECT_EQ(d(0, 1), 0.0);
+
+  CalibrationFile bare = stds;
+  bare.form_std_mm.clear();
+  EXPECT_EQ(FormCovariance(bare).rows(), 0);
+}
+
 // ---- input a calibration file must not get through ---------------------------------------------------
 
 // `depth` arrays around `inner`.

@@ -57,6 +57,19 @@ TEST(RegularizedBeta, ClosedForms) {
   EXPECT_EQ(RegularizedBeta(1.0, 2.0, 3.0), 1.0);
 }
 
+// The chi-square's upper tail: closed forms (2 dof: exp(-x / 2); 1 dof: the normal's two tails)
+// and the tables' 5 % and 1 % points, on both sides of the switch from series to continued fraction.
+TEST(ChiSquareSf, ClosedFormsAndTables) {
+  for (const double x : {0.1, 1.0, 3.0, 10.0, 40.0}) EXPECT_NEAR(gum::ChiSquareSf(x, 2.0), std::exp(-x / 2.0), 1e-14);
+  EXPECT_NEAR(gum::ChiSquareSf(1.959963984540054 * 1.959963984540054, 1.0), 0.05, 1e-12);
+  EXPECT_NEAR(gum::ChiSquareSf(3.841458820694124, 1.0), 0.05, 1e-12);
+  EXPECT_NEAR(gum::ChiSquareSf(18.307038053275146, 10.0), 0.05, 1e-11);
+  EXPECT_NEAR(gum::ChiSquareSf(23.209251158954356, 10.0), 0.01, 1e-11);
+  EXPECT_NEAR(gum::ChiSquareSf(9.341817765591966, 10.0), 0.5, 1e-11);
+  EXPECT_NEAR(gum::ChiSquareSf(101.87898399614, 77.0), 0.030419489285345953, 1e-11);  // 77: degrees 2..8
+  EXPECT_EQ(gum::ChiSquareSf(0.0, 5.0), 1.0);
+}
+
 TEST(Quantiles, CoverageFactorsOfGumTableG2) {
   // JCGM 100:2008 Table G.2, p = 95.45 % (the k = 2 of the normal distribution), two decimals.
   const double p = 0.9545;

@@ -24,9 +24,11 @@ RUNS = [
       "--sphere-radius-u-um 0.1 --json calibrate_undeclared.json -o cal_undeclared.json",
       "sph_calibrate data/example/separation/points.txt -q --json calibrate_separation.json -o cal_separation.json",
       "sph_calibrate data/example/undeclared/points.txt -q --sphere-radius-u-um 0.1 --compare cal_undeclared.json "
-      "--json calibrate_compare.json"],
-     ["calibrate_undeclared.json", "calibrate_separation.json", "calibrate_compare.json"], "docs/formats/reports.md",
-     "`sph_calibrate --json`"),
+      "--json calibrate_compare.json",
+      "sph_calibrate data/example/separation/one_placement.txt -q --sphere-form cal_separation.json "
+      "--json calibrate_known_form.json"],
+     ["calibrate_undeclared.json", "calibrate_separation.json", "calibrate_compare.json", "calibrate_known_form.json"],
+     "docs/formats/reports.md", "`sph_calibrate --json`"),
     ([], ["cal_undeclared.json", "cal_separation.json"], "docs/formats/calibration-files.md", None),
     (["sph_measure data/example/undeclared/validate.txt -c cal_undeclared.json -q --json measure.json",
       "sph_measure data/example/points.txt -c cal_undeclared.json -q --uncertainty-samples 0 --noise-floor-draws 0 "

@@ -14,6 +14,7 @@
 
 #include "sph/calib/budget.hpp"
 #include "sph/calib/calibrator.hpp"
+#include "sph/calib/known_form.hpp"
 #include "sph/calib/report.hpp"
 #include "sph/calib/usability.hpp"
 #include "sph/core/calibration_comparison.hpp"
@@ -53,6 +54,14 @@ struct CalibrationWorkflowOptions {
   /// with it (sph/core/calibration_comparison.hpp); read before the fit. The comparison informs: it
   /// does not change the calibration nor whether it is usable.
   std::string compare_path;
+  /// A calibration file holding the reference sphere's form (made from a run that separated it):
+  /// the form enters the fit as known within its covariance (FormPriorOfFile(), needs trace). The
+  /// points' R0 must be the file's within their uncertainties (CheckSameSphere()). Setups of known
+  /// orientation share it, each through its mount rotation; a setup of unknown orientation or on
+  /// another sphere keeps a form of its own. With conditions.sphere_form_rms_um (or the header's)
+  /// too, the certificate is checked against it; alone, that bound is the prior
+  /// (CertificateFormPrior(), degrees 2 to FormDegreeLimit()).
+  std::string sphere_form_path;
   SphereConditions conditions;     ///< the uncertainty inputs and the probe range; override the header's
   std::optional<double> coverage;  ///< coverage probability of U; empty: k = 2
   std::string program;             ///< the reports' "program"; empty: "sph_calibrate <version>"
@@ -81,6 +90,9 @@ struct CalibrationWorkflowResult {
   std::optional<CalibrationBudget> budget;  ///< none when the fit was not analysed or a refit failed
   /// The comparison with an earlier calibration, when compare_path was given.
   std::optional<CalibrationComparison> comparison;
+  /// With a known form (sphere_form_path or the certificate's bound) and a trace: how the readings
+  /// agree with it.
+  std::optional<KnownFormCheck> known_form;
   std::vector<std::string> warnings;        ///< the readings' plausibility, the budget's absence
   Usability usability;
 

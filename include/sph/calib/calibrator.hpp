@@ -21,6 +21,7 @@
 #include "sph/calib/observability.hpp"
 #include "sph/core/parameter_settings.hpp"
 #include "sph/core/points_file.hpp"
+#include "sph/model/form_model.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph {
@@ -39,6 +40,27 @@ enum class RobustLoss {
   kHuber,   ///< quadratic within the scale, linear beyond: a reading beyond it weighs scale / |e|
   kCauchy,  ///< log(1 + (e / scale)^2): a reading weighs 1 / (1 + (e / scale)^2)
 };
+
+/// A Gaussian prior on the reference sphere's form (sph/model/form_model.hpp): its coefficients on
+/// the body frame known from an earlier separation (mean and covariance), or bounded by a
+/// certificate (zero mean, CertificateFormPrior()). A fit whose model has a form adds the
+/// whitened residual sigma L^-1 (c - mean), L L^T = covariance, on the coefficients of the setups
+/// of known orientation (group 0; each setup sees them through its mount rotation), sigma the
+/// readings' noise as for the priors on named parameters. Terms of the prior the model lacks are
+/// left out of it (the marginal of the others).
+struct FormPrior {
+  std::vector<FormTerm> terms;
+  Eigen::VectorXd mean_mm;         ///< one per term [mm]
+  Eigen::MatrixXd covariance_mm2;  ///< symmetric positive definite, terms x terms [mm^2]
+  bool Empty() const { return terms.empty(); }
+};
+
+/// The certificate's bound as a prior: zero mean, the same variance v for every coefficient of
+/// degrees 2..l_max. The mean square of S_lm over the sphere is 1 / (2l + 1) and degree l has
+/// 2l + 1 coefficients, so the expected mean square of the form is sum_l v = (l_max - 1) v: with
+/// v = rms^2 / (l_max - 1) its expected RMS over the sphere is the bound, shared equally by the
+/// degrees. `rms_mm` > 0, l_max >= 2.
+FormPrior CertificateFormPrior(double rms_mm, int l_max);
 
 struct CalibrationOptions {
   double sphere_radius_mm = 0.0;  ///< R0 (required, > 0)
@@ -75,6 +97,10 @@ struct CalibrationOptions {
   /// sigma of the readings and the priors together, found by refitting until it holds).
   /// CalibrationResult::prior_sigma_mm is the one used: refits of the same readings pass it on.
   double prior_sigma_mm = 0.0;
+  /// The reference sphere's form as known (FormPrior), weighted with prior_sigma_mm as the priors
+  /// are; only fits whose model has a form use it (sph/select/trace.hpp puts the form in the model
+  /// from the start when it is given). Empty: none.
+  FormPrior form_prior;
   /// Bounds besides the physical ones, which every fit has: |alpha|, |beta|, |epsilon| below 90
   /// deg, d' above -d (the probe's zero beyond the axes' common point). A parameter that ends at a
   /// bound is reported as held there.

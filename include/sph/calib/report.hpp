@@ -19,6 +19,7 @@
 namespace sph {
 
 struct TraceResult;  // sph/select/trace.hpp
+struct KnownFormCheck;  // sph/calib/known_form.hpp
 struct Validation;   // sph/select/trace_report.hpp
 
 /// What the report says about where the data came from.
@@ -39,6 +40,8 @@ struct ReportContext {
   const Validation* validation = nullptr;
   /// The comparison with an earlier calibration, when made: both reports end with it. Not owned.
   const CalibrationComparison* comparison = nullptr;
+  /// How the readings agree with the sphere's known form, when one was given. Not owned.
+  const KnownFormCheck* known_form = nullptr;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,

@@ -93,6 +93,12 @@ std::vector<std::string> CalibrationParameterNames(const CalibrationFile& file);
 /// without a covariance.
 Eigen::MatrixXd AppliedCovariance(const CalibrationFile& file);
 
+/// The covariance of the form's coefficients (mm^2, form_terms order): their block of the file's
+/// full covariance, where the file carries one; else, with each term's std_mm, the diagonal of their
+/// squares (`*correlated` false: the correlations are not known); else empty. `correlated` may be
+/// null.
+Eigen::MatrixXd FormCovariance(const CalibrationFile& file, bool* correlated = nullptr);
+
 /// The part of a calibration file that compensation uses (sph/model/compensation.hpp).
 Calibration ToCalibration(const CalibrationFile& file);
 

@@ -39,6 +39,10 @@ double NormalQuantile(double p);
 /// I_x(a, b), the regularised incomplete beta function (a, b > 0; 0 outside x > 0, 1 for x >= 1),
 /// by its continued fraction: the distribution functions of Student's t and of the F distribution.
 double RegularizedBeta(double x, double a, double b);
+/// P(X > x) for X chi-square distributed with `dof` (> 0) degrees of freedom: Q(dof / 2, x / 2),
+/// the regularised upper incomplete gamma function (series below x < dof / 2 + 1, else its
+/// continued fraction), to about 1e-14; 1 for x <= 0.
+double ChiSquareSf(double x, double dof);
 /// The distribution function of Student's t distribution with `dof` (> 0, may be infinite)
 /// degrees of freedom.
 double StudentTCdf(double t, double dof);

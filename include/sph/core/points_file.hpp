@@ -103,6 +103,9 @@ struct SphereConditions {
   std::optional<double> sphere_cte_per_k;        ///< the sphere's linear expansion coefficient [1/K]
   std::optional<double> probe_scale_u;           ///< relative standard uncertainty of the probe's scale [1]
   std::optional<double> probe_range_mm;          ///< the probe's measuring range: readings 0 to it [mm]
+  /// The certificate's bound of the sphere's form: its RMS over the sphere, k = 1 [um]
+  /// (sph/calib/known_form.hpp).
+  std::optional<double> sphere_form_rms_um;
 };
 
 /// One header field of SphereConditions: its key and the range a value must lie in.
@@ -128,6 +131,10 @@ inline constexpr ConditionField kConditionFields[] = {
     {"probe_range_mm", &SphereConditions::probe_range_mm, 0.002, 10000.0, "mm",
      "The probe's measuring range, readings 0 to it [mm]: probe terms are then given at its ends, the same "
      "numbers at any eccentricity; default: the range of the readings"},
+    {"sphere_form_rms_um", &SphereConditions::sphere_form_rms_um, 1e-6, 1000.0, "um",
+     "The certificate's bound of the sphere's form, its RMS over the sphere (k = 1) [um]: a zero-mean prior on the "
+     "form's coefficients of degrees 2 to what the pattern resolves (at most 8), the same variance each; with "
+     "--sphere-form, checked against the known form"},
 };
 
 /// The conditions among the header's metadata (values the reader has checked).

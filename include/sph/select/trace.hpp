@@ -136,6 +136,10 @@ struct Ambiguity {
 /// How the trace treated the sphere's form.
 struct FormSelection {
   bool separable = false;  ///< the design separates the form from the machine
+  /// The reference sphere's form was given (CalibrationOptions::form_prior): it is in the model
+  /// from the start, at the prior's degree, as known within the prior's covariance, and no
+  /// pattern fixed on the sphere competes with the effects (`separable` is then true as well).
+  bool known = false;
   std::string design;      ///< why or why not, in words
   int degree_max = 0;      ///< the degree L fitted (0: no form in the final model)
   int degree_limit = 0;    ///< the highest degree searched (what the pattern resolves, at most form_degree_max)
@@ -196,6 +200,11 @@ struct TraceResult {
 /// kMaxEffectHarmonic (a scan with a reading per SYNC has thousands of distinct angles).
 HarmonicOrders PatternOrders(const PointsData& points);
 
+/// The highest degree of the sphere's form that a trace of `points` would fit: what the pattern
+/// resolves, at most trace_options.form_degree_max, and no more than the cross-validation's folds
+/// can fit beside the seven errors and the centres (FormSelection::degree_limit).
+int FormDegreeLimit(const PointsData& points, const TraceOptions& trace_options);
+
 /// Traces the residual of `points` (docs/method/tracing-the-residual.md). `base` is the seven-error
 /// calibration of the same points and options; the readings it left out as outliers are left out of the
 /// selection and judged again under the final model. The effect reference is that of all the
@@ -203,8 +212,13 @@ HarmonicOrders PatternOrders(const PointsData& points);
 TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
                           TraceOptions trace_options);
 
+/// With options.form_prior the reference sphere's form is in the model from the start, at the
+/// prior's terms and informed by it (FormSelection::known), and the effects are judged beside it.
+/// Traces as above otherwise.
+///
 /// Fits a fixed model: the seven errors and the default terms of `effects` (no selection, nothing
-/// left out), with the same residual analysis and cross-validation; `after` holds the fit.
+/// left out), with the same residual analysis and cross-validation (and the known form of
+/// options.form_prior, when given); `after` holds the fit.
 TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
                             const std::vector<Effect>& effects, TraceOptions trace_options);
 

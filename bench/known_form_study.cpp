@@ -1,0 +1,254 @@
+// The everyday calibration with the sphere's form known from a separation run: what the residual
+// trace finds in one placement with the form as a prior (CalibrationOptions::form_prior) beside
+// what it finds without it. A study program, run by hand (docs/validation.md, "A known form in
+// one placement"):
+//
+//   build/bench/known_form_study [SEEDS]                  (default 5 seeds per cell)
+//   build/bench/known_form_study --false-additions [RUNS] (default 500)
+//
+// For each noise level (sigma_r 0.03 and 0.05 um) the sphere of form28 (0.050 um rms, degrees 2..8)
+// is first separated as a lab would: measured in three known orientations on its mount, the
+// calibration workflow run, its calibration file made; the prior is that file's form
+// (FormPriorOfFile()). Then daily one-placement data of the same sphere (other seeds) with the
+// effects {probe drift, probe nonlinearity, Theta encoder, Phi encoder} alone and in pairs are
+// traced without the form, with it, and with its covariance inflated 100 times. Per cell: right
+// (exactly the simulated effects added), wrong (an effect added that was not simulated), the rest
+// (an effect missed, none wrong: the trace named it ambiguous or found it too small). Then the
+// sphere turned by 90 deg about Theta in the daily run: its rotation stated (the verdict should
+// be "agrees" and the drift found) and not stated (the reference orientation assumed:
+// "disagrees"). The second form counts the runs that add any effect to clean one-placement data
+// of the same sphere with its form known, with the rate's exact 95 % interval.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "sph/calib/calibrate_workflow.hpp"
+#include "sph/calib/known_form.hpp"
+#include "sph/core/simulate.hpp"
+#include "sph/model/units.hpp"
+#include "sph/select/trace.hpp"
+#include "study_designs.hpp"
+
+namespace {
+
+using sph::Effect;
+
+struct Simulated {
+  Effect effect;
+  sph::EffectComponent component;
+  double value;  // rad or mm
+};
+
+// The effects a daily check is for, at the separation matrix's sizes.
+const std::map<Effect, Simulated>& Library() {
+  const double as = sph::kRadPerArcsec, um = sph::kMmPerUm;
+  static const std::map<Effect, Simulated> library{
+      {Effect::kProbeDrift, {Effect::kProbeDrift, {1, 0, false}, 0.4 * um}},
+      {Effect::kProbeNonlinearity, {Effect::kProbeNonlinearity, {3, 0, false}, 0.15 * um}},
+      {Effect::kThetaEncoder, {Effect::kThetaEncoder, {3, 0, false}, 5 * as}},
+      {Effect::kPhiEncoder, {Effect::kPhiEncoder, {1, 0, false}, 10 * as}},
+  };
+  return library;
+}
+
+std::vector<std::vector<Effect>> Cases() {
+  std::vector<Effect> four;
+  for (const auto& [e, s] : Library()) four.push_back(e);
+  std::vector<std::vector<Effect>> cases;
+  for (const Effect e : four) cases.push_back({e});
+  for (std::size_t i = 0; i < four.size(); ++i) {
+    for (std::size_t j = i + 1; j < four.size(); ++j) cases.push_back({four[i], four[j]});
+  }
+  return cases;
+}
+
+std::string Name(const std::vector<Effect>& effects) {
+  std::string s;
+  for (const Effect e : effects) s += (s.empty() ? "" : "+") + std::string(sph::InfoOf(e).id);
+  return s.empty() ? "none" : s;
+}
+
+sph::CalibrationOptions Paper() {
+  sph::CalibrationOptions o;
+  o.sphere_radius_mm = 20.0;
+  o.probe_offset_mm = 25.0;
+  return o;
+}
+
+// The separation run: form28 in three known orientations at (2, 0, 0) mm, no machine effects;
+// its calibration file's form as the prior.
+sph::FormPrior Separate(double noise_um) {
+  sph::SimulationSpec spec;
+  spec.seed = 1000;
+  spec.noise_r_um = noise_um;
+  spec.centers_mm.assign(3, Eigen::Vector3d(2, 0, 0));
+  spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {90, 0, 0}}};
+  spec.scan_orders = {{1, sph::ScanOrder::kSerpentine}, {2, sph::ScanOrder::kColumns}};
+  spec.effects.form = sph::bench::Form28();
+  sph::CalibrationWorkflowOptions o;
+  o.sphere_radius_mm = 20.0;
+  o.probe_offset_mm = 25.0;
+  const sph::CalibrationWorkflowResult run = sph::RunCalibrationWorkflow(sph::Simulate(spec), "separation", o);
+  const sph::CalibrationFile file = run.MakeCalibrationFile();
+  std::vector<std::string> notes;
+  sph::FormPrior prior = sph::FormPriorOfFile(file, "separation", &notes);
+  for (const std::string& n : notes) std::printf("  note: %s\n", n.c_str());
+  std::vector<double> mean(prior.terms.size());
+  for (std::size_t i = 0; i < mean.size(); ++i) mean[i] = prior.mean_mm(static_cast<Eigen::Index>(i));
+  std::printf("separation at sigma %.2f um: form of degrees 2..%d, %.4f um rms (simulated %.4f)\n", noise_um,
+              prior.terms.back().l, sph::FormRms(prior.terms, mean) * sph::kUmPerMm,
+              sph::FormSizeOf(spec.effects, 20.0).rms_um);
+  return prior;
+}
+
+sph::PointsData Daily(const std::vector<Effect>& effects, double noise_um, std::uint64_t seed, double turn_deg = 0.0) {
+  sph::SimulationSpec spec;
+  spec.seed = seed;
+  spec.noise_r_um = noise_um;
+  for (const Effect e : effects) {
+    const Simulated& s = Library().at(e);
+    spec.effects.model.terms.push_back({s.effect, {s.component}});
+    spec.effects.values.push_back({s.value});
+  }
+  spec.effects.form = sph::bench::Form28();
+  if (turn_deg != 0.0) spec.mount_rotations_deg[0] = Eigen::Vector3d(0, 0, turn_deg);
+  return sph::Simulate(spec);
+}
+
+struct Traced {
+  sph::TraceResult trace;
+  sph::CalibrationOptions options;
+};
+
+Traced Trace(const sph::PointsData& points, const sph::FormPrior* prior) {
+  Traced t;
+  t.options = Paper();
+  if (prior != nullptr) t.options.form_prior = *prior;
+  const sph::CalibrationResult base = sph::Calibrate(points, t.options);
+  t.trace = sph::TraceResidual(points, t.options, base, sph::TraceOptions{});
+  return t;
+}
+
+// 'r' right, 'w' wrong, 'o' other (missed, nothing wrong).
+char Judge(const sph::TraceResult& r, const std::vector<Effect>& truth) {
+  for (const Effect e : r.added) {
+    if (std::find(truth.begin(), truth.end(), e) == truth.end()) return 'w';
+  }
+  return r.added.size() == truth.size() ? 'r' : 'o';
+}
+
+struct Tally {
+  int right = 0, wrong = 0, other = 0;
+  std::map<std::string, int> added;
+  void Add(const sph::TraceResult& r, const std::vector<Effect>& truth) {
+    const char j = Judge(r, truth);
+    (j == 'r' ? right : j == 'w' ? wrong : other) += 1;
+    added[Name(r.added)] += 1;
+  }
+  std::string Text() const {
+    char head[64];
+    std::snprintf(head, sizeof head, "%2d/%2d/%2d", right, wrong, other);
+    return head;
+  }
+};
+
+double BinomialCdf(int k, int n, double p) {
+  double sum = 0.0;
+  for (int i = 0; i <= k; ++i) {
+    sum += std::exp(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0) + i * std::log(p) +
+                    (n - i) * std::log1p(-p));
+  }
+  return sum;
+}
+
+// The upper end of the exact (Clopper-Pearson) two-sided 95 % interval of k of n.
+double UpperBound(int k, int n) {
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (BinomialCdf(k, n, mid) > 0.025 ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+int FalseAdditions(int runs) {
+  const sph::FormPrior prior = Separate(0.03);
+  int added = 0;
+  for (int run = 1; run <= runs; ++run) {
+    const Traced t = Trace(Daily({}, 0.03, static_cast<std::uint64_t>(run)), &prior);
+    if (!t.trace.added.empty()) {
+      ++added;
+      std::printf("  run %d added %s\n", run, Name(t.trace.added).c_str());
+    }
+    if (run % 50 == 0) std::printf("  %d runs, %d with an addition\n", run, added), std::fflush(stdout);
+  }
+  std::printf(
+      "false additions with the form known, one placement, sigma 0.03 um: %d of %d (%.2f %%, 95 %% upper %.2f %%)\n",
+      added, runs, 100.0 * added / runs, 100.0 * UpperBound(added, runs));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc >= 2 && std::strcmp(argv[1], "--false-additions") == 0) {
+    return FalseAdditions(argc >= 3 ? std::atoi(argv[2]) : 500);
+  }
+  const int seeds = argc >= 2 ? std::atoi(argv[1]) : 5;
+  std::printf("right/wrong/other of %d seeds per cell: without the form | with it | its covariance x100\n", seeds);
+  for (const double noise : {0.03, 0.05}) {
+    const sph::FormPrior prior = Separate(noise);
+    sph::FormPrior inflated = prior;
+    inflated.covariance_mm2 *= 100.0;
+    Tally total[3];
+    for (const std::vector<Effect>& c : Cases()) {
+      Tally cell[3];
+      for (int s = 1; s <= seeds; ++s) {
+        const sph::PointsData points = Daily(c, noise, static_cast<std::uint64_t>(s));
+        const sph::FormPrior* priors[3] = {nullptr, &prior, &inflated};
+        for (int k = 0; k < 3; ++k) {
+          const Traced t = Trace(points, priors[k]);
+          cell[k].Add(t.trace, c);
+          total[k].Add(t.trace, c);
+        }
+      }
+      std::string with_added;
+      for (const auto& [name, n] : cell[1].added) with_added += " " + name + " x" + std::to_string(n);
+      std::printf("sigma %.2f %-36s %s | %s | %s   with: %s\n", noise, Name(c).c_str(), cell[0].Text().c_str(),
+                  cell[1].Text().c_str(), cell[2].Text().c_str(), with_added.c_str());
+      std::fflush(stdout);
+    }
+    std::printf("sigma %.2f %-36s %s | %s | %s\n", noise, "all", total[0].Text().c_str(), total[1].Text().c_str(),
+                total[2].Text().c_str());
+    // The sphere turned by 90 deg about Theta in the daily run, with a probe drift.
+    int agree_stated = 0, drift_stated = 0, disagree_unstated = 0;
+    for (int s = 1; s <= seeds; ++s) {
+      const sph::PointsData stated = Daily({Effect::kProbeDrift}, noise, static_cast<std::uint64_t>(s), 90.0);
+      sph::PointsData unstated = stated;
+      unstated.header.mount_rotations.clear();
+      const Traced a = Trace(stated, &prior);
+      const sph::KnownFormCheck ka = sph::CheckKnownForm(stated, a.options, a.trace.after.fit, "separation", {}, true);
+      agree_stated += ka.agrees ? 1 : 0;
+      drift_stated += Judge(a.trace, {Effect::kProbeDrift}) == 'r' ? 1 : 0;
+      const Traced b = Trace(unstated, &prior);
+      const sph::KnownFormCheck kb =
+          sph::CheckKnownForm(unstated, b.options, b.trace.after.fit, "separation", {}, true);
+      disagree_unstated += kb.agrees ? 0 : 1;
+      std::printf(
+          "  turned 90 deg, seed %d: stated chi2 %.1f p %.3g (%s, added %s); not stated chi2 %.1f p %.3g "
+          "(%s, rms %.4f with, %.4f without)\n",
+          s, ka.chi_square, ka.p_value, ka.agrees ? "agrees" : "disagrees", Name(a.trace.added).c_str(), kb.chi_square,
+          kb.p_value, kb.agrees ? "agrees" : "disagrees", kb.rms_with_um, kb.rms_without_um);
+    }
+    std::printf(
+        "sigma %.2f turned 90 deg about Theta: stated: agrees %d/%d, drift right %d/%d; not stated: disagrees %d/%d\n",
+        noise, agree_stated, seeds, drift_stated, seeds, disagree_unstated, seeds);
+    std::fflush(stdout);
+  }
+  return 0;
+}

@@ -1,0 +1,71 @@
+// The reference sphere's form as the lab knows it, in an everyday calibration: from the
+// calibration file of a run that separated it (its "sphere_form" with the coefficients'
+// covariance), or bounded by the sphere's certificate (sphere_form_rms_um, k = 1). Either becomes
+// a Gaussian prior on the form's coefficients (FormPrior, sph/calib/calibrator.hpp); after the fit,
+// CheckKnownForm() says how well the readings agree with it.
+//
+// Units: the prior in mm; the check's *_um fields in um.
+#ifndef SPH_CALIB_KNOWN_FORM_HPP_
+#define SPH_CALIB_KNOWN_FORM_HPP_
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sph/calib/calibrator.hpp"
+#include "sph/calib/effect_fit.hpp"
+#include "sph/core/calibration_file.hpp"
+#include "sph/core/points_file.hpp"
+
+namespace sph {
+
+/// The prior of the form a calibration file holds: its coefficients and their covariance
+/// (FormCovariance(); its cross-covariance with that run's seven errors is not carried). Throws
+/// sph::Error naming `path` when the file holds no form, or no uncertainty of it. `notes`, when
+/// given, receives what the prior lacks (the coefficients' correlations, in an older file).
+FormPrior FormPriorOfFile(const CalibrationFile& file, const std::string& path,
+                          std::vector<std::string>* notes = nullptr);
+
+/// Throws sph::Error, both values in the message, when a calibration's R0 (`radius_mm`, its
+/// certificate's standard uncertainty `radius_u_um`; `what` names the calibration) differs from
+/// the R0 of the form's file `path` by more than the sum of their standard uncertainties (the file's:
+/// its covariance input "R0 (certificate)"; 1 nm of rounding allowed): the form belongs to
+/// another sphere. Nothing when the file does not state R0.
+void CheckSameSphere(const CalibrationFile& file, const std::string& path, double radius_mm, double radius_u_um,
+                     const std::string& what);
+
+/// The p-value below which the readings are said to disagree with the known form.
+inline constexpr double kKnownFormP = 0.01;
+
+/// How the readings agree with the known form of a calibration (`fit`, whose model has it).
+struct KnownFormCheck {
+  std::string source;           ///< the form's file, or "the certificate's bound"
+  int terms = 0;                ///< coefficients informed: the chi-square's degrees of freedom
+  double known_rms_um = 0.0;    ///< RMS over the sphere of the form as known (the prior's mean)
+  double fitted_rms_um = 0.0;   ///< RMS of the form fitted (the setups of known orientation)
+  double rms_with_um = 0.0;     ///< the readings' residual RMS with the form held as known (the model refitted)
+  double rms_without_um = 0.0;  ///< the same model without a form, refitted
+  /// What the form explains of the readings: sqrt(without^2 - with^2), 0 when it fits worse.
+  double explained_rms_um = 0.0;
+  /// |L^-1 (c - c0)|^2 of the fitted coefficients c against the prior (mean c0, L L^T its
+  /// covariance), and P(chi-square of `terms` degrees of freedom above it). The fitted
+  /// coefficients lean towards c0 by what the prior adds, so with a form as known this is below
+  /// `terms` on average: a small p-value is a clear disagreement.
+  double chi_square = 0.0;
+  double p_value = 1.0;
+  std::optional<double> bound_rms_um;  ///< the certificate's bound (k = 1), when given
+  bool agrees = true;                  ///< p_value >= kKnownFormP and the form fits no worse than none
+  std::string verdict;                 ///< in words
+  std::vector<std::string> warnings;   ///< disagreement, a form beyond the bound
+};
+
+/// Checks `fit` (of `points`, whose outliers it names, under `options` with its form_prior)
+/// against options.form_prior: the prior's chi-square, the model refitted without a form, and the
+/// certificate's bound `bound_rms_um` when given (on the form fitted, and on the known form's own
+/// RMS when the prior is a file's). `source` names the form in the words.
+KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                              const std::string& source, std::optional<double> bound_rms_um, bool from_file);
+
+}  // namespace sph
+
+#endif  // SPH_CALIB_KNOWN_FORM_HPP_

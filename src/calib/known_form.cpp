@@ -1,0 +1,148 @@
+#include "sph/calib/known_form.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+#include "sph/core/error.hpp"
+#include "sph/core/gum.hpp"
+#include "sph/internal/format.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph {
+
+using internal::Format;
+
+FormPrior FormPriorOfFile(const CalibrationFile& file, const std::string& path, std::vector<std::string>* notes) {
+  if (file.form_terms.empty()) {
+    throw Error(path +
+                ": holds no \"sphere_form\": the known form comes from the calibration file of a run that "
+                "separated it (sph_calibrate -o on the sphere measured in two or more known orientations)");
+  }
+  bool correlated = false;
+  const Eigen::MatrixXd c = FormCovariance(file, &correlated);
+  if (c.rows() == 0) {
+    throw Error(path +
+                ": its \"sphere_form\" has no uncertainties (std_um, or the covariance): a form without "
+                "them cannot be weighed against the readings");
+  }
+  FormPrior prior;
+  prior.terms = file.form_terms;
+  prior.mean_mm = Eigen::Map<const Eigen::VectorXd>(file.form_values_mm.data(),
+                                                    static_cast<Eigen::Index>(file.form_values_mm.size()));
+  prior.covariance_mm2 = c;
+  if (Eigen::LLT<Eigen::MatrixXd>(c).info() != Eigen::Success) {
+    throw Error(path +
+                ": the covariance of its \"sphere_form\" is singular (a coefficient with no uncertainty, or "
+                "a combination of them): it cannot be a prior");
+  }
+  if (!correlated && notes != nullptr) {
+    notes->push_back(path +
+                     ": the file carries the form's standard uncertainties but not their covariance: the "
+                     "coefficients are taken as uncorrelated");
+  }
+  return prior;
+}
+
+void CheckSameSphere(const CalibrationFile& file, const std::string& path, double radius_mm, double radius_u_um,
+                     const std::string& what) {
+  if (!file.sphere_radius_mm) return;
+  double file_u_um = 0.0;
+  for (const CalibrationFile::CovarianceInput& in : file.covariance_inputs) {
+    if (in.input == "R0 (certificate)" && in.unit == "um") file_u_um = in.u;
+  }
+  const double difference_um = std::abs(radius_mm - *file.sphere_radius_mm) * kUmPerMm;
+  const double allowed_um = radius_u_um + file_u_um + 1e-3;
+  if (difference_um <= allowed_um) return;
+  throw Error(what + ": sphere_radius_mm " + Format("%.9g", radius_mm) + " mm (u " + Format("%g", radius_u_um) +
+              " um) is not the radius of the sphere whose form " + path + " holds, " +
+              Format("%.9g", *file.sphere_radius_mm) + " mm (u " + Format("%g", file_u_um) + " um): they differ by " +
+              Format("%.3g", difference_um) +
+              " um, more than their standard uncertainties together; the known form belongs to its own sphere");
+}
+
+KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                              const std::string& source, std::optional<double> bound_rms_um, bool from_file) {
+  KnownFormCheck k;
+  k.source = source;
+  k.bound_rms_um = bound_rms_um;
+  const FormPrior& prior = options.form_prior;
+  const FormModel& form = fit.model.form;
+  if (prior.Empty() || form.Empty() || fit.form_values.empty()) return k;
+  // The prior's terms the model has, their marginal.
+  std::vector<Eigen::Index> in_prior, in_model;
+  for (std::size_t i = 0; i < prior.terms.size(); ++i) {
+    const auto it = std::find(form.terms.begin(), form.terms.end(), prior.terms[i]);
+    if (it == form.terms.end()) continue;
+    in_prior.push_back(static_cast<Eigen::Index>(i));
+    in_model.push_back(static_cast<Eigen::Index>(it - form.terms.begin()));
+  }
+  const auto n = static_cast<Eigen::Index>(in_prior.size());
+  k.terms = static_cast<int>(n);
+  Eigen::VectorXd d(n);
+  Eigen::MatrixXd c(n, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    d(i) = fit.form_values[0][static_cast<std::size_t>(in_model[static_cast<std::size_t>(i)])] -
+           prior.mean_mm(in_prior[static_cast<std::size_t>(i)]);
+    for (Eigen::Index j = 0; j < n; ++j)
+      c(i, j) = prior.covariance_mm2(in_prior[static_cast<std::size_t>(i)], in_prior[static_cast<std::size_t>(j)]);
+  }
+  const Eigen::VectorXd w = Eigen::LLT<Eigen::MatrixXd>(c).matrixL().solve(d);
+  k.chi_square = w.squaredNorm();
+  k.p_value = gum::ChiSquareSf(k.chi_square, static_cast<double>(n));
+  std::vector<double> mean(prior.terms.size());
+  for (std::size_t i = 0; i < mean.size(); ++i) mean[i] = prior.mean_mm(static_cast<Eigen::Index>(i));
+  k.known_rms_um = FormRms(prior.terms, mean) * kUmPerMm;
+  k.fitted_rms_um = FormRms(form.terms, fit.form_values[0]) * kUmPerMm;
+  // The same model without a form, on the same readings.
+  const PointsData kept = WithoutOutliers(points, fit.calibration);
+  EffectModel plain = fit.model;
+  plain.form = FormModel{};
+  EffectFitStart start = EffectFitStart::From(fit);
+  start.form_values.clear();
+  CalibrationOptions quick = options;
+  quick.analyse = false;
+  const EffectFit none = FitEffects(kept, quick, plain, start);
+  // The same model with the form held at its known value (its covariance shrunk a million times).
+  CalibrationOptions held = quick;
+  held.form_prior.covariance_mm2 *= 1e-6;
+  held.prior_sigma_mm = fit.calibration.prior_sigma_mm;
+  const EffectFit as_known = FitEffects(kept, held, fit.model, EffectFitStart::From(fit));
+  k.rms_with_um = as_known.calibration.rms_um;
+  k.rms_without_um = none.calibration.rms_um;
+  k.explained_rms_um = std::sqrt(std::max(0.0, k.rms_without_um * k.rms_without_um - k.rms_with_um * k.rms_with_um));
+  const bool worse = k.rms_with_um > k.rms_without_um;
+  k.agrees = k.p_value >= kKnownFormP && !worse;
+  const std::string numbers =
+      Format("chi-square %.3g for %d coefficients, p = %.2g; residual RMS %.4g um with it, %.4g um without a form",
+             k.chi_square, k.terms, k.p_value, k.rms_with_um, k.rms_without_um);
+  if (k.agrees) {
+    k.verdict = "the readings agree with the known form of " + source + " (" + numbers + ")";
+  } else {
+    k.verdict = "the readings disagree with the known form of " + source + " (" + numbers + ")";
+    k.warnings.push_back(
+        k.verdict + (worse ? ": it fits them worse than no form at all" : "") +
+        ". Likely causes: the sphere damaged or dirty since its form was separated, or its orientation on the "
+        "mount not the one the points file states (mount_rotation_deg@<setup>; none: the reference orientation). "
+        "The form was not forced: it moved as far as its covariance allows; check the sphere before using this "
+        "calibration");
+  }
+  if (bound_rms_um) {
+    if (k.fitted_rms_um > *bound_rms_um) {
+      k.warnings.push_back(
+          Format("the form fitted, %.3g um RMS over the sphere, is larger than the certificate's "
+                 "bound sphere_form_rms_um %.3g um (k = 1)",
+                 k.fitted_rms_um, *bound_rms_um));
+    }
+    if (from_file && k.known_rms_um > *bound_rms_um) {
+      k.warnings.push_back(
+          Format("the known form of %s, %.3g um RMS over the sphere, exceeds the certificate's bound "
+                 "sphere_form_rms_um %.3g um (k = 1)",
+                 source.c_str(), k.known_rms_um, *bound_rms_um));
+    }
+  }
+  return k;
+}
+
+}  // namespace sph

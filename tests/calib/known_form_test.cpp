@@ -1,0 +1,235 @@
+// The reference sphere's form as known in a one-placement calibration: from the file of a run
+// that separated it (a prior on its coefficients with their covariance), or bounded by its
+// certificate (sph/calib/known_form.hpp).
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "sph/calib/calibrate_workflow.hpp"
+#include "sph/core/error.hpp"
+#include "sph/core/simulate.hpp"
+#include "sph/model/spherical_harmonics.hpp"
+#include "sph/model/units.hpp"
+#include "test_util.hpp"
+
+namespace sph {
+namespace {
+
+using ::testing::HasSubstr;
+
+// The sphere's true form [um]: 0.043 um RMS over the sphere.
+const std::vector<FormComponent> kForm = {{2, 0, 0.08}, {3, 1, 0.05}, {4, -2, 0.04}};
+
+// A calibration file holding the form of kForm on degrees 2..4 as a separation would give it:
+// every coefficient with a standard uncertainty of `std_um`, uncorrelated but for two.
+std::string FormFile(const std::string& dir, double std_um, double radius_mm = 20.0) {
+  CalibrationFile cal;
+  cal.probe_offset_mm = 25.0;
+  cal.sphere_radius_mm = radius_mm;
+  cal.form_terms = FormTermsOfDegrees(2, 4);
+  for (const FormTerm& t : cal.form_terms) {
+    double v = 0.0;
+    for (const FormComponent& c : kForm) v += c.l == t.l && c.m == t.m ? c.amplitude_um : 0.0;
+    cal.form_values_mm.push_back(v * kMmPerUm);
+    cal.form_std_mm.push_back(std_um * kMmPerUm);
+  }
+  const auto n = static_cast<Eigen::Index>(kNumScmsParams + cal.form_terms.size());
+  Eigen::VectorXd sd = Eigen::VectorXd::Constant(n, std_um * kMmPerUm);
+  sd.head<kNumScmsParams>() << 1e-6, 1e-4, 1e-6, 1e-4, 1e-6, 1e-4, 1e-4;
+  Eigen::MatrixXd corr = Eigen::MatrixXd::Identity(n, n);
+  corr(7, 8) = corr(8, 7) = 0.3;
+  cal.parameter_covariance = sd.asDiagonal() * corr * sd.asDiagonal();
+  cal.covariance = cal.parameter_covariance.topLeftCorner<kNumScmsParams, kNumScmsParams>();
+  const std::string path = dir + "/separated.json";
+  WriteCalibrationFile(path, cal);
+  return path;
+}
+
+// One placement of the sphere with kForm and a probe drift of 0.4 um, the sphere turned on its
+// mount by `turn_deg` about the Theta axis (stated in the header when `stated`).
+PointsData Daily(std::uint64_t seed, double turn_deg = 0.0, bool stated = true, double form_scale = 1.0) {
+  SimulationSpec spec;
+  spec.seed = seed;
+  spec.noise_r_um = 0.03;
+  spec.effects.form = kForm;
+  for (FormComponent& c : spec.effects.form) c.amplitude_um *= form_scale;
+  spec.effects.model.terms = {{Effect::kProbeDrift, {{1, 0, false}}}};
+  spec.effects.values = {{0.4 * kMmPerUm}};
+  if (turn_deg != 0.0) spec.mount_rotations_deg[0] = Eigen::Vector3d(0, 0, turn_deg);
+  PointsData points = Simulate(spec);
+  if (!stated) points.header.mount_rotations.clear();
+  return points;
+}
+
+CalibrationWorkflowOptions Options(const std::string& form_path) {
+  CalibrationWorkflowOptions o;
+  o.sphere_radius_mm = 20.0;
+  o.probe_offset_mm = 25.0;
+  o.sphere_form_path = form_path;
+  return o;
+}
+
+bool Added(const CalibrationWorkflowResult& run, Effect e) {
+  return run.trace && run.trace->after.fit.model.Find(e) >= 0;
+}
+
+// The certificate's bound spread over degrees 2..L with the same variance v = rms^2 / (L - 1) for
+// every coefficient: the expected mean square of the form over the sphere, sum v <S_lm^2>, is the
+// bound's square. <S_lm^2> here by quadrature (equal-area bands of cos(polar) times longitudes),
+// not by the 1 / (2l + 1) the prior's formula uses.
+TEST(KnownForm, TheCertificatesBoundIsTheExpectedRmsOverTheSphere) {
+  const double rms_mm = 0.05 * kMmPerUm;
+  constexpr int kBands = 400, kLongitudes = 800;
+  for (const int l_max : {2, 4, 8}) {
+    const FormPrior prior = CertificateFormPrior(rms_mm, l_max);
+    ASSERT_EQ(prior.terms.size(), static_cast<std::size_t>((l_max + 1) * (l_max + 1) - 4));
+    EXPECT_EQ(prior.mean_mm.norm(), 0.0);
+    double expected_ms = 0.0;  // sum over the coefficients of v <S^2>
+    std::vector<double> mean_square(prior.terms.size(), 0.0);
+    std::vector<double> s;
+    for (int b = 0; b < kBands; ++b) {
+      const double z = -1.0 + (2.0 * b + 1.0) / kBands;
+      const double rho = std::sqrt(1.0 - z * z);
+      for (int k = 0; k < kLongitudes; ++k) {
+        const double lon = 2.0 * kPi * (k + 0.5) / kLongitudes;
+        SchmidtHarmonicsOf(rho * std::cos(lon), rho * std::sin(lon), z, l_max, &s);
+        for (std::size_t i = 0; i < prior.terms.size(); ++i) {
+          const double v = s[HarmonicIndex(prior.terms[i].l, prior.terms[i].m)];
+          mean_square[i] += v * v / (kBands * kLongitudes);
+        }
+      }
+    }
+    for (std::size_t i = 0; i < prior.terms.size(); ++i) {
+      const auto k = static_cast<Eigen::Index>(i);
+      EXPECT_NEAR(mean_square[i], 1.0 / (2.0 * prior.terms[i].l + 1.0), 1e-4) << "l_max " << l_max << " term " << i;
+      expected_ms += prior.covariance_mm2(k, k) * mean_square[i];
+      EXPECT_DOUBLE_EQ(prior.covariance_mm2(k, k), rms_mm * rms_mm / (l_max - 1));
+    }
+    EXPECT_NEAR(std::sqrt(expected_ms) / rms_mm, 1.0, 1e-4) << "l_max " << l_max;
+  }
+}
+
+// A probe drift in one placement with the sphere's form: with the form unknown a function of the
+// direction explains it as well and nothing is added; with the form known from its separation the
+// drift is found, near its true size, and the readings agree with the form.
+TEST(KnownForm, FindsADriftInOnePlacementThatAnUnknownFormHides) {
+  const std::string dir = sph::testing::MakeTempDir("known_form_drift");
+  const std::string form = FormFile(dir, 0.002);
+  const PointsData points = Daily(1);
+  const CalibrationWorkflowResult without = RunCalibrationWorkflow(points, "daily", Options(""));
+  EXPECT_FALSE(Added(without, Effect::kProbeDrift));
+  EXPECT_FALSE(without.known_form.has_value());
+  const CalibrationWorkflowResult with = RunCalibrationWorkflow(points, "daily", Options(form));
+  ASSERT_TRUE(Added(with, Effect::kProbeDrift));
+  ASSERT_TRUE(with.trace->form.known);
+  const EffectFit& fit = with.trace->after.fit;
+  const int drift = fit.model.Find(Effect::kProbeDrift);
+  EXPECT_NEAR(fit.values[static_cast<std::size_t>(drift)][0] * kUmPerMm, 0.4,
+              4.0 * fit.calibration.analysis.std(fit.TermOffset(static_cast<std::size_t>(drift))) * kUmPerMm);
+  ASSERT_TRUE(with.known_form.has_value());
+  const KnownFormCheck& k = *with.known_form;
+  EXPECT_TRUE(k.agrees) << k.verdict;
+  EXPECT_EQ(k.terms, 21);
+  EXPECT_NEAR(k.known_rms_um, 0.0426, 5e-4);
+  EXPECT_GT(k.explained_rms_um, 0.02);  // most of the form's 0.043 um RMS
+  EXPECT_LT(k.rms_with_um, k.rms_without_um);
+  EXPECT_TRUE(k.warnings.empty());
+  // In both reports.
+  EXPECT_THAT(with.JsonReport(), HasSubstr("\"known_form\""));
+  std::ostringstream text;
+  with.WriteTextReport(text);
+  EXPECT_THAT(text.str(), HasSubstr("known sphere form (" + form + ")"));
+}
+
+// The sphere turned by 90 deg about Theta: stated in the header, the known form is seen through
+// that rotation and agrees; not stated (the reference orientation assumed), the form as known fits
+// the readings worse than no form, they disagree with it and the warning names the orientation.
+// (The prior's chi-square alone does not show it here: the fitted form leans on its prior.)
+TEST(KnownForm, AWrongOrientationIsReportedAsDisagreeing) {
+  const std::string dir = sph::testing::MakeTempDir("known_form_turned");
+  const std::string form = FormFile(dir, 0.002);
+  const CalibrationWorkflowResult right = RunCalibrationWorkflow(Daily(2, 90.0, true), "daily", Options(form));
+  ASSERT_TRUE(right.known_form.has_value());
+  EXPECT_TRUE(right.known_form->agrees) << right.known_form->verdict;
+  EXPECT_TRUE(Added(right, Effect::kProbeDrift));
+  const CalibrationWorkflowResult wrong = RunCalibrationWorkflow(Daily(2, 90.0, false), "daily", Options(form));
+  ASSERT_TRUE(wrong.known_form.has_value());
+  EXPECT_FALSE(wrong.known_form->agrees) << wrong.known_form->verdict;
+  EXPECT_GT(wrong.known_form->rms_with_um, wrong.known_form->rms_without_um);
+  ASSERT_FALSE(wrong.known_form->warnings.empty());
+  EXPECT_THAT(wrong.known_form->warnings[0], HasSubstr("mount_rotation_deg"));
+  bool warned = false;
+  for (const std::string& w : wrong.warnings) warned |= w.find("disagree") != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
+// The prior decides as much as it knows: with the covariance 100 times larger (std 10 times), the
+// form is nearly free again and the drift is not found.
+TEST(KnownForm, AnUncertainFormDecidesNothing) {
+  const std::string dir = sph::testing::MakeTempDir("known_form_loose");
+  const CalibrationWorkflowResult loose = RunCalibrationWorkflow(Daily(1), "daily", Options(FormFile(dir, 0.2)));
+  EXPECT_FALSE(Added(loose, Effect::kProbeDrift));
+}
+
+// The certificate's bound alone, on a design whose readings determine the form (the sphere in
+// three known orientations): a form of 0.043 um RMS against a bound of 0.005 um pulls the fitted
+// form beyond it, and it is reported as such. (In one placement the readings barely pull the form
+// away from a tight bound: its prior then holds it, and the report shows what the fit says.)
+TEST(KnownForm, AFormLargerThanTheCertificatesBoundIsReported) {
+  SimulationSpec spec;
+  spec.seed = 3;
+  spec.noise_r_um = 0.03;
+  spec.effects.form = kForm;
+  spec.centers_mm.assign(3, Eigen::Vector3d(2, 0, 0));
+  spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {90, 0, 0}}};
+  CalibrationWorkflowOptions o = Options("");
+  o.conditions.sphere_form_rms_um = 0.005;
+  o.trace_options.form_degree_max = 4;  // the bound over degrees 2..4, kForm's: a quicker trace
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(Simulate(spec), "three", o);
+  ASSERT_TRUE(run.known_form.has_value());
+  EXPECT_EQ(run.known_form->source, "the certificate's bound");
+  ASSERT_TRUE(run.known_form->bound_rms_um.has_value());
+  EXPECT_GT(run.known_form->fitted_rms_um, 0.005) << run.known_form->verdict;
+  bool larger = false;
+  for (const std::string& w : run.known_form->warnings) {
+    larger |= w.find("larger than the certificate's bound") != std::string::npos;
+  }
+  EXPECT_TRUE(larger);
+}
+
+// Both given: the known form is the prior and the certificate is checked against it.
+TEST(KnownForm, TheCertificateIsCheckedAgainstTheKnownForm) {
+  const std::string dir = sph::testing::MakeTempDir("known_form_both");
+  CalibrationWorkflowOptions o = Options(FormFile(dir, 0.002));
+  o.conditions.sphere_form_rms_um = 0.02;  // the known form has 0.043 um RMS
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(Daily(1), "daily", o);
+  ASSERT_TRUE(run.known_form.has_value());
+  EXPECT_EQ(run.known_form->terms, 21);  // the file's terms, not the bound's
+  bool exceeds = false;
+  for (const std::string& w : run.known_form->warnings)
+    exceeds |= w.find("exceeds the certificate's bound") != std::string::npos;
+  EXPECT_TRUE(exceeds);
+}
+
+// The form belongs to its sphere: another R0 beyond both uncertainties is refused with both values.
+TEST(KnownForm, AnotherSpheresRadiusIsRefused) {
+  const std::string dir = sph::testing::MakeTempDir("known_form_radius");
+  const std::string form = FormFile(dir, 0.002, 20.001);
+  try {
+    RunCalibrationWorkflow(Daily(1), "daily", Options(form));
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("sphere_radius_mm 20 mm"));
+    EXPECT_THAT(e.what(), HasSubstr("20.001 mm"));
+  }
+  CalibrationWorkflowOptions within = Options(form);
+  within.conditions.sphere_radius_u_um = 1.0;  // 1 um apart, within u
+  EXPECT_NO_THROW(RunCalibrationWorkflow(Daily(1), "daily", within));
+}
+
+}  // namespace
+}  // namespace sph
