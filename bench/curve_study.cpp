@@ -45,7 +45,9 @@ double TrueAt(const Case& c, double deg) {
 int main(int argc, char** argv) {
   const int seeds = argc > 1 ? std::atoi(argv[1]) : 40;
   const std::vector<Case> cases = {
-      {"theta_encoder c2 6 + s3 4 arcsec, full turn", sph::Effect::kThetaEncoder, {{2, 0, false}, {3, 0, true}},
+      {"theta_encoder c2 6 + s3 4 arcsec, full turn",
+       sph::Effect::kThetaEncoder,
+       {{2, 0, false}, {3, 0, true}},
        {6.0, 4.0}},
       {"phi_encoder c1 8 arcsec, phi 7.5..172.5 deg", sph::Effect::kPhiEncoder, {{1, 0, false}}, {8.0}},
   };
@@ -79,13 +81,12 @@ int main(int argc, char** argv) {
       }
       double mean = 0.0;
       for (double a : pattern) mean += TrueAt(c, a) / static_cast<double>(pattern.size());
-      const bool as_true = curve->components.size() == c.components.size() &&
-                           std::all_of(c.components.begin(), c.components.end(), [&](const sph::EffectComponent& t) {
-                             return std::any_of(curve->components.begin(), curve->components.end(),
-                                                [&](const sph::EffectComponent& f) {
-                                                  return f.order == t.order && f.sine == t.sine;
-                                                });
-                           });
+      const bool as_true =
+          curve->components.size() == c.components.size() &&
+          std::all_of(c.components.begin(), c.components.end(), [&](const sph::EffectComponent& t) {
+            return std::any_of(curve->components.begin(), curve->components.end(),
+                               [&](const sph::EffectComponent& f) { return f.order == t.order && f.sine == t.sine; });
+          });
       exact += as_true;
       for (std::size_t i = 0; i < curve->angle_deg.size(); ++i) {
         const double truth = TrueAt(c, curve->angle_deg[i]) - mean;
@@ -102,10 +103,11 @@ int main(int argc, char** argv) {
     }
     std::sort(u95.begin(), u95.end());
     std::sort(pv.begin(), pv.end());
-    std::printf("%-46s encoder added in %d of %d runs; true curve in the band at %d of %d angles (%.3f); median U95 "
-                "%.2f arcsec, median range %.2f arcsec\n",
-                c.name, added, seeds, inside, total, total ? static_cast<double>(inside) / total : 0.0,
-                u95.empty() ? 0.0 : u95[u95.size() / 2], pv.empty() ? 0.0 : pv[pv.size() / 2]);
+    std::printf(
+        "%-46s encoder added in %d of %d runs; true curve in the band at %d of %d angles (%.3f); median U95 "
+        "%.2f arcsec, median range %.2f arcsec\n",
+        c.name, added, seeds, inside, total, total ? static_cast<double>(inside) / total : 0.0,
+        u95.empty() ? 0.0 : u95[u95.size() / 2], pv.empty() ? 0.0 : pv[pv.size() / 2]);
     std::printf("%-46s   of those, %d fitted exactly the true components: in the band at %d of %d angles (%.3f)\n", "",
                 exact, exact_inside, exact_total, exact_total ? static_cast<double>(exact_inside) / exact_total : 0.0);
   }

@@ -55,8 +55,8 @@ std::string Convention(const EffectInfo& info, Effect e, int axis) {
     default:
       break;
   }
-  const std::string direction = info.quantity == Quantity::kAngle ? (axis == 0 ? "about x" : "about y")
-                                                                  : (axis == 0 ? "along x" : "along y");
+  const std::string direction =
+      info.quantity == Quantity::kAngle ? (axis == 0 ? "about x" : "about y") : (axis == 0 ? "along x" : "along y");
   const std::string kind = info.quantity == Quantity::kAngle ? "tilt" : "radial";
   return "ISO 230-7 " + kind + " error motion " + direction + " of the axis' frame (a fixed sensitive direction); " +
          "its error motion value (peak to valley) over the range";
@@ -140,10 +140,10 @@ std::vector<ErrorCurve> ErrorCurvesOf(const PointsData& points, const EffectFit&
         const std::size_t comp = static_cast<std::size_t>(cols[static_cast<std::size_t>(i)] - fit.TermOffset(t));
         c.coefficients(i) = fit.values[t][comp] * per;
         for (Eigen::Index j = 0; j < m; ++j) {
-          c.covariance(i, j) = rep.Empty() ? std::numeric_limits<double>::quiet_NaN()
-                                           : rep.covariance(cols[static_cast<std::size_t>(i)],
-                                                            cols[static_cast<std::size_t>(j)]) *
-                                                 per * per;
+          c.covariance(i, j) =
+              rep.Empty()
+                  ? std::numeric_limits<double>::quiet_NaN()
+                  : rep.covariance(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]) * per * per;
         }
       }
       // The basis over the pattern's angles, and its mean.
@@ -191,9 +191,8 @@ std::vector<ErrorCurve> ErrorCurvesOf(const PointsData& points, const EffectFit&
       for (std::size_t i = 0; i < all.components.size(); ++i) {
         const EffectComponent& s = all.components[i];
         if (s.axis != axis) continue;
-        const bool kept = std::any_of(c.components.begin(), c.components.end(), [&](const EffectComponent& f) {
-          return f.order == s.order && f.sine == s.sine;
-        });
+        const bool kept = std::any_of(c.components.begin(), c.components.end(),
+                                      [&](const EffectComponent& f) { return f.order == s.order && f.sine == s.sine; });
         if (kept) continue;
         Eigen::VectorXd f(static_cast<Eigen::Index>(angles.size()));
         for (std::size_t a = 0; a < angles.size(); ++a) {

@@ -77,8 +77,8 @@ TEST(ErrorCurves, AThetaEncoderOverAFullTurnIsItsCurveAboutItsMeanWithTheBandOfT
   ASSERT_GE(term, 0);
   const int offset = fit.TermOffset(static_cast<std::size_t>(term));
   const auto n = static_cast<Eigen::Index>(fit.model.terms[static_cast<std::size_t>(term)].components.size());
-  const Eigen::MatrixXd cov = fit.calibration.analysis.covariance.block(offset, offset, n, n) /
-                              (kRadPerArcsec * kRadPerArcsec);
+  const Eigen::MatrixXd cov =
+      fit.calibration.analysis.covariance.block(offset, offset, n, n) / (kRadPerArcsec * kRadPerArcsec);
   const Eigen::VectorXd g = c->Basis(45.0);
   EXPECT_NEAR(c->U95At(45.0), c->coverage_factor * std::sqrt(g.dot(cov * g)), 1e-9);
   EXPECT_NEAR(c->coverage_factor, 1.96, 0.02);

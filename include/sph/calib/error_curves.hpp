@@ -47,13 +47,13 @@ struct LeftOutComponent {
 
 struct ErrorCurve {
   Effect effect = Effect::kThetaEncoder;
-  int axis = 0;           ///< 0, or 1 for the y component of a two-axis effect
-  std::string name;       ///< the effect's id, with ".x" or ".y" for a two-axis effect
-  std::string iso_name;   ///< ISO 230's symbol of this direction: "ECC", "EXC", ...
-  std::string variable;   ///< the axis angle: "theta" or "phi"
-  std::string unit;       ///< "arcsec" or "um"
-  std::string convention; ///< the certificate's quantity, in words
-  bool encoder = false;   ///< ISO 230-2 positional deviation (else an ISO 230-7 error motion)
+  int axis = 0;            ///< 0, or 1 for the y component of a two-axis effect
+  std::string name;        ///< the effect's id, with ".x" or ".y" for a two-axis effect
+  std::string iso_name;    ///< ISO 230's symbol of this direction: "ECC", "EXC", ...
+  std::string variable;    ///< the axis angle: "theta" or "phi"
+  std::string unit;        ///< "arcsec" or "um"
+  std::string convention;  ///< the certificate's quantity, in words
+  bool encoder = false;    ///< ISO 230-2 positional deviation (else an ISO 230-7 error motion)
   /// The measured range [deg]: the smallest arc holding every reading of the angle, from lo
   /// upwards to hi (hi may exceed 360); full_turn when no gap between the pattern's angles is
   /// more than twice an even spacing.
@@ -67,8 +67,8 @@ struct ErrorCurve {
   /// Peak to valley of the curve over the range (ISO 230-2 range, ISO 230-7 error motion value),
   /// on a fine grid, and its expanded uncertainty linearised at the two extremes and their angles.
   double pv = 0.0, pv_u95 = 0.0, max_angle_deg = 0.0, min_angle_deg = 0.0;
-  std::vector<std::string> fitted;        ///< the components fitted on this axis: "phi_encoder.c2", ...
-  std::vector<LeftOutComponent> left_out; ///< searched, not fitted
+  std::vector<std::string> fitted;         ///< the components fitted on this axis: "phi_encoder.c2", ...
+  std::vector<LeftOutComponent> left_out;  ///< searched, not fitted
 
   /// e(x) and U(x) at any angle [deg] (the table's values are these).
   double ValueAt(double at_deg) const;
