@@ -112,12 +112,56 @@ void PlotSphereForm(const std::string& dir, const TraceResult& r, double timeout
   Draw(dir, "sphere_form", form_script.str(), "the sphere's form map", {{"png", "sphere_form_map"}}, timeout_s, files);
 }
 
+// The error curves of the effects of an axis angle, each with its 95 % band, one panel each.
+void PlotErrorCurves(const std::string& dir, const TraceResult& r, double timeout_s, OutputFiles& files) {
+  if (r.curves.empty()) return;
+  const std::string folder = dir + "/";
+  files.Stage(folder + "error_curves.dat", [&](std::ostream& f) {
+    f << "# the error curves of sph_calibrate, one block each (gnuplot's index), about their mean over the measured "
+         "angles\n";
+    for (const ErrorCurve& c : r.curves) {
+      f << "# " << c.name << " (" << c.iso_name << "): angle_deg value_" << c.unit << " low_" << c.unit << " high_"
+        << c.unit << " (the 95 % band: value -+ U95)\n";
+      const int steps = std::max(1, static_cast<int>(std::ceil(c.range_hi_deg - c.range_lo_deg)));
+      for (int s = 0; s <= steps; ++s) {
+        const double a = c.range_lo_deg + (c.range_hi_deg - c.range_lo_deg) * s / steps;
+        const double v = c.ValueAt(a), u = c.U95At(a);
+        f << Format("%.4f %.6f %.6f %.6f\n", a, v, v - u, v + u);
+      }
+      f << "\n\n";
+    }
+  });
+  std::ostringstream script;
+  script << "# The error curves of sph_calibrate; rerun with: gnuplot error_curves.gp (in this folder)\n"
+         << "if (!exists(\"data\")) data = 'error_curves.dat'\n"
+         << "if (!exists(\"png\")) png = 'error_curves.png'\n"
+         << Format("set terminal pngcairo size 1100,%d noenhanced font ',11'\n", 60 + 300 * static_cast<int>(r.curves.size()))
+         << "set output png\n"
+         << Format("set multiplot layout %zu,1\n", r.curves.size()) << "set key top right\nset grid\n";
+  for (std::size_t i = 0; i < r.curves.size(); ++i) {
+    const ErrorCurve& c = r.curves[i];
+    script << "set title "
+           << GnuplotQuoted(Format("%s (%s): %s %.4g +- %.2g %s", c.name.c_str(), c.iso_name.c_str(),
+                                   c.encoder ? "range" : "error motion value", c.pv, c.pv_u95, c.unit.c_str()))
+           << "\n"
+           << "set xlabel " << GnuplotQuoted(c.variable + " [deg]") << "\n"
+           << "set ylabel " << GnuplotQuoted(c.name + " [" + c.unit + "]") << "\n"
+           << Format("set xrange [%.4f:%.4f]\n", c.range_lo_deg, c.range_hi_deg)
+           << Format("plot data index %zu using 1:3:4 with filledcurves lc rgb '#c8c8c8' title '95 %% band', "
+                     "data index %zu using 1:2 with lines lw 2 lc rgb '#000000' title 'curve'\n",
+                     i, i);
+  }
+  script << "unset multiplot\n";
+  Draw(dir, "error_curves", script.str(), "the error curves", {{"png", "error_curves"}}, timeout_s, files);
+}
+
 }  // namespace
 
 void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,
                const TraceResult& r, double timeout_s, OutputFiles& files) {
   PlotResiduals(dir, points, options, r, timeout_s, files);
   PlotSphereForm(dir, r, timeout_s, files);
+  PlotErrorCurves(dir, r, timeout_s, files);
 }
 
 }  // namespace sph::apps

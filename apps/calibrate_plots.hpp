@@ -1,5 +1,5 @@
-// sph_calibrate's residual plots of a trace (before and after, over the sphere and against time)
-// and the map of the sphere's form, drawn by gnuplot.
+// sph_calibrate's residual plots of a trace (before and after, over the sphere and against time),
+// the map of the sphere's form and the error curves, drawn by gnuplot.
 #ifndef SPH_APPS_CALIBRATE_PLOTS_HPP_
 #define SPH_APPS_CALIBRATE_PLOTS_HPP_
 
@@ -13,12 +13,14 @@
 namespace sph::apps {
 
 /// The files PlotTrace() writes into its folder.
-inline const std::vector<std::string> kTracePlotFiles = {"residual_map.png", "residual_time.png",   "residuals.dat",
-                                                         "residuals.gp",     "sphere_form_map.png", "sphere_form.dat",
-                                                         "sphere_form.gp"};
+inline const std::vector<std::string> kTracePlotFiles = {
+    "residual_map.png", "residual_time.png", "residuals.dat",    "residuals.gp",    "sphere_form_map.png",
+    "sphere_form.dat",  "sphere_form.gp",    "error_curves.png", "error_curves.dat", "error_curves.gp"};
 
-/// Stages residual_map.png (over theta and phi, before and after) and residual_time.png (against
-/// t), drawn now, with their gnuplot script and data, in the folder `dir` (PlotFolder::Make()).
+/// Stages residual_map.png (over theta and phi, before and after), residual_time.png (against
+/// t), sphere_form_map.png (when the form was fitted) and error_curves.png (the effects of an axis
+/// angle, each with its 95 % band), drawn now, with their gnuplot scripts and data, in the folder
+/// `dir` (PlotFolder::Make()).
 /// `points`: every reading of the calibration (outliers too); gnuplot gets `timeout_s` for each
 /// of its two runs.
 void PlotTrace(const std::string& dir, const PointsData& points, const CalibrationOptions& options,

@@ -1,5 +1,7 @@
 // The calibration's HTML report: rendered from the JSON report (the numbers are the JSON's, the
-// form map drawn from its coefficients), with the residual map from the reported fit's residuals.
+// form map drawn from its coefficients), with the residual map from the reported fit's residuals
+// and the error curves' figures from the result's curves (their marked points the JSON's).
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -42,6 +44,20 @@ std::string Identification(const json& j, const CalibrationWorkflowResult& run) 
     for (const auto& [key, value] : j.at("metadata").items()) meta.push_back({Escape(key), Cell(value)});
   }
   body += meta.empty() ? "<p>No further header fields.</p>\n" : html::Table({"field", "value"}, meta);
+  // The devices sph_acquired identified over SDO (the header's device_* fields, as parsed).
+  std::vector<std::vector<std::string>> devices;
+  for (const json& d : j.value("devices", json::array())) {
+    std::string other;
+    for (const json& o : d.value("other", json::array())) other += (other.empty() ? "" : "; ") + Cell(o);
+    const auto code = [&](const char* key) { return "<span class=\"nw\">" + At(d, key) + "</span>"; };
+    devices.push_back({At(d, "node"), code("role"), At(d, "name"), code("vendor_id"), code("product_code"),
+                       code("revision"), code("serial"), other});
+  }
+  body += "<h3>Devices identified over SDO</h3>\n";
+  body += devices.empty()
+              ? "<p>None: the points file names no device (it was not acquired by sph_acquired, or its devices "
+                "did not answer).</p>\n"
+              : html::Table({"node", "role", "name", "vendor", "product", "revision", "serial", "further"}, devices);
   return body;
 }
 
@@ -146,6 +162,85 @@ std::string Effects(const json& j) {
                          {"least-squares sphericity [um]", At(v, "before_ls_sphericity_um"),
                           At(v, "after_ls_sphericity_um")}});
     if (v.contains("note")) body += "<p class=\"note\">" + Cell(v.at("note")) + "</p>\n";
+  }
+  return body;
+}
+
+// The error curves: per curve its convention, range, components and certificate value from the
+// JSON, the figure drawn from the result's curve (its table's points, the JSON's, marked) and the
+// table.
+std::string Curves(const json& j, const CalibrationWorkflowResult& run) {
+  const json curves = j.value("error_curves", json::array());
+  if (curves.empty() || !run.trace) return "";
+  std::string body = "<h3>Error curves</h3>\n<p>Each effect of an axis angle as its curve over the measured range, "
+                     "about its mean over the measured angles (a constant is a zero of the axis or a centre, not "
+                     "determined), with the 95 % band of the curve from the fitted components' covariance.</p>\n";
+  for (std::size_t i = 0; i < curves.size() && i < run.trace->curves.size(); ++i) {
+    const json& c = curves[i];
+    const ErrorCurve& curve = run.trace->curves[i];
+    const std::string unit = c.at("unit").get<std::string>();
+    body += "<h4>" + At(c, "id") + " (" + At(c, "iso_name") + ")</h4>\n<p>" + At(c, "convention") + ".</p>\n";
+    std::string fitted, left;
+    for (const json& f : c.at("fitted")) fitted += (fitted.empty() ? "" : ", ") + Cell(f);
+    for (const json& l : c.at("left_out")) {
+      left += (left.empty() ? "" : ", ") + Cell(l.at("name")) + " (" +
+              html::Fixed(100.0 * l.at("represented").get<double>(), 0) + " %)";
+    }
+    std::vector<std::vector<std::string>> rows = {
+        {"measured range [deg]", At(c, "range_lo_deg") + " to " + At(c, "range_hi_deg") +
+                                     (c.value("full_turn", false) ? " (a full turn)"
+                                                                  : " (not a full turn: the curve over it is "
+                                                                    "determined, not each harmonic)")},
+        {"components fitted", fitted},
+        {"searched, not fitted (the share of each that those fitted represent over the range)",
+         left.empty() ? "none" : left},
+        {std::string(curve.encoder ? "range of the positional deviation" : "error motion value (peak to valley)") +
+             " [" + Escape(unit) + "]",
+         At(c, ("pv_" + unit).c_str()) + " ± " + At(c, ("pv_u95_" + unit).c_str()) + " (U95)"},
+        {"coverage factor k of the band", At(c, "coverage_factor")},
+    };
+    body += html::Table({"item", "value"}, rows);
+    // The figure: the curve and its band at 1 deg steps, the table's points (the JSON's) marked.
+    std::vector<double> x, v, lo, hi;
+    const int steps = std::max(1, static_cast<int>(std::ceil(curve.range_hi_deg - curve.range_lo_deg)));
+    for (int s = 0; s <= steps; ++s) {
+      const double a = curve.range_lo_deg + (curve.range_hi_deg - curve.range_lo_deg) * s / steps;
+      const double value = curve.ValueAt(a), u = curve.U95At(a);
+      x.push_back(a);
+      v.push_back(value);
+      lo.push_back(value - u);
+      hi.push_back(value + u);
+    }
+    std::vector<double> mark_x, mark_v;
+    const json& angles = c.at("angle_deg");
+    const json& values = c.at("value_" + unit);
+    for (std::size_t k = 0; k < angles.size(); ++k) {
+      double a = angles[k].get<double>();
+      if (a < curve.range_lo_deg) a += 360.0;  // a range that passes 360 deg is drawn unwrapped
+      mark_x.push_back(a);
+      mark_v.push_back(values[k].get<double>());
+    }
+    html::CurveAxes axes;
+    axes.title = curve.name + " (" + curve.iso_name + ")";
+    axes.x_label = curve.variable + " [deg]";
+    axes.y_label = curve.name + " [" + unit + "]";
+    axes.x_lo = curve.range_lo_deg;
+    axes.x_hi = curve.range_hi_deg;
+    body += html::Figure(html::SvgCurve(axes, x, v, lo, hi, mark_x, mark_v), axes.title,
+                         "The curve [" + unit + "] over " + curve.variable +
+                             " [deg] with its 95 % band (grey); the circles are the table's values.");
+    // The table, 12 angles a row.
+    const json& u95 = c.at("u95_" + unit);
+    for (std::size_t k0 = 0; k0 < angles.size(); k0 += 12) {
+      std::vector<std::string> head = {Escape(curve.variable) + " [deg]"};
+      std::vector<std::string> value_row = {"value [" + Escape(unit) + "]"}, u_row = {"U95 [" + Escape(unit) + "]"};
+      for (std::size_t k = k0; k < std::min(angles.size(), k0 + 12); ++k) {
+        head.push_back(Cell(angles[k]));
+        value_row.push_back(html::Fixed(values[k].get<double>(), 3));
+        u_row.push_back(html::Fixed(u95[k].get<double>(), 3));
+      }
+      body += html::Table(head, {value_row, u_row});
+    }
   }
   return body;
 }
@@ -260,7 +355,7 @@ std::string CalibrationWorkflowResult::HtmlReport() const {
   body += Section("Method", Method(j, *this));
   body += Section("Conditions and uncertainty inputs", Conditions(j));
   body += Section("The seven errors", Errors(j));
-  body += Section("Effects found", Effects(j));
+  body += Section("Effects found", Effects(j) + Curves(j, *this));
   html::MapAxes axes;
   axes.title = "Residuals of the reported fit";
   axes.x_label = "theta [deg]";

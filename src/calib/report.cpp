@@ -6,6 +6,7 @@
 
 #include "sph/calib/known_form.hpp"
 #include "sph/calib/usability.hpp"
+#include "sph/core/points_file.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace_report.hpp"
@@ -260,6 +261,19 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   json meta = json::object();
   for (const auto& [k, v] : ctx.metadata) meta[k] = v;
   j["metadata"] = meta;
+  json devices = json::array();
+  for (const HeaderDevice& d : DevicesOf(ctx.metadata)) {
+    json dev = {{"role", d.role}};
+    const std::pair<const char*, const std::string*> fields[] = {
+        {"node", &d.node},         {"name", &d.name},         {"vendor_id", &d.vendor_id},
+        {"product_code", &d.product_code}, {"revision", &d.revision}, {"serial", &d.serial}};
+    for (const auto& [key, value] : fields) {
+      if (!value->empty()) dev[key] = *value;
+    }
+    dev["other"] = d.other;
+    devices.push_back(dev);
+  }
+  j["devices"] = devices;
   json params = json::object();
   json order = json::array();
   json undetermined = json::array();

@@ -85,6 +85,7 @@ th, td { border: 1px solid #999; padding: 0.15em 0.45em; text-align: left; verti
 th, td:first-child { overflow-wrap: normal; }  /* names and headers break between words only */
 th { background: #e8e8e8; }
 td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+.nw { white-space: nowrap; }  /* an identifier or code that must not break */
 .note { color: #333; font-size: 0.95em; }
 .warn { border-left: 4px solid #000; padding-left: 0.5em; }
 .figure img { max-width: 100%; height: auto; }
@@ -232,6 +233,86 @@ std::string SvgMap(const MapAxes& a, const std::vector<double>& x_deg, const std
   s += Format("<text transform=\"translate(%.0f %.0f) rotate(-90)\" text-anchor=\"middle\">",
               kLegendX - 8, kTop + kH / 2) +
        Escape(a.value_label) + "</text>\n";
+  return s + "</svg>\n";
+}
+
+std::string SvgCurve(const CurveAxes& a, const std::vector<double>& x, const std::vector<double>& value,
+                     const std::vector<double>& low, const std::vector<double>& high,
+                     const std::vector<double>& mark_x, const std::vector<double>& mark_value) {
+  if (x.size() != value.size() || x.size() != low.size() || x.size() != high.size() ||
+      mark_x.size() != mark_value.size()) {
+    throw Error("html curve: the coordinates and the values differ in number");
+  }
+  constexpr double kLeft = 70, kTop = 30, kW = 560, kH = 220;
+  const double width = kLeft + kW + 20, height = kTop + kH + 80;
+  double lo = 0.0, hi = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (std::isfinite(low[i])) lo = std::min(lo, low[i]);
+    if (std::isfinite(high[i])) hi = std::max(hi, high[i]);
+    if (std::isfinite(value[i])) lo = std::min(lo, value[i]), hi = std::max(hi, value[i]);
+  }
+  if (hi <= lo) hi = lo + 1.0;
+  // A round step for the values' ticks, about five of them.
+  const double raw = (hi - lo) / 5.0, mag = std::pow(10.0, std::floor(std::log10(raw)));
+  const double step = raw / mag < 2 ? 2 * mag : raw / mag < 5 ? 5 * mag : 10 * mag;
+  lo = std::floor(lo / step) * step;
+  hi = std::ceil(hi / step) * step;
+  const double x_span = a.x_hi > a.x_lo ? a.x_hi - a.x_lo : 1.0;
+  const auto px = [&](double v) { return kLeft + (v - a.x_lo) / x_span * kW; };
+  const auto py = [&](double v) { return kTop + (hi - v) / (hi - lo) * kH; };
+  std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" + Format(
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 %.0f %.0f\" width=\"%.0f\" height=\"%.0f\" "
+      "font-family=\"DejaVu Sans, Arial, sans-serif\" font-size=\"11\">\n",
+      width, height, width, height);
+  s += "<title>" + Escape(a.title) + "</title>\n";
+  s += Format("<text x=\"%.0f\" y=\"18\" font-size=\"13\">", kLeft) + Escape(a.title) + "</text>\n";
+  s += Format("<rect x=\"%.0f\" y=\"%.0f\" width=\"%.0f\" height=\"%.0f\" fill=\"#ffffff\" stroke=\"#000\"/>\n",
+              kLeft, kTop, kW, kH);
+  // Ticks: every 30 deg (15 deg under 120 deg) on x, `step` on y, with light grid lines.
+  const double x_step = x_span > 120 ? 30.0 : 15.0;
+  for (double v = std::ceil(a.x_lo / x_step) * x_step; v <= a.x_hi + 1e-9; v += x_step) {
+    s += Format("<line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"#dddddd\"/>"
+                "<line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"#000\"/>"
+                "<text x=\"%.1f\" y=\"%.0f\" text-anchor=\"middle\">%g</text>\n",
+                px(v), kTop, px(v), kTop + kH, px(v), kTop + kH, px(v), kTop + kH + 4, px(v), kTop + kH + 16, v);
+  }
+  for (double v = lo; v <= hi + step * 1e-6; v += step) {
+    s += Format("<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"#dddddd\"/>"
+                "<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"#000\"/>"
+                "<text x=\"%.0f\" y=\"%.1f\" text-anchor=\"end\">%g</text>\n",
+                kLeft, py(v), kLeft + kW, py(v), kLeft - 4, py(v), kLeft, py(v), kLeft - 6, py(v) + 4,
+                std::abs(v) < step * 1e-6 ? 0.0 : v);
+  }
+  s += Format("<text x=\"%.0f\" y=\"%.0f\" text-anchor=\"middle\">", kLeft + kW / 2, kTop + kH + 34) +
+       Escape(a.x_label) + "</text>\n";
+  s += Format("<text transform=\"translate(16 %.0f) rotate(-90)\" text-anchor=\"middle\">", kTop + kH / 2) +
+       Escape(a.y_label) + "</text>\n";
+  // The band: the polygon along `high` and back along `low`; then the curve; then the marks.
+  std::string band, line;
+  for (std::size_t i = 0; i < x.size(); ++i) band += Format("%.1f,%.1f ", px(x[i]), py(high[i]));
+  for (std::size_t i = x.size(); i-- > 0;) band += Format("%.1f,%.1f ", px(x[i]), py(low[i]));
+  for (std::size_t i = 0; i < x.size(); ++i) line += Format("%.1f,%.1f ", px(x[i]), py(value[i]));
+  if (!x.empty()) {
+    s += "<polygon points=\"" + band + "\" fill=\"#cccccc\" stroke=\"none\"/>\n";
+    s += "<polyline points=\"" + line + "\" fill=\"none\" stroke=\"#000000\" stroke-width=\"1.6\"/>\n";
+  }
+  for (std::size_t i = 0; i < mark_x.size(); ++i) {
+    s += Format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"2.6\" fill=\"#ffffff\" stroke=\"#000000\"/>\n",
+                px(mark_x[i]), py(mark_value[i]));
+  }
+  // The legend, below the plot.
+  const double ly = kTop + kH + 56;
+  s += Format("<rect x=\"%.0f\" y=\"%.0f\" width=\"24\" height=\"10\" fill=\"#cccccc\"/>"
+              "<text x=\"%.0f\" y=\"%.0f\">95 %% band</text>\n",
+              kLeft, ly - 9, kLeft + 30, ly);
+  s += Format("<line x1=\"%.0f\" y1=\"%.0f\" x2=\"%.0f\" y2=\"%.0f\" stroke=\"#000000\" stroke-width=\"1.6\"/>"
+              "<text x=\"%.0f\" y=\"%.0f\">curve</text>\n",
+              kLeft + 120, ly - 4, kLeft + 144, ly - 4, kLeft + 150, ly);
+  if (!mark_x.empty()) {
+    s += Format("<circle cx=\"%.0f\" cy=\"%.0f\" r=\"2.6\" fill=\"#ffffff\" stroke=\"#000000\"/>"
+                "<text x=\"%.0f\" y=\"%.0f\">the table's angles</text>\n",
+                kLeft + 222, ly - 4, kLeft + 230, ly);
+  }
   return s + "</svg>\n";
 }
 

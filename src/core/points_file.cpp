@@ -473,6 +473,42 @@ std::vector<std::string> PlausibilityWarnings(const PointsData& data) {
   return out;
 }
 
+std::vector<HeaderDevice> DevicesOf(const std::vector<std::pair<std::string, std::string>>& metadata) {
+  constexpr std::string_view kPrefix = "device_";
+  std::vector<HeaderDevice> out;
+  for (const auto& [key, value] : metadata) {
+    if (key.size() <= kPrefix.size() || key.compare(0, kPrefix.size(), kPrefix) != 0) continue;
+    HeaderDevice d;
+    d.role = key.substr(kPrefix.size());
+    // Items separated by "; " (a name is quoted and holds no quote: the daemon replaces them).
+    std::size_t at = 0;
+    while (at < value.size()) {
+      std::size_t end = value.find("; ", at);
+      if (end == std::string::npos) end = value.size();
+      const std::string item = value.substr(at, end - at);
+      at = end + 2;
+      const std::size_t space = item.find(' ');
+      const std::string k = item.substr(0, space);
+      std::string v = space == std::string::npos ? "" : item.substr(space + 1);
+      if (k == "name" && v.size() >= 2 && v.front() == '"' && v.back() == '"') v = v.substr(1, v.size() - 2);
+      std::string* field = k == "node"           ? &d.node
+                           : k == "name"         ? &d.name
+                           : k == "vendor_id"    ? &d.vendor_id
+                           : k == "product_code" ? &d.product_code
+                           : k == "revision"     ? &d.revision
+                           : k == "serial"       ? &d.serial
+                                                 : nullptr;
+      if (field && !v.empty()) {
+        *field = v;
+      } else if (!item.empty()) {
+        d.other.push_back(item);
+      }
+    }
+    out.push_back(std::move(d));
+  }
+  return out;
+}
+
 SphereConditions ConditionsOf(const PointsHeader& header) {
   SphereConditions c;
   for (const auto& [key, value] : header.metadata) {

@@ -215,8 +215,8 @@ void KnownFormSelection(const CalibrationOptions& options, FormSelection* sel) {
                 "is judged beside it";
 }
 
-// How both end: the outliers of the seven-error fit judged again under the final model, and the
-// structure it leaves unexplained.
+// How both end: the outliers of the seven-error fit judged again under the final model, the
+// structure it leaves unexplained and its effects' error curves.
 void Finish(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
             const TraceOptions& trace_options, TraceResult* r) {
   RejudgeOutliers(all, options, base, trace_options, r->after);
@@ -230,6 +230,7 @@ void Finish(const PointsData& all, const CalibrationOptions& options, const Cali
     }
   }
   r->unexplained = RemainingStructure(r->after.structure, trace_options);
+  r->curves = ErrorCurvesOf(all, r->after.fit, r->harmonics);
 }
 }  // namespace
 }  // namespace sph::internal

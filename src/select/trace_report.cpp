@@ -249,6 +249,53 @@ void WriteEffectValues(std::ostream& out, const TraceResult& r) {
   }
 }
 
+// The components searched but not fitted, with how much of each the fitted ones represent over the
+// range: "c1 (97 %), s1 (88 %)".
+std::string LeftOutText(const ErrorCurve& c) {
+  std::string s;
+  for (const LeftOutComponent& l : c.left_out) {
+    s += Format("%s%s (%.0f %%)", s.empty() ? "" : ", ", l.name.substr(l.name.rfind('.') + 1).c_str(),
+                100.0 * l.represented);
+  }
+  return s;
+}
+
+// Each error curve: its range, what determines it, its certificate value and a compact table.
+void WriteErrorCurves(std::ostream& out, const TraceResult& r) {
+  if (r.curves.empty()) return;
+  out << Format("  error curves, each about its mean over the measured angles (a constant is a zero of the axis or a "
+                "centre, not determined); U95: %.0f %% band of the curve, k = %.2f\n",
+                100.0 * r.curves.front().coverage_probability, r.curves.front().coverage_factor);
+  for (const ErrorCurve& c : r.curves) {
+    out << "  " << c.name << " (" << c.iso_name << "): " << c.convention << "\n";
+    std::string fitted;
+    for (const std::string& f : c.fitted) fitted += (fitted.empty() ? "" : " ") + f.substr(f.rfind('.') + 1);
+    out << Format("    measured range %s %.6g..%.6g deg%s; fitted %s", c.variable.c_str(), c.range_lo_deg,
+                  c.range_hi_deg, c.full_turn ? " (a full turn)" : " (not a full turn: the curve over it is determined, "
+                                                                   "not each harmonic)",
+                  fitted.c_str());
+    if (!c.left_out.empty()) {
+      out << "; searched, not fitted (the share of each that those fitted represent over the range): "
+          << LeftOutText(c);
+    }
+    out << "\n";
+    out << Format("    %s %.4g +- %.2g %s (max at %.6g deg, min at %.6g deg)\n",
+                  c.encoder ? "range of the positional deviation" : "error motion value (peak to valley)", c.pv,
+                  c.pv_u95, c.unit.c_str(), c.max_angle_deg, c.min_angle_deg);
+    constexpr std::size_t kPerLine = 12;
+    for (std::size_t i0 = 0; i0 < c.angle_deg.size(); i0 += kPerLine) {
+      std::string a = Format("    %-10s", (c.variable + " deg").c_str());
+      std::string v = Format("    %-10s", c.unit.c_str()), u = Format("    %-10s", "U95");
+      for (std::size_t i = i0; i < std::min(c.angle_deg.size(), i0 + kPerLine); ++i) {
+        a += Format(" %7.6g", c.angle_deg[i]);
+        v += Format(" %+7.3f", c.value[i]);
+        u += Format(" %7.3f", c.u95[i]);
+      }
+      out << a << "\n" << v << "\n" << u << "\n";
+    }
+  }
+}
+
 // The sphere form: what the design separates, the degree chosen, the form found, the reference of
 // the probe and time terms.
 void WriteForm(std::ostream& out, const TraceResult& r) {
@@ -353,6 +400,7 @@ void WriteTraceText(std::ostream& out, const TraceResult& r, const Validation* v
   WriteStructure(out, r);
   WriteCandidates(out, r);
   WriteEffectValues(out, r);
+  WriteErrorCurves(out, r);
   WriteForm(out, r);
   WriteAmbiguities(out, r);
   if (validation) WriteValidation(out, validation);
@@ -383,6 +431,36 @@ json EffectsJson(const EffectFit& a) {
                        {"parameters", params}});
   }
   return effects;
+}
+
+// The error curves: the keys of the values carry the curve's unit ("value_arcsec", "u95_um").
+json ErrorCurvesJson(const TraceResult& r) {
+  json curves = json::array();
+  for (const ErrorCurve& c : r.curves) {
+    json left_out = json::array();
+    for (const LeftOutComponent& l : c.left_out) left_out.push_back({{"name", l.name}, {"represented", l.represented}});
+    curves.push_back({{"id", c.name},
+                      {"effect", InfoOf(c.effect).id},
+                      {"iso_name", c.iso_name},
+                      {"convention", c.convention},
+                      {"variable", c.variable},
+                      {"unit", c.unit},
+                      {"range_lo_deg", c.range_lo_deg},
+                      {"range_hi_deg", c.range_hi_deg},
+                      {"full_turn", c.full_turn},
+                      {"coverage_probability", c.coverage_probability},
+                      {"coverage_factor", c.coverage_factor},
+                      {"angle_deg", c.angle_deg},
+                      {"value_" + c.unit, c.value},
+                      {"u95_" + c.unit, c.u95},
+                      {"pv_" + c.unit, c.pv},
+                      {"pv_u95_" + c.unit, c.pv_u95},
+                      {"max_angle_deg", c.max_angle_deg},
+                      {"min_angle_deg", c.min_angle_deg},
+                      {"fitted", c.fitted},
+                      {"left_out", left_out}});
+  }
+  return curves;
 }
 
 json CandidatesJson(const TraceResult& r) {
@@ -501,6 +579,7 @@ void AddTraceJson(json& report, const TraceResult& r, const Validation* validati
   report["before"] = FitJson(r.before);
   report["after"] = FitJson(r.after);
   report["effects"] = EffectsJson(r.after.fit);
+  report["error_curves"] = ErrorCurvesJson(r);
   const EffectReference& ref = r.after.fit.model.reference;
   report["effect_reference"] = {{"r_ref_mm", ref.r_ref_mm},
                                 {"r_half_range_mm", ref.r_half_range_mm},

@@ -1,6 +1,6 @@
 #!/bin/sh
-# The HTML reports in a real browser: sph_calibrate's (the undeclared example) and sph_measure's
-# (NIST sphere 1) are well formed (xmllint --html), and headless Chromium renders each to a PNG and
+# The HTML reports in a real browser: sph_calibrate's (the undeclared example, and the paper's example
+# with the devices of an acquisition in its header) and sph_measure's (NIST sphere 1) are well formed (xmllint --html), and headless Chromium renders each to a PNG and
 # prints it to an A4 PDF with at least one page per section (pdfinfo).
 # Usage: render_reports.sh SPH_CALIBRATE SPH_MEASURE SOURCE_DIR WORK_DIR
 # Exits 77 (skipped) when chromium, pdfinfo or xmllint is missing.
@@ -18,7 +18,20 @@ rm -rf "$work"
 mkdir -p "$work"
 "$calibrate" "$source/data/example/undeclared/points.txt" -q --report "$work/calibration.html"
 "$measure" --xyz "$source/tests/data/nist-ats-l2-sphere/sph1.ds" -q --report "$work/measurement.html"
-for name in calibration measurement; do
+# A points file acquired by sph_acquired names the devices it identified over SDO in its header. A
+# replay of a simulated log runs no SDO, so the lines are written here as the daemon writes them
+# (CanopenMaster::HeaderFields()), into the example's header before its columns.
+sed '/^# columns:/i\
+# device_theta_encoder: node 1; name "sph_cansim theta encoder"; vendor_id 0x00535048; product_code 0x00004060; revision 0x00010000; serial 0x00010001; tpdo 1 cob_id 0x181\
+# device_phi_encoder: node 2; name "sph_cansim phi encoder"; vendor_id 0x00535048; product_code 0x00004061; revision 0x00010000; serial 0x00010002; tpdo 1 cob_id 0x182\
+# device_probe: node 3; name "sph_cansim probe"; vendor_id 0x00535048; product_code 0x00002000; revision 0x00010000; serial 0x00010003; tpdo 1 cob_id 0x183' \
+  "$source/data/example/points.txt" >"$work/acquired.txt"
+"$calibrate" "$work/acquired.txt" -q --report "$work/calibration_devices.html"
+if ! grep -q '>sph_cansim probe</td>' "$work/calibration_devices.html"; then
+  echo "$work/calibration_devices.html: no devices table"
+  exit 1
+fi
+for name in calibration measurement calibration_devices; do
   page=$work/$name.html
   # libxml2's HTML parser: any complaint fails.
   complaints=$(xmllint --html --noout "$page" 2>&1) || true

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sph/calib/calibrate_workflow.hpp"
+#include "sph/core/error.hpp"
 #include "sph/core/html_report.hpp"
 #include "sph/core/measure_workflow.hpp"
 #include "sph/core/points_file.hpp"
@@ -92,6 +93,81 @@ TEST(CalibrationHtml, HoldsTheJsonReportsValuesAndNothingFromElsewhere) {
   EXPECT_TRUE(HasCell(page, html::Number(j.at("before").at("cv_rms_um").get<double>())));
   EXPECT_THAT(page, HasSubstr("R0 taken as exact"));  // an input assumed
   EXPECT_THAT(page, HasSubstr(j.at("program").get<std::string>()));
+}
+
+TEST(HtmlReport, CurveHasItsAxesWithUnitsAndItsBandAsALightFillBesideABlackLine) {
+  html::CurveAxes axes;
+  axes.title = "theta_encoder (ECC)";
+  axes.x_label = "theta [deg]";
+  axes.y_label = "theta_encoder [arcsec]";
+  const std::string svg =
+      html::SvgCurve(axes, {0.0, 180.0, 360.0}, {1.0, -2.0, 1.0}, {0.5, -2.5, 0.5}, {1.5, -1.5, 1.5}, {90.0}, {-1.0});
+  EXPECT_THAT(svg, HasSubstr(">theta [deg]</text>"));
+  EXPECT_THAT(svg, HasSubstr(">theta_encoder [arcsec]</text>"));
+  EXPECT_THAT(svg, HasSubstr("<polygon points=\"70.0,"));  // the band, from x_lo at the left edge
+  EXPECT_THAT(svg, HasSubstr("fill=\"#cccccc\" stroke=\"none\""));
+  EXPECT_THAT(svg, HasSubstr("<polyline"));
+  EXPECT_THAT(svg, HasSubstr("stroke=\"#000000\""));
+  EXPECT_THAT(svg, HasSubstr(">95 % band</text>"));
+  EXPECT_THAT(svg, HasSubstr("<circle"));  // the table's point
+  EXPECT_THROW(html::SvgCurve(axes, {0.0}, {1.0, 2.0}, {0.0}, {0.0}), Error);
+}
+
+TEST(CalibrationHtml, ShowsTheErrorCurvesWithTheJsonsValues) {
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(kUndeclared, {});
+  const std::string page = run.HtmlReport();
+  const json j = json::parse(run.JsonReport());
+  ASSERT_FALSE(j.at("error_curves").empty());  // the example's Theta encoder
+  for (const json& c : j.at("error_curves")) {
+    const std::string unit = c.at("unit").get<std::string>();
+    EXPECT_THAT(page, HasSubstr(html::Number(c.at("pv_" + unit).get<double>()) + " ± " +
+                                html::Number(c.at("pv_u95_" + unit).get<double>())));
+    const json& values = c.at("value_" + unit);
+    const json& u95 = c.at("u95_" + unit);
+    ASSERT_EQ(values.size(), c.at("angle_deg").size());
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      EXPECT_TRUE(HasCell(page, html::Fixed(values[k].get<double>(), 3))) << k;
+      EXPECT_TRUE(HasCell(page, html::Fixed(u95[k].get<double>(), 3))) << k;
+    }
+    EXPECT_THAT(page, HasSubstr("<img alt=\"" + c.at("id").get<std::string>() + " (" +
+                                c.at("iso_name").get<std::string>() + ")\" src=\"data:image/svg+xml;base64,"));
+  }
+  ExpectSelfContained(page);
+}
+
+// The devices sph_acquired identified over SDO, as it writes them into the points file's header
+// (CanopenMaster::HeaderFields()): a fixture, the replay of a simulated log having no SDO.
+TEST(CalibrationHtml, ListsTheDevicesThatThePointsHeaderNames) {
+  PointsData points = ReadPointsFile(kUndeclared);
+  points.header.metadata.emplace_back(
+      "device_theta_encoder",
+      "node 1; name \"sph_cansim theta encoder\"; vendor_id 0x00535048; product_code 0x00004060; revision "
+      "0x00010000; serial 0x00010001; measuring_units_per_revolution 8192; tpdo 1 cob_id 0x181");
+  points.header.metadata.emplace_back("device_probe", "node 3; name \"probe <7>\"; tpdo 1 cob_id 0x183");
+  CalibrationWorkflowOptions o;
+  o.trace = false;
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(points, "acquired.txt", o);
+  const json j = json::parse(run.JsonReport());
+  ASSERT_EQ(j.at("devices").size(), 2U);
+  const json& theta = j.at("devices")[0];
+  EXPECT_EQ(theta.at("role"), "theta_encoder");
+  EXPECT_EQ(theta.at("node"), "1");
+  EXPECT_EQ(theta.at("name"), "sph_cansim theta encoder");
+  EXPECT_EQ(theta.at("vendor_id"), "0x00535048");
+  EXPECT_EQ(theta.at("product_code"), "0x00004060");
+  EXPECT_EQ(theta.at("revision"), "0x00010000");
+  EXPECT_EQ(theta.at("serial"), "0x00010001");
+  EXPECT_FALSE(j.at("devices")[1].contains("serial"));  // not on its line
+  const std::string page = run.HtmlReport();
+  EXPECT_THAT(page, HasSubstr("<h3>Devices identified over SDO</h3>"));
+  for (const char* cell : {"1", "sph_cansim theta encoder", "3", "probe &lt;7&gt;"}) {
+    EXPECT_TRUE(HasCell(page, cell)) << cell;
+  }
+  // Identifiers and codes kept on one line.
+  for (const char* code : {"theta_encoder", "0x00535048", "0x00004060", "0x00010000", "0x00010001", "probe"}) {
+    EXPECT_TRUE(HasCell(page, std::string("<span class=\"nw\">") + code + "</span>")) << code;
+  }
+  ExpectSelfContained(page);
 }
 
 TEST(CalibrationHtml, EscapesTheTextOfTheInputFile) {

@@ -538,3 +538,34 @@ TEST(SameOrientation, ComparesRotationsNotNumbers) {
 
 }  // namespace
 }  // namespace sph
+
+namespace sph {
+namespace {
+
+TEST(DevicesOf, ReadsTheIdentityLinesOfTheHeaderAsTheDaemonWritesThem) {
+  const std::vector<std::pair<std::string, std::string>> metadata = {
+      {"generator", "sph_acquired 1.0"},
+      {"device_phi_encoder",
+       "node 2; name \"sph_cansim phi encoder\"; vendor_id 0x00535048; product_code 0x00004061; revision 0x00010000; "
+       "serial 0x00010002; total_measuring_range 4096; tpdo 1 cob_id 0x182"},
+      {"device_", "node 9"},            // no role: not a device
+      {"device_probe", "node 3; odd"},  // an item that is no "key value" is kept as written
+  };
+  const std::vector<HeaderDevice> d = DevicesOf(metadata);
+  ASSERT_EQ(d.size(), 2U);
+  EXPECT_EQ(d[0].role, "phi_encoder");
+  EXPECT_EQ(d[0].node, "2");
+  EXPECT_EQ(d[0].name, "sph_cansim phi encoder");
+  EXPECT_EQ(d[0].vendor_id, "0x00535048");
+  EXPECT_EQ(d[0].product_code, "0x00004061");
+  EXPECT_EQ(d[0].revision, "0x00010000");
+  EXPECT_EQ(d[0].serial, "0x00010002");
+  EXPECT_EQ(d[0].other, (std::vector<std::string>{"total_measuring_range 4096", "tpdo 1 cob_id 0x182"}));
+  EXPECT_EQ(d[1].role, "probe");
+  EXPECT_EQ(d[1].node, "3");
+  EXPECT_TRUE(d[1].name.empty());
+  EXPECT_EQ(d[1].other, (std::vector<std::string>{"odd"}));
+}
+
+}  // namespace
+}  // namespace sph

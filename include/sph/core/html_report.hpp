@@ -56,6 +56,21 @@ struct MapAxes {
 std::string SvgMap(const MapAxes& axes, const std::vector<double>& x_deg, const std::vector<double>& y_deg,
                    const std::vector<double>& value);
 
+/// A curve over an angle with its band, for the error curves: the band from `low` to `high` as a
+/// light grey fill and the curve as a black line (readable in greyscale print), the points
+/// `mark_x`, `mark_value` (a table's) as open circles, with a legend and both axes labelled.
+/// Axes from x_lo to x_hi [deg]; the values' axis fits the band. Returns a standalone SVG
+/// document (for Figure()).
+struct CurveAxes {
+  std::string title;
+  std::string x_label;  ///< with its unit, e.g. "theta [deg]"
+  std::string y_label;  ///< with its unit, e.g. "theta_encoder [arcsec]"
+  double x_lo = 0.0, x_hi = 360.0;
+};
+std::string SvgCurve(const CurveAxes& axes, const std::vector<double>& x, const std::vector<double>& value,
+                     const std::vector<double>& low, const std::vector<double>& high,
+                     const std::vector<double>& mark_x = {}, const std::vector<double>& mark_value = {});
+
 }  // namespace sph::html
 
 #endif  // SPH_CORE_HTML_REPORT_HPP_

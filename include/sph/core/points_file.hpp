@@ -140,6 +140,21 @@ inline constexpr ConditionField kConditionFields[] = {
 /// The conditions among the header's metadata (values the reader has checked).
 SphereConditions ConditionsOf(const PointsHeader& header);
 
+/// A device that identified itself over SDO when the file was acquired: a header field
+/// "device_<role>" as sph_acquired writes it from the node's identity object (1008h, 1018h),
+/// "node 1; name \"...\"; vendor_id 0x...; product_code 0x...; revision 0x...; serial 0x...; ...".
+/// Each value as written; empty where the line has none.
+struct HeaderDevice {
+  std::string role;  ///< the key less "device_": "theta_encoder", "phi_encoder", "probe"
+  std::string node, name, vendor_id, product_code, revision, serial;
+  /// The line's other items, each "key value" as written ("tpdo 1 cob_id 0x181", ...).
+  std::vector<std::string> other;
+};
+
+/// The devices among header fields (PointsHeader::metadata), in file order. Never throws: an item
+/// that is not "key value" is kept in `other` as written.
+std::vector<HeaderDevice> DevicesOf(const std::vector<std::pair<std::string, std::string>>& metadata);
+
 /// The header fields "fix" and "prior" (sph/core/parameter_settings.hpp): what the run that made
 /// the file states about the calibration's parameters, checked when the file is read and kept
 /// among the header's metadata. Empty: none.

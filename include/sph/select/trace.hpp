@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "sph/calib/effect_fit.hpp"
+#include "sph/calib/error_curves.hpp"
 #include "sph/select/residual_structure.hpp"
 
 namespace sph {
@@ -192,6 +193,9 @@ struct TraceResult {
   std::vector<Unexplained> unexplained;
   FormSelection form;
   HarmonicOrders harmonics;  ///< the highest harmonic orders searched (TraceOptions::harmonics resolved)
+  /// The error curves of the final model's effects of an axis angle, with their 95 % bands
+  /// (ErrorCurvesOf(), over all the readings' angles).
+  std::vector<ErrorCurve> curves;
 };
 
 /// The highest harmonic order the pattern of `points` resolves on each axis: with n distinct
