@@ -299,7 +299,7 @@ int main(int argc, char** argv) {
             }
             t.cv_over_sigma.push_back(r.after.cv_rms_um / noise);
             if (form && r.form.degree_max > 0) {
-              const std::vector<sph::SphereFormResult> found = sph::SphereFormOf(r.after.fit);
+              const std::vector<sph::SphereFormResult> found = sph::SphereFormOf(r);
               if (!found.empty()) {
                 t.form_ratio.push_back(found[0].rms_um / sph::FormSizeOf(spec.effects, spec.sphere_radius_mm).rms_um);
               }

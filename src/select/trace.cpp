@@ -207,6 +207,7 @@ using internal::CheckFoldsCanFit;
 using internal::ConfoundedFormTerms;
 using internal::Finish;
 using internal::FormDesign;
+using internal::HigherDegrees;
 using internal::ForwardRound;
 using internal::Readings;
 using internal::RemoveUnneeded;
@@ -241,6 +242,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     }
   }
   RemoveUnneeded(data, options, trace_options, current, r);
+  if (r.form.separable) HigherDegrees(data, options, current, &r.form);
   r.after = std::move(current);
   Finish(all, options, base, trace_options, &r);
   return r;

@@ -145,6 +145,10 @@ struct FormSelection {
   /// Per degree searched, in the last search: extended BIC of the model with the form of degrees
   /// 2..L minus that without a form.
   std::vector<std::pair<int, double>> delta_ebic;
+  /// Per group of the final model's form, the degrees above degree_max up to degree_limit fitted
+  /// beside it: their RMS with the noise's share taken out and its standard uncertainty [um]
+  /// (CorrectedFormRms()); empty when the form was fitted at degree_limit or not at all.
+  std::vector<std::pair<double, double>> higher_rms_um;
 };
 
 /// Structure left after the final model.
