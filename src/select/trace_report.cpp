@@ -63,6 +63,7 @@ json FitJson(const TracedFit& f) {
           {"pv_um", f.fit.calibration.pv_um},
           {"cv_rms_um", f.cv_rms_um},
           {"loso_rms_um", NumberOrNull(f.loso_rms_um)},
+          {"loso_not_judged_setups", f.loso_not_judged},
           {"structure_p_value", f.structure.all.p_value},
           {"structure", structure},
           {"theta_harmonics_um", f.structure.theta_harmonics_um},
@@ -196,11 +197,20 @@ void WriteTraceSummary(std::ostream& out, const TraceResult& r) {
   out << Format("  %-34s %10.4f %10.4f %10.4f %12.2g\n",
                 ("after" + (added.empty() ? "" : " (+ " + added + ")")).c_str(), a.fit.calibration.rms_um,
                 a.fit.calibration.pv_um, a.cv_rms_um, a.structure.all.p_value);
+  std::string not_judged;
+  for (const int s : a.loso_not_judged) not_judged += (not_judged.empty() ? "" : ", ") + std::to_string(s);
   if (std::isfinite(b.loso_rms_um) && std::isfinite(a.loso_rms_um)) {
     out << Format(
         "  leave one setup out (each setup of known orientation predicted from the others, its centre "
         "refitted): rms %.4f um before, %.4f um after\n",
         b.loso_rms_um, a.loso_rms_um);
+    if (!not_judged.empty()) {
+      out << "    not judged: setup(s) " << not_judged
+          << ", whose others do not determine the final model (its effects or form) without it\n";
+    }
+  } else if (!not_judged.empty()) {
+    out << "  leave one setup out: cannot be judged on this design (setup(s) " << not_judged
+        << ": without it, the others do not determine the final model, its effects or form)\n";
   }
 }
 

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <sstream>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -11,6 +12,7 @@
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/form_report.hpp"
+#include "sph/select/trace_report.hpp"
 #include "sph/select/trace.hpp"
 
 namespace sph {
@@ -448,6 +450,32 @@ TEST(LeaveOneSetupOut, PredictsNoiseFreeReadingsExactly) {
   EXPECT_TRUE(std::isnan(LeaveOneSetupOutRms(
       single, PaperOptions(),
       FitEffects(single, PaperOptions(), none, EffectFitStart::From(Calibrate(single, PaperOptions()))))));
+}
+
+// Two setups, one of known orientation and the sphere remounted in an orientation the file calls
+// unknown, a Phi encoder error and form28: only the known setup can be left out, and the unknown
+// one alone, with a form of its own, does not determine the model the trace chose. The transfer
+// then cannot be judged on this design: no rms (it read 0.117 um, 2.3 sigma, as if the model did
+// not transfer), the setup named, and the report says so.
+TEST(LeaveOneSetupOut, CannotBeJudgedWhereTheOtherSetupsDoNotDetermineTheModel) {
+  SimulationSpec spec;
+  spec.seed = 2;
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0)};
+  spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 90, 0);
+  spec.mount_unknown.insert(1);
+  spec.scan_orders[1] = ScanOrder::kSerpentine;
+  spec.effects.model.terms = {{Effect::kPhiEncoder, {{1, 0, false}}}};
+  spec.effects.values = {{10 * kRadPerArcsec}};
+  spec.effects.form = Form28();
+  const PointsData points = Simulate(spec);
+  const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
+  ASSERT_FALSE(r.added.empty());
+  EXPECT_EQ(r.after.loso_not_judged, std::vector<int>{0});
+  EXPECT_TRUE(std::isnan(r.after.loso_rms_um)) << r.after.loso_rms_um;
+  EXPECT_TRUE(std::isnan(LeaveOneSetupOutRms(points, PaperOptions(), r.after.fit)));
+  std::ostringstream text;
+  WriteTraceText(text, r, nullptr);
+  EXPECT_NE(text.str().find("leave one setup out: cannot be judged on this design"), std::string::npos) << text.str();
 }
 
 // Five placements that separate the form (the eccentricity points another way on the body in
