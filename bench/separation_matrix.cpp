@@ -187,9 +187,11 @@ struct ConfoundedCell {
 
 std::vector<ConfoundedCell> ConfoundedCells() {
   return {
-      {"phi_encoder+probe_drift_1um, one", {Effect::kPhiEncoder, Effect::kProbeDrift},
+      {"phi_encoder+probe_drift_1um, one",
+       {Effect::kPhiEncoder, Effect::kProbeDrift},
        [](sph::SimulationSpec& spec) { spec.effects.values[1] = {1.0 * sph::kMmPerUm}; }},
-      {"phi_encoder+form28, known+unknown", {Effect::kPhiEncoder},
+      {"phi_encoder+form28, known+unknown",
+       {Effect::kPhiEncoder},
        [](sph::SimulationSpec& spec) {
          spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0)};
          spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 90, 0);
@@ -197,7 +199,8 @@ std::vector<ConfoundedCell> ConfoundedCells() {
          spec.scan_orders[1] = sph::ScanOrder::kSerpentine;
          spec.effects.form = sph::bench::Form28();
        }},
-      {"probe_incidence, two placements", {Effect::kProbeIncidence},
+      {"probe_incidence, two placements",
+       {Effect::kProbeIncidence},
        [](sph::SimulationSpec& spec) {
          spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 1, 0)};
        }},
@@ -228,7 +231,7 @@ struct Filter {
   std::set<std::string> setups, forms, sigmas;
   std::vector<std::string> names;
   bool verbose = false;
-  bool hold = false;  // "hold": TraceOptions::hold_confounded
+  bool hold = false;        // "hold": TraceOptions::hold_confounded
   bool confounded = false;  // "confounded": the cells of ConfoundedCells() only
 
   bool Wants(const Case& c, Setups setups_, bool form, double noise) const {
@@ -269,7 +272,8 @@ Filter FilterOf(int argc, char** argv) {
 
 // The cells of ConfoundedCells() at both noise levels (or those of the filter): right, wrong and
 // the effects added, per cell.
-int RunConfoundedCells(int runs, const Filter& filter, const sph::CalibrationOptions& o, const sph::TraceOptions& trace) {
+int RunConfoundedCells(int runs, const Filter& filter, const sph::CalibrationOptions& o,
+                       const sph::TraceOptions& trace) {
   std::printf("%-36s %5s %5s %6s %6s %8s  %s\n", "cell", "sigma", "runs", "right", "wrong", "cv/sig",
               "effects added (count)");
   for (const ConfoundedCell& cell : ConfoundedCells()) {
@@ -279,8 +283,8 @@ int RunConfoundedCells(int runs, const Filter& filter, const sph::CalibrationOpt
       std::map<std::string, int> counts;
       const std::set<Effect> expected(cell.effects.begin(), cell.effects.end());
       for (int seed = 1; seed <= runs; ++seed) {
-        sph::SimulationSpec spec = Design({"cell", cell.effects}, false, Setups::kOne, noise,
-                                          static_cast<std::uint64_t>(seed));
+        sph::SimulationSpec spec =
+            Design({"cell", cell.effects}, false, Setups::kOne, noise, static_cast<std::uint64_t>(seed));
         cell.design(spec);
         const sph::PointsData points = sph::Simulate(spec);
         const sph::TraceResult r = sph::TraceResidual(points, o, sph::Calibrate(points, o), trace);

@@ -267,9 +267,8 @@ void HigherDegrees(const Readings& data, const CalibrationOptions& options, cons
   for (int g = 0; g < full.model.form.NumGroups(); ++g) {
     const std::vector<double>& c = full.form_values[static_cast<std::size_t>(g)];
     const int first = full.FormOffset(g);
-    const CorrectedRms higher =
-        CorrectedFormRms(full.model.form.terms, Eigen::Map<const Eigen::VectorXd>(c.data(), n),
-                         rep.covariance.block(first, first, n, n), form.MaxDegree() + 1);
+    const CorrectedRms higher = CorrectedFormRms(full.model.form.terms, Eigen::Map<const Eigen::VectorXd>(c.data(), n),
+                                                 rep.covariance.block(first, first, n, n), form.MaxDegree() + 1);
     sel->higher_rms_um.emplace_back(higher.rms_um, higher.std_um);
   }
 }

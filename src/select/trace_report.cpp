@@ -86,9 +86,8 @@ json SphereFormJson(const SphereFormResult& f) {
               {"terms", terms},
               {"confounded", f.confounded}};
   if (f.higher_degree_limit > 0) {
-    out["higher_degrees"] = {{"degree_min", f.degree_max + 1},
-                             {"degree_max", f.higher_degree_limit},
-                             {"rms_max_um", f.higher_rms_max_um}};
+    out["higher_degrees"] = {
+        {"degree_min", f.degree_max + 1}, {"degree_max", f.higher_degree_limit}, {"rms_max_um", f.higher_rms_max_um}};
   }
   return out;
 }
@@ -98,13 +97,15 @@ void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
       f.setups.empty() ? "" : " of setup(s) " + f.setups.substr(1) + " (unknown orientation or another sphere)";
   out << Format("  sphere form%s: degrees 2..%d, rms %.4f +- %.4f um, peak to valley %.4f um over the whole sphere\n",
                 which.c_str(), f.degree_max, f.rms_um, f.rms_std_um, f.pv_um);
-  out << Format("    (rms: the coefficients' %.4f um with their noise's share %.4f um taken out in quadrature, +- %.4f "
-                "from the noise",
-                f.rms_fitted_um, f.rms_noise_um, f.rms_noise_std_um);
+  out << Format(
+      "    (rms: the coefficients' %.4f um with their noise's share %.4f um taken out in quadrature, +- %.4f "
+      "from the noise",
+      f.rms_fitted_um, f.rms_noise_um, f.rms_noise_std_um);
   if (f.higher_degree_limit > 0) {
-    out << Format("; degrees %d..%d, which the pattern also resolves, could add up to %.4f um rms (95 %%), "
-                  "included in the +-",
-                  f.degree_max + 1, f.higher_degree_limit, f.higher_rms_max_um);
+    out << Format(
+        "; degrees %d..%d, which the pattern also resolves, could add up to %.4f um rms (95 %%), "
+        "included in the +-",
+        f.degree_max + 1, f.higher_degree_limit, f.higher_rms_max_um);
   }
   out << ")\n";
   out << "    (Schmidt semi-normalised harmonics S(l,m) of the sphere's body frame, |S| <= 1, mean square 1/(2l+1); "

@@ -12,8 +12,8 @@
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/form_report.hpp"
-#include "sph/select/trace_report.hpp"
 #include "sph/select/trace.hpp"
+#include "sph/select/trace_report.hpp"
 
 namespace sph {
 namespace {
@@ -393,8 +393,8 @@ TEST(SphereFormOf, TakesTheCoefficientsNoiseOutOfTheRms) {
     const SphereFormResult& own = forms[1];  // one placement: the setup of unknown orientation
     ASSERT_EQ(own.terms.size(), 45u);
     EXPECT_GT(own.rms_noise_um, 0.010);
-    EXPECT_NEAR(own.rms_um, std::sqrt(std::max(0.0, own.rms_fitted_um * own.rms_fitted_um -
-                                                        own.rms_noise_um * own.rms_noise_um)),
+    EXPECT_NEAR(own.rms_um,
+                std::sqrt(std::max(0.0, own.rms_fitted_um * own.rms_fitted_um - own.rms_noise_um * own.rms_noise_um)),
                 1e-12);
     EXPECT_NEAR(own.rms_um, truth_um, 2.0 * own.rms_std_um)
         << "seed " << seed << ": fitted " << own.rms_fitted_um << ", noise " << own.rms_noise_um;

@@ -37,10 +37,10 @@ struct SphereFormResult {
   std::string setups;
   std::vector<int> setup_ids;  ///< the setups of a set of its own (empty for the reference set)
   int degree_max = 0;
-  double rms_um = 0.0;          ///< over the sphere, the coefficients' noise taken out (0 when it is all noise)
-  double rms_fitted_um = 0.0;   ///< sqrt(sum c^2 / (2l + 1)) of the coefficients as fitted
-  double rms_noise_um = 0.0;    ///< what their noise adds to it in quadrature on average: sqrt(tr(W C))
-  double rms_std_um = 0.0;      ///< of rms_um: the coefficients' noise and the degree chosen
+  double rms_um = 0.0;            ///< over the sphere, the coefficients' noise taken out (0 when it is all noise)
+  double rms_fitted_um = 0.0;     ///< sqrt(sum c^2 / (2l + 1)) of the coefficients as fitted
+  double rms_noise_um = 0.0;      ///< what their noise adds to it in quadrature on average: sqrt(tr(W C))
+  double rms_std_um = 0.0;        ///< of rms_um: the coefficients' noise and the degree chosen
   double rms_noise_std_um = 0.0;  ///< of rms_um, from the coefficients' noise alone
   /// The degrees the pattern could still hold above degree_max (those searched, up to
   /// FormSelection::degree_limit; 0 when none or not known), and what they might add: the
