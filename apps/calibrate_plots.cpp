@@ -84,7 +84,7 @@ void PlotResiduals(const std::string& dir, const PointsData& points, const Calib
 // The sphere's form, when the trace separated it: a map over its body frame.
 void PlotSphereForm(const std::string& dir, const TraceResult& r, double timeout_s, OutputFiles& files) {
   const std::string folder = dir + "/";
-  const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
+  const std::vector<SphereFormResult> forms = SphereFormOf(r);
   if (forms.empty()) return;
   const SphereFormResult& form = forms.front();
   const std::vector<std::array<double, 3>> map = FormMap(r.after.fit, 0, 1.0);

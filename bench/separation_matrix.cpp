@@ -14,7 +14,9 @@
 // "0.03" or "0.05" (sigma), or any other word, which the effects' names must contain (e.g.
 // "phi_encoder+probe_gain"). "-v" prints each run's effects added and its candidates' notes.
 // "hold" runs the trace with TraceOptions::hold_confounded: of two effects it cannot tell
-// apart it adds neither.
+// apart it adds neither. "confounded" runs only the cells of ConfoundedCells() instead: each a
+// set of effects and a design of its own in which a single library effect or a pair of them
+// imitates the simulated ones (with "0.03" or "0.05" to narrow them).
 //
 // Prints a row per cell (right: exactly the simulated effects added; wrong: an effect added that
 // was not simulated; flagged: of the wrong runs, those whose every wrong effect the report names as
@@ -26,6 +28,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <map>
 #include <set>
@@ -170,6 +173,40 @@ sph::SimulationSpec Design(const Case& c, bool form, Setups setups, double noise
   return spec;
 }
 
+// Cells with a design of their own, where a single effect or a pair imitates the simulated set:
+// a Phi encoder error once per turn (10 arcsec) and a probe drift of 1 um, one placement (a Phi
+// radial motion takes part of each); a Phi encoder error and form28 with the sphere in one known
+// orientation and remounted in one the file calls unknown (turned by 90 deg about y, serpentine);
+// a probe incidence error (i1 = 30 um) with the sphere at (2, 0, 0) and (0, 1, 0) mm (a gain and
+// a nonlinearity imitate it).
+struct ConfoundedCell {
+  std::string name;
+  std::vector<Effect> effects;  // simulated, with their Library() sizes but for the drift's
+  std::function<void(sph::SimulationSpec&)> design;
+};
+
+std::vector<ConfoundedCell> ConfoundedCells() {
+  return {
+      {"phi_encoder+probe_drift_1um, one",
+       {Effect::kPhiEncoder, Effect::kProbeDrift},
+       [](sph::SimulationSpec& spec) { spec.effects.values[1] = {1.0 * sph::kMmPerUm}; }},
+      {"phi_encoder+form28, known+unknown",
+       {Effect::kPhiEncoder},
+       [](sph::SimulationSpec& spec) {
+         spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0)};
+         spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 90, 0);
+         spec.mount_unknown.insert(1);
+         spec.scan_orders[1] = sph::ScanOrder::kSerpentine;
+         spec.effects.form = sph::bench::Form28();
+       }},
+      {"probe_incidence, two placements",
+       {Effect::kProbeIncidence},
+       [](sph::SimulationSpec& spec) {
+         spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 1, 0)};
+       }},
+  };
+}
+
 double Median(std::vector<double> v) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
   std::sort(v.begin(), v.end());
@@ -194,7 +231,8 @@ struct Filter {
   std::set<std::string> setups, forms, sigmas;
   std::vector<std::string> names;
   bool verbose = false;
-  bool hold = false;  // "hold": TraceOptions::hold_confounded
+  bool hold = false;        // "hold": TraceOptions::hold_confounded
+  bool confounded = false;  // "confounded": the cells of ConfoundedCells() only
 
   bool Wants(const Case& c, Setups setups_, bool form, double noise) const {
     const auto in = [](const std::set<std::string>& s, const std::string& v) { return s.empty() || s.count(v) > 0; };
@@ -223,11 +261,49 @@ Filter FilterOf(int argc, char** argv) {
       f.verbose = true;
     } else if (a == "hold") {
       f.hold = true;
+    } else if (a == "confounded") {
+      f.confounded = true;
     } else {
       f.names.push_back(a);
     }
   }
   return f;
+}
+
+// The cells of ConfoundedCells() at both noise levels (or those of the filter): right, wrong and
+// the effects added, per cell.
+int RunConfoundedCells(int runs, const Filter& filter, const sph::CalibrationOptions& o,
+                       const sph::TraceOptions& trace) {
+  std::printf("%-36s %5s %5s %6s %6s %8s  %s\n", "cell", "sigma", "runs", "right", "wrong", "cv/sig",
+              "effects added (count)");
+  for (const ConfoundedCell& cell : ConfoundedCells()) {
+    for (const double noise : {0.03, 0.05}) {
+      if (!filter.sigmas.empty() && filter.sigmas.count(noise < 0.04 ? "0.03" : "0.05") == 0) continue;
+      Tally t;
+      std::map<std::string, int> counts;
+      const std::set<Effect> expected(cell.effects.begin(), cell.effects.end());
+      for (int seed = 1; seed <= runs; ++seed) {
+        sph::SimulationSpec spec =
+            Design({"cell", cell.effects}, false, Setups::kOne, noise, static_cast<std::uint64_t>(seed));
+        cell.design(spec);
+        const sph::PointsData points = sph::Simulate(spec);
+        const sph::TraceResult r = sph::TraceResidual(points, o, sph::Calibrate(points, o), trace);
+        const std::set<Effect> added(r.added.begin(), r.added.end());
+        ++t.runs;
+        t.right += added == expected;
+        t.wrong += std::any_of(added.begin(), added.end(), [&](Effect e) { return expected.count(e) == 0; });
+        for (const Effect e : added) counts[sph::InfoOf(e).id]++;
+        t.cv_over_sigma.push_back(r.after.cv_rms_um / noise);
+        if (filter.verbose) std::printf("  seed %d: added %s\n", seed, Name(r.added).c_str());
+      }
+      std::string list;
+      for (const auto& [id, k] : counts) list += id + " " + std::to_string(k) + "  ";
+      std::printf("%-36s %5.2f %5d %6d %6d %8.3f  %s\n", cell.name.c_str(), noise, t.runs, t.right, t.wrong,
+                  Median(t.cv_over_sigma), list.c_str());
+      std::fflush(stdout);
+    }
+  }
+  return 0;
 }
 
 }  // namespace
@@ -249,6 +325,7 @@ int main(int argc, char** argv) {
       "6 mm; shuffled (only when named): one, scanned in shuffled order (bench/separation_matrix.cpp, Design())\n",
       runs, runs);
   if (filter.hold) std::printf("hold: of two effects the trace cannot tell apart it adds neither\n");
+  if (filter.confounded) return RunConfoundedCells(runs, filter, o, trace);
   std::printf("%-52s %-5s %-6s %5s %5s %6s %6s %7s %8s %8s  %s\n", "effects", "form", "setup", "sigma", "runs", "right",
               "wrong", "flagged", "form_r", "cv/sig", "effects added (count)");
   std::map<std::string, Tally> summary;  // by group, form, design, sigma
@@ -299,7 +376,7 @@ int main(int argc, char** argv) {
             }
             t.cv_over_sigma.push_back(r.after.cv_rms_um / noise);
             if (form && r.form.degree_max > 0) {
-              const std::vector<sph::SphereFormResult> found = sph::SphereFormOf(r.after.fit);
+              const std::vector<sph::SphereFormResult> found = sph::SphereFormOf(r);
               if (!found.empty()) {
                 t.form_ratio.push_back(found[0].rms_um / sph::FormSizeOf(spec.effects, spec.sphere_radius_mm).rms_um);
               }

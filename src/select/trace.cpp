@@ -244,6 +244,7 @@ using internal::Finish;
 using internal::FormDesign;
 using internal::ForwardRound;
 using internal::KnownFormSelection;
+using internal::HigherDegrees;
 using internal::Readings;
 using internal::RemoveUnneeded;
 using internal::SelectFormDegree;
@@ -281,6 +282,7 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     }
   }
   RemoveUnneeded(data, options, trace_options, current, r);
+  if (r.form.separable) HigherDegrees(data, options, current, &r.form);
   r.after = std::move(current);
   Finish(all, options, base, trace_options, &r);
   return r;

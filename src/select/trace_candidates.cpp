@@ -76,8 +76,9 @@ TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions
       CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace_options.folds, trace_options.seed);
   std::set<int> loose;
   const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, t.fit, &loose);
-  t.loso_rms_um = RmsUmOf(errors);
   t.loso_errors_mm = WithoutSetups(errors, loose, data.points);
+  t.loso_rms_um = RmsUmOf(t.loso_errors_mm);
+  t.loso_not_judged.assign(loose.begin(), loose.end());
   return t;
 }
 
@@ -305,8 +306,9 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
         if (c.cv_rms_um < current.cv_rms_um && std::isfinite(current.loso_rms_um)) {
           std::set<int> loose;
           const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, fit, &loose);
-          c.loso_rms_um = RmsUmOf(errors);
-          c.loso_t = PairedTransferT(WithoutSetups(errors, loose, data.points), current.loso_errors_mm, data.points);
+          const std::vector<double> judged = WithoutSetups(errors, loose, data.points);
+          c.loso_rms_um = RmsUmOf(judged);
+          c.loso_t = PairedTransferT(judged, current.loso_errors_mm, data.points);
         }
       }
       tried[i].second = std::move(fit);

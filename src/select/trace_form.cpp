@@ -254,4 +254,22 @@ EffectFit FullForm(const Readings& data, const CalibrationOptions& options, cons
   model.form = FormModelOf(data.points, FormTermsOfDegrees(2, sel.degree_limit));
   return internal::FitEffectsRows(data.points, data.table, nullptr, options, model, EffectFitStart::From(current.fit));
 }
+
+void HigherDegrees(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                   FormSelection* sel) {
+  sel->higher_rms_um.clear();
+  const FormModel& form = current.fit.model.form;
+  if (form.Empty() || form.MaxDegree() >= sel->degree_limit) return;
+  const EffectFit full = FullForm(data, options, current, *sel);
+  const ObservabilityReport& rep = full.calibration.analysis;
+  if (!full.calibration.converged || rep.Empty()) return;
+  const auto n = static_cast<Eigen::Index>(full.model.form.terms.size());
+  for (int g = 0; g < full.model.form.NumGroups(); ++g) {
+    const std::vector<double>& c = full.form_values[static_cast<std::size_t>(g)];
+    const int first = full.FormOffset(g);
+    const CorrectedRms higher = CorrectedFormRms(full.model.form.terms, Eigen::Map<const Eigen::VectorXd>(c.data(), n),
+                                                 rep.covariance.block(first, first, n, n), form.MaxDegree() + 1);
+    sel->higher_rms_um.emplace_back(higher.rms_um, higher.std_um);
+  }
+}
 }  // namespace sph::internal

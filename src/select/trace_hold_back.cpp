@@ -61,12 +61,22 @@ std::string SeparateBy(Effect a, Effect b) {
          "readings";
 }
 
+// Whether SeparateBy(a, b) advises another placement of a sphere (all but a drift's advice, which is
+// in the time order of the readings).
+bool AdvisesPlacement(Effect a, Effect b) { return !Follows(a, "t") && !Follows(b, "t"); }
+
+// What separates them when none of the placements checked does: the advice must not name one.
+constexpr const char* kNoPlacementSeparates =
+    "no single further placement of the sphere tried tells them apart on this design (checked): several, or one "
+    "of the two measured on its own (the probe against a reference, an axis' error against a standard)";
+
 // Whether one more placement would tell apart the candidates last in `a` and `b` (fits of the
-// model of `current` with each added), in words.
+// model of `current` with each added), in words; *found: whether one of those tried does.
 std::string CheckedSeparation(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
-                              const EffectFit& a, const EffectFit& b) {
+                              const EffectFit& a, const EffectFit& b, bool* found) {
   const internal::PairSeparation p = internal::CheckPairSeparation(
       data.points, options, current, a.model.terms.back(), a.values.back(), b.model.terms.back(), b.values.back());
+  *found = !p.placement.empty();
   if (!p.placement.empty()) {
     return Format(
         "%s tells them apart (largest variance inflation of their terms fitted together %.3g now, %.3g "
@@ -125,7 +135,9 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
       Ambiguity a{InfoOf(chosen.effect).id,           InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
                   SeparateBy(chosen.effect, c.effect)};
       a.by_design = !close;
-      a.checked = CheckedSeparation(data, options, current.fit, tried[best].second, tried[i].second);
+      bool found = false;
+      a.checked = CheckedSeparation(data, options, current.fit, tried[best].second, tried[i].second, &found);
+      if (!found && AdvisesPlacement(chosen.effect, c.effect)) a.separate_by = kNoPlacementSeparates;
       ambiguous->push_back(a);
     }
   }

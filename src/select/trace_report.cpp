@@ -63,6 +63,7 @@ json FitJson(const TracedFit& f) {
           {"pv_um", f.fit.calibration.pv_um},
           {"cv_rms_um", f.cv_rms_um},
           {"loso_rms_um", NumberOrNull(f.loso_rms_um)},
+          {"loso_not_judged_setups", f.loso_not_judged},
           {"structure_p_value", f.structure.all.p_value},
           {"structure", structure},
           {"theta_harmonics_um", f.structure.theta_harmonics_um},
@@ -75,8 +76,20 @@ json SphereFormJson(const SphereFormResult& f) {
   for (const FormTermValue& t : f.terms) {
     terms.push_back({{"l", t.l}, {"m", t.m}, {"value_um", t.value_um}, {"std_um", NumberOrNull(t.std_um)}});
   }
-  return {{"degree_max", f.degree_max}, {"rms_um", f.rms_um}, {"rms_std_um", NumberOrNull(f.rms_std_um)},
-          {"pv_um", f.pv_um},           {"terms", terms},     {"confounded", f.confounded}};
+  json out = {{"degree_max", f.degree_max},
+              {"rms_um", f.rms_um},
+              {"rms_std_um", NumberOrNull(f.rms_std_um)},
+              {"rms_fitted_um", f.rms_fitted_um},
+              {"rms_noise_um", NumberOrNull(f.rms_noise_um)},
+              {"rms_noise_std_um", NumberOrNull(f.rms_noise_std_um)},
+              {"pv_um", f.pv_um},
+              {"terms", terms},
+              {"confounded", f.confounded}};
+  if (f.higher_degree_limit > 0) {
+    out["higher_degrees"] = {
+        {"degree_min", f.degree_max + 1}, {"degree_max", f.higher_degree_limit}, {"rms_max_um", f.higher_rms_max_um}};
+  }
+  return out;
 }
 
 void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
@@ -84,6 +97,17 @@ void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
       f.setups.empty() ? "" : " of setup(s) " + f.setups.substr(1) + " (unknown orientation or another sphere)";
   out << Format("  sphere form%s: degrees 2..%d, rms %.4f +- %.4f um, peak to valley %.4f um over the whole sphere\n",
                 which.c_str(), f.degree_max, f.rms_um, f.rms_std_um, f.pv_um);
+  out << Format(
+      "    (rms: the coefficients' %.4f um with their noise's share %.4f um taken out in quadrature, +- %.4f "
+      "from the noise",
+      f.rms_fitted_um, f.rms_noise_um, f.rms_noise_std_um);
+  if (f.higher_degree_limit > 0) {
+    out << Format(
+        "; degrees %d..%d, which the pattern also resolves, could add up to %.4f um rms (95 %%), "
+        "included in the +-",
+        f.degree_max + 1, f.higher_degree_limit, f.higher_rms_max_um);
+  }
+  out << ")\n";
   out << "    (Schmidt semi-normalised harmonics S(l,m) of the sphere's body frame, |S| <= 1, mean square 1/(2l+1); "
          "radial displacement of the surface)\n";
   std::string line;
@@ -174,11 +198,20 @@ void WriteTraceSummary(std::ostream& out, const TraceResult& r) {
   out << Format("  %-34s %10.4f %10.4f %10.4f %12.2g\n",
                 ("after" + (added.empty() ? "" : " (+ " + added + ")")).c_str(), a.fit.calibration.rms_um,
                 a.fit.calibration.pv_um, a.cv_rms_um, a.structure.all.p_value);
+  std::string not_judged;
+  for (const int s : a.loso_not_judged) not_judged += (not_judged.empty() ? "" : ", ") + std::to_string(s);
   if (std::isfinite(b.loso_rms_um) && std::isfinite(a.loso_rms_um)) {
     out << Format(
         "  leave one setup out (each setup of known orientation predicted from the others, its centre "
         "refitted): rms %.4f um before, %.4f um after\n",
         b.loso_rms_um, a.loso_rms_um);
+    if (!not_judged.empty()) {
+      out << "    not judged: setup(s) " << not_judged
+          << ", whose others do not determine the final model (its effects or form) without it\n";
+    }
+  } else if (!not_judged.empty()) {
+    out << "  leave one setup out: cannot be judged on this design (setup(s) " << not_judged
+        << ": without it, the others do not determine the final model, its effects or form)\n";
   }
 }
 
@@ -308,7 +341,7 @@ void WriteForm(std::ostream& out, const TraceResult& r) {
     out << "    extended BIC of the form of degrees 2..L against none, L =" << scores << "; chosen: "
         << (r.form.degree_max > 0 ? "degrees 2.." + std::to_string(r.form.degree_max) : std::string("no form")) << "\n";
   }
-  for (const SphereFormResult& f : SphereFormOf(a.fit)) WriteSphereFormText(out, f);
+  for (const SphereFormResult& f : SphereFormOf(r)) WriteSphereFormText(out, f);
   if (!a.fit.model.Empty()) {
     const EffectReference& ref = a.fit.model.reference;
     out << Format("  reference: u = (r - %.6f mm) / %.6f mm, tau = (t - %.6g s) / %.6g s\n", ref.r_ref_mm,
@@ -516,7 +549,7 @@ json UnexplainedJson(const TraceResult& r) {
 // the extended BIC of each degree, and the form of its own of each setup of unknown orientation or on
 // another sphere.
 json TraceFormJson(const TraceResult& r) {
-  const std::vector<SphereFormResult> forms = SphereFormOf(r.after.fit);
+  const std::vector<SphereFormResult> forms = SphereFormOf(r);
   json form = forms.empty() ? json{{"degree_max", 0}, {"terms", json::array()}, {"confounded", json::array()}}
                             : SphereFormJson(forms.front());
   json scores = json::array();

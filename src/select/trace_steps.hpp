@@ -31,6 +31,7 @@
 #include "sph/internal/parallel.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/form_report.hpp"
 #include "sph/select/identifiability.hpp"
 #include "sph/select/trace.hpp"
 #include "structure_jacobian.hpp"
@@ -175,6 +176,11 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
 // score beside it (NaN where it is not separable from that form).
 bool ShownBeyondForm(const Readings& data, const CalibrationOptions& options, const CandidateScore& c,
                      const EffectFit& full, const TraceOptions& trace_options, double* delta_ebic);
+
+// With the form in `current`'s model below sel->degree_limit: what the degrees above could hold,
+// per group, from the model fitted with the form of degrees 2..degree_limit (FormSelection::higher_rms_um).
+void HigherDegrees(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                   FormSelection* sel);
 
 // The current model with the form of degrees 2..limit (its start: the current fit's).
 EffectFit FullForm(const Readings& data, const CalibrationOptions& options, const TracedFit& current,

@@ -198,9 +198,13 @@ using internal::CrossValidated;
 using internal::LeaveOneSetupOutErrors;
 using internal::Readings;
 using internal::RmsUmOf;
+using internal::WithoutSetups;
 
 double LeaveOneSetupOutRms(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
-  return RmsUmOf(LeaveOneSetupOutErrors(Readings(points), options, fit));
+  const Readings data(points);
+  std::set<int> loose;
+  const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, fit, &loose);
+  return RmsUmOf(WithoutSetups(errors, loose, data.points));
 }
 
 double CrossValidatedRms(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,

@@ -150,6 +150,10 @@ struct FormSelection {
   /// Per degree searched, in the last search: extended BIC of the model with the form of degrees
   /// 2..L minus that without a form.
   std::vector<std::pair<int, double>> delta_ebic;
+  /// Per group of the final model's form, the degrees above degree_max up to degree_limit fitted
+  /// beside it: their RMS with the noise's share taken out and its standard uncertainty [um]
+  /// (CorrectedFormRms()); empty when the form was fitted at degree_limit or not at all.
+  std::vector<std::pair<double, double>> higher_rms_um;
 };
 
 /// Structure left after the final model.
@@ -173,8 +177,14 @@ struct TracedFit {
   /// The transfer test of a file with two or more setups: each setup of known orientation predicted
   /// by the model fitted to the others, with only its own centre refitted; the rms over those
   /// setups' readings [um]. A form that turns with the sphere transfers, a form mistaken for a
-  /// machine error does not. NaN with fewer than two setups (LeaveOneSetupOutRms()).
+  /// machine error does not. Only the setups predicted by a model that the others determine count
+  /// (loso_not_judged); NaN with fewer than two setups or when none is (LeaveOneSetupOutRms()): the
+  /// transfer cannot be judged on this design.
   double loso_rms_um = std::numeric_limits<double>::quiet_NaN();
+  /// The setups left out whose prediction came from a fit of the others that does not determine
+  /// the model (its effects' or form's standard uncertainties more than 10 times those of the fit
+  /// of all): not judged, and not in loso_rms_um.
+  std::vector<int> loso_not_judged;
   /// Each reading's error in that test [mm], NaN where not predicted and where the other setups
   /// do not determine the model (what the selection judges by); empty with one setup.
   std::vector<double> loso_errors_mm;
@@ -230,8 +240,9 @@ TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& 
 /// setup of known orientation, `fit`'s model is fitted to the other setups' readings, from `fit`,
 /// and the setup's readings are predicted with only its centre refitted (Gauss-Newton). A setup
 /// of unknown orientation is not predicted (its form is its own), but its readings take part in
-/// the other fits; nor is a setup without which the others cannot be fitted (too few readings).
-/// NaN when no setup is predicted (one setup, or none of known orientation).
+/// the other fits; nor is a setup without which the others cannot be fitted (too few readings),
+/// nor one whose others do not determine the model (TracedFit::loso_not_judged). NaN when no setup
+/// is predicted (one setup, or none of known orientation, or none by a determined model).
 double LeaveOneSetupOutRms(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit);
 
 /// The cross-validated RMS [um] of `model` on `points`: `folds` random folds (seeded), each fitted
