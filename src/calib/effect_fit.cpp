@@ -190,14 +190,17 @@ std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const C
   const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());
   std::vector<Eigen::Vector3d> out;
   out.reserve(points.samples.size());
-  for (const Sample& s : points.samples) {
+  const std::vector<MotionDirection> directions = MotionDirections(points.samples);
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
     const auto it = setup_index.find(s.setup);
     if (it == setup_index.end()) {
       throw Error(points.source + ": setup " + std::to_string(s.setup) + " is not one of the calibration's");
     }
     const Eigen::Vector3d& center = cal.centers_mm[it->second];
-    const Eigen::Vector3d p = EffectScmsPoint(cal.geometry.data(), trig, fit.model, blocks.data(),
-                                              EffectReading(s, s.t_s), options.probe_offset_mm, nullptr, center.data());
+    const Eigen::Vector3d p =
+        EffectScmsPoint(cal.geometry.data(), trig, fit.model, blocks.data(), EffectReading(s, s.t_s, directions[i]),
+                        options.probe_offset_mm, nullptr, center.data());
     out.push_back(p - center);
   }
   return out;

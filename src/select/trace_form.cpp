@@ -164,6 +164,10 @@ std::string SeparateFromForm(Effect e) {
     return "the pattern measured a second time in another order (reversed or shuffled), so that time is no "
            "function of the direction on the sphere, or the sphere turned on its mount";
   }
+  if (IsReversal(e)) {
+    return "the pattern measured a second time with each axis moving the other way (a reversal follows the "
+           "direction of motion, a form the point on the sphere), or the sphere turned on its mount";
+  }
   if (InfoOf(e).harmonic) {  // an error of the machine's axes
     return "the sphere turned on its mount (a form turns with the sphere, an error of the machine stays with the "
            "machine), or a second setup at another eccentricity";

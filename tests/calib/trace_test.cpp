@@ -488,6 +488,11 @@ TEST(TraceResidual, SaysWhatTheCrossValidationNeedsOfASmallFile) {
   ASSERT_FALSE(r.candidates.empty());
   for (const CandidateScore& c : r.candidates) {
     if (c.sphere_form) continue;
+    if (IsReversal(c.effect)) {
+      // Every 20th reading of the rings: theta always 60 deg back, phi always forward.
+      EXPECT_EQ(c.note, "no component is separable from the other parameters") << c.Id();
+      continue;
+    }
     EXPECT_EQ(c.note.rfind("not tried: with its ", 0), 0u) << c.Id() << ": " << c.note;
   }
   EXPECT_THROW(FitFixedEffects(fourteen, PaperOptions(), Calibrate(fourteen, PaperOptions()), {Effect::kThetaEncoder},
