@@ -187,8 +187,9 @@ bool ShownByItsVariable(Effect e, const ResidualStructure& structure, const Trac
 }
 
 std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const TraceOptions& trace_options) {
+  // Every group below the threshold is described, whether or not the test of all the functions
+  // together is: a structure in one variable is diluted among the many functions of the others.
   std::vector<Unexplained> out;
-  if (!(s.all.p_value < trace_options.structure_p)) return out;
   std::vector<const StructureGroup*> groups;
   for (const StructureGroup& g : s.groups) {
     if (g.p_value < trace_options.structure_p) groups.push_back(&g);
@@ -207,7 +208,7 @@ std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const Tr
                     Format("%.3g", g->strongest_rms_um) + " um RMS alone)";
     out.push_back(u);
   }
-  if (out.empty()) {
+  if (out.empty() && s.all.p_value < trace_options.structure_p) {
     Unexplained u;
     u.variable = "all";
     u.rms_um = s.all.explained_rms_um;

@@ -187,7 +187,7 @@ void WriteStructure(std::ostream& out, const TraceResult& r) {
   const TracedFit& b = r.before;
   out << "  structure before, by variable (F test against white noise):\n";
   for (const StructureGroup& g : b.structure.groups) {
-    out << Format("    %-7s explains %.4f um rms, p = %.2g, strongest %s (%.4f um rms alone)\n", g.variable.c_str(),
+    out << Format("    %-9s explains %.4f um rms, p = %.2g, strongest %s (%.4f um rms alone)\n", g.variable.c_str(),
                   g.explained_rms_um, g.p_value, g.strongest.c_str(), g.strongest_rms_um);
   }
   out << "  harmonics of theta before, amplitude fitted alone [um]:";
