@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "block_factor.hpp"
+#include "effect_fit_rows.hpp"
 #include "sph/core/gum.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/row_qr.hpp"
@@ -261,16 +262,22 @@ std::vector<double> ExpectedReadings(const PointsData& points, const Calibration
   PointsData at;
   at.source = points.source;
   at.header = points.header;
+  const std::vector<MotionDirection> approach = MotionDirections(points.samples);  // of the whole file
+  std::vector<MotionDirection> approach_of_block;
   for (std::size_t first = 0; first < points.samples.size(); first += kBlock) {
     const auto begin = points.samples.begin() + static_cast<std::ptrdiff_t>(first);
-    at.samples.assign(begin, begin + static_cast<std::ptrdiff_t>(std::min(kBlock, points.samples.size() - first)));
-    std::vector<double> prev_r(at.samples.size()), prev_e = EffectResiduals(at, options, fit);
+    const auto count = static_cast<std::ptrdiff_t>(std::min(kBlock, points.samples.size() - first));
+    at.samples.assign(begin, begin + count);
+    approach_of_block.assign(approach.begin() + static_cast<std::ptrdiff_t>(first),
+                             approach.begin() + static_cast<std::ptrdiff_t>(first) + count);
+    std::vector<double> prev_r(at.samples.size()),
+        prev_e = internal::EffectResidualsOf(at, options, fit, approach_of_block);
     for (std::size_t i = 0; i < at.samples.size(); ++i) {
       prev_r[i] = at.samples[i].r_mm;
       at.samples[i].r_mm += prev_e[i];
     }
     for (int step = 0; step < kMaxSteps; ++step) {
-      const std::vector<double> e = EffectResiduals(at, options, fit);
+      const std::vector<double> e = internal::EffectResidualsOf(at, options, fit, approach_of_block);
       bool moved = false;
       for (std::size_t i = 0; i < e.size(); ++i) {
         double& r = at.samples[i].r_mm;

@@ -198,6 +198,34 @@ TEST(ResidualStructure, ExpectedReadingsAreWhereTheFittedResidualVanishes) {
   EXPECT_GT(largest_plus_e, 1e-10);  // what r + e leaves: about 1e-3 of the residual of 0.05 um
 }
 
+// The same with a reversal over more readings than ExpectedReadings() takes at once (4096): each
+// reading keeps the direction it has in the whole file. 64 x 65 readings in serpentine: reading
+// 4096 starts ring 64 at theta 0, where ring 63 ended going down: approached from above, though
+// Theta then goes up (the direction a block starting there would give it).
+TEST(ResidualStructure, ExpectedReadingsKeepEachReadingsDirectionOfMotion) {
+  SimulationSpec spec;
+  spec.pattern = GridPattern(64, 65);
+  spec.scan_order = ScanOrder::kSerpentine;
+  spec.effects.model.terms = {DefaultTerm(Effect::kThetaReversal)};
+  spec.effects.values = {{-8 * kRadPerArcsec}};
+  const PointsData points = Simulate(spec);
+  ASSERT_GT(points.samples.size(), 4096u);
+  const std::vector<MotionDirection> approach = MotionDirections(points.samples);
+  ASSERT_EQ(approach[4096].theta, -1);
+  ASSERT_EQ(approach[4097].theta, 1);
+  EffectModel model;
+  model.terms = {DefaultTerm(Effect::kThetaReversal)};
+  model.reference = EffectReferenceOf(points.samples);
+  const EffectFit fit =
+      FitEffects(points, PaperOptions(), model, EffectFitStart::From(Calibrate(points, PaperOptions())));
+  const std::vector<double> expected = ExpectedReadings(points, PaperOptions(), fit);
+  PointsData at = points;
+  for (std::size_t i = 0; i < points.samples.size(); ++i) at.samples[i].r_mm = expected[i];
+  double largest = 0.0;
+  for (const double e : EffectResiduals(at, PaperOptions(), fit)) largest = std::max(largest, std::abs(e));
+  EXPECT_LT(largest, 1e-12);
+}
+
 TEST(TraceResidual, AddsNothingToDataWithoutEffects) {
   const TraceResult r = Trace(Simulate(SimulationSpec{}));
   EXPECT_TRUE(r.added.empty()) << Describe(r);
