@@ -4,13 +4,14 @@
 // placement, with the sphere in three orientations on its mount, in five placements, in five
 // placements beside a second sphere of another radius, in five placements of one sphere that
 // reach 15 mm up and 6 mm out, and in one placement scanned in shuffled order (Design()), at two
-// noise levels. A study program, run by hand
+// noise levels; and the reversal value of each axis (2, 4, 8 arcsec) in one placement scanned ring
+// by ring and in serpentine. A study program, run by hand
 // (docs/validation.md, "The separation matrix"):
 //
 //   build/bench/separation_matrix [RUNS] [FILTER...]   (default 5 runs per cell, seeds 1..RUNS)
 //
-// Each FILTER narrows the cells run: "one", "three", "five", "spheres", "high" or "shuffled" (the
-// design), "form" or "noform",
+// Each FILTER narrows the cells run: "one", "three", "five", "spheres", "high", "shuffled" or
+// "serpentine" (the design), "form" or "noform",
 // "0.03" or "0.05" (sigma), or any other word, which the effects' names must contain (e.g.
 // "phi_encoder+probe_gain"). "-v" prints each run's effects added and its candidates' notes.
 // "hold" runs the trace with TraceOptions::hold_confounded: of two effects it cannot tell
@@ -69,24 +70,35 @@ const std::map<Effect, Simulated>& Library() {
       {Effect::kPhiAxialMotion, {Effect::kPhiAxialMotion, {2, 0, false}, 2 * um}},
       {Effect::kThetaTiltMotion, {Effect::kThetaTiltMotion, {2, 0, false}, 10 * as}},
       {Effect::kProbeIncidence, {Effect::kProbeIncidence, {1, 0, false}, 30 * um}},
+      {Effect::kThetaReversal, {Effect::kThetaReversal, {1, 0, false}, 0.0}},  // of the size of its case
+      {Effect::kPhiReversal, {Effect::kPhiReversal, {1, 0, false}, 0.0}},
   };
   return library;
 }
 
 struct Case {
-  std::string group;  // "single", "pair", "three"
+  std::string group;  // "single", "pair", "three", "reversal"
   std::vector<Effect> effects;
+  double arcsec = 0.0;  // a reversal case: its value b [arcsec] instead of the library's size
 };
 
 std::vector<Case> Cases() {
   std::vector<Case> cases;
-  for (const auto& [e, s] : Library()) cases.push_back({"single", {e}});
+  for (const auto& [e, s] : Library()) {
+    if (!sph::IsReversal(e)) cases.push_back({"single", {e}});  // the reversals have cases of their own
+  }
   const std::vector<Effect> six{Effect::kThetaEncoder, Effect::kPhiEncoder, Effect::kThetaRadialMotion,
                                 Effect::kProbeDrift,   Effect::kProbeGain,  Effect::kProbeNonlinearity};
   for (std::size_t i = 0; i < six.size(); ++i) {
     for (std::size_t j = i + 1; j < six.size(); ++j) cases.push_back({"pair", {six[i], six[j]}});
   }
   cases.push_back({"three", {Effect::kThetaEncoder, Effect::kProbeDrift, Effect::kProbeNonlinearity}});
+  // The reversal value of each axis at three sizes, run in designs "one" (ring order: every reading
+  // approached the same way, the reversal a constant offset of the axis, which its zero takes: not
+  // identifiable) and "serpentine" (the axis' direction alternating) only.
+  for (const Effect e : {Effect::kThetaReversal, Effect::kPhiReversal}) {
+    for (const double b : {2.0, 4.0, 8.0}) cases.push_back({"reversal", {e}, b});
+  }
   return cases;
 }
 
@@ -110,11 +122,18 @@ std::vector<Case> Cases() {
 // reads over a span of about 30 mm.
 // "shuffled" (run only when named): "one" scanned in shuffled order, which breaks the link between
 // the time of a reading and its direction on the sphere: a drift is then no pattern on the sphere.
-enum class Setups { kOne, kThree, kFive, kSpheres, kHigh, kShuffled };
-constexpr Setups kAllSetups[] = {Setups::kOne,     Setups::kThree, Setups::kFive,
-                                 Setups::kSpheres, Setups::kHigh,  Setups::kShuffled};
+// "serpentine" (the reversal cases only, and the others when named): "one" scanned so that the
+// direction of the axis alternates, ring to ring for Theta (serpentine), column to column for Phi
+// (serpentine-columns), the Phi cases in the latter, every other case in the former.
+enum class Setups { kOne, kThree, kFive, kSpheres, kHigh, kShuffled, kSerpentine };
+constexpr Setups kAllSetups[] = {Setups::kOne,  Setups::kThree,    Setups::kFive,      Setups::kSpheres,
+                                 Setups::kHigh, Setups::kShuffled, Setups::kSerpentine};
 // The designs beyond the main three, run only when named.
-bool OnlyWhenNamed(Setups s) { return s == Setups::kSpheres || s == Setups::kHigh || s == Setups::kShuffled; }
+bool OnlyWhenNamed(Setups s) {
+  return s == Setups::kSpheres || s == Setups::kHigh || s == Setups::kShuffled || s == Setups::kSerpentine;
+}
+// The designs of a reversal case: one placement, in ring order and in serpentine.
+bool ReversalDesign(Setups s) { return s == Setups::kOne || s == Setups::kSerpentine; }
 const char* SetupsName(Setups s) {
   switch (s) {
     case Setups::kOne:
@@ -129,6 +148,8 @@ const char* SetupsName(Setups s) {
       return "high";
     case Setups::kShuffled:
       return "shuffled";
+    case Setups::kSerpentine:
+      return "serpentine";
   }
   return "";
 }
@@ -138,6 +159,10 @@ sph::SimulationSpec Design(const Case& c, bool form, Setups setups, double noise
   spec.seed = seed;
   spec.noise_r_um = noise_um;
   if (setups == Setups::kShuffled) spec.scan_order = sph::ScanOrder::kShuffled;
+  if (setups == Setups::kSerpentine) {
+    const bool phi = std::find(c.effects.begin(), c.effects.end(), Effect::kPhiReversal) != c.effects.end();
+    spec.scan_order = phi ? sph::ScanOrder::kSerpentineColumns : sph::ScanOrder::kSerpentine;
+  }
   if (setups == Setups::kThree) {
     spec.centers_mm.assign(3, Eigen::Vector3d(2, 0, 0));
     spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {90, 0, 0}}};
@@ -167,7 +192,7 @@ sph::SimulationSpec Design(const Case& c, bool form, Setups setups, double noise
   for (const Effect e : c.effects) {
     const Simulated& s = Library().at(e);
     spec.effects.model.terms.push_back({s.effect, {s.component}});
-    spec.effects.values.push_back({s.value});
+    spec.effects.values.push_back({c.arcsec != 0.0 ? -c.arcsec * sph::kRadPerArcsec : s.value});
   }
   if (form) spec.effects.form = sph::bench::Form28();
   return spec;
@@ -214,11 +239,14 @@ double Median(std::vector<double> v) {
   return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-std::string Name(const std::vector<Effect>& effects) {
+std::string Name(const Case& c) {
   std::string s;
-  for (const Effect e : effects) s += (s.empty() ? "" : "+") + std::string(sph::InfoOf(e).id);
+  for (const Effect e : c.effects) s += (s.empty() ? "" : "+") + std::string(sph::InfoOf(e).id);
+  if (c.arcsec != 0.0) s += " " + std::to_string(static_cast<int>(c.arcsec)) + "arcsec";
   return s;
 }
+
+std::string Name(const std::vector<Effect>& effects) { return Name(Case{"", effects}); }
 
 struct Tally {
   int runs = 0, right = 0, wrong = 0;
@@ -236,10 +264,15 @@ struct Filter {
 
   bool Wants(const Case& c, Setups setups_, bool form, double noise) const {
     const auto in = [](const std::set<std::string>& s, const std::string& v) { return s.empty() || s.count(v) > 0; };
-    const std::string name = Name(c.effects);
+    const std::string name = Name(c);
     for (const std::string& n : names) {
       if (name.find(n) == std::string::npos) return false;
     }
+    // A reversal case only in its designs, there whether named or not; the other cases not in "serpentine"
+    // unless it is named.
+    if (c.group == "reversal")
+      return ReversalDesign(setups_) && in(forms, form ? "form" : "noform") &&
+             in(sigmas, noise < 0.04 ? "0.03" : "0.05") && (setups.empty() || setups.count(SetupsName(setups_)) > 0);
     // "spheres", "high" and "shuffled" run only when asked for (docs/validation.md lists them apart).
     if (OnlyWhenNamed(setups_) && setups.count(SetupsName(setups_)) == 0) return false;
     return in(setups, SetupsName(setups_)) && in(forms, form ? "form" : "noform") &&
@@ -322,7 +355,9 @@ int main(int argc, char** argv) {
       "degrees 2..8; three: the sphere also turned by 90 deg about z and tilted by 90 deg about x; five: and\n"
       "at other eccentricities, azimuths and a height; spheres (only when named): five, one at 6 mm, and a\n"
       "second sphere of 10 mm in two orientations; high (only when named): five, one at 15 mm up, one at\n"
-      "6 mm; shuffled (only when named): one, scanned in shuffled order (bench/separation_matrix.cpp, Design())\n",
+      "6 mm; shuffled (only when named): one, scanned in shuffled order; serpentine: one, the axis' direction\n"
+      "alternating (reversal cases: a backlash of 2, 4, 8 arcsec, b = -2, -4, -8 arcsec, in one and\n"
+      "serpentine only) (bench/separation_matrix.cpp, Design())\n",
       runs, runs);
   if (filter.hold) std::printf("hold: of two effects the trace cannot tell apart it adds neither\n");
   if (filter.confounded) return RunConfoundedCells(runs, filter, o, trace);
@@ -384,9 +419,9 @@ int main(int argc, char** argv) {
           }
           std::string list;
           for (const auto& [id, k] : counts) list += id + " " + std::to_string(k) + "  ";
-          std::printf("%-52s %-5s %-6s %5.2f %5d %6d %6d %7d %8.3f %8.3f  %s\n", Name(c.effects).c_str(),
-                      form ? "yes" : "no", SetupsName(setups), noise, t.runs, t.right, t.wrong, t.flagged,
-                      Median(t.form_ratio), Median(t.cv_over_sigma), list.c_str());
+          std::printf("%-52s %-5s %-6s %5.2f %5d %6d %6d %7d %8.3f %8.3f  %s\n", Name(c).c_str(), form ? "yes" : "no",
+                      SetupsName(setups), noise, t.runs, t.right, t.wrong, t.flagged, Median(t.form_ratio),
+                      Median(t.cv_over_sigma), list.c_str());
           std::fflush(stdout);
           Tally& s =
               summary[c.group + (form ? " form " : " - ") + SetupsName(setups) + (noise < 0.04 ? " 0.03" : " 0.05")];

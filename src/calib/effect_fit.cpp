@@ -181,8 +181,10 @@ EffectFit FitEffects(const PointsData& points, const CalibrationOptions& options
   return internal::FitEffectsRows(points, internal::ReadingTable(points), nullptr, options, model, start);
 }
 
-std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const CalibrationOptions& options,
-                                               const EffectFit& fit) {
+namespace internal {
+
+std::vector<Eigen::Vector3d> OffsetsFromCentreOf(const PointsData& points, const CalibrationOptions& options,
+                                                 const EffectFit& fit, const std::vector<MotionDirection>& approach) {
   const std::map<int, std::size_t> setup_index = internal::IndexOfSetups(fit.calibration.setup_ids);
   const CalibrationResult& cal = fit.calibration;
   std::vector<const double*> blocks;
@@ -190,27 +192,41 @@ std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const C
   const ScmsErrorTrig<double> trig = ErrorTrigOf(cal.geometry.data());
   std::vector<Eigen::Vector3d> out;
   out.reserve(points.samples.size());
-  for (const Sample& s : points.samples) {
+  for (std::size_t i = 0; i < points.samples.size(); ++i) {
+    const Sample& s = points.samples[i];
     const auto it = setup_index.find(s.setup);
     if (it == setup_index.end()) {
       throw Error(points.source + ": setup " + std::to_string(s.setup) + " is not one of the calibration's");
     }
     const Eigen::Vector3d& center = cal.centers_mm[it->second];
-    const Eigen::Vector3d p = EffectScmsPoint(cal.geometry.data(), trig, fit.model, blocks.data(),
-                                              EffectReading(s, s.t_s), options.probe_offset_mm, nullptr, center.data());
+    const Eigen::Vector3d p =
+        EffectScmsPoint(cal.geometry.data(), trig, fit.model, blocks.data(), EffectReading(s, s.t_s, approach[i]),
+                        options.probe_offset_mm, nullptr, center.data());
     out.push_back(p - center);
   }
   return out;
 }
 
-std::vector<double> EffectResiduals(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
+std::vector<double> EffectResidualsOf(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                                      const std::vector<MotionDirection>& approach) {
   std::vector<double> out;
-  const std::vector<Eigen::Vector3d> offsets = OffsetsFromCentre(points, options, fit);
+  const std::vector<Eigen::Vector3d> offsets = OffsetsFromCentreOf(points, options, fit, approach);
   for (std::size_t i = 0; i < offsets.size(); ++i) {
     out.push_back(offsets[i].norm() - options.SphereRadiusMm(points.samples[i].setup) -
                   FormAt(fit, points.samples[i].setup, offsets[i]));
   }
   return out;
+}
+
+}  // namespace internal
+
+std::vector<Eigen::Vector3d> OffsetsFromCentre(const PointsData& points, const CalibrationOptions& options,
+                                               const EffectFit& fit) {
+  return internal::OffsetsFromCentreOf(points, options, fit, MotionDirections(points.samples));
+}
+
+std::vector<double> EffectResiduals(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
+  return internal::EffectResidualsOf(points, options, fit, MotionDirections(points.samples));
 }
 
 }  // namespace sph

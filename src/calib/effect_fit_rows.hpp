@@ -23,6 +23,14 @@ std::vector<Eigen::Vector3d> CentersFor(const ReadingTable& table, const RowsOfS
                                         const std::vector<int>& fit_ids, const std::vector<Eigen::Vector3d>& centers,
                                         const std::string& source);
 
+/// OffsetsFromCentre() and EffectResiduals() of samples whose directions of approach are
+/// `approach` (one per sample), for a part of a file: MotionDirections() of the part alone would
+/// give its first rows the direction of their own first move.
+std::vector<Eigen::Vector3d> OffsetsFromCentreOf(const PointsData& points, const CalibrationOptions& options,
+                                                 const EffectFit& fit, const std::vector<MotionDirection>& approach);
+std::vector<double> EffectResidualsOf(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                                      const std::vector<MotionDirection>& approach);
+
 /// (J^T J)^-1 of `fit`'s model at its parameters, over every sample of `table`.
 NormalInverse NormalInverseAt(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit);
 

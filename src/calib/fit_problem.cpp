@@ -50,7 +50,7 @@ enum Target : int {
 };
 
 // The basis function of one component.
-enum class Basis { kThetaHarmonic, kPhiHarmonic, kU, kTau, kIncidence };
+enum class Basis { kThetaHarmonic, kPhiHarmonic, kU, kTau, kIncidence, kThetaDirection, kPhiDirection };
 
 struct Component {
   Target target;
@@ -62,8 +62,10 @@ struct Component {
 Target TargetOf(Effect e, int axis) {
   switch (e) {
     case Effect::kThetaEncoder:
+    case Effect::kThetaReversal:
       return kDTheta;
     case Effect::kPhiEncoder:
+    case Effect::kPhiReversal:
       return kDPhi;
     case Effect::kThetaRadialMotion:
       return axis == 0 ? kMotionX : kMotionY;
@@ -90,6 +92,8 @@ Basis BasisOf(Effect e) {
   const EffectInfo& info = InfoOf(e);
   if (info.harmonic) return std::strcmp(info.variable, "theta") == 0 ? Basis::kThetaHarmonic : Basis::kPhiHarmonic;
   if (e == Effect::kProbeIncidence) return Basis::kIncidence;
+  if (e == Effect::kThetaReversal) return Basis::kThetaDirection;
+  if (e == Effect::kPhiReversal) return Basis::kPhiDirection;
   return e == Effect::kProbeDrift ? Basis::kTau : Basis::kU;
 }
 
@@ -350,7 +354,10 @@ Eigen::Vector3d BeamAt(bool wobble, bool tilt, const ScmsErrorTrig<double>& et, 
 
 ReadingTable::ReadingTable(const PointsData& points) {
   const std::size_t m = points.samples.size();
-  for (auto* v : {&theta_rad, &phi_rad, &cos_theta, &sin_theta, &cos_phi, &sin_phi, &r_mm, &t_s}) v->resize(m);
+  for (auto* v : {&theta_rad, &phi_rad, &cos_theta, &sin_theta, &cos_phi, &sin_phi, &r_mm, &t_s, &theta_half_direction,
+                  &phi_half_direction})
+    v->resize(m);
+  const std::vector<MotionDirection> directions = MotionDirections(points.samples);
   setup.resize(m);
   setup_ids = points.SetupIds();
   const std::map<int, std::size_t> index = IndexOfSetups(setup_ids);
@@ -365,6 +372,8 @@ ReadingTable::ReadingTable(const PointsData& points) {
     sin_phi[i] = p.sin;
     r_mm[i] = s.r_mm;
     t_s[i] = s.t_s;
+    theta_half_direction[i] = 0.5 * directions[i].theta;
+    phi_half_direction[i] = 0.5 * directions[i].phi;
     setup[i] = index.size() == 1 ? 0 : static_cast<int>(index.at(s.setup));
   }
 }
@@ -399,12 +408,13 @@ struct SphereFitProblem::Scratch {
   // The effects' inputs of each row (Target order) and the basis functions.
   alignas(64) double target[kNumTargets][kRows];
   alignas(64) double u_pow[3][kRows], tau_pow[3][kRows], incidence_pow[kMaxIncidenceOrder][kRows];
-  std::vector<double> theta_harmonics, phi_harmonics;  // cos k, sin k for k = 1.., kRows each
-  std::vector<const double*> basis;                    // per effect parameter: its values in the block
-  std::vector<double> cols;                            // local Jacobian columns and e last, kRows each
-  std::vector<double> gram;                            // (cols + 1)^2, lower triangle
-  std::vector<double> global;                          // num_params x kRows for the factor
-  std::vector<Component> components;                   // per effect parameter
+  alignas(64) double theta_direction[kRows], phi_direction[kRows];  // half of each, the reversal terms' basis
+  std::vector<double> theta_harmonics, phi_harmonics;               // cos k, sin k for k = 1.., kRows each
+  std::vector<const double*> basis;                                 // per effect parameter: its values in the block
+  std::vector<double> cols;                                         // local Jacobian columns and e last, kRows each
+  std::vector<double> gram;                                         // (cols + 1)^2, lower triangle
+  std::vector<double> global;                                       // num_params x kRows for the factor
+  std::vector<Component> components;                                // per effect parameter
   int theta_orders = 0, phi_orders = 0;
   bool theta_encoder = false, phi_encoder = false, wobble = false, tilt = false;
   int incidence = -1;  // the first effect parameter of the probe_incidence term, or -1
@@ -454,8 +464,8 @@ SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, 
       if (comp.basis == Basis::kThetaHarmonic) s.theta_orders = std::max(s.theta_orders, c.order);
       if (comp.basis == Basis::kPhiHarmonic) s.phi_orders = std::max(s.phi_orders, c.order);
     }
-    s.theta_encoder |= term.effect == Effect::kThetaEncoder;
-    s.phi_encoder |= term.effect == Effect::kPhiEncoder;
+    s.theta_encoder |= term.effect == Effect::kThetaEncoder || term.effect == Effect::kThetaReversal;
+    s.phi_encoder |= term.effect == Effect::kPhiEncoder || term.effect == Effect::kPhiReversal;
     s.wobble |= term.effect == Effect::kPhiWobble;
     s.tilt |= term.effect == Effect::kThetaTiltMotion;
   }
@@ -480,6 +490,12 @@ SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, 
         break;
       case Basis::kIncidence:
         s.basis[p] = s.incidence_pow[c.order - 1];
+        break;
+      case Basis::kThetaDirection:
+        s.basis[p] = s.theta_direction;
+        break;
+      case Basis::kPhiDirection:
+        s.basis[p] = s.phi_direction;
         break;
     }
   }
@@ -541,6 +557,8 @@ void SphereFitProblem::BlockBasis(const std::uint32_t* idx, int count) const {
     s.theta[i] = table_.theta_rad[idx[i]];
     s.phi[i] = table_.phi_rad[idx[i]];
     s.t[i] = table_.t_s[idx[i]];
+    s.theta_direction[i] = table_.theta_half_direction[idx[i]];
+    s.phi_direction[i] = table_.phi_half_direction[idx[i]];
   }
   Harmonics(count, s.theta_orders, s.ct, s.st, s.theta_harmonics.data());
   Harmonics(count, s.phi_orders, s.cp, s.sp, s.phi_harmonics.data());

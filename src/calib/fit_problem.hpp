@@ -66,6 +66,8 @@ inline std::map<int, std::size_t> IndexOfSetups(const std::vector<int>& ids) {
 /// The samples of a points file as the fits read them, one array per quantity, in file order.
 struct ReadingTable {
   std::vector<double> theta_rad, phi_rad, cos_theta, sin_theta, cos_phi, sin_phi, r_mm, t_s;
+  /// Half the direction of approach of each axis (MotionDirections()), the reversal terms' basis.
+  std::vector<double> theta_half_direction, phi_half_direction;
   std::vector<int> setup;      ///< index into setup_ids of each sample
   std::vector<int> setup_ids;  ///< ascending
 

@@ -558,4 +558,45 @@ void WritePointsFile(const std::string& path, const PointsData& data) {
   WriteFileAtomically(path, [&](std::ostream& out) { WritePoints(out, data); });
 }
 
+std::vector<MotionDirection> MotionDirections(const std::vector<Sample>& samples) {
+  std::vector<MotionDirection> out(samples.size());
+  // Per setup and axis: the previous row's reading, the direction of the last move, and the rows
+  // before the first move, which take its direction.
+  struct Axis {
+    double last = 0.0;
+    int direction = 0;
+    std::vector<std::size_t> waiting;
+  };
+  struct Setup {
+    bool started = false;
+    Axis axes[2];
+  };
+  std::map<int, Setup> setups;
+  auto step = [&](Axis& a, bool started, double value, std::size_t i, int MotionDirection::*field) {
+    const double move = std::remainder(value - a.last, 360.0);  // the shorter way round
+    if (started && std::abs(move) > kStandstillDeg) {
+      a.direction = move > 0.0 ? 1 : -1;
+      for (const std::size_t w : a.waiting) out[w].*field = a.direction;
+      a.waiting.clear();
+    }
+    if (a.direction == 0) {
+      a.waiting.push_back(i);
+    } else {
+      out[i].*field = a.direction;
+    }
+    a.last = value;
+  };
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    Setup& s = setups[samples[i].setup];
+    step(s.axes[0], s.started, samples[i].theta_deg, i, &MotionDirection::theta);
+    step(s.axes[1], s.started, samples[i].phi_deg, i, &MotionDirection::phi);
+    s.started = true;
+  }
+  for (const auto& setup : setups) {
+    for (const std::size_t w : setup.second.axes[0].waiting) out[w].theta = 1;
+    for (const std::size_t w : setup.second.axes[1].waiting) out[w].phi = 1;
+  }
+  return out;
+}
+
 }  // namespace sph

@@ -229,17 +229,19 @@ const char* ScanOrderName(ScanOrder order) {
       return "serpentine";
     case ScanOrder::kColumns:
       return "columns";
+    case ScanOrder::kSerpentineColumns:
+      return "serpentine-columns";
     case ScanOrder::kShuffled:
       return "shuffled";
   }
   return "?";
 }
 
-const char* ScanOrderNames() { return "rings reversed serpentine columns shuffled"; }
+const char* ScanOrderNames() { return "rings reversed serpentine columns serpentine-columns shuffled"; }
 
 bool ScanOrderFromName(std::string_view name, ScanOrder* order) {
-  for (ScanOrder o :
-       {ScanOrder::kRings, ScanOrder::kReversed, ScanOrder::kSerpentine, ScanOrder::kColumns, ScanOrder::kShuffled}) {
+  for (ScanOrder o : {ScanOrder::kRings, ScanOrder::kReversed, ScanOrder::kSerpentine, ScanOrder::kColumns,
+                      ScanOrder::kSerpentineColumns, ScanOrder::kShuffled}) {
     if (name == ScanOrderName(o)) {
       *order = o;
       return true;
@@ -275,7 +277,8 @@ std::vector<AnglePair> InScanOrder(const std::vector<AnglePair>& pattern, ScanOr
       }
       break;
     }
-    case ScanOrder::kColumns: {
+    case ScanOrder::kColumns:
+    case ScanOrder::kSerpentineColumns: {
       std::map<double, std::size_t> column_of;  // theta -> its column, numbered in order of appearance
       std::vector<std::vector<AnglePair>> columns;
       for (const AnglePair& a : pattern) {
@@ -283,7 +286,13 @@ std::vector<AnglePair> InScanOrder(const std::vector<AnglePair>& pattern, ScanOr
         if (added) columns.emplace_back();
         columns[it->second].push_back(a);
       }
-      for (const auto& c : columns) out.insert(out.end(), c.begin(), c.end());
+      for (std::size_t k = 0; k < columns.size(); ++k) {
+        if (order == ScanOrder::kSerpentineColumns && k % 2 == 1) {
+          out.insert(out.end(), columns[k].rbegin(), columns[k].rend());
+        } else {
+          out.insert(out.end(), columns[k].begin(), columns[k].end());
+        }
+      }
       break;
     }
     case ScanOrder::kShuffled: {
@@ -394,12 +403,16 @@ Eigen::Matrix3d RotationOfVectorDeg(const Eigen::Vector3d& rotation_deg) {
 std::optional<double> TrueProbeDistance(const ScmsGeometry& g, const SimulatedEffects& e, double theta_rad,
                                         double phi_rad, double probe_offset_mm, const Eigen::Vector3d& center_mm,
                                         double sphere_radius_mm, const Eigen::Matrix3d& body_to_theta,
-                                        double* sin2_incidence) {
+                                        double* sin2_incidence, MotionDirection approach) {
   using Eigen::AngleAxisd;
   using Eigen::Translation3d;
   using Eigen::Vector3d;
-  const double theta = theta_rad + EffectValue(e, Effect::kThetaEncoder, 0, theta_rad);
-  const double phi = phi_rad + EffectValue(e, Effect::kPhiEncoder, 0, phi_rad);
+  // Where the axes stand: off their readings by the encoder's error and half the reversal value
+  // in the direction of approach.
+  const double theta = theta_rad + EffectValue(e, Effect::kThetaEncoder, 0, theta_rad) +
+                       0.5 * approach.theta * EffectValue(e, Effect::kThetaReversal, 0, 1.0);
+  const double phi = phi_rad + EffectValue(e, Effect::kPhiEncoder, 0, phi_rad) +
+                     0.5 * approach.phi * EffectValue(e, Effect::kPhiReversal, 0, 1.0);
   const Vector3d motion(EffectValue(e, Effect::kThetaRadialMotion, 0, theta_rad),
                         EffectValue(e, Effect::kThetaRadialMotion, 1, theta_rad),
                         EffectValue(e, Effect::kThetaAxialMotion, 0, theta_rad));
@@ -624,6 +637,32 @@ std::vector<AnglePair> ScanOfSetup(const SimulationSpec& spec, std::size_t k) {
                      ScanSeed(spec.seed, k));
 }
 
+// The direction in which each axis comes to each position of `scan` (commanded positions, in time
+// order): the sign of its move from the previous position, the shorter way round; standing, that of its last move;
+// before its first move, that of the first; +1 for an axis that never moves.
+std::vector<MotionDirection> ApproachOfScan(const std::vector<AnglePair>& scan) {
+  std::vector<MotionDirection> out(scan.size());
+  auto fill = [&](double AnglePair::*angle, int MotionDirection::*dir) {
+    int last = 0;
+    for (std::size_t i = 1; i < scan.size(); ++i) {
+      const double move = std::remainder(scan[i].*angle - scan[i - 1].*angle, 360.0);  // the shorter way
+      if (move != 0.0) last = move > 0.0 ? 1 : -1;
+      out[i].*dir = last;
+    }
+    int first = 1;
+    for (const MotionDirection& d : out) {
+      if (d.*dir != 0) {
+        first = d.*dir;
+        break;
+      }
+    }
+    for (std::size_t i = 0; i < scan.size() && out[i].*dir == 0; ++i) out[i].*dir = first;
+  };
+  fill(&AnglePair::theta_deg, &MotionDirection::theta);
+  fill(&AnglePair::phi_deg, &MotionDirection::phi);
+  return out;
+}
+
 // Appends the exact probe distances of setup k, in its scan order, to `data`, and the sin^2 of each
 // beam's incidence on the surface to `sin2_incidence`; throws when a beam misses the sphere.
 void AppendSetupDistances(const SimulationSpec& spec, std::size_t k, PointsData& data,
@@ -638,10 +677,14 @@ void AppendSetupDistances(const SimulationSpec& spec, std::size_t k, PointsData&
     effects.flats.clear();
     effects.bumps.clear();
   }
-  for (const AnglePair& a : ScanOfSetup(spec, k)) {
+  const std::vector<AnglePair> scan = ScanOfSetup(spec, k);
+  const std::vector<MotionDirection> approach = ApproachOfScan(scan);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const AnglePair& a = scan[i];
     double sin2 = 0.0;
-    const auto r = TrueProbeDistance(spec.truth, effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg,
-                                     spec.probe_offset_mm, spec.centers_mm[k], radius_mm, body_to_theta, &sin2);
+    const auto r =
+        TrueProbeDistance(spec.truth, effects, a.theta_deg * kRadPerDeg, a.phi_deg * kRadPerDeg, spec.probe_offset_mm,
+                          spec.centers_mm[k], radius_mm, body_to_theta, &sin2, approach[i]);
     sin2_incidence.push_back(sin2);
     if (!r) {
       throw Error("simulation: the probe ray misses the sphere at theta " + std::to_string(a.theta_deg) + " deg, phi " +

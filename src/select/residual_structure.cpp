@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "block_factor.hpp"
+#include "effect_fit_rows.hpp"
 #include "sph/core/gum.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/row_qr.hpp"
@@ -22,6 +23,7 @@ using internal::Format;
 constexpr int kThetaHarmonics = 8;
 constexpr int kPhiTerms = 6;
 constexpr int kPowers = 3;
+constexpr int kDirectionTerms = 6;  // d_theta (1, cos theta, sin theta), d_phi (1, cos phi, sin phi)
 constexpr int kSphereDegree = 5;
 // A function whose remainder off the Jacobian (and the functions kept before it) is below this
 // fraction of itself is dropped (see Regress()).
@@ -113,7 +115,7 @@ int ResidualStructure::Strongest() const {
 namespace {
 
 constexpr int kSphereFunctions = (kSphereDegree + 1) * (kSphereDegree + 1) - 4;  // degrees 2..5
-constexpr int kFunctions = 2 * kThetaHarmonics + kPhiTerms + 2 * kPowers + kSphereFunctions;
+constexpr int kFunctions = 2 * kThetaHarmonics + kPhiTerms + 2 * kPowers + kDirectionTerms + kSphereFunctions;
 constexpr int kSphereFirst = kFunctions - kSphereFunctions;  // the sphere group is the last
 
 // The groups of functions of the readings (see the header), as columns first.. first + count of
@@ -124,14 +126,22 @@ struct Group {
   std::vector<std::string> names;
 };
 
+constexpr std::size_t kSphereGroup = 5;
+
 const std::vector<Group>& Groups() {
   static const std::vector<Group> groups = [] {
-    std::vector<Group> g(5);
+    std::vector<Group> g(6);
     g[0] = {"theta", "harmonics k = 1.." + std::to_string(kThetaHarmonics) + " of theta", 0, 2 * kThetaHarmonics, {}};
     g[1] = {"phi", "cos(k phi), k = 1.." + std::to_string(kPhiTerms), 2 * kThetaHarmonics, kPhiTerms, {}};
     g[2] = {"r", "powers 1..3 of the probe reading", g[1].first + kPhiTerms, kPowers, {}};
     g[3] = {"t", "powers 1..3 of the acquisition time", g[2].first + kPowers, kPowers, {}};
-    g[4] = {"sphere",
+    g[4] = {"direction",
+            "the direction of motion: d_theta and d_theta cos, sin theta; d_phi and d_phi cos, sin phi (d = +-1, "
+            "the direction in which the axis approached the reading)",
+            g[3].first + kPowers,
+            kDirectionTerms,
+            {"d_theta", "d_theta cos(theta)", "d_theta sin(theta)", "d_phi", "d_phi cos(phi)", "d_phi sin(phi)"}};
+    g[5] = {"sphere",
             "spherical harmonics of degree 2.." + std::to_string(kSphereDegree) +
                 " of the direction from the centre (a pattern fixed on the sphere)",
             kSphereFirst,
@@ -147,7 +157,7 @@ const std::vector<Group>& Groups() {
       g[3].names.push_back("tau^" + std::to_string(k));
     }
     for (int l = 2; l <= kSphereDegree; ++l) {
-      for (int mm = -l; mm <= l; ++mm) g[4].names.push_back("S(" + std::to_string(l) + "," + std::to_string(mm) + ")");
+      for (int mm = -l; mm <= l; ++mm) g[5].names.push_back("S(" + std::to_string(l) + "," + std::to_string(mm) + ")");
     }
     return g;
   }();
@@ -155,9 +165,10 @@ const std::vector<Group>& Groups() {
 }
 
 // The kFunctions functions at one sample, harmonics by the angle-addition recurrence; u of the
-// reading at which the fit's residual vanishes, `expected_r_mm` (see the header).
-void FunctionsAt(const Sample& s, double expected_r_mm, const EffectReference& ref, const Eigen::Vector3d& dir,
-                 SchmidtHarmonics& sphere, double* out) {
+// reading at which the fit's residual vanishes, `expected_r_mm` (see the header); `approach` the
+// direction in which its axes came to it.
+void FunctionsAt(const Sample& s, double expected_r_mm, const EffectReference& ref, MotionDirection approach,
+                 const Eigen::Vector3d& dir, SchmidtHarmonics& sphere, double* out) {
   auto harmonics = [](double angle, int orders, double* cos_k, double* sin_k) {
     const double c1 = std::cos(angle), s1 = std::sin(angle);
     double c = c1, sn = s1;
@@ -184,6 +195,14 @@ void FunctionsAt(const Sample& s, double expected_r_mm, const EffectReference& r
     powers[k] = k == 0 ? u : powers[k - 1] * u;
     powers[kPowers + k] = k == 0 ? tau : powers[kPowers + k - 1] * tau;
   }
+  double* direction = powers + 2 * kPowers;
+  const double dt = approach.theta, dp = approach.phi;
+  direction[0] = dt;
+  direction[1] = dt * cos_k[0];
+  direction[2] = dt * std::sin(s.theta_rad());
+  direction[3] = dp;
+  direction[4] = dp * phi[0];
+  direction[5] = dp * std::sin(s.phi_rad());
   sphere.Evaluate(dir.x(), dir.y(), dir.z(), out + kSphereFirst);
 }
 
@@ -243,16 +262,22 @@ std::vector<double> ExpectedReadings(const PointsData& points, const Calibration
   PointsData at;
   at.source = points.source;
   at.header = points.header;
+  const std::vector<MotionDirection> approach = MotionDirections(points.samples);  // of the whole file
+  std::vector<MotionDirection> approach_of_block;
   for (std::size_t first = 0; first < points.samples.size(); first += kBlock) {
     const auto begin = points.samples.begin() + static_cast<std::ptrdiff_t>(first);
-    at.samples.assign(begin, begin + static_cast<std::ptrdiff_t>(std::min(kBlock, points.samples.size() - first)));
-    std::vector<double> prev_r(at.samples.size()), prev_e = EffectResiduals(at, options, fit);
+    const auto count = static_cast<std::ptrdiff_t>(std::min(kBlock, points.samples.size() - first));
+    at.samples.assign(begin, begin + count);
+    approach_of_block.assign(approach.begin() + static_cast<std::ptrdiff_t>(first),
+                             approach.begin() + static_cast<std::ptrdiff_t>(first) + count);
+    std::vector<double> prev_r(at.samples.size()),
+        prev_e = internal::EffectResidualsOf(at, options, fit, approach_of_block);
     for (std::size_t i = 0; i < at.samples.size(); ++i) {
       prev_r[i] = at.samples[i].r_mm;
       at.samples[i].r_mm += prev_e[i];
     }
     for (int step = 0; step < kMaxSteps; ++step) {
-      const std::vector<double> e = EffectResiduals(at, options, fit);
+      const std::vector<double> e = internal::EffectResidualsOf(at, options, fit, approach_of_block);
       bool moved = false;
       for (std::size_t i = 0; i < e.size(); ++i) {
         double& r = at.samples[i].r_mm;
@@ -317,6 +342,18 @@ StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vect
   };
   std::vector<double> block, functions(kFunctions);
   SchmidtHarmonics sphere(2, kSphereDegree);
+  // An axis approached the same way at every reading has no direction to test: its functions are
+  // left out (zero), for they would only repeat the other groups' (d_theta cos theta = cos theta).
+  std::vector<MotionDirection> approach = MotionDirections(fit.points.samples);
+  bool theta_turns = false, phi_turns = false;
+  for (const MotionDirection& d : approach) {
+    theta_turns |= d.theta != approach.front().theta;
+    phi_turns |= d.phi != approach.front().phi;
+  }
+  for (MotionDirection& d : approach) {
+    if (!theta_turns) d.theta = 0;
+    if (!phi_turns) d.phi = 0;
+  }
   fit.jacobian.ForEach([&](const std::uint32_t* samples, int count, const double* jac, int stride, int group) {
     if (eliminate && group != current) {
       fold_group();
@@ -333,8 +370,8 @@ StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vect
         for (int k = 0; k < 3; ++k) *row++ = in[own_first + k];
       }
       for (Eigen::Index j = 0; j < ns; ++j) row[j] = in[shared[static_cast<std::size_t>(j)]];
-      FunctionsAt(fit.points.samples[sample], fit.expected_r_mm[sample], fit.reference, fit.directions[sample], sphere,
-                  functions.data());
+      FunctionsAt(fit.points.samples[sample], fit.expected_r_mm[sample], fit.reference, approach[sample],
+                  fit.directions[sample], sphere, functions.data());
       if (factor.has_signal) {
         std::copy(functions.begin() + kSphereFirst, functions.end(), row + ns);
         row[cols - 1] = (*signal_mm)[sample];
@@ -409,7 +446,7 @@ SpherePattern BestSpherePattern(const StructureFactor& factor) {
   const Eigen::Index n = factor.jacobian_cols;
   const Eigen::VectorXd e = factor.r.col(n + kFunctions);
   const Eigen::MatrixXd q = ColumnSpace(factor);
-  const Basis sphere = GroupBasis(factor, Groups()[4], 0);
+  const Basis sphere = GroupBasis(factor, Groups()[kSphereGroup], 0);
   // Unit remainders of the functions off col(J), as in Regress().
   std::vector<Eigen::VectorXd> rest;
   std::vector<std::string> names;
@@ -472,8 +509,8 @@ double SpherePatternFraction(const StructureFactor& factor) {
   const double total = s.squaredNorm();
   if (!(total > 0.0)) return 0.0;
   // The sphere group's columns follow J directly in a factor with a signal.
-  const StructureGroup g =
-      Regress(GroupBasis(factor, Groups()[4], -kSphereFirst), q, s, static_cast<int>(q.cols() + factor.eliminated), m);
+  const StructureGroup g = Regress(GroupBasis(factor, Groups()[kSphereGroup], -kSphereFirst), q, s,
+                                   static_cast<int>(q.cols() + factor.eliminated), m);
   const double explained = g.explained_rms_um * g.explained_rms_um / (kUmPerMm * kUmPerMm) * static_cast<double>(m);
   return explained / total;
 }

@@ -164,6 +164,10 @@ std::string SeparateFromForm(Effect e) {
     return "the pattern measured a second time in another order (reversed or shuffled), so that time is no "
            "function of the direction on the sphere, or the sphere turned on its mount";
   }
+  if (IsReversal(e)) {
+    return "the pattern measured a second time with each axis moving the other way (a reversal follows the "
+           "direction of motion, a form the point on the sphere), or the sphere turned on its mount";
+  }
   if (InfoOf(e).harmonic) {  // an error of the machine's axes
     return "the sphere turned on its mount (a form turns with the sphere, an error of the machine stays with the "
            "machine), or a second setup at another eccentricity";
@@ -183,8 +187,9 @@ bool ShownByItsVariable(Effect e, const ResidualStructure& structure, const Trac
 }
 
 std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const TraceOptions& trace_options) {
+  // Every group below the threshold is described, whether or not the test of all the functions
+  // together is: a structure in one variable is diluted among the many functions of the others.
   std::vector<Unexplained> out;
-  if (!(s.all.p_value < trace_options.structure_p)) return out;
   std::vector<const StructureGroup*> groups;
   for (const StructureGroup& g : s.groups) {
     if (g.p_value < trace_options.structure_p) groups.push_back(&g);
@@ -203,7 +208,7 @@ std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const Tr
                     Format("%.3g", g->strongest_rms_um) + " um RMS alone)";
     out.push_back(u);
   }
-  if (out.empty()) {
+  if (out.empty() && s.all.p_value < trace_options.structure_p) {
     Unexplained u;
     u.variable = "all";
     u.rms_um = s.all.explained_rms_um;

@@ -220,7 +220,7 @@ void WriteStructure(std::ostream& out, const TraceResult& r) {
   const TracedFit& b = r.before;
   out << "  structure before, by variable (F test against white noise):\n";
   for (const StructureGroup& g : b.structure.groups) {
-    out << Format("    %-7s explains %.4f um rms, p = %.2g, strongest %s (%.4f um rms alone)\n", g.variable.c_str(),
+    out << Format("    %-9s explains %.4f um rms, p = %.2g, strongest %s (%.4f um rms alone)\n", g.variable.c_str(),
                   g.explained_rms_um, g.p_value, g.strongest.c_str(), g.strongest_rms_um);
   }
   out << "  harmonics of theta before, amplitude fitted alone [um]:";
@@ -359,7 +359,7 @@ void WriteAmbiguities(std::ostream& out, const TraceResult& r) {
           << "to separate them: " << x.separate_by << "\n";
     } else if (x.chosen == "sphere_form") {
       Effect e{};
-      const bool machine = EffectFromId(x.other, &e) && InfoOf(e).harmonic;  // an error of the machine's axes
+      const bool machine = EffectFromId(x.other, &e) && IsAxisError(e);  // an error of the machine's axes
       out << "  two explanations, neither added: a pattern fixed on the sphere, the sphere's own form"
           << Format(" (%.4f um rms), or %s (%.4f um rms), ", x.chosen_rms_um, x.other.c_str(), x.other_rms_um)
           << (machine ? "an error of the machine that, with the sphere in one placement, is such a pattern as well; "

@@ -225,10 +225,9 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   if (best < 0 || form_wins) {
     // An effect of the time or the probe reading that its variable shows, but no more than a form
     // would, and the best effect of the machine: both explanations, neither added.
-    const int best_machine = form_wins
-                                 ? BestAdmissible(tried, current, trace_options,
-                                                  [](const CandidateScore& c) { return InfoOf(c.effect).harmonic; })
-                                 : -1;
+    const int best_machine = form_wins ? BestAdmissible(tried, current, trace_options,
+                                                        [](const CandidateScore& c) { return IsAxisError(c.effect); })
+                                       : -1;
     for (std::size_t i = 0; i < tried.size(); ++i) {
       const CandidateScore& c = tried[i].first;
       const bool shown = ShownByItsVariable(c.effect, current.structure, trace_options);

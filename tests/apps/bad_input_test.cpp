@@ -748,7 +748,8 @@ std::vector<MatrixCase> SimulateCases() {
       {"scan_order_unknown",
        {"--scan-order", "spiral"},
        2,
-       e + "--scan-order 'spiral': unknown order 'spiral' (known: rings reversed serpentine columns shuffled)"},
+       e + "--scan-order 'spiral': unknown order 'spiral' (known: rings reversed serpentine columns serpentine-columns "
+           "shuffled)"},
       {"scan_order_setup_missing",
        {"--scan-order", "3:columns"},
        2,

@@ -40,6 +40,7 @@ TEST(FitEffects, WithoutEffectsIsTheSevenErrorCalibration) {
 TEST(FitEffects, JacobianMatchesCentralDifferences) {
   SimulationSpec spec;
   spec.pattern = GridPattern(12, 6);
+  spec.scan_order = ScanOrder::kShuffled;  // both axes move both ways: the reversal terms count
   const PointsData points = Simulate(spec);
   EffectModel model;
   for (int e = 0; e < kNumEffects; ++e) model.terms.push_back(DefaultTerm(static_cast<Effect>(e), 2, 2));
@@ -107,6 +108,9 @@ struct RecoveryCase {
   // or alpha and beta (axial and tilt motion) do; no placement does for phi_wobble about the frame's
   // origin (VIFs near 1e9, see below).
   bool determined = true;
+  // The scan's time order: a reversal needs an axis that moves both ways (serpentine for Theta,
+  // serpentine-columns for Phi).
+  ScanOrder order = ScanOrder::kRings;
 };
 
 class EffectRecovery : public ::testing::TestWithParam<RecoveryCase> {};
@@ -118,6 +122,7 @@ TEST_P(EffectRecovery, NoiseFreeSimulationIsRecovered) {
   SimulationSpec spec;
   spec.noise_r_um = 0.0;
   spec.centers_mm = c.centers_mm;
+  spec.scan_order = c.order;
   EffectModel truth;
   truth.terms = {DefaultTerm(c.effect, 3, 2)};
   truth.phi_wobble_pivot_mm = c.pivot_mm;
@@ -204,11 +209,33 @@ INSTANTIATE_TEST_SUITE_P(
         RecoveryCase{Effect::kPhiAxialMotion, kThreeSetups},
         RecoveryCase{Effect::kThetaTiltMotion, kOneSetup, 0.0, false},
         RecoveryCase{Effect::kThetaTiltMotion, kThreeSetups}, RecoveryCase{Effect::kPhiWobble, kOneSetup, 60.0},
-        RecoveryCase{Effect::kProbeIncidence, kOneSetup}, RecoveryCase{Effect::kProbeIncidence, kThreeSetups}),
+        RecoveryCase{Effect::kProbeIncidence, kOneSetup}, RecoveryCase{Effect::kProbeIncidence, kThreeSetups},
+        RecoveryCase{Effect::kThetaReversal, kOneSetup, 0.0, true, ScanOrder::kSerpentine},
+        RecoveryCase{Effect::kPhiReversal, kOneSetup, 0.0, true, ScanOrder::kSerpentineColumns}),
     [](const ::testing::TestParamInfo<RecoveryCase>& param) {
       return std::string(InfoOf(param.param.effect).id) + (param.param.centers_mm.size() > 1 ? "_three_setups" : "") +
              (param.param.pivot_mm != 0.0 ? "_pivot" : "");
     });
+
+// Scanned ring by ring, each ring in the same direction, every reading of an axis is approached the
+// same way: a reversal is then a constant offset of the axis, the Theta one a turn of the sphere
+// (its centre takes it), the Phi one the zero beta. The fit names it undetermined.
+TEST(FitEffects, ReversalInRingOrderIsNotDetermined) {
+  SimulationSpec spec;  // rings: theta 0..345 in every ring, then the next phi
+  const PointsData points = Simulate(spec);
+  for (const MotionDirection& d : MotionDirections(points.samples)) {
+    ASSERT_EQ(d.theta, 1);
+    ASSERT_EQ(d.phi, 1);
+  }
+  for (const Effect e : {Effect::kThetaReversal, Effect::kPhiReversal}) {
+    EffectModel model;
+    model.terms = {DefaultTerm(e)};
+    model.reference = EffectReferenceOf(points.samples);
+    const EffectFit fit =
+        FitEffects(points, PaperOptions(), model, EffectFitStart::From(Calibrate(points, PaperOptions())));
+    EXPECT_FALSE(fit.calibration.analysis.AllDetermined()) << InfoOf(e).id;
+  }
+}
 
 }  // namespace
 }  // namespace sph

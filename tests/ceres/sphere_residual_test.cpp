@@ -76,7 +76,7 @@ TEST(EffectScmsPointJet, ValuePartEqualsTheDoubleResult) {
   for (const auto& v : vj) blocks.push_back(v.data());
   for (double theta : {0.0, 50.0, 200.0}) {
     for (double phi : {10.0, 90.0, 170.0}) {
-      const EffectReading x(theta, phi, 5.3, 40.0);
+      const EffectReading x({theta, phi, 5.3}, 40.0, {theta > 100.0 ? -1 : 1, phi > 50.0 ? 1 : -1});
       const Vec3<Jet> pj = EffectScmsPoint(gj.data(), ErrorTrigOf(gj.data()), model, blocks.data(), x, kD);
       const Eigen::Vector3d pd = EffectScmsPoint(g, model, values, x, kD);
       for (int k = 0; k < 3; ++k) EXPECT_EQ(pj[k].a, pd[k]);
@@ -234,7 +234,9 @@ struct EffectReadingResidual {
 TEST(JacobianAt, EqualsTheAutodiffJacobianWithEveryEffect) {
   SimulationSpec spec;
   spec.pattern = GridPattern(12, 6);
+  spec.scan_order = ScanOrder::kShuffled;  // both axes move both ways: the reversal terms count
   const PointsData points = Simulate(spec);
+  const std::vector<MotionDirection> approach = MotionDirections(points.samples);
   EffectFit fit;
   for (int e = 0; e < kNumEffects; ++e) {
     fit.model.terms.push_back(DefaultTerm(static_cast<Effect>(e), 2, 2));
@@ -259,7 +261,7 @@ TEST(JacobianAt, EqualsTheAutodiffJacobianWithEveryEffect) {
   for (std::size_t i = 0; i < points.samples.size(); ++i) {
     const Sample& s = points.samples[i];
     ceres::DynamicAutoDiffCostFunction<EffectReadingResidual, 8> cost(
-        new EffectReadingResidual{&fit.model, EffectReading(s.theta_deg, s.phi_deg, s.r_mm, s.t_s)});
+        new EffectReadingResidual{&fit.model, EffectReading(s, s.t_s, approach[i])});
     cost.AddParameterBlock(kNumScmsParams);
     cost.AddParameterBlock(3);
     for (const auto& v : fit.values) cost.AddParameterBlock(static_cast<int>(v.size()));
@@ -288,7 +290,9 @@ TEST(FitSolver, CeresSeesThePerReadingFunctorsDifferentiated) {
   SimulationSpec spec;
   spec.pattern = GridPattern(12, 6);
   spec.centers_mm = {Eigen::Vector3d(2.0, 0.0, 0.0), Eigen::Vector3d(0.0, -1.5, 0.5)};
+  spec.scan_order = ScanOrder::kShuffled;
   const PointsData points = Simulate(spec);
+  const std::vector<MotionDirection> approach = MotionDirections(points.samples);
   EffectModel model;
   std::vector<std::vector<double>> values;
   for (int e = 0; e < kNumEffects; ++e) {
@@ -317,7 +321,7 @@ TEST(FitSolver, CeresSeesThePerReadingFunctorsDifferentiated) {
     for (const std::uint32_t i : problem.RowsOf(k)) {
       const Sample& s = points.samples[i];
       ceres::DynamicAutoDiffCostFunction<EffectReadingResidual, 8> cost(
-          new EffectReadingResidual{&model, EffectReading(s.theta_deg, s.phi_deg, s.r_mm, s.t_s)});
+          new EffectReadingResidual{&model, EffectReading(s, s.t_s, approach[i])});
       cost.AddParameterBlock(kNumScmsParams);
       cost.AddParameterBlock(3);
       for (const auto& v : values) cost.AddParameterBlock(static_cast<int>(v.size()));

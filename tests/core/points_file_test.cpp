@@ -37,6 +37,34 @@ std::string ErrorOf(const std::string& text) {
 
 constexpr const char* kHeader = "# sph-points 1\n# sphere_radius_mm: 20\n# probe_offset_mm: 25\n";
 
+// The direction of approach of each axis, from the rows' order within each setup.
+TEST(MotionDirections, FollowTheReadingOrderWithinEachSetup) {
+  auto sample = [](double theta, double phi, int setup) {
+    Sample s;
+    s.theta_deg = theta;
+    s.phi_deg = phi;
+    s.setup = setup;
+    return s;
+  };
+  const std::vector<Sample> samples{
+      sample(0.0, 30.0, 0),       // theta: before its first move, the direction of that move (+)
+      sample(90.0, 30.0, 0),      // + ; phi has not moved yet: its first move's direction (-)
+      sample(90.0, 30.0, 1),      // another setup: its own first row (theta never moves there: +)
+      sample(90.00005, 20.0, 0),  // theta within kStandstillDeg: keeps +; phi -
+      sample(45.0, 20.0, 0),      // theta -; phi stands: keeps -
+      sample(90.0, 60.0, 1),      // setup 1: phi + (from 30 in that setup, not from 20 in setup 0)
+      sample(350.0, 20.0, 0),     // 45 -> 350: the shorter way round is -55 deg: -
+      sample(10.0, 20.0, 0),      // 350 -> 10: +20 deg through 360: +
+  };
+  const std::vector<MotionDirection> d = MotionDirections(samples);
+  ASSERT_EQ(d.size(), samples.size());
+  const std::vector<int> theta{1, 1, 1, 1, -1, 1, -1, 1}, phi{-1, -1, 1, -1, -1, 1, -1, -1};
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    EXPECT_EQ(d[i].theta, theta[i]) << "row " << i;
+    EXPECT_EQ(d[i].phi, phi[i]) << "row " << i;
+  }
+}
+
 TEST(PointsFile, ReadsHeaderColumnsAndSamples) {
   const PointsData d = Parse(std::string(kHeader) +
                              "# operator: A. Smith\n# columns: theta_deg phi_deg r_mm t_s setup\n"

@@ -60,6 +60,33 @@ TEST(EffectScmsPoint, PhiEncoderChangesThePolarAngle) {
   EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, p, Nominal(30 * kRadPerDeg, delta, 20.0), kTol);
 }
 
+// ISO 230-2's reversal value b: the axis stands at reading + b/2 when approached from below (d =
+// +1), at reading - b/2 from above (d = -1), at the reading when the direction is not known.
+TEST(EffectScmsPoint, ReversalShiftsTheAxisByHalfItsValueInTheDirectionOfApproach) {
+  const double b = 8 * kRadPerArcsec;
+  EffectModel model;
+  model.terms = {DefaultTerm(Effect::kThetaReversal), DefaultTerm(Effect::kPhiReversal)};
+  ASSERT_EQ(model.terms[0].size(), 1);
+  EXPECT_EQ(model.terms[0].ParamName(0), "theta_reversal.b");
+  EXPECT_EQ(model.terms[1].ParamName(0), "phi_reversal.b");
+  const double th = 40 * kRadPerDeg, ph = 70 * kRadPerDeg;
+  auto point = [&](double theta_b, double phi_b, MotionDirection d) {
+    return EffectScmsPoint(ScmsGeometry{}, model, {{theta_b}, {phi_b}}, EffectReading({40.0, 70.0, 5.0}, 0.0, d), kD);
+  };
+  // Theta: 40 deg + 4 arcsec from below, 40 deg - 4 arcsec from above; phi stays.
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, point(b, 0.0, {1, 1}), Nominal(th + 0.5 * b, ph, 20.0), kTol);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, point(b, 0.0, {-1, 1}), Nominal(th - 0.5 * b, ph, 20.0), kTol);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, point(b, 0.0, {0, 1}), Nominal(th, ph, 20.0), kTol);
+  // Phi the same (a negative value: the positive approach falls short).
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, point(0.0, -b, {1, -1}), Nominal(th, ph + 0.5 * b, 20.0), kTol);
+  EXPECT_PRED_FORMAT3(sph::testing::MatrixNear, point(0.0, -b, {1, 1}), Nominal(th, ph - 0.5 * b, 20.0), kTol);
+  // The two differ by b between the directions: rho b sin phi along the Theta circle, 20 mm *
+  // 8 arcsec * sin 70 deg = 0.7289 um.
+  EXPECT_NEAR((point(b, 0.0, {1, 1}) - point(b, 0.0, {-1, 1})).norm() * kUmPerMm, 20.0 * b * std::sin(ph) * kUmPerMm,
+              1e-9);
+  EXPECT_NEAR(20.0 * b * std::sin(ph) * kUmPerMm, 0.7289, 1e-4);
+}
+
 TEST(EffectScmsPoint, SpindleMotionsMoveTheSphereInTheMachineFrame) {
   // x_c2 = A at theta = 0: the sphere moves by +A along machine x, so the point relative to it by -A.
   const double a = 0.3e-3;

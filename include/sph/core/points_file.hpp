@@ -180,6 +180,20 @@ struct PointsData {
   std::vector<int> SetupIds() const;
 };
 
+/// A change of an axis reading no larger than this is no motion [deg]: above the jitter of an encoder
+/// at standstill, far below any step of a measuring pattern (0.36 arcsec).
+inline constexpr double kStandstillDeg = 1e-4;
+
+/// The direction in which each axis approached each sample (MotionDirection), from the order of the
+/// rows within its setup (the acquisition order): the sign of the change of the axis' reading from
+/// the setup's previous row. An axis that did not move (kStandstillDeg) keeps the direction of its
+/// last move, for it stands where that move left it; before its first move in the setup, the
+/// direction of that move (the start approached as the scan goes on); an axis that never moves in a
+/// setup, +1. A change goes the shorter way round, as a rotary axis turns: 345 to 0 deg is a move of
+/// +15 deg (a ring scan keeps one direction), 0 to 90 deg one of +90 deg. Computed once from the
+/// samples as read, for every fit and test that needs it.
+std::vector<MotionDirection> MotionDirections(const std::vector<Sample>& samples);
+
 /// Reads a points file. Throws sph::Error with "path:line: problem" on any defect: unreadable
 /// file, a NUL byte or a line longer than kMaxLineBytes (sph/core/text_input.hpp), unsupported
 /// format version, duplicate header key, bad or non-positive radius or offset, a bad mount

@@ -17,6 +17,12 @@
 //   T_sphere_probe = Rz(theta_true) * T(-(dx, dy, dz)(theta)) * Tx(a) * Rx(pi/2 + alpha)
 //                    * Rx(wx(phi)) * Ry(wy(phi)) * Rz(-phi_true) * Rz(beta) * Tz(b) * Tx(c) * Rx(pi/2 + epsilon)
 //
+// A reversal term (theta_reversal, phi_reversal) is the axis standing off its reading by half its
+// value b in the direction of approach: each axis moves from one commanded position of the scan to
+// the next the shorter way round, keeps the direction of its last move while it stands, and before its first move
+// in a setup was approached in the direction of that move; the ray then goes out along the angle
+// the axis really stands at (theta_read + b dir / 2), a backlash b < 0 when the load lags.
+//
 // and the probe reads r_read such that r_read + (gain + nonlinearity + drift)(r_read, t) equals the
 // true distance (a bracketed solve over the probe's range, where that sum must rise with r_read:
 // ProbeReadingOfDistance()). The simulator also makes what is not in the
@@ -67,14 +73,15 @@ std::vector<AnglePair> ReadAnglePattern(const std::string& path);
 /// The order in which a setup measures the pattern's points (the same points, another time
 /// order), so that time and direction on the sphere are not one function of the other.
 enum class ScanOrder {
-  kRings,       ///< the pattern's order: for a grid, phi ring by ring, theta within each ring
-  kReversed,    ///< the pattern's order backwards
-  kSerpentine,  ///< ring by ring, every other ring backwards (a ring: consecutive points of one phi)
-  kColumns,     ///< theta outer (in the order the pattern first reaches each theta), phi inner
-  kShuffled,    ///< a random permutation, seeded
+  kRings,              ///< the pattern's order: for a grid, phi ring by ring, theta within each ring
+  kReversed,           ///< the pattern's order backwards
+  kSerpentine,         ///< ring by ring, every other ring backwards (a ring: consecutive points of one phi)
+  kColumns,            ///< theta outer (in the order the pattern first reaches each theta), phi inner
+  kSerpentineColumns,  ///< as kColumns, every other column backwards: phi's direction alternates
+  kShuffled,           ///< a random permutation, seeded
 };
 
-/// "rings", "reversed", "serpentine", "columns", "shuffled".
+/// "rings", "reversed", "serpentine", "columns", "serpentine-columns", "shuffled".
 const char* ScanOrderName(ScanOrder order);
 /// The order named `name` (ScanOrderName()); false for any other text.
 bool ScanOrderFromName(std::string_view name, ScanOrder* order);
@@ -196,7 +203,8 @@ std::optional<double> ProbeReading(const ScmsGeometry& truth, double theta_rad, 
 
 /// The true distance [mm] from the probe zero point to the sphere's surface along the probe ray,
 /// for the axis readings theta_read, phi_read [rad], with the effects of `effects` except the probe's
-/// own errors (gain, nonlinearity, drift), which act on the reading and not on the ray. The
+/// own errors (gain, nonlinearity, drift), which act on the reading and not on the ray; `approach`:
+/// the direction in which each axis came to its position, for the reversal terms. The
 /// sphere's form is turned by `body_to_theta` (R) about its centre. Nothing when the ray misses
 /// the sphere. `effects.model.reference` is not used here.
 ///
@@ -209,7 +217,7 @@ std::optional<double> TrueProbeDistance(const ScmsGeometry& truth, const Simulat
                                         double phi_rad, double probe_offset_mm, const Eigen::Vector3d& center_mm,
                                         double sphere_radius_mm,
                                         const Eigen::Matrix3d& body_to_theta = Eigen::Matrix3d::Identity(),
-                                        double* sin2_incidence = nullptr);
+                                        double* sin2_incidence = nullptr, MotionDirection approach = {});
 
 /// The reading r_read [mm] of a probe with the gain, nonlinearity, drift and incidence error of
 /// `effects` (with the reference `effects.model.reference`) that sees the true distance

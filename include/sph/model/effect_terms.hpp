@@ -31,6 +31,14 @@
 //                        centre: it is a function of the fitted state, not of the reading alone, so
 //                        EffectScmsPoint() needs the sphere's centre for it. i1, i2: the reading
 //                        error at psi = 90 deg, a constant of the probe at any eccentricity      [mm]
+//   theta_reversal       theta_true = theta_read + b dir_theta / 2, dir the direction in which the axis
+//                        approached the reading (+1 positive, -1 negative; MotionDirection): b is the
+//                        reversal value of ISO 230-2, the mean position approached in the positive
+//                        direction less that approached in the negative one (a drive whose load lags
+//                        behind its encoder by a lost motion l has b = -l). One value, not an offset
+//                        per direction: their mean is the axis' zero, which the sphere's centre
+//                        (Theta) or the seven errors (Phi) already hold                           [rad]
+//   phi_reversal         phi_true = phi_read + b dir_phi / 2, the same of the Phi axis               [rad]
 //
 // The once-per-turn part of a radial motion is not an error motion (ISO 230-7) but a parameter of
 // the set-up: of the Theta spindle's, one combination is the sphere's centre itself; of the Phi
@@ -75,8 +83,10 @@ enum class Effect : int {
   kPhiAxialMotion,
   kThetaTiltMotion,
   kProbeIncidence,
+  kThetaReversal,
+  kPhiReversal,
 };
-inline constexpr int kNumEffects = 12;
+inline constexpr int kNumEffects = 14;
 
 /// Static description of an effect.
 struct EffectInfo {
@@ -84,7 +94,8 @@ struct EffectInfo {
   const char* description;  ///< the physics, one line
   Quantity quantity;        ///< of every parameter: kAngle (rad) or kLength (mm)
   /// the reading its terms are functions of: theta, phi, r or t; psi for probe_incidence, the
-  /// angle between the beam and the surface's normal (a function of the fitted state too)
+  /// angle between the beam and the surface's normal (a function of the fitted state too); for a
+  /// reversal term the axis it shifts (its basis is the direction of approach, not the angle)
   const char* variable;
   int axes;       ///< 2 for effects with x and y components, else 1
   bool harmonic;  ///< components are harmonics (else powers)
@@ -120,9 +131,24 @@ inline constexpr std::array<EffectInfo, kNumEffects> kEffectInfo{{
      "theta", 2, true, "EAC, EBC (tilt error motion of C)", 2},
     {"probe_incidence", "reading error of the probe against the angle between its beam and the surface normal",
      Quantity::kLength, "psi", 1, false, "", 1},
+    {"theta_reversal",
+     "reversal value of the Theta axis: half of it added for a positive approach, taken off for a "
+     "negative one",
+     Quantity::kAngle, "theta", 1, false, "B of C (reversal value, ISO 230-2)", 1},
+    {"phi_reversal",
+     "reversal value of the Phi axis: half of it added for a positive approach, taken off for a "
+     "negative one",
+     Quantity::kAngle, "phi", 1, false, "B of B (reversal value, ISO 230-2)", 1},
 }};
 
+/// Whether `e` is a reversal term (its basis: half the direction of approach of its axis).
+inline bool IsReversal(Effect e) { return e == Effect::kThetaReversal || e == Effect::kPhiReversal; }
+
 inline const EffectInfo& InfoOf(Effect e) { return kEffectInfo[static_cast<std::size_t>(e)]; }
+
+/// Whether `e` is an error of the machine's axes (a harmonic term or a reversal), not of the probe
+/// or of time.
+inline bool IsAxisError(Effect e) { return InfoOf(e).harmonic || IsReversal(e); }
 
 /// The effect with identifier `id`, or false.
 inline bool EffectFromId(const std::string& id, Effect* out) {
@@ -151,10 +177,12 @@ struct EffectTerm {
   int size() const { return static_cast<int>(components.size()); }
   const EffectInfo& info() const { return InfoOf(effect); }
 
-  /// Name of parameter i: "theta_encoder.c2", "theta_radial_motion.y_s3", "probe_drift.t1", ...
+  /// Name of parameter i: "theta_encoder.c2", "theta_radial_motion.y_s3", "probe_drift.t1", ...;
+  /// "theta_reversal.b" (the reversal value B of ISO 230-2).
   std::string ParamName(std::size_t i) const {
     const EffectComponent& c = components[i];
     std::string s = std::string(info().id) + ".";
+    if (IsReversal(effect)) return s + "b";
     if (info().axes == 2) s += c.axis == 0 ? "x_" : "y_";
     if (info().harmonic) {
       s += c.sine ? "s" : "c";
@@ -177,7 +205,7 @@ struct HarmonicOrders {
 /// The default term of an effect: harmonics k = EffectInfo::first_order..the highest order of its
 /// axis (the first order 2 for the radial motions and the Theta tilt, see the file comment), cos
 /// and sin, every axis; probe_gain u^1; probe_nonlinearity u^2 and u^3; probe_incidence sin^2 psi
-/// (i1); probe_drift tau^1..tau^drift_order.
+/// (i1); a reversal term its value b; probe_drift tau^1..tau^drift_order.
 inline EffectTerm DefaultTerm(Effect e, HarmonicOrders harmonics, int drift_order = 1) {
   EffectTerm t;
   t.effect = e;
@@ -195,7 +223,7 @@ inline EffectTerm DefaultTerm(Effect e, HarmonicOrders harmonics, int drift_orde
   } else if (e == Effect::kProbeNonlinearity) {
     t.components.push_back({2, 0, false});
     t.components.push_back({3, 0, false});
-  } else if (e == Effect::kProbeIncidence) {
+  } else if (e == Effect::kProbeIncidence || IsReversal(e)) {
     t.components.push_back({1, 0, false});
   } else {
     for (int k = 1; k <= drift_order; ++k) t.components.push_back({k, 0, false});

@@ -60,7 +60,9 @@ struct EffectModel {
   }
 };
 
-/// One reading as the effect model uses it: the readings (rad, mm, s) and their sin and cos.
+/// One reading as the effect model uses it: the readings (rad, mm, s), their sin and cos, and the
+/// direction in which each axis approached it (MotionDirection; 0 when not known: a reversal term
+/// then shifts the reading by nothing, the mean of the two directions).
 struct EffectReading {
   double theta_rad = 0.0;
   double phi_rad = 0.0;
@@ -68,28 +70,34 @@ struct EffectReading {
   double t_s = 0.0;
   SinCos<double> theta{0.0, 1.0};
   SinCos<double> phi{0.0, 1.0};
+  MotionDirection direction;
 
   EffectReading() = default;
-  /// From a reading as the machine gives it (a points file's row is one) and its time [s].
-  EffectReading(const RawReading& reading, double time_s)
+  /// From a reading as the machine gives it (a points file's row is one), its time [s] and the
+  /// direction of approach of its axes.
+  EffectReading(const RawReading& reading, double time_s, MotionDirection approach = {})
       : theta_rad(reading.theta_rad()),
         phi_rad(reading.phi_rad()),
         r_mm(reading.r_mm),
         t_s(time_s),
         theta(SinCosOf(theta_rad)),
-        phi(SinCosOf(phi_rad)) {}
+        phi(SinCosOf(phi_rad)),
+        direction(approach) {}
   /// The same from its parts: axis angles in deg, probe in mm, time in s.
   EffectReading(double theta_deg, double phi_deg, double probe_mm, double time_s)
       : EffectReading(RawReading{theta_deg, phi_deg, probe_mm}, time_s) {}
 };
 
 /// The value of component `c` of a term of effect `e` at reading x: cos(k x) or sin(k x) of the
-/// reading the effect follows, or the power of u or tau. NaN for probe_incidence, whose sin^2 psi
-/// is no function of the reading alone (EffectScmsPoint() computes it).
+/// reading the effect follows, the power of u or tau, or half the direction of approach of a
+/// reversal term's axis (+-1/2, 0 unknown). NaN for probe_incidence, whose sin^2 psi is no function
+/// of the reading alone (EffectScmsPoint() computes it).
 inline double EffectBasis(const EffectTerm& term, const EffectComponent& c, const EffectReference& ref,
                           const EffectReading& x) {
   const EffectInfo& info = term.info();
   if (term.effect == Effect::kProbeIncidence) return std::numeric_limits<double>::quiet_NaN();
+  if (term.effect == Effect::kThetaReversal) return 0.5 * x.direction.theta;
+  if (term.effect == Effect::kPhiReversal) return 0.5 * x.direction.phi;
   if (info.harmonic) {
     const double angle = std::strcmp(info.variable, "theta") == 0 ? x.theta_rad : x.phi_rad;
     return c.sine ? std::sin(c.order * angle) : std::cos(c.order * angle);
@@ -174,10 +182,12 @@ EffectInputs<T> EffectInputsOf(const EffectModel& model, const T* const* blocks,
     if (basis) basis += term.components.size();
     switch (term.effect) {
       case Effect::kThetaEncoder:
+      case Effect::kThetaReversal:
         in.dtheta += EffectSum(term, p, b, ref, x, 0);
         in.theta_enc = true;
         break;
       case Effect::kPhiEncoder:
+      case Effect::kPhiReversal:
         in.dphi += EffectSum(term, p, b, ref, x, 0);
         in.phi_enc = true;
         break;

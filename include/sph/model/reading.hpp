@@ -22,6 +22,14 @@ struct RawReading {
   double phi_rad() const { return phi_deg * kRadPerDeg; }      ///< Phi axis reading [rad]
 };
 
+/// The direction in which each axis approached the position of a reading (ISO 230-2): +1 from
+/// smaller readings (positive approach), -1 from larger ones, 0 not known. A reversal term
+/// (theta_reversal, phi_reversal) shifts a reading by half its value in the direction of approach.
+struct MotionDirection {
+  int theta = 0;
+  int phi = 0;
+};
+
 }  // namespace sph
 
 #endif  // SPH_MODEL_READING_HPP_

@@ -2,8 +2,10 @@
 //
 // The residuals e of a least-squares fit with Jacobian J are regressed on groups of smooth
 // functions of the readings: harmonics of theta, a cosine series of phi, powers of the normalised
-// probe reading u and of the normalised time tau, and spherical harmonics of the probed direction
-// (a pattern fixed on the sphere, such as its form error). Each group's columns are first
+// probe reading u and of the normalised time tau, the direction of motion of each axis (d = +-1,
+// MotionDirections(): the residual's mean per direction and its once-per-turn part, what a reversal
+// value leaves), and spherical harmonics of the probed direction (a pattern fixed on the sphere,
+// such as its form error). Each group's columns are first
 // projected off the columns of J, so that under white noise the explained sum of squares is
 // exactly s^2 chi^2 with the group's rank r, and
 //   F = (explained / r) / ((RSS - explained) / (m - n - r))
@@ -40,7 +42,7 @@ namespace sph {
 
 /// The regression of the residuals on one group of functions.
 struct StructureGroup {
-  std::string variable;           ///< "theta", "phi", "r", "t", "sphere" or "all"
+  std::string variable;           ///< "theta", "phi", "r", "t", "direction", "sphere" or "all"
   std::string description;        ///< the functions, in words
   int rank = 0;                   ///< independent columns after projection
   double explained_rms_um = 0.0;  ///< RMS of the part of the residuals the group explains
@@ -54,7 +56,7 @@ struct StructureGroup {
 };
 
 struct ResidualStructure {
-  std::vector<StructureGroup> groups;      ///< theta, phi, r, t, sphere
+  std::vector<StructureGroup> groups;      ///< theta, phi, r, t, direction, sphere
   StructureGroup all;                      ///< every function together: the test of remaining structure
   std::vector<double> theta_harmonics_um;  ///< amplitude of harmonic k = 1.. of theta, fitted alone [um]
   /// The F test of harmonic k = 1.. of theta (cos and sin) alone against white noise, off the fit's
