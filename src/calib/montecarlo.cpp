@@ -32,7 +32,7 @@ std::uint64_t SplitMix64(std::uint64_t x) {
 std::vector<Eigen::Vector3d> Centers(const MonteCarloStudyOptions& spec, double e_mm, std::uint64_t trial_seed) {
   std::vector<Eigen::Vector3d> out;
   if (spec.random_direction) {
-    gum::Random rng(SplitMix64(trial_seed ^ 0xD1B54A32D192ED03ULL));
+    Random rng(SplitMix64(trial_seed ^ 0xD1B54A32D192ED03ULL));
     for (int j = 0; j < spec.setups; ++j) {
       const double x = rng.Normal(), y = rng.Normal(), z = rng.Normal();  // in this order on every compiler
       Eigen::Vector3d u(x, y, z);

@@ -27,7 +27,7 @@ FormNoiseFloor EstimateFormNoiseFloor(const std::vector<Eigen::Vector3d>& points
   f.draws = options.draws;
   const double nn = static_cast<double>(n);
   f.rms_form_mm = std::sqrt(std::max(0.0, rms_mm * rms_mm - sigma_mm * sigma_mm * (nn - 4.0) / nn));
-  gum::Random random(options.seed);
+  Random random(options.seed);
   std::vector<double> pv, mz;
   std::vector<Eigen::Vector3d> noisy(n);
   for (int d = 0; d < options.draws; ++d) {

@@ -297,7 +297,7 @@ std::vector<AnglePair> InScanOrder(const std::vector<AnglePair>& pattern, ScanOr
     }
     case ScanOrder::kShuffled: {
       out = pattern;
-      gum::Random(seed).Shuffle(out);
+      Random(seed).Shuffle(out);
       break;
     }
   }
@@ -828,7 +828,7 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference)
 }
 
 void AddReadingNoise(PointsData& data, const SimulationSpec& spec) {
-  gum::Random rng(spec.seed);  // the same numbers with every standard library
+  Random rng(spec.seed);  // the same numbers with every standard library
   const double sigma_r_mm = spec.noise_r_um * kMmPerUm;
   const double sigma_theta_deg = spec.noise_theta_arcsec / 3600.0;
   const double sigma_phi_deg = spec.noise_phi_arcsec / 3600.0;
@@ -847,7 +847,7 @@ void AddReadingNoise(PointsData& data, const SimulationSpec& spec) {
     add(sigma_phi_deg, s.phi_deg);
   }
   if (spec.effects.outlier_fraction > 0.0) {
-    gum::Random gross(spec.seed ^ 0x6f75746c69657273ULL);  // its own stream: the noise above stays the same
+    Random gross(spec.seed ^ 0x6f75746c69657273ULL);  // its own stream: the noise above stays the same
     for (Sample& s : data.samples) {
       const double pick = gross.Uniform(), sign = gross.Uniform() < 0.5 ? -1.0 : 1.0;
       if (pick < spec.effects.outlier_fraction) s.r_mm += sign * spec.effects.outlier_um * kMmPerUm;

@@ -366,7 +366,7 @@ CalibrationUncertainty PropagateCalibrationUncertainty(const std::vector<RawRead
   // the probe scale also scales these readings (CheckByMonteCarlo() draws the same way). The draws
   // come first, in order, so that the result depends on the seed only, not on the threads.
   const Eigen::MatrixXd l = FactorOf(applied.inputs.empty() ? applied.covariance : applied.TypeACovariance());
-  gum::Random rng(options.seed);
+  Random rng(options.seed);
   std::vector<Eigen::VectorXd> draws(static_cast<std::size_t>(options.samples));
   std::vector<double> scales(draws.size(), 0.0);
   for (std::size_t s = 0; s < draws.size(); ++s) {

@@ -10,7 +10,7 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
   // Folds within each setup, so that every fold leaves every setup points to fit its centre.
   std::map<int, std::vector<std::size_t>> of_setup;
   for (std::size_t i = 0; i < m; ++i) of_setup[data.points.samples[i].setup].push_back(i);
-  gum::Random rng(seed);
+  Random rng(seed);
   std::vector<int> fold_of(m);
   for (auto& [setup, rows] : of_setup) {
     rng.Shuffle(rows);

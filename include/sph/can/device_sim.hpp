@@ -47,7 +47,7 @@
 #include "sph/can/frame.hpp"
 #include "sph/can/pipeline.hpp"
 #include "sph/can/sdo.hpp"
-#include "sph/core/gum.hpp"
+#include "sph/core/random.hpp"
 #include "sph/core/simulate.hpp"
 
 namespace sph::can {
@@ -200,7 +200,7 @@ class DeviceSimulator {
 
   DeviceSimConfig config_;
   std::int64_t now_ns_ = 0;  ///< the time of the frame being taken (for the nodes' side effects)
-  gum::Random rng_;  // the same numbers with every standard library
+  Random rng_;  // the same numbers with every standard library
   Eigen::Matrix3d body_to_theta_ = Eigen::Matrix3d::Identity();  // the sphere's mount rotation
   std::vector<std::unique_ptr<Node>> nodes_;
   std::int64_t start_ns_ = 0;

@@ -21,7 +21,7 @@ namespace sph {
 
 struct NoiseFloorOptions {
   int draws = 50;              ///< simulated measurements of pure noise
-  std::uint64_t seed = 1;      ///< of the draws (sph::gum::Random: the same on every compiler)
+  std::uint64_t seed = 1;      ///< of the draws (sph::Random: the same on every compiler)
   long max_mz_points = 20000;  ///< above this many points the minimum zone of the draws is not computed
 };
 

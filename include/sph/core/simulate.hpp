@@ -89,7 +89,7 @@ bool ScanOrderFromName(std::string_view name, ScanOrder* order);
 const char* ScanOrderNames();
 
 /// `pattern` in the time order `order`: a permutation of it. kShuffled draws a Fisher-Yates
-/// shuffle from the 64-bit Mersenne Twister of seed (gum::Random: the same permutation on every platform).
+/// shuffle from the 64-bit Mersenne Twister of seed (Random: the same permutation on every platform).
 std::vector<AnglePair> InScanOrder(const std::vector<AnglePair>& pattern, ScanOrder order, std::uint64_t seed);
 
 /// One spherical-harmonic component of the sphere's form error, on its body frame: the surface
@@ -249,7 +249,7 @@ PointsData SimulateExact(const SimulationSpec& spec, EffectReference* reference 
 /// (setup 0)"). For simulators of the same machine that read the probe otherwise (sph::can).
 void CheckSimulationSetup(const SimulationSpec& spec);
 
-/// Adds Gaussian noise with the spec's sigmas to every reading, drawn from sph::gum::Random(spec.seed)
+/// Adds Gaussian noise with the spec's sigmas to every reading, drawn from sph::Random(spec.seed)
 /// (the same numbers with every compiler) in the order (r, theta, phi) per sample, so that a seed gives
 /// the same noise whatever sigmas are zero; then the outliers of spec.effects, from a second generator
 /// seeded from spec.seed.

@@ -161,7 +161,7 @@ gum::PropagationResult CheckByMonteCarlo(MeasuredResult which, const std::vector
 
 struct UncertaintyOptions {
   int samples = 200;       ///< calibration draws (the std of a std from 200 draws is about 5 %)
-  std::uint64_t seed = 1;  ///< of the sph::gum::Random that draws them
+  std::uint64_t seed = 1;  ///< of the sph::Random that draws them
   int threads = 0;         ///< draws evaluated in parallel; 0: one per hardware thread (same result)
   /// Called with (draws done, draws) as they finish (from the evaluating threads, one at a time).
   std::function<void(int, int)> progress;
