@@ -17,15 +17,7 @@ namespace sph::apps {
 using internal::Quoted;
 
 CLI::Validator InRange(const ValidRange& range) {
-  return CLI::Validator(
-      [range](std::string& text) -> std::string {
-        try {
-          if (range.Contains(ParseNumber(text, "", ""))) return "";
-        } catch (const Error&) {
-        }
-        return range.Refusal(text);
-      },
-      range.Text());
+  return CLI::Validator([range](std::string& text) { return RefusalOf(text, range); }, range.Text());
 }
 
 CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string& help) {

@@ -34,7 +34,8 @@ enum ExitCode : int {
   kExitBadInput = 2,   ///< bad input or usage
 };
 
-/// A CLI11 check for a numeric option in `range`. CLI11 prefixes the option's name:
+/// A CLI11 check for a numeric option in `range`, refused in the library's words (RefusalOf()),
+/// which CLI11 prefixes with the option's name:
 /// "--sphere-radius-mm: must be > 0 and <= 1000 mm, got 1e308". (CLI11 2.1's own PositiveNumber
 /// and Range print their 300-digit bounds and let infinity through.)
 CLI::Validator InRange(const ValidRange& range);

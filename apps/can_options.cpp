@@ -108,16 +108,8 @@ void AddProbe(CLI::App& app, can::DeviceOptions& o, const std::string& g) {
 }  // namespace
 
 CLI::Validator ZeroOrInRange(const ValidRange& range, const std::string& zero) {
-  return CLI::Validator(
-      [range, zero](std::string& text) -> std::string {
-        try {
-          const double v = ParseNumber(text, "", "");
-          if (v == 0.0 || range.Contains(v)) return "";
-        } catch (const Error&) {  // not a finite number: refused with the range
-        }
-        return "must be 0 (" + zero + ") or " + range.Refusal(text).substr(std::string("must be ").size());
-      },
-      "0 or " + range.Text());
+  return CLI::Validator([range, zero](std::string& text) { return RefusalOf(text, 0.0, zero, range); },
+                        "0 or " + range.Text());
 }
 
 CLI::Validator IntegerIn(const ValidRange& range, bool is_unsigned) {

@@ -19,7 +19,8 @@ namespace sph::apps {
 /// external SYNC producer); else the period must be given.
 void AddDeviceOptions(CLI::App& app, can::DeviceOptions& options, bool period_may_be_unknown);
 
-/// A CLI11 check for a number that is 0 (which means `zero`, e.g. "none") or in `range`:
+/// A CLI11 check for a number that is 0 (which means `zero`, e.g. "none") or in `range`, refused
+/// in the library's words (RefusalOf()):
 /// "--heartbeat-period-s: must be 0 (none) or >= 0.001 and <= 65.535 s, got 1e-300".
 CLI::Validator ZeroOrInRange(const ValidRange& range, const std::string& zero);
 

@@ -1,8 +1,10 @@
 #include "sph/core/valid_range.hpp"
 
 #include <cmath>
+#include <optional>
 
 #include "sph/core/error.hpp"
+#include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
 
 namespace sph {
@@ -32,12 +34,39 @@ double CheckedValue(double value, const ValidRange& range, const std::string& wh
   return CheckedValue(value, range, what, internal::Shortest(value));
 }
 
+namespace {
+
+// "must be <special> (<meaning>) or >= lo and <= hi unit, got <text>".
+std::string RefusalOr(const std::string& text, double special, const std::string& meaning, const ValidRange& range) {
+  return "must be " + internal::Shortest(special) + " (" + meaning + ") or " +
+         range.Refusal(text).substr(std::string("must be ").size());
+}
+
+// The typed number, or nothing when `text` is not a finite number (refused with the range).
+std::optional<double> Typed(const std::string& text) {
+  try {
+    return ParseNumber(text, "", "");
+  } catch (const Error&) {
+    return std::nullopt;
+  }
+}
+
+}  // namespace
+
+std::string RefusalOf(const std::string& text, const ValidRange& range) {
+  const std::optional<double> v = Typed(text);
+  return v && range.Contains(*v) ? "" : range.Refusal(text);
+}
+
+std::string RefusalOf(const std::string& text, double special, const std::string& meaning, const ValidRange& range) {
+  const std::optional<double> v = Typed(text);
+  return v && (*v == special || range.Contains(*v)) ? "" : RefusalOr(text, special, meaning, range);
+}
+
 double CheckedValueOr(double value, double special, const char* meaning, const ValidRange& range,
                       const std::string& what) {
   if (value == special || range.Contains(value)) return value;
-  const std::string refusal = range.Refusal(internal::Shortest(value));
-  throw Error(what + ": must be " + internal::Shortest(special) + " (" + meaning + ") or " +
-              refusal.substr(std::string("must be ").size()));
+  throw Error(what + ": " + RefusalOr(internal::Shortest(value), special, meaning, range));
 }
 
 }  // namespace sph

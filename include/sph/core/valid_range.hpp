@@ -39,6 +39,15 @@ T CheckedValue(T value, const ValidRange& range, const std::string& what) {
   return value;
 }
 
+/// The check of a typed value, for a command line's validators: empty when `text` is a finite
+/// number in `range`, else the refusal that CheckedValue() gives after the name: "must be > 0 and
+/// <= 1000 mm, got 1e308".
+std::string RefusalOf(const std::string& text, const ValidRange& range);
+
+/// RefusalOf() of a setting that also takes `special`, meaning `meaning`, outside the range:
+/// "must be 0 (none) or >= 0.001 and <= 65.535 s, got 1e-300", as CheckedValueOr() words it.
+std::string RefusalOf(const std::string& text, double special, const std::string& meaning, const ValidRange& range);
+
 /// CheckedValue() of a setting that also takes one value of its own meaning outside the range:
 /// "--heartbeat-period-s: must be 0 (none) or >= 0.001 and <= 65.535 s, got 1e-300".
 double CheckedValueOr(double value, double special, const char* meaning, const ValidRange& range,
