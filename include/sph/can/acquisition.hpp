@@ -28,6 +28,7 @@
 #include "sph/can/standstill.hpp"
 #include "sph/core/points_file.hpp"
 #include "sph/core/points_writer.hpp"
+#include "sph/core/ranges.hpp"
 #include "sph/core/valid_range.hpp"
 
 namespace sph::can {
@@ -86,10 +87,11 @@ struct AcquisitionOptions {
   std::string generator;
 };
 
-/// The valid values of the acquisition's own numbers (the devices': sph/can/device_options.hpp).
+/// The valid values of the acquisition's own numbers (the devices': sph/can/device_options.hpp;
+/// the sphere's and the probe's: sph/core/ranges.hpp).
 namespace ranges {
-inline constexpr ValidRange kSphereRadiusMm{0.0, kMaxSphereRadiusMm, "mm", true};
-inline constexpr ValidRange kProbeOffsetMm{0.0, kMaxProbeOffsetMm, "mm", true};
+using sph::ranges::kProbeOffsetMm;
+using sph::ranges::kSphereRadiusMm;
 inline constexpr ValidRange kFsyncIntervalS{0.0, 86400.0, "s"};  ///< or -1: only at the end
 inline constexpr ValidRange kTimeoutS{0.0, 86400.0, "s"};        ///< heartbeat timeout, dwell, averaging
 inline constexpr ValidRange kStandstillTolDeg{0.0, 360.0, "deg", true};
