@@ -4,6 +4,7 @@
 #include <exception>
 #include <utility>
 
+#include "fit_problem.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/output_files.hpp"
 #include "sph/core/parameter_settings.hpp"
@@ -16,25 +17,6 @@ namespace sph {
 
 namespace {
 
-// Every parameter of a fit in the analysis' order: the seven errors, each setup's centre, the
-// effects' values in term order (rad, mm), then the sphere form's coefficients per group (mm).
-Eigen::VectorXd ParameterVector(const CalibrationResult& r, const std::vector<std::vector<double>>& effects = {},
-                                const std::vector<std::vector<double>>& form = {}) {
-  std::size_t n = kNumScmsParams + 3 * r.centers_mm.size();
-  for (const auto& block : effects) n += block.size();
-  for (const auto& block : form) n += block.size();
-  Eigen::VectorXd v(static_cast<Eigen::Index>(n));
-  Eigen::Index k = 0;
-  for (double g : r.geometry) v(k++) = g;
-  for (const Eigen::Vector3d& c : r.centers_mm) v.segment<3>(k) = c, k += 3;
-  for (const auto& blocks : {&effects, &form}) {
-    for (const auto& block : *blocks) {
-      for (double x : block) v(k++) = x;
-    }
-  }
-  return v;
-}
-
 // The budget of the calibration reported (the trace's final fit when `extended`); none, with a
 // warning, when the fit was not analysed or a refit fails.
 void MakeBudget(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
@@ -45,10 +27,11 @@ void MakeBudget(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions
     if (extended == nullptr) {
       CalibrationOptions start = q;
       start.initial_geometry = result.geometry;
-      return ParameterVector(Calibrate(p, start));
+      const CalibrationResult r = Calibrate(p, start);
+      return internal::PackParameters(r.geometry, r.centers_mm);
     }
     const EffectFit fit = FitEffects(p, q, extended->model, EffectFitStart::From(*extended));
-    return ParameterVector(fit.calibration, fit.values, fit.form_values);
+    return internal::PackParameters(fit.calibration.geometry, fit.calibration.centers_mm, fit.values, fit.form_values);
   };
   try {
     run.budget = MakeCalibrationBudget(WithoutOutliers(run.points, result), run.settings, result, run.inputs, refit);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -506,22 +507,41 @@ SphereFitProblem::SphereFitProblem(const ReadingTable& table, RowsOfSetup rows, 
 
 SphereFitProblem::~SphereFitProblem() = default;
 
+Eigen::VectorXd PackParameters(const ScmsGeometry& g, const std::vector<Eigen::Vector3d>& centers_mm,
+                               const std::vector<std::vector<double>>& values,
+                               const std::vector<std::vector<double>>& form_values) {
+  std::size_t n = kNumScmsParams + 3 * centers_mm.size();
+  for (const auto& blocks : {&values, &form_values}) {
+    for (const auto& block : *blocks) n += block.size();
+  }
+  Eigen::VectorXd x(static_cast<Eigen::Index>(n));
+  Eigen::Index k = 0;
+  for (double p : g) x(k++) = p;
+  for (const Eigen::Vector3d& c : centers_mm) x.segment<3>(k) = c, k += 3;
+  for (const auto& blocks : {&values, &form_values}) {
+    for (const auto& block : *blocks) {
+      for (double v : block) x(k++) = v;
+    }
+  }
+  return x;
+}
+
 Eigen::VectorXd SphereFitProblem::Pack(const ScmsGeometry& g, const std::vector<Eigen::Vector3d>& centers_mm,
                                        const std::vector<std::vector<double>>& values,
                                        const std::vector<std::vector<double>>& form_values) const {
-  Eigen::VectorXd x(num_params_);
-  for (int k = 0; k < kNumScmsParams; ++k) x(k) = g[static_cast<std::size_t>(k)];
-  for (std::size_t k = 0; k < setups_.size(); ++k)
-    x.segment<3>(kNumScmsParams + 3 * static_cast<Eigen::Index>(k)) = centers_mm[k];
-  Eigen::Index j = first_effect_;
-  for (std::size_t t = 0; t < model_.terms.size(); ++t) {
-    for (std::size_t i = 0; i < model_.terms[t].components.size(); ++i) x(j++) = values[t][i];
-  }
   const auto terms = static_cast<std::size_t>(num_form_terms_);
+  std::vector<std::vector<double>> form;
   for (std::size_t group = 0; group < static_cast<std::size_t>(model_.form.NumGroups()) && terms > 0; ++group) {
     const bool given = group < form_values.size() && form_values[group].size() == terms;
-    for (std::size_t k = 0; k < terms; ++k) x(j++) = given ? form_values[group][k] : 0.0;
+    form.push_back(given ? form_values[group] : std::vector<double>(terms, 0.0));
   }
+  std::vector<std::vector<double>> effects;
+  for (std::size_t t = 0; t < model_.terms.size(); ++t) {
+    effects.emplace_back(values[t].begin(), values[t].begin() + static_cast<long>(model_.terms[t].components.size()));
+  }
+  const std::vector<Eigen::Vector3d> centers(centers_mm.begin(), centers_mm.begin() + NumSetups());
+  Eigen::VectorXd x = PackParameters(g, centers, effects, form);
+  assert(x.size() == num_params_);
   return x;
 }
 

@@ -43,6 +43,13 @@
 
 namespace sph::internal {
 
+/// Every parameter of a fit in its one order, that of x and of the fit's analysis: the seven
+/// errors, each setup's centre, the effects' values in term order (rad, mm), then the sphere form's
+/// coefficients per group (mm).
+Eigen::VectorXd PackParameters(const ScmsGeometry& g, const std::vector<Eigen::Vector3d>& centers_mm,
+                               const std::vector<std::vector<double>>& values = {},
+                               const std::vector<std::vector<double>>& form_values = {});
+
 /// J^T J (full, symmetric), J^T e and the cost 1/2 e^T e at one point.
 struct NormalEquations {
   Eigen::MatrixXd jtj;
@@ -131,8 +138,8 @@ class SphereFitProblem {
   const ReadingTable& table() const { return table_; }
   const EffectModel& model() const { return model_; }
 
-  /// x from its parts (centres: one per problem setup; values: one block per term; form_values:
-  /// one block per group of the model's form, missing blocks at zero).
+  /// x from its parts (PackParameters(); centres: one per problem setup; values: one block per
+  /// term; form_values: one block per group of the model's form, missing blocks at zero).
   Eigen::VectorXd Pack(const ScmsGeometry& g, const std::vector<Eigen::Vector3d>& centers_mm,
                        const std::vector<std::vector<double>>& values,
                        const std::vector<std::vector<double>>& form_values = {}) const;
