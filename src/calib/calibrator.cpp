@@ -34,13 +34,7 @@ std::size_t CountDistinct(const std::vector<double>& values) {
 void ExplainUndetermined(const PointsData& points, const std::vector<bool>* left_out, const CalibrationOptions& options,
                          CalibrationResult& result) {
   const ObservabilityReport& rep = result.analysis;
-  std::string names;
-  for (std::size_t i = 0; i < rep.parameters.size(); ++i) {
-    if (rep.determined[i]) continue;
-    const double disp = rep.StdAsDisplacementUm(static_cast<int>(i));
-    names += (names.empty() ? "" : ", ") + rep.parameters[i].name +
-             (std::isfinite(disp) ? " (std " + Format("%.3g", disp) + " um)" : " (no information at all)");
-  }
+  const std::string names = rep.UndeterminedText();
   if (names.empty()) return;
   result.warnings.push_back(
       "undetermined parameters: " + names + "; a parameter counts as determined when its " +

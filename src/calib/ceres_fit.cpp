@@ -19,6 +19,17 @@
 namespace sph::internal {
 namespace {
 
+// A setup's parameter blocks as Ceres passes them, in the order of SetupCost's blocks.
+SetupParams SetupParamsOf(const SphereFitProblem& problem, double const* const* parameters) {
+  SetupParams p;
+  int b = 0;
+  p.geometry = parameters[b++];
+  p.center = parameters[b++];
+  if (problem.NumEffectParams() > 0) p.effects = parameters[b++];
+  if (problem.NumFormTerms() > 0) p.form = parameters[b++];
+  return p;
+}
+
 // The readings first.. first + count - 1 of one setup as a Ceres cost function, its parameter
 // blocks those of SphereFitProblem::EvaluateSetupRows().
 class SetupCost final : public ceres::CostFunction {
@@ -33,12 +44,7 @@ class SetupCost final : public ceres::CostFunction {
   }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    SetupParams p;
-    int b = 0;
-    p.geometry = parameters[b++];
-    p.center = parameters[b++];
-    if (problem_.NumEffectParams() > 0) p.effects = parameters[b++];
-    if (problem_.NumFormTerms() > 0) p.form = parameters[b++];
+    const SetupParams p = SetupParamsOf(problem_, parameters);
     return problem_.EvaluateSetupRows(setup_, p, first_, count_, residuals, jacobians);
   }
 
@@ -77,12 +83,7 @@ class CompressedSetupCost final : public ceres::CostFunction {
   }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    SetupParams p;
-    int b = 0;
-    p.geometry = parameters[b++];
-    p.center = parameters[b++];
-    if (problem_.NumEffectParams() > 0) p.effects = parameters[b++];
-    if (problem_.NumFormTerms() > 0) p.form = parameters[b++];
+    const SetupParams p = SetupParamsOf(problem_, parameters);
     const int m = problem_.SetupRows(setup_);
     const std::vector<int>& sizes = parameter_block_sizes();
     if (jacobians == nullptr) {

@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
@@ -28,6 +29,17 @@ double ObservabilityReport::StdAsDisplacementUm(int i) const {
   const ParameterDescription& p = parameters[static_cast<std::size_t>(i)];
   const double arm = p.quantity == Quantity::kAngle ? p.lever_mm : 1.0;
   return std(i) * arm * kUmPerMm;
+}
+
+std::string ObservabilityReport::UndeterminedText() const {
+  std::string names;
+  for (std::size_t i = 0; i < parameters.size(); ++i) {
+    if (determined[i]) continue;
+    const double disp = StdAsDisplacementUm(static_cast<int>(i));
+    names += (names.empty() ? "" : ", ") + parameters[i].name +
+             (std::isfinite(disp) ? " (std " + internal::Format("%.3g", disp) + " um)" : " (no information at all)");
+  }
+  return names;
 }
 
 namespace {

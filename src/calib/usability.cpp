@@ -26,13 +26,7 @@ double AsDisplacementUm(const ObservabilityReport& rep, std::size_t i, double u)
 void JudgeFit(const CalibrationResult& r, const ReportContext& ctx, Usability& u) {
   if (!r.converged) u.reasons.push_back("the solver did not converge (" + r.solver_message + ")");
   const ObservabilityReport& rep = r.analysis;
-  std::string names;
-  for (std::size_t i = 0; i < rep.parameters.size(); ++i) {
-    if (rep.determined[i]) continue;
-    const double disp = rep.StdAsDisplacementUm(static_cast<int>(i));
-    names += (names.empty() ? "" : ", ") + rep.parameters[i].name +
-             (std::isfinite(disp) ? " (std " + Format("%.3g", disp) + " um)" : " (no information at all)");
-  }
+  const std::string names = rep.UndeterminedText();
   if (!names.empty()) {
     u.reasons.push_back("the data do not determine " + names +
                         ": their standard uncertainty, as a displacement of the probed point (angles times R0), "

@@ -69,20 +69,23 @@ struct ObservabilityReport {
   bool IsHeld(int i) const { return !held.empty() && held[static_cast<std::size_t>(i)] != Held::kNo; }
   /// Standard uncertainty of parameter i as a displacement [um] (angles times their lever arm).
   double StdAsDisplacementUm(int i) const;
+  /// The undetermined parameters for a message, each with its std as a displacement: "beta (std
+  /// 3.2 um), c (no information at all)"; empty when every parameter is determined.
+  std::string UndeterminedText() const;
 };
 
 /// (J^T J)^-1 through the SVD of the column-equilibrated J D (see the file comment), and what the
 /// SVD tells about J. Singular values below max(m, n) * eps * sigma_max count as zero; a parameter
 /// with a component above 1e-6 in their right singular vectors (or a zero column) is in the null space.
 struct NormalInverse {
-  Eigen::MatrixXd inverse;          ///< (J^T J)^-1; rows and columns of null-space parameters are NaN
-  std::vector<bool> in_null;        ///< parameter j lies in the numerical null space of J
-  double condition_number = 0.0;    ///< sigma_max / sigma_min of J D (inf when singular)
+  Eigen::MatrixXd inverse;        ///< (J^T J)^-1; rows and columns of null-space parameters are NaN
+  std::vector<bool> in_null;      ///< parameter j lies in the numerical null space of J
+  double condition_number = 0.0;  ///< sigma_max / sigma_min of J D (inf when singular)
   /// Of J D, descending: all of them, or (a fit of many setups, analysed through its block
   /// structure) the largest and the weakest ones.
   Eigen::VectorXd singular_values;
-  Eigen::MatrixXd v;                ///< right singular vectors of J D, in the same order
-  Eigen::VectorXd scale;            ///< the diagonal of D: 1 / |J_:,j|, 0 for a zero column
+  Eigen::MatrixXd v;      ///< right singular vectors of J D, in the same order
+  Eigen::VectorXd scale;  ///< the diagonal of D: 1 / |J_:,j|, 0 for a zero column
 };
 
 /// NormalInverse of a Jacobian with at least as many rows as columns.
