@@ -28,7 +28,7 @@
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/core/calibration_comparison.hpp"
-#include "sph/core/gum.hpp"
+#include "sph/core/random.hpp"
 #include "sph/core/simulate.hpp"
 #include "sph/model/units.hpp"
 
@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: comparison_study [PAIRS] [seven|trace]\n");
     return 2;
   }
-  sph::gum::Random random(20261205);
+  sph::Random random(20261205);
   std::map<std::string, Tally> tally;
   std::vector<std::string> order;
   int detected = 0, shifted = 0, one_run_only = 0, all_within = 0, all_compared = 0;
