@@ -9,16 +9,15 @@
 #include <vector>
 
 #include "sph/core/output_files.hpp"
+#include "sph/internal/gnuplot.hpp"
 
 namespace sph::apps {
 
 /// How long one run of gnuplot may take before it is stopped [s] (--plot-timeout-s).
 inline constexpr double kDefaultPlotTimeoutS = 60.0;
 
-/// `s` as a gnuplot string in single quotes (a quote is doubled): for names and titles.
-std::string GnuplotQuoted(const std::string& s);
-/// `s` as a gnuplot string in double quotes, where "\n" is a line break.
-std::string GnuplotDoubleQuoted(const std::string& s);
+using internal::GnuplotDoubleQuoted;  // the quoting of the scripts the library renders
+using internal::GnuplotQuoted;
 
 /// One run of gnuplot.
 struct GnuplotRun {

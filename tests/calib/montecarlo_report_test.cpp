@@ -35,6 +35,11 @@ TEST(MonteCarloReport, RendersTheStudyItsCsvAndFigure4Data) {
   EXPECT_EQ(Lines(crlb_dat.str()), 1 + 61);
   WriteFigure4Spread(spread_dat, spec, study);
   EXPECT_EQ(Lines(spread_dat.str()), 1 + 2 * 3);  // every converged trial
+  const std::string script = Figure4Script(spec, study);
+  EXPECT_THAT(script, HasSubstr("set xtics (1, 2)\n"));  // one tic per eccentricity studied
+  EXPECT_THAT(script, HasSubstr("set xrange [0.7:2.8]\n"));
+  EXPECT_THAT(script, HasSubstr("(3 trials per point, sigma_r 0.05 um)"));
+  EXPECT_THAT(script, HasSubstr("if (!exists(\"crlb_dat\")) crlb_dat = 'fig4_crlb.dat'\n"));
   const std::string json = StudyJson(spec, study, "1,0,0", 0.5, nullptr);
   EXPECT_THAT(json, HasSubstr("\"direction\": \"1,0,0\""));
   EXPECT_THAT(json, HasSubstr("\"wall_time_s\": 0.5"));

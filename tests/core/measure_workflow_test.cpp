@@ -1,5 +1,6 @@
 #include "sph/core/measure_workflow.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -69,6 +70,13 @@ TEST(MeasureWorkflow, FitsXyzPointsAndRendersTheReports) {
   std::ostringstream points;
   run.WritePoints(points);
   EXPECT_THAT(points.str(), HasSubstr("132 points (x y z)"));
+  const std::string map = run.FormMapScript("it's.png");
+  EXPECT_THAT(map, HasSubstr("png = 'it''s.png'\n"));  // gnuplot's quoting of a quote
+  EXPECT_THAT(map, HasSubstr("(132 points): radial residual about the least-squares sphere, R = 10.000000 mm\\n"));
+  const auto data = map.find("$residuals << EOD\n"), end = map.find("EOD\nplot $residuals");
+  ASSERT_NE(data, std::string::npos);
+  ASSERT_NE(end, std::string::npos);
+  EXPECT_EQ(std::count(map.begin() + data, map.begin() + end, '\n'), 1 + 132);  // one line per point inline
   o.program = "host 2.0";
   EXPECT_THAT(RunMeasurementWorkflow(path, o).JsonReport(), HasSubstr("\"created_by\": \"host 2.0\""));
 }

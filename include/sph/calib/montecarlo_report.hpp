@@ -45,6 +45,13 @@ void WriteFigure4Std(std::ostream& out, const MonteCarloStudy& study);
 void WriteFigure4Crlb(std::ostream& out, const MonteCarloStudyOptions& spec, const MonteCarloStudy& study);
 void WriteFigure4Spread(std::ostream& out, const MonteCarloStudyOptions& spec, const MonteCarloStudy& study);
 
+/// Figure 4 as a gnuplot script: the std of b and c, and of beta and epsilon, against the
+/// eccentricity with the Cramer-Rao curves, and the spread of the estimates of b and c. It reads
+/// the data of WriteFigure4Std(), WriteFigure4Crlb() and WriteFigure4Spread() from the variables
+/// std_dat, crlb_dat and spread_dat and draws into b_c_std_png, beta_epsilon_std_png and
+/// spread_png (gnuplot -e), by default fig4_<name>.dat and fig4_<name>.png of its folder.
+std::string Figure4Script(const MonteCarloStudyOptions& spec, const MonteCarloStudy& study);
+
 /// The plan: the predicted std of every error at each eccentricity of `spec` (no simulation),
 /// written as a table to `out` (`pattern` names the pattern in its title); with `target_std_um`,
 /// the smallest eccentricity at which every error's std as a displacement is at most it, for

@@ -107,6 +107,12 @@ struct MeasurementWorkflowResult {
   /// The report as one self-contained HTML document (sph/core/html_report.hpp): its numbers are
   /// JsonReport()'s, with the date it was made and the form map as embedded SVG.
   std::string HtmlReport() const;
+  /// The form-error map as a gnuplot script (data inline): the radial residuals about the
+  /// least-squares sphere over the sphere, azimuth about a pole against the angle from it, colour
+  /// the residual [um]. The pole is the z axis (for an SCMS the Theta axis, so that the map is the
+  /// machine's theta/phi) unless the points form a cap, then centred at the top of the map. It
+  /// draws to the variable `png` when that is set (gnuplot -e), else to `png_path`.
+  std::string FormMapScript(const std::string& png_path) const;
   /// The compensated points (x_mm y_mm z_mm) with a header naming their source.
   void WritePoints(std::ostream& out) const;
 };
