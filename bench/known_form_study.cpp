@@ -157,25 +157,6 @@ struct Tally {
   }
 };
 
-double BinomialCdf(int k, int n, double p) {
-  double sum = 0.0;
-  for (int i = 0; i <= k; ++i) {
-    sum += std::exp(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0) + i * std::log(p) +
-                    (n - i) * std::log1p(-p));
-  }
-  return sum;
-}
-
-// The upper end of the exact (Clopper-Pearson) two-sided 95 % interval of k of n.
-double UpperBound(int k, int n) {
-  double lo = 0.0, hi = 1.0;
-  for (int i = 0; i < 200; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (BinomialCdf(k, n, mid) > 0.025 ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
 int FalseAdditions(int runs) {
   const sph::FormPrior prior = Separate(0.03);
   int added = 0;
@@ -189,7 +170,7 @@ int FalseAdditions(int runs) {
   }
   std::printf(
       "false additions with the form known, one placement, sigma 0.03 um: %d of %d (%.2f %%, 95 %% upper %.2f %%)\n",
-      added, runs, 100.0 * added / runs, 100.0 * UpperBound(added, runs));
+      added, runs, 100.0 * added / runs, 100.0 * sph::bench::ClopperPearson(added, runs).second);
   return 0;
 }
 

@@ -3,6 +3,7 @@
 #define SPH_BENCH_STUDY_DESIGNS_HPP_
 
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "sph/core/simulate.hpp"
@@ -32,6 +33,35 @@ inline SimulationSpec ManySetups(int setups) {
     spec.centers_mm.emplace_back(2.0 * std::cos(a), 2.0 * std::sin(a), 0.3 * (k % 9 - 4));
   }
   return spec;
+}
+
+// P(X <= k) for X ~ Binomial(n, p), 0 < p < 1.
+inline double BinomialCdf(int k, int n, double p) {
+  double sum = 0.0;
+  for (int i = 0; i <= k; ++i) {
+    sum += std::exp(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0) + i * std::log(p) +
+                    (n - i) * std::log1p(-p));
+  }
+  return sum;
+}
+
+// The p at which `f`, falling in p, equals `target`, by bisection on (0, 1).
+template <typename F>
+double Solve(F f, double target) {
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (f(mid) > target ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// The exact (Clopper-Pearson) two-sided 95 % interval of a binomial rate, k of n: the p at which
+// P(X >= k) = 2.5 % and the p at which P(X <= k) = 2.5 % (each CDF falls as p rises).
+inline std::pair<double, double> ClopperPearson(int k, int n) {
+  const double lo = k == 0 ? 0.0 : Solve([&](double p) { return BinomialCdf(k - 1, n, p); }, 0.975);
+  const double hi = k == n ? 1.0 : Solve([&](double p) { return BinomialCdf(k, n, p); }, 0.025);
+  return {lo, hi};
 }
 
 }  // namespace sph::bench

@@ -33,35 +33,6 @@ struct Case {
   std::vector<sph::FormComponent> form;  // instead of an effect: the reference sphere's own form error
 };
 
-// P(X <= k) for X ~ Binomial(n, p), 0 < p < 1.
-double BinomialCdf(int k, int n, double p) {
-  double sum = 0.0;
-  for (int i = 0; i <= k; ++i) {
-    sum += std::exp(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0) + i * std::log(p) +
-                    (n - i) * std::log1p(-p));
-  }
-  return sum;
-}
-
-// The p at which `f`, falling in p, equals `target`, by bisection on (0, 1).
-template <typename F>
-double Solve(F f, double target) {
-  double lo = 0.0, hi = 1.0;
-  for (int i = 0; i < 200; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (f(mid) > target ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
-// The exact (Clopper-Pearson) two-sided 95 % interval of a binomial rate, k of n: the p at which
-// P(X >= k) = 2.5 % and the p at which P(X <= k) = 2.5 % (each CDF falls as p rises).
-std::pair<double, double> ClopperPearson(int k, int n) {
-  const double lo = k == 0 ? 0.0 : Solve([&](double p) { return BinomialCdf(k - 1, n, p); }, 0.975);
-  const double hi = k == n ? 1.0 : Solve([&](double p) { return BinomialCdf(k, n, p); }, 0.025);
-  return {lo, hi};
-}
-
 int FalseAdditions(int runs, const sph::CalibrationOptions& o) {
   struct Clean {
     const char* name;
@@ -97,7 +68,7 @@ int FalseAdditions(int runs, const sph::CalibrationOptions& o) {
       added += !r.added.empty();
       for (sph::Effect e : r.added) counts[sph::InfoOf(e).id]++;
     }
-    const auto [lo, hi] = ClopperPearson(added, runs);
+    const auto [lo, hi] = sph::bench::ClopperPearson(added, runs);
     std::string list;
     for (const auto& [id, k] : counts) list += id + " " + std::to_string(k) + "  ";
     std::printf("%-28s %6d %6d %7.2f%% %9.2f%% to %6.2f%%  %s\n", c.name, runs, added, 100.0 * added / runs, 100.0 * lo,

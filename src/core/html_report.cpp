@@ -120,6 +120,22 @@ std::string Colour(double f) {
   return Format("#%02x%02x%02x", c[0], c[1], c[2]);
 }
 
+// The start of a figure: the SVG element of `width` x `height` px, its title (as <title> and as a
+// caption), and the plot area's frame at (left, top), `w` x `h` px, filled with `fill`.
+std::string SvgStart(double width, double height, const std::string& title, double left, double top, double w,
+                     double h, const char* fill) {
+  std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" + Format(
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 %.0f %.0f\" width=\"%.0f\" height=\"%.0f\" "
+      "font-family=\"DejaVu Sans, Arial, sans-serif\" font-size=\"11\">\n",
+      width, height, width, height);
+  s += "<title>" + Escape(title) + "</title>\n";
+  s += Format("<text x=\"%.0f\" y=\"18\" font-size=\"13\">", left) + Escape(title) + "</text>\n";
+  s += Format("<rect x=\"%.0f\" y=\"%.0f\" width=\"%.0f\" height=\"%.0f\" fill=\"%s\" stroke=\"#000\"/>\n", left, top,
+              w, h, fill);
+  return s;
+}
+
+
 }  // namespace
 
 std::string Figure(const std::string& svg, const std::string& alt, const std::string& caption) {
@@ -181,14 +197,7 @@ std::string SvgMap(const MapAxes& a, const std::vector<double>& x_deg, const std
   if (hi <= lo) hi = lo + 1.0;
   const auto px = [&](double x) { return kLeft + (x - a.x_lo) / (a.x_hi - a.x_lo) * kW; };
   const auto py = [&](double y) { return kTop + (y - a.y_lo) / (a.y_hi - a.y_lo) * kH; };
-  std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" + Format(
-      "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 %.0f %.0f\" width=\"%.0f\" height=\"%.0f\" "
-      "font-family=\"DejaVu Sans, Arial, sans-serif\" font-size=\"11\">\n",
-      width, height, width, height);
-  s += "<title>" + Escape(a.title) + "</title>\n";
-  s += Format("<text x=\"%.0f\" y=\"18\" font-size=\"13\">", kLeft) + Escape(a.title) + "</text>\n";
-  s += Format("<rect x=\"%.0f\" y=\"%.0f\" width=\"%.0f\" height=\"%.0f\" fill=\"#f4f4f4\" stroke=\"#000\"/>\n",
-              kLeft, kTop, kW, kH);
+  std::string s = SvgStart(width, height, a.title, kLeft, kTop, kW, kH, "#f4f4f4");
   // Ticks every 60 deg on x and 30 deg on y.
   for (double x = a.x_lo; x <= a.x_hi + 1e-9; x += 60) {
     s += Format("<line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"#000\"/>"
@@ -260,14 +269,7 @@ std::string SvgCurve(const CurveAxes& a, const std::vector<double>& x, const std
   const double x_span = a.x_hi > a.x_lo ? a.x_hi - a.x_lo : 1.0;
   const auto px = [&](double v) { return kLeft + (v - a.x_lo) / x_span * kW; };
   const auto py = [&](double v) { return kTop + (hi - v) / (hi - lo) * kH; };
-  std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" + Format(
-      "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 %.0f %.0f\" width=\"%.0f\" height=\"%.0f\" "
-      "font-family=\"DejaVu Sans, Arial, sans-serif\" font-size=\"11\">\n",
-      width, height, width, height);
-  s += "<title>" + Escape(a.title) + "</title>\n";
-  s += Format("<text x=\"%.0f\" y=\"18\" font-size=\"13\">", kLeft) + Escape(a.title) + "</text>\n";
-  s += Format("<rect x=\"%.0f\" y=\"%.0f\" width=\"%.0f\" height=\"%.0f\" fill=\"#ffffff\" stroke=\"#000\"/>\n",
-              kLeft, kTop, kW, kH);
+  std::string s = SvgStart(width, height, a.title, kLeft, kTop, kW, kH, "#ffffff");
   // Ticks: every 30 deg (15 deg under 120 deg) on x, `step` on y, with light grid lines.
   const double x_step = x_span > 120 ? 30.0 : 15.0;
   for (double v = std::ceil(a.x_lo / x_step) * x_step; v <= a.x_hi + 1e-9; v += x_step) {
