@@ -16,12 +16,12 @@
 
 #include "cli_fwd.hpp"
 
-#include "sph/core/cleanup.hpp"
-#include "sph/core/output_files.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/cleanup.hpp"
+#include "sph/io/output_files.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/core/ranges.hpp"
-#include "sph/core/simulate.hpp"
-#include "sph/core/simulation_options.hpp"
+#include "sph/simulation/simulate.hpp"
+#include "sph/simulation/simulation_options.hpp"
 #include "sph/core/valid_range.hpp"
 #include "sph/model/scms_model.hpp"
 
@@ -70,7 +70,7 @@ void AddFormOptions(CLI::App& app, FormOptions& o, const std::string& group);
 /// The whole main() of an app: set up the options, parse, run. --help and --version exit 0, a parse
 /// error exits kExitBadInput, and an exception escaping `run` is printed as "<name>: error: <what>"
 /// on stderr with kExitBadInput. `run` returns the exit code. A signal that ends the program
-/// removes the temporary files of its unfinished outputs (sph/core/cleanup.hpp). SIGPIPE is
+/// removes the temporary files of its unfinished outputs (sph/io/cleanup.hpp). SIGPIPE is
 /// ignored: a write to a closed pipe fails like one to a full disk, and a failed write to standard
 /// output is an error ("<name>: error: cannot write to standard output: Broken pipe"), found by
 /// OutputFiles::Commit() before the run's files are put in place, or at the latest here, as

@@ -6,9 +6,9 @@
 
 #include "app_common.hpp"
 #include "calibrate_plots.hpp"
-#include "sph/core/calibration_file.hpp"
-#include "sph/core/output_files.hpp"
-#include "sph/core/parameter_settings.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/io/output_files.hpp"
+#include "sph/io/parameter_settings.hpp"
 #include "sph/model/effect_terms.hpp"
 
 namespace sph::apps {

@@ -17,7 +17,7 @@ CLI::Range IntRange(const ValidRange& range) {
 
 // --fix, --prior and the robust loss.
 void AddFitSettingOptions(CLI::App& app, CalibrateOptions& o) {
-  const std::string told = "Fix, inform and weight (sph/core/parameter_settings.hpp)";
+  const std::string told = "Fix, inform and weight (sph/io/parameter_settings.hpp)";
   app.add_option("--fix", o.fix,
                  "Hold a parameter instead of fitting it: NAME at its start value (the seven errors: 0), or "
                  "NAME_UNIT=VALUE, e.g. d_prime_mm=-0.062 (units deg, arcsec, urad, mm, um); a parameter is one of "

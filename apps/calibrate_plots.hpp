@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "sph/core/output_files.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/output_files.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/select/trace.hpp"
 
 namespace sph::apps {

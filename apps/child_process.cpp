@@ -10,7 +10,7 @@
 #include <cstring>
 #include <utility>
 
-#include "sph/core/cleanup.hpp"
+#include "sph/io/cleanup.hpp"
 #include "sph/core/error.hpp"
 
 namespace sph::apps {

@@ -1,7 +1,7 @@
 // The pieces of a run of gnuplot as a child process (RunGnuplot(), gnuplot.hpp): its script in a
 // temporary file, the pipe of its messages, the child in a process group of its own, and the
 // waits, each within a deadline. Each piece registers what it makes with the signal cleanup
-// (sph/core/cleanup.hpp) and undoes it when it goes.
+// (sph/io/cleanup.hpp) and undoes it when it goes.
 #ifndef SPH_APPS_CHILD_PROCESS_HPP_
 #define SPH_APPS_CHILD_PROCESS_HPP_
 

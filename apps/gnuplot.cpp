@@ -15,7 +15,7 @@
 #include <filesystem>
 #include <utility>
 
-#include "sph/core/cleanup.hpp"
+#include "sph/io/cleanup.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
 

@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "sph/core/output_files.hpp"
+#include "sph/io/output_files.hpp"
 #include "sph/internal/gnuplot.hpp"
 
 namespace sph::apps {
@@ -62,7 +62,7 @@ class PlotFolder {
 /// gnuplot printed when it fails, saying how to install it when it is not found, when it has
 /// not finished within run.timeout_s (it is then killed, with what it started, and waited for),
 /// and when it leaves one of run.images empty. A signal that ends the program kills it too
-/// (sph/core/cleanup.hpp) before the staged images are removed.
+/// (sph/io/cleanup.hpp) before the staged images are removed.
 void RunGnuplot(const GnuplotRun& run, const std::string& what);
 
 }  // namespace sph::apps

@@ -7,7 +7,7 @@
 
 #include "app_common.hpp"
 #include "gnuplot.hpp"
-#include "sph/core/output_files.hpp"
+#include "sph/io/output_files.hpp"
 #include "sph/internal/format.hpp"
 
 namespace sph::apps {

@@ -13,11 +13,11 @@
 
 #include "gnuplot.hpp"
 #include "progress.hpp"
-#include "sph/core/measure_workflow.hpp"
+#include "sph/measure/measure_workflow.hpp"
 
 namespace sph::apps {
 
-/// sph_measure's options: the workflow's (sph/core/measure_workflow.hpp, whose defaults they
+/// sph_measure's options: the workflow's (sph/measure/measure_workflow.hpp, whose defaults they
 /// take) and the app's own: where the points come from and the outputs go.
 struct MeasureOptions {
   std::string points_path;  ///< sph-points 1 readings, or x y z coordinates with workflow.xyz

@@ -15,7 +15,7 @@
 #include "sph/calib/montecarlo.hpp"
 #include "sph/calib/montecarlo_report.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/output_files.hpp"
+#include "sph/io/output_files.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 

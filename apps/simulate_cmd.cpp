@@ -4,9 +4,9 @@
 
 #include "app_common.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/output_files.hpp"
-#include "sph/core/simulate.hpp"
-#include "sph/core/simulation_options.hpp"
+#include "sph/io/output_files.hpp"
+#include "sph/simulation/simulate.hpp"
+#include "sph/simulation/simulation_options.hpp"
 
 namespace sph::apps {
 

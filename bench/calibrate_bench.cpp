@@ -9,9 +9,9 @@
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/calib/calibrator.hpp"
-#include "sph/core/calibration_file.hpp"
-#include "sph/core/points_file.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/io/points_file.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "study_designs.hpp"
 
 namespace {

@@ -27,9 +27,9 @@
 #include <vector>
 
 #include "sph/calib/calibrate_workflow.hpp"
-#include "sph/core/calibration_comparison.hpp"
-#include "sph/core/random.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/io/calibration_comparison.hpp"
+#include "sph/stats/random.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 
 namespace {

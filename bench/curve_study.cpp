@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace.hpp"
 

@@ -29,7 +29,7 @@
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/calib/known_form.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace.hpp"
 #include "study_designs.hpp"

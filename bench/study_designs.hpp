@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::bench {

@@ -4,7 +4,7 @@
 #include <benchmark/benchmark.h>
 
 #include "peak_rss.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace.hpp"
 #include "study_designs.hpp"

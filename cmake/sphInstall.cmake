@@ -9,7 +9,7 @@ install(DIRECTORY include/sph/model DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph
 install(TARGETS sph_model EXPORT sph-model-targets)
 install(EXPORT sph-model-targets NAMESPACE sph:: DESTINATION "${SPH_INSTALL_CMAKEDIR}" COMPONENT model)
 
-install(DIRECTORY include/sph/core include/sph/sphere DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph" COMPONENT core)
+install(DIRECTORY include/sph/core include/sph/io include/sph/simulation include/sph/stats include/sph/measure include/sph/sphere DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph" COMPONENT core)
 install(TARGETS sph_sphere sph_core EXPORT sph-core-targets ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}"
         LIBRARY DESTINATION "${CMAKE_INSTALL_LIBDIR}")
 install(EXPORT sph-core-targets NAMESPACE sph:: DESTINATION "${SPH_INSTALL_CMAKEDIR}" COMPONENT core)

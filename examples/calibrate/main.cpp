@@ -7,8 +7,8 @@
 #include <string>
 
 #include "sph/calib/calibrate_workflow.hpp"
-#include "sph/core/calibration_file.hpp"
-#include "sph/core/output_files.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/io/output_files.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 5) {

@@ -6,8 +6,8 @@
 #include <iostream>
 #include <string>
 
-#include "sph/core/measure_workflow.hpp"
-#include "sph/core/output_files.hpp"
+#include "sph/measure/measure_workflow.hpp"
+#include "sph/io/output_files.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 4) {

@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sph/calib/calibrate_workflow.hpp"
-#include "sph/core/html_report.hpp"
+#include "sph/io/html_report.hpp"
 #include "sph/internal/html_json.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"

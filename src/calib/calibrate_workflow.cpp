@@ -6,10 +6,10 @@
 
 #include "fit_problem.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/output_files.hpp"
-#include "sph/core/parameter_settings.hpp"
+#include "sph/io/output_files.hpp"
+#include "sph/io/parameter_settings.hpp"
 #include "sph/core/ranges.hpp"
-#include "sph/core/setup_checks.hpp"
+#include "sph/io/setup_checks.hpp"
 #include "sph/core/valid_range.hpp"
 #include "sph/model/units.hpp"
 

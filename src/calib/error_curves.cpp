@@ -7,7 +7,7 @@
 
 #include <Eigen/Dense>
 
-#include "sph/core/gum.hpp"
+#include "sph/stats/gum.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {

@@ -36,7 +36,7 @@
 
 #include "block_factor.hpp"
 #include "sph/calib/calibrator.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/model/effects.hpp"
 #include "sph/model/residual_gradient.hpp"
 #include "sph/model/row_qr.hpp"

@@ -6,7 +6,7 @@
 #include <Eigen/Cholesky>
 
 #include "sph/core/error.hpp"
-#include "sph/core/gum.hpp"
+#include "sph/stats/gum.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 

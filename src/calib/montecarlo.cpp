@@ -12,7 +12,7 @@
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/gum.hpp"
+#include "sph/stats/gum.hpp"
 #include "sph/internal/parallel.hpp"
 #include "sph/model/units.hpp"
 #include "sph/sphere/sphere_fit.hpp"

@@ -6,7 +6,7 @@
 
 #include "sph/calib/known_form.hpp"
 #include "sph/calib/usability.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace_report.hpp"

@@ -8,7 +8,7 @@
 #include "acquisition_internal.hpp"
 #include "sph/can/candump_log.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/output_files.hpp"
+#include "sph/io/output_files.hpp"
 
 namespace sph::can {
 namespace {

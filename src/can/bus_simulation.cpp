@@ -17,7 +17,7 @@
 #include "clock.hpp"
 #include "sph/can/candump_log.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/output_files.hpp"
+#include "sph/io/output_files.hpp"
 #include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
 

@@ -7,7 +7,7 @@
 
 #include "sph/can/bus_simulation.hpp"
 #include "sph/can/device_sim.hpp"
-#include "sph/core/output_files.hpp"
+#include "sph/io/output_files.hpp"
 
 namespace sph::can {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "effect_fit_rows.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 

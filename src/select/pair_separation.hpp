@@ -12,7 +12,7 @@
 
 #include "fit_problem.hpp"
 #include "sph/calib/effect_fit.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 
 namespace sph::internal {
 

@@ -9,7 +9,7 @@
 
 #include "block_factor.hpp"
 #include "effect_fit_rows.hpp"
-#include "sph/core/gum.hpp"
+#include "sph/stats/gum.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/row_qr.hpp"
 #include "sph/model/spherical_harmonics.hpp"

@@ -10,7 +10,7 @@
 
 #include "sph/calib/report.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/setup_checks.hpp"
+#include "sph/io/setup_checks.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/units.hpp"

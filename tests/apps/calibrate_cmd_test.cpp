@@ -13,9 +13,9 @@
 #include <nlohmann/json.hpp>
 
 #include "app_common.hpp"
-#include "sph/core/calibration_file.hpp"
-#include "sph/core/points_file.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/io/points_file.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"
 #include "sph/sphere/sphere_fit.hpp"

@@ -16,10 +16,10 @@
 
 #include "app_common.hpp"
 #include "calibrate_cmd.hpp"
-#include "sph/core/calibration_file.hpp"
-#include "sph/core/points_file.hpp"
-#include "sph/core/simulate.hpp"
-#include "sph/core/xyz_file.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/io/points_file.hpp"
+#include "sph/simulation/simulate.hpp"
+#include "sph/io/xyz_file.hpp"
 #include "sph/model/units.hpp"
 #include "test_util.hpp"
 

@@ -11,9 +11,9 @@
 
 #include "sph/calib/effect_fit.hpp"
 #include "sph/calib/report.hpp"
-#include "sph/core/calibration_file.hpp"
-#include "sph/core/simulate.hpp"
-#include "sph/core/sphere_measurement.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/simulation/simulate.hpp"
+#include "sph/measure/sphere_measurement.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph::apps {

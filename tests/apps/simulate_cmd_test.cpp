@@ -10,8 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include "app_common.hpp"
-#include "sph/core/points_file.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/io/points_file.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "test_util.hpp"
 
 namespace sph::apps {

@@ -10,7 +10,7 @@
 #include "effect_fit_rows.hpp"
 #include "fit_problem.hpp"
 #include "sph/calib/effect_fit.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/residual_structure.hpp"
 #include "structure_jacobian.hpp"

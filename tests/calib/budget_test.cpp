@@ -11,7 +11,7 @@
 
 #include "calib_test_util.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {

@@ -8,7 +8,7 @@
 
 #include "calib_test_util.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "test_util.hpp"
 
 namespace sph {

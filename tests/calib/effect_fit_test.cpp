@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "calib_test_util.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "test_util.hpp"
 
@@ -115,7 +115,7 @@ struct RecoveryCase {
 
 class EffectRecovery : public ::testing::TestWithParam<RecoveryCase> {};
 
-// Each effect alone, simulated by ray tracing (sph/core/simulate.cpp) without noise, is recovered
+// Each effect alone, simulated by ray tracing (sph/simulation/simulate.cpp) without noise, is recovered
 // by the fit to 1e-9 of its size, together with the seven errors.
 TEST_P(EffectRecovery, NoiseFreeSimulationIsRecovered) {
   const RecoveryCase& c = GetParam();

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "calib_test_util.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace.hpp"
 

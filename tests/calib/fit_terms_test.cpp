@@ -11,7 +11,7 @@
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/effect_fit.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {

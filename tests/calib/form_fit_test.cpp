@@ -9,7 +9,7 @@
 
 #include "calib_test_util.hpp"
 #include "sph/calib/effect_fit.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/form_report.hpp"
 #include "sph/select/trace.hpp"

@@ -7,9 +7,9 @@
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/html_report.hpp"
-#include "sph/core/measure_workflow.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/html_report.hpp"
+#include "sph/measure/measure_workflow.hpp"
+#include "sph/io/points_file.hpp"
 
 namespace sph {
 namespace {

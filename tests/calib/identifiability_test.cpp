@@ -12,7 +12,7 @@
 #include "calib_test_util.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 
 namespace sph {
 namespace {

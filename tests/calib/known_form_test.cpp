@@ -11,7 +11,7 @@
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
 #include "test_util.hpp"

@@ -25,8 +25,8 @@
 #include "cansim_cmd.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/points_file.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/io/points_file.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "test_util.hpp"
 
 namespace sph::apps {

@@ -17,7 +17,7 @@
 #include "sph/can/acquisition.hpp"
 #include "sph/can/candump_log.hpp"
 #include "sph/can/device_sim.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "test_util.hpp"
 
 namespace sph::can {

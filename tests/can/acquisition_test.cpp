@@ -16,7 +16,7 @@
 
 #include "sph/can/bus_simulation.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "test_util.hpp"
 
 namespace sph::can {

@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "acquire_cmd.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "test_util.hpp"
 
 namespace sph::apps {

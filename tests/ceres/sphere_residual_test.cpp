@@ -12,7 +12,7 @@
 #include "fit_problem.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/effect_fit.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/effects.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "test_util.hpp"

@@ -1,4 +1,4 @@
-#include "sph/core/calibration_comparison.hpp"
+#include "sph/io/calibration_comparison.hpp"
 
 #include <cmath>
 #include <string>

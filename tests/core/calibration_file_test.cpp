@@ -1,4 +1,4 @@
-#include "sph/core/calibration_file.hpp"
+#include "sph/io/calibration_file.hpp"
 
 #include <cmath>
 

@@ -1,4 +1,4 @@
-#include "sph/core/gum.hpp"
+#include "sph/stats/gum.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/units.hpp"
 

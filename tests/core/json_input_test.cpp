@@ -1,4 +1,4 @@
-// The reading of JSON inputs (src/core/json_input.hpp), with bounds small enough to test.
+// The reading of JSON inputs (src/io/json_input.hpp), with bounds small enough to test.
 #include "json_input.hpp"
 
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "sph/core/measure_workflow.hpp"
+#include "sph/measure/measure_workflow.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "sph/core/noise_floor.hpp"
+#include "sph/measure/noise_floor.hpp"
 
 #include <cmath>
 #include <random>

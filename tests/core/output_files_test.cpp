@@ -1,4 +1,4 @@
-#include "sph/core/output_files.hpp"
+#include "sph/io/output_files.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -15,7 +15,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "sph/core/cleanup.hpp"
+#include "sph/io/cleanup.hpp"
 #include "sph/core/error.hpp"
 #include "test_util.hpp"
 

@@ -1,4 +1,4 @@
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 
 #include <cmath>
 #include <cstdlib>

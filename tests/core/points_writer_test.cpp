@@ -1,4 +1,4 @@
-#include "sph/core/points_writer.hpp"
+#include "sph/io/points_writer.hpp"
 
 #include <sys/resource.h>
 #include <sys/wait.h>

@@ -1,5 +1,5 @@
-// The project's random generator (sph/core/random.hpp): its stream is part of every result.
-#include "sph/core/random.hpp"
+// The project's random generator (sph/stats/random.hpp): its stream is part of every result.
+#include "sph/stats/random.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "sph/core/gum.hpp"
+#include "sph/stats/gum.hpp"
 #include "test_util.hpp"
 
 namespace sph {

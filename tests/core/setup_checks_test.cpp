@@ -1,4 +1,4 @@
-#include "sph/core/setup_checks.hpp"
+#include "sph/io/setup_checks.hpp"
 
 #include <functional>
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
-#include "sph/core/simulation_options.hpp"
+#include "sph/simulation/simulation_options.hpp"
 #include "sph/model/scms_model.hpp"
 #include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"

@@ -1,4 +1,4 @@
-#include "sph/core/sphere_measurement.hpp"
+#include "sph/measure/sphere_measurement.hpp"
 
 #include <cmath>
 #include <stdexcept>
@@ -6,10 +6,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "sph/core/calibration_file.hpp"
+#include "sph/io/calibration_file.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/gum.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/stats/gum.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/compensation.hpp"
 #include "test_util.hpp"
 

@@ -1,4 +1,4 @@
-#include "sph/core/xyz_file.hpp"
+#include "sph/io/xyz_file.hpp"
 
 #include <fstream>
 #include <limits>

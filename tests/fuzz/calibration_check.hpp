@@ -11,7 +11,7 @@
 #include <sstream>
 #include <string>
 
-#include "sph/core/calibration_file.hpp"
+#include "sph/io/calibration_file.hpp"
 #include "sph/core/error.hpp"
 #include "sph/model/compensation.hpp"
 

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "sph/core/error.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 
 namespace {
 

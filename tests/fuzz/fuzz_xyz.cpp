@@ -7,7 +7,7 @@
 #include <string>
 
 #include "sph/core/error.hpp"
-#include "sph/core/xyz_file.hpp"
+#include "sph/io/xyz_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));

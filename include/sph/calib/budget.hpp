@@ -16,8 +16,8 @@
 #include <Eigen/Core>
 
 #include "sph/calib/calibrator.hpp"
-#include "sph/core/gum.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/stats/gum.hpp"
+#include "sph/io/points_file.hpp"
 
 namespace sph {
 

@@ -17,9 +17,9 @@
 #include "sph/calib/known_form.hpp"
 #include "sph/calib/report.hpp"
 #include "sph/calib/usability.hpp"
-#include "sph/core/calibration_comparison.hpp"
-#include "sph/core/calibration_file.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/calibration_comparison.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/core/ranges.hpp"
 #include "sph/select/trace.hpp"
 #include "sph/select/trace_report.hpp"
@@ -51,7 +51,7 @@ struct CalibrationWorkflowOptions {
   std::vector<Effect> effects;     ///< a fixed model: these effects fitted, no selection (needs trace)
   std::string validate_path;       ///< another points file of the machine, compensated before and after (needs trace)
   /// An earlier calibration file of the machine (sph_calibrate -o): this run's calibration compared
-  /// with it (sph/core/calibration_comparison.hpp); read before the fit. The comparison informs: it
+  /// with it (sph/io/calibration_comparison.hpp); read before the fit. The comparison informs: it
   /// does not change the calibration nor whether it is usable.
   std::string compare_path;
   /// A calibration file holding the reference sphere's form (made from a run that separated it):
@@ -104,7 +104,7 @@ struct CalibrationWorkflowResult {
   ReportContext Context() const;
   void WriteTextReport(std::ostream& out) const;
   std::string JsonReport() const;
-  /// The report as one self-contained HTML document (sph/core/html_report.hpp): its numbers are
+  /// The report as one self-contained HTML document (sph/io/html_report.hpp): its numbers are
   /// JsonReport()'s, with the date it was made, the points file's header fields (escaped) and the
   /// residual map as inline SVG.
   std::string HtmlReport() const;

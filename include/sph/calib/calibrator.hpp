@@ -19,8 +19,8 @@
 #include <Eigen/Core>
 
 #include "sph/calib/observability.hpp"
-#include "sph/core/parameter_settings.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/parameter_settings.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/scms_model.hpp"
 
@@ -86,7 +86,7 @@ struct CalibrationOptions {
   /// outliers no longer changes. The limit is at least 1 nm. 0 keeps every reading. Needs `analyse`.
   double outlier_sigma = 5.0;
 
-  /// Parameters held at a value instead of fitted (sph/core/parameter_settings.hpp): reported as
+  /// Parameters held at a value instead of fitted (sph/io/parameter_settings.hpp): reported as
   /// held, not with an uncertainty. A parameter of an effect holds where the fit's model has it.
   std::vector<FixedParameter> fixed;
   /// Gaussian priors from independent measurements: each adds the residual (p - value) sigma / u to

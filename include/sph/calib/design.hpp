@@ -18,7 +18,7 @@
 #include <Eigen/Core>
 
 #include "sph/calib/observability.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 
 namespace sph {
 

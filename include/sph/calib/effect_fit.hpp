@@ -18,7 +18,7 @@
 #include <Eigen/Core>
 
 #include "sph/calib/calibrator.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/model/effects.hpp"
 
 namespace sph {

@@ -14,8 +14,8 @@
 
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/effect_fit.hpp"
-#include "sph/core/calibration_file.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/io/points_file.hpp"
 
 namespace sph {
 

@@ -15,7 +15,7 @@
 
 #include <Eigen/Core>
 
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph {

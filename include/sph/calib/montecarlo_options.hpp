@@ -12,7 +12,7 @@
 
 #include "sph/calib/montecarlo.hpp"
 #include "sph/calib/montecarlo_report.hpp"
-#include "sph/core/simulation_options.hpp"
+#include "sph/simulation/simulation_options.hpp"
 
 namespace sph {
 

@@ -12,8 +12,8 @@
 #include "sph/calib/budget.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/effect_fit.hpp"
-#include "sph/core/calibration_comparison.hpp"
-#include "sph/core/calibration_file.hpp"
+#include "sph/io/calibration_comparison.hpp"
+#include "sph/io/calibration_file.hpp"
 #include "sph/model/compensation.hpp"
 
 namespace sph {

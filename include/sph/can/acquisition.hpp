@@ -26,8 +26,8 @@
 #include "sph/can/run_control.hpp"
 #include "sph/can/sdo.hpp"
 #include "sph/can/standstill.hpp"
-#include "sph/core/points_file.hpp"
-#include "sph/core/points_writer.hpp"
+#include "sph/io/points_file.hpp"
+#include "sph/io/points_writer.hpp"
 #include "sph/core/ranges.hpp"
 #include "sph/core/valid_range.hpp"
 

@@ -21,7 +21,7 @@
 #include "sph/can/master.hpp"
 #include "sph/can/pipeline.hpp"
 #include "sph/core/error.hpp"
-#include "sph/core/points_writer.hpp"
+#include "sph/io/points_writer.hpp"
 
 namespace sph::can {
 

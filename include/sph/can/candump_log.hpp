@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "sph/can/frame.hpp"
-#include "sph/core/append_file.hpp"
+#include "sph/io/append_file.hpp"
 #include "sph/core/text_input.hpp"
 
 namespace sph::can {

@@ -1,6 +1,6 @@
 // A simulated SCMS on CAN: the Theta and Phi encoders (CiA 406) and the probe measuring a
 // reference sphere in a stop-and-go pattern, as CANopen nodes that behave like real ones, with
-// faults on demand. The readings come from sph::ProbeReading (sph/core/simulate.hpp), the same
+// faults on demand. The readings come from sph::ProbeReading (sph/simulation/simulate.hpp), the same
 // ray-sphere truth as sph_simulate, and a set-up it refuses is refused (CheckSimulationSetup).
 //
 // Each device is a node (CiA 301) with an NMT state and an object dictionary served over SDO:
@@ -47,8 +47,8 @@
 #include "sph/can/frame.hpp"
 #include "sph/can/pipeline.hpp"
 #include "sph/can/sdo.hpp"
-#include "sph/core/random.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/stats/random.hpp"
+#include "sph/simulation/simulate.hpp"
 
 namespace sph::can {
 

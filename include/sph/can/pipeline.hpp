@@ -28,7 +28,7 @@
 #include "sph/can/canopen.hpp"
 #include "sph/can/frame.hpp"
 #include "sph/can/standstill.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 
 namespace sph::can {
 

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <optional>
 
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 
 namespace sph::can {
 

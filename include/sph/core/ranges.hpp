@@ -6,7 +6,7 @@
 
 #include <cstddef>
 
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/core/valid_range.hpp"
 #include "sph/model/effect_terms.hpp"
 #include "sph/model/scms_model.hpp"

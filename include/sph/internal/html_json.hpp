@@ -1,4 +1,4 @@
-// The JSON reports' values as the HTML reports print them (sph/core/html_report.hpp). Not part
+// The JSON reports' values as the HTML reports print them (sph/io/html_report.hpp). Not part
 // of the public API: the libraries' sources that render a JSON report as HTML use it.
 #ifndef SPH_INTERNAL_HTML_JSON_HPP_
 #define SPH_INTERNAL_HTML_JSON_HPP_

@@ -11,7 +11,7 @@
 // readings come as the machine gives them: theta_deg, phi_deg [deg], r_mm [mm]; the result is in mm,
 // in the frame that turns with Theta (the frame in which the measured sphere is at rest).
 //
-// Loading: the calibration file is JSON (format sph-calibration 1, sph/core/calibration_file.hpp).
+// Loading: the calibration file is JSON (format sph-calibration 1, sph/io/calibration_file.hpp).
 // Its reader stays in sph::core, which has no Ceres either (sph::LoadCalibration() fills this
 // struct): reading a file is a library-boundary job (it reports bad files by throwing sph::Error
 // with the file and field), and one validated reader of the format is better than two. A host that

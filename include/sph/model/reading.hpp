@@ -2,7 +2,7 @@
 // in mm. Header-only, no dependencies.
 //
 // The library's one reading type in the machine's units: the points file's row (sph::Sample,
-// sph/core/points_file.hpp) is a RawReading with its time and setup, and the model's reading
+// sph/io/points_file.hpp) is a RawReading with its time and setup, and the model's reading
 // (sph::EffectReading, sph/model/effects.hpp) is made from one, its angles converted to radians
 // here and nowhere else.
 #ifndef SPH_MODEL_READING_HPP_

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "sph/calib/effect_fit.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/model/form_model.hpp"
 
 namespace sph {

@@ -25,7 +25,7 @@
 
 #include <Eigen/Core>
 
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "sph/select/identifiability.hpp"
 
 namespace sph {

@@ -35,7 +35,7 @@
 #include <Eigen/Core>
 
 #include "sph/calib/effect_fit.hpp"
-#include "sph/core/points_file.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/model/effects.hpp"
 
 namespace sph {

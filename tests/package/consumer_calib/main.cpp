@@ -2,7 +2,7 @@
 #include <cstdio>
 
 #include "sph/calib/calibrator.hpp"
-#include "sph/core/simulate.hpp"
+#include "sph/simulation/simulate.hpp"
 
 int main() {
   sph::SimulationSpec spec;

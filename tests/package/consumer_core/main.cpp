@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <vector>
 
-#include "sph/core/calibration_file.hpp"
-#include "sph/core/sphere_measurement.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/measure/sphere_measurement.hpp"
 #include "sph/model/compensation.hpp"
 
 int main() {

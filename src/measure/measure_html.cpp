@@ -1,0 +1,158 @@
+// The measurement's HTML report: rendered from the JSON report (the numbers are the JSON's), with
+// the form map drawn from the least-squares residuals.
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "sph/io/html_report.hpp"
+#include "sph/measure/measure_workflow.hpp"
+#include "sph/internal/html_json.hpp"
+#include "sph/model/units.hpp"
+
+namespace sph {
+
+namespace {
+
+using nlohmann::json;
+using html::Escape;
+using html::JsonField;
+using html::Section;
+
+// A length in mm to the nanometre (6 decimals): 6 significant digits would round a 20 mm radius
+// to 0.1 um.
+std::string Mm(const json& j, const char* key) {
+  return j.contains(key) && j.at(key).is_number() ? html::Fixed(j.at(key).get<double>(), 6) : "-";
+}
+
+std::string Vector(const json& v) {
+  if (!v.is_array()) return "-";
+  std::string out;
+  for (const json& x : v) out += (out.empty() ? "" : ", ") + (x.is_number() ? html::Fixed(x.get<double>(), 6) : "-");
+  return out;
+}
+
+std::string Results(const json& j) {
+  return html::Table({"result", "value"},
+                     {{"radius [mm]", Mm(j, "radius_mm")},
+                      {"diameter [mm]", Mm(j, "diameter_mm")},
+                      {"radius minus the stated radius [um]", JsonField(j, "radius_deviation_um")},
+                      {"least-squares centre x, y, z [mm]", Vector(j.value("center_mm", json()))},
+                      {"least-squares sphericity [um]", JsonField(j, "sphericity_ls_um")},
+                      {"minimum-zone sphericity [um]", JsonField(j, "sphericity_mz_um")},
+                      {"minimum-zone centre x, y, z [mm]", Vector(j.value("mz_center_mm", json()))},
+                      {"minimum-zone inner radius [mm]", Mm(j, "mz_inner_radius_mm")},
+                      {"minimum-zone outer radius [mm]", Mm(j, "mz_outer_radius_mm")},
+                      {"rms of the residuals [um]", JsonField(j, "rms_um")}});
+}
+
+std::string NoiseFloor(const json& j) {
+  if (!j.contains("noise_floor") || j.at("noise_floor").is_null()) return "<p>Not computed.</p>\n";
+  const json& n = j.at("noise_floor");
+  if (!n.value("computed", false)) return "<p>Not computed: " + JsonField(n, "note") + "</p>\n";
+  std::string body = html::Table({"noise floor", "value"}, {{"noise sigma [um]", JsonField(n, "sigma_um")},
+                                                            {"its source", JsonField(n, "sigma_source")},
+                                                            {"simulated measurements", JsonField(n, "draws")},
+                                                            {"rms of the form of pure noise [um]",
+                                                             JsonField(n, "rms_form_um")}});
+  std::vector<std::vector<std::string>> form;
+  for (const char* key : {"sphericity_ls_um", "sphericity_mz_um"}) {
+    if (!n.contains(key)) continue;
+    const json& s = n.at(key);
+    form.push_back({Escape(key), JsonField(s, "mean_um"), JsonField(s, "std_um"), JsonField(s, "within_noise")});
+  }
+  if (!form.empty()) {
+    body += html::Table({"of pure noise", "mean [um]", "std [um]", "the measured value within the noise"}, form);
+  }
+  return body;
+}
+
+std::string Budget(const json& j) {
+  if (!j.contains("budget")) return "<p>None.</p>\n";
+  const json& b = j.at("budget");
+  std::string body;
+  std::vector<std::vector<std::string>> results;
+  const std::pair<const char*, const char*> kResults[] = {
+      {"radius", "radius"}, {"sphericity_ls", "least-squares sphericity"}, {"sphericity_mz", "minimum-zone sphericity"}};
+  for (const auto& [key, name] : kResults) {
+    if (!b.contains(key)) continue;
+    const json& r = b.at(key);
+    const std::string unit = JsonField(r, "unit");
+    std::string verdict = "-";
+    if (r.contains("monte_carlo") && !r.at("monte_carlo").is_null()) {
+      const json& mc = r.at("monte_carlo");
+      verdict = std::string(mc.value("gum_validated", false) ? "GUM validated" : "GUM not validated") +
+                " (" + JsonField(mc, "method") + ", " + JsonField(mc, "trials") + " trials, tolerance " +
+                JsonField(mc, "tolerance_um") + " um; interval " + JsonField(mc, "low_um") + " to " +
+                JsonField(mc, "high_um") + " um)";
+    } else if (r.contains("mc_note")) {
+      verdict = JsonField(r, "mc_note");
+    }
+    const bool mm = r.value("value_unit", "") == "mm";
+    results.push_back({name, mm ? Mm(r, "value") + " mm" : JsonField(r, "value") + " " + JsonField(r, "value_unit"),
+                       unit, JsonField(r, "u"), JsonField(r, "k"),
+                       JsonField(r, "U"), JsonField(r, "dof"), verdict});
+    std::vector<std::vector<std::string>> rows;
+    for (const json& in : r.value("budget", json::array())) {
+      rows.push_back({html::JsonText(in.at("input")) + " [" + JsonField(in, "input_unit") + "]", JsonField(in, "type"),
+                      JsonField(in, "u_input"), JsonField(in, "sensitivity"), JsonField(in, "u_contribution"),
+                      JsonField(in, "dof")});
+    }
+    body += "<h3>Budget of the " + std::string(name) + " [" + unit + "]</h3>\n" +
+            html::Table({"input", "type", "u of the input (input's unit)", "sensitivity",
+                         "contribution to u [" + unit + "]", "degrees of freedom"},
+                        rows);
+  }
+  return html::Table({"result", "value", "unit of u, U", "u", "k", "U = k u", "degrees of freedom",
+                      "JCGM 101 check"},
+                     results) +
+         "<p class=\"note\">Type A of the sphericities: " + JsonField(b, "type_a_sphericity") + ".</p>\n" + body;
+}
+
+}  // namespace
+
+std::string MeasurementWorkflowResult::HtmlReport() const {
+  const json j = json::parse(JsonReport());
+  const json& in = j.value("input", json::object());
+  std::string body = "<h1>Sphere measurement report</h1>\n<p>" + JsonField(in, "points_file") + " \u2014 " +
+                     JsonField(j, "created_by") + "</p>\n";
+  body += "<div class=\"warn\"><h3>Warnings</h3>\n" + html::JsonList(j.value("warnings", json::array())) + "</div>\n";
+  body += Section("Identification",
+                  html::Table({"item", "value"}, {{"points file", JsonField(in, "points_file")},
+                                                  {"format", JsonField(in, "format")},
+                                                  {"calibration file", JsonField(in, "calibration_file")},
+                                                  {"setup", JsonField(in, "setup")},
+                                                  {"points", JsonField(in, "n_points")},
+                                                  {"program", JsonField(j, "created_by")},
+                                                  {"report made", Escape(html::UtcNow())}}),
+                  true);
+  body += Section("Results", Results(j));
+  // The form map: each point's residual about the least-squares sphere at its direction from the
+  // centre (azimuth 0-360 deg, polar angle from +z).
+  std::vector<double> azimuth, polar, residual_um;
+  const Eigen::Vector3d& c = evaluation.ls.sphere.center;
+  for (std::size_t i = 0; i < input.points_mm.size() && i < evaluation.residuals_mm.size(); ++i) {
+    const Eigen::Vector3d u = (input.points_mm[i] - c).normalized();
+    double az = std::atan2(u.y(), u.x()) / kRadPerDeg;
+    if (az < 0) az += 360.0;
+    azimuth.push_back(az);
+    polar.push_back(std::acos(std::clamp(u.z(), -1.0, 1.0)) / kRadPerDeg);
+    residual_um.push_back(evaluation.residuals_mm[i] * 1e3);
+  }
+  html::MapAxes axes;
+  axes.title = "Form error about the least-squares sphere";
+  axes.x_label = "azimuth [deg]";
+  axes.y_label = "polar angle from +z [deg]";
+  axes.value_label = "radial deviation [um]";
+  body += Section("Form map", html::Figure(html::SvgMap(axes, azimuth, polar, residual_um), axes.title,
+                                           "Each point's radial deviation from the least-squares sphere [um] at "
+                                           "its direction from the centre [deg]."));
+  body += Section("Noise floor", NoiseFloor(j));
+  body += Section("Uncertainty budget", Budget(j));
+  return html::Page("Sphere measurement report: " + points_path, body);
+}
+
+}  // namespace sph
