@@ -1,7 +1,7 @@
 // JSON that comes from outside (a file a user names): read within bounds, so that whatever it
 // holds costs no more than a file of its kind can need, and quoted in messages by excerpts.
-#ifndef SPH_SRC_CORE_JSON_INPUT_HPP_
-#define SPH_SRC_CORE_JSON_INPUT_HPP_
+#ifndef SPH_SRC_IO_JSON_INPUT_HPP_
+#define SPH_SRC_IO_JSON_INPUT_HPP_
 
 #include <cstddef>
 #include <istream>
@@ -31,4 +31,4 @@ std::string JsonExcerpt(const nlohmann::json& value);
 
 }  // namespace sph::internal
 
-#endif  // SPH_SRC_CORE_JSON_INPUT_HPP_
+#endif  // SPH_SRC_IO_JSON_INPUT_HPP_

@@ -1,8 +1,8 @@
 // Private to sph::calib: whether one more placement of the sphere would tell apart two effects
 // that explain a residual about equally, judged from the design's Jacobian before any
 // measurement: the advice a trace gives is checked, not only argued.
-#ifndef SPH_SRC_CALIB_PAIR_SEPARATION_HPP_
-#define SPH_SRC_CALIB_PAIR_SEPARATION_HPP_
+#ifndef SPH_SRC_SELECT_PAIR_SEPARATION_HPP_
+#define SPH_SRC_SELECT_PAIR_SEPARATION_HPP_
 
 #include <limits>
 #include <string>
@@ -80,4 +80,4 @@ PairSeparation CheckPairSeparation(const PointsData& points, const CalibrationOp
 
 }  // namespace sph::internal
 
-#endif  // SPH_SRC_CALIB_PAIR_SEPARATION_HPP_
+#endif  // SPH_SRC_SELECT_PAIR_SEPARATION_HPP_

@@ -1,7 +1,7 @@
 // Private to sph::calib: the trace's part of the JSON report, for JsonReport() (report.cpp).
 // nlohmann/json is a private build dependency of sph::calib: it stays out of the public headers.
-#ifndef SPH_SRC_CALIB_TRACE_JSON_HPP_
-#define SPH_SRC_CALIB_TRACE_JSON_HPP_
+#ifndef SPH_SRC_SELECT_TRACE_JSON_HPP_
+#define SPH_SRC_SELECT_TRACE_JSON_HPP_
 
 #include <nlohmann/json.hpp>
 
@@ -16,4 +16,4 @@ void AddTraceJson(nlohmann::json& report, const TraceResult& trace, const Valida
 
 }  // namespace sph::internal
 
-#endif  // SPH_SRC_CALIB_TRACE_JSON_HPP_
+#endif  // SPH_SRC_SELECT_TRACE_JSON_HPP_

@@ -10,8 +10,8 @@
 // of the corrected square (var = 4 c'WCWc + 2 tr(WCWC)) carried to the RMS, and, with a trace
 // (SphereFormOf(const TraceResult&)), what the degrees above the one chosen could add. The
 // peak-to-valley is taken on a grid of the sphere.
-#ifndef SPH_CALIB_FORM_REPORT_HPP_
-#define SPH_CALIB_FORM_REPORT_HPP_
+#ifndef SPH_SELECT_FORM_REPORT_HPP_
+#define SPH_SELECT_FORM_REPORT_HPP_
 
 #include <array>
 #include <string>
@@ -80,4 +80,4 @@ std::vector<std::array<double, 3>> FormMap(const EffectFit& fit, int group, doub
 
 }  // namespace sph
 
-#endif  // SPH_CALIB_FORM_REPORT_HPP_
+#endif  // SPH_SELECT_FORM_REPORT_HPP_

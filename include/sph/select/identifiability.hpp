@@ -5,8 +5,8 @@
 // apart from each other (IdentifyEffectPairs()). The machine is what the model holds: an error
 // outside the effect library is not part of the judgement. What follows from it for a sphere on a
 // Theta table: docs/method/form-separation.md.
-#ifndef SPH_CALIB_IDENTIFIABILITY_HPP_
-#define SPH_CALIB_IDENTIFIABILITY_HPP_
+#ifndef SPH_SELECT_IDENTIFIABILITY_HPP_
+#define SPH_SELECT_IDENTIFIABILITY_HPP_
 
 #include <string>
 #include <vector>
@@ -92,4 +92,4 @@ EffectSeparability IdentifyEffectPairs(const PointsData& points, const Calibrati
 
 }  // namespace sph
 
-#endif  // SPH_CALIB_IDENTIFIABILITY_HPP_
+#endif  // SPH_SELECT_IDENTIFIABILITY_HPP_

@@ -16,8 +16,8 @@
 // (IdentifyEffectPairs()), and for each pair that stays confounded the plan tries one more
 // placement of a sphere (the placements a trace checks its advice on: another eccentricity, azimuth
 // or height, a sphere of half the radius) and names the one that separates it best.
-#ifndef SPH_CALIB_ORIENTATION_PLAN_HPP_
-#define SPH_CALIB_ORIENTATION_PLAN_HPP_
+#ifndef SPH_SELECT_ORIENTATION_PLAN_HPP_
+#define SPH_SELECT_ORIENTATION_PLAN_HPP_
 
 #include <limits>
 #include <string>
@@ -91,4 +91,4 @@ OrientationPlan PlanOrientations(const SimulationSpec& design, const Orientation
 
 }  // namespace sph
 
-#endif  // SPH_CALIB_ORIENTATION_PLAN_HPP_
+#endif  // SPH_SELECT_ORIENTATION_PLAN_HPP_

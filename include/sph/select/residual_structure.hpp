@@ -24,8 +24,8 @@
 // accumulated in one pass over the rows (StructureFactor): memory O(columns^2) for any number of
 // readings, with the accuracy of an orthogonal factorisation. The projections, Gram-Schmidt steps
 // and regressions then run on the columns of R, as they would on the m-row columns.
-#ifndef SPH_CALIB_RESIDUAL_STRUCTURE_HPP_
-#define SPH_CALIB_RESIDUAL_STRUCTURE_HPP_
+#ifndef SPH_SELECT_RESIDUAL_STRUCTURE_HPP_
+#define SPH_SELECT_RESIDUAL_STRUCTURE_HPP_
 
 #include <cstdint>
 #include <functional>
@@ -176,4 +176,4 @@ double FUpperTail(double f, double d1, double d2);
 
 }  // namespace sph
 
-#endif  // SPH_CALIB_RESIDUAL_STRUCTURE_HPP_
+#endif  // SPH_SELECT_RESIDUAL_STRUCTURE_HPP_

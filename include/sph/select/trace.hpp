@@ -13,8 +13,8 @@
 //
 // Units: the fits in rad and mm; the results' *_um fields in um. Candidates are scored in parallel;
 // the result does not depend on the number of threads.
-#ifndef SPH_CALIB_TRACE_HPP_
-#define SPH_CALIB_TRACE_HPP_
+#ifndef SPH_SELECT_TRACE_HPP_
+#define SPH_SELECT_TRACE_HPP_
 
 #include <cstdint>
 #include <functional>
@@ -252,4 +252,4 @@ double CrossValidatedRms(const PointsData& points, const CalibrationOptions& opt
 
 }  // namespace sph
 
-#endif  // SPH_CALIB_TRACE_HPP_
+#endif  // SPH_SELECT_TRACE_HPP_

@@ -2,8 +2,8 @@
 // The trace's result (sph/select/trace.hpp) is the report's data; this renders it. Its JSON is
 // part of JsonReport() (sph/calib/report.hpp), one document built as data, never text parsed
 // back.
-#ifndef SPH_CALIB_TRACE_REPORT_HPP_
-#define SPH_CALIB_TRACE_REPORT_HPP_
+#ifndef SPH_SELECT_TRACE_REPORT_HPP_
+#define SPH_SELECT_TRACE_REPORT_HPP_
 
 #include <ostream>
 #include <string>
@@ -61,4 +61,4 @@ void WriteTraceText(std::ostream& out, const TraceResult& trace, const Validatio
 
 }  // namespace sph
 
-#endif  // SPH_CALIB_TRACE_REPORT_HPP_
+#endif  // SPH_SELECT_TRACE_REPORT_HPP_
