@@ -164,8 +164,8 @@ int main(int argc, char** argv) {
     std::printf(
         "  traced: encoder added in %d of %d runs; true curve in the band at %d of %d angles (%.3f), in the noise's "
         "band alone at %d (%.3f); median U95 %.2f arcsec (the noise's alone %.2f), median range %.2f arcsec\n",
-        traced.runs, seeds, traced.inside, traced.total, traced.Fraction(), traced.noise_inside,
-        traced.NoiseFraction(), Median(u95), Median(noise_u95), Median(pv));
+        traced.runs, seeds, traced.inside, traced.total, traced.Fraction(), traced.noise_inside, traced.NoiseFraction(),
+        Median(u95), Median(noise_u95), Median(pv));
     const auto line = [](const char* what, const Count& n) {
       std::printf("    %-44s %3d runs: %5d of %5d angles (%.3f), the noise's band alone %5d (%.3f)\n", what, n.runs,
                   n.inside, n.total, n.Fraction(), n.noise_inside, n.NoiseFraction());

@@ -168,7 +168,8 @@ std::optional<Averaged> AverageModels(const EffectFit& fit, const EffectFit& ful
       for (Eigen::Index j = 0; j < l; ++j) {
         x_l(j) = x(out[static_cast<std::size_t>(j)]);
         c_al.col(j) = c.col(out[static_cast<std::size_t>(j)]);
-        for (Eigen::Index i = 0; i < l; ++i) c_ll(i, j) = c(out[static_cast<std::size_t>(i)], out[static_cast<std::size_t>(j)]);
+        for (Eigen::Index i = 0; i < l; ++i)
+          c_ll(i, j) = c(out[static_cast<std::size_t>(i)], out[static_cast<std::size_t>(j)]);
       }
       const Eigen::LLT<Eigen::MatrixXd> llt(c_ll);
       if (llt.info() != Eigen::Success) return;
@@ -214,9 +215,7 @@ std::optional<Averaged> AverageModels(const EffectFit& fit, const EffectFit& ful
 
 Eigen::VectorXd ErrorCurve::Basis(double at_deg) const { return BasisOf(components, basis_mean, at_deg); }
 
-Eigen::VectorXd ErrorCurve::BandBasis(double at_deg) const {
-  return BasisOf(band_components, band_basis_mean, at_deg);
-}
+Eigen::VectorXd ErrorCurve::BandBasis(double at_deg) const { return BasisOf(band_components, band_basis_mean, at_deg); }
 
 double ErrorCurve::ValueAt(double at_deg) const { return coefficients.dot(Basis(at_deg)); }
 
@@ -311,7 +310,8 @@ std::vector<ErrorCurve> ErrorCurvesOf(const PointsData& points, const Calibratio
       for (Eigen::Index i = 0; i < bm; ++i) {
         for (Eigen::Index j = 0; j < bm; ++j) {
           c.band_moment(i, j) =
-              averaged ? averaged->moment(band_at[static_cast<std::size_t>(i)], band_at[static_cast<std::size_t>(j)]) * per * per
+              averaged ? averaged->moment(band_at[static_cast<std::size_t>(i)], band_at[static_cast<std::size_t>(j)]) *
+                             per * per
                        : c.covariance(i, j);
         }
       }

@@ -2,15 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
 
 #include "calib_test_util.hpp"
-#include "sph/simulation/simulate.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace.hpp"
+#include "sph/select/trace_report.hpp"
+#include "sph/simulation/simulate.hpp"
 
 namespace sph {
 namespace {
@@ -96,6 +99,13 @@ TEST(ErrorCurves, AThetaEncoderOverAFullTurnIsItsCurveAboutItsMeanWithTheBandOfT
   const Eigen::VectorXd g = c->BandBasis(45.0);
   EXPECT_NEAR(c->U95At(45.0), c->coverage_factor * std::sqrt(g.dot(c->band_moment * g)), 1e-9);
   EXPECT_NEAR(c->coverage_factor, 1.96, 0.02);
+  // The report says what the band averages.
+  std::ostringstream text;
+  WriteTraceText(text, t.trace, nullptr);
+  const std::string report = text.str();
+  EXPECT_NE(report.find(internal::Format("    band: %d models of c2 s3 ", c->models_averaged)), std::string::npos)
+      << report;
+  EXPECT_NE(report.find(internal::Format("the one fitted has weight %.2f\n", c->chosen_weight)), std::string::npos);
   // The range (max - min) is the curve's over the turn.
   const auto [lo, hi] = std::minmax_element(c->value.begin(), c->value.end());
   EXPECT_GE(c->pv, *hi - *lo);
