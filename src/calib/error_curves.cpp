@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string_view>
 
 #include <Eigen/Dense>
 
 #include "sph/stats/gum.hpp"
 #include "sph/model/units.hpp"
+#include "sph/select/residual_structure.hpp"
 
 namespace sph {
 namespace {
@@ -67,34 +69,180 @@ double Mod360(double x) {
   return x < 0.0 ? x + 360.0 : x;
 }
 
-}  // namespace
+bool SameComponent(const EffectComponent& a, const EffectComponent& b) {
+  return a.order == b.order && a.sine == b.sine && a.axis == b.axis;
+}
 
-Eigen::VectorXd ErrorCurve::Basis(double at_deg) const {
+// cos k x or sin k x of each of `components` at `at_deg`, less `mean`.
+Eigen::VectorXd BasisOf(const std::vector<EffectComponent>& components, const Eigen::VectorXd& mean, double at_deg) {
   Eigen::VectorXd b(static_cast<Eigen::Index>(components.size()));
   const double x = at_deg * kRadPerDeg;
   for (std::size_t i = 0; i < components.size(); ++i) {
     const EffectComponent& c = components[i];
     b(static_cast<Eigen::Index>(i)) = c.sine ? std::sin(c.order * x) : std::cos(c.order * x);
   }
-  return b - basis_mean;
+  return mean.size() == b.size() ? Eigen::VectorXd(b - mean) : b;
 }
+
+// The fit of `fit`'s model with term `t` holding its components, then every other component of
+// DefaultTerm(searched) that the readings separate: fitted from `fit` with the others at zero; while
+// a component of the term has a VIF above max_vif (or none finite), the least separable of those
+// added is left out and the model fitted again. No value: a fit did not converge or was not
+// analysed. `fit` itself when nothing was left out.
+std::optional<EffectFit> FullFit(const PointsData& kept, const CalibrationOptions& options, const EffectFit& fit,
+                                 std::size_t t, HarmonicOrders searched, double max_vif) {
+  const EffectTerm& term = fit.model.terms[t];
+  EffectTerm full = term;
+  for (const EffectComponent& s : DefaultTerm(term.effect, searched).components) {
+    if (std::none_of(term.components.begin(), term.components.end(),
+                     [&](const EffectComponent& f) { return SameComponent(f, s); })) {
+      full.components.push_back(s);
+    }
+  }
+  CalibrationOptions analysed = options;
+  analysed.analyse = true;
+  EffectModel model = fit.model;
+  EffectFitStart start = EffectFitStart::From(fit);
+  while (full.components.size() > term.components.size()) {
+    model.terms[t] = full;
+    start.values[t] = fit.values[t];
+    start.values[t].resize(full.components.size(), 0.0);
+    EffectFit f = FitEffects(kept, analysed, model, start);
+    if (!f.calibration.converged || f.calibration.analysis.Empty()) return std::nullopt;
+    const Eigen::VectorXd& vif = f.calibration.analysis.vif;
+    const int offset = f.TermOffset(t);
+    bool separable = true;
+    for (int i = 0; i < full.size(); ++i) separable = separable && vif(offset + i) <= max_vif;
+    if (separable) return f;
+    std::size_t worst = term.components.size();
+    for (std::size_t i = worst + 1; i < full.components.size(); ++i) {
+      const double v = vif(offset + static_cast<int>(i)), w = vif(offset + static_cast<int>(worst));
+      if (!(v <= w)) worst = i;  // NaN counts as the least separable
+    }
+    full.components.erase(full.components.begin() + static_cast<std::ptrdiff_t>(worst));
+  }
+  return fit;
+}
+
+// The models averaged for a term: each subset S of the components of `full`'s term t within two
+// components of those `fit` chose (the chosen, and every one with one or two components added or
+// left out; the empty set, no such term, among them), each fitted by the linearised problem at `full` (x_S =
+// x - C_:L C_LL^-1 x_L, C_S = C - C_:L C_LL^-1 C_L:) and weighted by exp(-ebic_S / 2), ebic_S = x_L^T
+// C_LL^-1 x_L - |L| ln m + SubsetSearchPenalty(searched, |S|), the extended BIC by which the trace
+// chooses, less the full model's. The second moment about the chosen values x_c:
+// M = sum_S w_S (C_S + (x_S - x_c)(x_S - x_c)^T), internal units, the full term's order. No value
+// when the chosen model itself cannot be formed (C_LL not positive definite).
+struct Averaged {
+  Eigen::MatrixXd moment;
+  double chosen_weight = 1.0;
+  int models = 1;
+};
+std::optional<Averaged> AverageModels(const EffectFit& fit, const EffectFit& full, std::size_t t, int searched,
+                                      double rows) {
+  const std::size_t chosen = fit.model.terms[t].components.size();
+  const auto p = static_cast<Eigen::Index>(full.model.terms[t].components.size());
+  const Eigen::Index offset = full.TermOffset(t);
+  const Eigen::MatrixXd c = full.calibration.analysis.covariance.block(offset, offset, p, p);
+  const Eigen::VectorXd x = Eigen::Map<const Eigen::VectorXd>(full.values[t].data(), p);
+  Eigen::VectorXd x_chosen = Eigen::VectorXd::Zero(p);
+  for (std::size_t i = 0; i < chosen; ++i) x_chosen(static_cast<Eigen::Index>(i)) = fit.values[t][i];
+  const double log_m = std::log(rows);
+  // Each model: which components it holds, its weight's exponent, its values and covariance.
+  struct Model {
+    std::vector<bool> in;
+    double ebic = 0.0;
+    Eigen::VectorXd values;
+    Eigen::MatrixXd covariance;
+  };
+  std::vector<Model> models;
+  const auto add = [&](std::vector<bool> in) {
+    std::vector<Eigen::Index> out;
+    for (Eigen::Index i = 0; i < p; ++i) {
+      if (!in[static_cast<std::size_t>(i)]) out.push_back(i);
+    }
+    const auto l = static_cast<Eigen::Index>(out.size());
+    Model m{std::move(in), 0.0, x, c};
+    if (l > 0) {
+      Eigen::MatrixXd c_ll(l, l), c_al(p, l);
+      Eigen::VectorXd x_l(l);
+      for (Eigen::Index j = 0; j < l; ++j) {
+        x_l(j) = x(out[static_cast<std::size_t>(j)]);
+        c_al.col(j) = c.col(out[static_cast<std::size_t>(j)]);
+        for (Eigen::Index i = 0; i < l; ++i)
+          c_ll(i, j) = c(out[static_cast<std::size_t>(i)], out[static_cast<std::size_t>(j)]);
+      }
+      const Eigen::LLT<Eigen::MatrixXd> llt(c_ll);
+      if (llt.info() != Eigen::Success) return;
+      const Eigen::VectorXd y = llt.solve(x_l);
+      m.values -= c_al * y;
+      m.covariance -= c_al * llt.solve(c_al.transpose());
+      m.ebic = x_l.dot(y) - static_cast<double>(l) * log_m;
+    }
+    m.ebic += SubsetSearchPenalty(searched, static_cast<int>(p - l));
+    if (m.values.allFinite() && m.covariance.allFinite() && std::isfinite(m.ebic)) models.push_back(std::move(m));
+  };
+  std::vector<bool> base(static_cast<std::size_t>(p), false);
+  for (std::size_t i = 0; i < chosen; ++i) base[i] = true;
+  add(base);
+  for (std::size_t i = 0; i < base.size(); ++i) {
+    std::vector<bool> one = base;
+    one[i] = !one[i];
+    add(one);
+    for (std::size_t j = i + 1; j < base.size(); ++j) {
+      std::vector<bool> two = one;
+      two[j] = !two[j];
+      add(two);
+    }
+  }
+  Averaged a;
+  a.moment = Eigen::MatrixXd::Zero(p, p);
+  if (models.empty() || models.front().in != base) return std::nullopt;
+  double least = std::numeric_limits<double>::infinity();
+  for (const Model& m : models) least = std::min(least, m.ebic);
+  double total = 0.0;
+  for (const Model& m : models) total += std::exp(-0.5 * (m.ebic - least));
+  for (const Model& m : models) {
+    const double w = std::exp(-0.5 * (m.ebic - least)) / total;
+    const Eigen::VectorXd d = m.values - x_chosen;
+    a.moment += w * (m.covariance + d * d.transpose());
+  }
+  a.chosen_weight = std::exp(-0.5 * (models.front().ebic - least)) / total;
+  a.models = static_cast<int>(models.size());
+  return a;
+}
+
+}  // namespace
+
+Eigen::VectorXd ErrorCurve::Basis(double at_deg) const { return BasisOf(components, basis_mean, at_deg); }
+
+Eigen::VectorXd ErrorCurve::BandBasis(double at_deg) const { return BasisOf(band_components, band_basis_mean, at_deg); }
 
 double ErrorCurve::ValueAt(double at_deg) const { return coefficients.dot(Basis(at_deg)); }
 
 double ErrorCurve::U95At(double at_deg) const {
-  const Eigen::VectorXd g = Basis(at_deg);
-  return coverage_factor * std::sqrt(std::max(0.0, g.dot(covariance * g)));
+  const Eigen::VectorXd g = BandBasis(at_deg);
+  return coverage_factor * std::sqrt(std::max(0.0, g.dot(band_moment * g)));
 }
 
-std::vector<ErrorCurve> ErrorCurvesOf(const PointsData& points, const EffectFit& fit, HarmonicOrders searched,
-                                      double coverage_probability) {
+std::vector<ErrorCurve> ErrorCurvesOf(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                                      HarmonicOrders searched, double max_vif, double coverage_probability) {
   std::vector<ErrorCurve> curves;
   const ObservabilityReport& rep = fit.calibration.analysis;
   const double k = gum::CoverageFactor(coverage_probability, rep.degrees_of_freedom);
+  const PointsData used = WithoutOutliers(points, fit.calibration);
   for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
     const EffectTerm& term = fit.model.terms[t];
     const EffectInfo& info = term.info();
     if (!info.harmonic || term.components.empty()) continue;
+    // The models averaged for the band: about those the choice of components could have given.
+    const std::optional<EffectFit> full_fit = FullFit(used, options, fit, t, searched, max_vif);
+    const int searched_size = static_cast<int>(DefaultTerm(term.effect, searched).components.size());
+    std::optional<Averaged> averaged;
+    if (full_fit && !rep.Empty()) {
+      averaged = AverageModels(fit, *full_fit, t, searched_size, static_cast<double>(used.samples.size()));
+    }
+    const EffectFit& full = averaged ? *full_fit : fit;
+    const EffectTerm& full_term = full.model.terms[t];
     const double per = info.quantity == Quantity::kAngle ? 1.0 / kRadPerArcsec : kUmPerMm;
     const std::vector<double> angles = DistinctAnglesDeg(points, info.variable);
     if (angles.empty()) continue;
@@ -146,11 +294,38 @@ std::vector<ErrorCurve> ErrorCurvesOf(const PointsData& points, const EffectFit&
                   : rep.covariance(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]) * per * per;
         }
       }
-      // The basis over the pattern's angles, and its mean.
+      // The band's components on this axis and the averaged models' second moment about the chosen
+      // values (the chosen components' covariance when no model is averaged).
+      c.models_averaged = averaged ? averaged->models : 1;
+      c.chosen_weight = averaged ? averaged->chosen_weight : 1.0;
+      std::vector<Eigen::Index> band_at;
+      for (std::size_t i = 0; i < full_term.components.size(); ++i) {
+        if (full_term.components[i].axis != axis) continue;
+        c.band_components.push_back(full_term.components[i]);
+        c.averaged.push_back(full_term.ParamName(i));
+        band_at.push_back(static_cast<Eigen::Index>(i));
+      }
+      const auto bm = static_cast<Eigen::Index>(band_at.size());
+      c.band_moment.resize(bm, bm);
+      for (Eigen::Index i = 0; i < bm; ++i) {
+        for (Eigen::Index j = 0; j < bm; ++j) {
+          c.band_moment(i, j) =
+              averaged ? averaged->moment(band_at[static_cast<std::size_t>(i)], band_at[static_cast<std::size_t>(j)]) *
+                             per * per
+                       : c.covariance(i, j);
+        }
+      }
+      // The bases over the pattern's angles, and their means.
       c.basis_mean = Eigen::VectorXd::Zero(m);
+      c.band_basis_mean = Eigen::VectorXd::Zero(bm);
       Eigen::MatrixXd basis(static_cast<Eigen::Index>(angles.size()), m);
-      for (std::size_t a = 0; a < angles.size(); ++a) basis.row(static_cast<Eigen::Index>(a)) = c.Basis(angles[a]);
+      Eigen::MatrixXd band_basis(static_cast<Eigen::Index>(angles.size()), bm);
+      for (std::size_t a = 0; a < angles.size(); ++a) {
+        basis.row(static_cast<Eigen::Index>(a)) = c.Basis(angles[a]);
+        band_basis.row(static_cast<Eigen::Index>(a)) = c.BandBasis(angles[a]);
+      }
       c.basis_mean = basis.colwise().mean().transpose();
+      c.band_basis_mean = band_basis.colwise().mean().transpose();
       basis.rowwise() -= c.basis_mean.transpose();
       // The table: the angles from the range's start, thinned to an even step when too many.
       std::vector<double> ordered;
@@ -184,8 +359,8 @@ std::vector<ErrorCurve> ErrorCurvesOf(const PointsData& points, const EffectFit&
         }
       }
       c.pv = hi - lo;
-      const Eigen::VectorXd g = c.Basis(c.max_angle_deg) - c.Basis(c.min_angle_deg);
-      c.pv_u95 = k * std::sqrt(std::max(0.0, g.dot(c.covariance * g)));
+      const Eigen::VectorXd g = c.BandBasis(c.max_angle_deg) - c.BandBasis(c.min_angle_deg);
+      c.pv_u95 = k * std::sqrt(std::max(0.0, g.dot(c.band_moment * g)));
       // The components searched but not fitted, and how much of each the fitted ones represent.
       const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(basis);
       for (std::size_t i = 0; i < all.components.size(); ++i) {

@@ -230,7 +230,7 @@ void Finish(const PointsData& all, const CalibrationOptions& options, const Cali
     }
   }
   r->unexplained = RemainingStructure(r->after.structure, trace_options);
-  r->curves = ErrorCurvesOf(all, r->after.fit, r->harmonics);
+  r->curves = ErrorCurvesOf(all, options, r->after.fit, r->harmonics, trace_options.max_vif);
 }
 }  // namespace
 }  // namespace sph::internal

@@ -296,9 +296,11 @@ std::string LeftOutText(const ErrorCurve& c) {
 // Each error curve: its range, what determines it, its certificate value and a compact table.
 void WriteErrorCurves(std::ostream& out, const TraceResult& r) {
   if (r.curves.empty()) return;
-  out << Format("  error curves, each about its mean over the measured angles (a constant is a zero of the axis or a "
-                "centre, not determined); U95: %.0f %% band of the curve, k = %.2f\n",
-                100.0 * r.curves.front().coverage_probability, r.curves.front().coverage_factor);
+  out << Format(
+      "  error curves, each about its mean over the measured angles (a constant is a zero of the axis or a "
+      "centre, not determined); U95: %.0f %% band of the curve, the models the choice of its components "
+      "could have given averaged, k = %.2f\n",
+      100.0 * r.curves.front().coverage_probability, r.curves.front().coverage_factor);
   for (const ErrorCurve& c : r.curves) {
     out << "  " << c.name << " (" << c.iso_name << "): " << c.convention << "\n";
     std::string fitted;
@@ -312,6 +314,16 @@ void WriteErrorCurves(std::ostream& out, const TraceResult& r) {
           << LeftOutText(c);
     }
     out << "\n";
+    std::string averaged;
+    for (const std::string& f : c.averaged) averaged += (averaged.empty() ? "" : " ") + f.substr(f.rfind('.') + 1);
+    if (c.models_averaged > 1) {
+      out << Format(
+          "    band: %d models of %s averaged (each within two components of those fitted, weighted by its "
+          "extended BIC); the one fitted has weight %.2f\n",
+          c.models_averaged, averaged.c_str(), c.chosen_weight);
+    } else {
+      out << "    band: the noise of the components fitted alone (the models about them could not be fitted)\n";
+    }
     out << Format("    %s %.4g +- %.2g %s (max at %.6g deg, min at %.6g deg)\n",
                   c.encoder ? "range of the positional deviation" : "error motion value (peak to valley)", c.pv,
                   c.pv_u95, c.unit.c_str(), c.max_angle_deg, c.min_angle_deg);
@@ -491,7 +503,10 @@ json ErrorCurvesJson(const TraceResult& r) {
                       {"max_angle_deg", c.max_angle_deg},
                       {"min_angle_deg", c.min_angle_deg},
                       {"fitted", c.fitted},
-                      {"left_out", left_out}});
+                      {"left_out", left_out},
+                      {"averaged", c.averaged},
+                      {"models_averaged", c.models_averaged},
+                      {"chosen_weight", c.chosen_weight}});
   }
   return curves;
 }
