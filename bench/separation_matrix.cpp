@@ -201,9 +201,10 @@ sph::SimulationSpec Design(const Case& c, bool form, Setups setups, double noise
 // Cells with a design of their own, where a single effect or a pair imitates the simulated set:
 // a Phi encoder error once per turn (10 arcsec) and a probe drift of 1 um, one placement (a Phi
 // radial motion takes part of each); a Phi encoder error and form28 with the sphere in one known
-// orientation and remounted in one the file calls unknown (turned by 90 deg about y, serpentine);
-// a probe incidence error (i1 = 30 um) with the sphere at (2, 0, 0) and (0, 1, 0) mm (a gain and
-// a nonlinearity imitate it).
+// orientation and remounted in one the file calls unknown (KnownAndUnknown(): a drift in time
+// takes what differs between the two setups' forms), and the same with a true drift of 0.4 um,
+// beside the encoder error and alone; a probe incidence error (i1 = 30 um) with the sphere at
+// (2, 0, 0) and (0, 1, 0) mm (a gain and a nonlinearity imitate it).
 struct ConfoundedCell {
   std::string name;
   std::vector<Effect> effects;  // simulated, with their Library() sizes but for the drift's
@@ -211,19 +212,17 @@ struct ConfoundedCell {
 };
 
 std::vector<ConfoundedCell> ConfoundedCells() {
+  const auto WithForm28 = [](sph::SimulationSpec& spec) {
+    sph::bench::KnownAndUnknown(spec);
+    spec.effects.form = sph::bench::Form28();
+  };
   return {
       {"phi_encoder+probe_drift_1um, one",
        {Effect::kPhiEncoder, Effect::kProbeDrift},
        [](sph::SimulationSpec& spec) { spec.effects.values[1] = {1.0 * sph::kMmPerUm}; }},
-      {"phi_encoder+form28, known+unknown",
-       {Effect::kPhiEncoder},
-       [](sph::SimulationSpec& spec) {
-         spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0)};
-         spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 90, 0);
-         spec.mount_unknown.insert(1);
-         spec.scan_orders[1] = sph::ScanOrder::kSerpentine;
-         spec.effects.form = sph::bench::Form28();
-       }},
+      {"phi_encoder+form28, known+unknown", {Effect::kPhiEncoder}, WithForm28},
+      {"phi_encoder+probe_drift+form28, known+unknown", {Effect::kPhiEncoder, Effect::kProbeDrift}, WithForm28},
+      {"probe_drift+form28, known+unknown", {Effect::kProbeDrift}, WithForm28},
       {"probe_incidence, two placements",
        {Effect::kProbeIncidence},
        [](sph::SimulationSpec& spec) {
@@ -307,7 +306,7 @@ Filter FilterOf(int argc, char** argv) {
 // the effects added, per cell.
 int RunConfoundedCells(int runs, const Filter& filter, const sph::CalibrationOptions& o,
                        const sph::TraceOptions& trace) {
-  std::printf("%-36s %5s %5s %6s %6s %8s  %s\n", "cell", "sigma", "runs", "right", "wrong", "cv/sig",
+  std::printf("%-46s %5s %5s %6s %6s %8s  %s\n", "cell", "sigma", "runs", "right", "wrong", "cv/sig",
               "effects added (count)");
   for (const ConfoundedCell& cell : ConfoundedCells()) {
     for (const double noise : {0.03, 0.05}) {
@@ -331,7 +330,7 @@ int RunConfoundedCells(int runs, const Filter& filter, const sph::CalibrationOpt
       }
       std::string list;
       for (const auto& [id, k] : counts) list += id + " " + std::to_string(k) + "  ";
-      std::printf("%-36s %5.2f %5d %6d %6d %8.3f  %s\n", cell.name.c_str(), noise, t.runs, t.right, t.wrong,
+      std::printf("%-46s %5.2f %5d %6d %6d %8.3f  %s\n", cell.name.c_str(), noise, t.runs, t.right, t.wrong,
                   Median(t.cv_over_sigma), list.c_str());
       std::fflush(stdout);
     }

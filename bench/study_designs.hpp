@@ -20,6 +20,16 @@ inline const std::vector<FormComponent>& Form28() {
   return form;
 }
 
+/// Two setups of the paper's pattern with the sphere at (2, 0, 0) mm, in one known orientation and
+/// remounted in one the file calls unknown (turned by 90 deg about y, scanned in serpentine): the
+/// second setup's form is its own.
+inline void KnownAndUnknown(SimulationSpec& spec) {
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0)};
+  spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 90, 0);
+  spec.mount_unknown.insert(1);
+  spec.scan_orders[1] = ScanOrder::kSerpentine;
+}
+
 /// Many small setups: the 4 x 3 grid (12 readings) in each of `setups` placements of the sphere at
 /// 2 mm eccentricity, setup k turned by 7 k 360 / setups deg about the Theta axis and at height
 /// 0.3 (k mod 9 - 4) mm: what an acquisition that starts a setup every few readings gives.

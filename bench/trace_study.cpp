@@ -3,11 +3,12 @@
 // by hand (docs/validation.md, "Tracing the residual"); it prints one line per case.
 //
 //   build/bench/trace_study [trials]      (default 100 for the clean case, 40 for the others)
-//   build/bench/trace_study --false-additions [runs]   (default 500)
+//   build/bench/trace_study --false-additions [runs] [WORD]   (default 500; WORD: only the cases named so)
 //
 // The second form counts the runs that add any effect to data that have none: clean data, data
-// with a form error of the sphere in one placement, and the same sphere in three orientations on
-// its mount, with the rate's exact (Clopper-Pearson) 95 % confidence interval.
+// with a form error of the sphere in one placement, the same sphere in three orientations on its
+// mount, in serpentine, and in one known orientation beside one the file calls unknown, with the
+// rate's exact (Clopper-Pearson) 95 % confidence interval.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -33,24 +34,29 @@ struct Case {
   std::vector<sph::FormComponent> form;  // instead of an effect: the reference sphere's own form error
 };
 
-int FalseAdditions(int runs, const sph::CalibrationOptions& o) {
+int FalseAdditions(int runs, const std::string& only, const sph::CalibrationOptions& o) {
   struct Clean {
     const char* name;
     bool form;
     bool turned;
-    bool serpentine = false;  // each axis' direction alternating: a reversal is identifiable
+    bool serpentine = false;     // each axis' direction alternating: a reversal is identifiable
+    bool known_unknown = false;  // sph::bench::KnownAndUnknown()
   };
   std::printf(
       "false additions: data without any effect of the machine, %d runs per case, sigma_r 0.05 um,\n"
       "the paper's pattern at 2 mm; form28: 0.050 um rms of degrees 2..8; turned: three setups, the sphere\n"
       "at 0 deg, turned by 90 deg about z and tilted by 90 deg about x, each in another scan order;\n"
-      "serpentine: one placement, the Theta direction alternating ring to ring\n",
+      "serpentine: one placement, the Theta direction alternating ring to ring; known+unknown: two setups,\n"
+      "the sphere in one known orientation and turned by 90 deg about y in one the file calls unknown\n",
       runs);
   std::printf("%-28s %6s %6s %8s %22s  %s\n", "case", "runs", "added", "rate", "95 % interval (exact)",
               "effects added (count)");
-  for (const Clean& c : {Clean{"clean, one placement", false, false}, Clean{"form28, one placement", true, false},
-                         Clean{"form28, turned", true, true}, Clean{"clean, serpentine", false, false, true},
-                         Clean{"form28, serpentine", true, false, true}}) {
+  for (const Clean& c :
+       {Clean{"clean, one placement", false, false}, Clean{"form28, one placement", true, false},
+        Clean{"form28, turned", true, true}, Clean{"clean, serpentine", false, false, true},
+        Clean{"form28, serpentine", true, false, true}, Clean{"clean, known+unknown", false, false, false, true},
+        Clean{"form28, known+unknown", true, false, false, true}}) {
+    if (std::string(c.name).find(only) == std::string::npos) continue;
     int added = 0;
     std::map<std::string, int> counts;
     for (int seed = 1; seed <= runs; ++seed) {
@@ -58,6 +64,7 @@ int FalseAdditions(int runs, const sph::CalibrationOptions& o) {
       spec.seed = static_cast<std::uint64_t>(1000 + seed);
       if (c.form) spec.effects.form = sph::bench::Form28();
       if (c.serpentine) spec.scan_order = sph::ScanOrder::kSerpentine;
+      if (c.known_unknown) sph::bench::KnownAndUnknown(spec);
       if (c.turned) {
         spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0), Eigen::Vector3d(2, 0, 0)};
         spec.mount_rotations_deg = {{1, {0, 0, 90}}, {2, {90, 0, 0}}};
@@ -85,7 +92,7 @@ int main(int argc, char** argv) {
   paper.sphere_radius_mm = 20.0;
   paper.probe_offset_mm = 25.0;
   if (argc > 1 && std::strcmp(argv[1], "--false-additions") == 0) {
-    return FalseAdditions(argc > 2 ? std::atoi(argv[2]) : 500, paper);
+    return FalseAdditions(argc > 2 ? std::atoi(argv[2]) : 500, argc > 3 ? argv[3] : "", paper);
   }
   const int trials = argc > 1 ? std::atoi(argv[1]) : 0;
   using sph::Effect;

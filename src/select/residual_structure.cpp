@@ -24,7 +24,7 @@ constexpr int kThetaHarmonics = 8;
 constexpr int kPhiTerms = 6;
 constexpr int kPowers = 3;
 constexpr int kDirectionTerms = 6;  // d_theta (1, cos theta, sin theta), d_phi (1, cos phi, sin phi)
-constexpr int kSphereDegree = 5;
+constexpr int kSphereDegree = kSpherePatternDegree;
 // A function whose remainder off the Jacobian (and the functions kept before it) is below this
 // fraction of itself is dropped (see Regress()).
 constexpr double kMinRemainder = 1e-2;

@@ -2,6 +2,9 @@
 // the tests of a candidate against a pattern fixed on the sphere (one placement, or beside the form).
 #include "trace_steps.hpp"
 
+#include "sph/model/row_qr.hpp"
+#include "sph/model/spherical_harmonics.hpp"
+
 namespace sph::internal {
 
 // Whether the design separates the sphere's form from the machine (the sphere measured in at least
@@ -155,6 +158,111 @@ bool ShownBeyondSphere(const CandidateScore& c, const StructureFactor& factor, b
   std::vector<int> functions;
   for (const EffectComponent& comp : c.term.components) functions.push_back(comp.order - 1);
   return DeltaBicBeyondSphere(factor, v, functions) <= -trace_options.min_delta_bic;
+}
+
+namespace {
+
+// The linearised BIC of a fit's residual against the columns of its Jacobian, beside which a
+// pattern fixed on the sphere, spherical harmonics of degree 2..kSpherePatternDegree of the
+// direction on the sphere's body, one set for each set of form of the setups (FormModelOf(): the
+// setups of known orientation share one, each setup of unknown orientation and each other sphere
+// has its own), and then powers of tau.
+struct EachSetupsPattern {
+  double delta_bic = 0.0;         // of the patterns against the Jacobian alone
+  double explained_rms_um = 0.0;  // what the patterns explain
+  double time_delta_bic = 0.0;    // of the powers of tau beside the Jacobian and the patterns
+};
+
+EachSetupsPattern BeyondEachSetupsPattern(const Readings& data, const CalibrationOptions& options,
+                                          const TracedFit& current, const std::vector<int>& powers) {
+  const FormModel sets = FormModelOf(data.points, {});
+  SchmidtHarmonics harmonics(2, kSpherePatternDegree);
+  const Eigen::Index per_set = harmonics.size();
+  const StructureJacobian jacobian(data.table, options, current.fit, current.expected_r_mm);
+  const Eigen::Index n = jacobian.Cols(), first_time = n + sets.NumGroups() * per_set;
+  const Eigen::Index cols = first_time + static_cast<Eigen::Index>(powers.size()) + 1;  // [J | patterns | tau^k | e]
+  RowQr qr(cols);
+  Eigen::VectorXd norms2 = Eigen::VectorXd::Zero(cols);
+  const EffectReference& ref = current.fit.model.reference;
+  std::vector<double> block;
+  jacobian.ForEach([&](const std::uint32_t* samples, int count, const double* jac, int stride, int) {
+    block.assign(static_cast<std::size_t>(count * cols), 0.0);
+    for (int i = 0; i < count; ++i) {
+      const std::uint32_t k = samples[i];
+      const Sample& s = data.points.samples[k];
+      double* row = block.data() + i * cols;
+      std::copy(jac + i * stride, jac + i * stride + n, row);
+      const FormSetup& set = sets.SetupOf(s.setup);
+      const Eigen::Vector3d u = set.rotation.transpose() * current.directions[k];
+      harmonics.Evaluate(u.x(), u.y(), u.z(), row + n + set.group * per_set);
+      const double tau = (s.t_s - ref.t_start_s) / ref.t_span_s;
+      for (std::size_t j = 0; j < powers.size(); ++j)
+        row[first_time + static_cast<Eigen::Index>(j)] = std::pow(tau, powers[j]);
+      row[cols - 1] = current.fit.calibration.residuals_mm[k];
+      for (Eigen::Index j = 0; j < cols; ++j) norms2(j) += row[j] * row[j];
+    }
+    qr.AddRows(block.data(), cols, count);
+  });
+  // With A = Q R, |A_S x - e| = |R_S x - r_e| for the first columns S: the fits come from R alone,
+  // the columns equilibrated so that the rank does not depend on their units.
+  const Eigen::MatrixXd& r = qr.r();
+  const Eigen::VectorXd e = r.col(cols - 1);
+  const auto rss = [&](Eigen::Index first, Eigen::Index* rank) {
+    Eigen::MatrixXd a = r.leftCols(first);
+    for (Eigen::Index j = 0; j < first; ++j) {
+      if (norms2(j) > 0.0) a.col(j) /= std::sqrt(norms2(j));
+    }
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> fit(a);
+    fit.setThreshold(1e-10);
+    *rank = fit.rank();
+    return std::max((e - a * fit.solve(e)).squaredNorm(), 1e-300);
+  };
+  Eigen::Index rank_j = 0, rank_p = 0, rank_t = 0;
+  const double rss_j = rss(n, &rank_j), rss_p = rss(first_time, &rank_p), rss_t = rss(cols - 1, &rank_t);
+  const double m = static_cast<double>(data.points.samples.size()), log_m = std::log(m);
+  EachSetupsPattern out;
+  out.delta_bic = m * std::log(rss_p / rss_j) + static_cast<double>(rank_p - rank_j) * log_m;
+  out.explained_rms_um = std::sqrt(std::max(rss_j - rss_p, 0.0) / m) * kUmPerMm;
+  out.time_delta_bic = m * std::log(rss_t / rss_p) + static_cast<double>(rank_t - rank_p) * log_m;
+  return out;
+}
+}  // namespace
+
+void NotBeyondEachSetupsPattern(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                                const TraceOptions& trace_options, Tried& tried, TraceResult& r,
+                                std::set<Effect>* refused) {
+  const std::vector<int> ids = data.points.SetupIds();
+  if (r.form.separable ||
+      std::none_of(ids.begin(), ids.end(), [&](int id) { return !data.points.header.FormKey(id).empty(); })) {
+    return;
+  }
+  const double cur_rms = current.fit.calibration.rms_um;
+  for (auto& [c, fit] : tried) {
+    if (InfoOf(c.effect).variable != std::string("t") || c.held || !Admissible(c, current, trace_options)) continue;
+    std::vector<int> powers;
+    for (const EffectComponent& comp : c.term.components) powers.push_back(comp.order);
+    const EachSetupsPattern p = BeyondEachSetupsPattern(data, options, current, powers);
+    if (p.time_delta_bic <= -trace_options.min_delta_bic) continue;
+    refused->insert(c.effect);
+    c.note += std::string(c.note.empty() ? "" : "; ") +
+              Format(
+                  "qualifies, but shows no more than a pattern fixed on the sphere would, one for each setup "
+                  "of unknown orientation or on another sphere and one for the others (delta BIC %.1f beside "
+                  "their spherical harmonics of degree 2..%d)",
+                  p.time_delta_bic, kSpherePatternDegree);
+    Ambiguity a{"sphere_form", c.Id(), p.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};
+    a.chosen_rms_um = p.explained_rms_um;
+    a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
+    // Once per candidate: a later round's sizes replace an earlier round's.
+    const auto same = std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [&](const Ambiguity& x) {
+      return !x.form_turns_with_sphere && x.chosen == a.chosen && x.other == a.other;
+    });
+    if (same != r.ambiguous.end()) {
+      *same = a;
+    } else {
+      r.ambiguous.push_back(a);
+    }
+  }
 }
 
 // The measurement that separates effect e from a form of the sphere when the sphere was measured

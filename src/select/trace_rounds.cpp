@@ -194,7 +194,11 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   }
   Tried tried = ScoreCandidates(data, options, current, todo, round, trace_options);
   for (auto& [c, fit] : tried) c.held = IsHeld(r, c.effect);
-  const auto any = [](const CandidateScore&) { return true; };
+  // Admissible, but a form explains them as well: a pattern on each setup's sphere here, a form of
+  // a higher degree beside the form fitted below (BestBesideForm()).
+  std::set<Effect> not_beyond_form;
+  NotBeyondEachSetupsPattern(data, options, current, trace_options, tried, r, &not_beyond_form);
+  const auto any = [&](const CandidateScore& c) { return not_beyond_form.count(c.effect) == 0; };
   int best = BestAdmissible(tried, current, trace_options, any);
   // With a design that separates the form, it is in the model and no competitor. When the
   // competitor explains the residual better than the best effect, or about as well, no effect is
@@ -211,12 +215,11 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   if (form_better && best >= 0) {
     const bool one_placement = OnePlacement(current.fit);
     best = BestAdmissible(tried, current, trace_options, [&](const CandidateScore& c) {
-      return ShownBeyondSphere(c, current.factor, one_placement, trace_options);
+      return any(c) && ShownBeyondSphere(c, current.factor, one_placement, trace_options);
     });
   }
   const bool form_wins = form_better && best < 0;
   form.note = SphereCompetitorNote(sphere, form_better, form_wins);
-  std::set<Effect> not_beyond_form;  // admissible, but a form of a higher degree explains them as well
   if (r.form.separable && best >= 0 && r.form.degree_limit > r.form.degree_max) {
     best = BestBesideForm(data, options, current, trace_options, tried, r, &not_beyond_form);
   }
@@ -231,7 +234,8 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     for (std::size_t i = 0; i < tried.size(); ++i) {
       const CandidateScore& c = tried[i].first;
       const bool shown = ShownByItsVariable(c.effect, current.structure, trace_options);
-      if (!form_wins || !Admissible(c, current, trace_options) || !(shown || static_cast<int>(i) == best_machine))
+      if (!form_wins || !Admissible(c, current, trace_options) || !(shown || static_cast<int>(i) == best_machine) ||
+          not_beyond_form.count(c.effect) != 0)
         continue;
       const double cur_rms = current.fit.calibration.rms_um;
       Ambiguity a{"sphere_form", c.Id(), sphere.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};

@@ -113,6 +113,19 @@ bool OnePlacement(const EffectFit& fit);
 bool ShownBeyondSphere(const CandidateScore& c, const StructureFactor& factor, bool one_placement,
                        const TraceOptions& trace_options);
 
+// With setups whose form is their own (unknown orientation, another sphere) in a design that does
+// not separate the form: the admissible candidates of the time in `tried` whose functions, the
+// powers of tau of their components, do not lower the linearised BIC by min_delta_bic beside a
+// pattern fixed on the sphere for each set of form (spherical harmonics of degree
+// 2..kSpherePatternDegree, one set for the setups of known orientation, one for each other set).
+// Within a setup the time of a reading is a function of its direction (the scan order), another
+// one in each setup, so a drift takes what differs between the setups' forms, which no pattern
+// common to them explains. Each goes into *refused, with a note and, once per candidate, an
+// ambiguity with that pattern in r.ambiguous.
+void NotBeyondEachSetupsPattern(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                                const TraceOptions& trace_options, Tried& tried, TraceResult& r,
+                                std::set<Effect>* refused);
+
 // The measurement that separates effect e from a form of the sphere when the sphere was measured
 // in one placement.
 std::string SeparateFromForm(Effect e);

@@ -452,14 +452,12 @@ TEST(LeaveOneSetupOut, PredictsNoiseFreeReadingsExactly) {
       FitEffects(single, PaperOptions(), none, EffectFitStart::From(Calibrate(single, PaperOptions()))))));
 }
 
-// Two setups, one of known orientation and the sphere remounted in an orientation the file calls
-// unknown, a Phi encoder error and form28: only the known setup can be left out, and the unknown
-// one alone, with a form of its own, does not determine the model the trace chose. The transfer
-// then cannot be judged on this design: no rms (it read 0.117 um, 2.3 sigma, as if the model did
-// not transfer), the setup named, and the report says so.
-TEST(LeaveOneSetupOut, CannotBeJudgedWhereTheOtherSetupsDoNotDetermineTheModel) {
+// Two setups at (2, 0, 0) mm, one of known orientation and the sphere remounted, turned by 90 deg
+// about y and scanned in serpentine, in an orientation the file calls unknown; form28 and a Phi
+// encoder error of 10 arcsec once per turn (sigma_r 0.05 um).
+SimulationSpec KnownAndUnknown(std::uint64_t seed) {
   SimulationSpec spec;
-  spec.seed = 2;
+  spec.seed = seed;
   spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0)};
   spec.mount_rotations_deg[1] = Eigen::Vector3d(0, 90, 0);
   spec.mount_unknown.insert(1);
@@ -467,12 +465,86 @@ TEST(LeaveOneSetupOut, CannotBeJudgedWhereTheOtherSetupsDoNotDetermineTheModel) 
   spec.effects.model.terms = {{Effect::kPhiEncoder, {{1, 0, false}}}};
   spec.effects.values = {{10 * kRadPerArcsec}};
   spec.effects.form = Form28();
-  const PointsData points = Simulate(spec);
-  const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
-  ASSERT_FALSE(r.added.empty());
+  return spec;
+}
+
+// Whether the trace found the Phi encoder error, or added a Phi effect that it names as ambiguous
+// with it.
+bool FoundOrNamedThePhiEncoder(const TraceResult& r) {
+  if (std::find(r.added.begin(), r.added.end(), Effect::kPhiEncoder) != r.added.end()) return true;
+  return std::any_of(r.ambiguous.begin(), r.ambiguous.end(), [&](const Ambiguity& a) {
+    Effect chosen{};
+    return a.other == "phi_encoder" && EffectFromId(a.chosen, &chosen) &&
+           std::find(r.added.begin(), r.added.end(), chosen) != r.added.end();
+  });
+}
+
+// The design of KnownAndUnknown(): the setup of unknown orientation has a form of its own, which
+// no pattern fixed on the sphere common to both setups explains, and within each setup the time
+// of a reading is a function of its direction (a scan order), another one in each. A drift in
+// time took that difference of the forms: probe_drift was added in the second round in seeds 2, 3
+// and 4 (delta BIC -14.0, -33.5, -29.0), beside the Phi encoder error (seed 3: a Phi radial motion
+// named with it). The transfer test did not judge it there: with the drift the unknown setup alone
+// leaves the model loose, so the known one was not predicted. A drift must show beyond a pattern
+// fixed on the sphere in each setup (its delta BIC there is +4.0, +4.0, +4.4): none is added,
+// and the one refused says why and is reported with that pattern as two explanations.
+TEST(TraceWithForm, AddsNoDriftForTheFormOfASetupOfUnknownOrientation) {
+  for (const std::uint64_t seed : {2, 3, 4}) {
+    const PointsData points = Simulate(KnownAndUnknown(seed));
+    const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
+    ASSERT_FALSE(r.form.separable) << r.form.design;
+    EXPECT_EQ(std::count(r.added.begin(), r.added.end(), Effect::kProbeDrift), 0) << "seed " << seed;
+    EXPECT_TRUE(FoundOrNamedThePhiEncoder(r)) << "seed " << seed;
+    EXPECT_TRUE(std::any_of(r.candidates.begin(), r.candidates.end(),
+                            [](const CandidateScore& c) {
+                              return c.effect == Effect::kProbeDrift && !c.sphere_form &&
+                                     c.note.find("no more than a pattern fixed on the sphere would") !=
+                                         std::string::npos;
+                            }))
+        << "seed " << seed;
+    EXPECT_TRUE(std::any_of(r.ambiguous.begin(), r.ambiguous.end(),
+                            [](const Ambiguity& a) {
+                              return a.chosen == "sphere_form" && a.other == "probe_drift" && a.other_rms_um > 0.0;
+                            }))
+        << "seed " << seed;
+  }
+}
+
+// The same design with a true drift of 0.4 um beside the Phi encoder error: the drift shows beyond
+// the pattern on each setup's sphere (delta BIC about -500) and is still found, with the Phi
+// encoder error (or a Phi effect named with it). In seeds 1 and 3 the drift is not added, with the
+// rule or without it: the transfer test refuses it in the first round (the known setup predicted
+// from the unknown one alone 1.1 um rms off with it).
+TEST(TraceWithForm, FindsATrueDriftBesideTheFormOfASetupOfUnknownOrientation) {
+  for (const std::uint64_t seed : {2, 4, 6}) {
+    SimulationSpec spec = KnownAndUnknown(seed);
+    spec.effects.model.terms.push_back({Effect::kProbeDrift, {{1, 0, false}}});
+    spec.effects.values.push_back({0.4 * kMmPerUm});
+    const PointsData points = Simulate(spec);
+    const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
+    EXPECT_EQ(std::count(r.added.begin(), r.added.end(), Effect::kProbeDrift), 1) << "seed " << seed;
+    EXPECT_TRUE(FoundOrNamedThePhiEncoder(r)) << "seed " << seed;
+  }
+}
+
+// Two setups, one of known orientation and the sphere remounted in an orientation the file calls
+// unknown (KnownAndUnknown()), and a model of the Phi encoder error and a probe drift: only the
+// known setup can be left out, and the unknown one alone, a part of the run whose times are a
+// function of its directions, does not determine the drift beside the encoder error. The transfer
+// then cannot be judged on this design: no rms (one would read as if the model did not transfer),
+// the setup named, and the report says so.
+TEST(LeaveOneSetupOut, CannotBeJudgedWhereTheOtherSetupsDoNotDetermineTheModel) {
+  const PointsData points = Simulate(KnownAndUnknown(2));
+  // The model the trace chose when it took the drift (phi_encoder.c1, probe_drift.t2).
+  CalibrationOptions options = PaperOptions();
+  options.fixed = {{"phi_encoder.s1", 0.0}, {"probe_drift.t1", 0.0}};
+  TraceOptions once_per_turn;
+  once_per_turn.harmonics = {1, 1};
+  const TraceResult r = FitFixedEffects(points, options, Calibrate(points, PaperOptions()),
+                                        {Effect::kPhiEncoder, Effect::kProbeDrift}, once_per_turn);
   EXPECT_EQ(r.after.loso_not_judged, std::vector<int>{0});
   EXPECT_TRUE(std::isnan(r.after.loso_rms_um)) << r.after.loso_rms_um;
-  EXPECT_TRUE(std::isnan(LeaveOneSetupOutRms(points, PaperOptions(), r.after.fit)));
+  EXPECT_TRUE(std::isnan(LeaveOneSetupOutRms(points, options, r.after.fit)));
   std::ostringstream text;
   WriteTraceText(text, r, nullptr);
   EXPECT_NE(text.str().find("leave one setup out: cannot be judged on this design"), std::string::npos) << text.str();

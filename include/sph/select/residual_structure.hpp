@@ -137,6 +137,10 @@ StructureFactor FactorResidualStructure(const FitResiduals& fit, const std::vect
 ResidualStructure AnalyseResidualStructure(const StructureFactor& factor);
 ResidualStructure AnalyseResidualStructure(const FitResiduals& fit);
 
+/// The highest degree of the spherical harmonics that the analysis takes for a pattern fixed on the
+/// sphere (its "sphere" group, from degree 2).
+inline constexpr int kSpherePatternDegree = 5;
+
 /// The best small pattern fixed on the sphere: spherical harmonics of degree 2..5 of the direction
 /// from the centre chosen one at a time (each the one that explains most of what is left) while
 /// the extended BIC falls (SubsetSearchPenalty() of the functions chosen from all of them), as a
