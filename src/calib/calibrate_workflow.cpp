@@ -178,14 +178,14 @@ CalibrationFile FileOf(const CalibrationWorkflowResult& run, bool* drift_left_ou
 }
 
 // Whether two calibration files hold one model: the same parameters (the effects' components and
-// the form's terms), in any order.
+// the form's terms), in any order, and the same drift fitted beside them.
 bool SameModel(const CalibrationFile& a, const CalibrationFile& b) {
   auto sorted = [](const CalibrationFile& f) {
     std::vector<std::string> names = CalibrationParameterNames(f);
     std::sort(names.begin(), names.end());
     return names;
   };
-  return sorted(a) == sorted(b);
+  return sorted(a) == sorted(b) && a.probe_drift_powers == b.probe_drift_powers;
 }
 
 // `run`'s readings calibrated with the model of `previous` (CompareWithEarlier()): the reported
@@ -201,10 +201,10 @@ CalibrationWorkflowResult RefitWithModelOf(const CalibrationWorkflowResult& run,
   like.program = run.program;
   like.seven = run.seven;
   std::vector<EffectTerm> terms = previous.effects.terms;
-  if (run.trace) {  // a drift belongs to the run: today's is kept
-    const EffectModel& today = run.trace->after.fit.model;
-    const int drift = today.Find(Effect::kProbeDrift);
-    if (drift >= 0) terms.push_back(today.terms[static_cast<std::size_t>(drift)]);
+  if (!previous.probe_drift_powers.empty()) {  // the file's drift is left out, its powers are not
+    EffectTerm drift{Effect::kProbeDrift, {}};
+    for (int power : previous.probe_drift_powers) drift.components.push_back({power, 0, false});
+    terms.push_back(drift);
   }
   if (!terms.empty() || !previous.form_terms.empty() || !run.settings.form_prior.Empty()) {
     TraceOptions trace_options = o.trace_options;

@@ -422,6 +422,8 @@ bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
   for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
     if (fit.model.terms[t].effect == Effect::kProbeDrift) {
       drift = true;
+      file.probe_drift_powers.clear();
+      for (const EffectComponent& c : fit.model.terms[t].components) file.probe_drift_powers.push_back(c.order);
       continue;
     }
     file.effects.terms.push_back(fit.model.terms[t]);

@@ -275,7 +275,7 @@ std::string HeldAlone(const CalibrationComparison& own) {
   if (!previous_only.empty()) {
     text += (text.empty() ? "" : "; ") + ("the earlier model holds " + previous_only + ", today's does not");
   }
-  return text.empty() ? "their forms are of other terms" : text;
+  return text.empty() ? "the same parameters, fitted beside another drift or form" : text;
 }
 
 }  // namespace

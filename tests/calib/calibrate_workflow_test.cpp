@@ -176,6 +176,32 @@ TEST(CalibrateWorkflow, ComparesLikeWithLikeWhenTheModelsDiffer) {
   EXPECT_THAT(run.JsonReport(), HasSubstr("\"model\": \"today\""));
 }
 
+// The same readings on both days, the earlier calibration of the seven errors alone, today's traced
+// (a drift and encoder terms added): refitted with the earlier model, today's values are the
+// earlier ones, drift and all, and today's own model's changes are listed beside.
+TEST(CalibrateWorkflow, SameReadingsOfAnotherModelCompareEqualLikeWithLike) {
+  CalibrationWorkflowOptions o;
+  o.conditions.sphere_radius_u_um = 0.1;
+  o.trace = false;
+  const std::string previous = sph::testing::MakeTempDir("workflow_same") + "/previous.json";
+  WriteCalibrationFile(previous, RunCalibrationWorkflow(kUndeclared, o).MakeCalibrationFile());
+  CalibrationWorkflowOptions today;
+  today.conditions.sphere_radius_u_um = 0.1;
+  today.compare_path = previous;
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(kUndeclared, today);
+  ASSERT_TRUE(run.Extended());
+  ASSERT_GE(run.trace->after.fit.model.Find(Effect::kProbeDrift), 0);
+  ASSERT_TRUE(run.comparison.has_value());
+  EXPECT_EQ(run.comparison->model, kPreviousModel);
+  ASSERT_EQ(run.comparison->parameters.size(), 7u);
+  for (const ComparedParameter& c : run.comparison->parameters) {
+    EXPECT_TRUE(c.Compared()) << c.parameter;
+    EXPECT_NEAR(c.En, 0.0, 1e-6) << c.parameter;
+  }
+  EXPECT_THAT(run.comparison->verdict, HasSubstr("unchanged within uncertainty (7 parameters compared"));
+  EXPECT_THAT(run.comparison->models, HasSubstr("today's own model holds theta_encoder."));
+}
+
 // An earlier model that today's readings cannot determine (a reversal error, and no reading says
 // from which side its axis came): today's own model compared, the comparison and a warning say why.
 TEST(CalibrateWorkflow, ComparesTodaysModelWhenTheEarlierCannotBeFitted) {

@@ -117,10 +117,10 @@ struct CalibrationWorkflowResult {
 /// `run`'s calibration compared with an earlier calibration file of the machine (`previous`, named
 /// `previous_source`), like with like (what the workflow does with compare_path, `options` its
 /// own): CompareCalibrations() of run's calibration file; when the two files' models differ (other
-/// parameters: effects, their components, the form's terms), today's readings are fitted again with
-/// the earlier model (FitGivenModel(): its effects with their components, its form's terms, its
-/// probe terms' normalisation; today's probe_drift kept, for a drift belongs to the run and no
-/// file holds one), with their budget, and the verdict is taken on that comparison, today's own
+/// parameters: effects, their components, the form's terms, the drift's powers), today's readings
+/// are fitted again with the earlier model (FitGivenModel(): its effects with their components, a
+/// drift of its probe_drift_powers, its form's terms, its probe terms' normalisation), with their
+/// budget, and the verdict is taken on that comparison, today's own
 /// model's beside it (LikeForLike()). When the earlier model cannot be fitted to today's readings
 /// (the fit fails, or its calibration is not usable: a parameter undetermined, no budget), today's
 /// own model is compared and the comparison says why (NotLikeForLike()). Throws sph::Error as
