@@ -15,7 +15,8 @@
 // Prints, per parameter of the verdict's rows, the share of pairs with |En| <= 1, the mean U, the
 // scatter of the differences as a ratio to U / 2 (1 when U is right) and the share with |En| <= 1
 // over the pairs whose two runs chose the same model; then the share over every parameter compared
-// (>= 95 % expected), the same over the pairs of one model, how many pairs were compared like with
+// (>= 95 % expected), the same over the pairs of one model, over the parameters of effects the
+// machine lacks (a trace's false additions: how far from zero each side is), how many pairs were compared like with
 // like (refitted with the earlier model) or could not be, the share that today's own model's rows
 // alone would give, and of the pairs whose second run had d' moved by 3 U (U: that pair's own U of
 // d'), those detected (|En(d')| > 1).
@@ -97,6 +98,10 @@ int main(int argc, char** argv) {
   // model, those it could not be fitted to; the rows of today's own model alone.
   int same_pairs = 0, same_within = 0, same_compared = 0, refitted = 0, not_refitted = 0;
   int own_within = 0, own_compared = 0;
+  // The parameters of effects the simulated machine lacks (added by a trace only): |En| <= 1, and
+  // the mean |value| / (U / 2) of the earlier run and of today's refit.
+  int lacking_within = 0, lacking_compared = 0;
+  double lacking_previous_z = 0.0, lacking_now_z = 0.0;
   for (int k = 0; k < pairs; ++k) {
     const double r0_error_mm = random.Normal() * kRadiusUUm * sph::kMmPerUm;
     const double scale_error = random.Normal() * kProbeScaleU;
@@ -136,6 +141,13 @@ int main(int argc, char** argv) {
         same_compared += same;
         same_within += same && std::abs(c.En) <= 1.0;
         if (c.parameter == "d_prime") u_d_prime_mm = c.U * sph::kMmPerUm;
+        if (c.parameter.find('.') != std::string::npos && c.parameter != "theta_encoder.c3" &&
+            c.parameter != "theta_axial_motion.c2") {
+          ++lacking_compared;
+          lacking_within += std::abs(c.En) <= 1.0;
+          lacking_previous_z += std::abs(c.previous) / (c.U / 2.0);
+          lacking_now_z += std::abs(c.now) / (c.U / 2.0);
+        }
       }
       // The same second run with d' moved by 3 U of this pair's comparison.
       const Run moved = Calibrate(mode, seed_now, 3.0 * u_d_prime_mm, r0_error_mm, scale_error);
@@ -166,6 +178,12 @@ int main(int argc, char** argv) {
   std::printf("pairs of two models: %d compared like with like (refitted with the earlier model), %d not (the earlier "
               "model not fitted to today's readings)\n",
               refitted, not_refitted);
+  if (lacking_compared > 0) {
+    std::printf("parameters of effects the machine lacks: %d compared, |En| <= 1: %.2f%%, mean |value| / (U/2): "
+                "%.2f earlier, %.2f today\n",
+                lacking_compared, 100.0 * lacking_within / lacking_compared, lacking_previous_z / lacking_compared,
+                lacking_now_z / lacking_compared);
+  }
   std::printf("today's own model's rows alone: %d compared, |En| <= 1: %.2f%%\n", own_compared,
               own_compared > 0 ? 100.0 * own_within / own_compared : 0.0);
   std::printf("d' moved by 3 U in the second run: detected (|En| > 1) in %d of %d pairs\n", detected, shifted);
