@@ -312,6 +312,8 @@ std::string Comparison(const json& j) {
   const json& summary = j.at("comparison_summary");
   std::string body =
       "<p>With " + At(summary, "previous_file") + ": <strong>" + At(summary, "verdict") + "</strong></p>\n";
+  const std::string models = summary.at("models").get<std::string>();
+  if (!models.empty()) body += "<p>" + Escape(models) + "</p>\n";
   std::vector<std::vector<std::string>> rows;
   std::string counted;
   for (const json& c : j.at("comparison")) {
@@ -319,13 +321,15 @@ std::string Comparison(const json& j) {
     if (c.at("found_in") == "now") previous = "(now only)";
     if (c.at("found_in") == "previous") now = "(previous only)";
     const std::string en = c.at("En").is_number() ? html::Fixed(c.at("En").get<double>(), 2) : "-";
-    rows.push_back({At(c, "parameter"), At(c, "unit"), previous, now, At(c, "difference"), At(c, "U"), en});
+    const std::string model = c.at("model") == "previous" ? "earlier, refitted" : "today's";
+    rows.push_back({At(c, "parameter"), model, At(c, "unit"), previous, now, At(c, "difference"), At(c, "U"), en});
     if (c.contains("note")) counted += "<li>" + At(c, "parameter") + ": " + At(c, "note") + "</li>\n";
   }
-  body += html::Table({"parameter", "unit", "previous", "now", "difference", "U (k = 2)", "En"}, rows);
+  body += html::Table({"parameter", "model", "unit", "previous", "now", "difference", "U (k = 2)", "En"}, rows);
   body +=
       "<p class=\"note\">difference = now - previous; U: expanded uncertainty of the difference; "
-      "En = difference / U.</p>\n<h3>How the two calibrations' inputs were counted</h3>\n<ul>\n";
+      "En = difference / U; model: today's own, or today's readings refitted with the earlier calibration's (the "
+      "verdict's, when the two differ).</p>\n<h3>How the two calibrations' inputs were counted</h3>\n<ul>\n";
   std::string correlated;
   for (const json& name : summary.at("correlated_inputs")) correlated += (correlated.empty() ? "" : ", ") + Cell(name);
   body += "<li>fully correlated (the same source in both, cancelling where it acts alike): " +

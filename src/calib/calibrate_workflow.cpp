@@ -177,7 +177,70 @@ CalibrationFile FileOf(const CalibrationWorkflowResult& run, bool* drift_left_ou
   return file;
 }
 
+// Whether two calibration files hold one model: the same parameters (the effects' components and
+// the form's terms), in any order, and the same drift fitted beside them.
+bool SameModel(const CalibrationFile& a, const CalibrationFile& b) {
+  auto sorted = [](const CalibrationFile& f) {
+    std::vector<std::string> names = CalibrationParameterNames(f);
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  return sorted(a) == sorted(b) && a.probe_drift_powers == b.probe_drift_powers;
+}
+
+// `run`'s readings calibrated with the model of `previous` (CompareWithEarlier()): the reported
+// calibration, its budget and its usability; warnings kept in its own.
+CalibrationWorkflowResult RefitWithModelOf(const CalibrationWorkflowResult& run, const CalibrationFile& previous,
+                                           const CalibrationWorkflowOptions& o) {
+  CalibrationWorkflowResult like;
+  like.points = run.points;
+  like.points_path = run.points_path;
+  like.settings = run.settings;
+  like.inputs = run.inputs;
+  like.probe_range_mm = run.probe_range_mm;
+  like.program = run.program;
+  like.seven = run.seven;
+  std::vector<EffectTerm> terms = previous.effects.terms;
+  if (!previous.probe_drift_powers.empty()) {  // the file's drift is left out, its powers are not
+    EffectTerm drift{Effect::kProbeDrift, {}};
+    for (int power : previous.probe_drift_powers) drift.components.push_back({power, 0, false});
+    terms.push_back(drift);
+  }
+  if (!terms.empty() || !previous.form_terms.empty() || !run.settings.form_prior.Empty()) {
+    TraceOptions trace_options = o.trace_options;
+    trace_options.probe_range_mm = run.probe_range_mm;
+    trace_options.progress = nullptr;
+    like.trace = FitGivenModel(like.points, like.settings, like.seven, terms, previous.form_terms, trace_options,
+                               &previous.effects.reference);
+  }
+  CalibrationWorkflowOptions quiet = o;
+  quiet.on_warning = nullptr;
+  MakeBudget(like, quiet);
+  like.usability = JudgeUsability(like.Reported(), like.Context());
+  return like;
+}
+
 }  // namespace
+
+CalibrationComparison CompareWithEarlier(const CalibrationWorkflowResult& run, const CalibrationFile& previous,
+                                         const std::string& previous_source,
+                                         const CalibrationWorkflowOptions& options) {
+  const CalibrationFile today = FileOf(run, nullptr);
+  CalibrationComparison own = CompareCalibrations(previous, today, previous_source);
+  if (SameModel(previous, today)) return own;
+  std::string why;
+  try {
+    const CalibrationWorkflowResult like = RefitWithModelOf(run, previous, options);
+    if (like.usability.usable && like.warnings.empty()) {
+      return LikeForLike(CompareCalibrations(previous, FileOf(like, nullptr), previous_source), own);
+    }
+    for (const std::string& reason : like.usability.reasons) why += (why.empty() ? "" : "; ") + reason;
+    for (const std::string& warning : like.warnings) why += (why.empty() ? "" : "; ") + warning;
+  } catch (const std::exception& e) {
+    why = e.what();
+  }
+  return NotLikeForLike(std::move(own), why);
+}
 
 void CalibrationWorkflowOptions::Check() const {
   const std::string what = "calibration options: ";
@@ -272,7 +335,10 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   run.usability = JudgeUsability(run.Reported(), run.Context());
   if (previous) {
     Tell(options.on_stage, "comparing with " + options.compare_path);
-    run.comparison = CompareCalibrations(*previous, FileOf(run, nullptr), options.compare_path);
+    run.comparison = CompareWithEarlier(run, *previous, options.compare_path, options);
+    if (run.comparison->model == kTodaysModel && !run.comparison->models.empty()) {
+      Warn(run, options, run.comparison->models);
+    }
   }
   return run;
 }

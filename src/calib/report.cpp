@@ -123,28 +123,38 @@ const char* FoundText(ComparedParameter::Found f) {
   return f == ComparedParameter::Found::kBoth ? "both" : f == ComparedParameter::Found::kNowOnly ? "now" : "previous";
 }
 
-// The comparison with an earlier calibration: a row per parameter, how the inputs were counted, the verdict.
+// The comparison with an earlier calibration: a row per parameter (the verdict's, then today's own
+// model's when the two models differ), how the inputs were counted, the models, the verdict.
 void WriteComparisonText(std::ostream& out, const CalibrationComparison& cmp) {
   out << "\ncomparison with " << cmp.previous_source
       << " (difference = now - previous, U of the difference with k = " << Format("%g", cmp.k)
       << ", En = difference / U):\n";
-  out << Format("%-26s %13s %13s %12s %10s %7s %s\n", "parameter", "previous", "now", "difference", "U", "En",
-                "unit");
   auto number = [](double v, const char* format) { return std::isfinite(v) ? Format(format, v) : std::string("-"); };
-  for (const ComparedParameter& c : cmp.parameters) {
-    std::string previous = number(c.previous, "%.4f"), now = number(c.now, "%.4f");
-    if (c.found == ComparedParameter::Found::kNowOnly) previous = "(now only)";
-    if (c.found == ComparedParameter::Found::kPreviousOnly) now = "(previous only)";
-    out << Format("%-26s %13s %13s %12s %10s %7s %s\n", c.parameter.c_str(), previous.c_str(), now.c_str(),
-                  number(c.difference, "%+.4f").c_str(), number(c.U, "%.4f").c_str(), number(c.En, "%+.2f").c_str(),
-                  c.unit.c_str());
-    if (!c.note.empty()) out << "  " << c.parameter << ": " << c.note << "\n";
+  auto table = [&](const std::vector<ComparedParameter>& rows) {
+    out << Format("%-26s %13s %13s %12s %10s %7s %s\n", "parameter", "previous", "now", "difference", "U", "En",
+                  "unit");
+    for (const ComparedParameter& c : rows) {
+      std::string previous = number(c.previous, "%.4f"), now = number(c.now, "%.4f");
+      if (c.found == ComparedParameter::Found::kNowOnly) previous = "(now only)";
+      if (c.found == ComparedParameter::Found::kPreviousOnly) now = "(previous only)";
+      out << Format("%-26s %13s %13s %12s %10s %7s %s\n", c.parameter.c_str(), previous.c_str(), now.c_str(),
+                    number(c.difference, "%+.4f").c_str(), number(c.U, "%.4f").c_str(),
+                    number(c.En, "%+.2f").c_str(), c.unit.c_str());
+      if (!c.note.empty()) out << "  " << c.parameter << ": " << c.note << "\n";
+    }
+  };
+  if (cmp.model == kPreviousModel) out << "today's readings refitted with the earlier calibration's model:\n";
+  table(cmp.parameters);
+  if (!cmp.todays_model.empty()) {
+    out << "today's own model, for information:\n";
+    table(cmp.todays_model);
   }
   out << "  counted fully correlated (the same source in both, cancelling where it acts alike): "
       << (cmp.correlated_inputs.empty() ? std::string("none") : "");
   for (std::size_t i = 0; i < cmp.correlated_inputs.size(); ++i) out << (i ? ", " : "") << cmp.correlated_inputs[i];
   out << "\n";
   for (const std::string& note : cmp.notes) out << "  " << note << "\n";
+  if (!cmp.models.empty()) out << "models: " << cmp.models << "\n";
   out << "verdict: " << cmp.verdict << "\n";
 }
 
@@ -152,17 +162,22 @@ json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr);
 
 void AddComparisonJson(json& j, const CalibrationComparison& cmp) {
   json rows = json::array();
-  for (const ComparedParameter& c : cmp.parameters) {
-    json row = {{"parameter", c.parameter},       {"unit", c.unit},
-                {"found_in", FoundText(c.found)}, {"previous", NumberOrNull(c.previous)},
-                {"now", NumberOrNull(c.now)},     {"difference", NumberOrNull(c.difference)},
-                {"U", NumberOrNull(c.U)},         {"En", NumberOrNull(c.En)}};
-    if (!c.note.empty()) row["note"] = c.note;
-    rows.push_back(row);
+  for (const auto* list : {&cmp.parameters, &cmp.todays_model}) {
+    for (const ComparedParameter& c : *list) {
+      json row = {{"parameter", c.parameter},       {"unit", c.unit},
+                  {"model", c.model},               {"found_in", FoundText(c.found)},
+                  {"previous", NumberOrNull(c.previous)}, {"now", NumberOrNull(c.now)},
+                  {"difference", NumberOrNull(c.difference)}, {"U", NumberOrNull(c.U)},
+                  {"En", NumberOrNull(c.En)}};
+      if (!c.note.empty()) row["note"] = c.note;
+      rows.push_back(row);
+    }
   }
   j["comparison"] = rows;
   j["comparison_summary"] = {{"previous_file", cmp.previous_source},
                              {"k", cmp.k},
+                             {"model", cmp.model},
+                             {"models", cmp.models},
                              {"unchanged", cmp.Unchanged()},
                              {"verdict", cmp.verdict},
                              {"correlated_inputs", cmp.correlated_inputs},
@@ -407,6 +422,8 @@ bool AddEffectsToCalibrationFile(const EffectFit& fit, CalibrationFile& file) {
   for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
     if (fit.model.terms[t].effect == Effect::kProbeDrift) {
       drift = true;
+      file.probe_drift_powers.clear();
+      for (const EffectComponent& c : fit.model.terms[t].components) file.probe_drift_powers.push_back(c.order);
       continue;
     }
     file.effects.terms.push_back(fit.model.terms[t]);

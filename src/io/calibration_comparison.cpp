@@ -262,7 +262,72 @@ std::string Verdict(const CalibrationComparison& cmp) {
   return v;
 }
 
+// Which parameters each calibration holds alone, from the rows of today's own model.
+std::string HeldAlone(const CalibrationComparison& own) {
+  std::string now_only, previous_only;
+  for (const ComparedParameter& c : own.parameters) {
+    if (c.found == ComparedParameter::Found::kBoth) continue;
+    std::string& list = c.found == ComparedParameter::Found::kNowOnly ? now_only : previous_only;
+    list += (list.empty() ? "" : ", ") + c.parameter;
+  }
+  std::string text;
+  if (!now_only.empty()) text += "today's own model holds " + now_only + ", the earlier one does not";
+  if (!previous_only.empty()) {
+    text += (text.empty() ? "" : "; ") + ("the earlier model holds " + previous_only + ", today's does not");
+  }
+  return text.empty() ? "the same parameters, fitted beside another drift or form" : text;
+}
+
 }  // namespace
+
+CalibrationComparison LikeForLike(CalibrationComparison like, const CalibrationComparison& own) {
+  like.model = kPreviousModel;
+  for (ComparedParameter& c : like.parameters) c.model = kPreviousModel;
+  like.todays_model = own.parameters;
+  for (ComparedParameter& c : like.todays_model) c.model = kTodaysModel;
+  // What today's own model changes: its value minus the refit's, in units of the refit's U.
+  struct Shift {
+    const ComparedParameter* like;
+    double by, in_u;
+  };
+  std::vector<Shift> shifts;
+  for (const ComparedParameter& l : like.parameters) {
+    if (!l.Compared()) continue;
+    const auto o = std::find_if(own.parameters.begin(), own.parameters.end(), [&](const ComparedParameter& c) {
+      return c.parameter == l.parameter && std::isfinite(c.now);
+    });
+    if (o != own.parameters.end()) shifts.push_back({&l, o->now - l.now, (o->now - l.now) / l.U});
+  }
+  std::stable_sort(shifts.begin(), shifts.end(),
+                   [](const Shift& a, const Shift& b) { return std::abs(a.in_u) > std::abs(b.in_u); });
+  like.models = "the models differ: " + HeldAlone(own) +
+                "; compared like with like: today's readings refitted with the earlier calibration's model";
+  if (!shifts.empty()) {
+    like.models += "; today's own model moves ";
+    const std::size_t shown = std::min<std::size_t>(3, shifts.size());
+    for (std::size_t i = 0; i < shown; ++i) {
+      const Shift& s = shifts[i];
+      like.models += (i == 0 ? "" : ", ") + s.like->parameter +
+                     Format(" by %+.4g %s (%+.2f U)", s.by, s.like->unit.c_str(), s.in_u);
+    }
+    like.models += Format(" (the most of the %zu compared; U the like-for-like difference's)", shifts.size());
+  }
+  return like;
+}
+
+CalibrationComparison NotLikeForLike(CalibrationComparison own, const std::string& why) {
+  own.models = "the models differ: " + HeldAlone(own) + "; the earlier calibration's model could not be fitted to " +
+               "today's readings (" + why + "): compared with today's own model";
+  const bool said = std::any_of(own.parameters.begin(), own.parameters.end(), [](const ComparedParameter& c) {
+    return c.found != ComparedParameter::Found::kBoth;
+  });
+  if (!said) {
+    own.verdict +=
+        "; the two fits' models differ: the parameters both hold may differ by the change of model, which U does "
+        "not include";
+  }
+  return own;
+}
 
 bool CalibrationComparison::Unchanged() const {
   const auto compared = [](const ComparedParameter& c) { return c.Compared(); };

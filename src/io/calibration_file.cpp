@@ -464,6 +464,7 @@ void WriteCalibration(std::ostream& out, const CalibrationFile& cal) {
     effects.push_back(entry);
   }
   j["effects"] = effects;
+  if (!cal.probe_drift_powers.empty()) j["probe_drift_powers"] = cal.probe_drift_powers;
   if (!cal.form_terms.empty()) {
     json terms = json::array();
     for (std::size_t k = 0; k < cal.form_terms.size(); ++k) {
@@ -533,6 +534,19 @@ CalibrationFile ParseCalibration(std::istream& in, const std::string& path) {
     cal.geometry[static_cast<std::size_t>(p)] = FromReportUnits(p, value);
   }
   ParseEffects(j, path, cal);
+  if (j.contains("probe_drift_powers")) {
+    const json& powers = j["probe_drift_powers"];
+    bool valid = powers.is_array();
+    for (std::size_t i = 0; valid && i < powers.size(); ++i) {
+      valid = powers[i].is_number_integer() && powers[i].get<int>() >= 1 && powers[i].get<int>() <= 3 &&
+              (i == 0 || powers[i].get<int>() > powers[i - 1].get<int>());
+      if (valid) cal.probe_drift_powers.push_back(powers[i].get<int>());
+    }
+    if (!valid) {
+      throw Error(path + ": field 'probe_drift_powers' must list ascending powers of tau from 1 to 3, got " +
+                  (powers.is_array() && powers.size() <= 3 ? powers.dump() : JsonExcerpt(powers)));
+    }
+  }
   ParseSphereForm(j, path, cal);
   if (j.contains("covariance")) ParseCovariance(j["covariance"], path, cal);
   if (j.contains("source") && j["source"].is_object()) {

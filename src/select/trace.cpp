@@ -288,22 +288,36 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
   return r;
 }
 
-TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
-                            const std::vector<Effect>& effects, TraceOptions trace_options) {
+namespace {
+// A fit of a fixed model: the terms made by `terms_of` from the harmonic orders the start resolved
+// (trace_options.harmonics), the form of `form_terms` (none when empty; options.form_prior's known
+// form in its place), the probe terms normalised by `probe_reference` when given.
+TraceResult FitModel(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
+                     const std::function<std::vector<EffectTerm>(const TraceOptions&)>& terms_of,
+                     const std::vector<FormTerm>& form_terms, TraceOptions trace_options,
+                     const EffectReference* probe_reference) {
   TraceResult r;
   const TraceStart start(all, options, base, trace_options, &r);
+  const std::vector<EffectTerm> terms = terms_of(trace_options);
   EffectModel model;
   model.reference = start.reference;
-  model.phi_wobble_pivot_mm = trace_options.phi_wobble_pivot_mm;
-  for (Effect e : effects) {
-    if (model.Find(e) < 0) model.terms.push_back(DefaultTerm(e, trace_options.harmonics, trace_options.drift_order));
+  if (probe_reference != nullptr) {
+    model.reference.r_ref_mm = probe_reference->r_ref_mm;
+    model.reference.r_half_range_mm = probe_reference->r_half_range_mm;
   }
+  model.phi_wobble_pivot_mm = trace_options.phi_wobble_pivot_mm;
   int n_params = r.before.fit.n_params;
   std::string ids;
-  for (const EffectTerm& t : model.terms) {
+  for (const EffectTerm& t : terms) {
+    model.terms.push_back(t);
     r.added.push_back(t.effect);
     n_params += t.size();
     ids += (ids.empty() ? "" : ", ") + std::string(t.info().id);
+  }
+  if (options.form_prior.Empty() && !form_terms.empty()) {
+    model.form = FormModelOf(start.data.points, form_terms);
+    n_params += model.form.NumParams();
+    ids += (ids.empty() ? "" : ", ") + std::string("the sphere's form");
   }
   CheckFoldsCanFit(start.data.points, trace_options.folds, n_params, "the seven-error model and " + ids,
                    r.before.fit.n_params);
@@ -312,11 +326,36 @@ TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& opt
     KnownFormSelection(options, &r.form);
     none = WithKnownForm(start.data, options, r.before.fit);
     model.form = none.model.form;
+  } else if (!model.form.Empty()) {
+    r.form.separable = true;
+    r.form.degree_max = r.form.degree_limit = model.form.MaxDegree();
+    r.form.design = "the sphere's form of degrees 2.." + std::to_string(model.form.MaxDegree()) + " given, fitted";
   }
   r.after = Analysed(internal::FitEffectsRows(start.data.points, start.data.table, nullptr, options, model,
                                               EffectFitStart::From(none)),
                      start.data, options, trace_options);
   Finish(all, options, base, trace_options, &r);
   return r;
+}
+}  // namespace
+
+TraceResult FitFixedEffects(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
+                            const std::vector<Effect>& effects, TraceOptions trace_options) {
+  const auto terms_of = [&](const TraceOptions& resolved) {
+    std::vector<EffectTerm> terms;
+    for (Effect e : effects) {
+      const bool again = std::any_of(terms.begin(), terms.end(), [&](const EffectTerm& t) { return t.effect == e; });
+      if (!again) terms.push_back(DefaultTerm(e, resolved.harmonics, resolved.drift_order));
+    }
+    return terms;
+  };
+  return FitModel(all, options, base, terms_of, {}, std::move(trace_options), nullptr);
+}
+
+TraceResult FitGivenModel(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
+                          const std::vector<EffectTerm>& terms, const std::vector<FormTerm>& form_terms,
+                          TraceOptions trace_options, const EffectReference* probe_reference) {
+  return FitModel(all, options, base, [&](const TraceOptions&) { return terms; }, form_terms,
+                  std::move(trace_options), probe_reference);
 }
 }  // namespace sph

@@ -1,6 +1,7 @@
 #!/bin/sh
 # The HTML reports in a real browser: sph_calibrate's (the undeclared example, and the paper's example
-# with the devices of an acquisition in its header) and sph_measure's (NIST sphere 1) are well formed (xmllint --html), and headless Chromium renders each to a PNG and
+# with the devices of an acquisition in its header, and one compared with an earlier calibration of another
+# model) and sph_measure's (NIST sphere 1) are well formed (xmllint --html), and headless Chromium renders each to a PNG and
 # prints it to an A4 PDF with at least one page per section (pdfinfo).
 # Usage: render_reports.sh SPH_CALIBRATE SPH_MEASURE SOURCE_DIR WORK_DIR
 # Exits 77 (skipped) when chromium, pdfinfo or xmllint is missing.
@@ -31,7 +32,16 @@ if ! grep -q '>sph_cansim probe</td>' "$work/calibration_devices.html"; then
   echo "$work/calibration_devices.html: no devices table"
   exit 1
 fi
-for name in calibration measurement calibration_devices; do
+# A comparison with an earlier calibration of another model (the seven errors alone): the verdict's
+# rows of the earlier model fitted to today's readings, today's own beside them.
+"$calibrate" "$source/data/example/undeclared/points.txt" -q --no-trace -o "$work/earlier.json"
+"$calibrate" "$source/data/example/undeclared/points.txt" -q --compare "$work/earlier.json" \
+  --report "$work/calibration_compare.html"
+if ! grep -q '>earlier, refitted</td>' "$work/calibration_compare.html"; then
+  echo "$work/calibration_compare.html: no like-for-like comparison"
+  exit 1
+fi
+for name in calibration measurement calibration_devices calibration_compare; do
   page=$work/$name.html
   # libxml2's HTML parser: any complaint fails.
   complaints=$(xmllint --html --noout "$page" 2>&1) || true

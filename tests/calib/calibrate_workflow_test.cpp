@@ -1,5 +1,7 @@
 #include "sph/calib/calibrate_workflow.hpp"
 
+#include <cmath>
+#include <cstdint>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -9,6 +11,8 @@
 
 #include "sph/core/error.hpp"
 #include "sph/io/points_file.hpp"
+#include "sph/model/units.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -110,6 +114,111 @@ TEST(CalibrateWorkflow, ComparesWithAnEarlierCalibrationFile) {
   EXPECT_THAT(text.str(), HasSubstr("verdict: unchanged within uncertainty (7 parameters compared"));
   EXPECT_THAT(run.JsonReport(), HasSubstr("\"comparison\": ["));
   EXPECT_THAT(run.HtmlReport(), HasSubstr("Comparison with an earlier calibration"));
+}
+
+// A machine with a Theta encoder error (3rd harmonic, 20 arcsec), one placement, noise of `seed`.
+PointsData EncoderMachine(std::uint64_t seed) {
+  SimulationSpec spec;
+  spec.seed = seed;
+  spec.effects.model.terms.push_back({Effect::kThetaEncoder, {{3, 0, false}}});
+  spec.effects.values.push_back({20.0 * kRadPerArcsec});
+  return Simulate(spec);
+}
+
+// Two days of one unchanged machine with other models on purpose: the earlier calibration traced
+// the residual and added the Theta encoder error, today's fitted the seven errors alone. Today's own seven errors
+// hold the encoder's error and differ; refitted with the earlier model they are unchanged within
+// uncertainty, and the verdict is taken on that like-for-like comparison.
+TEST(CalibrateWorkflow, ComparesLikeWithLikeWhenTheModelsDiffer) {
+  CalibrationWorkflowOptions o;
+  o.conditions.sphere_radius_u_um = 0.1;
+  const std::string previous = sph::testing::MakeTempDir("workflow_like") + "/previous.json";
+  WriteCalibrationFile(previous, RunCalibrationWorkflow(EncoderMachine(11), "yesterday.txt", o).MakeCalibrationFile());
+  CalibrationWorkflowOptions today;
+  today.conditions.sphere_radius_u_um = 0.1;
+  today.trace = false;
+  today.compare_path = previous;
+  std::vector<std::string> warnings;
+  today.on_warning = [&](const std::string& w) { warnings.push_back(w); };
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(EncoderMachine(12), "today.txt", today);
+  ASSERT_TRUE(run.comparison.has_value());
+  const CalibrationComparison& cmp = *run.comparison;
+  EXPECT_EQ(cmp.model, kPreviousModel);
+  EXPECT_TRUE(cmp.Unchanged()) << cmp.verdict;
+  EXPECT_THAT(cmp.verdict, HasSubstr("unchanged within uncertainty"));
+  int encoder = 0;
+  for (const ComparedParameter& c : cmp.parameters) {
+    EXPECT_EQ(c.model, kPreviousModel);
+    EXPECT_TRUE(c.Compared()) << c.parameter;
+    encoder += c.parameter.rfind("theta_encoder.", 0) == 0;
+  }
+  EXPECT_GE(encoder, 1);  // the encoder's components compared value for value
+  // Today's own model, listed beside: the encoder held by the earlier one only, the seven errors moved.
+  ASSERT_FALSE(cmp.todays_model.empty());
+  bool own_moved = false;
+  for (const ComparedParameter& c : cmp.todays_model) {
+    EXPECT_EQ(c.model, kTodaysModel);
+    if (c.parameter.rfind("theta_encoder.", 0) == 0) {
+      EXPECT_EQ(c.found, ComparedParameter::Found::kPreviousOnly);
+    }
+    own_moved |= c.Compared() && std::abs(c.En) > 1.0;
+  }
+  EXPECT_TRUE(own_moved) << "today's own model should differ by the encoder's error";
+  EXPECT_THAT(cmp.models, HasSubstr("the earlier model holds theta_encoder."));
+  EXPECT_THAT(cmp.models, HasSubstr("today's own model moves "));
+  EXPECT_TRUE(warnings.empty()) << warnings.front();
+  std::ostringstream text;
+  run.WriteTextReport(text);
+  EXPECT_THAT(text.str(), HasSubstr("today's readings refitted with the earlier calibration's model:\n"));
+  EXPECT_THAT(text.str(), HasSubstr("today's own model, for information:\n"));
+  EXPECT_THAT(text.str(), HasSubstr("models: the models differ: "));
+  EXPECT_THAT(run.JsonReport(), HasSubstr("\"model\": \"previous\""));
+  EXPECT_THAT(run.JsonReport(), HasSubstr("\"model\": \"today\""));
+}
+
+// The same readings on both days, the earlier calibration of the seven errors alone, today's traced
+// (a drift and encoder terms added): refitted with the earlier model, today's values are the
+// earlier ones, drift and all, and today's own model's changes are listed beside.
+TEST(CalibrateWorkflow, SameReadingsOfAnotherModelCompareEqualLikeWithLike) {
+  CalibrationWorkflowOptions o;
+  o.conditions.sphere_radius_u_um = 0.1;
+  o.trace = false;
+  const std::string previous = sph::testing::MakeTempDir("workflow_same") + "/previous.json";
+  WriteCalibrationFile(previous, RunCalibrationWorkflow(kUndeclared, o).MakeCalibrationFile());
+  CalibrationWorkflowOptions today;
+  today.conditions.sphere_radius_u_um = 0.1;
+  today.compare_path = previous;
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(kUndeclared, today);
+  ASSERT_TRUE(run.Extended());
+  ASSERT_GE(run.trace->after.fit.model.Find(Effect::kProbeDrift), 0);
+  ASSERT_TRUE(run.comparison.has_value());
+  EXPECT_EQ(run.comparison->model, kPreviousModel);
+  ASSERT_EQ(run.comparison->parameters.size(), 7u);
+  for (const ComparedParameter& c : run.comparison->parameters) {
+    EXPECT_TRUE(c.Compared()) << c.parameter;
+    EXPECT_NEAR(c.En, 0.0, 1e-6) << c.parameter;
+  }
+  EXPECT_THAT(run.comparison->verdict, HasSubstr("unchanged within uncertainty (7 parameters compared"));
+  EXPECT_THAT(run.comparison->models, HasSubstr("today's own model holds theta_encoder."));
+}
+
+// An earlier model that today's readings cannot determine (a reversal error, and no reading says
+// from which side its axis came): today's own model compared, the comparison and a warning say why.
+TEST(CalibrateWorkflow, ComparesTodaysModelWhenTheEarlierCannotBeFitted) {
+  CalibrationWorkflowOptions o;
+  o.conditions.sphere_radius_u_um = 0.1;
+  o.trace = false;
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(EncoderMachine(12), "today.txt", o);
+  CalibrationFile previous = run.MakeCalibrationFile();
+  previous.effects.terms.push_back({Effect::kThetaReversal, {{1, 0, false}}});
+  previous.effect_values.push_back({0.0});
+  const CalibrationComparison cmp = CompareWithEarlier(run, previous, "earlier.json", o);
+  EXPECT_EQ(cmp.model, kTodaysModel);
+  EXPECT_TRUE(cmp.todays_model.empty());
+  EXPECT_THAT(cmp.models, HasSubstr("the earlier model holds theta_reversal.b, today's does not; the earlier "
+                                    "calibration's model could not be fitted to today's readings ("));
+  EXPECT_THAT(cmp.verdict, HasSubstr("found in one calibration only: theta_reversal.b (previous only)"));
+  for (const ComparedParameter& c : cmp.parameters) EXPECT_EQ(c.model, kTodaysModel);
 }
 
 TEST(CalibrateWorkflow, RefusesPointsWithoutARadius) {

@@ -40,6 +40,7 @@ TEST(CalibrationFile, RoundTrips) {
   cal.covariance = cov;
   cal.created_by = "test";
   cal.source = {{"points_file", "x.txt"}};
+  cal.probe_drift_powers = {1, 2};
   WriteCalibrationFile(dir + "/cal.json", cal);
   const CalibrationFile back = ReadCalibrationFile(dir + "/cal.json");
   for (int p = 0; p < kNumScmsParams; ++p) {
@@ -49,6 +50,7 @@ TEST(CalibrationFile, RoundTrips) {
   ASSERT_TRUE(back.covariance.has_value());
   EXPECT_NEAR((*back.covariance)(0, 3), 2e-13, 1e-25);
   EXPECT_EQ(back.source, cal.source);
+  EXPECT_EQ(back.probe_drift_powers, cal.probe_drift_powers);
 }
 
 TEST(CalibrationFile, RejectsOtherFormatsAndMissingFields) {
@@ -214,6 +216,10 @@ TEST(CalibrationFile, NamesEveryMissingOrWrongField) {
         R"("effects": [{"id": "probe_gain", "parameters": [{"name": "probe_gain.u1", "value": 1, "unit": "um"}]}],
         "effect_reference": {"r_ref_mm": 5, "r_half_range_mm": 1e-300, "t_start_s": 0, "t_span_s": 1})"},
        "field 'effect_reference': r_half_range_mm must be at least"},
+      {{R"("effects": [])", R"("effects": [], "probe_drift_powers": [2, 1])"},
+       "field 'probe_drift_powers' must list ascending powers of tau from 1 to 3, got [2,1]"},
+      {{R"("effects": [])", R"("effects": [], "probe_drift_powers": [4])"},
+       "field 'probe_drift_powers' must list ascending powers of tau from 1 to 3, got [4]"},
   };
   int i = 0;
   for (const auto& [edit, message] : cases) {

@@ -51,7 +51,7 @@ struct CalibrationWorkflowOptions {
   std::vector<Effect> effects;     ///< a fixed model: these effects fitted, no selection (needs trace)
   std::string validate_path;       ///< another points file of the machine, compensated before and after (needs trace)
   /// An earlier calibration file of the machine (sph_calibrate -o): this run's calibration compared
-  /// with it (sph/io/calibration_comparison.hpp); read before the fit. The comparison informs: it
+  /// with it like with like (CompareWithEarlier()); read before the fit. The comparison informs: it
   /// does not change the calibration nor whether it is usable.
   std::string compare_path;
   /// A calibration file holding the reference sphere's form (made from a run that separated it):
@@ -113,6 +113,21 @@ struct CalibrationWorkflowResult {
   /// sph::Error when the calibration is not usable.
   CalibrationFile MakeCalibrationFile(bool* drift_left_out = nullptr) const;
 };
+
+/// `run`'s calibration compared with an earlier calibration file of the machine (`previous`, named
+/// `previous_source`), like with like (what the workflow does with compare_path, `options` its
+/// own): CompareCalibrations() of run's calibration file; when the two files' models differ (other
+/// parameters: effects, their components, the form's terms, the drift's powers), today's readings
+/// are fitted again with the earlier model (FitGivenModel(): its effects with their components, a
+/// drift of its probe_drift_powers, its form's terms, its probe terms' normalisation), with their
+/// budget, and the verdict is taken on that comparison, today's own
+/// model's beside it (LikeForLike()). When the earlier model cannot be fitted to today's readings
+/// (the fit fails, or its calibration is not usable: a parameter undetermined, no budget), today's
+/// own model is compared and the comparison says why (NotLikeForLike()). Throws sph::Error as
+/// CheckComparable().
+CalibrationComparison CompareWithEarlier(const CalibrationWorkflowResult& run, const CalibrationFile& previous,
+                                         const std::string& previous_source,
+                                         const CalibrationWorkflowOptions& options);
 
 /// Runs the workflow on the points file `points_path` (read with ReadPointsFile()). Throws
 /// sph::Error on bad input: a setting out of range, R0 or d given nowhere, a reading beyond the

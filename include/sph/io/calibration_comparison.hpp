@@ -13,7 +13,9 @@
 // independent; so is a shared input a file does not itemise (then U is larger, never smaller).
 // U is that of two fits of one model: when the calibrations hold other effects (a parameter found
 // in one only), the parameters both hold may differ by the change of model as well, and the
-// verdict says so. Units as the reports': the seven errors in urad and um, the effects in arcsec and um, the form's
+// verdict says so. So when today's model differs from the earlier one, today's readings are
+// refitted with the earlier model and compared like with like (LikeForLike(), made by the
+// calibrate workflow), today's own model's rows listed beside. Units as the reports': the seven errors in urad and um, the effects in arcsec and um, the form's
 // RMS in um; internally rad and mm. The method: docs/method/uncertainty.md.
 #ifndef SPH_IO_CALIBRATION_COMPARISON_HPP_
 #define SPH_IO_CALIBRATION_COMPARISON_HPP_
@@ -29,6 +31,11 @@ namespace sph {
 /// The coverage factor of a comparison's U.
 inline constexpr double kComparisonCoverageFactor = 2.0;
 
+/// ComparedParameter::model and CalibrationComparison::model: today's own model.
+inline constexpr const char* kTodaysModel = "today";
+/// The same: today's readings refitted with the earlier calibration's model.
+inline constexpr const char* kPreviousModel = "previous";
+
 /// One parameter of a comparison.
 struct ComparedParameter {
   enum class Found { kBoth, kPreviousOnly, kNowOnly };
@@ -43,6 +50,9 @@ struct ComparedParameter {
   double U = std::numeric_limits<double>::quiet_NaN();
   double En = std::numeric_limits<double>::quiet_NaN();  ///< difference / U; NaN without a U > 0
   std::string note;                                      ///< why a value is not compared or has no U, else empty
+  /// The model today's value comes from: kTodaysModel (today's own) or kPreviousModel (today's
+  /// readings refitted with the earlier calibration's model).
+  std::string model = kTodaysModel;
   /// Whether it was compared with an uncertainty: found in both, U > 0, no note.
   bool Compared() const { return found == Found::kBoth && U > 0.0 && note.empty(); }
 };
@@ -51,7 +61,18 @@ struct ComparedParameter {
 struct CalibrationComparison {
   std::string previous_source;  ///< the earlier calibration file, as messages name it
   double k = kComparisonCoverageFactor;
-  std::vector<ComparedParameter> parameters;   ///< the seven errors, the effects' parameters, the form's RMS
+  /// The seven errors, the effects' parameters, the form's RMS: the rows the verdict is taken on,
+  /// all of `model`.
+  std::vector<ComparedParameter> parameters;
+  /// The model of `parameters`: kTodaysModel, or kPreviousModel when today's readings were refitted
+  /// with the earlier calibration's model (LikeForLike()).
+  std::string model = kTodaysModel;
+  /// With model kPreviousModel: today's own model's rows, compared the same way, for information.
+  std::vector<ComparedParameter> todays_model;
+  /// Empty when the two models are the same; else which parameters each holds alone, and what
+  /// today's own model changes (LikeForLike()) or why the earlier model was not fitted to today's
+  /// readings (NotLikeForLike()).
+  std::string models;
   std::vector<std::string> correlated_inputs;  ///< the Type B inputs counted fully correlated
   std::vector<std::string> notes;              ///< how the rest was counted, and what could not be compared
   /// "unchanged within uncertainty (9 parameters compared, each |En| <= 1)", or which moved and by
@@ -72,6 +93,19 @@ void CheckComparable(const CalibrationFile& previous, const CalibrationFile& now
 /// and a phi_wobble about another pivot are listed with a note, not compared.
 CalibrationComparison CompareCalibrations(const CalibrationFile& previous, const CalibrationFile& now,
                                           const std::string& previous_source);
+
+/// The comparison taken like with like: `like` compares the earlier calibration with today's
+/// readings refitted with its model (CompareCalibrations() of the refit's calibration file), `own`
+/// with today's own model. Returns `like`, its rows and `model` kPreviousModel, the verdict its
+/// own, `own`'s rows in todays_model and `models` saying that the models differ, which parameters
+/// each holds alone and what today's own model changes: the parameters it moves most, by own's
+/// value minus like's in units of like's U.
+CalibrationComparison LikeForLike(CalibrationComparison like, const CalibrationComparison& own);
+
+/// `own` (today's own model compared) when the earlier model could not be fitted to today's
+/// readings (`why`): `models` and the verdict say so, and that the parameters both hold may differ
+/// by the change of model as well, which U does not include.
+CalibrationComparison NotLikeForLike(CalibrationComparison own, const std::string& why);
 
 }  // namespace sph
 

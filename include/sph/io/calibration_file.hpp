@@ -44,6 +44,10 @@ struct CalibrationFile {
   /// Covariance of the seven errors (rad, mm), when the calibration computed one.
   std::optional<Eigen::Matrix<double, kNumScmsParams, kNumScmsParams>> covariance;
   EffectModel effects;                             ///< further effects (no probe_drift), with their reference
+  /// The powers of tau of the probe drift the calibration fitted beside the rest and left out (a
+  /// drift belongs to its run); empty: none fitted. Part of the model the values come from (the
+  /// seven errors of a fit with a drift are those at the run's start).
+  std::vector<int> probe_drift_powers;
   std::vector<std::vector<double>> effect_values;  ///< one block per term (rad, mm)
   /// The calibration sphere's own form on its body frame, when the calibration separated it from
   /// the machine (sph/model/form_model.hpp): Schmidt semi-normalised harmonics and their values.

@@ -236,6 +236,16 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
 TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
                             const std::vector<Effect>& effects, TraceOptions trace_options);
 
+/// Fits a given model as FitFixedEffects() does: the seven errors, `terms` as they are (their
+/// components, none added or left out) and the sphere's form of `form_terms` (none when empty; with
+/// options.form_prior the known form in its place). `probe_reference`, when given, normalises the
+/// probe terms (its r_ref_mm and r_half_range_mm; the run's times and fit range stay the
+/// readings'): a model read from a calibration file, fitted to other readings so that its
+/// parameters are the same quantities as the file's.
+TraceResult FitGivenModel(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
+                          const std::vector<EffectTerm>& terms, const std::vector<FormTerm>& form_terms,
+                          TraceOptions trace_options, const EffectReference* probe_reference = nullptr);
+
 /// The leave-one-setup-out RMS [um] of `fit` (a fit of `points`, TracedFit::loso_rms_um): for each
 /// setup of known orientation, `fit`'s model is fitted to the other setups' readings, from `fit`,
 /// and the setup's readings are predicted with only its centre refitted (Gauss-Newton). A setup
