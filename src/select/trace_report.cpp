@@ -276,7 +276,8 @@ void WriteEffectValues(std::ostream& out, const TraceResult& r) {
                   cost);
   }
   if (!r.held.empty()) {
-    out << "  held back, not added (each cannot be told from another; --hold-confounded):";
+    out << "  held back, not added (each cannot be told from another; --hold-confounded, or about equal beside a "
+           "known form):";
     for (const Effect e : r.held) out << " " << InfoOf(e).id;
     out << "\n";
   }
