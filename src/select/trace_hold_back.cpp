@@ -177,18 +177,16 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
 // Whether effect e was held back in this trace (TraceOptions::hold_confounded).
 bool IsHeld(const TraceResult& r, Effect e) { return std::find(r.held.begin(), r.held.end(), e) != r.held.end(); }
 
-// Whether the candidate `c` just chosen is confounded with another library effect (an ambiguity
-// of r.ambiguous from `first_new` on names one; with `close_only`, one that scored about as well,
-// not one the design confounds though it scored clearly worse). Then neither is added: both are
-// held back from later rounds (a third effect chosen later is still judged against them, for they
-// are scored every round), the ambiguities say so, and what else was noted of the chosen effect
-// (its share that is a pattern on the sphere) is dropped with it.
-bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r, bool close_only) {
+// With TraceOptions::hold_confounded: whether the candidate `c` just chosen is confounded with
+// another library effect (an ambiguity of r.ambiguous from `first_new` on names one). Then neither
+// is added: both are held back from later rounds (a third effect chosen later is still judged
+// against them, for they are scored every round), the ambiguities say so, and what else was noted
+// of the chosen effect (its share that is a pattern on the sphere) is dropped with it.
+bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r) {
   std::string partners;
   for (auto a = r.ambiguous.begin() + static_cast<std::ptrdiff_t>(first_new); a != r.ambiguous.end(); ++a) {
     Effect e{};
     if (!EffectFromId(a->other, &e)) continue;  // "sphere_form"
-    if (close_only && a->by_design) continue;
     partners += (partners.empty() ? "" : ", ") + a->other +
                 (a->by_design ? " (confounded by this design)" : " (about as good a score)");
     a->neither_added = true;

@@ -276,8 +276,7 @@ void WriteEffectValues(std::ostream& out, const TraceResult& r) {
                   cost);
   }
   if (!r.held.empty()) {
-    out << "  held back, not added (each cannot be told from another; --hold-confounded, or about equal beside a "
-           "known form):";
+    out << "  held back, not added (each cannot be told from another; --hold-confounded):";
     for (const Effect e : r.held) out << " " << InfoOf(e).id;
     out << "\n";
   }

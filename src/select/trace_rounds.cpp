@@ -246,11 +246,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     ChosenAmbiguities(data, options, current, tried, static_cast<std::size_t>(best), sphere, form_better,
                       r.form.separable, trace_options, c, &r.ambiguous);
     chosen = &c;
-    // With the form known no pattern on the sphere competes: an effect about as good as the chosen
-    // one is its rival, as the pattern would be with the form free, and neither is added.
-    if (trace_options.hold_confounded || r.form.known) {
-      hold = HoldConfounded(first_new, c, r, !trace_options.hold_confounded);
-    }
+    if (trace_options.hold_confounded) hold = HoldConfounded(first_new, c, r);
     if (hold) {
       for (auto& [other, fit] : tried) other.held = IsHeld(r, other.effect);  // its partners too
       if (form_better) form.note += "; the effect it was compared with is held back";

@@ -189,13 +189,12 @@ EffectFit FullForm(const Readings& data, const CalibrationOptions& options, cons
 // Whether effect e was held back in this trace (TraceOptions::hold_confounded).
 bool IsHeld(const TraceResult& r, Effect e);
 
-// With TraceOptions::hold_confounded, or a known form: whether the candidate `c` just chosen is
-// confounded with another library effect (an ambiguity of r.ambiguous from `first_new` on names
-// one; with `close_only`, one that scored about as well). Then neither is added: both are held
-// back from later rounds (a third effect chosen later is still judged against them, for they are
-// scored every round), the ambiguities say so, and what else was noted of the chosen effect (its
-// share that is a pattern on the sphere) is dropped with it.
-bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r, bool close_only);
+// With TraceOptions::hold_confounded: whether the candidate `c` just chosen is confounded with
+// another library effect (an ambiguity of r.ambiguous from `first_new` on names one). Then neither
+// is added: both are held back from later rounds (a third effect chosen later is still judged
+// against them, for they are scored every round), the ambiguities say so, and what else was noted
+// of the chosen effect (its share that is a pattern on the sphere) is dropped with it.
+bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r);
 
 // One forward round: every effect of `pool` not yet in the model scored against `current`; the
 // best admissible one is added (true), or none is and the search ends (false). The round's scores

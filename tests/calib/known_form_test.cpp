@@ -1,7 +1,6 @@
 // The reference sphere's form as known in a one-placement calibration: from the file of a run
 // that separated it (a prior on its coefficients with their covariance), or bounded by its
 // certificate (sph/calib/known_form.hpp).
-#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -94,10 +93,6 @@ CalibrationWorkflowOptions Options(const std::string& form_path) {
   o.probe_offset_mm = 25.0;
   o.sphere_form_path = form_path;
   return o;
-}
-
-bool IsHeldBack(const TraceResult& t, Effect e) {
-  return std::find(t.held.begin(), t.held.end(), e) != t.held.end();
 }
 
 bool Added(const CalibrationWorkflowResult& run, Effect e) {
@@ -205,32 +200,6 @@ TEST(KnownForm, FindsAProbeNonlinearityInOnePlacementNotAnotherEffect) {
   ASSERT_TRUE(with.trace.has_value());
   ASSERT_EQ(with.trace->added.size(), 1u) << "added " << with.trace->added.size() << " effects";
   EXPECT_EQ(with.trace->added[0], Effect::kProbeNonlinearity) << InfoOf(with.trace->added[0]).id;
-}
-
-// One placement never tells a Theta encoder error from a Theta radial motion, form known or not:
-// their scores are about equal, and which one is added would be chance. With the form known no
-// pattern on the sphere competes with them, so they are each other's rival: neither is added, both
-// are held back and named as two explanations.
-TEST(KnownForm, AboutEqualEffectsAreHeldBackNotChosenBetween) {
-  SimulationSpec spec;
-  spec.seed = 1;
-  spec.noise_r_um = 0.03;
-  spec.effects.form = kForm;
-  spec.effects.model.terms = {{Effect::kThetaEncoder, {{3, 0, false}}}};
-  spec.effects.values = {{5.0 * kRadPerArcsec}};
-  const std::string dir = sph::testing::MakeTempDir("known_form_rivals");
-  const CalibrationWorkflowResult run = RunCalibrationWorkflow(Simulate(spec), "daily", Options(FormFile(dir, 0.002)));
-  ASSERT_TRUE(run.trace.has_value());
-  const TraceResult& t = *run.trace;
-  EXPECT_TRUE(t.added.empty()) << "added " << InfoOf(t.added.front()).id;
-  EXPECT_TRUE(IsHeldBack(t, Effect::kThetaEncoder));
-  EXPECT_TRUE(IsHeldBack(t, Effect::kThetaRadialMotion));
-  bool named = false;
-  for (const Ambiguity& a : t.ambiguous) {
-    named |= a.neither_added && ((a.chosen == "theta_encoder" && a.other == "theta_radial_motion") ||
-                                 (a.chosen == "theta_radial_motion" && a.other == "theta_encoder"));
-  }
-  EXPECT_TRUE(named);
 }
 
 // The prior decides as much as it knows: with the covariance 100 times larger (std 10 times), the

@@ -52,9 +52,7 @@ struct TraceOptions {
   /// within ambiguity_bic, or the design confounds their terms): false, add the one that explains
   /// more and name the other as ambiguous; true, add neither, hold both back from later rounds
   /// and report them as two explanations (the split is not presented as known; the residual they
-  /// explain stays uncompensated). A round that holds back counts among max_effects. With the form
-  /// known (CalibrationOptions::form_prior) two effects within ambiguity_bic are held back either
-  /// way: no pattern on the sphere competes with them, they are each other's rival.
+  /// explain stays uncompensated). A round that holds back counts among max_effects.
   bool hold_confounded = false;
   int threads = 0;                 ///< candidates scored in parallel; 0: one per hardware thread
   double structure_p = 1e-3;       ///< remaining structure with a p-value below this is reported
