@@ -5,6 +5,12 @@
 //
 //   build/bench/known_form_study [SEEDS]                  (default 5 seeds per cell)
 //   build/bench/known_form_study --false-additions [RUNS] (default 500)
+//   build/bench/known_form_study --case EFFECTS SIGMA_UM SEED [without|with|x100]
+//       (one daily run traced, its report printed; EFFECTS ids joined by '+', or none)
+//   build/bench/known_form_study --fisher SIGMA_UM
+//       (what the Fisher information of one placement says of each effect beside the seven
+//       errors, the centre and the form: free of degrees 2..6 or 2..8, known, known x100, and
+//       known with the degrees above the known ones free)
 //
 // For each noise level (sigma_r 0.03 and 0.05 um) the sphere of form28 (0.050 um rms, degrees 2..8)
 // is first separated as a lab would: measured in three known orientations on its mount, the
@@ -23,6 +29,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <iostream>
 #include <map>
 #include <string>
 #include <vector>
@@ -32,6 +39,7 @@
 #include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace.hpp"
+#include "sph/select/trace_report.hpp"
 #include "study_designs.hpp"
 
 namespace {
@@ -174,9 +182,90 @@ int FalseAdditions(int runs) {
   return 0;
 }
 
+// One daily run traced, its trace report printed: what a cell's counts come from.
+int OneCase(const std::string& ids, double noise_um, std::uint64_t seed, const std::string& prior_kind) {
+  std::vector<Effect> effects;
+  for (std::size_t at = 0; ids != "none" && at <= ids.size();) {
+    const std::size_t end = std::min(ids.find('+', at), ids.size());
+    Effect e{};
+    if (!sph::EffectFromId(ids.substr(at, end - at), &e) || Library().count(e) == 0) {
+      std::fprintf(stderr, "known_form_study: %s is not one of the study's effects\n", ids.substr(at, end - at).c_str());
+      return 2;
+    }
+    effects.push_back(e);
+    at = end + 1;
+  }
+  sph::FormPrior prior = Separate(noise_um);
+  if (prior_kind == "x100") prior.covariance_mm2 *= 100.0;
+  const Traced t = Trace(Daily(effects, noise_um, seed), prior_kind == "without" ? nullptr : &prior);
+  sph::WriteTraceText(std::cout, t.trace, nullptr);
+  std::printf("simulated %s, added %s: %c\n", Name(effects).c_str(), Name(t.trace.added).c_str(),
+              Judge(t.trace, effects));
+  return 0;
+}
+
+// The Fisher information of one placement (daily data of the sphere, seed 1) for each effect's
+// simulated component alone beside the seven errors and the centre, with the form: none, free of
+// degrees 2..6 and 2..8 (no prior), known from the separation (its degrees), known x100, and
+// either with the degrees above the known ones free up to 8: its variance inflation and its t
+// (simulated value over its standard uncertainty at the readings' noise).
+int Fisher(double noise_um) {
+  const sph::FormPrior known = Separate(noise_um);
+  sph::FormPrior loose = known;
+  loose.covariance_mm2 *= 100.0;
+  const sph::PointsData points = Daily({}, noise_um, 1);
+  sph::CalibrationOptions plain = Paper();
+  plain.prior_sigma_mm = noise_um * sph::kMmPerUm;
+  const sph::CalibrationResult base = sph::Calibrate(points, plain);
+  struct FormCase {
+    const char* name;
+    int degree;
+    const sph::FormPrior* prior;
+  };
+  const int l_known = known.terms.back().l;
+  const FormCase forms[] = {{"no form", 0, nullptr},     {"free 2..6", 6, nullptr},
+                            {"free 2..8", 8, nullptr},   {"known", l_known, &known},
+                            {"known x100", l_known, &loose}, {"known + free to 8", 8, &known},
+                            {"known x100 + free to 8", 8, &loose}};
+  std::printf("Fisher information, one placement, sigma %.2f um: VIF and t of each effect's simulated component\n",
+              noise_um);
+  for (const auto& [e, sim] : Library()) {
+    std::printf("  %-20s", sph::InfoOf(e).id);
+    for (const FormCase& f : forms) {
+      sph::CalibrationOptions o = plain;
+      if (f.prior != nullptr) o.form_prior = *f.prior;
+      sph::EffectModel model;
+      model.reference = sph::EffectReferenceOf(points.samples);
+      model.terms.push_back({e, {sim.component}});
+      if (f.degree > 0) model.form = sph::FormModelOf(points, sph::FormTermsOfDegrees(2, f.degree));
+      sph::EffectFitStart start = sph::EffectFitStart::From(base);
+      if (f.prior != nullptr) {  // from the known form's mean
+        start.form_values.assign(1, std::vector<double>(model.form.terms.size(), 0.0));
+        for (std::size_t k = 0; k < f.prior->terms.size(); ++k) {
+          const auto it = std::find(model.form.terms.begin(), model.form.terms.end(), f.prior->terms[k]);
+          start.form_values[0][static_cast<std::size_t>(it - model.form.terms.begin())] =
+              f.prior->mean_mm(static_cast<Eigen::Index>(k));
+        }
+      }
+      const sph::EffectFit fit = sph::FitEffects(points, o, model, start);
+      const int col = fit.TermOffset(0);
+      const sph::ObservabilityReport& a = fit.calibration.analysis;
+      const double std_si = std::sqrt(a.covariance(col, col)) / a.residual_sigma_mm * noise_um * sph::kMmPerUm;
+      std::printf(" | %s: VIF %.3g t %.3g", f.name, a.vif(col), std::abs(sim.value) / std_si);
+    }
+    std::printf("\n");
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc >= 3 && std::strcmp(argv[1], "--fisher") == 0) return Fisher(std::atof(argv[2]));
+  if (argc >= 5 && std::strcmp(argv[1], "--case") == 0) {
+    return OneCase(argv[2], std::atof(argv[3]), static_cast<std::uint64_t>(std::atoll(argv[4])),
+                   argc >= 6 ? argv[5] : "with");
+  }
   if (argc >= 2 && std::strcmp(argv[1], "--false-additions") == 0) {
     return FalseAdditions(argc >= 3 ? std::atoi(argv[2]) : 500);
   }

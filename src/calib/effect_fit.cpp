@@ -157,7 +157,8 @@ struct ProblemAt {
 
 NormalInverse NormalInverseAt(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit) {
   const ProblemAt at(table, nullptr, options, fit, "");
-  return NormalInverseAtSolution(at.problem, at.x);
+  const double sigma_mm = options.prior_sigma_mm > 0.0 ? options.prior_sigma_mm : fit.calibration.prior_sigma_mm;
+  return InformedInverseAt(at.problem, at.x, options, sigma_mm);
 }
 
 std::vector<double> ResidualsAt(const ReadingTable& table, const std::vector<bool>* left_out,

@@ -31,7 +31,10 @@ std::vector<Eigen::Vector3d> OffsetsFromCentreOf(const PointsData& points, const
 std::vector<double> EffectResidualsOf(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
                                       const std::vector<MotionDirection>& approach);
 
-/// (J^T J)^-1 of `fit`'s model at its parameters, over every sample of `table`.
+/// (J^T J + P)^-1 of `fit`'s model at its parameters, over every sample of `table`, P the rows of
+/// the options' priors and form prior weighted with the readings' noise (options.prior_sigma_mm, or
+/// the fit's CalibrationResult::prior_sigma_mm): what is known beside the readings separates too
+/// (InformedInverseAt()). Nothing informed, or no noise known: (J^T J)^-1.
 NormalInverse NormalInverseAt(const ReadingTable& table, const CalibrationOptions& options, const EffectFit& fit);
 
 /// The residuals [mm] of the samples of `table` not marked in `left_out` under the parameters of

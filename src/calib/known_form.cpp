@@ -95,20 +95,24 @@ KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions
   for (std::size_t i = 0; i < mean.size(); ++i) mean[i] = prior.mean_mm(static_cast<Eigen::Index>(i));
   k.known_rms_um = FormRms(prior.terms, mean) * kUmPerMm;
   k.fitted_rms_um = FormRms(form.terms, fit.form_values[0]) * kUmPerMm;
-  // The same model without a form, on the same readings.
+  // What the form as known explains, judged on the seven errors and the centres alone: effects
+  // chosen beside a form that is not the sphere's (turned on its mount) can take its misfit, and
+  // the form would then seem to fit. The seven errors without a form, on the same readings:
   const PointsData kept = WithoutOutliers(points, fit.calibration);
-  EffectModel plain = fit.model;
+  EffectModel seven = fit.model;
+  seven.terms.clear();
+  EffectModel plain = seven;
   plain.form = FormModel{};
-  EffectFitStart start = EffectFitStart::From(fit);
-  start.form_values.clear();
   CalibrationOptions quick = options;
   quick.analyse = false;
-  const EffectFit none = FitEffects(kept, quick, plain, start);
-  // The same model with the form held at its known value (its covariance shrunk a million times).
+  const EffectFit none = FitEffects(kept, quick, plain, EffectFitStart::From(fit.calibration));
+  // and with the form held at its known value (its covariance shrunk a million times).
   CalibrationOptions held = quick;
   held.form_prior.covariance_mm2 *= 1e-6;
   held.prior_sigma_mm = fit.calibration.prior_sigma_mm;
-  const EffectFit as_known = FitEffects(kept, held, fit.model, EffectFitStart::From(fit));
+  EffectFitStart from_fit = EffectFitStart::From(fit);
+  from_fit.values.clear();
+  const EffectFit as_known = FitEffects(kept, held, seven, from_fit);
   k.rms_with_um = as_known.calibration.rms_um;
   k.rms_without_um = none.calibration.rms_um;
   k.explained_rms_um = std::sqrt(std::max(0.0, k.rms_without_um * k.rms_without_um - k.rms_with_um * k.rms_with_um));

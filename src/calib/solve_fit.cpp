@@ -228,6 +228,19 @@ ColumnsPrior FormPriorColumns(const SphereFitProblem& problem, const FormPrior& 
   return out;
 }
 
+NormalInverse InformedInverseAt(const SphereFitProblem& problem, const Eigen::VectorXd& x,
+                                const CalibrationOptions& options, double prior_sigma_mm) {
+  std::vector<ColumnPrior> priors;
+  for (const ParameterPrior& p : options.priors) {
+    const Eigen::Index column = ColumnOf(problem, p.name);
+    if (column >= 0) priors.push_back({column, p.value, p.u});
+  }
+  const ColumnsPrior form_prior = FormPriorColumns(problem, options.form_prior);
+  if ((priors.empty() && form_prior.Empty()) || !(prior_sigma_mm > 0.0)) return NormalInverseAtSolution(problem, x);
+  const std::vector<Held> none(static_cast<std::size_t>(problem.NumParams()), Held::kNo);
+  return FreeInverseAt(problem, x, none, priors, form_prior, prior_sigma_mm, {}).inverse;
+}
+
 bool SolvedFit::Plain() const {
   return priors.empty() && form_prior.Empty() && weights.empty() &&
          std::all_of(held.begin(), held.end(), [](Held h) { return h == Held::kNo; });

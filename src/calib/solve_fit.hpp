@@ -47,6 +47,13 @@ struct SolvedFit {
 /// model has no form or none of them.
 ColumnsPrior FormPriorColumns(const SphereFitProblem& problem, const FormPrior& prior);
 
+/// (J^T J + P)^-1 at x: the readings' rows with the rows of the options' priors and form prior
+/// (P, weighted with the readings' noise prior_sigma_mm, as SolveFit() weighs them), every column
+/// free; NormalInverseAtSolution() when the options inform nothing or prior_sigma_mm is not
+/// positive. What the data and the priors together separate before any fit.
+NormalInverse InformedInverseAt(const SphereFitProblem& problem, const Eigen::VectorXd& x,
+                                const CalibrationOptions& options, double prior_sigma_mm);
+
 /// Throws sph::Error naming `source` when the options' fixed, prior and bound parameters are not
 /// parameters of a calibration, are given twice, or a parameter is both held and informed.
 void CheckParameterSettings(const CalibrationOptions& options, const std::string& source);

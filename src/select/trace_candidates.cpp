@@ -187,7 +187,9 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
     return t.ParamName(static_cast<std::size_t>(j)).substr(std::string(t.info().id).size() + 1);
   };
   // Components that the linearised problem at the start cannot separate are left out before any
-  // fit: the fit would only crawl along their valley.
+  // fit: the fit would only crawl along their valley. The problem has the priors' rows: a form known
+  // within its covariance separates what a free form would not (a power of the probe reading, in
+  // one placement a form of low degree).
   for (;;) {
     EffectFit at_start;
     at_start.model = model;
@@ -196,6 +198,7 @@ EffectFit FitCandidate(const Readings& data, const CalibrationOptions& options, 
     at_start.calibration.geometry = start.geometry;
     at_start.calibration.centers_mm = start.centers_mm;
     at_start.calibration.setup_ids = current.calibration.setup_ids;
+    at_start.calibration.prior_sigma_mm = current.calibration.prior_sigma_mm;  // the priors' weight
     at_start.n_params = current.n_params + model.terms.back().size();
     const NormalInverse inv = internal::NormalInverseAt(data.table, options, at_start);
     EffectTerm& cand = model.terms.back();

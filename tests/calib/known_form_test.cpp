@@ -65,6 +65,28 @@ PointsData Daily(std::uint64_t seed, double turn_deg = 0.0, bool stated = true, 
   return points;
 }
 
+// One placement of the sphere with kForm and a cubic probe nonlinearity of 0.15 um.
+PointsData DailyNonlinear(std::uint64_t seed) {
+  SimulationSpec spec;
+  spec.seed = seed;
+  spec.noise_r_um = 0.03;
+  spec.effects.form = kForm;
+  spec.effects.model.terms = {{Effect::kProbeNonlinearity, {{3, 0, false}}}};
+  spec.effects.values = {{0.15 * kMmPerUm}};
+  return Simulate(spec);
+}
+
+// One placement of the sphere with kForm and a Phi encoder error of 10 arcsec (its c1).
+PointsData DailyPhiEncoder(std::uint64_t seed) {
+  SimulationSpec spec;
+  spec.seed = seed;
+  spec.noise_r_um = 0.03;
+  spec.effects.form = kForm;
+  spec.effects.model.terms = {{Effect::kPhiEncoder, {{1, 0, false}}}};
+  spec.effects.values = {{10.0 * kRadPerArcsec}};
+  return Simulate(spec);
+}
+
 CalibrationWorkflowOptions Options(const std::string& form_path) {
   CalibrationWorkflowOptions o;
   o.sphere_radius_mm = 20.0;
@@ -167,12 +189,49 @@ TEST(KnownForm, AWrongOrientationIsReportedAsDisagreeing) {
   EXPECT_TRUE(warned);
 }
 
+// A cubic probe nonlinearity in one placement: a power of the reading is then a form of low
+// degree, so beside a free form nothing tells them apart; with the form known within its
+// covariance the nonlinearity is separable (its u^3 alone beside the seven errors, the centre and
+// the known form: variance inflation about 7), and it is what is found, not an encoder error or a
+// spindle motion taking its signal.
+TEST(KnownForm, FindsAProbeNonlinearityInOnePlacementNotAnotherEffect) {
+  const std::string dir = sph::testing::MakeTempDir("known_form_nonlinear");
+  const CalibrationWorkflowResult with = RunCalibrationWorkflow(DailyNonlinear(1), "daily", Options(FormFile(dir, 0.002)));
+  ASSERT_TRUE(with.trace.has_value());
+  ASSERT_EQ(with.trace->added.size(), 1u) << "added " << with.trace->added.size() << " effects";
+  EXPECT_EQ(with.trace->added[0], Effect::kProbeNonlinearity) << InfoOf(with.trace->added[0]).id;
+}
+
 // The prior decides as much as it knows: with the covariance 100 times larger (std 10 times), the
 // form is nearly free again and the drift is not found.
 TEST(KnownForm, AnUncertainFormDecidesNothing) {
   const std::string dir = sph::testing::MakeTempDir("known_form_loose");
   const CalibrationWorkflowResult loose = RunCalibrationWorkflow(Daily(1), "daily", Options(FormFile(dir, 0.2)));
   EXPECT_FALSE(Added(loose, Effect::kProbeDrift));
+}
+
+// What a loose prior leaves to the readings, they decide: one placement tells a Phi encoder error
+// from any form of the known degrees by itself (its c1 beside the seven errors, the centre and a
+// free form of degrees 2..4 has a variance inflation below 100), so with the form's covariance 100
+// times that of a separation it is still found, and nothing else is added.
+TEST(KnownForm, AnUncertainFormLeavesAPhiEncoderErrorToTheReadings) {
+  const PointsData points = DailyPhiEncoder(1);
+  CalibrationOptions free_form;
+  free_form.sphere_radius_mm = 20.0;
+  free_form.probe_offset_mm = 25.0;
+  EffectModel model;
+  model.reference = EffectReferenceOf(points.samples);
+  model.terms = {{Effect::kPhiEncoder, {{1, 0, false}}}};
+  model.form = FormModelOf(points, FormTermsOfDegrees(2, 4));
+  const EffectFit fit =
+      FitEffects(points, free_form, model, EffectFitStart::From(Calibrate(points, free_form)));
+  EXPECT_LT(fit.calibration.analysis.vif(fit.TermOffset(0)), 100.0);
+
+  const std::string dir = sph::testing::MakeTempDir("known_form_loose_phi");
+  const CalibrationWorkflowResult loose = RunCalibrationWorkflow(points, "daily", Options(FormFile(dir, 0.02)));
+  ASSERT_TRUE(loose.trace.has_value());
+  ASSERT_EQ(loose.trace->added.size(), 1u);
+  ASSERT_EQ(loose.trace->added[0], Effect::kPhiEncoder);
 }
 
 // The certificate's bound alone, on a design whose readings determine the form (the sphere in

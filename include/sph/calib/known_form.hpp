@@ -43,8 +43,11 @@ struct KnownFormCheck {
   int terms = 0;                ///< coefficients informed: the chi-square's degrees of freedom
   double known_rms_um = 0.0;    ///< RMS over the sphere of the form as known (the prior's mean)
   double fitted_rms_um = 0.0;   ///< RMS of the form fitted (the setups of known orientation)
-  double rms_with_um = 0.0;     ///< the readings' residual RMS with the form held as known (the model refitted)
-  double rms_without_um = 0.0;  ///< the same model without a form, refitted
+  /// The readings' residual RMS with the form held as known, the seven errors and the centres
+  /// refitted (the effects found left out: beside a form that is not the sphere's, they can take
+  /// its misfit), and the same without a form.
+  double rms_with_um = 0.0;
+  double rms_without_um = 0.0;
   /// What the form explains of the readings: sqrt(without^2 - with^2), 0 when it fits worse.
   double explained_rms_um = 0.0;
   /// |L^-1 (c - c0)|^2 of the fitted coefficients c against the prior (mean c0, L L^T its
@@ -60,9 +63,10 @@ struct KnownFormCheck {
 };
 
 /// Checks `fit` (of `points`, whose outliers it names, under `options` with its form_prior)
-/// against options.form_prior: the prior's chi-square, the model refitted without a form, and the
-/// certificate's bound `bound_rms_um` when given (on the form fitted, and on the known form's own
-/// RMS when the prior is a file's). `source` names the form in the words.
+/// against options.form_prior: the prior's chi-square, the seven errors fitted with the form as
+/// known and without one, and the certificate's bound `bound_rms_um` when given (on the form
+/// fitted, and on the known form's own RMS when the prior is a file's). `source` names the form in
+/// the words.
 KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
                               const std::string& source, std::optional<double> bound_rms_um, bool from_file);
 
