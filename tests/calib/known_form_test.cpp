@@ -8,12 +8,14 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/core/error.hpp"
-#include "sph/simulation/simulate.hpp"
+#include "sph/io/html_report.hpp"
 #include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -213,6 +215,18 @@ TEST(KnownForm, TheCertificateIsCheckedAgainstTheKnownForm) {
   for (const std::string& w : run.known_form->warnings)
     exceeds |= w.find("exceeds the certificate's bound") != std::string::npos;
   EXPECT_TRUE(exceeds);
+  // The HTML report's section holds the JSON's numbers, its verdict and its warnings.
+  const nlohmann::json k = nlohmann::json::parse(run.JsonReport()).at("known_form");
+  const std::string page = run.HtmlReport();
+  const auto has = [&](const std::string& text) { return page.find(text) != std::string::npos; };
+  EXPECT_TRUE(has("<h2>" + html::Escape("The sphere's known form") + "</h2>"));
+  for (const char* key : {"known_rms_um", "fitted_rms_um", "explained_rms_um", "rms_with_um", "rms_without_um",
+                          "chi_square", "p_value", "bound_rms_um", "terms"}) {
+    EXPECT_TRUE(has(">" + html::Number(k.at(key).get<double>()) + "</td>")) << key;
+  }
+  EXPECT_TRUE(has(html::Escape(k.at("verdict").get<std::string>())));
+  ASSERT_FALSE(k.at("warnings").empty());
+  for (const nlohmann::json& w : k.at("warnings")) EXPECT_TRUE(has(html::Escape(w.get<std::string>()))) << w;
 }
 
 // The form belongs to its sphere: another R0 beyond both uncertainties is refused with both values.
