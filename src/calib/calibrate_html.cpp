@@ -341,7 +341,9 @@ std::string KnownForm(const json& j) {
   std::string body = "<p>The sphere's form as known from <strong>" + At(k, "source") + "</strong>, " + At(k, "terms") +
                      " coefficients, entered the fit as a prior on its coefficients (it moves only within its "
                      "covariance). Verdict: <strong>" +
-                     std::string(agrees ? "the readings agree with it" : "the readings DISAGREE with it") +
+                     std::string(k.value("exceeds_bound", false) ? "the sphere's form EXCEEDS its certificate's bound"
+                                 : agrees                        ? "the readings agree with it"
+                                                                 : "the readings DISAGREE with it") +
                      "</strong>.</p>\n";
   std::vector<std::vector<std::string>> rows = {
       {"the form as known: RMS over the sphere [um]", At(k, "known_rms_um")},
@@ -353,8 +355,14 @@ std::string KnownForm(const json& j) {
       {"its degrees of freedom (coefficients)", At(k, "terms")},
       {"p", At(k, "p_value")},
   };
-  if (!k.at("bound_rms_um").is_null())
+  rows.push_back({"the prior against the readings: chi-square", At(k, "conflict_chi_square")});
+  rows.push_back({"its degrees of freedom (directions the readings determine)", At(k, "conflict_degrees_of_freedom")});
+  rows.push_back({"p", At(k, "conflict_p_value")});
+  if (!k.at("bound_rms_um").is_null()) {
     rows.push_back({"the certificate's bound: RMS (k = 1) [um]", At(k, "bound_rms_um")});
+    rows.push_back(
+        {"the sphere's form exceeds its certificate's bound", k.value("exceeds_bound", false) ? "yes" : "no"});
+  }
   body += html::Table({"quantity", "value"}, rows);
   body += "<p>" + At(k, "verdict") + "</p>\n";
   const json& warnings = k.value("warnings", json::array());

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "sph/core/error.hpp"
 #include "sph/stats/gum.hpp"
@@ -62,6 +63,42 @@ void CheckSameSphere(const CalibrationFile& file, const std::string& path, doubl
               " um, more than their standard uncertainties together; the known form belongs to its own sphere");
 }
 
+namespace {
+
+// KnownFormCheck::conflict_*: the prior (its factor l, the fitted coefficients whitened w) against
+// the readings, through the fit's covariance of the form's columns `in_model` (of group 0).
+void PriorConflict(const EffectFit& fit, const Eigen::MatrixXd& l, const Eigen::VectorXd& w,
+                   const std::vector<Eigen::Index>& in_model, KnownFormCheck* k) {
+  const ObservabilityReport& a = fit.calibration.analysis;
+  const double s = a.residual_sigma_mm, sigma = fit.calibration.prior_sigma_mm;
+  if (a.Empty() || a.covariance.rows() == 0 || !(s > 0.0) || !(sigma > 0.0)) return;
+  const auto n = static_cast<Eigen::Index>(in_model.size());
+  const int first = fit.FormOffset(0);
+  Eigen::MatrixXd cov(n, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index j = 0; j < n; ++j) {
+      cov(i, j) =
+          a.covariance(first + in_model[static_cast<std::size_t>(i)], first + in_model[static_cast<std::size_t>(j)]);
+    }
+  }
+  if (!cov.allFinite()) return;
+  // The analysis' covariance is s^2 N^-1; the posterior's, at the prior's noise, sigma^2 N^-1.
+  const Eigen::MatrixXd half = l.triangularView<Eigen::Lower>().solve(cov * (sigma * sigma / (s * s)));
+  const Eigen::MatrixXd posterior = l.triangularView<Eigen::Lower>().solve(half.transpose());
+  const Eigen::MatrixXd determined = Eigen::MatrixXd::Identity(n, n) - 0.5 * (posterior + posterior.transpose());
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(determined);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double lambda = eig.eigenvalues()(i);
+    if (!(lambda >= kConflictDetermined)) continue;
+    const double along = eig.eigenvectors().col(i).dot(w);
+    k->conflict_chi_square += along * along / std::min(lambda, 1.0);
+    ++k->conflict_dof;
+  }
+  if (k->conflict_dof > 0) k->conflict_p_value = gum::ChiSquareSf(k->conflict_chi_square, k->conflict_dof);
+}
+
+}  // namespace
+
 KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
                               const std::string& source, std::optional<double> bound_rms_um, bool from_file) {
   KnownFormCheck k;
@@ -88,9 +125,11 @@ KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions
     for (Eigen::Index j = 0; j < n; ++j)
       c(i, j) = prior.covariance_mm2(in_prior[static_cast<std::size_t>(i)], in_prior[static_cast<std::size_t>(j)]);
   }
-  const Eigen::VectorXd w = Eigen::LLT<Eigen::MatrixXd>(c).matrixL().solve(d);
+  const Eigen::MatrixXd l = Eigen::LLT<Eigen::MatrixXd>(c).matrixL();
+  const Eigen::VectorXd w = l.triangularView<Eigen::Lower>().solve(d);
   k.chi_square = w.squaredNorm();
   k.p_value = gum::ChiSquareSf(k.chi_square, static_cast<double>(n));
+  PriorConflict(fit, l, w, in_model, &k);
   std::vector<double> mean(prior.terms.size());
   for (std::size_t i = 0; i < mean.size(); ++i) mean[i] = prior.mean_mm(static_cast<Eigen::Index>(i));
   k.known_rms_um = FormRms(prior.terms, mean) * kUmPerMm;
@@ -113,11 +152,22 @@ KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions
   k.rms_without_um = none.calibration.rms_um;
   k.explained_rms_um = std::sqrt(std::max(0.0, k.rms_without_um * k.rms_without_um - k.rms_with_um * k.rms_with_um));
   const bool worse = k.rms_with_um > k.rms_without_um;
-  k.agrees = k.p_value >= kKnownFormP && !worse;
+  k.exceeds_bound = !from_file && bound_rms_um && k.conflict_dof > 0 && k.conflict_p_value < kKnownFormP;
+  k.agrees = k.p_value >= kKnownFormP && !worse && !k.exceeds_bound;
   const std::string numbers =
       Format("chi-square %.3g for %d coefficients, p = %.2g; residual RMS %.4g um with it, %.4g um without a form",
              k.chi_square, k.terms, k.p_value, k.rms_with_um, k.rms_without_um);
-  if (k.agrees) {
+  if (k.exceeds_bound) {
+    k.verdict = Format(
+        "the sphere's form exceeds its certificate's bound sphere_form_rms_um %.3g um (k = 1): the readings "
+        "reject the bound as a prior (chi-square %.3g for %d directions they determine, p = %.2g); residual RMS "
+        "%.4g um with the form held to it, %.4g um without a form",
+        *bound_rms_um, k.conflict_chi_square, k.conflict_dof, k.conflict_p_value, k.rms_with_um, k.rms_without_um);
+    k.warnings.push_back(k.verdict +
+                         ". The prior held the form small and the residual took the rest: the residual sigma, the "
+                         "uncertainties and the effects found are not to be trusted. Check the sphere (damaged or "
+                         "dirty, or not the certified one), or separate its form (--sphere-form)");
+  } else if (k.agrees) {
     k.verdict = "the readings agree with the known form of " + source + " (" + numbers + ")";
   } else {
     k.verdict = "the readings disagree with the known form of " + source + " (" + numbers + ")";

@@ -29,6 +29,9 @@ void WriteKnownFormText(std::ostream& out, const KnownFormCheck& k) {
                 k.explained_rms_um, k.rms_with_um, k.rms_without_um);
   out << Format("  prior's chi-square %.4g for %d coefficients, p = %.3g\n", k.chi_square, k.terms, k.p_value);
   if (k.bound_rms_um) out << Format("  certificate's bound %.4g um RMS (k = 1)\n", *k.bound_rms_um);
+  out << Format("  prior against the readings: chi-square %.4g for %d directions they determine, p = %.3g%s\n",
+                k.conflict_chi_square, k.conflict_dof, k.conflict_p_value,
+                k.exceeds_bound ? ": the sphere's form exceeds its certificate's bound" : "");
   out << "  verdict: " << (k.agrees ? "agrees" : "DISAGREES") << ": " << k.verdict << "\n";
 }
 
@@ -43,6 +46,10 @@ json KnownFormJson(const KnownFormCheck& k) {
           {"chi_square", k.chi_square},
           {"p_value", k.p_value},
           {"bound_rms_um", k.bound_rms_um ? json(*k.bound_rms_um) : json(nullptr)},
+          {"conflict_chi_square", k.conflict_chi_square},
+          {"conflict_degrees_of_freedom", k.conflict_dof},
+          {"conflict_p_value", k.conflict_p_value},
+          {"exceeds_bound", k.exceeds_bound},
           {"agrees", k.agrees},
           {"verdict", k.verdict},
           {"warnings", k.warnings}};

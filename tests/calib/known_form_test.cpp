@@ -26,6 +26,9 @@ using ::testing::HasSubstr;
 // The sphere's true form [um]: 0.043 um RMS over the sphere.
 const std::vector<FormComponent> kForm = {{2, 0, 0.08}, {3, 1, 0.05}, {4, -2, 0.04}};
 
+// kForm's RMS over the sphere [um]: sqrt(sum c^2 / (2l + 1)).
+const double kFormRmsUm = std::sqrt(0.08 * 0.08 / 5 + 0.05 * 0.05 / 7 + 0.04 * 0.04 / 9);
+
 // A calibration file holding the form of kForm on degrees 2..4 as a separation would give it:
 // every coefficient with a standard uncertainty of `std_um`, uncorrelated but for two.
 std::string FormFile(const std::string& dir, double std_um, double radius_mm = 20.0) {
@@ -203,6 +206,42 @@ TEST(KnownForm, AFormLargerThanTheCertificatesBoundIsReported) {
   EXPECT_TRUE(larger);
 }
 
+// A certificate's bound too tight, in one placement: a form of 3 times the bound is held small by
+// the prior and the residual takes the rest; the readings reject the bound as a prior, and the
+// report says the sphere's form exceeds it (text, JSON).
+TEST(KnownForm, AFormBeyondItsCertificatesBoundInOnePlacementIsReported) {
+  CalibrationWorkflowOptions o = Options("");
+  o.conditions.sphere_form_rms_um = kFormRmsUm / 3.0;
+  o.trace_options.form_degree_max = 4;  // the bound over degrees 2..4, kForm's: a quicker trace
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(Daily(1), "daily", o);
+  ASSERT_TRUE(run.known_form.has_value());
+  const KnownFormCheck& k = *run.known_form;
+  EXPECT_TRUE(k.exceeds_bound) << k.verdict;
+  EXPECT_FALSE(k.agrees);
+  EXPECT_LT(k.conflict_p_value, kKnownFormP);
+  bool said = false;
+  for (const std::string& w : run.warnings) said |= w.find("the sphere's form exceeds its certificate's bound") == 0;
+  EXPECT_TRUE(said);
+  EXPECT_TRUE(nlohmann::json::parse(run.JsonReport()).at("known_form").at("exceeds_bound").get<bool>());
+  std::ostringstream text;
+  run.WriteTextReport(text);
+  EXPECT_THAT(text.str(), HasSubstr(": the sphere's form exceeds its certificate's bound\n"));
+}
+
+// No false report: a form within its bound (the bound 1.5 times its RMS), a few seeds.
+TEST(KnownForm, AFormWithinItsCertificatesBoundIsNotReported) {
+  CalibrationWorkflowOptions o = Options("");
+  o.conditions.sphere_form_rms_um = 1.5 * kFormRmsUm;
+  o.trace_options.form_degree_max = 4;
+  for (const std::uint64_t seed : {1, 2, 3, 4}) {
+    const CalibrationWorkflowResult run = RunCalibrationWorkflow(Daily(seed), "daily", o);
+    ASSERT_TRUE(run.known_form.has_value());
+    const KnownFormCheck& k = *run.known_form;
+    EXPECT_GT(k.conflict_dof, 0) << "seed " << seed;
+    EXPECT_FALSE(k.exceeds_bound) << "seed " << seed << ": " << k.verdict;
+  }
+}
+
 // Both given: the known form is the prior and the certificate is checked against it.
 TEST(KnownForm, TheCertificateIsCheckedAgainstTheKnownForm) {
   const std::string dir = sph::testing::MakeTempDir("known_form_both");
@@ -220,8 +259,9 @@ TEST(KnownForm, TheCertificateIsCheckedAgainstTheKnownForm) {
   const std::string page = run.HtmlReport();
   const auto has = [&](const std::string& text) { return page.find(text) != std::string::npos; };
   EXPECT_TRUE(has("<h2>" + html::Escape("The sphere's known form") + "</h2>"));
-  for (const char* key : {"known_rms_um", "fitted_rms_um", "explained_rms_um", "rms_with_um", "rms_without_um",
-                          "chi_square", "p_value", "bound_rms_um", "terms"}) {
+  for (const char* key :
+       {"known_rms_um", "fitted_rms_um", "explained_rms_um", "rms_with_um", "rms_without_um", "chi_square", "p_value",
+        "bound_rms_um", "terms", "conflict_chi_square", "conflict_degrees_of_freedom", "conflict_p_value"}) {
     EXPECT_TRUE(has(">" + html::Number(k.at(key).get<double>()) + "</td>")) << key;
   }
   EXPECT_TRUE(has(html::Escape(k.at("verdict").get<std::string>())));
