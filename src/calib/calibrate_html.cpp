@@ -353,11 +353,11 @@ std::string KnownForm(const json& j) {
       {"residual RMS without a form [um]", At(k, "rms_without_um")},
       {"the prior's chi-square", At(k, "chi_square")},
       {"its degrees of freedom (coefficients)", At(k, "terms")},
-      {"p", At(k, "p_value")},
+      {"p (the prior's chi-square)", At(k, "p_value")},
   };
   rows.push_back({"the prior against the readings: chi-square", At(k, "conflict_chi_square")});
   rows.push_back({"its degrees of freedom (directions the readings determine)", At(k, "conflict_degrees_of_freedom")});
-  rows.push_back({"p", At(k, "conflict_p_value")});
+  rows.push_back({"p (the prior against the readings)", At(k, "conflict_p_value")});
   if (!k.at("bound_rms_um").is_null()) {
     rows.push_back({"the certificate's bound: RMS (k = 1) [um]", At(k, "bound_rms_um")});
     rows.push_back(
