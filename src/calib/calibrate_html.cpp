@@ -334,9 +334,9 @@ std::string Comparison(const json& j) {
   return body + counted + "</ul>\n";
 }
 
-// The known form's check (JSON "known_form"): its numbers, the verdict and the warnings.
-std::string KnownForm(const json& j) {
-  const json& k = j.at("known_form");
+// A known form's check (JSON "known_form", or one of "known_forms_of_other_spheres"): its
+// numbers, the verdict and the warnings.
+std::string KnownForm(const json& k) {
   const bool agrees = k.value("agrees", false);
   std::string body = "<p>The sphere's form as known from <strong>" + At(k, "source") + "</strong>, " + At(k, "terms") +
                      " coefficients, entered the fit as a prior on its coefficients (it moves only within its "
@@ -402,7 +402,15 @@ std::string CalibrationWorkflowResult::HtmlReport() const {
                                "Each reading's residual |p - O| - R [um] at its axis readings theta, phi [deg]; the "
                                "setups drawn over each other in file order."));
   body += Section("The sphere's form", Form(j));
-  if (j.contains("known_form")) body += Section("The sphere's known form", KnownForm(j));
+  if (j.contains("known_form")) {
+    std::string known = KnownForm(j.at("known_form"));
+    for (const json& k : j.value("known_forms_of_other_spheres", json::array())) {
+      std::string setups;
+      for (const json& s : k.at("setups")) setups += (setups.empty() ? "" : ", ") + Cell(s);
+      known += "<h3>The known form of the sphere of setups " + setups + "</h3>\n" + KnownForm(k);
+    }
+    body += Section("The sphere's known form", known);
+  }
   body += Section("What stays ambiguous", Ambiguous(j));
   if (j.contains("comparison")) body += Section("Comparison with an earlier calibration", Comparison(j));
   return html::Page("Calibration report: " + points_path, body);

@@ -66,14 +66,14 @@ void CheckSameSphere(const CalibrationFile& file, const std::string& path, doubl
 namespace {
 
 // KnownFormCheck::conflict_*: the prior (its factor l, the fitted coefficients whitened w) against
-// the readings, through the fit's covariance of the form's columns `in_model` (of group 0).
-void PriorConflict(const EffectFit& fit, const Eigen::MatrixXd& l, const Eigen::VectorXd& w,
+// the readings, through the fit's covariance of the form's columns `in_model` of the set `group`.
+void PriorConflict(const EffectFit& fit, int group, const Eigen::MatrixXd& l, const Eigen::VectorXd& w,
                    const std::vector<Eigen::Index>& in_model, KnownFormCheck* k) {
   const ObservabilityReport& a = fit.calibration.analysis;
   const double s = a.residual_sigma_mm, sigma = fit.calibration.prior_sigma_mm;
   if (a.Empty() || a.covariance.rows() == 0 || !(s > 0.0) || !(sigma > 0.0)) return;
   const auto n = static_cast<Eigen::Index>(in_model.size());
-  const int first = fit.FormOffset(0);
+  const int first = fit.FormOffset(group);
   Eigen::MatrixXd cov(n, n);
   for (Eigen::Index i = 0; i < n; ++i) {
     for (Eigen::Index j = 0; j < n; ++j) {
@@ -97,16 +97,21 @@ void PriorConflict(const EffectFit& fit, const Eigen::MatrixXd& l, const Eigen::
   if (k->conflict_dof > 0) k->conflict_p_value = gum::ChiSquareSf(k->conflict_chi_square, k->conflict_dof);
 }
 
-}  // namespace
-
-KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
-                              const std::string& source, std::optional<double> bound_rms_um, bool from_file) {
+// CheckKnownForm() of the reference sphere's form (`setup` < 0) or of another sphere's, by `setup`
+// (options.other_form_priors).
+KnownFormCheck Check(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                     const std::string& source, std::optional<double> bound_rms_um, bool from_file, int setup) {
   KnownFormCheck k;
   k.source = source;
   k.bound_rms_um = bound_rms_um;
-  const FormPrior& prior = options.form_prior;
+  const FormPrior& prior = setup < 0 ? options.form_prior : options.other_form_priors.at(setup);
   const FormModel& form = fit.model.form;
   if (prior.Empty() || form.Empty() || fit.form_values.empty()) return k;
+  const int group = setup < 0 ? 0 : form.SetupOf(setup).group;
+  for (const auto& [id, fs] : form.setups) {
+    if (setup >= 0 && fs.group == group) k.setups.push_back(id);
+  }
+  const std::vector<double>& fitted = fit.form_values[static_cast<std::size_t>(group)];
   // The prior's terms the model has, their marginal.
   std::vector<Eigen::Index> in_prior, in_model;
   for (std::size_t i = 0; i < prior.terms.size(); ++i) {
@@ -120,7 +125,7 @@ KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions
   Eigen::VectorXd d(n);
   Eigen::MatrixXd c(n, n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    d(i) = fit.form_values[0][static_cast<std::size_t>(in_model[static_cast<std::size_t>(i)])] -
+    d(i) = fitted[static_cast<std::size_t>(in_model[static_cast<std::size_t>(i)])] -
            prior.mean_mm(in_prior[static_cast<std::size_t>(i)]);
     for (Eigen::Index j = 0; j < n; ++j)
       c(i, j) = prior.covariance_mm2(in_prior[static_cast<std::size_t>(i)], in_prior[static_cast<std::size_t>(j)]);
@@ -129,25 +134,37 @@ KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions
   const Eigen::VectorXd w = l.triangularView<Eigen::Lower>().solve(d);
   k.chi_square = w.squaredNorm();
   k.p_value = gum::ChiSquareSf(k.chi_square, static_cast<double>(n));
-  PriorConflict(fit, l, w, in_model, &k);
+  PriorConflict(fit, group, l, w, in_model, &k);
   std::vector<double> mean(prior.terms.size());
   for (std::size_t i = 0; i < mean.size(); ++i) mean[i] = prior.mean_mm(static_cast<Eigen::Index>(i));
   k.known_rms_um = FormRms(prior.terms, mean) * kUmPerMm;
-  k.fitted_rms_um = FormRms(form.terms, fit.form_values[0]) * kUmPerMm;
-  // The same model without a form, on the same readings.
+  k.fitted_rms_um = FormRms(form.terms, fitted) * kUmPerMm;
   const PointsData kept = WithoutOutliers(points, fit.calibration);
-  EffectModel plain = fit.model;
-  plain.form = FormModel{};
-  EffectFitStart start = EffectFitStart::From(fit);
-  start.form_values.clear();
   CalibrationOptions quick = options;
   quick.analyse = false;
-  const EffectFit none = FitEffects(kept, quick, plain, start);
+  quick.prior_sigma_mm = fit.calibration.prior_sigma_mm;
   // The same model with the form held at its known value (its covariance shrunk a million times).
   CalibrationOptions held = quick;
-  held.form_prior.covariance_mm2 *= 1e-6;
-  held.prior_sigma_mm = fit.calibration.prior_sigma_mm;
+  FormPrior& held_prior = setup < 0 ? held.form_prior : held.other_form_priors.at(setup);
+  held_prior.covariance_mm2 *= 1e-6;
   const EffectFit as_known = FitEffects(kept, held, fit.model, EffectFitStart::From(fit));
+  // The same model without a form (the reference sphere's), or without this sphere's form (held
+  // at zero, the other sets as they are), on the same readings.
+  EffectFit none;
+  if (setup < 0) {
+    EffectModel plain = fit.model;
+    plain.form = FormModel{};
+    EffectFitStart start = EffectFitStart::From(fit);
+    start.form_values.clear();
+    CalibrationOptions no_prior = quick;
+    no_prior.prior_sigma_mm = options.prior_sigma_mm;
+    no_prior.other_form_priors.clear();
+    none = FitEffects(kept, no_prior, plain, start);
+  } else {
+    CalibrationOptions zero = held;
+    zero.other_form_priors.at(setup).mean_mm.setZero();
+    none = FitEffects(kept, zero, fit.model, EffectFitStart::From(fit));
+  }
   k.rms_with_um = as_known.calibration.rms_um;
   k.rms_without_um = none.calibration.rms_um;
   k.explained_rms_um = std::sqrt(std::max(0.0, k.rms_without_um * k.rms_without_um - k.rms_with_um * k.rms_with_um));
@@ -193,6 +210,18 @@ KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions
     }
   }
   return k;
+}
+
+}  // namespace
+
+KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                              const std::string& source, std::optional<double> bound_rms_um, bool from_file) {
+  return Check(points, options, fit, source, bound_rms_um, from_file, -1);
+}
+
+KnownFormCheck CheckOtherKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                                   int setup, const std::string& source) {
+  return Check(points, options, fit, source, std::nullopt, true, setup);
 }
 
 }  // namespace sph

@@ -23,7 +23,10 @@ using nlohmann::json;
 
 // The known form's section of the text report.
 void WriteKnownFormText(std::ostream& out, const KnownFormCheck& k) {
-  out << "\nknown sphere form (" << k.source << "), " << k.terms << " coefficients as a prior:\n";
+  std::string sphere;
+  for (const int setup : k.setups)
+    sphere += (sphere.empty() ? " of the sphere of setups " : ",") + std::to_string(setup);
+  out << "\nknown sphere form" << sphere << " (" << k.source << "), " << k.terms << " coefficients as a prior:\n";
   out << Format("  known %.4g um RMS over the sphere, fitted %.4g um RMS\n", k.known_rms_um, k.fitted_rms_um);
   out << Format("  explains %.4g um RMS of the readings (residual RMS %.4g um with it, %.4g um without a form)\n",
                 k.explained_rms_um, k.rms_with_um, k.rms_without_um);
@@ -249,6 +252,9 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
   out << "\nresult: " << (usability.usable ? "usable calibration" : "NOT a usable calibration") << "\n";
   for (const std::string& why : usability.reasons) out << "  why: " << why << "\n";
   if (ctx.known_form != nullptr) WriteKnownFormText(out, *ctx.known_form);
+  if (ctx.other_known_forms != nullptr) {
+    for (const KnownFormCheck& k : *ctx.other_known_forms) WriteKnownFormText(out, k);
+  }
   if (ctx.trace != nullptr) WriteTraceText(out, *ctx.trace, ctx.validation);
   if (ctx.comparison != nullptr) WriteComparisonText(out, *ctx.comparison);
 }
@@ -377,6 +383,15 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   if (r.prior_sigma_mm > 0.0) j["prior_noise_um"] = r.prior_sigma_mm * kUmPerMm;
   j["warnings"] = r.warnings;
   if (ctx.known_form != nullptr) j["known_form"] = KnownFormJson(*ctx.known_form);
+  if (ctx.other_known_forms != nullptr && !ctx.other_known_forms->empty()) {
+    json others = json::array();
+    for (const KnownFormCheck& k : *ctx.other_known_forms) {
+      json o = KnownFormJson(k);
+      o["setups"] = k.setups;
+      others.push_back(std::move(o));
+    }
+    j["known_forms_of_other_spheres"] = std::move(others);
+  }
   if (ctx.trace != nullptr) internal::AddTraceJson(j, *ctx.trace, ctx.validation);
   if (ctx.comparison != nullptr) AddComparisonJson(j, *ctx.comparison);
   return j.dump(2) + "\n";

@@ -44,6 +44,7 @@ inline constexpr double kConflictDetermined = 0.1;
 /// How the readings agree with the known form of a calibration (`fit`, whose model has it).
 struct KnownFormCheck {
   std::string source;           ///< the form's file, or "the certificate's bound"
+  std::vector<int> setups;      ///< another sphere's: the setups of its set; empty: the reference sphere
   int terms = 0;                ///< coefficients informed: the chi-square's degrees of freedom
   double known_rms_um = 0.0;    ///< RMS over the sphere of the form as known (the prior's mean)
   double fitted_rms_um = 0.0;   ///< RMS of the form fitted (the setups of known orientation)
@@ -82,6 +83,12 @@ struct KnownFormCheck {
 /// prior is a file's). `source` names the form in the words.
 KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
                               const std::string& source, std::optional<double> bound_rms_um, bool from_file);
+
+/// The same for the known form of another sphere, options.other_form_priors' of `setup` (from the
+/// file `source`): its set's coefficients against it; rms_with_um with that set held at its known
+/// value, rms_without_um held at zero, the other sets as fitted.
+KnownFormCheck CheckOtherKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                                   int setup, const std::string& source);
 
 }  // namespace sph
 
