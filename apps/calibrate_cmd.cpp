@@ -20,9 +20,9 @@ RunPaths PathsOf(const CalibrateOptions& o, bool text) {
   RunPaths paths;
   paths.Input("points", o.points_path)
       .Input("--validate", o.workflow.validate_path)
-      .Input("--compare", o.workflow.compare_path)
-      .Input("--sphere-form", o.workflow.sphere_form_path)
-      .Output("the text report (-q leaves it out)", text ? "-" : "")
+      .Input("--compare", o.workflow.compare_path);
+  for (const std::string& f : o.workflow.sphere_form_paths) paths.Input("--sphere-form", f);
+  paths.Output("the text report (-q leaves it out)", text ? "-" : "")
       .Output("--json", o.json_path)
       .Output("--report", o.report_path)
       .Output("--output", o.output_path);

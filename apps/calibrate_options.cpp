@@ -93,10 +93,11 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
                  "An earlier calibration file of this machine (-o): compare each of the seven errors and each "
                  "effect parameter both hold, previous, now, difference, its U (k = 2) and En = difference / U, "
                  "in the reports; the exit code stays the calibration's");
-  app.add_option("--sphere-form", o.workflow.sphere_form_path,
-                 "A calibration file holding the reference sphere's form (sph_calibrate -o of a run that separated "
-                 "it): the form enters the fit as known within its covariance, and the report says how the readings "
-                 "agree with it; the points' R0 must be the file's")
+  app.add_option("--sphere-form", o.workflow.sphere_form_paths,
+                 "A calibration file holding a sphere's form (sph_calibrate -o of a run that separated it): the "
+                 "form enters the fit as known within its covariance, and the report says how the readings agree "
+                 "with it. Repeatable, one file per sphere of the points (sphere_radius_mm@<setup>), each matched "
+                 "to the sphere whose radius is its R0 within their uncertainties")
       ->excludes(no_trace);
   app.add_option("--plot-dir", o.plot_dir,
                  "Write residual_map.png, residual_time.png and, when the sphere's form is fitted, "

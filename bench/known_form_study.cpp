@@ -11,6 +11,7 @@
 //       (what the Fisher information of one placement says of each effect beside the seven
 //       errors, the centre and the form: free of degrees 2..6 or 2..8, known, known x100, and
 //       known with the degrees above the known ones free)
+//   build/bench/known_form_study --bound [SEEDS [L]]      (default 10 seeds per ratio, the bound on degrees 2..4)
 //
 // For each noise level (sigma_r 0.03 and 0.05 um) the sphere of form28 (0.050 um rms, degrees 2..8)
 // is first separated as a lab would: measured in three known orientations on its mount, the
@@ -23,7 +24,11 @@
 // sphere turned by 90 deg about Theta in the daily run: its rotation stated (the verdict should
 // be "agrees" and the drift found) and not stated (the reference orientation assumed:
 // "disagrees"). The second form counts the runs that add any effect to clean one-placement data
-// of the same sphere with its form known, with the rate's exact 95 % interval.
+// of the same sphere with its form known, with the rate's exact 95 % interval. The third: a
+// certificate's bound (sphere_form_rms_um, degrees 2..L) on one placement of a sphere whose form of
+// degrees 2..4 (0.043 um rms) is 3, 2, 1.5, 1 and 0.67 times the bound, with a probe drift: how
+// often the form is reported to exceed its bound (KnownFormCheck::exceeds_bound), beside the
+// prior's plain chi-square and the form fitted larger than the bound.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -36,10 +41,10 @@
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/calib/known_form.hpp"
-#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace.hpp"
 #include "sph/select/trace_report.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "study_designs.hpp"
 
 namespace {
@@ -258,6 +263,46 @@ int Fisher(double noise_um) {
   return 0;
 }
 
+int Bound(int seeds, int degree_max) {
+  const std::vector<sph::FormComponent> form = {{2, 0, 0.08}, {3, 1, 0.05}, {4, -2, 0.04}};
+  sph::SimulatedEffects set;
+  set.form = form;
+  const double rms_um = sph::FormSizeOf(set, 20.0).rms_um;
+  std::printf(
+      "form of degrees 2..4, %.4f um rms; one placement, sigma 0.03 um, probe drift 0.4 um; the bound on degrees "
+      "2..%d; seeds 11..%d\n",
+      rms_um, degree_max, 10 + seeds);
+  for (const double ratio : {3.0, 2.0, 1.5, 1.0, 0.67}) {
+    sph::CalibrationWorkflowOptions o;
+    o.sphere_radius_mm = 20.0;
+    o.probe_offset_mm = 25.0;
+    o.conditions.sphere_form_rms_um = rms_um / ratio;
+    o.trace_options.form_degree_max = degree_max;
+    int exceeds = 0, plain = 0, larger = 0;
+    for (int s = 11; s <= 10 + seeds; ++s) {
+      sph::SimulationSpec spec;
+      spec.seed = static_cast<std::uint64_t>(s);
+      spec.noise_r_um = 0.03;
+      spec.effects.form = form;
+      spec.effects.model.terms = {{Effect::kProbeDrift, {{1, 0, false}}}};
+      spec.effects.values = {{0.4 * sph::kMmPerUm}};
+      const sph::CalibrationWorkflowResult run = sph::RunCalibrationWorkflow(sph::Simulate(spec), "daily", o);
+      const sph::KnownFormCheck& k = *run.known_form;
+      exceeds += k.exceeds_bound ? 1 : 0;
+      plain += k.p_value < sph::kKnownFormP ? 1 : 0;
+      larger += k.fitted_rms_um > *k.bound_rms_um ? 1 : 0;
+      std::printf(
+          "  form %.2f x bound, seed %d: fitted %.4f um, chi2 %.1f p %.3g, conflict chi2 %.1f for %d p %.3g%s\n", ratio,
+          s, k.fitted_rms_um, k.chi_square, k.p_value, k.conflict_chi_square, k.conflict_dof, k.conflict_p_value,
+          k.exceeds_bound ? " exceeds" : "");
+    }
+    std::printf("form %.2f x bound: exceeds %d/%d; prior's chi2 p < %.2g %d/%d; fitted rms > bound %d/%d\n", ratio,
+                exceeds, seeds, sph::kKnownFormP, plain, seeds, larger, seeds);
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -268,6 +313,9 @@ int main(int argc, char** argv) {
   }
   if (argc >= 2 && std::strcmp(argv[1], "--false-additions") == 0) {
     return FalseAdditions(argc >= 3 ? std::atoi(argv[2]) : 500);
+  }
+  if (argc >= 2 && std::strcmp(argv[1], "--bound") == 0) {
+    return Bound(argc >= 3 ? std::atoi(argv[2]) : 10, argc >= 4 ? std::atoi(argv[3]) : 4);
   }
   const int seeds = argc >= 2 ? std::atoi(argv[1]) : 5;
   std::printf("right/wrong/other of %d seeds per cell: without the form | with it | its covariance x100\n", seeds);

@@ -69,7 +69,7 @@ def calibrate(
     effects: Union[str, Sequence[str]] = ...,
     validate: str = ...,
     compare: str = ...,
-    sphere_form: Union[str, "os.PathLike[str]"] = ...,
+    sphere_form: Union[str, "os.PathLike[str]", Sequence[Union[str, "os.PathLike[str]"]]] = ...,
     sphere_radius_mm: float = ...,
     probe_offset_mm: float = ...,
     fix: Union[str, Sequence[str]] = ...,

@@ -179,7 +179,11 @@ sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
     } else if (key == "compare") {
       o.compare_path = PathOf(v);
     } else if (key == "sphere_form") {
-      o.sphere_form_path = PathOf(v);
+      if (py::isinstance<py::str>(v) || py::hasattr(v, "__fspath__")) {
+        o.sphere_form_paths.push_back(PathOf(v));
+      } else {
+        for (const py::handle path : v) o.sphere_form_paths.push_back(PathOf(path));  // one per sphere
+      }
     } else if (key == "sphere_radius_mm") {
       o.sphere_radius_mm = py::cast<double>(v);
     } else if (key == "probe_offset_mm") {

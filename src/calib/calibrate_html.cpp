@@ -338,6 +338,42 @@ std::string Comparison(const json& j) {
   return body + counted + "</ul>\n";
 }
 
+// A known form's check (JSON "known_form", or one of "known_forms_of_other_spheres"): its
+// numbers, the verdict and the warnings.
+std::string KnownForm(const json& k) {
+  const bool agrees = k.value("agrees", false);
+  std::string body = "<p>The sphere's form as known from <strong>" + At(k, "source") + "</strong>, " + At(k, "terms") +
+                     " coefficients, entered the fit as a prior on its coefficients (it moves only within its "
+                     "covariance). Verdict: <strong>" +
+                     std::string(k.value("exceeds_bound", false) ? "the sphere's form EXCEEDS its certificate's bound"
+                                 : agrees                        ? "the readings agree with it"
+                                                                 : "the readings DISAGREE with it") +
+                     "</strong>.</p>\n";
+  std::vector<std::vector<std::string>> rows = {
+      {"the form as known: RMS over the sphere [um]", At(k, "known_rms_um")},
+      {"the form fitted: RMS over the sphere [um]", At(k, "fitted_rms_um")},
+      {"what the form explains of the readings: RMS [um]", At(k, "explained_rms_um")},
+      {"residual RMS with the form held as known [um]", At(k, "rms_with_um")},
+      {"residual RMS without a form [um]", At(k, "rms_without_um")},
+      {"the prior's chi-square", At(k, "chi_square")},
+      {"its degrees of freedom (coefficients)", At(k, "terms")},
+      {"p (the prior's chi-square)", At(k, "p_value")},
+  };
+  rows.push_back({"the prior against the readings: chi-square", At(k, "conflict_chi_square")});
+  rows.push_back({"its degrees of freedom (directions the readings determine)", At(k, "conflict_degrees_of_freedom")});
+  rows.push_back({"p (the prior against the readings)", At(k, "conflict_p_value")});
+  if (!k.at("bound_rms_um").is_null()) {
+    rows.push_back({"the certificate's bound: RMS (k = 1) [um]", At(k, "bound_rms_um")});
+    rows.push_back(
+        {"the sphere's form exceeds its certificate's bound", k.value("exceeds_bound", false) ? "yes" : "no"});
+  }
+  body += html::Table({"quantity", "value"}, rows);
+  body += "<p>" + At(k, "verdict") + "</p>\n";
+  const json& warnings = k.value("warnings", json::array());
+  if (!warnings.empty()) body += "<div class=\"warn\"><h3>Warnings</h3>\n" + List(warnings) + "</div>\n";
+  return body;
+}
+
 }  // namespace
 
 std::string CalibrationWorkflowResult::HtmlReport() const {
@@ -370,6 +406,15 @@ std::string CalibrationWorkflowResult::HtmlReport() const {
                                "Each reading's residual |p - O| - R [um] at its axis readings theta, phi [deg]; the "
                                "setups drawn over each other in file order."));
   body += Section("The sphere's form", Form(j));
+  if (j.contains("known_form")) {
+    std::string known = KnownForm(j.at("known_form"));
+    for (const json& k : j.value("known_forms_of_other_spheres", json::array())) {
+      std::string setups;
+      for (const json& s : k.at("setups")) setups += (setups.empty() ? "" : ", ") + Cell(s);
+      known += "<h3>The known form of the sphere of setups " + setups + "</h3>\n" + KnownForm(k);
+    }
+    body += Section("The sphere's known form", known);
+  }
   body += Section("What stays ambiguous", Ambiguous(j));
   if (j.contains("comparison")) body += Section("Comparison with an earlier calibration", Comparison(j));
   return html::Page("Calibration report: " + points_path, body);

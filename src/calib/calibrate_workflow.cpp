@@ -1,21 +1,33 @@
 #include "sph/calib/calibrate_workflow.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <exception>
+#include <map>
 #include <utility>
 
 #include "fit_problem.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/ranges.hpp"
+#include "sph/core/valid_range.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/io/output_files.hpp"
 #include "sph/io/parameter_settings.hpp"
-#include "sph/core/ranges.hpp"
 #include "sph/io/setup_checks.hpp"
-#include "sph/core/valid_range.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
 
 namespace {
+
+using internal::Format;
+
+// The known forms' files: the reference sphere's (empty: none) and another sphere's by the setup
+// that names it in CalibrationOptions::other_form_priors.
+struct KnownFormFiles {
+  std::string reference;
+  std::map<int, std::string> others;
+};
 
 // The budget of the calibration reported (the trace's final fit when `extended`); none, with a
 // warning, when the fit was not analysed or a refit fails.
@@ -56,17 +68,112 @@ void Warn(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o, c
   Tell(o.on_warning, warning);
 }
 
-// The reference sphere's form as known: a file's (the same sphere's), else the certificate's bound.
-void SettleKnownForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+// A sphere of the points: the reference (setups empty) or another, by the setups that measured it.
+struct PointsSphere {
+  std::string name;  // in messages: "R0" or "sphere_radius_mm@2,3"
+  double radius_mm = 0.0;
+  double u_um = 0.0;
+  std::vector<int> setups;
+  std::string file;  // the form's file matched to it
+};
+
+std::vector<PointsSphere> SpheresOf(const CalibrationWorkflowResult& run) {
+  std::vector<PointsSphere> spheres{{"R0", run.settings.sphere_radius_mm, run.inputs.sphere_radius_u_um, {}, ""}};
+  std::map<std::string, std::size_t> index;  // by the radius, as PointsHeader::FormKey() writes it
+  for (const auto& [setup, radius_mm] : run.settings.sphere_radii_mm) {
+    const auto [it, is_new] = index.emplace(internal::Shortest(radius_mm), spheres.size());
+    if (is_new) spheres.push_back({"sphere_radius_mm@", radius_mm, 0.0, {}, ""});
+    PointsSphere& s = spheres[it->second];
+    s.name += (s.setups.empty() ? "" : ",") + std::to_string(setup);
+    s.setups.push_back(setup);
+  }
+  return spheres;
+}
+
+std::string SpheresText(const std::vector<PointsSphere>& spheres) {
+  std::string text;
+  for (const PointsSphere& s : spheres) {
+    text += (text.empty() ? "" : ", ") + s.name + " " + Format("%.9g", s.radius_mm) + " mm (u " + Format("%g", s.u_um) +
+            " um)";
+  }
+  return text;
+}
+
+// The sphere of the points whose form `file` holds (by its R0), refused when none or several.
+PointsSphere& SphereOfFile(std::vector<PointsSphere>& spheres, const CalibrationFile& file, const std::string& path,
+                           const std::string& points_path) {
+  if (!file.sphere_radius_mm) {
+    throw Error(path + ": states no sphere_radius_mm, so it cannot be told which of the points' spheres (" +
+                SpheresText(spheres) + ") its form belongs to");
+  }
+  double file_u_um = 0.0;
+  for (const CalibrationFile::CovarianceInput& in : file.covariance_inputs) {
+    if (in.input == "R0 (certificate)" && in.unit == "um") file_u_um = in.u;
+  }
+  std::vector<std::size_t> matches;
+  for (std::size_t i = 0; i < spheres.size(); ++i) {
+    const double difference_um = std::abs(spheres[i].radius_mm - *file.sphere_radius_mm) * kUmPerMm;
+    if (difference_um <= spheres[i].u_um + file_u_um + 1e-3) matches.push_back(i);
+  }
+  const std::string its = path + ": its sphere, sphere_radius_mm " + Format("%.9g", *file.sphere_radius_mm) +
+                          " mm (u " + Format("%g", file_u_um) + " um), ";
+  if (matches.empty()) {
+    throw Error(its + "is none of the spheres of " + points_path + " (" + SpheresText(spheres) +
+                ") within their standard uncertainties: the known form belongs to its own sphere");
+  }
+  if (matches.size() > 1) {
+    std::vector<PointsSphere> both;
+    for (const std::size_t i : matches) both.push_back(spheres[i]);
+    throw Error(its + "could be any of the spheres of " + points_path + " " + SpheresText(both) +
+                " within their standard uncertainties: which sphere's form it holds is ambiguous");
+  }
+  PointsSphere& sphere = spheres[matches.front()];
+  if (!sphere.file.empty()) {
+    throw Error(path + " and " + sphere.file + " both hold a form of the sphere " + sphere.name + " of " + points_path);
+  }
+  sphere.file = path;
+  return sphere;
+}
+
+// The spheres' forms as known: each file's (matched to its sphere), else the reference sphere's
+// certificate's bound.
+KnownFormFiles SettleKnownForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+  KnownFormFiles files;
   const std::optional<double> bound_um = FormBoundUm(run, o);
-  if (!o.sphere_form_path.empty()) {
-    const CalibrationFile file = ReadCalibrationFile(o.sphere_form_path);
-    CheckSameSphere(file, o.sphere_form_path, run.settings.sphere_radius_mm, run.inputs.sphere_radius_u_um,
-                    run.points_path);
+  std::vector<PointsSphere> spheres = SpheresOf(run);
+  for (const std::string& path : o.sphere_form_paths) {
+    const CalibrationFile file = ReadCalibrationFile(path);
+    if (spheres.size() == 1) {  // one sphere: the file's R0 must be the points'
+      CheckSameSphere(file, path, run.settings.sphere_radius_mm, run.inputs.sphere_radius_u_um, run.points_path);
+      if (!spheres[0].file.empty()) {
+        throw Error(path + " and " + spheres[0].file + " both hold a form of the sphere R0 of " + run.points_path);
+      }
+      spheres[0].file = path;
+    } else {
+      SphereOfFile(spheres, file, path, run.points_path);
+    }
     std::vector<std::string> notes;
-    run.settings.form_prior = FormPriorOfFile(file, o.sphere_form_path, &notes);
+    FormPrior prior = FormPriorOfFile(file, path, &notes);
     for (const std::string& n : notes) Warn(run, o, n);
-  } else if (bound_um && o.trace) {
+    const PointsSphere& sphere =
+        *std::find_if(spheres.begin(), spheres.end(), [&](const PointsSphere& s) { return s.file == path; });
+    if (sphere.setups.empty()) {
+      run.settings.form_prior = std::move(prior);
+      continue;
+    }
+    const auto known = std::find_if(sphere.setups.begin(), sphere.setups.end(), [&](int setup) {
+      const auto r = run.points.header.mount_rotations.find(setup);
+      return r == run.points.header.mount_rotations.end() || r->second.known();
+    });
+    if (known == sphere.setups.end()) {
+      throw Error(path + ": holds the form of the sphere " + sphere.name + " of " + run.points_path +
+                  ", but every setup of that sphere is of unknown orientation (mount_rotation_deg@<setup>: unknown), "
+                  "where a known form does not apply");
+    }
+    run.settings.other_form_priors[*known] = std::move(prior);
+    files.others[*known] = path;
+  }
+  if (run.settings.form_prior.Empty() && bound_um && o.trace) {
     const int l_max = FormDegreeLimit(run.points, o.trace_options);
     if (l_max >= 2) {
       run.settings.form_prior = CertificateFormPrior(*bound_um * kMmPerUm, l_max);
@@ -74,11 +181,19 @@ void SettleKnownForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOp
       Warn(run, o, "sphere_form_rms_um: the pattern resolves no form of degree 2 or more: the bound is not used");
     }
   }
+  if (!files.others.empty() && run.settings.form_prior.Empty()) {
+    throw Error(run.points_path + ": a known form of another sphere (" + files.others.begin()->second +
+                ") needs the reference sphere's form known too: a --sphere-form file of it (R0 " +
+                Format("%.9g", run.settings.sphere_radius_mm) +
+                " mm), or its certificate's bound (--sphere-form-rms-um)");
+  }
+  files.reference = spheres[0].file;
+  return files;
 }
 
 // The fit's settings from the options and the points' header (the options win); run.inputs gets
-// the measuring conditions of both.
-void Settle(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+// the measuring conditions of both. Returns the known forms' files.
+KnownFormFiles Settle(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
   const PointsHeader& header = run.points.header;
   const auto radius = o.sphere_radius_mm ? o.sphere_radius_mm : header.sphere_radius_mm;
   const auto offset = o.probe_offset_mm ? o.probe_offset_mm : header.probe_offset_mm;
@@ -124,12 +239,13 @@ void Settle(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o)
         "(it judges outliers by their residuals): use it with --no-trace, or with --effects for a fixed "
         "model");
   }
-  SettleKnownForm(run, o);
+  KnownFormFiles files = SettleKnownForm(run, o);
   run.probe_range_mm = o.conditions.probe_range_mm ? o.conditions.probe_range_mm : ConditionsOf(header).probe_range_mm;
   if (run.probe_range_mm) {
     CheckReadingsInProbeRange(run.points, *run.probe_range_mm,
                               o.conditions.probe_range_mm ? "--probe-range-mm" : "probe_range_mm");
   }
+  return files;
 }
 
 // The residual traced to further effects (or the fixed effects fitted), and its validation.
@@ -155,13 +271,17 @@ void Trace(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) 
   }
 }
 
-// How the readings agree with the known form, its warnings among the run's.
-void CheckForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+// How the readings agree with the known forms, their warnings among the run's.
+void CheckForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o, const KnownFormFiles& files) {
   if (run.settings.form_prior.Empty() || !run.trace || run.trace->after.fit.model.form.Empty()) return;
-  const std::string source = o.sphere_form_path.empty() ? "the certificate's bound" : o.sphere_form_path;
-  run.known_form = CheckKnownForm(run.points, run.settings, run.trace->after.fit, source, FormBoundUm(run, o),
-                                  !o.sphere_form_path.empty());
+  const std::string& file = files.reference;
+  run.known_form = CheckKnownForm(run.points, run.settings, run.trace->after.fit,
+                                  file.empty() ? "the certificate's bound" : file, FormBoundUm(run, o), !file.empty());
   for (const std::string& w : run.known_form->warnings) Warn(run, o, w);
+  for (const auto& [setup, path] : files.others) {
+    run.other_known_forms.push_back(CheckOtherKnownForm(run.points, run.settings, run.trace->after.fit, setup, path));
+    for (const std::string& w : run.other_known_forms.back().warnings) Warn(run, o, w);
+  }
 }
 
 // The calibration file's content, usable or not: the seven errors, the trace's effects but
@@ -254,8 +374,8 @@ void CalibrationWorkflowOptions::Check() const {
   CheckedValue(trace_options.phi_wobble_pivot_mm, ranges::kPivotMm, what + "trace_options.phi_wobble_pivot_mm");
   if (coverage) CheckedValue(*coverage, ranges::kCoverageProbability, what + "coverage");
   if (!trace && !effects.empty()) throw Error(what + "effects need trace (a fixed model is fitted in its place)");
-  if (!trace && !sphere_form_path.empty()) {
-    throw Error(what + "sphere_form_path needs trace (the known form is fitted with the effects' model)");
+  if (!trace && !sphere_form_paths.empty()) {
+    throw Error(what + "sphere_form_paths needs trace (the known form is fitted with the effects' model)");
   }
   if (!trace && !validate_path.empty()) {
     throw Error(what + "validate_path needs trace (it compares the seven errors with the trace's model)");
@@ -285,6 +405,7 @@ ReportContext CalibrationWorkflowResult::Context() const {
   ctx.validation = validation ? &*validation : nullptr;
   ctx.comparison = comparison ? &*comparison : nullptr;
   ctx.known_form = known_form ? &*known_form : nullptr;
+  ctx.other_known_forms = &other_known_forms;
   return ctx;
 }
 
@@ -312,7 +433,7 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   run.points = std::move(points);
   run.points_path = points_path;
   run.program = options.program.empty() ? std::string("sph_calibrate " SPH_VERSION) : options.program;
-  Settle(run, options);
+  const KnownFormFiles form_files = Settle(run, options);
   std::optional<CalibrationFile> previous;
   if (!options.compare_path.empty()) {  // bad input is told before the fit
     Tell(options.on_stage, "reading " + options.compare_path);
@@ -330,7 +451,7 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   Tell(options.on_stage, "calibrating the seven errors");
   run.seven = Calibrate(run.points, run.settings);
   if (options.trace) Trace(run, options);
-  CheckForm(run, options);
+  CheckForm(run, options, form_files);
   MakeBudget(run, options);
   run.usability = JudgeUsability(run.Reported(), run.Context());
   if (previous) {

@@ -292,13 +292,23 @@ FitSolver::Impl::Impl(const SphereFitProblem& p, const SolveConstraints& c)
                                                 c.prior_sigma_mm / prior.u));
     problem_.AddResidualBlock(costs.back().get(), nullptr, blocks[static_cast<std::size_t>(b)]);
   }
-  if (!c.form_prior.Empty()) {
-    const int b = BlockOf(c.form_prior.columns.front()).first;
+  // The form's prior, one residual block per set of coefficients (its whitening is block diagonal
+  // by set: FormPriorColumns()).
+  const auto n_form = static_cast<Eigen::Index>(c.form_prior.columns.size());
+  for (Eigen::Index start = 0; start < n_form;) {
+    const int b = BlockOf(c.form_prior.columns[static_cast<std::size_t>(start)]).first;
+    Eigen::Index end = start;
     std::vector<int> index;
-    for (const Eigen::Index column : c.form_prior.columns) index.push_back(BlockOf(column).second);
-    costs.push_back(std::make_unique<WhitenedPriorCost>(block_sizes[static_cast<std::size_t>(b)], std::move(index),
-                                                        c.form_prior.value, c.prior_sigma_mm * c.form_prior.whitening));
+    while (end < n_form && BlockOf(c.form_prior.columns[static_cast<std::size_t>(end)]).first == b) {
+      index.push_back(BlockOf(c.form_prior.columns[static_cast<std::size_t>(end)]).second);
+      ++end;
+    }
+    const Eigen::Index k = end - start;
+    costs.push_back(std::make_unique<WhitenedPriorCost>(
+        block_sizes[static_cast<std::size_t>(b)], std::move(index), c.form_prior.value.segment(start, k),
+        c.prior_sigma_mm * c.form_prior.whitening.block(start, start, k, k)));
     problem_.AddResidualBlock(costs.back().get(), nullptr, blocks[static_cast<std::size_t>(b)]);
+    start = end;
   }
   // Fixed columns: a block wholly fixed is constant, a block partly fixed moves on the others.
   std::map<int, std::vector<int>> fixed_of_block;

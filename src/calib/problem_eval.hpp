@@ -22,7 +22,8 @@ namespace sph::internal {
 
 /// Throws sph::Error naming the points' source when the options cannot fit them: a sphere radius
 /// or the probe offset not positive, a setup that the header says measured another sphere without
-/// its radius in the options.
+/// its radius in the options, a known form of another sphere without the reference sphere's or by
+/// a setup that measured no other sphere in a known orientation.
 inline void CheckFitOptions(const PointsData& points, const CalibrationOptions& options) {
   const std::string& source = points.source;
   CheckParameterSettings(options, source);
@@ -37,6 +38,17 @@ inline void CheckFitOptions(const PointsData& points, const CalibrationOptions& 
     if (options.sphere_radii_mm.count(setup) == 0) {
       throw Error(source + ": setup " + std::to_string(setup) + " measured another sphere (" + SphereRadiusKey(setup) +
                   "), but the fit was given no radius for it");
+    }
+  }
+  if (!options.other_form_priors.empty() && options.form_prior.Empty()) {
+    throw Error(source + ": a known form of another sphere needs the reference sphere's form known too");
+  }
+  for (const auto& [setup, prior] : options.other_form_priors) {
+    const auto rotation = points.header.mount_rotations.find(setup);
+    if (points.header.sphere_radii_mm.count(setup) == 0 ||
+        (rotation != points.header.mount_rotations.end() && !rotation->second.known())) {
+      throw Error(source + ": the known form of another sphere is given by setup " + std::to_string(setup) +
+                  ", which did not measure another sphere in a known orientation");
     }
   }
 }

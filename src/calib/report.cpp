@@ -23,12 +23,18 @@ using nlohmann::json;
 
 // The known form's section of the text report.
 void WriteKnownFormText(std::ostream& out, const KnownFormCheck& k) {
-  out << "\nknown sphere form (" << k.source << "), " << k.terms << " coefficients as a prior:\n";
+  std::string sphere;
+  for (const int setup : k.setups)
+    sphere += (sphere.empty() ? " of the sphere of setups " : ",") + std::to_string(setup);
+  out << "\nknown sphere form" << sphere << " (" << k.source << "), " << k.terms << " coefficients as a prior:\n";
   out << Format("  known %.4g um RMS over the sphere, fitted %.4g um RMS\n", k.known_rms_um, k.fitted_rms_um);
   out << Format("  explains %.4g um RMS of the readings (residual RMS %.4g um with it, %.4g um without a form)\n",
                 k.explained_rms_um, k.rms_with_um, k.rms_without_um);
   out << Format("  prior's chi-square %.4g for %d coefficients, p = %.3g\n", k.chi_square, k.terms, k.p_value);
   if (k.bound_rms_um) out << Format("  certificate's bound %.4g um RMS (k = 1)\n", *k.bound_rms_um);
+  out << Format("  prior against the readings: chi-square %.4g for %d directions they determine, p = %.3g%s\n",
+                k.conflict_chi_square, k.conflict_dof, k.conflict_p_value,
+                k.exceeds_bound ? ": the sphere's form exceeds its certificate's bound" : "");
   out << "  verdict: " << (k.agrees ? "agrees" : "DISAGREES") << ": " << k.verdict << "\n";
 }
 
@@ -43,6 +49,10 @@ json KnownFormJson(const KnownFormCheck& k) {
           {"chi_square", k.chi_square},
           {"p_value", k.p_value},
           {"bound_rms_um", k.bound_rms_um ? json(*k.bound_rms_um) : json(nullptr)},
+          {"conflict_chi_square", k.conflict_chi_square},
+          {"conflict_degrees_of_freedom", k.conflict_dof},
+          {"conflict_p_value", k.conflict_p_value},
+          {"exceeds_bound", k.exceeds_bound},
           {"agrees", k.agrees},
           {"verdict", k.verdict},
           {"warnings", k.warnings}};
@@ -257,6 +267,9 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
   out << "\nresult: " << (usability.usable ? "usable calibration" : "NOT a usable calibration") << "\n";
   for (const std::string& why : usability.reasons) out << "  why: " << why << "\n";
   if (ctx.known_form != nullptr) WriteKnownFormText(out, *ctx.known_form);
+  if (ctx.other_known_forms != nullptr) {
+    for (const KnownFormCheck& k : *ctx.other_known_forms) WriteKnownFormText(out, k);
+  }
   if (ctx.trace != nullptr) WriteTraceText(out, *ctx.trace, ctx.validation);
   if (ctx.comparison != nullptr) WriteComparisonText(out, *ctx.comparison);
 }
@@ -385,6 +398,15 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   if (r.prior_sigma_mm > 0.0) j["prior_noise_um"] = r.prior_sigma_mm * kUmPerMm;
   j["warnings"] = r.warnings;
   if (ctx.known_form != nullptr) j["known_form"] = KnownFormJson(*ctx.known_form);
+  if (ctx.other_known_forms != nullptr && !ctx.other_known_forms->empty()) {
+    json others = json::array();
+    for (const KnownFormCheck& k : *ctx.other_known_forms) {
+      json o = KnownFormJson(k);
+      o["setups"] = k.setups;
+      others.push_back(std::move(o));
+    }
+    j["known_forms_of_other_spheres"] = std::move(others);
+  }
   if (ctx.trace != nullptr) internal::AddTraceJson(j, *ctx.trace, ctx.validation);
   if (ctx.comparison != nullptr) AddComparisonJson(j, *ctx.comparison);
   return j.dump(2) + "\n";

@@ -201,30 +201,60 @@ FreeInverse FreeInverseAt(const SphereFitProblem& problem, const Eigen::VectorXd
 
 }  // namespace
 
-ColumnsPrior FormPriorColumns(const SphereFitProblem& problem, const FormPrior& prior) {
-  ColumnsPrior out;
-  if (prior.Empty() || problem.NumFormTerms() == 0) return out;
+namespace {
+
+// One prior on the columns of the form's set `group`, appended to `out` (its whitening block
+// diagonal: the sets' priors are independent).
+void AppendFormPrior(const SphereFitProblem& problem, const FormPrior& prior, int group, ColumnsPrior& out) {
   const std::vector<FormTerm>& terms = problem.model().form.terms;
   std::vector<Eigen::Index> of_prior;  // the prior's index of each column taken
+  const auto first = static_cast<Eigen::Index>(out.columns.size());
   for (std::size_t i = 0; i < prior.terms.size(); ++i) {
     const auto it = std::find(terms.begin(), terms.end(), prior.terms[i]);
     if (it == terms.end()) continue;
     of_prior.push_back(static_cast<Eigen::Index>(i));
-    out.columns.push_back(problem.FirstFormColumn(0) + static_cast<Eigen::Index>(it - terms.begin()));
+    out.columns.push_back(problem.FirstFormColumn(group) + static_cast<Eigen::Index>(it - terms.begin()));
   }
   const auto k = static_cast<Eigen::Index>(of_prior.size());
-  if (k == 0) return out;
-  out.value.resize(k);
+  if (k == 0) return;
   Eigen::MatrixXd c(k, k);
+  Eigen::VectorXd value(k);
   for (Eigen::Index i = 0; i < k; ++i) {
-    out.value(i) = prior.mean_mm(of_prior[static_cast<std::size_t>(i)]);
+    value(i) = prior.mean_mm(of_prior[static_cast<std::size_t>(i)]);
     for (Eigen::Index j = 0; j < k; ++j) {
       c(i, j) = prior.covariance_mm2(of_prior[static_cast<std::size_t>(i)], of_prior[static_cast<std::size_t>(j)]);
     }
   }
   const Eigen::LLT<Eigen::MatrixXd> llt(c);
   if (llt.info() != Eigen::Success) throw Error("the sphere form's prior: its covariance is not positive definite");
-  out.whitening = llt.matrixL().solve(Eigen::MatrixXd::Identity(k, k));
+  const Eigen::Index n = first + k;
+  out.value.conservativeResize(n);
+  out.value.tail(k) = value;
+  Eigen::MatrixXd whitening = Eigen::MatrixXd::Zero(n, n);
+  whitening.topLeftCorner(first, first) = out.whitening;
+  whitening.bottomRightCorner(k, k) = llt.matrixL().solve(Eigen::MatrixXd::Identity(k, k));
+  out.whitening = std::move(whitening);
+}
+
+}  // namespace
+
+ColumnsPrior FormPriorColumns(const SphereFitProblem& problem, const CalibrationOptions& options) {
+  ColumnsPrior out;
+  out.whitening.resize(0, 0);
+  if (options.form_prior.Empty() || problem.NumFormTerms() == 0) return out;
+  AppendFormPrior(problem, options.form_prior, 0, out);
+  const FormModel& form = problem.model().form;
+  std::set<int> groups{0};
+  for (const auto& [setup, prior] : options.other_form_priors) {
+    if (form.setups.count(setup) == 0) continue;  // a fit without that sphere's readings
+    const int group = form.SetupOf(setup).group;
+    if (group == 0 || !groups.insert(group).second) {
+      throw Error("the form prior of another sphere by setup " + std::to_string(setup) +
+                  ": the setup is not one of another sphere's set of known orientation, or that set has a prior "
+                  "already");
+    }
+    AppendFormPrior(problem, prior, group, out);
+  }
   return out;
 }
 
@@ -235,7 +265,7 @@ NormalInverse InformedInverseAt(const SphereFitProblem& problem, const Eigen::Ve
     const Eigen::Index column = ColumnOf(problem, p.name);
     if (column >= 0) priors.push_back({column, p.value, p.u});
   }
-  const ColumnsPrior form_prior = FormPriorColumns(problem, options.form_prior);
+  const ColumnsPrior form_prior = FormPriorColumns(problem, options);
   if ((priors.empty() && form_prior.Empty()) || !(prior_sigma_mm > 0.0)) return NormalInverseAtSolution(problem, x);
   const std::vector<Held> none(static_cast<std::size_t>(problem.NumParams()), Held::kNo);
   return FreeInverseAt(problem, x, none, priors, form_prior, prior_sigma_mm, {}).inverse;
@@ -298,7 +328,7 @@ SolvedFit SolveFit(const SphereFitProblem& problem, Eigen::VectorXd& x, const Ca
     const Eigen::Index column = ColumnOf(problem, p.name);
     if (column >= 0) out.priors.push_back({column, p.value, p.u});
   }
-  out.form_prior = FormPriorColumns(problem, options.form_prior);
+  out.form_prior = FormPriorColumns(problem, options);
   // The physical bounds go to Ceres only when a solution leaves them (below): with bounds Ceres
   // also searches along the projected step, which changes the iterations of a fit that never
   // comes near them.

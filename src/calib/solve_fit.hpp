@@ -43,9 +43,11 @@ struct SolvedFit {
 };
 
 /// CalibrationOptions::form_prior on the columns of `problem`'s form of the setups of known
-/// orientation (group 0): the prior's terms that the model has, their marginal; empty when the
-/// model has no form or none of them.
-ColumnsPrior FormPriorColumns(const SphereFitProblem& problem, const FormPrior& prior);
+/// orientation (group 0), then each of other_form_priors on its sphere's set: each prior's terms
+/// that the model has, their marginal, the whitening block diagonal by set; empty when the model
+/// has no form or form_prior is empty; a setup of other_form_priors the model's form lacks is left
+/// out. Throws sph::Error when such a setup is in group 0's set, or two name the same set.
+ColumnsPrior FormPriorColumns(const SphereFitProblem& problem, const CalibrationOptions& options);
 
 /// (J^T J + P)^-1 at x: the readings' rows with the rows of the options' priors and form prior
 /// (P, weighted with the readings' noise prior_sigma_mm, as SolveFit() weighs them), every column

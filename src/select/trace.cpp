@@ -185,17 +185,38 @@ struct TraceStart {
   }
 };
 
-// The model of `base` with the reference sphere's known form (options.form_prior's terms; setups
-// of unknown orientation and another sphere with forms of their own), fitted from the prior's
-// mean.
+// The terms of every known form (options.form_prior's and other_form_priors'), by degree and order.
+std::vector<FormTerm> KnownFormTerms(const CalibrationOptions& options) {
+  std::vector<FormTerm> all = options.form_prior.terms;
+  for (const auto& [setup, prior] : options.other_form_priors)
+    all.insert(all.end(), prior.terms.begin(), prior.terms.end());
+  int l_max = 0;
+  for (const FormTerm& t : all) l_max = std::max(l_max, t.l);
+  std::vector<FormTerm> terms;
+  for (const FormTerm& t : FormTermsOfDegrees(2, l_max)) {
+    if (std::find(all.begin(), all.end(), t) != all.end()) terms.push_back(t);
+  }
+  return terms;
+}
+
+// The model of `base` with the known forms (KnownFormTerms(); setups of unknown orientation and
+// another sphere without a known form with forms of their own), fitted from the priors' means.
 EffectFit WithKnownForm(const Readings& data, const CalibrationOptions& options, const EffectFit& base) {
   EffectModel model = base.model;
-  model.form = FormModelOf(data.points, options.form_prior.terms);
+  model.form = FormModelOf(data.points, KnownFormTerms(options));
   EffectFitStart start = EffectFitStart::From(base);
   start.form_values.assign(static_cast<std::size_t>(model.form.NumGroups()),
                            std::vector<double>(model.form.terms.size(), 0.0));
-  for (std::size_t k = 0; k < model.form.terms.size(); ++k) {
-    start.form_values[0][k] = options.form_prior.mean_mm(static_cast<Eigen::Index>(k));
+  const auto set_start = [&](const FormPrior& prior, int group) {
+    for (std::size_t i = 0; i < prior.terms.size(); ++i) {
+      const auto it = std::find(model.form.terms.begin(), model.form.terms.end(), prior.terms[i]);
+      start.form_values[static_cast<std::size_t>(group)][static_cast<std::size_t>(it - model.form.terms.begin())] =
+          prior.mean_mm(static_cast<Eigen::Index>(i));
+    }
+  };
+  set_start(options.form_prior, 0);
+  for (const auto& [setup, prior] : options.other_form_priors) {
+    if (model.form.setups.count(setup) > 0) set_start(prior, model.form.SetupOf(setup).group);
   }
   return internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
 }
@@ -203,7 +224,7 @@ EffectFit WithKnownForm(const Readings& data, const CalibrationOptions& options,
 // The form selection of a trace whose form is known (FormSelection::known).
 void KnownFormSelection(const CalibrationOptions& options, FormSelection* sel) {
   int l_max = 0;
-  for (const FormTerm& t : options.form_prior.terms) l_max = std::max(l_max, t.l);
+  for (const FormTerm& t : KnownFormTerms(options)) l_max = std::max(l_max, t.l);
   sel->known = true;
   sel->separable = true;
   sel->degree_max = l_max;

@@ -155,6 +155,22 @@ std::string FormFile(const std::string& radius, bool form = true) {
   return j + "}\n";
 }
 
+// The example as two setups, the second (its last 144 rows) on another sphere of radius `radius`
+// mm (sphere_radius_mm@1): for the cases refused before any fit.
+std::string TwoSpheres(const std::string& radius = "15") {
+  std::istringstream in(Example());
+  std::string out, line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("# columns:", 0) == 0) {
+      out += "# sphere_radius_mm@1: " + radius + "\n" + line + " setup\n";
+    } else {
+      out += line + (!line.empty() && line[0] != '#' ? (n++ < 144 ? " 0" : " 1") : "") + "\n";
+    }
+  }
+  return out;
+}
+
 std::vector<MatrixCase> CalibrateCases() {
   const std::string h = kHeader;
   const std::string e = "sph_calibrate: error: ";
@@ -166,6 +182,35 @@ std::vector<MatrixCase> CalibrateCases() {
        e + "P.txt: sphere_radius_mm 20 mm (u 0 um) is not the radius of the sphere whose form f.json holds, 20.01 mm "
            "(u 0 um): they differ by 10 um, more than their standard uncertainties together",
        {{"f.json", FormFile("20.01")}}},
+      // Several spheres: each file matched to the one whose radius is its R0.
+      {"sphere_form_of_no_sphere_of_the_points",
+       {"T.txt", "--sphere-form", "f.json"},
+       2,
+       e + "f.json: its sphere, sphere_radius_mm 12 mm (u 0 um), is none of the spheres of T.txt (R0 20 mm (u 0 um), "
+           "sphere_radius_mm@1 15 mm (u 0 um)) within their standard uncertainties",
+       {{"T.txt", TwoSpheres()}, {"f.json", FormFile("12")}}},
+      {"sphere_form_of_either_sphere",
+       {"T.txt", "--sphere-form", "f.json", "--sphere-radius-u-um", "600"},
+       2,
+       e + "f.json: its sphere, sphere_radius_mm 20.5 mm (u 0 um), could be any of the spheres of T.txt R0 20 mm "
+           "(u 600 um), sphere_radius_mm@1 20.5 mm (u 0 um) within their standard uncertainties: which sphere's "
+           "form it holds is ambiguous",
+       {{"T.txt", TwoSpheres("20.5")}, {"f.json", FormFile("20.5")}}},
+      {"two_sphere_forms_of_one_sphere",
+       {"T.txt", "--sphere-form", "f.json", "--sphere-form", "g.json"},
+       2,
+       e + "g.json and f.json both hold a form of the sphere sphere_radius_mm@1 of T.txt",
+       {{"T.txt", TwoSpheres()}, {"f.json", FormFile("15")}, {"g.json", FormFile("15")}}},
+      {"other_sphere_form_alone",
+       {"T.txt", "--sphere-form", "g.json"},
+       2,
+       e + "T.txt: a known form of another sphere (g.json) needs the reference sphere's form known too",
+       {{"T.txt", TwoSpheres()}, {"g.json", FormFile("15")}}},
+      {"output_is_the_second_sphere_form_input",
+       {"T.txt", "--sphere-form", "f.json", "--sphere-form", "g.json", "-o", "g.json"},
+       2,
+       e + "--output g.json is also the input --sphere-form g.json",
+       {{"T.txt", TwoSpheres()}, {"f.json", FormFile("20")}, {"g.json", FormFile("15")}}},
       {"sphere_form_file_without_a_form",
        {"P.txt", "--sphere-form", "f.json"},
        2,

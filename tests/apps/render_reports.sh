@@ -1,7 +1,7 @@
 #!/bin/sh
-# The HTML reports in a real browser: sph_calibrate's (the undeclared example, and the paper's example
-# with the devices of an acquisition in its header, and one compared with an earlier calibration of another
-# model) and sph_measure's (NIST sphere 1) are well formed (xmllint --html), and headless Chromium renders each to a PNG and
+# The HTML reports in a real browser: sph_calibrate's (the undeclared example, the paper's example
+# with the devices of an acquisition in its header, one compared with an earlier calibration of another
+# model, and the separation example's one placement with its form known) and sph_measure's (NIST sphere 1) are well formed (xmllint --html), and headless Chromium renders each to a PNG and
 # prints it to an A4 PDF with at least one page per section (pdfinfo).
 # Usage: render_reports.sh SPH_CALIBRATE SPH_MEASURE SOURCE_DIR WORK_DIR
 # Exits 77 (skipped) when chromium, pdfinfo or xmllint is missing.
@@ -41,7 +41,16 @@ if ! grep -q '>earlier, refitted</td>' "$work/calibration_compare.html"; then
   echo "$work/calibration_compare.html: no like-for-like comparison"
   exit 1
 fi
-for name in calibration measurement calibration_devices calibration_compare; do
+# The everyday calibration with the sphere's form known from the separation example: the known
+# form's section.
+"$calibrate" "$source/data/example/separation/points.txt" -q -o "$work/separated.json"
+"$calibrate" "$source/data/example/separation/one_placement.txt" -q --sphere-form "$work/separated.json" \
+  --report "$work/calibration_known_form.html"
+if ! grep -q '<h2>The sphere&#39;s known form</h2>' "$work/calibration_known_form.html"; then
+  echo "$work/calibration_known_form.html: no section of the known form"
+  exit 1
+fi
+for name in calibration measurement calibration_devices calibration_compare calibration_known_form; do
   page=$work/$name.html
   # libxml2's HTML parser: any complaint fails.
   complaints=$(xmllint --html --noout "$page" 2>&1) || true

@@ -8,12 +8,14 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/core/error.hpp"
-#include "sph/simulation/simulate.hpp"
+#include "sph/io/html_report.hpp"
 #include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -24,16 +26,20 @@ using ::testing::HasSubstr;
 // The sphere's true form [um]: 0.043 um RMS over the sphere.
 const std::vector<FormComponent> kForm = {{2, 0, 0.08}, {3, 1, 0.05}, {4, -2, 0.04}};
 
+// kForm's RMS over the sphere [um]: sqrt(sum c^2 / (2l + 1)).
+const double kFormRmsUm = std::sqrt(0.08 * 0.08 / 5 + 0.05 * 0.05 / 7 + 0.04 * 0.04 / 9);
+
 // A calibration file holding the form of kForm on degrees 2..4 as a separation would give it:
 // every coefficient with a standard uncertainty of `std_um`, uncorrelated but for two.
-std::string FormFile(const std::string& dir, double std_um, double radius_mm = 20.0) {
+std::string FormFile(const std::string& dir, double std_um, double radius_mm = 20.0,
+                     const std::vector<FormComponent>& form = kForm, const std::string& name = "separated.json") {
   CalibrationFile cal;
   cal.probe_offset_mm = 25.0;
   cal.sphere_radius_mm = radius_mm;
   cal.form_terms = FormTermsOfDegrees(2, 4);
   for (const FormTerm& t : cal.form_terms) {
     double v = 0.0;
-    for (const FormComponent& c : kForm) v += c.l == t.l && c.m == t.m ? c.amplitude_um : 0.0;
+    for (const FormComponent& c : form) v += c.l == t.l && c.m == t.m ? c.amplitude_um : 0.0;
     cal.form_values_mm.push_back(v * kMmPerUm);
     cal.form_std_mm.push_back(std_um * kMmPerUm);
   }
@@ -44,7 +50,7 @@ std::string FormFile(const std::string& dir, double std_um, double radius_mm = 2
   corr(7, 8) = corr(8, 7) = 0.3;
   cal.parameter_covariance = sd.asDiagonal() * corr * sd.asDiagonal();
   cal.covariance = cal.parameter_covariance.topLeftCorner<kNumScmsParams, kNumScmsParams>();
-  const std::string path = dir + "/separated.json";
+  const std::string path = dir + "/" + name;
   WriteCalibrationFile(path, cal);
   return path;
 }
@@ -91,12 +97,41 @@ CalibrationWorkflowOptions Options(const std::string& form_path) {
   CalibrationWorkflowOptions o;
   o.sphere_radius_mm = 20.0;
   o.probe_offset_mm = 25.0;
-  o.sphere_form_path = form_path;
+  if (!form_path.empty()) o.sphere_form_paths.push_back(form_path);
   return o;
 }
 
 bool Added(const CalibrationWorkflowResult& run, Effect e) {
   return run.trace && run.trace->after.fit.model.Find(e) >= 0;
+}
+
+// Another sphere's form [um], 0.029 um RMS over the sphere.
+const std::vector<FormComponent> kOtherForm = {{2, 1, 0.05}, {3, -2, 0.04}, {4, 3, 0.03}};
+
+// One placement on the reference sphere (kForm) and one on another sphere of radius 15 mm with
+// `form` (the simulator's other spheres are perfect: that setup's readings are simulated apart,
+// the machine the same, and put in its place), noise 0.03 um.
+PointsData TwoSpheres(std::uint64_t seed, const std::vector<FormComponent>& form) {
+  SimulationSpec spec;
+  spec.seed = seed;
+  spec.noise_r_um = 0.03;
+  spec.effects.form = kForm;
+  spec.centers_mm.assign(2, Eigen::Vector3d(2, 0, 0));
+  spec.sphere_radii_mm[1] = 15.0;
+  PointsData points = Simulate(spec);
+  SimulationSpec other;
+  other.seed = seed + 1000;
+  other.noise_r_um = 0.03;
+  other.sphere_radius_mm = 15.0;
+  other.effects.form = form;
+  const PointsData second = Simulate(other);
+  std::size_t next = 0;
+  for (Sample& s : points.samples) {
+    if (s.setup != 1) continue;
+    static_cast<RawReading&>(s) = second.samples.at(next++);
+  }
+  EXPECT_EQ(next, second.samples.size());
+  return points;
 }
 
 // The certificate's bound spread over degrees 2..L with the same variance v = rms^2 / (L - 1) for
@@ -260,6 +295,42 @@ TEST(KnownForm, AFormLargerThanTheCertificatesBoundIsReported) {
   EXPECT_TRUE(larger);
 }
 
+// A certificate's bound too tight, in one placement: a form of 3 times the bound is held small by
+// the prior and the residual takes the rest; the readings reject the bound as a prior, and the
+// report says the sphere's form exceeds it (text, JSON).
+TEST(KnownForm, AFormBeyondItsCertificatesBoundInOnePlacementIsReported) {
+  CalibrationWorkflowOptions o = Options("");
+  o.conditions.sphere_form_rms_um = kFormRmsUm / 3.0;
+  o.trace_options.form_degree_max = 4;  // the bound over degrees 2..4, kForm's: a quicker trace
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(Daily(1), "daily", o);
+  ASSERT_TRUE(run.known_form.has_value());
+  const KnownFormCheck& k = *run.known_form;
+  EXPECT_TRUE(k.exceeds_bound) << k.verdict;
+  EXPECT_FALSE(k.agrees);
+  EXPECT_LT(k.conflict_p_value, kKnownFormP);
+  bool said = false;
+  for (const std::string& w : run.warnings) said |= w.find("the sphere's form exceeds its certificate's bound") == 0;
+  EXPECT_TRUE(said);
+  EXPECT_TRUE(nlohmann::json::parse(run.JsonReport()).at("known_form").at("exceeds_bound").get<bool>());
+  std::ostringstream text;
+  run.WriteTextReport(text);
+  EXPECT_THAT(text.str(), HasSubstr(": the sphere's form exceeds its certificate's bound\n"));
+}
+
+// No false report: a form within its bound (the bound 1.5 times its RMS), a few seeds.
+TEST(KnownForm, AFormWithinItsCertificatesBoundIsNotReported) {
+  CalibrationWorkflowOptions o = Options("");
+  o.conditions.sphere_form_rms_um = 1.5 * kFormRmsUm;
+  o.trace_options.form_degree_max = 4;
+  for (const std::uint64_t seed : {1, 2, 3, 4}) {
+    const CalibrationWorkflowResult run = RunCalibrationWorkflow(Daily(seed), "daily", o);
+    ASSERT_TRUE(run.known_form.has_value());
+    const KnownFormCheck& k = *run.known_form;
+    EXPECT_GT(k.conflict_dof, 0) << "seed " << seed;
+    EXPECT_FALSE(k.exceeds_bound) << "seed " << seed << ": " << k.verdict;
+  }
+}
+
 // Both given: the known form is the prior and the certificate is checked against it.
 TEST(KnownForm, TheCertificateIsCheckedAgainstTheKnownForm) {
   const std::string dir = sph::testing::MakeTempDir("known_form_both");
@@ -272,6 +343,81 @@ TEST(KnownForm, TheCertificateIsCheckedAgainstTheKnownForm) {
   for (const std::string& w : run.known_form->warnings)
     exceeds |= w.find("exceeds the certificate's bound") != std::string::npos;
   EXPECT_TRUE(exceeds);
+  // The HTML report's section holds the JSON's numbers, its verdict and its warnings.
+  const nlohmann::json k = nlohmann::json::parse(run.JsonReport()).at("known_form");
+  const std::string page = run.HtmlReport();
+  const auto has = [&](const std::string& text) { return page.find(text) != std::string::npos; };
+  EXPECT_TRUE(has("<h2>" + html::Escape("The sphere's known form") + "</h2>"));
+  for (const char* key :
+       {"known_rms_um", "fitted_rms_um", "explained_rms_um", "rms_with_um", "rms_without_um", "chi_square", "p_value",
+        "bound_rms_um", "terms", "conflict_chi_square", "conflict_degrees_of_freedom", "conflict_p_value"}) {
+    EXPECT_TRUE(has(">" + html::Number(k.at(key).get<double>()) + "</td>")) << key;
+  }
+  EXPECT_TRUE(has(html::Escape(k.at("verdict").get<std::string>())));
+  ASSERT_FALSE(k.at("warnings").empty());
+  for (const nlohmann::json& w : k.at("warnings")) EXPECT_TRUE(has(html::Escape(w.get<std::string>()))) << w;
+}
+
+// A second sphere's known form (sphere_radius_mm@1): each file matched to its sphere by its R0
+// (the files in either order), the second sphere's form a prior on its own set, checked and reported
+// like the reference sphere's; a file of another form for it is reported as disagreeing.
+TEST(KnownForm, ASecondSpheresKnownFormIsCheckedAndReportedLikeTheReferences) {
+  const std::string dir = sph::testing::MakeTempDir("known_form_second");
+  const std::string reference = FormFile(dir, 0.002);
+  const std::string second = FormFile(dir, 0.002, 15.0, kOtherForm, "second.json");
+  CalibrationWorkflowOptions o = Options("");
+  o.sphere_form_paths = {second, reference};
+  o.trace_options.candidates = {Effect::kProbeDrift};  // a quicker trace: the forms are what is checked
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(TwoSpheres(5, kOtherForm), "two", o);
+  ASSERT_TRUE(run.known_form.has_value());
+  EXPECT_EQ(run.known_form->source, reference);
+  EXPECT_TRUE(run.known_form->agrees) << run.known_form->verdict;
+  ASSERT_EQ(run.other_known_forms.size(), 1u);
+  const KnownFormCheck& k = run.other_known_forms[0];
+  EXPECT_EQ(k.source, second);
+  EXPECT_EQ(k.setups, std::vector<int>{1});
+  EXPECT_EQ(k.terms, 21);
+  EXPECT_TRUE(k.agrees) << k.verdict;
+  EXPECT_NEAR(k.known_rms_um, 0.0288, 5e-4);
+  EXPECT_NEAR(k.fitted_rms_um, k.known_rms_um, 0.003);
+  EXPECT_LT(k.rms_with_um, k.rms_without_um);  // the second sphere's form explains its readings
+  const nlohmann::json j = nlohmann::json::parse(run.JsonReport());
+  ASSERT_EQ(j.at("known_forms_of_other_spheres").size(), 1u);
+  EXPECT_EQ(j.at("known_forms_of_other_spheres")[0].at("setups"), nlohmann::json::array({1}));
+  EXPECT_DOUBLE_EQ(j.at("known_forms_of_other_spheres")[0].at("rms_with_um").get<double>(), k.rms_with_um);
+  std::ostringstream text;
+  run.WriteTextReport(text);
+  EXPECT_THAT(text.str(), HasSubstr("known sphere form of the sphere of setups 1 (" + second + ")"));
+  EXPECT_NE(run.HtmlReport().find("The known form of the sphere of setups 1"), std::string::npos);
+  // The second sphere is not the one its file holds: its readings disagree with it.
+  const CalibrationWorkflowResult wrong = RunCalibrationWorkflow(TwoSpheres(5, kForm), "two", o);
+  ASSERT_EQ(wrong.other_known_forms.size(), 1u);
+  EXPECT_FALSE(wrong.other_known_forms[0].agrees) << wrong.other_known_forms[0].verdict;
+  EXPECT_FALSE(wrong.other_known_forms[0].warnings.empty());
+}
+
+// A file is matched to the one sphere whose radius is its R0: a file of none, two files of one
+// sphere, or another sphere's form alone are refused (a file of either of two spheres: the apps'
+// bad-input matrix).
+TEST(KnownForm, AFileOfNoSphereOrOfTwoOrTwoFilesOfOneAreRefused) {
+  const std::string dir = sph::testing::MakeTempDir("known_form_match");
+  const std::string reference = FormFile(dir, 0.002);
+  const std::string second = FormFile(dir, 0.002, 15.0, kOtherForm, "second.json");
+  const PointsData points = TwoSpheres(5, kOtherForm);
+  const auto refused = [&](const std::vector<std::string>& files, const std::string& message) {
+    CalibrationWorkflowOptions o = Options("");
+    o.sphere_form_paths = files;
+    try {
+      RunCalibrationWorkflow(points, "two", o);
+      ADD_FAILURE() << "no error for " << message;
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), HasSubstr(message));
+    }
+  };
+  refused({FormFile(dir, 0.002, 12.0, kOtherForm, "none.json")},
+          "is none of the spheres of two (R0 20 mm (u 0 um), sphere_radius_mm@1 15 mm (u 0 um))");
+  refused({reference, FormFile(dir, 0.002, 20.0, kForm, "again.json")}, "both hold a form of the sphere R0");
+  refused({second}, "needs the reference sphere's form known too");
 }
 
 // The form belongs to its sphere: another R0 beyond both uncertainties is refused with both values.

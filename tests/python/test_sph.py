@@ -82,6 +82,20 @@ def test_calibrate_compare_equals_the_apps(source_dir, tmp_path):
     assert result.report["comparison_summary"]["unchanged"]
 
 
+def test_calibrate_sphere_form_equals_the_apps(source_dir, tmp_path):
+    separation = os.path.join(source_dir, "data", "example", "separation")
+    cal, out = tmp_path / "separated.json", tmp_path / "daily.json"
+    subprocess.run([os.environ["SPH_CALIBRATE"], os.path.join(separation, "points.txt"), "-o", str(cal), "-q"],
+                   check=True)
+    daily = os.path.join(separation, "one_placement.txt")
+    subprocess.run([os.environ["SPH_CALIBRATE"], daily, "--sphere-form", str(cal), "--json", str(out), "-q"],
+                   check=True)
+    app = json.loads(out.read_text())
+    assert sph.calibrate(daily, sphere_form=cal).report == app  # a path
+    assert sph.calibrate(daily, sphere_form=[str(cal)]).report == app  # a list, one file per sphere
+    assert app["known_form"]["source"] == str(cal)
+
+
 def test_calibrate_result_views(example_points):
     r = sph.calibrate(example_points, no_trace=True)
     names = r.report["parameter_order"]

@@ -54,14 +54,20 @@ struct CalibrationWorkflowOptions {
   /// with it like with like (CompareWithEarlier()); read before the fit. The comparison informs: it
   /// does not change the calibration nor whether it is usable.
   std::string compare_path;
-  /// A calibration file holding the reference sphere's form (made from a run that separated it):
-  /// the form enters the fit as known within its covariance (FormPriorOfFile(), needs trace). The
-  /// points' R0 must be the file's within their uncertainties (CheckSameSphere()). Setups of known
-  /// orientation share it, each through its mount rotation; a setup of unknown orientation or on
-  /// another sphere keeps a form of its own. With conditions.sphere_form_rms_um (or the header's)
-  /// too, the certificate is checked against it; alone, that bound is the prior
-  /// (CertificateFormPrior(), degrees 2 to FormDegreeLimit()).
-  std::string sphere_form_path;
+  /// Calibration files each holding a sphere's form (made from a run that separated it): the form
+  /// enters the fit as known within its covariance (FormPriorOfFile(), needs trace). Each file
+  /// belongs to the sphere of the points whose radius is its R0 within their standard
+  /// uncertainties (the reference sphere's R0 and sphere_radius_u_um; another sphere's
+  /// sphere_radius_mm@<setup>, u 0); a file that matches none of them or more than one, two files
+  /// of one sphere, another sphere's form without the reference sphere's known (by a file or the
+  /// certificate) or whose setups are all of unknown orientation are refused (sph::Error with the
+  /// radii). With one sphere in the points a file's R0 must be the points' (CheckSameSphere()). A
+  /// sphere's setups of known orientation share its known form, each through its mount rotation; a
+  /// setup of unknown orientation keeps a form of its own. With conditions.sphere_form_rms_um (or
+  /// the header's) too, the certificate is checked against the reference sphere's known form;
+  /// without a file of the reference sphere, that bound is its prior (CertificateFormPrior(),
+  /// degrees 2 to FormDegreeLimit()).
+  std::vector<std::string> sphere_form_paths;
   SphereConditions conditions;     ///< the uncertainty inputs and the probe range; override the header's
   std::optional<double> coverage;  ///< coverage probability of U; empty: k = 2
   std::string program;             ///< the reports' "program"; empty: "sph_calibrate <version>"
@@ -90,9 +96,11 @@ struct CalibrationWorkflowResult {
   std::optional<CalibrationBudget> budget;  ///< none when the fit was not analysed or a refit failed
   /// The comparison with an earlier calibration, when compare_path was given.
   std::optional<CalibrationComparison> comparison;
-  /// With a known form (sphere_form_path or the certificate's bound) and a trace: how the readings
-  /// agree with it.
+  /// With a known form (sphere_form_paths or the certificate's bound) and a trace: how the readings
+  /// agree with the reference sphere's.
   std::optional<KnownFormCheck> known_form;
+  /// The same for each other sphere whose known form was given, by its first setup.
+  std::vector<KnownFormCheck> other_known_forms;
   std::vector<std::string> warnings;        ///< the readings' plausibility, the budget's absence
   Usability usability;
 

@@ -101,6 +101,12 @@ struct CalibrationOptions {
   /// are; only fits whose model has a form use it (sph/select/trace.hpp puts the form in the model
   /// from the start when it is given). Empty: none.
   FormPrior form_prior;
+  /// The form as known of another sphere of the points (sphere_radii_mm), by one setup that
+  /// measured it in a known orientation: a prior as form_prior's on the coefficients of that
+  /// sphere's set (the set FormModelOf() gives the setup), shared by its setups of known
+  /// orientation. Needs form_prior (a fit with a known form starts from the reference sphere's);
+  /// the model's terms are those of all the priors, a term a prior lacks free in its set.
+  std::map<int, FormPrior> other_form_priors;
   /// Bounds besides the physical ones, which every fit has: |alpha|, |beta|, |epsilon| below 90
   /// deg, d' above -d (the probe's zero beyond the axes' common point). A parameter that ends at a
   /// bound is reported as held there.

@@ -37,9 +37,14 @@ void CheckSameSphere(const CalibrationFile& file, const std::string& path, doubl
 /// The p-value below which the readings are said to disagree with the known form.
 inline constexpr double kKnownFormP = 0.01;
 
+/// The fraction of the prior's variance the readings must determine along a direction for the
+/// direction to count in KnownFormCheck::conflict_chi_square.
+inline constexpr double kConflictDetermined = 0.1;
+
 /// How the readings agree with the known form of a calibration (`fit`, whose model has it).
 struct KnownFormCheck {
   std::string source;           ///< the form's file, or "the certificate's bound"
+  std::vector<int> setups;      ///< another sphere's: the setups of its set; empty: the reference sphere
   int terms = 0;                ///< coefficients informed: the chi-square's degrees of freedom
   double known_rms_um = 0.0;    ///< RMS over the sphere of the form as known (the prior's mean)
   double fitted_rms_um = 0.0;   ///< RMS of the form fitted (the setups of known orientation)
@@ -57,18 +62,36 @@ struct KnownFormCheck {
   double chi_square = 0.0;
   double p_value = 1.0;
   std::optional<double> bound_rms_um;  ///< the certificate's bound (k = 1), when given
-  bool agrees = true;                  ///< p_value >= kKnownFormP and the form fits no worse than none
-  std::string verdict;                 ///< in words
-  std::vector<std::string> warnings;   ///< disagreement, a form beyond the bound
+  /// The prior against the readings, its shrinkage counted: in the prior's whitened coordinates
+  /// z = L^-1 (c - c0), the readings determine a fraction lambda_i of the prior's variance along
+  /// each eigenvector u_i of I - L^-1 C L^-T (C the fitted coefficients' covariance, at the
+  /// prior's noise), and if the form is a draw of the prior, u_i^T z has variance lambda_i. The
+  /// sum of (u_i^T z)^2 / lambda_i over the directions with lambda_i >= kConflictDetermined is then
+  /// chi-square with as many degrees of freedom; its upper tail is conflict_p_value.
+  double conflict_chi_square = 0.0;
+  int conflict_dof = 0;
+  double conflict_p_value = 1.0;
+  /// With the certificate's bound as the prior: conflict_p_value < kKnownFormP, the sphere's form
+  /// is larger than its certificate allows (the prior held it, the residual took the rest).
+  bool exceeds_bound = false;
+  bool agrees = true;   ///< p_value >= kKnownFormP, the form fits no worse than none, and not exceeds_bound
+  std::string verdict;  ///< in words
+  std::vector<std::string> warnings;  ///< disagreement, a form beyond the bound
 };
 
 /// Checks `fit` (of `points`, whose outliers it names, under `options` with its form_prior)
-/// against options.form_prior: the prior's chi-square, the seven errors fitted with the form as
-/// known and without one, and the certificate's bound `bound_rms_um` when given (on the form
-/// fitted, and on the known form's own RMS when the prior is a file's). `source` names the form in
-/// the words.
+/// against options.form_prior: the prior's chi-square and its conflict with the readings, the seven
+/// errors fitted with the form as known and without one, and the certificate's bound `bound_rms_um`
+/// when given (the prior's conflict when the bound is the prior, the form fitted, and the known
+/// form's own RMS when the prior is a file's). `source` names the form in the words.
 KnownFormCheck CheckKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
                               const std::string& source, std::optional<double> bound_rms_um, bool from_file);
+
+/// The same for the known form of another sphere, options.other_form_priors' of `setup` (from the
+/// file `source`): its set's coefficients against it; rms_with_um with that set held at its known
+/// value, rms_without_um held at zero, the other sets as fitted.
+KnownFormCheck CheckOtherKnownForm(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit,
+                                   int setup, const std::string& source);
 
 }  // namespace sph
 

@@ -42,6 +42,8 @@ struct ReportContext {
   const CalibrationComparison* comparison = nullptr;
   /// How the readings agree with the sphere's known form, when one was given. Not owned.
   const KnownFormCheck* known_form = nullptr;
+  /// The same for each other sphere whose known form was given (may be null). Not owned.
+  const std::vector<KnownFormCheck>* other_known_forms = nullptr;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,
