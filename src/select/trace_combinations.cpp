@@ -273,9 +273,17 @@ ChosenSet BestCombination(const Readings& data, const CalibrationOptions& option
     }
   }
   // A set that holds the single is left to the rounds: the single is added now, and the next round
-  // judges the others beside it with its components chosen again.
-  if (winner != nullptr && std::find(winner->members.begin(), winner->members.end(), best) != winner->members.end()) {
-    winner = nullptr;
+  // judges the others beside it with its components chosen again. So is a set about as good as a
+  // set fitted that holds the single (within ambiguity_bic): the rounds reach an explanation about
+  // as good, and the set differs from it only by effects the data cannot tell apart.
+  if (winner != nullptr) {
+    for (const std::unique_ptr<SetScore>& s : all) {
+      if (std::find(s->members.begin(), s->members.end(), best) != s->members.end() &&
+          s->delta_bic < winner->delta_bic + trace_options.ambiguity_bic) {
+        winner = nullptr;
+        break;
+      }
+    }
   }
   // It replaces the single when it scores clearly better; about equal (within ambiguity_bic either
   // way), the one with fewer components kept, then fewer effects, then the lower score.

@@ -207,8 +207,9 @@ EffectFit FullForm(const Readings& data, const CalibrationOptions& options, cons
 // sphere (`sphere`, the competitor of a design that does not separate the form), and the last
 // member passes what a later round would ask of it beside such a pattern or beside the form
 // (`form`), in some order of the members. The set that qualifies with the lowest score replaces
-// the single when it does not hold the single (one that does is left to the next rounds) and
-// scores lower by ambiguity_bic, or, within ambiguity_bic either way, keeps fewer components.
+// the single when neither it nor a set within ambiguity_bic of it holds the single (those are left
+// to the next rounds) and it scores lower by ambiguity_bic, or, within ambiguity_bic either way,
+// keeps fewer components.
 // Empty members: the single stays.
 struct ChosenSet {
   std::vector<std::size_t> members;  // indices into `tried`, in the order of the fit's terms
