@@ -292,8 +292,11 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     EffectFit with_form = SelectFormDegree(data, options, r.before.fit, trace_options, &r.form);
     if (!with_form.model.form.Empty()) current = Analysed(std::move(with_form), data, options, trace_options);
   }
-  for (int round = 1; round <= trace_options.max_effects; ++round) {
-    if (!ForwardRound(data, options, pool, round, trace_options, current, r)) break;
+  // A round that adds a set of k effects counts k among max_effects; one that holds back counts one.
+  for (int round = 1, left = trace_options.max_effects; left > 0; ++round) {
+    const std::size_t before = r.added.size();
+    if (!ForwardRound(data, options, pool, round, left, trace_options, current, r)) break;
+    left -= std::max(1, static_cast<int>(r.added.size() - before));
   }
   // The effects chosen, the form's degree is chosen again with them in the model.
   if (r.form.separable && !r.form.known && !r.added.empty()) {

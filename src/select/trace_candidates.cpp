@@ -63,14 +63,19 @@ FitResiduals ResidualsOfTraced(const Readings& data, const TracedFit& t, const J
   return {data.points, t.fit.calibration.residuals_mm, t.expected_r_mm, jacobian, t.fit.model.reference, t.directions};
 }
 
-TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions& options,
-                   const TraceOptions& trace_options) {
+TracedFit Factored(EffectFit fit, const Readings& data, const CalibrationOptions& options) {
   TracedFit t;
   t.expected_r_mm = ExpectedReadings(data.points, options, fit);
   t.directions = Directions(data.points, options, fit, t.expected_r_mm);
   t.fit = std::move(fit);
   const internal::StructureJacobian jacobian(data.table, options, t.fit, t.expected_r_mm);
   t.factor = FactorResidualStructure(ResidualsOfTraced(data, t, jacobian));
+  return t;
+}
+
+TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions& options,
+                   const TraceOptions& trace_options) {
+  TracedFit t = Factored(std::move(fit), data, options);
   t.structure = AnalyseResidualStructure(t.factor);
   t.cv_rms_um =
       CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace_options.folds, trace_options.seed);

@@ -116,6 +116,20 @@ bool ConfoundedByDesign(const Readings& data, const CalibrationOptions& options,
 }
 }  // namespace
 
+bool Rival(const Readings& data, const CalibrationOptions& options, const TracedFit& current, const Tried& tried,
+           std::size_t i, std::size_t best, const TraceOptions& trace_options, bool* close) {
+  const CandidateScore& c = tried[i].first;
+  const CandidateScore& chosen = tried[best].first;
+  if (i == best || !Admissible(c, current, trace_options)) return false;
+  // A candidate held back in an earlier round (TraceOptions::hold_confounded) may score better than
+  // the one chosen now: it is about equal only when the two are within ambiguity_bic either way.
+  const double gap = c.delta_bic - chosen.delta_bic;
+  const bool near = (c.held ? std::abs(gap) : gap) < trace_options.ambiguity_bic;
+  if (close != nullptr) *close = near;
+  return near ||
+         ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second, trace_options);
+}
+
 // The ambiguities of the effect chosen in a round: the other admissible candidates that scored
 // almost as well or that the design cannot tell from it, and the sphere's form where it explains
 // the same change of the residual.
@@ -125,13 +139,8 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
                        std::vector<Ambiguity>* ambiguous) {
   for (std::size_t i = 0; i < tried.size(); ++i) {
     const CandidateScore& c = tried[i].first;
-    if (i == best || !Admissible(c, current, trace_options)) continue;
-    // A candidate held back in an earlier round (TraceOptions::hold_confounded) may score better than
-    // the one chosen now: it is about equal only when the two are within ambiguity_bic either way.
-    const double gap = c.delta_bic - chosen.delta_bic;
-    const bool close = (c.held ? std::abs(gap) : gap) < trace_options.ambiguity_bic;
-    if (close ||
-        ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second, trace_options)) {
+    bool close = false;
+    if (Rival(data, options, current, tried, i, best, trace_options, &close)) {
       Ambiguity a{InfoOf(chosen.effect).id,           InfoOf(c.effect).id, chosen.delta_bic, c.delta_bic, 0.0,
                   SeparateBy(chosen.effect, c.effect)};
       a.by_design = !close;

@@ -527,6 +527,10 @@ json CandidatesJson(const TraceResult& r) {
                           {"sphere_fraction", c.sphere_fraction},
                           {"added", c.added},
                           {"held", c.held},
+                          {"set", c.set},
+                          {"set_delta_bic", NumberOrNull(c.set_delta_bic)},
+                          {"set_over", c.set_over},
+                          {"set_over_delta_bic", NumberOrNull(c.set_over_delta_bic)},
                           {"note", c.note}});
   }
   return candidates;

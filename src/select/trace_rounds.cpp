@@ -181,13 +181,85 @@ void RefreshComponents(const Readings& data, const CalibrationOptions& options, 
     --t;  // the term now at index t is the next one to look at
   }
 }
+
+// The eligible candidates of a round: admissible, not held back, not explained as well by the form
+// (`not_beyond_form`), and, when a pattern on the sphere explains about as much as the best, shown
+// beyond it by their own variable: those a round may add, alone or in a set.
+std::vector<std::size_t> Eligible(const Tried& tried, const TracedFit& current, bool form_better,
+                                  const std::set<Effect>& not_beyond_form, const TraceOptions& trace_options) {
+  const bool one_placement = OnePlacement(current.fit);
+  std::vector<std::size_t> eligible;
+  for (std::size_t i = 0; i < tried.size(); ++i) {
+    const CandidateScore& c = tried[i].first;
+    if (Admissible(c, current, trace_options) && !c.held && not_beyond_form.count(c.effect) == 0 &&
+        (!form_better || ShownBeyondSphere(c, current.factor, one_placement, trace_options))) {
+      eligible.push_back(i);
+    }
+  }
+  return eligible;
+}
+
+// The set BestCombination() chose, added: each member's note names the others, the set's score and
+// the round's best single effect it was chosen over; each member's ambiguities with the candidates
+// outside the set are named as a single's are (ChosenAmbiguities()); the other candidates' notes
+// say why they were not added.
+void AddSet(const Readings& data, const CalibrationOptions& options, const TraceOptions& trace_options, ChosenSet set,
+            std::size_t best, const SpherePattern& sphere, bool form_better, const std::set<Effect>& not_beyond_form,
+            Tried& tried, TracedFit& current, TraceResult& r) {
+  std::vector<std::string> ids;
+  for (const std::size_t i : set.members) ids.push_back(tried[i].first.Id());
+  std::string all;
+  for (const std::string& id : ids) all += (all.empty() ? "" : " + ") + id;
+  const CandidateScore single = tried[best].first;
+  for (const std::size_t i : set.members) {
+    CandidateScore& c = tried[i].first;
+    std::string others;
+    for (const std::string& id : ids) {
+      if (id != c.Id()) others += (others.empty() ? "" : ", ") + id;
+    }
+    c.added = true;
+    c.set = ids;
+    c.set_delta_bic = set.delta_bic;
+    c.set_over = single.Id();
+    c.set_over_delta_bic = single.delta_bic;
+    c.note += std::string(c.note.empty() ? "" : "; ") + "added together with " + others +
+              Format(": delta BIC of the set %.1f (charged for the search among sets), against %s alone %.1f",
+                     set.delta_bic, single.Id().c_str(), single.delta_bic);
+    r.added.push_back(c.effect);
+  }
+  for (const std::size_t i : set.members) {
+    std::vector<Ambiguity> found;
+    ChosenAmbiguities(data, options, current, tried, i, sphere, form_better, r.form.separable, trace_options,
+                      tried[i].first, &found);
+    for (const Ambiguity& a : found) {
+      if (std::find(ids.begin(), ids.end(), a.other) == ids.end()) r.ambiguous.push_back(a);
+    }
+  }
+  for (auto& [c, fit] : tried) {
+    if (c.added) continue;
+    if (c.held) {
+      c.note += std::string(c.note.empty() ? "" : "; ") + "held back: confounded with another effect, neither added";
+    } else if (not_beyond_form.count(c.effect) == 0) {
+      if (Admissible(c, current, trace_options)) {
+        c.note += std::string(c.note.empty() ? "" : "; ") +
+                  Format("qualifies; the set %s scored better (delta BIC %.1f)", all.c_str(), set.delta_bic);
+      } else {
+        NoteWhyNotAdded(c, false, false, nullptr, current, trace_options);
+      }
+    }
+  }
+  for (auto& [c, fit] : tried) r.candidates.push_back(c);
+  current = Analysed(std::move(set.fit), data, options, trace_options);
+  RefreshComponents(data, options, trace_options, current);
+}
 }  // namespace
 
 // One forward round: every effect of `pool` not yet in the model scored against `current`; the
-// best admissible one is added (true), or none is and the search ends (false). The round's scores
-// and ambiguities go into `r`.
+// best admissible one is added, or a set of up to `max_set` that explains the residual better
+// (BestCombination()) (true), or none is and the search ends (false). The round's scores and
+// ambiguities go into `r`.
 bool ForwardRound(const Readings& data, const CalibrationOptions& options, const std::vector<Effect>& pool, int round,
-                  const TraceOptions& trace_options, TracedFit& current, TraceResult& r) {
+                  int max_set, const TraceOptions& trace_options, TracedFit& current, TraceResult& r) {
   std::vector<Effect> todo;
   for (Effect e : pool) {
     if (current.fit.model.Find(e) < 0) todo.push_back(e);
@@ -222,6 +294,17 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   form.note = SphereCompetitorNote(sphere, form_better, form_wins);
   if (r.form.separable && best >= 0 && r.form.degree_limit > r.form.degree_max) {
     best = BestBesideForm(data, options, current, trace_options, tried, r, &not_beyond_form);
+  }
+  if (best >= 0 && !form_wins && max_set > 1) {
+    ChosenSet set = BestCombination(data, options, current, tried, static_cast<std::size_t>(best),
+                                    Eligible(tried, current, form_better, not_beyond_form, trace_options), r.form,
+                                    sphere, max_set, trace_options);
+    if (!set.members.empty()) {
+      AddSet(data, options, trace_options, std::move(set), static_cast<std::size_t>(best), sphere, form_better,
+             not_beyond_form, tried, current, r);
+      if (!r.form.separable) r.candidates.push_back(form);
+      return true;
+    }
   }
   const CandidateScore* chosen = nullptr;
   bool hold = false;  // the chosen one cannot be told from another effect, and neither is added

@@ -1,7 +1,7 @@
 // Private to the selection: the steps of TraceResidual() and FitFixedEffects() (trace.cpp), a
-// file each: the candidates (trace_candidates.cpp), the sphere's form (trace_form.cpp), the transfer
-// test (trace_transfer.cpp), ambiguities and hold-back (trace_hold_back.cpp), the rounds
-// (trace_rounds.cpp); the reports are trace_report.cpp.
+// file each: the candidates (trace_candidates.cpp), sets of them (trace_combinations.cpp), the
+// sphere's form (trace_form.cpp), the transfer test (trace_transfer.cpp), ambiguities and hold-back
+// (trace_hold_back.cpp), the rounds (trace_rounds.cpp); the reports are trace_report.cpp.
 #ifndef SPH_SRC_SELECT_TRACE_STEPS_HPP_
 #define SPH_SRC_SELECT_TRACE_STEPS_HPP_
 
@@ -68,6 +68,10 @@ void CheckFoldsCanFit(const PointsData& points, int folds, int n_params, const s
 
 // What the residual analyses need of a traced fit.
 FitResiduals ResidualsOfTraced(const Readings& data, const TracedFit& t, const JacobianBlocks& jacobian);
+
+// `fit` with its expected readings, directions and residual's factor (TracedFit::factor) only:
+// what the checks against a pattern on the sphere need, without the cross-validation.
+TracedFit Factored(EffectFit fit, const Readings& data, const CalibrationOptions& options);
 
 // `fit` with what the trace judges it by: its residual's structure, its cross-validated RMS and its
 // prediction of each setup from the others.
@@ -172,6 +176,11 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
 // more setups, not Untransferred().
 bool Admissible(const CandidateScore& c, const TracedFit& current, const TraceOptions& trace_options);
 
+// Whether candidate i of `tried` is a rival of the round's best, `best`: admissible, and within
+// ambiguity_bic of it or confounded with it by the design (ConfoundedByDesign()).
+bool Rival(const Readings& data, const CalibrationOptions& options, const TracedFit& current, const Tried& tried,
+           std::size_t i, std::size_t best, const TraceOptions& trace_options, bool* close = nullptr);
+
 // The ambiguities of the effect chosen in a round: the other admissible candidates that scored
 // almost as well or that the design cannot tell from it, and the sphere's form where it explains
 // the same change of the residual.
@@ -199,6 +208,32 @@ void HigherDegrees(const Readings& data, const CalibrationOptions& options, cons
 EffectFit FullForm(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
                    const FormSelection& sel);
 
+// The set of two or more candidates a round adds instead of its best single one (the search over
+// combinations, trace_combinations.cpp): tried when the best, tried[best], has rivals (Rival()).
+// Sets of the round's eligible candidates (`eligible`, indices into `tried`) are fitted, a pair
+// from each rival and the best, then a beam of the best sets grown by one, up to `max_size`
+// members. A set is scored by the extended BIC charged for the search among sets (each term's
+// SearchPenalty() and SubsetSearchPenalty(P, k) - SubsetSearchPenalty(P, 1), P the candidates
+// scored), and qualifies when every member is needed (the set lower than each of its subsets by
+// min_delta_bic), it is Admissible() with a cross-validated RMS below its subsets' too, and
+// the others, added first, could each be a round's choice beside the round's pattern on the
+// sphere (`sphere`, the competitor of a design that does not separate the form), and the last
+// member passes what a later round would ask of it beside such a pattern or beside the form
+// (`form`), in some order of the members. The set that qualifies with the lowest score replaces
+// the single when neither it nor a set within ambiguity_bic of it holds the single (those are left
+// to the next rounds) and it scores lower by ambiguity_bic, or, within ambiguity_bic either way,
+// keeps fewer components.
+// Empty members: the single stays.
+struct ChosenSet {
+  std::vector<std::size_t> members;  // indices into `tried`, in the order of the fit's terms
+  EffectFit fit;
+  double delta_bic = std::numeric_limits<double>::quiet_NaN();
+};
+ChosenSet BestCombination(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                          const Tried& tried, std::size_t best, const std::vector<std::size_t>& eligible,
+                          const FormSelection& form, const SpherePattern& sphere, int max_size,
+                          const TraceOptions& trace_options);
+
 // Whether effect e was held back in this trace (TraceOptions::hold_confounded).
 bool IsHeld(const TraceResult& r, Effect e);
 
@@ -210,10 +245,11 @@ bool IsHeld(const TraceResult& r, Effect e);
 bool HoldConfounded(std::size_t first_new, CandidateScore& c, TraceResult& r);
 
 // One forward round: every effect of `pool` not yet in the model scored against `current`; the
-// best admissible one is added (true), or none is and the search ends (false). The round's scores
-// and ambiguities go into `r`.
+// best admissible one is added, or a set of up to `max_set` that explains the residual better
+// (BestCombination()) (true), or none is and the search ends (false). The round's scores and
+// ambiguities go into `r`.
 bool ForwardRound(const Readings& data, const CalibrationOptions& options, const std::vector<Effect>& pool, int round,
-                  const TraceOptions& trace_options, TracedFit& current, TraceResult& r);
+                  int max_set, const TraceOptions& trace_options, TracedFit& current, TraceResult& r);
 
 // Backward: an effect that the final model no longer needs (the BIC without it is less than
 // min_delta_bic higher) is removed, the least needed first, and the rest refitted.

@@ -275,16 +275,15 @@ TEST(TraceResidual, SaysWhenAnEncoderErrorAndASpindleMotionCannotBeTold) {
   EXPECT_LT(r.after.fit.calibration.rms_um, NoiseRmsUm()) << Describe(r);
 }
 
-// One placement, a Phi encoder error once per turn (10 arcsec) and a probe drift of 1 um: the Phi
-// encoder error and the radial motion of the Phi axis cannot be told apart, and the check on the
-// design finds that no placement tried (5 and 15 mm higher included) separates them. The advice
-// then names no placement: it agrees with its own check.
+// One placement, a Phi encoder error once per turn with both phases (c1 10, s1 5 arcsec): the
+// Phi encoder error and the radial motion of the Phi axis cannot be told apart (one of them is
+// added, the other named, and no set of the two qualifies), and the check on the design finds
+// that no placement tried (5 and 15 mm higher included) separates their terms as fitted. The
+// advice then names no placement: it agrees with its own check.
 TEST(TraceResidual, AdvisesNoPlacementItsCheckFoundNotToSeparateThePair) {
-  SimulationSpec spec;
-  spec.seed = 1;
-  spec.effects.model.terms = {{Effect::kPhiEncoder, {{1, 0, false}}}, {Effect::kProbeDrift, {{1, 0, false}}}};
-  spec.effects.values = {{10 * kRadPerArcsec}, {1.0 * kMmPerUm}};
-  const TraceResult r = Trace(Simulate(spec));
+  const TraceResult r =
+      Trace(WithEffect(Effect::kPhiEncoder, {{1, 0, false}, {1, 0, true}}, {10 * kRadPerArcsec, 5 * kRadPerArcsec}));
+  ASSERT_EQ(r.added.size(), 1u) << Describe(r);
   int checked_none = 0;
   for (const Ambiguity& a : r.ambiguous) {
     if (a.checked.find("none of these tells them apart") == std::string::npos) continue;
@@ -302,6 +301,37 @@ TEST(TraceResidual, AdvisesNoPlacementItsCheckFoundNotToSeparateThePair) {
   EXPECT_NE(phi->checked.find("none of these tells them apart"), std::string::npos) << phi->checked;
   EXPECT_NE(phi->separate_by.find("no single further placement"), std::string::npos) << phi->separate_by;
   EXPECT_GE(checked_none, 1);
+}
+
+// One placement, a Phi encoder error once per turn (10 arcsec) and a probe drift of 1 um, sigma_r
+// 0.03 um: a radial motion of the Phi axis imitates part of each and scores best alone, after which
+// neither of the two qualifies. Fitted together, the two explain the residual better than it by
+// more than the charge for the search among sets, each passes beside the other what a round asks
+// beside a pattern on the sphere, and the trace adds them as a set, naming the single it beat.
+TEST(TraceResidual, AddsAPairThatASingleConfoundedEffectBeats) {
+  SimulationSpec spec;
+  spec.seed = 1;
+  spec.noise_r_um = 0.03;
+  spec.effects.model.terms = {{Effect::kPhiEncoder, {{1, 0, false}}}, {Effect::kProbeDrift, {{1, 0, false}}}};
+  spec.effects.values = {{10 * kRadPerArcsec}, {1.0 * kMmPerUm}};
+  const TraceResult r = Trace(Simulate(spec));
+  std::vector<Effect> added = r.added;
+  std::sort(added.begin(), added.end());
+  std::vector<Effect> expected{Effect::kPhiEncoder, Effect::kProbeDrift};
+  std::sort(expected.begin(), expected.end());
+  ASSERT_EQ(added, expected) << Describe(r);
+  int in_set = 0;
+  for (const CandidateScore& c : r.candidates) {
+    if (!c.added) continue;
+    ++in_set;
+    EXPECT_EQ(c.set.size(), 2u) << c.note;
+    EXPECT_EQ(c.set_over, "phi_radial_motion") << c.note;
+    EXPECT_LE(c.set_delta_bic, c.set_over_delta_bic - TraceOptions{}.ambiguity_bic) << c.note;
+    EXPECT_NE(c.note.find("added together with"), std::string::npos) << c.note;
+    EXPECT_NE(c.note.find("against phi_radial_motion alone"), std::string::npos) << c.note;
+  }
+  EXPECT_EQ(in_set, 2) << Describe(r);
+  EXPECT_TRUE(r.unexplained.empty()) << Describe(r);
 }
 
 // Told not to pick one of two effects the data cannot tell apart, the trace adds neither: the

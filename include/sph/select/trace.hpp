@@ -103,6 +103,13 @@ struct CandidateScore {
   bool held = false;
   double sphere_fraction = 0.0;  ///< of the added effect's signal (SpherePatternFraction); 0 when not added
   std::string note;              ///< why it was not added, or what was left out
+  /// Added in a set of effects chosen together (the search over combinations): the set's ids, its
+  /// extended BIC (charged for the search among sets), and the round's best single candidate it
+  /// was chosen over with that one's; empty and NaN when added alone or not added.
+  std::vector<std::string> set;
+  double set_delta_bic = std::numeric_limits<double>::quiet_NaN();
+  std::string set_over;
+  double set_over_delta_bic = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Two explanations of the residual that the data cannot tell apart: an effect added and another
