@@ -204,7 +204,9 @@ sph::SimulationSpec Design(const Case& c, bool form, Setups setups, double noise
 // orientation and remounted in one the file calls unknown (KnownAndUnknown(): a drift in time
 // takes what differs between the two setups' forms), and the same with a true drift of 0.4 um,
 // beside the encoder error and alone; a probe incidence error (i1 = 30 um) with the sphere at
-// (2, 0, 0) and (0, 1, 0) mm (a gain and a nonlinearity imitate it).
+// (2, 0, 0) and (0, 1, 0) mm (a gain imitates it: with one radius both leave a term in sin^2 psi),
+// and the same beside a second sphere, of radius 10 mm, at (2, 0, 0) mm (gain as 1/R, incidence as
+// 1/R^2: told apart).
 struct ConfoundedCell {
   std::string name;
   std::vector<Effect> effects;  // simulated, with their Library() sizes but for the drift's
@@ -227,6 +229,12 @@ std::vector<ConfoundedCell> ConfoundedCells() {
        {Effect::kProbeIncidence},
        [](sph::SimulationSpec& spec) {
          spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 1, 0)};
+       }},
+      {"probe_incidence, two placements + sphere 10mm",
+       {Effect::kProbeIncidence},
+       [](sph::SimulationSpec& spec) {
+         spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(2, 0, 0)};
+         spec.sphere_radii_mm = {{2, 10.0}};
        }},
   };
 }
@@ -252,6 +260,24 @@ struct Tally {
   int flagged = 0;  // runs with a wrong effect, each of which the trace named as ambiguous with a simulated one
   std::vector<double> form_ratio, cv_over_sigma;
 };
+
+// Whether the trace `r` added a wrong effect and the report names each wrong effect it added, with
+// a simulated one, as an explanation it cannot tell apart (ambiguous).
+bool Flagged(const sph::TraceResult& r, const std::set<Effect>& expected) {
+  const auto is_wrong = [&](Effect e) { return expected.count(e) == 0; };
+  const auto named = [&](Effect e) {
+    return std::any_of(r.ambiguous.begin(), r.ambiguous.end(), [&](const sph::Ambiguity& a) {
+      const std::string id = sph::InfoOf(e).id;
+      for (const Effect x : expected) {
+        const std::string truth = sph::InfoOf(x).id;
+        if ((a.chosen == id && a.other == truth) || (a.chosen == truth && a.other == id)) return true;
+      }
+      return false;
+    });
+  };
+  return std::any_of(r.added.begin(), r.added.end(), is_wrong) &&
+         std::all_of(r.added.begin(), r.added.end(), [&](Effect e) { return !is_wrong(e) || named(e); });
+}
 
 // The cells asked for on the command line.
 struct Filter {
@@ -306,7 +332,7 @@ Filter FilterOf(int argc, char** argv) {
 // the effects added, per cell.
 int RunConfoundedCells(int runs, const Filter& filter, const sph::CalibrationOptions& o,
                        const sph::TraceOptions& trace) {
-  std::printf("%-46s %5s %5s %6s %6s %8s  %s\n", "cell", "sigma", "runs", "right", "wrong", "cv/sig",
+  std::printf("%-46s %5s %5s %6s %6s %7s %8s  %s\n", "cell", "sigma", "runs", "right", "wrong", "flagged", "cv/sig",
               "effects added (count)");
   for (const ConfoundedCell& cell : ConfoundedCells()) {
     for (const double noise : {0.03, 0.05}) {
@@ -319,19 +345,28 @@ int RunConfoundedCells(int runs, const Filter& filter, const sph::CalibrationOpt
             Design({"cell", cell.effects}, false, Setups::kOne, noise, static_cast<std::uint64_t>(seed));
         cell.design(spec);
         const sph::PointsData points = sph::Simulate(spec);
-        const sph::TraceResult r = sph::TraceResidual(points, o, sph::Calibrate(points, o), trace);
+        sph::CalibrationOptions with_radii = o;
+        with_radii.sphere_radii_mm = points.header.sphere_radii_mm;
+        const sph::TraceResult r = sph::TraceResidual(points, with_radii, sph::Calibrate(points, with_radii), trace);
         const std::set<Effect> added(r.added.begin(), r.added.end());
         ++t.runs;
         t.right += added == expected;
         t.wrong += std::any_of(added.begin(), added.end(), [&](Effect e) { return expected.count(e) == 0; });
+        t.flagged += Flagged(r, expected);
         for (const Effect e : added) counts[sph::InfoOf(e).id]++;
         t.cv_over_sigma.push_back(r.after.cv_rms_um / noise);
-        if (filter.verbose) std::printf("  seed %d: added %s\n", seed, Name(r.added).c_str());
+        if (filter.verbose) {
+          std::printf("  seed %d: added %s\n", seed, Name(r.added).c_str());
+          for (const sph::Ambiguity& a : r.ambiguous) {
+            std::printf("    ambiguous: %s / %s; separate by: %s; checked: %s\n", a.chosen.c_str(), a.other.c_str(),
+                        a.separate_by.c_str(), a.checked.c_str());
+          }
+        }
       }
       std::string list;
       for (const auto& [id, k] : counts) list += id + " " + std::to_string(k) + "  ";
-      std::printf("%-46s %5.2f %5d %6d %6d %8.3f  %s\n", cell.name.c_str(), noise, t.runs, t.right, t.wrong,
-                  Median(t.cv_over_sigma), list.c_str());
+      std::printf("%-46s %5.2f %5d %6d %6d %7d %8.3f  %s\n", cell.name.c_str(), noise, t.runs, t.right, t.wrong,
+                  t.flagged, Median(t.cv_over_sigma), list.c_str());
       std::fflush(stdout);
     }
   }
@@ -383,19 +418,7 @@ int main(int argc, char** argv) {
             t.right += added == expected;
             const auto is_wrong = [&](Effect e) { return expected.count(e) == 0; };
             t.wrong += std::any_of(added.begin(), added.end(), is_wrong);
-            // A wrong effect the report names, with a simulated one, as an explanation it cannot tell apart.
-            const auto flagged = [&](Effect e) {
-              return std::any_of(r.ambiguous.begin(), r.ambiguous.end(), [&](const sph::Ambiguity& a) {
-                const std::string id = sph::InfoOf(e).id;
-                for (const Effect x : expected) {
-                  const std::string truth = sph::InfoOf(x).id;
-                  if ((a.chosen == id && a.other == truth) || (a.chosen == truth && a.other == id)) return true;
-                }
-                return false;
-              });
-            };
-            t.flagged += std::any_of(added.begin(), added.end(), is_wrong) &&
-                         std::all_of(added.begin(), added.end(), [&](Effect e) { return !is_wrong(e) || flagged(e); });
+            t.flagged += Flagged(r, expected);
             for (const Effect e : added) counts[sph::InfoOf(e).id]++;
             if (filter.verbose) {
               std::printf("  seed %d: added %s; cv/sigma %.3f\n", seed, Name(r.added).c_str(),

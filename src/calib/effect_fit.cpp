@@ -32,7 +32,7 @@ EffectFitStart EffectFitStart::From(const EffectFit& fit) {
 double EffectFit::Bic() const {
   const double m = static_cast<double>(calibration.residuals_mm.size());
   // Residuals of exact data can be zero: no fit is better than rounding (1e-12 mm).
-  return m * std::log(std::max(rss_mm2 / m, 1e-24)) + n_params * std::log(m);
+  return m * std::log(std::max(rss_mm2 / m, 1e-24)) - 2.0 * log_reading_slope + n_params * std::log(m);
 }
 
 int EffectFit::TermOffset(std::size_t term) const {
@@ -126,6 +126,7 @@ EffectFit FitEffectsRows(const PointsData& points, const ReadingTable& table, co
     if (left_out != nullptr && (*left_out)[i]) continue;
     result.residuals_mm.push_back(all[i]);
     fit.rss_mm2 += all[i] * all[i];
+    fit.log_reading_slope += std::log(std::max(std::abs(ReadingSlope(model, fit.values, table.r_mm[i])), 1e-12));
   }
   SetResidualStatistics(result);
   NoteWeightedReadings(points, solved, all, result);

@@ -219,6 +219,34 @@ double Reading(const SimulatedEffects& e, double theta_deg, double phi_deg, cons
   return r.value_or(0.0);
 }
 
+// The incidence of the beam, worked by hand: at theta = 0, phi = 90 deg the ideal machine's beam
+// runs along the x axis through the axes' common point, so for a sphere of radius R centred at O
+// sin psi = |e_x x O| / R (the beam's distance from the centre over the radius): 0 with the centre
+// on the beam, (2 / 20)^2 and (4 / 20)^2 off it; the probe then reads i1 sin^2 psi short of the
+// distance (TrueProbeDistance(), ProbeReadingOfDistance()).
+TEST(TrueProbeDistance, GivesTheSineOfTheBeamsIncidenceOnTheSurfaceAndTheProbeReadsItsError) {
+  const double i1 = 30 * kMmPerUm;
+  SimulatedEffects e;
+  e.model.terms = {{Effect::kProbeIncidence, {{1, 0, false}}}};
+  e.values = {{i1}};
+  e.model.reference.r_ref_mm = 5.0;
+  e.model.reference.r_half_range_mm = 5.0;
+  for (const auto& [center, sin2] : {std::pair{Eigen::Vector3d(3, 0, 0), 0.0}, std::pair{Eigen::Vector3d(0, 2, 0), 0.01},
+                                     std::pair{Eigen::Vector3d(0, 0, 4), 0.04}}) {
+    double got = -1.0;
+    const auto r = TrueProbeDistance(ScmsGeometry{}, e, 0.0, kPi / 2, 25.0, center, 20.0, Eigen::Matrix3d::Identity(),
+                                     &got);
+    ASSERT_TRUE(r.has_value());
+    // The hit lies at x = O_x + sqrt(R^2 - |O_yz|^2) from the axes' point, 25 mm from the probe's zero.
+    const double hit_x = center.x() + std::sqrt(400.0 - center.y() * center.y() - center.z() * center.z());
+    EXPECT_NEAR(*r, 25.0 - hit_x, 1e-12) << center.transpose();
+    EXPECT_NEAR(got, sin2, 1e-15) << center.transpose();
+    const auto reading = ProbeReadingOfDistance(e, *r, 0.0, got);
+    ASSERT_TRUE(reading.has_value());
+    EXPECT_NEAR(*reading, *r - i1 * sin2, 1e-14) << center.transpose();
+  }
+}
+
 TEST(FormHarmonic, EqualsTheHandFormulas) {
   const std::vector<std::pair<int, int>> lm{{1, -1}, {2, 0}, {2, 1}, {2, -1}, {2, 2},
                                             {2, -2}, {3, 0}, {3, 1}, {3, -3}, {4, 0}};

@@ -52,8 +52,14 @@ struct EffectFit {
   std::vector<std::vector<double>> form_values;
   double rss_mm2 = 0.0;  ///< sum of squared residuals
   int n_params = 0;      ///< fitted parameters in all
+  /// sum over the fitted readings of ln |d r_true / d r_read| (ReadingSlope()): a probe's gain or
+  /// nonlinearity stretches the readings' noise by that slope along with the readings.
+  double log_reading_slope = 0.0;
 
-  /// Bayesian information criterion m ln(RSS / m) + n ln(m) of the fit (Gaussian residuals).
+  /// Bayesian information criterion of the fit, with the readings' Gaussian noise as its
+  /// likelihood: m ln(RSS / m) - 2 log_reading_slope + n ln(m). The residuals are those of the
+  /// corrected readings, whose noise a gain of slope 1 + k scales by 1 + k: without the slope's
+  /// term a gain with k < 0 would lower the BIC by 2 m |ln(1 + k)| for shrinking the noise alone.
   double Bic() const;
   /// Index of the first parameter of term `term` in the analysis' parameter list.
   int TermOffset(std::size_t term) const;

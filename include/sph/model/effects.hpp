@@ -119,6 +119,25 @@ inline std::vector<double> EffectBasisOf(const EffectModel& model, const EffectR
   return out;
 }
 
+/// d r_true / d r_read at the reading r_mm: how the probe's gain and nonlinearity (terms of u =
+/// (r - r_ref) / r_half) stretch a change of the reading, its noise included; values: one block per
+/// term of `model`. probe_incidence's change with the reading, through the point where its angle
+/// is taken, is of order i (e / R0)^2 / R0 (3e-5 for i1 = 30 um, e = 2 mm, R0 = 20 mm) and left out.
+inline double ReadingSlope(const EffectModel& model, const std::vector<std::vector<double>>& values, double r_mm) {
+  const EffectReference& ref = model.reference;
+  const double u = (r_mm - ref.r_ref_mm) / ref.r_half_range_mm;
+  double slope = 1.0;
+  for (std::size_t t = 0; t < model.terms.size() && t < values.size(); ++t) {
+    const EffectTerm& term = model.terms[t];
+    if (term.effect != Effect::kProbeGain && term.effect != Effect::kProbeNonlinearity) continue;
+    for (std::size_t i = 0; i < term.components.size(); ++i) {
+      const int k = term.components[i].order;
+      slope += values[t][i] * k * std::pow(u, k - 1) / ref.r_half_range_mm;
+    }
+  }
+  return slope;
+}
+
 namespace internal {
 
 /// sum_i p[i] * basis[i] over the components of `term` on `axis`; basis: the term's values of
