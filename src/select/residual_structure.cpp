@@ -442,11 +442,16 @@ double SubsetSearchPenalty(int searched, int kept) {
 }
 
 SpherePattern BestSpherePattern(const StructureFactor& factor) {
+  const Group& group = Groups()[kSphereGroup];
+  return BestPatternAmong(factor, factor.jacobian_cols + group.first, group.count, group.names);
+}
+
+SpherePattern BestPatternAmong(const StructureFactor& factor, Eigen::Index first, Eigen::Index count,
+                               const std::vector<std::string>& names_of) {
   const auto m = factor.rows;
-  const Eigen::Index n = factor.jacobian_cols;
-  const Eigen::VectorXd e = factor.r.col(n + kFunctions);
+  const Eigen::VectorXd e = factor.r.col(factor.r.cols() - 1);
   const Eigen::MatrixXd q = ColumnSpace(factor);
-  const Basis sphere = GroupBasis(factor, Groups()[kSphereGroup], 0);
+  const Basis sphere{"sphere", "", factor.r.middleCols(first, count), names_of, Norms(factor, first, count)};
   // Unit remainders of the functions off col(J), as in Regress().
   std::vector<Eigen::VectorXd> rest;
   std::vector<std::string> names;

@@ -162,25 +162,34 @@ bool ShownBeyondSphere(const CandidateScore& c, const StructureFactor& factor, b
 
 namespace {
 
-// The linearised BIC of a fit's residual against the columns of its Jacobian, beside which a
-// pattern fixed on the sphere, spherical harmonics of degree 2..kSpherePatternDegree of the
+// Whether a setup's form is its own (a setup of unknown orientation, or on another sphere).
+bool SomeSetupHasItsOwnForm(const PointsData& points) {
+  const std::vector<int> ids = points.SetupIds();
+  return std::any_of(ids.begin(), ids.end(), [&](int id) { return !points.header.FormKey(id).empty(); });
+}
+
+// The factor R of [J | patterns | tau^powers | e] for a fit's residual e: J its Jacobian, the
+// patterns fixed on the sphere spherical harmonics of degree 2..kSpherePatternDegree of the
 // direction on the sphere's body, one set for each set of form of the setups (FormModelOf(): the
 // setups of known orientation share one, each setup of unknown orientation and each other sphere
-// has its own), and then powers of tau.
-struct EachSetupsPattern {
-  double delta_bic = 0.0;         // of the patterns against the Jacobian alone
-  double explained_rms_um = 0.0;  // what the patterns explain
-  double time_delta_bic = 0.0;    // of the powers of tau beside the Jacobian and the patterns
-};
-
-EachSetupsPattern BeyondEachSetupsPattern(const Readings& data, const CalibrationOptions& options,
-                                          const TracedFit& current, const std::vector<int>& powers) {
+// has its own), named in *names ("S(l,m)" and "S(l,m)@<setup>" as the form's parameters are).
+StructureFactor EachSetupsFactor(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                                 const std::vector<int>& powers, std::vector<std::string>* names) {
   const FormModel sets = FormModelOf(data.points, {});
   SchmidtHarmonics harmonics(2, kSpherePatternDegree);
   const Eigen::Index per_set = harmonics.size();
   const StructureJacobian jacobian(data.table, options, current.fit, current.expected_r_mm);
   const Eigen::Index n = jacobian.Cols(), first_time = n + sets.NumGroups() * per_set;
   const Eigen::Index cols = first_time + static_cast<Eigen::Index>(powers.size()) + 1;  // [J | patterns | tau^k | e]
+  names->clear();
+  for (int g = 0; g < sets.NumGroups(); ++g) {
+    for (int l = 2; l <= kSpherePatternDegree; ++l) {
+      for (int m = -l; m <= l; ++m) {
+        names->push_back("S(" + std::to_string(l) + "," + std::to_string(m) + ")" +
+                         sets.group_names[static_cast<std::size_t>(g)]);
+      }
+    }
+  }
   RowQr qr(cols);
   Eigen::VectorXd norms2 = Eigen::VectorXd::Zero(cols);
   const EffectReference& ref = current.fit.model.reference;
@@ -203,14 +212,36 @@ EachSetupsPattern BeyondEachSetupsPattern(const Readings& data, const Calibratio
     }
     qr.AddRows(block.data(), cols, count);
   });
+  StructureFactor f;
+  f.r = qr.r();
+  f.rows = static_cast<Eigen::Index>(data.points.samples.size());
+  f.jacobian_cols = n;
+  f.norms = norms2.cwiseSqrt();
+  return f;
+}
+
+// The linearised BIC of a fit's residual against the columns of its Jacobian, beside which the
+// patterns of EachSetupsFactor(), and then powers of tau.
+struct EachSetupsPattern {
+  double delta_bic = 0.0;         // of the patterns against the Jacobian alone
+  double explained_rms_um = 0.0;  // what the patterns explain
+  double time_delta_bic = 0.0;    // of the powers of tau beside the Jacobian and the patterns
+};
+
+EachSetupsPattern BeyondEachSetupsPattern(const Readings& data, const CalibrationOptions& options,
+                                          const TracedFit& current, const std::vector<int>& powers) {
+  std::vector<std::string> names;
+  const StructureFactor f = EachSetupsFactor(data, options, current, powers, &names);
+  const Eigen::Index n = f.jacobian_cols, cols = f.r.cols();
+  const Eigen::Index first_time = n + static_cast<Eigen::Index>(names.size());
   // With A = Q R, |A_S x - e| = |R_S x - r_e| for the first columns S: the fits come from R alone,
   // the columns equilibrated so that the rank does not depend on their units.
-  const Eigen::MatrixXd& r = qr.r();
+  const Eigen::MatrixXd& r = f.r;
   const Eigen::VectorXd e = r.col(cols - 1);
   const auto rss = [&](Eigen::Index first, Eigen::Index* rank) {
     Eigen::MatrixXd a = r.leftCols(first);
     for (Eigen::Index j = 0; j < first; ++j) {
-      if (norms2(j) > 0.0) a.col(j) /= std::sqrt(norms2(j));
+      if (f.norms(j) > 0.0) a.col(j) /= f.norms(j);
     }
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> fit(a);
     fit.setThreshold(1e-10);
@@ -228,14 +259,18 @@ EachSetupsPattern BeyondEachSetupsPattern(const Readings& data, const Calibratio
 }
 }  // namespace
 
+SpherePattern CompetingSpherePattern(const Readings& data, const CalibrationOptions& options,
+                                     const TracedFit& current) {
+  if (!SomeSetupHasItsOwnForm(data.points)) return BestSpherePattern(current.factor);
+  std::vector<std::string> names;
+  const StructureFactor f = EachSetupsFactor(data, options, current, {}, &names);
+  return BestPatternAmong(f, f.jacobian_cols, static_cast<Eigen::Index>(names.size()), names);
+}
+
 void NotBeyondEachSetupsPattern(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
                                 const TraceOptions& trace_options, Tried& tried, TraceResult& r,
                                 std::set<Effect>* refused) {
-  const std::vector<int> ids = data.points.SetupIds();
-  if (r.form.separable ||
-      std::none_of(ids.begin(), ids.end(), [&](int id) { return !data.points.header.FormKey(id).empty(); })) {
-    return;
-  }
+  if (r.form.separable || !SomeSetupHasItsOwnForm(data.points)) return;
   const double cur_rms = current.fit.calibration.rms_um;
   for (auto& [c, fit] : tried) {
     if (InfoOf(c.effect).variable != std::string("t") || c.held || !Admissible(c, current, trace_options)) continue;

@@ -275,7 +275,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   // With a design that separates the form, it is in the model and no competitor. When the
   // competitor explains the residual better than the best effect, or about as well, no effect is
   // added.
-  const SpherePattern sphere = r.form.separable ? SpherePattern{} : BestSpherePattern(current.factor);
+  const SpherePattern sphere = r.form.separable ? SpherePattern{} : CompetingSpherePattern(data, options, current);
   CandidateScore form = SphereCompetitor(sphere, current, round);
   // Within ambiguity_bic of the best effect the pattern counts as better: two explanations about
   // equal, and a machine effect is the claim that must be shown.

@@ -117,6 +117,15 @@ bool OnePlacement(const EffectFit& fit);
 bool ShownBeyondSphere(const CandidateScore& c, const StructureFactor& factor, bool one_placement,
                        const TraceOptions& trace_options);
 
+// The pattern fixed on the sphere that competes with the effects in a design that does not
+// separate the form: BestSpherePattern() of the current residual, or, with setups whose form is
+// their own (unknown orientation, another sphere), the same choice among the harmonics of
+// degree 2..kSpherePatternDegree of each set of form that NotBeyondEachSetupsPattern() takes.
+// Each setup's form is then its own pattern: one common to them leaves what differs between
+// their forms to an effect of the machine.
+SpherePattern CompetingSpherePattern(const Readings& data, const CalibrationOptions& options,
+                                     const TracedFit& current);
+
 // With setups whose form is their own (unknown orientation, another sphere) in a design that does
 // not separate the form: the admissible candidates of the time in `tried` whose functions, the
 // powers of tau of their components, do not lower the linearised BIC by min_delta_bic beside a

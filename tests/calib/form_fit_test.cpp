@@ -479,6 +479,17 @@ bool FoundOrNamedThePhiEncoder(const TraceResult& r) {
   });
 }
 
+// Whether the trace found the Phi encoder error, named it with a Phi effect added, or, nothing
+// added, named a Phi effect (the encoder, or the radial motion that scores about as well) beside
+// the pattern fixed on each setup's sphere: with a form of its own the unknown setup's pattern
+// holds any function of its directions, the encoder error's among them, two explanations this
+// design does not tell apart.
+bool FoundOrNamedThePhiEncoderOrThePattern(const TraceResult& r) {
+  return FoundOrNamedThePhiEncoder(r) || std::any_of(r.ambiguous.begin(), r.ambiguous.end(), [](const Ambiguity& a) {
+           return a.chosen == "sphere_form" && (a.other == "phi_encoder" || a.other == "phi_radial_motion");
+         });
+}
+
 // The design of KnownAndUnknown(): the setup of unknown orientation has a form of its own, which
 // no pattern fixed on the sphere common to both setups explains, and within each setup the time
 // of a reading is a function of its direction (a scan order), another one in each. A drift in
@@ -487,26 +498,23 @@ bool FoundOrNamedThePhiEncoder(const TraceResult& r) {
 // named with it). The transfer test did not judge it there: with the drift the unknown setup alone
 // leaves the model loose, so the known one was not predicted. A drift must show beyond a pattern
 // fixed on the sphere in each setup (its delta BIC there is +4.0, +4.0, +4.4): none is added,
-// and the one refused says why and is reported with that pattern as two explanations.
+// and one refused says why and is reported with that pattern as two explanations. Since that
+// pattern also competes with the machine's effects, it explains more than the encoder error in
+// the first round of these seeds (extended delta BIC -333 against -147 in seed 2): the encoder is
+// named beside it (seed 3: the Phi radial motion, 5 lower than the encoder), nothing is added, and
+// a drift judged beside the encoder is not reached.
 TEST(TraceWithForm, AddsNoDriftForTheFormOfASetupOfUnknownOrientation) {
   for (const std::uint64_t seed : {2, 3, 4}) {
     const PointsData points = Simulate(KnownAndUnknown(seed));
     const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
     ASSERT_FALSE(r.form.separable) << r.form.design;
     EXPECT_EQ(std::count(r.added.begin(), r.added.end(), Effect::kProbeDrift), 0) << "seed " << seed;
-    EXPECT_TRUE(FoundOrNamedThePhiEncoder(r)) << "seed " << seed;
-    EXPECT_TRUE(std::any_of(r.candidates.begin(), r.candidates.end(),
-                            [](const CandidateScore& c) {
-                              return c.effect == Effect::kProbeDrift && !c.sphere_form &&
-                                     c.note.find("no more than a pattern fixed on the sphere would") !=
-                                         std::string::npos;
-                            }))
-        << "seed " << seed;
-    EXPECT_TRUE(std::any_of(r.ambiguous.begin(), r.ambiguous.end(),
-                            [](const Ambiguity& a) {
-                              return a.chosen == "sphere_form" && a.other == "probe_drift" && a.other_rms_um > 0.0;
-                            }))
-        << "seed " << seed;
+    EXPECT_TRUE(FoundOrNamedThePhiEncoderOrThePattern(r)) << "seed " << seed;
+    for (const CandidateScore& c : r.candidates) {
+      if (c.effect != Effect::kProbeDrift || c.sphere_form || c.note.find("qualifies") == std::string::npos) continue;
+      EXPECT_NE(c.note.find("no more than a pattern fixed on the sphere would"), std::string::npos)
+          << "seed " << seed << ": " << c.note;
+    }
   }
 }
 
@@ -524,6 +532,49 @@ TEST(TraceWithForm, FindsATrueDriftBesideTheFormOfASetupOfUnknownOrientation) {
     const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
     EXPECT_EQ(std::count(r.added.begin(), r.added.end(), Effect::kProbeDrift), 1) << "seed " << seed;
     EXPECT_TRUE(FoundOrNamedThePhiEncoder(r)) << "seed " << seed;
+  }
+}
+
+// The design of KnownAndUnknown() without any effect of the machine: form28 alone. The pattern
+// fixed on the sphere that competes with the effects was one common to both setups, which explains
+// nothing of what differs between their forms: a Phi radial motion took the unknown setup's own
+// form in seeds 1019 and 1071 (trace_study --false-additions, 38 of 500 runs). With a pattern for
+// each set of form (the setups of known orientation, the one of unknown orientation) nothing is
+// added, and the true effects of the design are still found or named beside what imitates them.
+TEST(TraceWithForm, AddsNoMachineEffectForTheFormOfASetupOfUnknownOrientation) {
+  for (const std::uint64_t seed : {1019, 1071}) {
+    SimulationSpec spec = KnownAndUnknown(seed);
+    spec.effects.model.terms.clear();
+    spec.effects.values.clear();
+    const PointsData points = Simulate(spec);
+    const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
+    ASSERT_FALSE(r.form.separable) << r.form.design;
+    EXPECT_TRUE(r.added.empty()) << "seed " << seed << ": " << InfoOf(r.added.front()).id;
+  }
+}
+
+// The same seeds with a true Phi encoder error (10 arcsec once per turn) or a true Phi radial
+// motion (0.3 um at 2 per turn) beside form28: each is found, or named beside the effect added in
+// its place or beside the pattern on the sphere (the radial motion in both seeds, before and after).
+TEST(TraceWithForm, FindsAPhiEffectBesideTheFormOfASetupOfUnknownOrientation) {
+  for (const std::uint64_t seed : {1019, 1071}) {
+    const PointsData encoder = Simulate(KnownAndUnknown(seed));
+    const TraceResult e = TraceResidual(encoder, PaperOptions(), Calibrate(encoder, PaperOptions()), TraceOptions{});
+    EXPECT_TRUE(FoundOrNamedThePhiEncoderOrThePattern(e)) << "seed " << seed;
+    SimulationSpec spec = KnownAndUnknown(seed);
+    spec.effects.model.terms = {{Effect::kPhiRadialMotion, {{2, 0, false}}}};
+    spec.effects.values = {{0.3 * kMmPerUm}};
+    const PointsData radial = Simulate(spec);
+    const TraceResult r = TraceResidual(radial, PaperOptions(), Calibrate(radial, PaperOptions()), TraceOptions{});
+    // Named: beside the effect added in its place, or beside the pattern on the sphere (nothing added).
+    const bool named = std::any_of(r.ambiguous.begin(), r.ambiguous.end(), [&](const Ambiguity& a) {
+      Effect chosen{};
+      return a.other == "phi_radial_motion" &&
+             (a.chosen == "sphere_form" || (EffectFromId(a.chosen, &chosen) &&
+                                            std::find(r.added.begin(), r.added.end(), chosen) != r.added.end()));
+    });
+    EXPECT_TRUE(std::count(r.added.begin(), r.added.end(), Effect::kPhiRadialMotion) == 1 || named)
+        << "seed " << seed;
   }
 }
 

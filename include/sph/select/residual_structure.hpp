@@ -155,6 +155,12 @@ struct SpherePattern {
 SpherePattern BestSpherePattern(const StructureFactor& factor);
 SpherePattern BestSpherePattern(const FitResiduals& fit);
 
+/// The same choice among other functions: the `count` columns of the factor from column `first`
+/// (after its Jacobian's), named `names`, the residual its last column (a pattern for each set of
+/// form of the setups, for one).
+SpherePattern BestPatternAmong(const StructureFactor& factor, Eigen::Index first, Eigen::Index count,
+                               const std::vector<std::string>& names);
+
 /// The share of a signal (file order, mm; e.g. what an effect added to the fitted readings) that
 /// is a pattern fixed on the sphere: of its part outside the columns of the fit's Jacobian, the
 /// fraction that spherical harmonics of degree 2..5 of the direction from the centre explain.
