@@ -288,12 +288,18 @@ ChosenSet BestCombination(const Readings& data, const CalibrationOptions& option
   // It replaces the single when it scores clearly better; about equal (within ambiguity_bic either
   // way), the one with fewer components kept, then fewer effects, then the lower score.
   if (winner != nullptr && !(winner->delta_bic <= single.delta_bic - trace_options.ambiguity_bic)) {
-    if (!(winner->components < static_cast<int>(single.term.components.size()))) winner = nullptr;
+    if (!(winner->components < static_cast<int>(single.term.components.size()))) {
+      chosen.about_equal = winner->members;
+      chosen.about_equal_delta_bic = winner->delta_bic;
+      chosen.about_equal_components = winner->components;
+      winner = nullptr;
+    }
   }
   if (winner == nullptr) return chosen;
   chosen.members = winner->members;
   chosen.fit = winner->fit;
   chosen.delta_bic = winner->delta_bic;
+  chosen.components = winner->components;
   return chosen;
 }
 }  // namespace sph::internal

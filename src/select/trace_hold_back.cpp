@@ -183,6 +183,32 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
   }
 }
 
+Ambiguity SetAgainstSingle(const Tried& tried, const std::vector<std::size_t>& set, double set_delta_bic,
+                           int set_components, std::size_t single, bool set_chosen) {
+  const CandidateScore& s = tried[single].first;
+  std::vector<std::string> ids;
+  std::string joined, separate_by;
+  for (const std::size_t m : set) {
+    const CandidateScore& c = tried[m].first;
+    ids.push_back(c.Id());
+    joined += (joined.empty() ? "" : " + ") + c.Id();
+    if (m != single) {
+      separate_by += (separate_by.empty() ? "" : "; ") + c.Id() + " from " + s.Id() + ": " + SeparateBy(c.effect, s.effect);
+    }
+  }
+  const int single_components = static_cast<int>(s.term.components.size());
+  Ambiguity a{set_chosen ? joined : s.Id(),
+              set_chosen ? s.Id() : joined,
+              set_chosen ? set_delta_bic : s.delta_bic,
+              set_chosen ? s.delta_bic : set_delta_bic,
+              0.0,
+              separate_by};
+  (set_chosen ? a.chosen_set : a.other_set) = ids;
+  a.chosen_components = set_chosen ? set_components : single_components;
+  a.other_components = set_chosen ? single_components : set_components;
+  return a;
+}
+
 // Whether effect e was held back in this trace (TraceOptions::hold_confounded).
 bool IsHeld(const TraceResult& r, Effect e) { return std::find(r.held.begin(), r.held.end(), e) != r.held.end(); }
 

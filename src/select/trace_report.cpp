@@ -207,11 +207,13 @@ void WriteTraceSummary(std::ostream& out, const TraceResult& r) {
         b.loso_rms_um, a.loso_rms_um);
     if (!not_judged.empty()) {
       out << "    not judged: setup(s) " << not_judged
-          << ", whose others do not determine the final model (its effects or form) without it\n";
+          << ", whose others do not determine the final model (its effects or form) without it, or whose time "
+             "a drift of the model would extrapolate to\n";
     }
   } else if (!not_judged.empty()) {
     out << "  leave one setup out: cannot be judged on this design (setup(s) " << not_judged
-        << ": without it, the others do not determine the final model, its effects or form)\n";
+        << ": without it, the others do not determine the final model, its effects or form, or its time lies "
+           "outside theirs and the model holds a drift)\n";
   }
 }
 
@@ -387,6 +389,12 @@ void WriteAmbiguities(std::ostream& out, const TraceResult& r) {
           << " explains is a pattern fixed on the sphere, which the reference sphere's own form error would give as "
              "well; to separate them: "
           << x.separate_by << "\n";
+    } else if (!x.chosen_set.empty() || !x.other_set.empty()) {
+      out << "  ambiguous: " << x.other << " explains the residual about as well as " << x.chosen
+          << Format(" (delta BIC %.1f against %.1f, %d components against %d; ", x.delta_bic_other, x.delta_bic_chosen,
+                    x.other_components, x.chosen_components)
+          << (x.chosen_set.empty() ? "the set keeps more" : "the set keeps fewer") << "); to separate them: "
+          << x.separate_by << "\n";
     } else if (x.neither_added) {
       out << "  two explanations, neither added: " << x.chosen << " or " << x.other
           << Format(" (delta BIC %.1f and %.1f), which ", x.delta_bic_chosen, x.delta_bic_other)
@@ -550,7 +558,9 @@ json AmbiguousJson(const TraceResult& r) {
                          {"separate_by", x.separate_by},
                          {"checked", x.checked},
                          {"by_design", x.by_design},
-                         {"neither_added", x.neither_added}});
+                         {"neither_added", x.neither_added},
+                         {"chosen_set", x.chosen_set},
+                         {"other_set", x.other_set}});
   }
   return ambiguous;
 }

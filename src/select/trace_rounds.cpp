@@ -1,6 +1,8 @@
 // The rounds of the trace: each forward round's choice among the scored candidates (admissible,
 // beside the form, against the sphere's own pattern), the components of earlier terms chosen
 // again, and the backward removal of the effects the final model no longer needs.
+#include <optional>
+
 #include "trace_steps.hpp"
 
 namespace sph::internal {
@@ -295,15 +297,25 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   if (r.form.separable && best >= 0 && r.form.degree_limit > r.form.degree_max) {
     best = BestBesideForm(data, options, current, trace_options, tried, r, &not_beyond_form);
   }
+  std::optional<Ambiguity> set_about_equal;  // a set about as good as the single, not chosen
   if (best >= 0 && !form_wins && max_set > 1) {
     ChosenSet set = BestCombination(data, options, current, tried, static_cast<std::size_t>(best),
                                     Eligible(tried, current, form_better, not_beyond_form, trace_options), r.form,
                                     sphere, max_set, trace_options);
     if (!set.members.empty()) {
+      // Chosen over a single about as good for its fewer components: both explanations are named.
+      if (set.delta_bic > tried[static_cast<std::size_t>(best)].first.delta_bic - trace_options.ambiguity_bic) {
+        r.ambiguous.push_back(SetAgainstSingle(tried, set.members, set.delta_bic, set.components,
+                                               static_cast<std::size_t>(best), true));
+      }
       AddSet(data, options, trace_options, std::move(set), static_cast<std::size_t>(best), sphere, form_better,
              not_beyond_form, tried, current, r);
       if (!r.form.separable) r.candidates.push_back(form);
       return true;
+    }
+    if (!set.about_equal.empty()) {
+      set_about_equal = SetAgainstSingle(tried, set.about_equal, set.about_equal_delta_bic,
+                                         set.about_equal_components, static_cast<std::size_t>(best), false);
     }
   }
   const CandidateScore* chosen = nullptr;
@@ -334,6 +346,7 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
                       r.form.separable, trace_options, c, &r.ambiguous);
     chosen = &c;
     if (trace_options.hold_confounded) hold = HoldConfounded(first_new, c, r);
+    if (set_about_equal && !hold) r.ambiguous.push_back(*set_about_equal);
     if (hold) {
       for (auto& [other, fit] : tried) other.held = IsHeld(r, other.effect);  // its partners too
       if (form_better) form.note += "; the effect it was compared with is held back";

@@ -156,7 +156,8 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
 
 // Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
 // NaN for a reading not predicted; empty with fewer than two setups. `loose`, when given, receives
-// the setups whose prediction came from fits that do not determine the model (DeterminedWithout()).
+// the setups whose prediction came from fits that do not determine the model (DeterminedWithout())
+// or that extrapolate a term of the time (ExtrapolatesInTime()).
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
                                            const EffectFit& fit, std::set<int>* loose = nullptr);
 
@@ -237,11 +238,23 @@ struct ChosenSet {
   std::vector<std::size_t> members;  // indices into `tried`, in the order of the fit's terms
   EffectFit fit;
   double delta_bic = std::numeric_limits<double>::quiet_NaN();
+  int components = 0;
+  // With no set chosen: a set that qualifies and scores about as well as the single (within
+  // ambiguity_bic), not chosen for it keeps more components; empty when there is none.
+  std::vector<std::size_t> about_equal;
+  double about_equal_delta_bic = std::numeric_limits<double>::quiet_NaN();
+  int about_equal_components = 0;
 };
 ChosenSet BestCombination(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
                           const Tried& tried, std::size_t best, const std::vector<std::size_t>& eligible,
                           const FormSelection& form, const SpherePattern& sphere, int max_size,
                           const TraceOptions& trace_options);
+
+// A set of candidates (indices into `tried`, scored set_delta_bic with set_components) and the
+// round's best single candidate that scored about as well: the ambiguity between them, the set the
+// chosen side when set_chosen. The advice names what separates each member from the single.
+Ambiguity SetAgainstSingle(const Tried& tried, const std::vector<std::size_t>& set, double set_delta_bic,
+                           int set_components, std::size_t single, bool set_chosen);
 
 // Whether effect e was held back in this trace (TraceOptions::hold_confounded).
 bool IsHeld(const TraceResult& r, Effect e);

@@ -90,11 +90,32 @@ bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
   }
   return true;
 }
+
+// Whether predicting the readings `held` from the others extrapolates a term of the time in
+// `model`: some held reading lies before the first or after the last of the others. A drift
+// polynomial fitted over the others' times says nothing of another time span, and a prediction
+// there is no test of whether the effect transfers between setups.
+bool ExtrapolatesInTime(const EffectModel& model, const PointsData& points, const std::vector<bool>& held) {
+  const bool timed = std::any_of(model.terms.begin(), model.terms.end(),
+                                 [](const EffectTerm& t) { return std::string(InfoOf(t.effect).variable) == "t"; });
+  if (!timed) return false;
+  double first = std::numeric_limits<double>::infinity(), last = -first;
+  for (std::size_t i = 0; i < held.size(); ++i) {
+    if (held[i]) continue;
+    first = std::min(first, points.samples[i].t_s);
+    last = std::max(last, points.samples[i].t_s);
+  }
+  for (std::size_t i = 0; i < held.size(); ++i) {
+    if (held[i] && (points.samples[i].t_s < first || points.samples[i].t_s > last)) return true;
+  }
+  return false;
+}
 }  // namespace
 
 // Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
 // NaN for a reading not predicted; empty with fewer than two setups. `loose`, when given, receives
-// the setups whose prediction came from fits that do not determine the model (DeterminedWithout()).
+// the setups whose prediction came from fits that do not determine the model (DeterminedWithout())
+// or that extrapolate a term of the time (ExtrapolatesInTime()).
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
                                            const EffectFit& fit, std::set<int>* loose) {
   const PointsData& points = data.points;
@@ -125,7 +146,9 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
     } catch (const Error&) {
       continue;  // the other setups cannot be fitted without it (too few readings): not predicted
     }
-    if (loose != nullptr && !DeterminedWithout(rest, fit)) loose->insert(ids[k]);
+    if (loose != nullptr && (!DeterminedWithout(rest, fit) || ExtrapolatesInTime(fit.model, points, held))) {
+      loose->insert(ids[k]);
+    }
     EffectFit predict = rest;
     predict.calibration.setup_ids = ids;
     predict.calibration.centers_mm = fit.calibration.centers_mm;

@@ -519,19 +519,20 @@ TEST(TraceWithForm, AddsNoDriftForTheFormOfASetupOfUnknownOrientation) {
 }
 
 // The same design with a true drift of 0.4 um beside the Phi encoder error: the drift shows beyond
-// the pattern on each setup's sphere (delta BIC about -500) and is still found, with the Phi
-// encoder error (or a Phi effect named with it). In seeds 1 and 3 the drift is not added, with the
-// rule or without it: the transfer test refuses it in the first round (the known setup predicted
-// from the unknown one alone 1.1 um rms off with it).
+// the pattern on each setup's sphere (delta BIC about -500) and is found; the Phi encoder error is
+// found or named as without the drift. In seeds 1 and 3 the transfer test refused the drift in the
+// first round: the known setup, measured before the unknown one, was predicted by a drift fitted to
+// the unknown one's times alone, 1.1 um rms off. A setup outside the others' time span is not
+// judged with a drift in the model.
 TEST(TraceWithForm, FindsATrueDriftBesideTheFormOfASetupOfUnknownOrientation) {
-  for (const std::uint64_t seed : {2, 4, 6}) {
+  for (const std::uint64_t seed : {1, 2, 3, 4, 5, 6}) {
     SimulationSpec spec = KnownAndUnknown(seed);
     spec.effects.model.terms.push_back({Effect::kProbeDrift, {{1, 0, false}}});
     spec.effects.values.push_back({0.4 * kMmPerUm});
     const PointsData points = Simulate(spec);
     const TraceResult r = TraceResidual(points, PaperOptions(), Calibrate(points, PaperOptions()), TraceOptions{});
     EXPECT_EQ(std::count(r.added.begin(), r.added.end(), Effect::kProbeDrift), 1) << "seed " << seed;
-    EXPECT_TRUE(FoundOrNamedThePhiEncoder(r)) << "seed " << seed;
+    EXPECT_TRUE(FoundOrNamedThePhiEncoderOrThePattern(r)) << "seed " << seed;
   }
 }
 

@@ -139,6 +139,10 @@ struct Ambiguity {
   /// their terms fitted together above 100) though the other scored clearly worse, rather than
   /// because both scored about as well.
   bool by_design = false;
+  /// When a side is a set of effects that the search over sets fitted together: its effect ids
+  /// (`chosen` or `other` then joins them with " + "); empty for a single effect or the form.
+  std::vector<std::string> chosen_set = {}, other_set = {};
+  int chosen_components = 0, other_components = 0;  ///< for a set against a single: components of each
 };
 
 /// How the trace treated the sphere's form.
