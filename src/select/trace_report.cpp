@@ -203,17 +203,15 @@ void WriteTraceSummary(std::ostream& out, const TraceResult& r) {
   if (std::isfinite(b.loso_rms_um) && std::isfinite(a.loso_rms_um)) {
     out << Format(
         "  leave one setup out (each setup of known orientation predicted from the others, its centre "
-        "refitted): rms %.4f um before, %.4f um after\n",
+        "and a drift over its own time refitted): rms %.4f um before, %.4f um after\n",
         b.loso_rms_um, a.loso_rms_um);
     if (!not_judged.empty()) {
       out << "    not judged: setup(s) " << not_judged
-          << ", whose others do not determine the final model (its effects or form) without it, or whose time "
-             "a drift of the model would extrapolate to\n";
+          << ", whose others do not determine the final model (its effects or form) without it\n";
     }
   } else if (!not_judged.empty()) {
     out << "  leave one setup out: cannot be judged on this design (setup(s) " << not_judged
-        << ": without it, the others do not determine the final model, its effects or form, or its time lies "
-           "outside theirs and the model holds a drift)\n";
+        << ": without it, the others do not determine the final model, its effects or form)\n";
   }
 }
 

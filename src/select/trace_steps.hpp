@@ -156,8 +156,7 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
 
 // Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
 // NaN for a reading not predicted; empty with fewer than two setups. `loose`, when given, receives
-// the setups whose prediction came from fits that do not determine the model (DeterminedWithout())
-// or that extrapolate a term of the time (ExtrapolatesInTime()).
+// the setups whose prediction came from fits that do not determine the model (DeterminedWithout()).
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
                                            const EffectFit& fit, std::set<int>* loose = nullptr);
 

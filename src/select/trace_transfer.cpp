@@ -41,8 +41,11 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
 namespace {
 
 // The readings of setup `k` of `fit` (rows not in `others`) under `fit` with that setup's centre
-// refitted alone, by Gauss-Newton with a forward-difference Jacobian (the model's own residuals,
-// so every effect and the form are in it); their residuals [mm], table-indexed (the others 0).
+// refitted, and with it the components of the model's terms of the time (a drift): a drift
+// fitted to the other setups' times says nothing of this one's, and carried over to it would be
+// no test of whether the model transfers between setups. By Gauss-Newton with a forward-difference
+// Jacobian (the model's own residuals, so every effect and the form are in it); their residuals
+// [mm], table-indexed (the others 0).
 std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>& others,
                                   const CalibrationOptions& options, EffectFit fit, std::size_t k) {
   constexpr double kStepMm = 1e-6;
@@ -50,22 +53,34 @@ std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>&
   for (std::size_t i = 0; i < others.size(); ++i) {
     if (!others[i]) rows.push_back(i);
   }
+  // The parameters refitted: the centre's x, y, z, then each component of a term of the time.
+  std::vector<std::pair<std::size_t, std::size_t>> timed;  // (term, component)
+  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
+    if (std::string(InfoOf(fit.model.terms[t].effect).variable) != "t") continue;
+    for (std::size_t c = 0; c < fit.values[t].size(); ++c) timed.emplace_back(t, c);
+  }
+  const auto value = [&](EffectFit& f, Eigen::Index c) -> double& {
+    if (c < 3) return f.calibration.centers_mm[k](c);
+    const auto& [t, q] = timed[static_cast<std::size_t>(c - 3)];
+    return f.values[t][q];
+  };
+  const Eigen::Index n = 3 + static_cast<Eigen::Index>(timed.size());
   std::vector<double> e = internal::ResidualsAt(data.table, &others, options, fit, data.points.source);
   for (int iteration = 0; iteration < 10; ++iteration) {
-    Eigen::MatrixXd j(static_cast<Eigen::Index>(rows.size()), 3);
+    Eigen::MatrixXd j(static_cast<Eigen::Index>(rows.size()), n);
     Eigen::VectorXd r(static_cast<Eigen::Index>(rows.size()));
     for (std::size_t q = 0; q < rows.size(); ++q) r(static_cast<Eigen::Index>(q)) = e[rows[q]];
-    for (int c = 0; c < 3; ++c) {
+    for (Eigen::Index c = 0; c < n; ++c) {
       EffectFit moved = fit;
-      moved.calibration.centers_mm[k](c) += kStepMm;
+      value(moved, c) += kStepMm;
       const std::vector<double> e2 = internal::ResidualsAt(data.table, &others, options, moved, data.points.source);
       for (std::size_t q = 0; q < rows.size(); ++q) {
         j(static_cast<Eigen::Index>(q), c) = (e2[rows[q]] - e[rows[q]]) / kStepMm;
       }
     }
-    const Eigen::Vector3d step = j.colPivHouseholderQr().solve(-r);
+    const Eigen::VectorXd step = j.colPivHouseholderQr().solve(-r);
     if (!step.allFinite()) break;
-    fit.calibration.centers_mm[k] += step;
+    for (Eigen::Index c = 0; c < n; ++c) value(fit, c) += step(c);
     e = internal::ResidualsAt(data.table, &others, options, fit, data.points.source);
     if (step.norm() < 1e-9) break;
   }
@@ -74,7 +89,7 @@ std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>&
 
 // Whether `rest`, the model of `fit` fitted without one of its setups, still determines the effects
 // and the form: none of their standard uncertainties is more than 10 times that of `fit` (all the
-// setups). A combination the other setups leave loose (a probe polynomial beside a form seen in
+// setups). A term of the time is refitted on the setup predicted (WithOwnCentre()) and not checked. A combination the other setups leave loose (a probe polynomial beside a form seen in
 // two orientations only) would predict the setup left out from the noise, metres wrong; fewer
 // setups alone widen them by sqrt(n / (n - 1)) or so. True when either is not analysed.
 bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
@@ -84,38 +99,24 @@ bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
   if (a.Empty() || b.Empty()) return true;
   const int first_rest = kNumScmsParams + 3 * static_cast<int>(rest.calibration.setup_ids.size());
   const int first_all = kNumScmsParams + 3 * static_cast<int>(fit.calibration.setup_ids.size());
+  std::vector<bool> timed;  // per parameter after the centres: of a term of the time
+  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
+    const bool time = std::string(InfoOf(fit.model.terms[t].effect).variable) == "t";
+    timed.insert(timed.end(), fit.values[t].size(), time);
+  }
   for (int j = 0; first_rest + j < rest.n_params && first_all + j < fit.n_params; ++j) {
+    if (static_cast<std::size_t>(j) < timed.size() && timed[static_cast<std::size_t>(j)]) continue;
     const double wide = a.std(first_rest + j), narrow = b.std(first_all + j);
     if (!(wide <= kMaxWidening * narrow)) return false;
   }
   return true;
 }
 
-// Whether predicting the readings `held` from the others extrapolates a term of the time in
-// `model`: some held reading lies before the first or after the last of the others. A drift
-// polynomial fitted over the others' times says nothing of another time span, and a prediction
-// there is no test of whether the effect transfers between setups.
-bool ExtrapolatesInTime(const EffectModel& model, const PointsData& points, const std::vector<bool>& held) {
-  const bool timed = std::any_of(model.terms.begin(), model.terms.end(),
-                                 [](const EffectTerm& t) { return std::string(InfoOf(t.effect).variable) == "t"; });
-  if (!timed) return false;
-  double first = std::numeric_limits<double>::infinity(), last = -first;
-  for (std::size_t i = 0; i < held.size(); ++i) {
-    if (held[i]) continue;
-    first = std::min(first, points.samples[i].t_s);
-    last = std::max(last, points.samples[i].t_s);
-  }
-  for (std::size_t i = 0; i < held.size(); ++i) {
-    if (held[i] && (points.samples[i].t_s < first || points.samples[i].t_s > last)) return true;
-  }
-  return false;
-}
 }  // namespace
 
 // Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
 // NaN for a reading not predicted; empty with fewer than two setups. `loose`, when given, receives
-// the setups whose prediction came from fits that do not determine the model (DeterminedWithout())
-// or that extrapolate a term of the time (ExtrapolatesInTime()).
+// the setups whose prediction came from fits that do not determine the model (DeterminedWithout()).
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
                                            const EffectFit& fit, std::set<int>* loose) {
   const PointsData& points = data.points;
@@ -146,9 +147,7 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
     } catch (const Error&) {
       continue;  // the other setups cannot be fitted without it (too few readings): not predicted
     }
-    if (loose != nullptr && (!DeterminedWithout(rest, fit) || ExtrapolatesInTime(fit.model, points, held))) {
-      loose->insert(ids[k]);
-    }
+    if (loose != nullptr && !DeterminedWithout(rest, fit)) loose->insert(ids[k]);
     EffectFit predict = rest;
     predict.calibration.setup_ids = ids;
     predict.calibration.centers_mm = fit.calibration.centers_mm;

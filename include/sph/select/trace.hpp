@@ -186,15 +186,16 @@ struct TracedFit {
   ResidualStructure structure;
   double cv_rms_um = 0.0;
   /// The transfer test of a file with two or more setups: each setup of known orientation predicted
-  /// by the model fitted to the others, with only its own centre refitted; the rms over those
+  /// by the model fitted to the others, with only its own centre (and a drift over its own time)
+  /// refitted; the rms over those
   /// setups' readings [um]. A form that turns with the sphere transfers, a form mistaken for a
   /// machine error does not. Only the setups predicted by a model that the others determine count
   /// (loso_not_judged); NaN with fewer than two setups or when none is (LeaveOneSetupOutRms()): the
   /// transfer cannot be judged on this design.
   double loso_rms_um = std::numeric_limits<double>::quiet_NaN();
   /// The setups left out whose prediction came from a fit of the others that does not determine
-  /// the model (its effects' or form's standard uncertainties more than 10 times those of the fit
-  /// of all): not judged, and not in loso_rms_um.
+  /// the model (its effects' or form's standard uncertainties, a drift's aside, more than 10 times
+  /// those of the fit of all): not judged, and not in loso_rms_um.
   std::vector<int> loso_not_judged;
   /// Each reading's error in that test [mm], NaN where not predicted and where the other setups
   /// do not determine the model (what the selection judges by); empty with one setup.
@@ -259,7 +260,8 @@ TraceResult FitGivenModel(const PointsData& points, const CalibrationOptions& op
 
 /// The leave-one-setup-out RMS [um] of `fit` (a fit of `points`, TracedFit::loso_rms_um): for each
 /// setup of known orientation, `fit`'s model is fitted to the other setups' readings, from `fit`,
-/// and the setup's readings are predicted with only its centre refitted (Gauss-Newton). A setup
+/// and the setup's readings are predicted with only its centre, and the components of a term of
+/// the time (a drift, which says nothing of another part of the run), refitted (Gauss-Newton). A setup
 /// of unknown orientation is not predicted (its form is its own), but its readings take part in
 /// the other fits; nor is a setup without which the others cannot be fitted (too few readings),
 /// nor one whose others do not determine the model (TracedFit::loso_not_judged). NaN when no setup
