@@ -40,13 +40,16 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
 
 namespace {
 
+// Whether `term` is a function of the time of a reading (a drift).
+bool OfTheTime(const EffectTerm& term) { return std::string(InfoOf(term.effect).variable) == "t"; }
+
 // The readings of setup `k` of `fit` (rows not in `others`) under `fit` with that setup's centre
 // refitted, and with it the components of the model's terms of the time (a drift): a drift
 // fitted to the other setups' times says nothing of this one's, and carried over to it would be
 // no test of whether the model transfers between setups. By Gauss-Newton with a forward-difference
 // Jacobian (the model's own residuals, so every effect and the form are in it); their residuals
 // [mm], table-indexed (the others 0).
-std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>& others,
+std::vector<double> WithOwnCentreAndDrift(const Readings& data, const std::vector<bool>& others,
                                   const CalibrationOptions& options, EffectFit fit, std::size_t k) {
   constexpr double kStepMm = 1e-6;
   std::vector<std::size_t> rows;
@@ -56,7 +59,7 @@ std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>&
   // The parameters refitted: the centre's x, y, z, then each component of a term of the time.
   std::vector<std::pair<std::size_t, std::size_t>> timed;  // (term, component)
   for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
-    if (std::string(InfoOf(fit.model.terms[t].effect).variable) != "t") continue;
+    if (!OfTheTime(fit.model.terms[t])) continue;
     for (std::size_t c = 0; c < fit.values[t].size(); ++c) timed.emplace_back(t, c);
   }
   const auto value = [&](EffectFit& f, Eigen::Index c) -> double& {
@@ -89,9 +92,10 @@ std::vector<double> WithOwnCentre(const Readings& data, const std::vector<bool>&
 
 // Whether `rest`, the model of `fit` fitted without one of its setups, still determines the effects
 // and the form: none of their standard uncertainties is more than 10 times that of `fit` (all the
-// setups). A term of the time is refitted on the setup predicted (WithOwnCentre()) and not checked. A combination the other setups leave loose (a probe polynomial beside a form seen in
+// setups). A combination the other setups leave loose (a probe polynomial beside a form seen in
 // two orientations only) would predict the setup left out from the noise, metres wrong; fewer
-// setups alone widen them by sqrt(n / (n - 1)) or so. True when either is not analysed.
+// setups alone widen them by sqrt(n / (n - 1)) or so. A term of the time is not checked: it is
+// refitted on the setup predicted (WithOwnCentreAndDrift()). True when either is not analysed.
 bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
   constexpr double kMaxWidening = 10.0;
   const ObservabilityReport& a = rest.calibration.analysis;
@@ -101,8 +105,7 @@ bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
   const int first_all = kNumScmsParams + 3 * static_cast<int>(fit.calibration.setup_ids.size());
   std::vector<bool> timed;  // per parameter after the centres: of a term of the time
   for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
-    const bool time = std::string(InfoOf(fit.model.terms[t].effect).variable) == "t";
-    timed.insert(timed.end(), fit.values[t].size(), time);
+    timed.insert(timed.end(), fit.values[t].size(), OfTheTime(fit.model.terms[t]));
   }
   for (int j = 0; first_rest + j < rest.n_params && first_all + j < fit.n_params; ++j) {
     if (static_cast<std::size_t>(j) < timed.size() && timed[static_cast<std::size_t>(j)]) continue;
@@ -111,7 +114,6 @@ bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
   }
   return true;
 }
-
 }  // namespace
 
 // Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
@@ -155,7 +157,7 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
       const auto at = std::find(ids.begin(), ids.end(), rest.calibration.setup_ids[j]);
       predict.calibration.centers_mm[static_cast<std::size_t>(at - ids.begin())] = rest.calibration.centers_mm[j];
     }
-    const std::vector<double> e = WithOwnCentre(data, others, options, predict, k);
+    const std::vector<double> e = WithOwnCentreAndDrift(data, others, options, predict, k);
     for (std::size_t i = 0; i < m; ++i) {
       if (held[i]) errors[i] = e[i];
     }
