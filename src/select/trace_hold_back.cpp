@@ -193,7 +193,8 @@ Ambiguity SetAgainstSingle(const Tried& tried, const std::vector<std::size_t>& s
     ids.push_back(c.Id());
     joined += (joined.empty() ? "" : " + ") + c.Id();
     if (m != single) {
-      separate_by += (separate_by.empty() ? "" : "; ") + c.Id() + " from " + s.Id() + ": " + SeparateBy(c.effect, s.effect);
+      separate_by +=
+          (separate_by.empty() ? "" : "; ") + c.Id() + " from " + s.Id() + ": " + SeparateBy(c.effect, s.effect);
     }
   }
   const int single_components = static_cast<int>(s.term.components.size());

@@ -391,8 +391,8 @@ void WriteAmbiguities(std::ostream& out, const TraceResult& r) {
       out << "  ambiguous: " << x.other << " explains the residual about as well as " << x.chosen
           << Format(" (delta BIC %.1f against %.1f, %d components against %d; ", x.delta_bic_other, x.delta_bic_chosen,
                     x.other_components, x.chosen_components)
-          << (x.chosen_set.empty() ? "the set keeps more" : "the set keeps fewer") << "); to separate them: "
-          << x.separate_by << "\n";
+          << (x.chosen_set.empty() ? "the set keeps more" : "the set keeps fewer")
+          << "); to separate them: " << x.separate_by << "\n";
     } else if (x.neither_added) {
       out << "  two explanations, neither added: " << x.chosen << " or " << x.other
           << Format(" (delta BIC %.1f and %.1f), which ", x.delta_bic_chosen, x.delta_bic_other)

@@ -305,8 +305,8 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
     if (!set.members.empty()) {
       // Chosen over a single about as good for its fewer components: both explanations are named.
       if (set.delta_bic > tried[static_cast<std::size_t>(best)].first.delta_bic - trace_options.ambiguity_bic) {
-        r.ambiguous.push_back(SetAgainstSingle(tried, set.members, set.delta_bic, set.components,
-                                               static_cast<std::size_t>(best), true));
+        r.ambiguous.push_back(
+            SetAgainstSingle(tried, set.members, set.delta_bic, set.components, static_cast<std::size_t>(best), true));
       }
       AddSet(data, options, trace_options, std::move(set), static_cast<std::size_t>(best), sphere, form_better,
              not_beyond_form, tried, current, r);
@@ -314,8 +314,8 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
       return true;
     }
     if (!set.about_equal.empty()) {
-      set_about_equal = SetAgainstSingle(tried, set.about_equal, set.about_equal_delta_bic,
-                                         set.about_equal_components, static_cast<std::size_t>(best), false);
+      set_about_equal = SetAgainstSingle(tried, set.about_equal, set.about_equal_delta_bic, set.about_equal_components,
+                                         static_cast<std::size_t>(best), false);
     }
   }
   const CandidateScore* chosen = nullptr;

@@ -239,7 +239,7 @@ struct ChosenSet {
   double delta_bic = std::numeric_limits<double>::quiet_NaN();
   int components = 0;
   // With no set chosen: a set that qualifies and scores about as well as the single (within
-  // ambiguity_bic), not chosen for it keeps more components; empty when there is none.
+  // ambiguity_bic), not chosen because it keeps more components; empty when there is none.
   std::vector<std::size_t> about_equal;
   double about_equal_delta_bic = std::numeric_limits<double>::quiet_NaN();
   int about_equal_components = 0;
@@ -250,8 +250,8 @@ ChosenSet BestCombination(const Readings& data, const CalibrationOptions& option
                           const TraceOptions& trace_options);
 
 // A set of candidates (indices into `tried`, scored set_delta_bic with set_components) and the
-// round's best single candidate that scored about as well: the ambiguity between them, the set the
-// chosen side when set_chosen. The advice names what separates each member from the single.
+// round's best single candidate that scored about as well: the ambiguity between them, the set on
+// the chosen side when set_chosen. The advice names what separates each member from the single.
 Ambiguity SetAgainstSingle(const Tried& tried, const std::vector<std::size_t>& set, double set_delta_bic,
                            int set_components, std::size_t single, bool set_chosen);
 

@@ -50,7 +50,7 @@ bool OfTheTime(const EffectTerm& term) { return std::string(InfoOf(term.effect).
 // Jacobian (the model's own residuals, so every effect and the form are in it); their residuals
 // [mm], table-indexed (the others 0).
 std::vector<double> WithOwnCentreAndDrift(const Readings& data, const std::vector<bool>& others,
-                                  const CalibrationOptions& options, EffectFit fit, std::size_t k) {
+                                          const CalibrationOptions& options, EffectFit fit, std::size_t k) {
   constexpr double kStepMm = 1e-6;
   std::vector<std::size_t> rows;
   for (std::size_t i = 0; i < others.size(); ++i) {

@@ -12,9 +12,9 @@
 
 #include "calib_test_util.hpp"
 #include "sph/core/error.hpp"
-#include "sph/simulation/simulate.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace_report.hpp"
+#include "sph/simulation/simulate.hpp"
 #include "test_util.hpp"
 
 namespace sph {
@@ -349,8 +349,8 @@ TEST(TraceResidual, NamesASetAndTheSingleThatScoresAboutAsWell) {
   spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0),
                      Eigen::Vector3d(1, 0, 3), Eigen::Vector3d(0, -1, 0)};
   spec.mount_rotations_deg = {{1, {90, 0, 0}}, {2, {0, 0, 90}}, {3, {0, 90, 0}}, {4, {third, third, third}}};
-  spec.scan_orders = {{1, ScanOrder::kColumns}, {2, ScanOrder::kSerpentine}, {3, ScanOrder::kReversed},
-                      {4, ScanOrder::kShuffled}};
+  spec.scan_orders = {
+      {1, ScanOrder::kColumns}, {2, ScanOrder::kSerpentine}, {3, ScanOrder::kReversed}, {4, ScanOrder::kShuffled}};
   spec.effects.model.phi_wobble_pivot_mm = 80.0;
   spec.effects.model.terms = {{Effect::kPhiWobble, {{2, 0, false}}}};
   spec.effects.values = {{2 * kRadPerArcsec}};
