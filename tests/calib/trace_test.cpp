@@ -61,6 +61,23 @@ PointsData NearlyConfoundedGain(std::uint64_t seed = 1) {
   return Simulate(spec);
 }
 
+// Five placements of one sphere (bench/separation_matrix's "five"): at (2, 0, 0) mm as placed and
+// tilted by 90 deg about x, at (0, 2, 0) mm turned by 90 deg about z, at (1, 0, 3) mm turned by
+// 90 deg about y, at (0, -1, 0) mm turned by 120 deg about (1, 1, 1); each after the first in
+// another scan order; sigma_r 0.03 um.
+SimulationSpec FivePlacements(std::uint64_t seed) {
+  SimulationSpec spec;
+  spec.seed = seed;
+  spec.noise_r_um = 0.03;
+  const double third = 120.0 / std::sqrt(3.0);
+  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0),
+                     Eigen::Vector3d(1, 0, 3), Eigen::Vector3d(0, -1, 0)};
+  spec.mount_rotations_deg = {{1, {90, 0, 0}}, {2, {0, 0, 90}}, {3, {0, 90, 0}}, {4, {third, third, third}}};
+  spec.scan_orders = {
+      {1, ScanOrder::kColumns}, {2, ScanOrder::kSerpentine}, {3, ScanOrder::kReversed}, {4, ScanOrder::kShuffled}};
+  return spec;
+}
+
 TraceResult Trace(const PointsData& points) {
   const CalibrationResult base = Calibrate(points, PaperOptions());
   return TraceResidual(points, PaperOptions(), base, TraceOptions{});
@@ -342,15 +359,7 @@ TEST(TraceResidual, AddsAPairThatASingleConfoundedEffectBeats) {
 // within 10 of the wobble alone, with fewer components, and are added as a set. The report names
 // the two explanations, the set by its members, and what would separate each from the wobble.
 TEST(TraceResidual, NamesASetAndTheSingleThatScoresAboutAsWell) {
-  SimulationSpec spec;
-  spec.seed = 1;
-  spec.noise_r_um = 0.03;
-  const double third = 120.0 / std::sqrt(3.0);
-  spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0),
-                     Eigen::Vector3d(1, 0, 3), Eigen::Vector3d(0, -1, 0)};
-  spec.mount_rotations_deg = {{1, {90, 0, 0}}, {2, {0, 0, 90}}, {3, {0, 90, 0}}, {4, {third, third, third}}};
-  spec.scan_orders = {
-      {1, ScanOrder::kColumns}, {2, ScanOrder::kSerpentine}, {3, ScanOrder::kReversed}, {4, ScanOrder::kShuffled}};
+  SimulationSpec spec = FivePlacements(1);
   spec.effects.model.phi_wobble_pivot_mm = 80.0;
   spec.effects.model.terms = {{Effect::kPhiWobble, {{2, 0, false}}}};
   spec.effects.values = {{2 * kRadPerArcsec}};
@@ -952,15 +961,7 @@ TEST(TraceResidual, ASecondSphereBesideFivePlacementsKeepsItsReadingsAndFindsAPr
 // components were chosen only once).
 TEST(TraceResidual, ChoosesAnEffectsComponentsAgainOnceALargerEffectIsFitted) {
   for (const std::uint64_t seed : {1, 2}) {
-    SimulationSpec spec;
-    spec.seed = seed;
-    spec.noise_r_um = 0.03;
-    const double third = 120.0 / std::sqrt(3.0);
-    spec.centers_mm = {Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(2, 0, 0), Eigen::Vector3d(0, 2, 0),
-                       Eigen::Vector3d(1, 0, 3), Eigen::Vector3d(0, -1, 0)};
-    spec.mount_rotations_deg = {{1, {90, 0, 0}}, {2, {0, 0, 90}}, {3, {0, 90, 0}}, {4, {third, third, third}}};
-    spec.scan_orders = {
-        {1, ScanOrder::kColumns}, {2, ScanOrder::kSerpentine}, {3, ScanOrder::kReversed}, {4, ScanOrder::kShuffled}};
+    SimulationSpec spec = FivePlacements(seed);
     spec.effects.model.terms = {{Effect::kProbeDrift, {{1, 0, false}}}, {Effect::kProbeGain, {{1, 0, false}}}};
     spec.effects.values = {{0.4 * kMmPerUm}, {10 * kMmPerUm}};
     const PointsData points = Simulate(spec);
