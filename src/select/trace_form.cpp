@@ -273,7 +273,7 @@ void NotBeyondEachSetupsPattern(const Readings& data, const CalibrationOptions& 
   if (r.form.separable || !SomeSetupHasItsOwnForm(data.points)) return;
   const double cur_rms = current.fit.calibration.rms_um;
   for (auto& [c, fit] : tried) {
-    if (InfoOf(c.effect).variable != std::string("t") || c.held || !Admissible(c, current, trace_options)) continue;
+    if (!Follows(c.effect, "t") || c.held || !Admissible(c, current, trace_options)) continue;
     std::vector<int> powers;
     for (const EffectComponent& comp : c.term.components) powers.push_back(comp.order);
     const EachSetupsPattern p = BeyondEachSetupsPattern(data, options, current, powers);
@@ -287,16 +287,8 @@ void NotBeyondEachSetupsPattern(const Readings& data, const CalibrationOptions& 
                   p.time_delta_bic, kSpherePatternDegree);
     Ambiguity a{"sphere_form", c.Id(), p.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};
     a.chosen_rms_um = p.explained_rms_um;
-    a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
-    // Once per candidate: a later round's sizes replace an earlier round's.
-    const auto same = std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [&](const Ambiguity& x) {
-      return !x.form_turns_with_sphere && x.chosen == a.chosen && x.other == a.other;
-    });
-    if (same != r.ambiguous.end()) {
-      *same = a;
-    } else {
-      r.ambiguous.push_back(a);
-    }
+    a.other_rms_um = ExplainedRmsUm(cur_rms, c.rms_um);
+    NameOnce(&r.ambiguous, a);
   }
 }
 

@@ -6,12 +6,25 @@
 #include "trace_steps.hpp"
 
 namespace sph::internal {
+
+bool Follows(Effect e, std::string_view variable) { return InfoOf(e).variable == variable; }
+
+void NameOnce(std::vector<Ambiguity>* ambiguous, const Ambiguity& a) {
+  const auto same = std::find_if(ambiguous->begin(), ambiguous->end(), [&](const Ambiguity& x) {
+    return x.form_turns_with_sphere == a.form_turns_with_sphere && x.chosen == a.chosen && x.other == a.other;
+  });
+  if (same != ambiguous->end()) {
+    *same = a;
+  } else {
+    ambiguous->push_back(a);
+  }
+}
+
 namespace {
 
 // An effect's class, from the effect catalogue (EffectInfo::variable and quantity): an error of
 // the Theta axis, of the Phi axis, of the probe's reading over its range; a translation of the
 // Theta spindle (a radial or axial motion, not a rotation).
-bool Follows(Effect e, std::string_view variable) { return InfoOf(e).variable == variable; }
 bool IsThetaMachine(Effect e) { return Follows(e, "theta"); }
 bool IsPhiMachine(Effect e) { return Follows(e, "phi"); }
 bool IsProbe(Effect e) { return Follows(e, "r"); }
@@ -162,8 +175,7 @@ void ChosenAmbiguities(const Readings& data, const CalibrationOptions& options, 
     chosen.sphere_fraction =
         SpherePatternFraction(FactorResidualStructure(ResidualsOfTraced(data, current, jacobian), &signal));
   }
-  const double cur_rms = current.fit.calibration.rms_um, with_rms = with.calibration.rms_um;
-  const double chosen_rms = std::sqrt(std::max(0.0, cur_rms * cur_rms - with_rms * with_rms));
+  const double chosen_rms = ExplainedRmsUm(current.fit.calibration.rms_um, with.calibration.rms_um);
   if (form_better) {
     Ambiguity a{InfoOf(chosen.effect).id, "sphere_form",          chosen.delta_bic,
                 sphere.delta_bic,         chosen.sphere_fraction, SeparateFromForm(chosen.effect)};

@@ -120,18 +120,10 @@ int BestBesideForm(const Readings& data, const CalibrationOptions& options, cons
                       r.form.degree_limit, b->second));
     Ambiguity a{"sphere_form", c.Id(), std::numeric_limits<double>::quiet_NaN(),
                 c.delta_bic,   0.0,    kSeparateFromTurningForm};
-    a.chosen_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - full_rms * full_rms));
-    a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
+    a.chosen_rms_um = ExplainedRmsUm(cur_rms, full_rms);
+    a.other_rms_um = ExplainedRmsUm(cur_rms, c.rms_um);
     a.form_turns_with_sphere = true;
-    // Once per candidate: a later round's sizes replace an earlier round's.
-    const auto same = std::find_if(r.ambiguous.begin(), r.ambiguous.end(), [&](const Ambiguity& x) {
-      return x.form_turns_with_sphere && x.chosen == a.chosen && x.other == a.other;
-    });
-    if (same != r.ambiguous.end()) {
-      *same = a;
-    } else {
-      r.ambiguous.push_back(a);
-    }
+    NameOnce(&r.ambiguous, a);
   }
   return best;
 }
@@ -332,10 +324,9 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
       if (!form_wins || !Admissible(c, current, trace_options) || !(shown || static_cast<int>(i) == best_machine) ||
           not_beyond_form.count(c.effect) != 0)
         continue;
-      const double cur_rms = current.fit.calibration.rms_um;
       Ambiguity a{"sphere_form", c.Id(), sphere.delta_bic, c.delta_bic, 0.0, SeparateFromForm(c.effect)};
       a.chosen_rms_um = sphere.explained_rms_um;
-      a.other_rms_um = std::sqrt(std::max(0.0, cur_rms * cur_rms - c.rms_um * c.rms_um));
+      a.other_rms_um = ExplainedRmsUm(current.fit.calibration.rms_um, c.rms_um);
       r.ambiguous.push_back(a);
     }
   } else {

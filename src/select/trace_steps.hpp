@@ -15,6 +15,7 @@
 #include <numeric>
 #include <set>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <utility>
 #include <vector>
@@ -101,6 +102,20 @@ void ConfoundedFormTerms(const Readings& data, const CalibrationOptions& options
 // lowers it by min_delta_bic. sel->delta_ebic gets each degree's score.
 EffectFit SelectFormDegree(const Readings& data, const CalibrationOptions& options, const EffectFit& current,
                            const TraceOptions& trace_options, FormSelection* sel);
+
+// Whether effect e is a function of `variable` (EffectInfo::variable: "theta", "phi", "r", "t",
+// "psi"): the time for a drift, the probe reading for the probe's polynomial terms.
+bool Follows(Effect e, std::string_view variable);
+
+// What a change of the model explains of the residual, as an RMS [um]: sqrt(before^2 - after^2)
+// of the RMS of two nested fits, the larger model's after.
+inline double ExplainedRmsUm(double rms_before_um, double rms_after_um) {
+  return std::sqrt(std::max(0.0, rms_before_um * rms_before_um - rms_after_um * rms_after_um));
+}
+
+// Adds `a` to *ambiguous, or replaces the one that names the same two explanations (a later
+// round's sizes replace an earlier round's): each pair is reported once.
+void NameOnce(std::vector<Ambiguity>* ambiguous, const Ambiguity& a);
 
 // Whether the sphere sat in one place for every setup (their centres within 10 um): the probe
 // reading is then, like the time of a single pass, a function of the direction on the sphere, and

@@ -40,9 +40,6 @@ double CrossValidated(const Readings& data, const CalibrationOptions& options, c
 
 namespace {
 
-// Whether `term` is a function of the time of a reading (a drift).
-bool OfTheTime(const EffectTerm& term) { return std::string(InfoOf(term.effect).variable) == "t"; }
-
 // The readings of setup `k` of `fit` (rows not in `others`) under `fit` with that setup's centre
 // refitted, and with it the components of the model's terms of the time (a drift): a drift
 // fitted to the other setups' times says nothing of this one's, and carried over to it would be
@@ -59,7 +56,7 @@ std::vector<double> WithOwnCentreAndDrift(const Readings& data, const std::vecto
   // The parameters refitted: the centre's x, y, z, then each component of a term of the time.
   std::vector<std::pair<std::size_t, std::size_t>> timed;  // (term, component)
   for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
-    if (!OfTheTime(fit.model.terms[t])) continue;
+    if (!Follows(fit.model.terms[t].effect, "t")) continue;
     for (std::size_t c = 0; c < fit.values[t].size(); ++c) timed.emplace_back(t, c);
   }
   const auto value = [&](EffectFit& f, Eigen::Index c) -> double& {
@@ -105,7 +102,7 @@ bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
   const int first_all = kNumScmsParams + 3 * static_cast<int>(fit.calibration.setup_ids.size());
   std::vector<bool> timed;  // per parameter after the centres: of a term of the time
   for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
-    timed.insert(timed.end(), fit.values[t].size(), OfTheTime(fit.model.terms[t]));
+    timed.insert(timed.end(), fit.values[t].size(), Follows(fit.model.terms[t].effect, "t"));
   }
   for (int j = 0; first_rest + j < rest.n_params && first_all + j < fit.n_params; ++j) {
     if (static_cast<std::size_t>(j) < timed.size() && timed[static_cast<std::size_t>(j)]) continue;
