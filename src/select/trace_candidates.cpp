@@ -79,11 +79,10 @@ TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions
   t.structure = AnalyseResidualStructure(t.factor);
   t.cv_rms_um =
       CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace_options.folds, trace_options.seed);
-  std::set<int> loose;
-  const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, t.fit, &loose);
-  t.loso_errors_mm = WithoutSetups(errors, loose, data.points);
+  std::set<int> not_judged;
+  t.loso_errors_mm = LeaveOneSetupOutErrors(data, options, t.fit, &not_judged);
   t.loso_rms_um = RmsUmOf(t.loso_errors_mm);
-  t.loso_not_judged.assign(loose.begin(), loose.end());
+  t.loso_not_judged.assign(not_judged.begin(), not_judged.end());
   return t;
 }
 
@@ -310,14 +309,8 @@ Tried ScoreCandidates(const Readings& data, const CalibrationOptions& options, c
                           ? CrossValidated(data, options, fit.model, EffectFitStart::From(fit), trace_options.folds,
                                            trace_options.seed)
                           : std::numeric_limits<double>::quiet_NaN();
-        // So does the transfer test, with two or more setups: `folds` more fits at most.
-        if (c.cv_rms_um < current.cv_rms_um && std::isfinite(current.loso_rms_um)) {
-          std::set<int> loose;
-          const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, fit, &loose);
-          const std::vector<double> judged = WithoutSetups(errors, loose, data.points);
-          c.loso_rms_um = RmsUmOf(judged);
-          c.loso_t = PairedTransferT(judged, current.loso_errors_mm, data.points);
-        }
+        // So does the transfer test.
+        TransferTest(data, options, current, fit, &c);
       }
       tried[i].second = std::move(fit);
     } catch (...) {

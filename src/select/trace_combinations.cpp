@@ -95,11 +95,7 @@ class Search {
     c.delta_bic = s.delta_bic;
     c.determined = true;
     c.cv_rms_um = CrossValidated(data_, options_, s.fit.model, EffectFitStart::From(s.fit), o_.folds, o_.seed);
-    if (c.cv_rms_um < current_.cv_rms_um && std::isfinite(current_.loso_rms_um)) {
-      std::set<int> loose;
-      const std::vector<double> errors = LeaveOneSetupOutErrors(data_, options_, s.fit, &loose);
-      c.loso_t = PairedTransferT(WithoutSetups(errors, loose, data_.points), current_.loso_errors_mm, data_.points);
-    }
+    TransferTest(data_, options_, current_, s.fit, &c);
     if (!Admissible(c, current_, o_)) return false;
     for (std::size_t m = 0; m < s.members.size(); ++m) {
       std::vector<std::size_t> rest = s.members;
@@ -137,9 +133,7 @@ class Search {
   // best passed that against the pattern; a candidate that scored worse may not.
   bool FirstBesideTheSphere(const CandidateScore& c) const {
     if (form_.separable) return true;
-    const bool form_better =
-        sphere_.delta_bic <= -o_.min_delta_bic && sphere_.delta_bic < c.delta_bic + o_.ambiguity_bic;
-    return !form_better || ShownBeyondSphere(c, current_.factor, one_placement_, o_);
+    return !PatternAboutAsGood(sphere_, c.delta_bic, o_) || ShownBeyondSphere(c, current_.factor, one_placement_, o_);
   }
 
   // Whether member m, added last to the others, passes what a later round asks of a candidate: with
@@ -158,10 +152,10 @@ class Search {
     if (!(c.delta_bic <= -o_.min_delta_bic)) return false;
     const TracedFit& beside = FactoredOf(*rest);
     if (!form_.separable) {
-      const SpherePattern sphere = BestSpherePattern(beside.factor);
-      const bool form_better =
-          sphere.delta_bic <= -o_.min_delta_bic && sphere.delta_bic < c.delta_bic + o_.ambiguity_bic;
-      if (form_better && !ShownBeyondSphere(c, beside.factor, OnePlacement(*rest), o_)) return false;
+      if (PatternAboutAsGood(BestSpherePattern(beside.factor), c.delta_bic, o_) &&
+          !ShownBeyondSphere(c, beside.factor, OnePlacement(*rest), o_)) {
+        return false;
+      }
     } else if (form_.degree_limit > form_.degree_max) {
       double beyond = 0.0;
       if (!ShownBeyondForm(data_, options_, c, FullForm(data_, options_, beside, form_), o_, &beyond)) return false;

@@ -273,9 +273,10 @@ bool ForwardRound(const Readings& data, const CalibrationOptions& options, const
   CandidateScore form = SphereCompetitor(sphere, current, round);
   // Within ambiguity_bic of the best effect the pattern counts as better: two explanations about
   // equal, and a machine effect is the claim that must be shown.
-  const bool form_better = sphere.delta_bic <= -trace_options.min_delta_bic &&
-                           (best < 0 || sphere.delta_bic < tried[static_cast<std::size_t>(best)].first.delta_bic +
-                                                               trace_options.ambiguity_bic);
+  const bool form_better = PatternAboutAsGood(
+      sphere,
+      best < 0 ? std::numeric_limits<double>::infinity() : tried[static_cast<std::size_t>(best)].first.delta_bic,
+      trace_options);
   // A pattern on the sphere never blocks an effect that its own variable shows: the best such
   // candidate is added, and both explanations are reported.
   if (form_better && best >= 0) {

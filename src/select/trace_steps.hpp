@@ -132,6 +132,13 @@ bool OnePlacement(const EffectFit& fit);
 bool ShownBeyondSphere(const CandidateScore& c, const StructureFactor& factor, bool one_placement,
                        const TraceOptions& trace_options);
 
+// Whether `sphere`, the pattern fixed on the sphere that competes with the effects, explains the
+// residual better than a candidate scored delta_bic, or about as well (within ambiguity_bic): then
+// a machine effect is the claim that must be shown.
+inline bool PatternAboutAsGood(const SpherePattern& sphere, double delta_bic, const TraceOptions& trace_options) {
+  return sphere.delta_bic <= -trace_options.min_delta_bic && sphere.delta_bic < delta_bic + trace_options.ambiguity_bic;
+}
+
 // The pattern fixed on the sphere that competes with the effects in a design that does not
 // separate the form: BestSpherePattern() of the current residual, or, with setups whose form is
 // their own (unknown orientation, another sphere), the same choice among the harmonics of
@@ -169,14 +176,12 @@ std::vector<Unexplained> RemainingStructure(const ResidualStructure& s, const Tr
 double CrossValidated(const Readings& data, const CalibrationOptions& options, const EffectModel& model,
                       const EffectFitStart& start, int folds, std::uint64_t seed);
 
-// Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
-// NaN for a reading not predicted; empty with fewer than two setups. `loose`, when given, receives
-// the setups whose prediction came from fits that do not determine the model (DeterminedWithout()).
+// Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms()),
+// what the transfer test judges by; NaN for a reading not predicted, or predicted by a fit of the
+// others that does not determine the model (DeterminedWithout()), whose setup goes into
+// `not_judged` when given; empty with fewer than two setups.
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
-                                           const EffectFit& fit, std::set<int>* loose = nullptr);
-
-// `errors_mm` with the readings of `setups` NaN: what the transfer test judges by.
-std::vector<double> WithoutSetups(std::vector<double> errors_mm, const std::set<int>& setups, const PointsData& points);
+                                           const EffectFit& fit, std::set<int>* not_judged = nullptr);
 
 // The rms [um] of the finite `errors_mm`; NaN when none is.
 double RmsUmOf(const std::vector<double>& errors_mm);
@@ -188,6 +193,12 @@ double RmsUmOf(const std::vector<double>& errors_mm);
 // one setup is predicted better. NaN when fewer than two readings are predicted by both.
 double PairedTransferT(const std::vector<double>& with_mm, const std::vector<double>& without_mm,
                        const PointsData& points);
+
+// The transfer test of candidate c fitted as `fit` beside `current`: c->loso_rms_um and c->loso_t
+// (PairedTransferT() against current's errors), with two or more setups and only for a candidate
+// whose cross-validated RMS is below current's (it costs a fit per setup).
+void TransferTest(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                  const EffectFit& fit, CandidateScore* c);
 
 // Each effect of `todo` added to `current`, fitted and scored. The candidates are independent:
 // they are scored on up to trace_options.threads threads, each writing only its own slot, so the result

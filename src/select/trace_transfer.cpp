@@ -113,11 +113,8 @@ bool DeterminedWithout(const EffectFit& rest, const EffectFit& fit) {
 }
 }  // namespace
 
-// Each reading's error [mm] when its setup is predicted from the others (LeaveOneSetupOutRms());
-// NaN for a reading not predicted; empty with fewer than two setups. `loose`, when given, receives
-// the setups whose prediction came from fits that do not determine the model (DeterminedWithout()).
 std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const CalibrationOptions& options,
-                                           const EffectFit& fit, std::set<int>* loose) {
+                                           const EffectFit& fit, std::set<int>* not_judged) {
   const PointsData& points = data.points;
   const std::vector<int>& ids = fit.calibration.setup_ids;
   if (ids.size() < 2) return {};
@@ -125,7 +122,7 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
   // The fits without a setup are analysed when `fit` is, to see whether the others determine its
   // effects and form (DeterminedWithout(); the seven errors alone need no such check).
   CalibrationOptions rest_options = options;
-  rest_options.analyse = loose != nullptr && !fit.calibration.analysis.Empty() &&
+  rest_options.analyse = !fit.calibration.analysis.Empty() &&
                          fit.n_params > kNumScmsParams + 3 * static_cast<int>(fit.calibration.setup_ids.size());
   std::vector<double> errors(points.samples.size(), std::numeric_limits<double>::quiet_NaN());
   std::vector<bool> held(m), others(m);  // fitted without the setup, then predicted on it
@@ -146,7 +143,10 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
     } catch (const Error&) {
       continue;  // the other setups cannot be fitted without it (too few readings): not predicted
     }
-    if (loose != nullptr && !DeterminedWithout(rest, fit)) loose->insert(ids[k]);
+    if (!DeterminedWithout(rest, fit)) {
+      if (not_judged != nullptr) not_judged->insert(ids[k]);
+      continue;
+    }
     EffectFit predict = rest;
     predict.calibration.setup_ids = ids;
     predict.calibration.centers_mm = fit.calibration.centers_mm;
@@ -162,14 +162,12 @@ std::vector<double> LeaveOneSetupOutErrors(const Readings& data, const Calibrati
   return errors;
 }
 
-// `errors_mm` with the readings of `setups` NaN: what the transfer test judges by.
-std::vector<double> WithoutSetups(std::vector<double> errors_mm, const std::set<int>& setups,
-                                  const PointsData& points) {
-  if (setups.empty()) return errors_mm;
-  for (std::size_t i = 0; i < errors_mm.size(); ++i) {
-    if (setups.count(points.samples[i].setup) != 0) errors_mm[i] = std::numeric_limits<double>::quiet_NaN();
-  }
-  return errors_mm;
+void TransferTest(const Readings& data, const CalibrationOptions& options, const TracedFit& current,
+                  const EffectFit& fit, CandidateScore* c) {
+  if (!(c->cv_rms_um < current.cv_rms_um) || !std::isfinite(current.loso_rms_um)) return;
+  const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, fit);
+  c->loso_rms_um = RmsUmOf(errors);
+  c->loso_t = PairedTransferT(errors, current.loso_errors_mm, data.points);
 }
 
 // The rms [um] of the finite `errors_mm`; NaN when none is.
@@ -219,13 +217,10 @@ using internal::CrossValidated;
 using internal::LeaveOneSetupOutErrors;
 using internal::Readings;
 using internal::RmsUmOf;
-using internal::WithoutSetups;
 
 double LeaveOneSetupOutRms(const PointsData& points, const CalibrationOptions& options, const EffectFit& fit) {
   const Readings data(points);
-  std::set<int> loose;
-  const std::vector<double> errors = LeaveOneSetupOutErrors(data, options, fit, &loose);
-  return RmsUmOf(WithoutSetups(errors, loose, data.points));
+  return RmsUmOf(LeaveOneSetupOutErrors(data, options, fit));
 }
 
 double CrossValidatedRms(const PointsData& points, const CalibrationOptions& options, const EffectModel& model,
