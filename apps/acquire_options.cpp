@@ -159,6 +159,11 @@ void AddMaster(CLI::App& app, can::AcquisitionOptions& a) {
   app.add_option("--boot-timeout-s", a.boot_timeout_s, "Wait this long for boot-ups after Reset communication [s]")
       ->check(InRange(r::kBootTimeoutS))
       ->group(m);
+  app.add_option("--node-return-timeout-s", a.node_return_timeout_s,
+                 "A node that left operational mid-run (rebooted, or its heartbeat says another state) is started "
+                 "again; not operational within this, the run ends (exit 6) [s]")
+      ->check(InRange(r::kNodeReturnTimeoutS))
+      ->group(m);
   app.add_option_function<std::string>(
          "--probe-pdo-object",
          [&a](const std::string& t) {

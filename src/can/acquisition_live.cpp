@@ -127,7 +127,10 @@ class LiveLoop {
         session_(*ctx.session),
         signals_(ctx.control.wake_signals) {
     session_.set_send([this](const CanFrame& f) {
-      if (sock_) sock_->Send(f);
+      if (sock_ && sock_->Send(f) == TxStatus::kBusy) {
+        ++tx_busy_;
+        session_.OnTxQueueFull(f.id == kNmtCobId ? "NMT command" : "SDO request", RealtimeNs());
+      }
     });
   }
 
@@ -138,10 +141,7 @@ class LiveLoop {
     session_.Begin(RealtimeNs());
     AcquisitionStatus result = AcquisitionStatus::kOk;
     while (ctx_.control.stop.load() == 0) {
-      if (session_.state() == AcquisitionSession::State::kStartRefused ||
-          session_.state() == AcquisitionSession::State::kOutputFailed) {
-        break;
-      }
+      if (session_.ended()) break;
       if (produce_ && session_.acquiring() && !timer_) timer_.emplace(config_.sync_period_s);
       if (ctx_.control.summary.exchange(0) != 0) ctx_.Summary();
       const double now = MonotonicS();
@@ -222,6 +222,7 @@ class LiveLoop {
       ++syncs_sent_;
     } else if (tx == TxStatus::kBusy) {
       ++tx_busy_;
+      session_.OnTxQueueFull("SYNC", RealtimeNs());
     } else {
       return false;
     }
@@ -271,6 +272,7 @@ class LiveLoop {
       for (const CanFrame& f : session_.master().CommandAll(command)) sock_->Send(f);
       ctx_.Log(LogLevel::kInfo, "NMT " + NmtCommandName(static_cast<std::uint8_t>(command)) + " sent");
     }
+    if (sock_ && session_.state() == AcquisitionSession::State::kStarting) session_.UndoStart();
     session_.set_send(nullptr);  // the socket goes with this loop; the session lives on
     if (produce_ && timer_) {
       ctx_.Log(LogLevel::kInfo, "SYNC sent " + std::to_string(syncs_sent_) + ", timer overruns " +

@@ -46,6 +46,7 @@ void CheckMasterFlags(const AcquisitionOptions& o) {
   CheckedValue(o.node_heartbeat_ms, ranges::kNodeHeartbeatMs, "--node-heartbeat-ms");
   CheckedValue(o.sdo_timeout_ms, ranges::kSdoTimeoutMs, "--sdo-timeout-ms");
   CheckedValue(o.boot_timeout_s, ranges::kBootTimeoutS, "--boot-timeout-s");
+  CheckedValue(o.node_return_timeout_s, ranges::kNodeReturnTimeoutS, "--node-return-timeout-s");
 }
 
 }  // namespace
@@ -100,6 +101,7 @@ MasterConfig AcquisitionMasterConfig(const AcquisitionOptions& o, const Pipeline
   m.heartbeat_name = "--node-heartbeat-ms";
   m.sdo_timeout_ns = static_cast<std::int64_t>(o.sdo_timeout_ms * 1e6);
   m.boot_timeout_ns = static_cast<std::int64_t>(o.boot_timeout_s * 1e9);
+  m.return_timeout_ns = static_cast<std::int64_t>(o.node_return_timeout_s * 1e9);
   m.Validate();
   return m;
 }

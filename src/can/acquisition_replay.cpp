@@ -140,7 +140,10 @@ void FinishReplay(AcquisitionContext& ctx, std::int64_t last_ns) {
   if (session.state() == AcquisitionSession::State::kStarting && ctx.control.stop.load() == 0) {
     session.OnTime(last_ns + 3600LL * 1000000000LL);
   }
-  if (session.state() == AcquisitionSession::State::kAcquiring) session.FlushOutputs();
+  if (session.state() == AcquisitionSession::State::kAcquiring ||
+      session.state() == AcquisitionSession::State::kNodeLost) {
+    session.FlushOutputs();
+  }
 }
 
 // Replays the frames of `reader` from `begin_ns` on into the session until the log ends, a stop is
@@ -149,10 +152,7 @@ AcquisitionStatus ReplayFrames(AcquisitionContext& ctx, CandumpReader& reader, s
   AcquisitionSession& session = *ctx.session;
   ReplayProgress p;
   for (;;) {
-    if (session.state() == AcquisitionSession::State::kStartRefused ||
-        session.state() == AcquisitionSession::State::kOutputFailed) {
-      return AcquisitionStatus::kOk;
-    }
+    if (session.ended()) break;
     if (StopRequested(ctx)) break;
     CandumpReader::Result r;
     try {

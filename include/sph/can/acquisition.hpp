@@ -26,10 +26,10 @@
 #include "sph/can/run_control.hpp"
 #include "sph/can/sdo.hpp"
 #include "sph/can/standstill.hpp"
-#include "sph/io/points_file.hpp"
-#include "sph/io/points_writer.hpp"
 #include "sph/core/ranges.hpp"
 #include "sph/core/valid_range.hpp"
+#include "sph/io/points_file.hpp"
+#include "sph/io/points_writer.hpp"
 
 namespace sph::can {
 
@@ -77,6 +77,9 @@ struct AcquisitionOptions {
   bool configure_pdo = false;      ///< write the TPDO settings and 1019h, verify by reading back
   double sdo_timeout_ms = 500.0;
   double boot_timeout_s = 5.0;
+  /// A node that left operational mid-run (rebooted, or its heartbeat says another state) is
+  /// started again; not operational within this, it ends the run (AcquisitionStatus::kNodeLost).
+  double node_return_timeout_s = 10.0;
   int node_heartbeat_ms = 100;  ///< written into a node whose 1017h is 0; 0: none
   /// --probe-pdo-object: the object the probe's TPDO maps at its offset byte (checked, and
   /// written with configure_pdo); none: the probe's mapping is not checked.
@@ -102,6 +105,7 @@ inline constexpr ValidRange kRcvbufBytes{0.0, 1073741824.0, "bytes"};
 inline constexpr ValidRange kNodeHeartbeatMs{0.0, 65535.0, ""};
 inline constexpr ValidRange kSdoTimeoutMs{1.0, 60000.0, "ms"};
 inline constexpr ValidRange kBootTimeoutS{0.01, 600.0, "s"};
+inline constexpr ValidRange kNodeReturnTimeoutS{0.1, 86400.0, "s"};
 }  // namespace ranges
 
 /// Throws sph::Error naming the option when a value is out of its range or the options do not go
@@ -133,6 +137,8 @@ enum class AcquisitionStatus {
   kOutputError,     ///< an output cannot be continued or written (everything written before is intact)
   kInterfaceError,  ///< the CAN interface cannot be used (no such interface, no CAN support)
   kStartRefused,    ///< a device did not answer or does not match the configuration: no output made
+  kNodeLost,        ///< a node left operational mid-run and was not back within the return timeout:
+                    ///< the outputs are finished cleanly up to that point
 };
 
 /// What a run made and counted.
@@ -152,6 +158,9 @@ struct AcquisitionResult {
   bool frame_log = false;           ///< a frame log was written
   std::uint64_t frames_logged = 0;  ///< frames this run wrote into it
   std::uint64_t losses = 0;         ///< samples lost (PipelineCounts::Losses())
+  /// The nodes no frame came from during the run ("node 3 (probe)"): with --no-sdo a node that is
+  /// not there is started without a word.
+  std::vector<std::string> never_heard;
   /// What the operator must know about the outcome, also logged as warnings: samples lost, a run
   /// stopped before the devices were started, an incomplete line of an earlier run cut off.
   std::vector<std::string> warnings;
