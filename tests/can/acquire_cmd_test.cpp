@@ -553,8 +553,8 @@ TEST(CansimCmd, BadOptionsAndUnwritableLogsFailAndLeaveNothing) {
        "--emcy 'theta:1:xyz': code must be 16-bit hex"},
       {[](CansimOptions& o) { o.center_mm = "1,2"; }, kExitBadInput, "--center-mm"},
       {[](CansimOptions& o) { o.faults = {"reboot:1"}; }, kExitBadInput,
-       "--fault 'reboot:1': expected reboot:NODE@T or settings-lost:NODE@T (NODE a node id or theta, phi, probe; T in "
-       "s)"},
+       "--fault 'reboot:1': expected reboot:NODE@T, settings-lost:NODE@T, preop:NODE@T or error:NODE@T (NODE a node id "
+       "or theta, phi, probe; T in s)"},
       {[](CansimOptions& o) { o.faults = {"reboot:9@1"}; }, kExitBadInput,
        "device simulator: reboot of node 9, which no device is"},
       {[](CansimOptions& o) { o.faults = {"reboot:theta@-1"}; }, kExitBadInput,
