@@ -23,6 +23,7 @@
 
 #include "acquisition_internal.hpp"
 #include "clock.hpp"
+#include "sph/can/bus_load.hpp"
 #include "sph/can/socket.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
@@ -302,6 +303,24 @@ AcquisitionStatus RunLive(AcquisitionContext& ctx) {
   const bool produce = o.sync_mode == SyncMode::kProduce;
   if (produce && !(config.sync_period_s > 0.0)) {
     return ctx.Fail(AcquisitionStatus::kBadInput, "--sync-mode produce needs a --sync-period-ms above 0");
+  }
+  // The bus's load: the bitrate given, else the interface's where the kernel reports it.
+  double bitrate = o.bitrate_kbit_s * 1e3;
+  if (!(bitrate > 0.0)) {
+    if (const auto reported = InterfaceBitrate(o.iface)) bitrate = *reported;
+  }
+  try {
+    const double given_s = ctx.pipeline_config.sync_period_s;
+    const std::string warning = CheckBusLoad(o, &ctx.pipeline_config, bitrate);
+    if (!warning.empty()) ctx.Log(LogLevel::kWarning, warning);
+    if (ctx.pipeline_config.sync_period_s != given_s) {
+      ctx.Log(LogLevel::kInfo,
+              "no --sync-period-ms: SYNC every " + internal::Format("%g", ctx.pipeline_config.sync_period_s * 1e3) +
+                  " ms, the shortest period under half the bus (" + internal::Format("%g", bitrate * 1e-3) + " kbit/s" +
+                  (o.bitrate_kbit_s > 0.0 ? "" : ", the interface's") + ")");
+    }
+  } catch (const std::exception& e) {
+    return ctx.Fail(AcquisitionStatus::kBadInput, e.what());
   }
   const CanSocketOptions socket_options = SocketOptions(o, config);
   std::optional<CanSocket> sock;

@@ -180,9 +180,18 @@ void AcquisitionSession::StartAcquisition(std::int64_t now_ns) {
     }
   };
   cb.log = [this](LogLevel level, const std::string& text) { log_(level, text); };
+  // Heartbeat consumer: by default three of the longest producer time the master found or set.
+  if (options_.heartbeat_timeout_s < 0.0 && master_.LongestHeartbeatMs() > 0) {
+    pipeline_config_.heartbeat_timeout_s = 3e-3 * master_.LongestHeartbeatMs();
+    log_(LogLevel::kInfo, "heartbeats watched: a node silent for " +
+                              internal::Format("%g", pipeline_config_.heartbeat_timeout_s) +
+                              " s (three of the longest producer heartbeat time) is lost");
+  }
   pipeline_ = std::make_unique<AcquisitionPipeline>(pipeline_config_, cb);
   pipeline_->OnTime(now_ns);
-  for (const std::string& node : master_.NeverHeard()) {
+  // Started by NMT without SDO: a node that is not there is started without a word.
+  const bool unconfirmed_start = master_.config().nmt && !master_.config().sdo;
+  for (const std::string& node : unconfirmed_start ? master_.NeverHeard() : std::vector<std::string>{}) {
     const std::string text = node +
                              " has not been heard from since the start (no heartbeat, EMCY, SDO answer or "
                              "PDO): started without a word from it";

@@ -805,6 +805,13 @@ std::vector<CanFrame> CanopenMaster::UndoStart() const {
   return out;
 }
 
+std::uint16_t CanopenMaster::LongestHeartbeatMs() const {
+  std::uint16_t longest = 0;
+  if (!config_.sdo) return longest;
+  for (const auto& n : nodes_) longest = std::max(longest, n->hb_ms);
+  return longest;
+}
+
 std::vector<std::string> CanopenMaster::NeverHeard() const {
   std::vector<std::string> out;
   for (const auto& n : nodes_) {

@@ -153,6 +153,9 @@ class CanopenMaster {
   /// unless it was operational or stopped), and each producer heartbeat time 1017h it wrote
   /// written back (SDO download, its answer not awaited). None without nmt.
   std::vector<CanFrame> UndoStart() const;
+  /// The longest producer heartbeat time [ms] of the identified nodes, as found or set (0: none
+  /// known: without SDO, or no node sends heartbeats).
+  std::uint16_t LongestHeartbeatMs() const;
   /// The nodes no frame came from (heartbeat, EMCY, SDO answer, a PDO of its devices) since
   /// Begin(): "node 3 (probe)".
   std::vector<std::string> NeverHeard() const;
