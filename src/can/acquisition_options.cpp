@@ -120,6 +120,12 @@ MasterConfig AcquisitionMasterConfig(const AcquisitionOptions& o, const Pipeline
       d.cob_name = "--" + d.role + "-cob-id";
       d.layout_name = "--" + d.role + "-offset-byte/--" + d.role + "-width-bytes";
       if (d.role == "probe" && o.probe_pdo_object) d.mapped_object = *o.probe_pdo_object;
+      const ProbeDataType* type = FindProbeDataType(o.devices.probe_data_type);
+      if (d.role == "probe" && type != nullptr) {
+        d.value_bytes = type->width_bytes;
+        d.type_name = "--probe-data-type " + std::string(type->name);
+        d.layout_name = "--probe-offset-byte/--probe-data-type";
+      }
     }
   }
   m.nmt = !o.no_nmt;

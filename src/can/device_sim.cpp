@@ -524,7 +524,7 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::uint32_t cob_id, std::optio
     if (dev == kProbe) {
       const ProbeConfig& p = config_.devices.probe;
       out_of_range = !r || (f.probe_out_of_range_probability > 0.0 && u_range < f.probe_out_of_range_probability);
-      n.raw = out_of_range ? p.over_range_raw.value_or(0x7FFFFFFF)
+      n.raw = out_of_range ? (p.real32 ? 0x7F800000 : p.over_range_raw.value_or(0x7FFFFFFF))
                            : EncodeProbeRaw(p, *r + config_.spec.noise_r_um * kMmPerUm * n_r);
     } else {
       const EncoderConfig& e = dev == kTheta ? config_.devices.theta : config_.devices.phi;

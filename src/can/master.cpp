@@ -297,6 +297,7 @@ void CanopenMaster::StartSdo(NodeState& n, std::int64_t now_ns) {
     }
     n.jobs.push_back(Job{false, TpdoComm(d.tpdo, 1), {}, false});
     n.jobs.push_back(Job{false, TpdoComm(d.tpdo, 2), {}, false});
+    if (d.mapped_object && d.value_bytes > 0) n.jobs.push_back(Job{false, *d.mapped_object, {}, true});
     if (d.mapped_object) n.jobs.push_back(Job{false, TpdoMap(d.tpdo, 0), {}, false});
   }
   NextJob(n, now_ns);
@@ -395,6 +396,14 @@ std::vector<std::string> CanopenMaster::Check(const NodeState& n, std::vector<st
     if (const auto tt = n.U32(TpdoComm(d.tpdo, 2)); tt && *tt != 1) {
       problems.push_back(dev + "object " + Describe(TpdoComm(d.tpdo, 2)) + ": the device has " + std::to_string(*tt) +
                          " (" + TransmissionTypeName(*tt) + "), the daemon needs 1 (synchronous, every SYNC)");
+    }
+    if (d.mapped_object && d.value_bytes > 0) {
+      const auto* value = n.Value(*d.mapped_object);
+      if (value != nullptr && static_cast<int>(value->size()) != d.value_bytes) {
+        problems.push_back(dev + "object " + ToString(*d.mapped_object) + " (the mapped value) holds " +
+                           std::to_string(value->size()) + " bytes, " + d.type_name + " has " +
+                           std::to_string(d.value_bytes));
+      }
     }
     if (d.mapped_object) {
       const auto count = n.U32(TpdoMap(d.tpdo, 0));

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <cctype>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -379,6 +380,49 @@ TEST(AcquisitionSession, WithoutSdoANodeNeverHeardFromIsNamed) {
       << text.substr(0, 3000);
   EXPECT_NE(text.find("# node 3 (probe) was never heard from during the run (no frame of it at all)\n"),
             std::string::npos);
+}
+
+// A probe whose TPDO maps a REAL32 value (its reading in mm): the master checks the mapping and
+// reads the value over SDO (4 bytes), each row's r_mm is the single in the probe's frame at its
+// SYNC (decoded here by hand); a data type whose size the object does not have refuses the start.
+TEST(AcquisitionSession, AReal32ProbeIsAcquiredByItsDataType) {
+  const std::string dir = sph::testing::MakeTempDir("acq_real32");
+  AcquisitionOptions o = Options(dir);
+  o.devices.probe_data_type = "real32";
+  o.devices.probe_scale_um_per_count = 1000.0;
+  o.probe_pdo_object = ObjectAddress{0x2000, 0};
+  LiveRun live(o, Devices(AcquisitionPipelineConfig(o)));
+  live.Run(kT0 + 3000 * kMs);
+  ASSERT_EQ(live.session->state(), AcquisitionSession::State::kAcquiring) << live.err.str();
+  EXPECT_THAT(live.bus.log(), Contains(::testing::Truly([](const CanFrame& f) {
+                return ToString(f).rfind("583#43002000", 0) == 0;
+              })));                    // 0x2000:00 uploaded: 4 bytes (expedited, size indicated)
+  std::map<std::int64_t, float> sent;  // the probe's single after each SYNC
+  std::int64_t last_sync = 0;
+  for (const CanFrame& f : live.bus.log()) {
+    if (f.id == 0x80) last_sync = f.t_ns;
+    if (f.id != 0x183 || f.len < 4) continue;
+    float mm = 0.0F;
+    std::memcpy(&mm, f.data.data(), sizeof mm);
+    sent[last_sync] = mm;
+  }
+  const PointsData d = ReadPointsFile(o.output_path);
+  ASSERT_GT(d.samples.size(), 150U);
+  for (const Sample& s : d.samples) {
+    const auto t = static_cast<std::int64_t>(std::llround(s.t_s * 1e9));
+    const auto it = sent.lower_bound(t - 2000);
+    ASSERT_NE(it, sent.end());
+    EXPECT_NEAR(s.r_mm, static_cast<double>(it->second), 0.5e-10) << s.t_s;  // the single, to the 10 decimals written
+  }
+  AcquisitionOptions wrong = Options(sph::testing::MakeTempDir("acq_real32_wrong"));
+  wrong.devices.probe_data_type = "integer16";
+  wrong.probe_pdo_object = ObjectAddress{0x2000, 0};
+  DeviceSimConfig sc = Devices(AcquisitionPipelineConfig(o));  // the device as before: REAL32
+  LiveRun refused(wrong, sc);
+  refused.Run(kT0 + 3000 * kMs);
+  EXPECT_EQ(refused.session->state(), AcquisitionSession::State::kStartRefused);
+  EXPECT_THAT(refused.err.str(), HasSubstr("node 3 (probe): object 0x2000:00 (the mapped value) holds 4 bytes, "
+                                           "--probe-data-type integer16 has 2"));
 }
 
 TEST(AcquisitionSession, OptionsForTheMaster) {

@@ -48,6 +48,10 @@ struct MasterDevice {
   std::string cpr_name = "the configured counts per revolution";
   std::string cob_name = "the configured COB-ID";
   std::string layout_name = "the configured layout";
+  /// The size of the mapped object's value [bytes] by its configured data type, checked by
+  /// reading the object over SDO (0: not checked); named in messages as `type_name`.
+  int value_bytes = 0;
+  std::string type_name;
 };
 
 struct MasterNode {
