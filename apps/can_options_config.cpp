@@ -95,7 +95,7 @@ class StrictConfig : public CLI::ConfigTOML {
       // read as 'setup = true').
       const bool flag = op->get_type_size_max() == 0 || op->get_expected_max() == 0;
       const std::string bare = Trim(value.substr(0, value.find('#')));
-      if (!flag && (eq == std::string::npos || bare.empty() || bare == "\"\"" || bare == "''")) {
+      if (!flag && (eq == std::string::npos || bare.empty())) {  // "" is a value: the empty one
         throw Error(lines.Where() + internal::Quoted(key) + " needs a value: '" + key + " = VALUE'");
       }
       for (const std::string& name : op->get_lnames()) (*origins_)["--" + name] = lines.Where();
