@@ -487,15 +487,16 @@ TEST(AcquireProcess, BadNumbersAndAMissingConfigAreBadInput) {
       {{"--fsync-interval-s", "nan"},
        "--fsync-interval-s: must be -1 (only at the end) or >= 0 and <= 86400 s, got nan"},
       {{"--fsync-interval-s", "-2"}, "--fsync-interval-s: must be -1 (only at the end) or >= 0 and <= 86400 s, got -2"},
-      {{"--config", dir + "/missing.conf"}, dir + "/missing.conf was not readable (missing?)"},
-      {{"--config", nan_conf}, "--sphere-radius-mm: must be > 0 and <= 1000 mm, got nan"},
+      {{"--config", dir + "/missing.conf"},
+       dir + "/missing.conf: cannot open the configuration file (--config) for reading: No such file or directory"},
+      {{"--config", nan_conf}, nan_conf + ":1: --sphere-radius-mm: must be > 0 and <= 1000 mm, got nan"},
   };
   for (const auto& c : cases) {
     std::vector<std::string> args{"--replay", log, "-o", out};
     args.insert(args.end(), c.args.begin(), c.args.end());
     const ProcessResult r = RunAcquired(args, dir);
     EXPECT_EQ(r.code, kExitBadInput) << c.message << "\n" << r.err;
-    EXPECT_EQ(r.err.substr(0, r.err.find('\n') + 1), c.message + "\n");
+    EXPECT_EQ(r.err.substr(0, r.err.find('\n') + 1), "sph_acquired: error: " + c.message + "\n");
     EXPECT_FALSE(Exists(out)) << c.message;
   }
 }

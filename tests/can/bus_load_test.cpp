@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "sph/can/socket.hpp"
+
 namespace sph::can {
 namespace {
 
@@ -42,6 +44,14 @@ TEST(BusLoad, TheDefaultDevicesAtEachBitrate) {
   counted.theta.field.width_bytes = 2;
   counted.sync_counter_byte = {2, -1, -1};
   EXPECT_EQ(SyncLoad(counted, 1e-3, 500e3, 3, 0.0).bits_per_sync, 65 + 85 + 95 + 95);  // 3 bytes: 47 + 24 + 14
+}
+
+// The kernel reports a bitrate only for a CAN controller's interface (IFLA_CAN_BITTIMING): none
+// for the loopback interface, which has no CAN data, nor for one that does not exist.
+TEST(BusLoad, NoBitrateWhereTheKernelReportsNone) {
+  EXPECT_FALSE(InterfaceBitrate("lo").has_value());
+  EXPECT_FALSE(InterfaceBitrate("nosuchcan9").has_value());
+  EXPECT_FALSE(InterfaceBitrate("").has_value());
 }
 
 }  // namespace
