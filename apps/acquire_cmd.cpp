@@ -35,6 +35,8 @@ int ExitCodeOf(can::AcquisitionStatus status) {
       return kExitInterfaceError;
     case can::AcquisitionStatus::kStartRefused:
       return kExitDeviceError;
+    case can::AcquisitionStatus::kNodeLost:
+      return kExitNodeLost;
   }
   return kExitBadInput;
 }

@@ -27,6 +27,7 @@ enum AcquireExit : int {
   kExitOutputError = 3,
   kExitInterfaceError = 4,
   kExitDeviceError = 5,
+  kExitNodeLost = 6,  ///< a node left operational mid-run and did not come back: the run ended cleanly
 };
 
 struct AcquireOptions {

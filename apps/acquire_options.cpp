@@ -89,8 +89,26 @@ void AddRun(CLI::App& app, AcquireOptions& o) {
          "produce: send SYNC every --sync-period-ms; follow: an external producer")
       ->check(CLI::IsMember({"produce", "follow"}))
       ->default_str(a.sync_mode == can::SyncMode::kFollow ? "follow" : "produce");
-  app.add_option("--heartbeat-timeout-s", a.heartbeat_timeout_s, "A node without heartbeat this long is lost; 0: off")
-      ->check(InRange(r::kTimeoutS));
+  app.add_option("--heartbeat-timeout-s", a.heartbeat_timeout_s,
+                 "A node without heartbeat this long is lost [s]; 0: off; -1: three of the longest producer heartbeat "
+                 "time the master found or set (off with --no-sdo)")
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            bool ok = false;
+            try {
+              const double v = ParseNumber(text, "", "");
+              ok = v == -1.0 || r::kTimeoutS.Contains(v);
+            } catch (const Error&) {  // not a finite number: refused with the range
+            }
+            return ok ? ""
+                      : "must be -1 (three of the nodes' heartbeat times) or " + r::kTimeoutS.Refusal(text).substr(8);
+          },
+          "-1 or " + r::kTimeoutS.Text()));
+  app.add_option("--bitrate-kbit-s", a.bitrate_kbit_s,
+                 "The bus's bitrate [kbit/s]: a SYNC period whose frames the bus cannot carry is refused, over half "
+                 "of it warned; without --sync-period-ms the shortest of 1, 2, 5, 10, ... ms under half is chosen; "
+                 "0: the interface's, where the kernel reports it")
+      ->check(ZeroOrInRange(r::kBitrateKbitS, "the interface's"));
   app.add_option("--standstill-tol-deg", a.standstill.tolerance_deg,
                  "Points mode: both axes within this of the stop [deg]")
       ->check(InRange(r::kStandstillTolDeg));
@@ -158,6 +176,11 @@ void AddMaster(CLI::App& app, can::AcquisitionOptions& a) {
       ->group(m);
   app.add_option("--boot-timeout-s", a.boot_timeout_s, "Wait this long for boot-ups after Reset communication [s]")
       ->check(InRange(r::kBootTimeoutS))
+      ->group(m);
+  app.add_option("--node-return-timeout-s", a.node_return_timeout_s,
+                 "A node that left operational mid-run (rebooted, or its heartbeat says another state) is started "
+                 "again; not operational within this, the run ends (exit 6) [s]")
+      ->check(InRange(r::kNodeReturnTimeoutS))
       ->group(m);
   app.add_option_function<std::string>(
          "--probe-pdo-object",

@@ -72,6 +72,12 @@ void AddProbe(CLI::App& app, can::DeviceOptions& o, const std::string& g) {
   app.add_flag("--probe-unsigned", o.probe_unsigned, "Probe: the reading is unsigned (default: signed)")->group(g);
   app.add_flag("--probe-big-endian", o.probe_big_endian, "Probe: the reading is big endian (default: little)")
       ->group(g);
+  app.add_option("--probe-data-type", o.probe_data_type,
+                 "Probe: the reading's CANopen data type, integer8/16/32, unsigned8/16/32 or real32 (sets its width "
+                 "and sign instead of --probe-width-bytes and --probe-unsigned; real32: an IEEE 754 single, times the "
+                 "scale, NaN a device error, infinity out of range; empty: as --probe-width-bytes and --probe-unsigned say)")
+      ->check(CLI::IsMember({"", "integer8", "integer16", "integer32", "unsigned8", "unsigned16", "unsigned32", "real32"}))
+      ->group(g);
   auto* nm = app.add_option("--probe-scale-nm-per-count", o.probe_scale_nm_per_count,
                             "Probe: scale [nm per count], not 0 (negative: the probe counts the other way)")
                  ->check(InRange(r::kScaleNmPerCount))

@@ -102,7 +102,9 @@ void AddFaults(CLI::App& app, CansimOptions& o) {
   app.add_option("--fault", o.faults,
                  "reboot:NODE@T: node NODE (a node id, or theta, phi, probe) reboots T s after the start: silent, "
                  "boot-up message, pre-operational until an NMT master starts it; settings-lost:NODE@T: it reboots "
-                 "without its stored settings (1017h and 1019h 0, EMCY 0x5000) and cannot be started (repeatable)")
+                 "without its stored settings (1017h and 1019h 0, EMCY 0x5000) and cannot be started; preop:NODE@T: it "
+                 "enters pre-operational by itself; error:NODE@T: EMCY 0x8100, error register 0x11, pre-operational, "
+                 "cleared 1 s later (EMCY 0x0000) (repeatable)")
       ->group(g);
 }
 

@@ -70,6 +70,7 @@ AcquisitionResult RunSession(AcquisitionContext& ctx, bool live) {
       status = AcquisitionStatus::kStartRefused;
     } else if (session != nullptr) {
       session->Finish();
+      if (session->state() == AcquisitionSession::State::kNodeLost) status = AcquisitionStatus::kNodeLost;
     }
   } catch (const OutputError& e) {
     session = ctx.session.get();
@@ -128,7 +129,13 @@ std::vector<std::string> SummaryLines(const AcquisitionResult& r) {
     s += "\nmaster: NMT commands " + std::to_string(m.nmt_commands) + ", SDO transfers " +
          std::to_string(m.sdo_transfers) + ", reboots " + std::to_string(m.boot_ups) + ", restarted " +
          std::to_string(m.restarts) + ", not restarted " + std::to_string(m.restart_failures) +
-         ", started without a heartbeat to confirm it " + std::to_string(m.unconfirmed);
+         ", started without a heartbeat to confirm it " + std::to_string(m.unconfirmed) + ", left operational " +
+         std::to_string(m.left_operational) + " (Start sent again " + std::to_string(m.start_retries) + ")";
+  }
+  if (!r.never_heard.empty()) {
+    std::string nodes;
+    for (const std::string& n : r.never_heard) nodes += (nodes.empty() ? "" : ", ") + n;
+    s += "\nnever heard from: " + nodes;
   }
   std::vector<std::string> lines{s};
   if (r.outputs_opened) {

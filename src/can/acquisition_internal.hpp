@@ -16,7 +16,7 @@ namespace sph::can {
 struct AcquisitionContext {
   const AcquisitionOptions& options;
   const AcquisitionHooks& hooks;
-  const PipelineConfig& pipeline_config;
+  PipelineConfig& pipeline_config;  ///< the live run may choose its SYNC period (CheckBusLoad)
   const MasterConfig& master_config;
   RunControl& control;
   /// Replay: what the log holds and which interface is replayed (CheckReplayLog).

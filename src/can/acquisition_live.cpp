@@ -23,6 +23,7 @@
 
 #include "acquisition_internal.hpp"
 #include "clock.hpp"
+#include "sph/can/bus_load.hpp"
 #include "sph/can/socket.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
@@ -127,7 +128,10 @@ class LiveLoop {
         session_(*ctx.session),
         signals_(ctx.control.wake_signals) {
     session_.set_send([this](const CanFrame& f) {
-      if (sock_) sock_->Send(f);
+      if (sock_ && sock_->Send(f) == TxStatus::kBusy) {
+        ++tx_busy_;
+        session_.OnTxQueueFull(f.id == kNmtCobId ? "NMT command" : "SDO request", RealtimeNs());
+      }
     });
   }
 
@@ -138,10 +142,7 @@ class LiveLoop {
     session_.Begin(RealtimeNs());
     AcquisitionStatus result = AcquisitionStatus::kOk;
     while (ctx_.control.stop.load() == 0) {
-      if (session_.state() == AcquisitionSession::State::kStartRefused ||
-          session_.state() == AcquisitionSession::State::kOutputFailed) {
-        break;
-      }
+      if (session_.ended()) break;
       if (produce_ && session_.acquiring() && !timer_) timer_.emplace(config_.sync_period_s);
       if (ctx_.control.summary.exchange(0) != 0) ctx_.Summary();
       const double now = MonotonicS();
@@ -222,6 +223,7 @@ class LiveLoop {
       ++syncs_sent_;
     } else if (tx == TxStatus::kBusy) {
       ++tx_busy_;
+      session_.OnTxQueueFull("SYNC", RealtimeNs());
     } else {
       return false;
     }
@@ -271,6 +273,7 @@ class LiveLoop {
       for (const CanFrame& f : session_.master().CommandAll(command)) sock_->Send(f);
       ctx_.Log(LogLevel::kInfo, "NMT " + NmtCommandName(static_cast<std::uint8_t>(command)) + " sent");
     }
+    if (sock_ && session_.state() == AcquisitionSession::State::kStarting) session_.UndoStart();
     session_.set_send(nullptr);  // the socket goes with this loop; the session lives on
     if (produce_ && timer_) {
       ctx_.Log(LogLevel::kInfo, "SYNC sent " + std::to_string(syncs_sent_) + ", timer overruns " +
@@ -300,6 +303,24 @@ AcquisitionStatus RunLive(AcquisitionContext& ctx) {
   const bool produce = o.sync_mode == SyncMode::kProduce;
   if (produce && !(config.sync_period_s > 0.0)) {
     return ctx.Fail(AcquisitionStatus::kBadInput, "--sync-mode produce needs a --sync-period-ms above 0");
+  }
+  // The bus's load: the bitrate given, else the interface's where the kernel reports it.
+  double bitrate = o.bitrate_kbit_s * 1e3;
+  if (!(bitrate > 0.0)) {
+    if (const auto reported = InterfaceBitrate(o.iface)) bitrate = *reported;
+  }
+  try {
+    const double given_s = ctx.pipeline_config.sync_period_s;
+    const std::string warning = CheckBusLoad(o, &ctx.pipeline_config, bitrate);
+    if (!warning.empty()) ctx.Log(LogLevel::kWarning, warning);
+    if (ctx.pipeline_config.sync_period_s != given_s) {
+      ctx.Log(LogLevel::kInfo,
+              "no --sync-period-ms: SYNC every " + internal::Format("%g", ctx.pipeline_config.sync_period_s * 1e3) +
+                  " ms, the shortest period under half the bus (" + internal::Format("%g", bitrate * 1e-3) + " kbit/s" +
+                  (o.bitrate_kbit_s > 0.0 ? "" : ", the interface's") + ")");
+    }
+  } catch (const std::exception& e) {
+    return ctx.Fail(AcquisitionStatus::kBadInput, e.what());
   }
   const CanSocketOptions socket_options = SocketOptions(o, config);
   std::optional<CanSocket> sock;

@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "sph/can/acquisition.hpp"
+#include "sph/can/bus_load.hpp"
 #include "sph/core/error.hpp"
 #include "sph/internal/format.hpp"
 
@@ -27,6 +28,13 @@ void CheckRunNumbers(const AcquisitionOptions& o) {
   CheckedValue(o.replay_speed, ranges::kReplaySpeed, "--replay-speed");
   CheckedValue(o.reopen_interval_s, ranges::kReopenIntervalS, "--reopen-interval-s");
   CheckedValue(o.rcvbuf_bytes, ranges::kRcvbufBytes, "--rcvbuf-bytes");
+  CheckedValueOr(o.bitrate_kbit_s, 0.0, "the interface's", ranges::kBitrateKbitS, "--bitrate-kbit-s");
+}
+
+int HeartbeatNodes(const PipelineConfig& c) {
+  int n = 0;
+  for (const int id : {c.theta.node_id, c.phi.node_id, c.probe.node_id}) n += id != 0 ? 1 : 0;
+  return n;
 }
 
 void CheckMasterFlags(const AcquisitionOptions& o) {
@@ -46,6 +54,7 @@ void CheckMasterFlags(const AcquisitionOptions& o) {
   CheckedValue(o.node_heartbeat_ms, ranges::kNodeHeartbeatMs, "--node-heartbeat-ms");
   CheckedValue(o.sdo_timeout_ms, ranges::kSdoTimeoutMs, "--sdo-timeout-ms");
   CheckedValue(o.boot_timeout_s, ranges::kBootTimeoutS, "--boot-timeout-s");
+  CheckedValue(o.node_return_timeout_s, ranges::kNodeReturnTimeoutS, "--node-return-timeout-s");
 }
 
 }  // namespace
@@ -57,10 +66,35 @@ void CheckAcquisitionOptions(const AcquisitionOptions& o) {
   }
   AcquisitionMasterConfig(o, AcquisitionPipelineConfig(o));
   CheckRunNumbers(o);
+  PipelineConfig pipeline = AcquisitionPipelineConfig(o);
+  if (!o.iface.empty()) CheckBusLoad(o, &pipeline, o.bitrate_kbit_s * 1e3);
+}
+
+std::string CheckBusLoad(const AcquisitionOptions& o, PipelineConfig* pipeline, double bitrate_bit_s) {
+  if (!(bitrate_bit_s > 0.0)) return "";
+  const bool produce = o.sync_mode == SyncMode::kProduce && o.replay_path.empty();
+  const int nodes = HeartbeatNodes(*pipeline);
+  const double hb_ms = o.no_nmt ? 0.0 : o.node_heartbeat_ms;
+  const bool given = o.devices.sync_period_ms && *o.devices.sync_period_ms > 0.0;
+  if (produce && !given) pipeline->sync_period_s = DefaultSyncPeriodS(*pipeline, bitrate_bit_s, nodes, hb_ms);
+  if (!(pipeline->sync_period_s > 0.0)) return "";
+  const BusLoad load = SyncLoad(*pipeline, pipeline->sync_period_s, bitrate_bit_s, nodes, hb_ms);
+  const std::string text = DescribeLoad(load, pipeline->sync_period_s, bitrate_bit_s);
+  if (load.load > 1.0 && produce) {
+    // The shortest period the bus carries: SYNC cycle bits over what the heartbeats leave.
+    const double min_ms = 1e3 * load.bits_per_sync / (bitrate_bit_s - load.heartbeat_bits_per_s);
+    throw Error("--sync-period-ms " + internal::Format("%g", pipeline->sync_period_s * 1e3) + ": " + text +
+                ": the bus cannot carry it; a SYNC period of at least " + internal::Format("%.2f", min_ms) +
+                " ms can be carried, " + internal::Format("%.2f", 2.0 * min_ms) +
+                " ms or more keeps the load at half the bus or less");
+  }
+  if (load.load > 0.5) return text + ": more than half the bus (other traffic and retransmissions need room)";
+  return "";
 }
 
 PipelineConfig AcquisitionPipelineConfig(const AcquisitionOptions& o) {
-  CheckedValue(o.heartbeat_timeout_s, ranges::kTimeoutS, "--heartbeat-timeout-s");
+  CheckedValueOr(o.heartbeat_timeout_s, -1.0, "three of the nodes' heartbeat times", ranges::kTimeoutS,
+                 "--heartbeat-timeout-s");
   CheckedValue(o.standstill.tolerance_deg, ranges::kStandstillTolDeg, "--standstill-tol-deg");
   CheckedValue(o.standstill.dwell_s, ranges::kTimeoutS, "--dwell-s");
   CheckedValue(o.standstill.average_s, ranges::kTimeoutS, "--average-s");
@@ -70,7 +104,7 @@ PipelineConfig AcquisitionPipelineConfig(const AcquisitionOptions& o) {
   if (!o.devices.sync_period_ms && (!o.replay_path.empty() || o.sync_mode == SyncMode::kFollow)) c.sync_period_s = 0.0;
   c.mode = o.mode;
   c.setup = o.setup;
-  c.heartbeat_timeout_s = o.heartbeat_timeout_s;
+  c.heartbeat_timeout_s = o.heartbeat_timeout_s < 0.0 ? 0.0 : o.heartbeat_timeout_s;  // -1: set at the start
   c.standstill = o.standstill;
   c.Validate();
   return c;
@@ -86,6 +120,12 @@ MasterConfig AcquisitionMasterConfig(const AcquisitionOptions& o, const Pipeline
       d.cob_name = "--" + d.role + "-cob-id";
       d.layout_name = "--" + d.role + "-offset-byte/--" + d.role + "-width-bytes";
       if (d.role == "probe" && o.probe_pdo_object) d.mapped_object = *o.probe_pdo_object;
+      const ProbeDataType* type = FindProbeDataType(o.devices.probe_data_type);
+      if (d.role == "probe" && type != nullptr) {
+        d.value_bytes = type->width_bytes;
+        d.type_name = "--probe-data-type " + std::string(type->name);
+        d.layout_name = "--probe-offset-byte/--probe-data-type";
+      }
     }
   }
   m.nmt = !o.no_nmt;
@@ -100,6 +140,7 @@ MasterConfig AcquisitionMasterConfig(const AcquisitionOptions& o, const Pipeline
   m.heartbeat_name = "--node-heartbeat-ms";
   m.sdo_timeout_ns = static_cast<std::int64_t>(o.sdo_timeout_ms * 1e6);
   m.boot_timeout_ns = static_cast<std::int64_t>(o.boot_timeout_s * 1e9);
+  m.return_timeout_ns = static_cast<std::int64_t>(o.node_return_timeout_s * 1e9);
   m.Validate();
   return m;
 }

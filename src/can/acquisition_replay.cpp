@@ -134,13 +134,23 @@ void ReplayFrame(AcquisitionContext& ctx, const CanFrame& frame, ReplayProgress&
 }
 
 // After the last frame: a start the log ends in the middle of has its timeouts run out, and an
-// acquiring session's outputs are flushed.
+// acquiring session's outputs are flushed. A timeout due within one SYNC period after the last
+// frame ran out before the live run ended (its next SYNC would be in the log): a node that did
+// not come back ends the replay as it ended the run.
 void FinishReplay(AcquisitionContext& ctx, std::int64_t last_ns) {
   AcquisitionSession& session = *ctx.session;
   if (session.state() == AcquisitionSession::State::kStarting && ctx.control.stop.load() == 0) {
     session.OnTime(last_ns + 3600LL * 1000000000LL);
   }
-  if (session.state() == AcquisitionSession::State::kAcquiring) session.FlushOutputs();
+  const auto period_ns = static_cast<std::int64_t>(ctx.pipeline_config.sync_period_s * 1e9);
+  if (session.state() == AcquisitionSession::State::kAcquiring && period_ns > 0 && ctx.control.stop.load() == 0 &&
+      session.NextDeadline() <= last_ns + period_ns) {
+    session.OnTime(session.NextDeadline());
+  }
+  if (session.state() == AcquisitionSession::State::kAcquiring ||
+      session.state() == AcquisitionSession::State::kNodeLost) {
+    session.FlushOutputs();
+  }
 }
 
 // Replays the frames of `reader` from `begin_ns` on into the session until the log ends, a stop is
@@ -149,10 +159,7 @@ AcquisitionStatus ReplayFrames(AcquisitionContext& ctx, CandumpReader& reader, s
   AcquisitionSession& session = *ctx.session;
   ReplayProgress p;
   for (;;) {
-    if (session.state() == AcquisitionSession::State::kStartRefused ||
-        session.state() == AcquisitionSession::State::kOutputFailed) {
-      return AcquisitionStatus::kOk;
-    }
+    if (session.ended()) break;
     if (StopRequested(ctx)) break;
     CandumpReader::Result r;
     try {

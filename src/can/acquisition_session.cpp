@@ -42,13 +42,8 @@ AcquisitionSession::AcquisitionSession(const AcquisitionOptions& options, const 
                                        },
                                        [this](LogLevel level, const std::string& text) { log_(level, text); },
                                        [this](const std::string& text) {
-                                         if (points_) {
-                                           try {
-                                             points_->WriteComment(text);
-                                           } catch (const Error& e) {
-                                             throw OutputError(e.what());
-                                           }
-                                         }
+                                         // At its place among the rows (the pipeline writes it).
+                                         if (pipeline_) pipeline_->AddEvent(now_ns_, text);
                                        }}) {}
 
 AcquisitionSession::~AcquisitionSession() = default;
@@ -59,6 +54,12 @@ void AcquisitionSession::Begin(std::int64_t now_ns) {
 }
 
 void AcquisitionSession::Advance(std::int64_t now_ns) {
+  if (state_ == State::kAcquiring && master_.phase() == CanopenMaster::Phase::kNodeLost) {
+    state_ = State::kNodeLost;
+    for (const std::string& e : master_.errors()) error_ += (error_.empty() ? "" : "\n") + e;
+    log_(LogLevel::kError, "the acquisition ends: a node did not come back");
+    return;
+  }
   if (state_ != State::kStarting) return;
   if (master_.phase() == CanopenMaster::Phase::kFailed) {
     state_ = State::kStartRefused;
@@ -71,6 +72,7 @@ void AcquisitionSession::Advance(std::int64_t now_ns) {
     }
     log_(LogLevel::kError, refused);
     error_ += refused;
+    UndoStart();
     return;
   }
   if (master_.phase() == CanopenMaster::Phase::kRunning) StartAcquisition(now_ns);
@@ -178,14 +180,30 @@ void AcquisitionSession::StartAcquisition(std::int64_t now_ns) {
     }
   };
   cb.log = [this](LogLevel level, const std::string& text) { log_(level, text); };
+  // Heartbeat consumer: by default three of the longest producer time the master found or set.
+  if (options_.heartbeat_timeout_s < 0.0 && master_.LongestHeartbeatMs() > 0) {
+    pipeline_config_.heartbeat_timeout_s = 3e-3 * master_.LongestHeartbeatMs();
+    log_(LogLevel::kInfo, "heartbeats watched: a node silent for " +
+                              internal::Format("%g", pipeline_config_.heartbeat_timeout_s) +
+                              " s (three of the longest producer heartbeat time) is lost");
+  }
   pipeline_ = std::make_unique<AcquisitionPipeline>(pipeline_config_, cb);
   pipeline_->OnTime(now_ns);
+  // Started by NMT without SDO: a node that is not there is started without a word.
+  const bool unconfirmed_start = master_.config().nmt && !master_.config().sdo;
+  for (const std::string& node : unconfirmed_start ? master_.NeverHeard() : std::vector<std::string>{}) {
+    const std::string text = node +
+                             " has not been heard from since the start (no heartbeat, EMCY, SDO answer or "
+                             "PDO): started without a word from it";
+    log_(LogLevel::kWarning, text);
+    pipeline_->AddEvent(now_ns, text);
+  }
   log_(LogLevel::kInfo, source_ + ": acquiring (" + ToString(options_.mode) + " mode" +
                             (master_.config().nmt ? ", the devices started by NMT" : "") + ")");
 }
 
 void AcquisitionSession::OnFrame(const CanFrame& received) {
-  if (state_ == State::kStartRefused || state_ == State::kOutputFailed) return;
+  if (ended()) return;
   // The frame log holds microseconds: a live run works on the same times as its replay.
   CanFrame frame = received;
   frame.t_ns -= ((frame.t_ns % 1000) + 1000) % 1000;
@@ -202,13 +220,15 @@ void AcquisitionSession::OnFrame(const CanFrame& received) {
       ++early_dropped_;
     }
   }
+  now_ns_ = frame.t_ns;
   master_.OnFrame(frame);
   Advance(frame.t_ns);
   if (pipeline_) pipeline_->OnFrame(frame);
 }
 
 void AcquisitionSession::OnTime(std::int64_t now_ns) {
-  if (state_ == State::kStartRefused || state_ == State::kOutputFailed) return;
+  if (ended()) return;
+  now_ns_ = now_ns;
   master_.OnTime(now_ns);
   Advance(now_ns);
   if (pipeline_) pipeline_->OnTime(now_ns);
@@ -231,6 +251,14 @@ void AcquisitionSession::OnMalformedInput(const std::string& what) {
   }
 }
 
+void AcquisitionSession::OnTxQueueFull(const std::string& what, std::int64_t now_ns) {
+  if (pipeline_) {
+    pipeline_->OnTxQueueFull(what, now_ns);
+  } else {
+    log_(LogLevel::kWarning, "transmit queue full: a " + what + " was not sent during the start");
+  }
+}
+
 void AcquisitionSession::OnLinkEvent(const std::string& what, std::int64_t now_ns) {
   if (pipeline_) pipeline_->OnLinkEvent(what, now_ns);
 }
@@ -245,13 +273,32 @@ void AcquisitionSession::FlushOutputs() {
 }
 
 void AcquisitionSession::Finish() {
-  if (pipeline_) pipeline_->Finish();
+  if (pipeline_) {
+    for (const std::string& node : master_.NeverHeard()) {
+      pipeline_->AddEvent(now_ns_, node + " was never heard from during the run (no frame of it at all)");
+    }
+    pipeline_->Finish();
+  }
   try {
     if (frame_log_) frame_log_->Close();
     if (points_) points_->Close();
   } catch (const Error& e) {
     throw OutputError(e.what());
   }
+}
+
+void AcquisitionSession::UndoStart() {
+  const std::vector<CanFrame> frames = master_.UndoStart();
+  if (frames.empty() || !send_) return;
+  std::string sent;
+  for (const CanFrame& f : frames) {
+    send_(f);
+    sent += (sent.empty() ? "" : " ") + ToString(f);
+  }
+  log_(LogLevel::kInfo,
+       "leaving the bus as the start found it (the nodes started back to their state, 1017h "
+       "written back): " +
+           sent);
 }
 
 void AcquisitionSession::Abandon() {
@@ -275,6 +322,7 @@ AcquisitionResult AcquisitionSession::Result() const {
   r.frame_log = frame_log_ != nullptr;
   if (frame_log_) r.frames_logged = frame_log_->frames_written();
   r.losses = Losses();
+  if (pipeline_) r.never_heard = master_.NeverHeard();
   r.warnings = warnings_;
   return r;
 }

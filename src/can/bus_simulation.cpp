@@ -17,9 +17,9 @@
 #include "clock.hpp"
 #include "sph/can/candump_log.hpp"
 #include "sph/core/error.hpp"
-#include "sph/io/output_files.hpp"
 #include "sph/core/text_input.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/io/output_files.hpp"
 
 namespace sph::can {
 namespace {
@@ -215,9 +215,11 @@ EmcyEvent ParseEmcy(const std::string& s) {
 RebootEvent ParseFault(const std::string& s, const DeviceOptions& devices) {
   const auto at = s.find('@');
   const bool lost = s.rfind("settings-lost:", 0) == 0;
-  if ((s.rfind("reboot:", 0) != 0 && !lost) || at == std::string::npos) {
+  const bool preop = s.rfind("preop:", 0) == 0, error = s.rfind("error:", 0) == 0;
+  if ((s.rfind("reboot:", 0) != 0 && !lost && !preop && !error) || at == std::string::npos) {
     throw Error("--fault '" + s +
-                "': expected reboot:NODE@T or settings-lost:NODE@T (NODE a node id or theta, phi, probe; T in s)");
+                "': expected reboot:NODE@T, settings-lost:NODE@T, preop:NODE@T or error:NODE@T (NODE a node id or "
+                "theta, phi, probe; T in s)");
   }
   const std::size_t colon = s.find(':') + 1;
   const std::string node = s.substr(colon, at - colon);
@@ -233,7 +235,10 @@ RebootEvent ParseFault(const std::string& s, const DeviceOptions& devices) {
     }
     if (id < 1 || id > 127) throw Error("--fault '" + s + "': node must be 1..127");
   }
-  return {id, TimeOf(s.substr(at + 1), "T", "--fault '" + s + "'"), lost};
+  RebootEvent r{id, TimeOf(s.substr(at + 1), "T", "--fault '" + s + "'"), lost};
+  if (preop) r.kind = NodeFaultKind::kPreOperational;
+  if (error) r.kind = NodeFaultKind::kError;
+  return r;
 }
 
 void CheckBusSimulationOptions(const BusSimulationOptions& o) {

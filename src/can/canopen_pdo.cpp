@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 
 #include "sph/can/canopen.hpp"
@@ -154,8 +155,26 @@ std::int64_t EncodePositionRaw(const EncoderConfig& c, double angle_deg) {
   return static_cast<std::int64_t>(static_cast<std::uint64_t>(raw) & ((std::uint64_t{1} << bits) - 1));
 }
 
+const std::vector<ProbeDataType>& ProbeDataTypes() {
+  static const std::vector<ProbeDataType> types{{"integer8", 1, true, false},    {"integer16", 2, true, false},
+                                                {"integer32", 4, true, false},   {"unsigned8", 1, false, false},
+                                                {"unsigned16", 2, false, false}, {"unsigned32", 4, false, false},
+                                                {"real32", 4, false, true}};
+  return types;
+}
+
+const ProbeDataType* FindProbeDataType(const std::string& name) {
+  for (const ProbeDataType& t : ProbeDataTypes()) {
+    if (name == t.name) return &t;
+  }
+  return nullptr;
+}
+
 void ValidateProbe(const ProbeConfig& c, const std::string& what) {
   ValidateLayout(c.field, what);
+  if (c.real32 && (c.field.width_bytes != 4 || c.field.is_signed)) {
+    throw Error(what + ": a REAL32 value is 4 bytes, not read as a signed integer");
+  }
   if (!(c.scale_mm_per_count != 0.0) || !std::isfinite(c.scale_mm_per_count)) {
     throw Error(what + ": the scale must be a non-zero number");
   }
@@ -178,6 +197,19 @@ DecodedValue DecodeProbe(const ProbeConfig& c, const CanFrame& frame) {
     out.status = DecodeStatus::kDeviceError;
     return out;
   }
+  if (c.real32) {
+    const auto bits = static_cast<std::uint32_t>(*raw);
+    float number = 0.0F;
+    std::memcpy(&number, &bits, sizeof number);
+    if (std::isnan(number)) {
+      out.status = DecodeStatus::kDeviceError;
+    } else if (std::isinf(number)) {
+      out.status = DecodeStatus::kOutOfRange;
+    } else {
+      out.value = c.offset_mm + c.scale_mm_per_count * static_cast<double>(number);
+    }
+    return out;
+  }
   if (std::find(c.error_raw.begin(), c.error_raw.end(), *raw) != c.error_raw.end()) {
     out.status = DecodeStatus::kDeviceError;
     return out;
@@ -191,6 +223,12 @@ DecodedValue DecodeProbe(const ProbeConfig& c, const CanFrame& frame) {
 }
 
 std::int64_t EncodeProbeRaw(const ProbeConfig& c, double r_mm) {
+  if (c.real32) {  // the nearest single; its bits
+    const auto number = static_cast<float>((r_mm - c.offset_mm) / c.scale_mm_per_count);
+    std::uint32_t bits = 0;
+    std::memcpy(&bits, &number, sizeof bits);
+    return static_cast<std::int64_t>(bits);
+  }
   std::int64_t lo = FieldMin(c.field), hi = FieldMax(c.field);
   if (c.under_range_raw && *c.under_range_raw == lo) ++lo;
   if (c.over_range_raw && *c.over_range_raw == hi) --hi;

@@ -49,6 +49,11 @@ void CheckProbe(const DeviceOptions& o) {
     throw Error("--probe-cob-id " + internal::Format("0x%X", o.probe_cob_id) +
                 ": an 11-bit id is at most 0x7FF (--probe-extended-id for a 29-bit id)");
   }
+  if (!o.probe_data_type.empty() && FindProbeDataType(o.probe_data_type) == nullptr) {
+    std::string names;
+    for (const ProbeDataType& t : ProbeDataTypes()) names += (names.empty() ? "" : ", ") + std::string(t.name);
+    throw Error("--probe-data-type " + internal::Quoted(o.probe_data_type) + ": not a data type of " + names);
+  }
   if (o.probe_scale_um_per_count == 0.0 && o.probe_scale_nm_per_count == 0.0) {
     throw Error("--probe-scale-nm-per-count: must not be 0 nm");
   }
@@ -97,6 +102,15 @@ PipelineConfig DevicesConfig(const DeviceOptions& o) {
     c.probe.under_range_raw = o.probe_under_range_raw;
   }
   c.probe.error_raw = o.probe_error_raw;
+  if (const ProbeDataType* type = FindProbeDataType(o.probe_data_type)) {
+    c.probe.field.width_bytes = type->width_bytes;
+    c.probe.field.is_signed = type->is_signed;
+    c.probe.real32 = type->real32;
+    if (type->real32) {  // infinities and NaN say it; no raw codes
+      c.probe.over_range_raw.reset();
+      c.probe.under_range_raw.reset();
+    }
+  }
   c.probe.status_offset_byte = o.probe_status_byte;
   c.probe.status_error_mask = static_cast<std::uint8_t>(o.probe_status_error_mask);
   c.probe.tpdo = o.probe_tpdo;

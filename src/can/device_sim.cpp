@@ -86,6 +86,7 @@ struct DeviceSimulator::Node {
   std::size_t next_reboot = 0;
   bool settings_lost = false;              ///< the next boot is without the stored settings
   std::int64_t hardware_emcy_at = kNever;  ///< its EMCY 0x5000 after such a boot
+  std::int64_t error_clear_at = kNever;    ///< a NodeFaultKind::kError clears then (EMCY 0x0000)
   std::uint8_t error_register = 0;         ///< 1001h: an error keeps the node from operational
   ObjectDictionary od;
   std::unique_ptr<SdoServer> server;
@@ -244,7 +245,10 @@ std::uint32_t DeviceSimulator::CheckWrite(const Node& n, ObjectAddress o, const 
   }
   const bool comm = o.index == n.Comm(), map = o.index == n.Map();
   if (!comm && !map) return std::uint32_t{0};
-  if (n.st == NmtState::kOperational) return kAbortDeviceState;
+  // CiA 301: while operational only the COB-ID may be written (to make the PDO invalid first);
+  // an invalid PDO's parameters may be changed in any state, as CANopenNode allows.
+  const bool pdo_valid = (n.od.Unsigned({n.Comm(), 1}) & 0x80000000U) == 0;
+  if (n.st == NmtState::kOperational && pdo_valid && !(comm && o.subindex == 1)) return kAbortDeviceState;
   if (comm && o.subindex == 1) {
     const std::uint64_t old = n.od.Unsigned(o);
     const bool old_valid = (old & 0x80000000U) == 0, new_valid = (value & 0x80000000U) == 0;
@@ -290,6 +294,11 @@ void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
   od.SetUnsigned({0x1005, 0}, config_.devices.sync_cob_id, 4, A::kReadWrite);
   const std::string name = std::string("sph_cansim ") + DeviceName(d) + (encoder ? " encoder" : "");
   od.Set({0x1008, 0}, std::vector<std::uint8_t>(name.begin(), name.end()));
+  // A writable object longer than 4 bytes (a segmented download): a 16-byte location text.
+  const std::string location = "not set";
+  std::vector<std::uint8_t> text(location.begin(), location.end());
+  text.resize(16, ' ');
+  od.Set({0x2100, 0}, text, A::kReadWrite);
   od.SetUnsigned({0x1014, 0}, kEmcyBase + static_cast<std::uint32_t>(n.node_id), 4, A::kReadWrite);
   od.SetUnsigned({0x1017, 0},
                  stored ? static_cast<std::uint64_t>(std::llround(config_.heartbeat_period_s * 1000.0)) : 0, 2,
@@ -336,6 +345,7 @@ void DeviceSimulator::Boot(Node& n, std::int64_t t_ns) {
   n.last_sent_raw.reset();
   n.error_register = 0;
   n.hardware_emcy_at = kNever;
+  n.error_clear_at = kNever;
   if (!stored) {  // the device finds its settings gone: a hardware error, reported after its boot-up
     n.error_register = 0x01;
     n.hardware_emcy_at = t_ns + ToNs(config_.sdo_latency_s);
@@ -514,7 +524,7 @@ void DeviceSimulator::OnSync(std::int64_t t_ns, std::uint32_t cob_id, std::optio
     if (dev == kProbe) {
       const ProbeConfig& p = config_.devices.probe;
       out_of_range = !r || (f.probe_out_of_range_probability > 0.0 && u_range < f.probe_out_of_range_probability);
-      n.raw = out_of_range ? p.over_range_raw.value_or(0x7FFFFFFF)
+      n.raw = out_of_range ? (p.real32 ? 0x7F800000 : p.over_range_raw.value_or(0x7FFFFFFF))
                            : EncodeProbeRaw(p, *r + config_.spec.noise_r_um * kMmPerUm * n_r);
     } else {
       const EncoderConfig& e = dev == kTheta ? config_.devices.theta : config_.devices.phi;
@@ -628,7 +638,7 @@ std::int64_t DeviceSimulator::NextEventNs() const {
     if (n->st == NmtState::kBootUp) next = std::min(next, n->boot_at);
     if (n->st != NmtState::kBootUp) next = std::min(next, n->next_heartbeat);
     if (n->next_reboot < n->reboots.size()) next = std::min(next, RebootNs(*n));
-    if (n->On()) next = std::min(next, n->hardware_emcy_at);
+    if (n->On()) next = std::min({next, n->hardware_emcy_at, n->error_clear_at});
     if (n->st == NmtState::kOperational && n->od.Unsigned({n->Comm(), 2}) >= 254) {
       next = std::min(next, n->next_event_pdo);
     }
@@ -677,7 +687,33 @@ void DeviceSimulator::AdvanceTo(std::int64_t t_end, std::vector<CanFrame>& out) 
     for (auto& np : nodes_) {
       if (done) break;
       Node& n = *np;
-      if (n.next_reboot < n.reboots.size() && RebootNs(n) == t) {
+      if (n.next_reboot < n.reboots.size() && RebootNs(n) == t &&
+          n.reboots[n.next_reboot].kind != NodeFaultKind::kReboot) {
+        const RebootEvent& fault = n.reboots[n.next_reboot++];
+        if (n.On() && fault.kind == NodeFaultKind::kError) {
+          n.error_register |= 0x11;  // communication, and the generic bit
+          if (auto* e = n.od.Find({0x1001, 0})) e->value = {n.error_register};
+          if (auto e = Emcy(n, 0x8100, 0, 0)) {  // communication, generic
+            e->t_ns = t;
+            out.push_back(*e);
+            ++injected_.emergencies;
+          }
+          n.error_clear_at = fault.clears_after_s > 0.0 ? t + ToNs(fault.clears_after_s) : kNever;
+        }
+        if (n.On()) Enter(n, NmtState::kPreOperational, t);
+        ++injected_.state_faults;
+        done = true;
+      } else if (n.On() && n.error_clear_at == t) {
+        n.error_clear_at = kNever;
+        n.error_register = 0;
+        if (auto* e = n.od.Find({0x1001, 0})) e->value = {n.error_register};
+        if (auto e = Emcy(n, 0x0000, 0, 0)) {  // error reset
+          e->t_ns = t;
+          out.push_back(*e);
+          ++injected_.emergencies;
+        }
+        done = true;
+      } else if (n.next_reboot < n.reboots.size() && RebootNs(n) == t) {
         n.settings_lost = n.reboots[n.next_reboot].settings_lost;
         ++n.next_reboot;
         ++injected_.reboots;

@@ -151,7 +151,7 @@ void MasterConfig::Validate() const {
   if (sync_counter_max < -1 || sync_counter_max == 1 || sync_counter_max > 240) {
     throw Error("the SYNC counter overflow value to check must be 0 or 2..240 (-1: not checked)");
   }
-  if (sdo_timeout_ns <= 0 || boot_timeout_ns <= 0 || operational_timeout_ns < 0) {
+  if (sdo_timeout_ns <= 0 || boot_timeout_ns <= 0 || operational_timeout_ns < 0 || return_timeout_ns <= 0) {
     throw Error("the master's timeouts must be positive");
   }
 }
@@ -190,13 +190,20 @@ struct CanopenMaster::NodeState {
   std::optional<NodeIdentity> first;  ///< identified at the start
   bool restarting = false;
   std::optional<std::uint8_t> last_state;
-  bool heartbeat_since_start = false;     ///< a heartbeat came after the NMT Start
-  std::string error;                      ///< why the start failed
-  std::optional<std::uint16_t> hb_found;  ///< 1017h as this identification found it
-  std::uint16_t hb_target = 0;            ///< the heartbeat the master wants of it (set at the start)
-  std::uint16_t hb_ms = 0;                ///< the heartbeat it sends now
-  std::string write_error;                ///< a may_fail write the device refused
-  bool confirmed = false;                 ///< its heartbeat said operational
+  bool heartbeat_since_start = false;              ///< a heartbeat came after the NMT Start
+  std::string error;                               ///< why the start failed
+  std::optional<std::uint16_t> hb_found;           ///< 1017h as this identification found it
+  std::uint16_t hb_target = 0;                     ///< the heartbeat the master wants of it (set at the start)
+  std::uint16_t hb_ms = 0;                         ///< the heartbeat it sends now
+  std::string write_error;                         ///< a may_fail write the device refused
+  bool confirmed = false;                          ///< its heartbeat said operational
+  bool rebooted = false;                           ///< restarting after a boot-up (else: it left operational)
+  std::int64_t left_ns = 0;                        ///< mid-run: when it left operational
+  int starts = 0;                                  ///< Start commands sent since it left
+  bool started = false;                            ///< the master sent it Start
+  std::optional<std::uint8_t> state_before_start;  ///< its heartbeat's state when first started
+  std::optional<std::uint16_t> hb_written_over;    ///< 1017h as found, when the master changed it
+  bool heard = false;                              ///< a frame of it came since Begin()
 };
 
 CanopenMaster::CanopenMaster(MasterConfig config, Callbacks callbacks)
@@ -290,6 +297,7 @@ void CanopenMaster::StartSdo(NodeState& n, std::int64_t now_ns) {
     }
     n.jobs.push_back(Job{false, TpdoComm(d.tpdo, 1), {}, false});
     n.jobs.push_back(Job{false, TpdoComm(d.tpdo, 2), {}, false});
+    if (d.mapped_object && d.value_bytes > 0) n.jobs.push_back(Job{false, *d.mapped_object, {}, true});
     if (d.mapped_object) n.jobs.push_back(Job{false, TpdoMap(d.tpdo, 0), {}, false});
   }
   NextJob(n, now_ns);
@@ -320,6 +328,8 @@ void CanopenMaster::OnSdoStep(NodeState& n, const SdoClient::Step& step, std::in
       NodeFailed(n, std::string(job.write ? "writing " : "reading ") + Describe(job.object) + ": " + e.text);
       return;
     }
+  } else if (job.write && job.object == ObjectAddress{0x1017, 0} && n.hb_found && !n.hb_written_over) {
+    n.hb_written_over = n.hb_found;
   } else if (!job.write) {
     n.values[Key(job.object)] = n.sdo.data();
     if (job.object == ObjectAddress{0x1017, 0}) {
@@ -386,6 +396,14 @@ std::vector<std::string> CanopenMaster::Check(const NodeState& n, std::vector<st
     if (const auto tt = n.U32(TpdoComm(d.tpdo, 2)); tt && *tt != 1) {
       problems.push_back(dev + "object " + Describe(TpdoComm(d.tpdo, 2)) + ": the device has " + std::to_string(*tt) +
                          " (" + TransmissionTypeName(*tt) + "), the daemon needs 1 (synchronous, every SYNC)");
+    }
+    if (d.mapped_object && d.value_bytes > 0) {
+      const auto* value = n.Value(*d.mapped_object);
+      if (value != nullptr && static_cast<int>(value->size()) != d.value_bytes) {
+        problems.push_back(dev + "object " + ToString(*d.mapped_object) + " (the mapped value) holds " +
+                           std::to_string(value->size()) + " bytes, " + d.type_name + " has " +
+                           std::to_string(d.value_bytes));
+      }
     }
     if (d.mapped_object) {
       const auto count = n.U32(TpdoMap(d.tpdo, 0));
@@ -489,7 +507,7 @@ void CanopenMaster::FinishSdo(NodeState& n, std::int64_t now_ns) {
   if (!problems.empty()) {
     std::string all;
     for (const std::string& p : problems) all += (all.empty() ? "" : "; ") + p;
-    NodeFailed(n, all);
+    NodeFailed(n, all, true);
     return;
   }
   n.step = NodeState::Step::kReadyToStart;
@@ -502,7 +520,10 @@ void CanopenMaster::FinishSdo(NodeState& n, std::int64_t now_ns) {
 }
 
 void CanopenMaster::SendStart(NodeState& n, std::int64_t now_ns) {
+  if (!n.started) n.state_before_start = n.last_state;
+  n.started = true;
   Send(EncodeNmt(NmtCommand::kStart, n.config.node_id));
+  ++n.starts;
   AwaitOperational(n, now_ns);
 }
 
@@ -517,9 +538,10 @@ void CanopenMaster::AwaitOperational(NodeState& n, std::int64_t now_ns) {
   n.heartbeat_since_start = false;
   n.wait_ns = config_.operational_timeout_ns + 3 * std::int64_t{hb} * 1000000;
   n.deadline = now_ns + n.wait_ns;
+  if (n.restarting) n.deadline = std::min(n.deadline, n.left_ns + config_.return_timeout_ns);
 }
 
-void CanopenMaster::NodeFailed(NodeState& n, const std::string& why) {
+void CanopenMaster::NodeFailed(NodeState& n, const std::string& why, bool permanent) {
   n.step = NodeState::Step::kFailed;
   n.deadline = kNever;
   n.sdo.Cancel();
@@ -527,11 +549,40 @@ void CanopenMaster::NodeFailed(NodeState& n, const std::string& why) {
     n.error = n.Name() + ": " + why;
     return;
   }
+  if (permanent || now_ns_ >= n.left_ns + config_.return_timeout_ns) {
+    NodeLost(n, why);
+    return;
+  }
+  // Not answering now: a boot-up may still bring it back (Advance) before the return timeout.
+  n.error = why;
+  n.deadline = n.left_ns + config_.return_timeout_ns;
+  Log(LogLevel::kWarning, n.Name() + ": " + why + " (waiting for it until " + Seconds(config_.return_timeout_ns) +
+                              " after it left operational)");
+}
+
+void CanopenMaster::NodeLost(NodeState& n, const std::string& why) {
+  n.step = NodeState::Step::kFailed;
+  n.deadline = kNever;
+  n.sdo.Cancel();
   ++counts_.restart_failures;
   n.restarting = false;
-  const std::string text = n.Name() + " was not restarted after its reboot: " + why;
+  const std::string text =
+      n.Name() + " was not restarted after " + (n.rebooted ? "its reboot" : "it left operational") + ": " + why;
   Log(LogLevel::kError, text);
-  if (cb_.note) cb_.note(text);
+  if (cb_.note) cb_.note(text + ": the acquisition ends");
+  if (phase_ == Phase::kRunning) phase_ = Phase::kNodeLost;
+  errors_.push_back(text);
+}
+
+void CanopenMaster::LeftOperational(NodeState& n, std::uint8_t state, std::int64_t now_ns) {
+  ++counts_.left_operational;
+  n.restarting = true;
+  n.rebooted = false;
+  n.left_ns = now_ns;
+  n.starts = 0;
+  Log(LogLevel::kWarning,
+      n.Name() + ": heartbeat says " + NmtStateName(state) + ": it left operational; sending Start remote node");
+  SendStart(n, now_ns);
 }
 
 void CanopenMaster::NodeRunning(NodeState& n, bool confirmed) {
@@ -572,6 +623,8 @@ void CanopenMaster::UpdatePhase(std::int64_t now_ns) {
     start_sent_ = true;
     if (config_.nmt_broadcast) Send(EncodeNmt(NmtCommand::kStart, 0));
     for (auto& n : nodes_) {
+      n->state_before_start = n->last_state;
+      n->started = true;
       if (!config_.nmt_broadcast) Send(EncodeNmt(NmtCommand::kStart, n->config.node_id));
       AwaitOperational(*n, now_ns);
     }
@@ -596,9 +649,29 @@ void CanopenMaster::UpdatePhase(std::int64_t now_ns) {
 
 void CanopenMaster::OnFrame(const CanFrame& frame) {
   const std::int64_t now = frame.t_ns;
+  now_ns_ = now;
   if (frame.IsError() || frame.IsExtended() || frame.IsRemote()) return;
   for (auto& np : nodes_) {
     NodeState& n = *np;
+    const auto id = static_cast<std::uint32_t>(n.config.node_id);
+    if (frame.id == kHeartbeatBase + id || frame.id == kEmcyBase + id || frame.id == kSdoResponseBase + id) {
+      n.heard = true;
+    }
+    for (const MasterDevice& d : n.config.devices) n.heard |= frame.id == d.field.can_id;
+  }
+  for (auto& np : nodes_) {
+    NodeState& n = *np;
+    // An EMCY of a running node that no heartbeat watches: it may have left operational (CiA
+    // 301 error behaviour, 1029h) without a word: Start is sent (no harm to an operational node).
+    if (frame.id == kEmcyBase + static_cast<std::uint32_t>(n.config.node_id)) {
+      const auto e = DecodeEmergency(frame);
+      if (e && e->error_register != 0 && e->error_code != 0 && config_.nmt && phase_ == Phase::kRunning &&
+          n.step == NodeState::Step::kRunning && !n.confirmed) {
+        Log(LogLevel::kWarning, n.Name() + ": EMCY, and no heartbeat tells its state: sending Start remote node");
+        Send(EncodeNmt(NmtCommand::kStart, n.config.node_id));
+      }
+      return;
+    }
     if (frame.id == kHeartbeatBase + static_cast<std::uint32_t>(n.config.node_id)) {
       const auto hb = DecodeHeartbeat(frame);
       if (!hb) return;
@@ -617,13 +690,21 @@ void CanopenMaster::OnFrame(const CanFrame& frame) {
             Log(LogLevel::kWarning, n.Name() + ": boot-up message: the node rebooted (its NMT master restarts it)");
           } else {
             Log(LogLevel::kWarning, n.Name() + ": boot-up message: the node rebooted; restarting it");
+            if (!n.restarting) {
+              n.left_ns = now;
+              n.starts = 0;
+            }
             n.restarting = true;
+            n.rebooted = true;
             Advance(n, now);
           }
         }
       } else if (n.step == Step::kAwaitOperational) {
         n.heartbeat_since_start = true;
         if (hb->state == static_cast<std::uint8_t>(NmtState::kOperational)) NodeRunning(n, true);
+      } else if (n.step == Step::kRunning && phase_ == Phase::kRunning && config_.nmt &&
+                 hb->state != static_cast<std::uint8_t>(NmtState::kOperational)) {
+        LeftOperational(n, hb->state, now);
       }
       UpdatePhase(now);
       return;
@@ -638,6 +719,7 @@ void CanopenMaster::OnFrame(const CanFrame& frame) {
 }
 
 void CanopenMaster::OnTime(std::int64_t now_ns) {
+  now_ns_ = now_ns;
   for (auto& np : nodes_) {
     NodeState& n = *np;
     using Step = NodeState::Step;
@@ -650,10 +732,24 @@ void CanopenMaster::OnTime(std::int64_t now_ns) {
       NodeFailed(n, "no boot-up message within " + Seconds(config_.boot_timeout_ns) + " after Reset communication");
     } else if (n.step == Step::kAwaitOperational && !config_.sdo && !n.heartbeat_since_start) {
       NodeRunning(n, false);  // no heartbeat at all: one it may not send at all
+    } else if (n.step == Step::kAwaitOperational && phase_ != Phase::kStarting) {
+      const std::string last = n.last_state ? NmtStateName(*n.last_state) : std::string("no heartbeat");
+      if (now_ns < n.left_ns + config_.return_timeout_ns) {
+        ++counts_.start_retries;
+        Log(LogLevel::kWarning,
+            n.Name() + ": not operational yet (last state: " + last + "): sending Start remote node again");
+        SendStart(n, now_ns);
+      } else {
+        NodeLost(n, "no heartbeat saying operational within " + Seconds(config_.return_timeout_ns) +
+                        " (Start remote node sent " + std::to_string(n.starts) + " time" + (n.starts == 1 ? "" : "s") +
+                        "; last state: " + last + ")");
+      }
     } else if (n.step == Step::kAwaitOperational) {
       NodeFailed(n, "no heartbeat saying operational within " + Seconds(n.wait_ns) +
                         " after Start remote node (last state: " +
                         (n.last_state ? NmtStateName(*n.last_state) : std::string("no heartbeat")) + ")");
+    } else if (n.step == Step::kFailed && phase_ != Phase::kStarting) {
+      NodeLost(n, n.error + " (and no boot-up within " + Seconds(config_.return_timeout_ns) + ")");
     }
   }
   UpdatePhase(now_ns);
@@ -695,6 +791,40 @@ std::vector<std::pair<std::string, std::string>> CanopenMaster::HeaderFields() c
       v += "; tpdo " + std::to_string(d.tpdo) + " cob_id " + HexId(d.field.can_id & kEffMask);
       out.emplace_back(d.header_key, v);
     }
+  }
+  return out;
+}
+
+std::vector<CanFrame> CanopenMaster::UndoStart() const {
+  std::vector<CanFrame> out;
+  if (!config_.nmt) return out;
+  for (const auto& n : nodes_) {
+    if (!n->started) continue;
+    const std::uint8_t before = n->state_before_start.value_or(static_cast<std::uint8_t>(NmtState::kPreOperational));
+    if (before == static_cast<std::uint8_t>(NmtState::kOperational)) continue;
+    const auto command =
+        before == static_cast<std::uint8_t>(NmtState::kStopped) ? NmtCommand::kStop : NmtCommand::kEnterPreOperational;
+    out.push_back(EncodeNmt(command, n->config.node_id));
+  }
+  for (const auto& n : nodes_) {
+    if (n->hb_written_over) {
+      out.push_back(EncodeDownloadRequest(n->config.node_id, {0x1017, 0}, LittleEndianBytes(*n->hb_written_over, 2)));
+    }
+  }
+  return out;
+}
+
+std::uint16_t CanopenMaster::LongestHeartbeatMs() const {
+  std::uint16_t longest = 0;
+  if (!config_.sdo) return longest;
+  for (const auto& n : nodes_) longest = std::max(longest, n->hb_ms);
+  return longest;
+}
+
+std::vector<std::string> CanopenMaster::NeverHeard() const {
+  std::vector<std::string> out;
+  for (const auto& n : nodes_) {
+    if (!n->heard) out.push_back(n->Name());
   }
   return out;
 }

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 
 #include "sph/core/error.hpp"
@@ -316,7 +317,10 @@ std::string AcquisitionPipeline::Reason(const std::array<Slot, kNumDevices>& slo
     const Slot& s = slots[static_cast<std::size_t>(d)];
     std::string why;
     if (s.count == 0) {
-      why = gaps_[static_cast<std::size_t>(d)].open ? "no frame (rebooted)" : "no frame";
+      const Gap& g = gaps_[static_cast<std::size_t>(d)];
+      why = !g.open                                ? "no frame"
+            : std::string(g.cause) == "its reboot" ? "no frame (rebooted)"
+                                                   : "no frame (not operational)";
     } else if (s.lost) {
       why = "frames lost before it";
     } else if (s.count > 1) {
@@ -349,7 +353,7 @@ void AcquisitionPipeline::CloseGaps(const std::array<Slot, kNumDevices>& slots, 
     const std::string after_s = internal::Format("%.3f", static_cast<double>(t_ns - g.start_ns) * 1e-9);
     const std::uint64_t cycles = g.missing_cycles;
     const std::string text = "gap end t_s " + TimeText(t_ns) + ": " + DeviceName(d) + " (node " + std::to_string(node) +
-                             ") sends again, " + after_s + " s after its reboot (" + std::to_string(cycles) +
+                             ") sends again, " + after_s + " s after " + g.cause + " (" + std::to_string(cycles) +
                              " SYNC cycle" + (cycles == 1 ? "" : "s") + " without it)";
     Note(text);
     Log(LogLevel::kInfo, text);
@@ -412,6 +416,7 @@ void AcquisitionPipeline::CountDuplicates(const Cycles& cycles) {
 
 // The cycle of the SYNC received: a sample, or why not.
 void AcquisitionPipeline::ResolveReceived(const std::array<Slot, kNumDevices>& slots, bool last) {
+  FlushEvents(window_.t_ns);
   CloseGaps(slots, window_.t_ns);
   if (Complete(slots, window_)) {
     EmitCycle(slots, window_.t_ns);
@@ -462,6 +467,7 @@ void AcquisitionPipeline::ResolveMissed(const Cycles& cycles, std::uint64_t miss
   counts_.recovered += recovered;
   for (std::size_t k = 1; k < cycles.size(); ++k) {
     const auto t = window_.t_ns + static_cast<std::int64_t>(std::llround(period * static_cast<double>(k)));
+    FlushEvents(t);
     CloseGaps(cycles[k], t);
     if (Complete(cycles[k], window_)) EmitCycle(cycles[k], t);
   }
@@ -497,6 +503,7 @@ void AcquisitionPipeline::EmitCycle(const std::array<Slot, kNumDevices>& slots, 
   s.t_s = static_cast<double>(t_ns) * 1e-9;
   s.setup = config_.setup;
   if (!stops_) {
+    RowWritten(t_ns);
     if (cb_.sample) cb_.sample(s);
     return;
   }
@@ -506,6 +513,7 @@ void AcquisitionPipeline::EmitCycle(const std::array<Slot, kNumDevices>& slots, 
 
 void AcquisitionPipeline::EmitPoint(const StopPoint& p) {
   ++counts_.points;
+  RowWritten(static_cast<std::int64_t>(std::llround(p.mean.t_s * 1e9)));
   if (cb_.sample) cb_.sample(p.mean);
   Note(internal::Format(
       "scatter of the point above: n %d, sd theta %.3f arcsec, sd phi %.3f arcsec, sd r %.4f um, over %.3f s", p.n,
@@ -552,6 +560,7 @@ void AcquisitionPipeline::OnLinkEvent(const std::string& what, std::int64_t now_
   Resolve(0, now_ns, false);
   FlushIncomplete();
   have_sync_ = false;  // the gap while the link was down is noted here, not as missed SYNCs
+  FlushEvents(now_ns + 1);
   Note(what + " at t_s " + TimeText(now_ns));
 }
 
@@ -562,6 +571,14 @@ void AcquisitionPipeline::Finish() {
   if (stops_) {
     if (const auto p = stops_->Finish()) EmitPoint(*p);
     counts_.short_stops = static_cast<std::uint64_t>(stops_->short_stops());
+  }
+  FlushEvents(std::numeric_limits<std::int64_t>::max());
+  for (const Node& n : nodes_) {
+    if (!n.InError()) continue;
+    const std::uint64_t rows = n.errors.back()->rows;
+    Note("the error state of node " + std::to_string(n.node_id) + " (" + n.name + "), since t_s " +
+         TimeText(n.errors.back()->since_ns) + ", lasted to the end: " + std::to_string(rows) +
+         (config_.mode == Mode::kPoints ? " point" : " row") + (rows == 1 ? "" : "s") + " written in it");
   }
 }
 

@@ -2,8 +2,11 @@
 
 #include <fcntl.h>
 #include <linux/can.h>
+#include <linux/can/netlink.h>
 #include <linux/can/raw.h>
 #include <linux/net_tstamp.h>
+#include <linux/netlink.h>
+#include <linux/rtnetlink.h>
 #include <linux/sock_diag.h>
 #include <net/if.h>
 #include <poll.h>
@@ -229,6 +232,50 @@ bool InterfaceIsUp(const std::string& iface) {
   const bool up = ::ioctl(fd, SIOCGIFFLAGS, &ifr) == 0 && (ifr.ifr_flags & IFF_UP) != 0;
   ::close(fd);
   return up;
+}
+
+std::optional<std::uint32_t> InterfaceBitrate(const std::string& iface) {
+  const unsigned index = iface.empty() || iface.size() >= IFNAMSIZ ? 0 : ::if_nametoindex(iface.c_str());
+  if (index == 0) return std::nullopt;
+  const int fd = ::socket(AF_NETLINK, SOCK_RAW | SOCK_CLOEXEC, NETLINK_ROUTE);
+  if (fd < 0) return std::nullopt;
+  struct {
+    nlmsghdr header;
+    ifinfomsg info;
+  } request{};
+  request.header.nlmsg_len = NLMSG_LENGTH(sizeof(ifinfomsg));
+  request.header.nlmsg_type = RTM_GETLINK;
+  request.header.nlmsg_flags = NLM_F_REQUEST;
+  request.header.nlmsg_seq = 1;
+  request.info.ifi_family = AF_UNSPEC;
+  request.info.ifi_index = static_cast<int>(index);
+  std::optional<std::uint32_t> bitrate;
+  alignas(nlmsghdr) char buffer[16384];
+  timeval timeout{1, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  const ssize_t n = ::send(fd, &request, request.header.nlmsg_len, 0) < 0 ? -1 : ::recv(fd, buffer, sizeof buffer, 0);
+  ::close(fd);
+  if (n <= 0) return std::nullopt;
+  // The link message: IFLA_LINKINFO holds IFLA_INFO_DATA, which holds IFLA_CAN_BITTIMING.
+  const auto* h = reinterpret_cast<const nlmsghdr*>(buffer);
+  if (!NLMSG_OK(h, static_cast<unsigned>(n)) || h->nlmsg_type != RTM_NEWLINK) return std::nullopt;
+  const auto* info = static_cast<const ifinfomsg*>(NLMSG_DATA(h));
+  int len = static_cast<int>(h->nlmsg_len) - static_cast<int>(NLMSG_LENGTH(sizeof(ifinfomsg)));
+  for (const rtattr* a = IFLA_RTA(info); RTA_OK(a, len); a = RTA_NEXT(a, len)) {
+    if (a->rta_type != IFLA_LINKINFO) continue;
+    int len2 = static_cast<int>(RTA_PAYLOAD(a));
+    for (const rtattr* b = static_cast<const rtattr*>(RTA_DATA(a)); RTA_OK(b, len2); b = RTA_NEXT(b, len2)) {
+      if (b->rta_type != IFLA_INFO_DATA) continue;
+      int len3 = static_cast<int>(RTA_PAYLOAD(b));
+      for (const rtattr* c = static_cast<const rtattr*>(RTA_DATA(b)); RTA_OK(c, len3); c = RTA_NEXT(c, len3)) {
+        if (c->rta_type != IFLA_CAN_BITTIMING || RTA_PAYLOAD(c) < sizeof(can_bittiming)) continue;
+        can_bittiming timing{};
+        std::memcpy(&timing, RTA_DATA(c), sizeof timing);
+        if (timing.bitrate > 0) bitrate = timing.bitrate;
+      }
+    }
+  }
+  return bitrate;
 }
 
 bool CanSupported(std::string* why) {

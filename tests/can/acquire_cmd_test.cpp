@@ -487,15 +487,16 @@ TEST(AcquireProcess, BadNumbersAndAMissingConfigAreBadInput) {
       {{"--fsync-interval-s", "nan"},
        "--fsync-interval-s: must be -1 (only at the end) or >= 0 and <= 86400 s, got nan"},
       {{"--fsync-interval-s", "-2"}, "--fsync-interval-s: must be -1 (only at the end) or >= 0 and <= 86400 s, got -2"},
-      {{"--config", dir + "/missing.conf"}, dir + "/missing.conf was not readable (missing?)"},
-      {{"--config", nan_conf}, "--sphere-radius-mm: must be > 0 and <= 1000 mm, got nan"},
+      {{"--config", dir + "/missing.conf"},
+       dir + "/missing.conf: cannot open the configuration file (--config) for reading: No such file or directory"},
+      {{"--config", nan_conf}, nan_conf + ":1: --sphere-radius-mm: must be > 0 and <= 1000 mm, got nan"},
   };
   for (const auto& c : cases) {
     std::vector<std::string> args{"--replay", log, "-o", out};
     args.insert(args.end(), c.args.begin(), c.args.end());
     const ProcessResult r = RunAcquired(args, dir);
     EXPECT_EQ(r.code, kExitBadInput) << c.message << "\n" << r.err;
-    EXPECT_EQ(r.err.substr(0, r.err.find('\n') + 1), c.message + "\n");
+    EXPECT_EQ(r.err.substr(0, r.err.find('\n') + 1), "sph_acquired: error: " + c.message + "\n");
     EXPECT_FALSE(Exists(out)) << c.message;
   }
 }
@@ -553,8 +554,8 @@ TEST(CansimCmd, BadOptionsAndUnwritableLogsFailAndLeaveNothing) {
        "--emcy 'theta:1:xyz': code must be 16-bit hex"},
       {[](CansimOptions& o) { o.center_mm = "1,2"; }, kExitBadInput, "--center-mm"},
       {[](CansimOptions& o) { o.faults = {"reboot:1"}; }, kExitBadInput,
-       "--fault 'reboot:1': expected reboot:NODE@T or settings-lost:NODE@T (NODE a node id or theta, phi, probe; T in "
-       "s)"},
+       "--fault 'reboot:1': expected reboot:NODE@T, settings-lost:NODE@T, preop:NODE@T or error:NODE@T (NODE a node id "
+       "or theta, phi, probe; T in s)"},
       {[](CansimOptions& o) { o.faults = {"reboot:9@1"}; }, kExitBadInput,
        "device simulator: reboot of node 9, which no device is"},
       {[](CansimOptions& o) { o.faults = {"reboot:theta@-1"}; }, kExitBadInput,

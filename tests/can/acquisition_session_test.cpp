@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cctype>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -234,6 +236,193 @@ TEST(AcquisitionSession, TheReplayOfABusLogBegunBeforeTheDaemonLeavesOutWhatItNe
   Replay(r, err);
   EXPECT_THAT(err.str(), HasSubstr("frames before the daemon's first request are left out"));
   EXPECT_EQ(Content(o.output_path), Content(r.output_path)) << err.str();
+}
+
+// The rows and comments of a points file: each comment that names its time ("# EMCY t_s T: ...")
+// lies between the rows before and after it.
+void ExpectCommentsAtTheirPlace(const std::string& path) {
+  std::ifstream in(path);
+  double last_row = 0.0;
+  std::vector<std::pair<double, std::string>> waiting;  // comments not yet followed by a row
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) continue;
+    if (line[0] != '#') {
+      std::istringstream row(line);
+      double theta = 0, phi = 0, r = 0, t = 0;
+      row >> theta >> phi >> r >> t;
+      for (const auto& [when, text] : waiting) EXPECT_LE(when, t + 1e-6) << text << " before the row of " << line;
+      waiting.clear();
+      last_row = t;
+      continue;
+    }
+    const auto at = line.find(" t_s ");
+    if (at == std::string::npos || at > 40 || !std::isdigit(static_cast<unsigned char>(line[at + 5]))) continue;
+    const double when = std::stod(line.substr(at + 5));
+    EXPECT_GE(when, last_row - 1e-6) << line << " after the row of t_s " << last_row;
+    waiting.emplace_back(when, line);
+  }
+}
+
+// Nodes that leave operational mid-run without a reboot: one by itself (pre-operational), one by
+// its error behaviour (EMCY 0x8100, error register set, pre-operational; NMT Start holds only after
+// the error reset 1 s later), one by another master's NMT command. Each is started again; the
+// points file says what happened where, its rows are what the devices sent, and an EMCY that sets
+// a node's error register flags the rows that follow. The replay of the frame log gives the same
+// file.
+TEST(AcquisitionSession, NodesThatLeaveOperationalAreStartedAgainAndTheFileSaysWhatHappened) {
+  const std::string dir = sph::testing::MakeTempDir("acq_left");
+  AcquisitionOptions o = Options(dir);
+  DeviceSimConfig sc = Devices(AcquisitionPipelineConfig(o));
+  sc.spec.pattern = GridPattern(8, 2);  // 16 stops of 0.7 s
+  sc.heartbeat_period_s = 0.2;
+  sc.faults.reboots = {{3, 3.0, false, NodeFaultKind::kPreOperational}, {2, 5.0, false, NodeFaultKind::kError, 1.0}};
+  sc.faults.emergencies = {{kTheta, 8.0, 0x4210}};  // temperature: register set, no reset
+  LiveRun live(o, sc);
+  live.session->Begin(kT0);
+  live.bus.RunUntil(kT0 + 9000 * kMs);
+  live.bus.Send(EncodeNmt(NmtCommand::kEnterPreOperational, 1));  // another master
+  live.bus.RunUntil(kT0 + 11000 * kMs);
+  live.session->Finish();
+  ASSERT_EQ(live.session->state(), AcquisitionSession::State::kAcquiring) << live.err.str();
+  const CanopenMaster::Counts& m = live.session->master().counts();
+  EXPECT_EQ(m.left_operational, 3U) << live.err.str();
+  EXPECT_EQ(m.restarts, 3U);
+  EXPECT_GE(m.start_retries, 1U);  // the node in error: Start did not hold before its reset
+  for (int node = 1; node <= 3; ++node) EXPECT_EQ(live.sim.NodeState(node), 0x05) << node;
+  const std::string text = sph::testing::ReadWholeFile(o.output_path);
+  for (const char* expected :
+       {"# node state t_s 1700000003.0", ": node 3 (probe): pre-operational (was operational)\n",
+        ": probe (node 3) left operational (pre-operational): no probe values until it sends again\n",
+        ": probe (node 3) sends again, ", " s after it left operational (",
+        ": phi node 2: EMCY 0x8100 (monitoring), error register 0x11",
+        ": node 2 (phi) signals an error (error register 0x11)",
+        ": node 2 (phi): error reset (EMCY 0x0000) after 1.000 s; 0 rows written in the error state\n",
+        ": node 1 (theta): pre-operational (was operational)\n",
+        "# the error state of node 1 (theta), since t_s 1700000008.0"}) {
+    EXPECT_NE(text.find(expected), std::string::npos) << expected << "\n" << live.err.str();
+  }
+  const PointsData d = ReadPointsFile(o.output_path);
+  EXPECT_GT(d.samples.size(), 800U);
+  ExpectCommentsAtTheirPlace(o.output_path);
+  std::map<std::int64_t, const SimCycleRecord*> by_time;
+  for (const SimCycleRecord& r : live.sim.records()) by_time[r.sync_ns] = &r;
+  for (const Sample& s : d.samples) {
+    const auto t = static_cast<std::int64_t>(std::llround(s.t_s * 1e9));
+    auto it = by_time.lower_bound(t - 2000);
+    ASSERT_NE(it, by_time.end());
+    ASSERT_LT(std::llabs(it->first - t), 2000) << s.t_s;
+    EXPECT_NEAR(s.theta_deg, it->second->value[kTheta], 1e-10);
+    EXPECT_NEAR(s.phi_deg, it->second->value[kPhi], 1e-10);
+    EXPECT_NEAR(s.r_mm, it->second->value[kProbe], 1e-10);
+  }
+  AcquisitionOptions r = Options(dir);
+  r.iface.clear();
+  r.replay_path = o.can_log_path;
+  r.can_log_path.clear();
+  r.output_path = dir + "/replay.txt";
+  std::ostringstream err;
+  Replay(r, err);
+  EXPECT_EQ(Content(o.output_path), Content(r.output_path)) << err.str();
+}
+
+// A node that does not come back within --node-return-timeout-s ends the run: the file is
+// finished cleanly and says why; the replay of the frame log ends alike (status kNodeLost).
+TEST(AcquisitionSession, ANodeThatDoesNotComeBackEndsTheRunCleanly) {
+  const std::string dir = sph::testing::MakeTempDir("acq_lost");
+  AcquisitionOptions o = Options(dir);
+  o.node_return_timeout_s = 2.0;
+  o.devices.sync_counter_max = 0;  // its 1019h back at 0 fits: it passes the checks, and stays pre-operational
+  DeviceSimConfig sc = Devices(AcquisitionPipelineConfig(o));
+  sc.heartbeat_period_s = 0.2;
+  sc.faults.reboots = {{2, 2.0, true}};  // back without its settings: cannot be started
+  LiveRun live(o, sc);
+  live.Run(kT0 + 8000 * kMs);
+  ASSERT_EQ(live.session->state(), AcquisitionSession::State::kNodeLost) << live.err.str();
+  EXPECT_THAT(live.session->error(), HasSubstr("node 2 (phi) was not restarted after its reboot: no heartbeat saying "
+                                               "operational within 2.0 s (Start remote node sent "));
+  const auto lines = Content(o.output_path);
+  ASSERT_FALSE(lines.empty());
+  const auto end = std::find_if(lines.begin(), lines.end(), [](const std::string& l) {
+    return l.find(": the acquisition ends") != std::string::npos;
+  });
+  ASSERT_NE(end, lines.end());
+  for (auto it = end + 1; it != lines.end(); ++it) EXPECT_EQ((*it)[0], '#') << *it;  // no row after it
+  AcquisitionOptions r = Options(dir);
+  r.iface.clear();
+  r.replay_path = o.can_log_path;
+  r.can_log_path.clear();
+  r.output_path = dir + "/replay.txt";
+  r.node_return_timeout_s = 2.0;
+  r.devices.sync_counter_max = 0;
+  std::ostringstream err;
+  EXPECT_EQ(Replay(r, err), AcquisitionStatus::kNodeLost) << err.str();
+  EXPECT_EQ(Content(o.output_path), Content(r.output_path)) << err.str();
+}
+
+// With --no-sdo a node that is not there is started without a word: it is named in the file and
+// in the summary.
+TEST(AcquisitionSession, WithoutSdoANodeNeverHeardFromIsNamed) {
+  const std::string dir = sph::testing::MakeTempDir("acq_silent");
+  AcquisitionOptions o = Options(dir);
+  o.no_sdo = true;
+  DeviceSimConfig sc = Devices(AcquisitionPipelineConfig(o));
+  sc.faults.silences = {{kProbe, 0.0, 100.0}};
+  LiveRun live(o, sc);
+  live.Run(kT0 + 4000 * kMs, kT0 + 500 * kMs);  // the boot-ups before the daemon began
+  ASSERT_EQ(live.session->state(), AcquisitionSession::State::kAcquiring) << live.err.str();
+  const AcquisitionResult result = live.session->Result();
+  EXPECT_THAT(result.never_heard, ::testing::ElementsAre("node 3 (probe)"));
+  EXPECT_THAT(SummaryLines(result)[0], HasSubstr("\nnever heard from: node 3 (probe)"));
+  const std::string text = sph::testing::ReadWholeFile(o.output_path);
+  EXPECT_NE(text.find("# node 3 (probe) has not been heard from since the start (no heartbeat, EMCY, SDO answer or "
+                      "PDO): started without a word from it\n"),
+            std::string::npos)
+      << text.substr(0, 3000);
+  EXPECT_NE(text.find("# node 3 (probe) was never heard from during the run (no frame of it at all)\n"),
+            std::string::npos);
+}
+
+// A probe whose TPDO maps a REAL32 value (its reading in mm): the master checks the mapping and
+// reads the value over SDO (4 bytes), each row's r_mm is the single in the probe's frame at its
+// SYNC (decoded here by hand); a data type whose size the object does not have refuses the start.
+TEST(AcquisitionSession, AReal32ProbeIsAcquiredByItsDataType) {
+  const std::string dir = sph::testing::MakeTempDir("acq_real32");
+  AcquisitionOptions o = Options(dir);
+  o.devices.probe_data_type = "real32";
+  o.devices.probe_scale_um_per_count = 1000.0;
+  o.probe_pdo_object = ObjectAddress{0x2000, 0};
+  LiveRun live(o, Devices(AcquisitionPipelineConfig(o)));
+  live.Run(kT0 + 3000 * kMs);
+  ASSERT_EQ(live.session->state(), AcquisitionSession::State::kAcquiring) << live.err.str();
+  EXPECT_THAT(live.bus.log(), Contains(::testing::Truly([](const CanFrame& f) {
+                return ToString(f).rfind("583#43002000", 0) == 0;
+              })));                    // 0x2000:00 uploaded: 4 bytes (expedited, size indicated)
+  std::map<std::int64_t, float> sent;  // the probe's single after each SYNC
+  std::int64_t last_sync = 0;
+  for (const CanFrame& f : live.bus.log()) {
+    if (f.id == 0x80) last_sync = f.t_ns;
+    if (f.id != 0x183 || f.len < 4) continue;
+    float mm = 0.0F;
+    std::memcpy(&mm, f.data.data(), sizeof mm);
+    sent[last_sync] = mm;
+  }
+  const PointsData d = ReadPointsFile(o.output_path);
+  ASSERT_GT(d.samples.size(), 150U);
+  for (const Sample& s : d.samples) {
+    const auto t = static_cast<std::int64_t>(std::llround(s.t_s * 1e9));
+    const auto it = sent.lower_bound(t - 2000);
+    ASSERT_NE(it, sent.end());
+    EXPECT_NEAR(s.r_mm, static_cast<double>(it->second), 0.5e-10) << s.t_s;  // the single, to the 10 decimals written
+  }
+  AcquisitionOptions wrong = Options(sph::testing::MakeTempDir("acq_real32_wrong"));
+  wrong.devices.probe_data_type = "integer16";
+  wrong.probe_pdo_object = ObjectAddress{0x2000, 0};
+  DeviceSimConfig sc = Devices(AcquisitionPipelineConfig(o));  // the device as before: REAL32
+  LiveRun refused(wrong, sc);
+  refused.Run(kT0 + 3000 * kMs);
+  EXPECT_EQ(refused.session->state(), AcquisitionSession::State::kStartRefused);
+  EXPECT_THAT(refused.err.str(), HasSubstr("node 3 (probe): object 0x2000:00 (the mapped value) holds 4 bytes, "
+                                           "--probe-data-type integer16 has 2"));
 }
 
 TEST(AcquisitionSession, OptionsForTheMaster) {

@@ -112,8 +112,19 @@ TEST(AcquisitionLibrary, TheValuesAHostSetsAreCheckedBeforeAnythingIsMade) {
     std::string error;
   } cases[] = {
       {[](AcquisitionOptions& o) { o.iface = "can0"; }, "give either --iface (live) or --replay (a candump log)"},
-      {[](AcquisitionOptions& o) { o.heartbeat_timeout_s = -1.0; },
-       "--heartbeat-timeout-s: must be >= 0 and <= 86400 s, got -1"},
+      {[](AcquisitionOptions& o) { o.heartbeat_timeout_s = -2.0; },
+       "--heartbeat-timeout-s: must be -1 (three of the nodes' heartbeat times) or >= 0 and <= 86400 s, got -2"},
+      {[](AcquisitionOptions& o) {
+         o.replay_path.clear();
+         o.iface = "can0";
+         o.bitrate_kbit_s = 250;
+         o.devices.sync_period_ms = 1;
+       },
+       "--sync-period-ms 1: 340 bits a SYNC cycle (SYNC and 3 TPDOs) and heartbeats: 136.8 % of a 250 kbit/s bus at "
+       "a 1 ms SYNC period: the bus cannot carry it; a SYNC period of at least 1.37 ms can be carried, 2.74 ms or "
+       "more keeps the load at half the bus or less"},
+      {[](AcquisitionOptions& o) { o.bitrate_kbit_s = 2000; },
+       "--bitrate-kbit-s: must be 0 (the interface's) or >= 10 and <= 1000 kbit/s, got 2000"},
       {[](AcquisitionOptions& o) { o.standstill.min_samples = 0; }, "--min-samples: must be >= 1 and <= 1e+08, got 0"},
       {[](AcquisitionOptions& o) { o.standstill.tolerance_deg = 0.0; },
        "--standstill-tol-deg: must be > 0 and <= 360 deg, got 0"},

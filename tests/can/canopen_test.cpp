@@ -1,4 +1,5 @@
 #include "sph/can/canopen.hpp"
+#include "sph/can/device_options.hpp"
 
 #include <limits>
 
@@ -202,6 +203,34 @@ TEST(Probe, ScaleOffsetAndSign) {
   p.scale_mm_per_count = 0.1e-3;  // 0.1 um per count
   p.offset_mm = 4.0;
   EXPECT_DOUBLE_EQ(DecodeProbe(p, f).value, 4.0 - 0.25);
+}
+
+// A REAL32 value (IEEE 754 single, little endian): 1.5 is 0x3FC00000, -0.375 0xBEC00000; times
+// the scale, plus the offset. NaN is a device error, an infinity out of range.
+TEST(Probe, Real32ValuesByTheirDataType) {
+  DeviceOptions o;
+  o.probe_data_type = "real32";
+  o.probe_scale_um_per_count = 1000.0;  // the probe sends mm
+  o.probe_offset_mm = 2.0;
+  const ProbeConfig p = DevicesConfig(o).probe;
+  EXPECT_TRUE(p.real32);
+  EXPECT_EQ(p.field.width_bytes, 4);
+  EXPECT_DOUBLE_EQ(DecodeProbe(p, MakeFrame(0x183, {0x00, 0x00, 0xC0, 0x3F})).value, 3.5);
+  EXPECT_DOUBLE_EQ(DecodeProbe(p, MakeFrame(0x183, {0x00, 0x00, 0xC0, 0xBE})).value, 1.625);
+  EXPECT_EQ(DecodeProbe(p, MakeFrame(0x183, {0x00, 0x00, 0xC0, 0x7F})).status, DecodeStatus::kDeviceError);  // NaN
+  EXPECT_EQ(DecodeProbe(p, MakeFrame(0x183, {0x00, 0x00, 0x80, 0xFF})).status, DecodeStatus::kOutOfRange);   // -inf
+  EXPECT_EQ(DecodeProbe(p, MakeFrame(0x183, {0x00, 0x00, 0xC0})).status, DecodeStatus::kShort);
+  EXPECT_EQ(EncodeProbeRaw(p, 3.5), 0x3FC00000);
+  // The integer types set width and sign: INTEGER16 -2 is FE FF.
+  o.probe_data_type = "integer16";
+  o.probe_scale_um_per_count = 1.0;
+  o.probe_offset_mm = 0.0;
+  const ProbeConfig i16 = DevicesConfig(o).probe;
+  EXPECT_DOUBLE_EQ(DecodeProbe(i16, MakeFrame(0x183, {0xFE, 0xFF})).value, -0.002);
+  o.probe_data_type = "unsigned8";
+  EXPECT_DOUBLE_EQ(DecodeProbe(DevicesConfig(o).probe, MakeFrame(0x183, {0xFE})).value, 0.254);
+  o.probe_data_type = "real64";
+  EXPECT_THROW(DevicesConfig(o), Error);
 }
 
 TEST(Probe, RangeAndErrorCodesAreFlagged) {

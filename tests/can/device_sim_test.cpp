@@ -127,6 +127,61 @@ TEST(DeviceSim, RefusesPdoSettingsWhileOperationalAndFollowsTheMappingAfterwards
   EXPECT_EQ(f[0].substr(12), "07");
 }
 
+// CiA 301: while operational a TPDO's COB-ID may be written to make the PDO invalid (CANopenNode
+// accepts it); the PDO then stops, its other parameters may be changed, and it is made valid again.
+TEST(DeviceSim, ATpdoIsInvalidatedWhileOperationalAsCia301Allows) {
+  Drive d(Config());
+  d.At(kT0, {}, kT0 + 100 * kMs);
+  d.At(kT0 + 100 * kMs, {EncodeNmt(NmtCommand::kStart, 1)}, kT0 + 101 * kMs);
+  auto f = d.At(kT0 + 101 * kMs, {EncodeDownloadRequest(1, {0x1800, 1}, {0x81, 0x01, 0, 0x80})}, kT0 + 102 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#6000180100000000"));  // 0x80000181 taken while operational
+  EXPECT_EQ(d.sim.NodeState(1), 0x05);
+  f = d.At(kT0 + 102 * kMs, {Sync()}, kT0 + 103 * kMs);
+  EXPECT_THAT(f, Not(Contains(::testing::StartsWith("181#"))));  // an invalid PDO is not sent
+  f = d.At(kT0 + 103 * kMs, {EncodeDownloadRequest(1, {0x1800, 2}, {1})}, kT0 + 104 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#6000180200000000"));  // invalid: its transmission type may change
+  f = d.At(kT0 + 104 * kMs, {EncodeDownloadRequest(1, {0x1800, 1}, {0x81, 0x01, 0, 0})}, kT0 + 105 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#6000180100000000"));  // valid again
+  f = d.At(kT0 + 105 * kMs, {EncodeDownloadRequest(1, {0x1800, 2}, {1})}, kT0 + 106 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#8000180222000008"));  // valid and operational: refused again
+  f = d.At(kT0 + 106 * kMs, {Sync()}, kT0 + 107 * kMs);
+  EXPECT_THAT(f, Contains(::testing::StartsWith("181#")));
+}
+
+// 2100h, 16 bytes, read-write: written by a segmented download (CiA 301 7.2.4.3.3 to .5, frames by
+// hand), read back by a segmented upload.
+TEST(DeviceSim, AnObjectLongerThanFourBytesIsWrittenByASegmentedDownload) {
+  Drive d(Config());
+  d.At(kT0, {}, kT0 + 100 * kMs);
+  const auto frame = [](const std::vector<std::uint8_t>& bytes) {
+    CanFrame f = MakeFrame(0x601, {});
+    f.len = static_cast<std::uint8_t>(bytes.size());
+    std::copy(bytes.begin(), bytes.end(), f.data.begin());
+    return f;
+  };
+  // Initiate: segmented, size indicated (ccs 1, s 1): 16 bytes.
+  auto f =
+      d.At(kT0 + 100 * kMs, {frame(std::vector<std::uint8_t>{0x21, 0x00, 0x21, 0x00, 16, 0, 0, 0})}, kT0 + 101 * kMs);
+  ASSERT_THAT(f, ElementsAre("581#6000210000000000"));
+  // "lab 3, bench 2  " in 7 + 7 + 2 bytes; toggle 0, 1, 0; the last with c = 1 and 5 bytes unused.
+  f = d.At(kT0 + 101 * kMs, {frame(std::vector<std::uint8_t>{0x00, 'l', 'a', 'b', ' ', '3', ',', ' '})},
+           kT0 + 102 * kMs);
+  ASSERT_THAT(f, ElementsAre("581#2000000000000000"));
+  f = d.At(kT0 + 102 * kMs, {frame(std::vector<std::uint8_t>{0x10, 'b', 'e', 'n', 'c', 'h', ' ', '2'})},
+           kT0 + 103 * kMs);
+  ASSERT_THAT(f, ElementsAre("581#3000000000000000"));
+  f = d.At(kT0 + 103 * kMs, {frame(std::vector<std::uint8_t>{0x0B, ' ', ' ', 0, 0, 0, 0, 0})}, kT0 + 104 * kMs);
+  ASSERT_THAT(f, ElementsAre("581#2000000000000000"));
+  // A write of another length is refused (0x06070012: length too high).
+  f = d.At(kT0 + 104 * kMs, {frame(std::vector<std::uint8_t>{0x21, 0x00, 0x21, 0x00, 17, 0, 0, 0})}, kT0 + 105 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#8000210012000706"));
+  // Read back: segmented upload of 16 bytes.
+  f = d.At(kT0 + 105 * kMs, {EncodeUploadRequest(1, {0x2100, 0})}, kT0 + 106 * kMs);
+  ASSERT_THAT(f, ElementsAre("581#4100210010000000"));
+  f = d.At(kT0 + 106 * kMs, {EncodeUploadSegmentRequest(1, false)}, kT0 + 107 * kMs);
+  EXPECT_THAT(f, ElementsAre("581#006C616220332C20"));  // "lab 3, "
+}
+
 TEST(DeviceSim, ARebootFaultSilencesTheNodeUntilItsBootUpAndLeavesItPreOperational) {
   DeviceSimConfig c = Config();
   c.start_operational = true;

@@ -358,6 +358,10 @@ TEST(Master, ANodeWithoutHeartbeatIsGivenOneAndStartedOnlyWhenItSaysOperational)
   ASSERT_EQ(d.master.phase(), CanopenMaster::Phase::kFailed);
   EXPECT_THAT(d.master.errors(), ElementsAre("node 1 (theta): no heartbeat saying operational within 0.8 s after "
                                              "Start remote node (last state: pre-operational)"));
+  // The refused start leaves the bus as found: the node back to pre-operational, its 1017h 0 again.
+  std::vector<std::string> undo;
+  for (const CanFrame& f : d.master.UndoStart()) undo.push_back(ToString(f));
+  EXPECT_THAT(undo, ElementsAre("000#8001", "601#2B17100000000000"));
 
   ScriptedNode ok(ScriptedNode::OneEncoder());
   ok.answers["4017100000000000"] = "4B17100000000000";
@@ -430,8 +434,9 @@ TEST(Master, A1019hThatDoesNotFitTheSyncRefusesTheStartOrIsWritten) {
 }
 
 // A node that reboots without its stored settings (1017h and 1019h back at 0, EMCY 0x5000) and
-// stays pre-operational: the changed heartbeat time is flagged and the start's written back, and
-// the node is not called operational again while its heartbeat says pre-operational.
+// stays pre-operational: the changed heartbeat time is flagged and the start's written back, the
+// node is not called operational again while its heartbeat says pre-operational, Start is sent
+// again each time the wait runs out, and after the return timeout the acquisition ends.
 TEST(Master, ANodeBackWithoutItsSettingsIsFlaggedAndNotCalledOperational) {
   DeviceSimConfig sc = Booting();
   sc.heartbeat_period_s = 0.2;
@@ -448,9 +453,69 @@ TEST(Master, ANodeBackWithoutItsSettingsIsFlaggedAndNotCalledOperational) {
   EXPECT_THAT(r.Frames(), Contains("602#2B171000C8000000"));  // 200 ms written back
   EXPECT_THAT(r.logs, Not(Contains("node 2 (phi): restarted, operational again")));
   EXPECT_EQ(r.master->counts().restarts, 0U);
+  EXPECT_EQ(r.master->counts().restart_failures, 0U);  // not yet: 10 s to come back
+  EXPECT_EQ(r.master->phase(), CanopenMaster::Phase::kRunning);
+  EXPECT_THAT(r.logs, Contains("node 2 (phi): not operational yet (last state: pre-operational): sending Start "
+                               "remote node again"));
+  r.bus.RunUntil(kT0 + 13000 * kMs);
   EXPECT_EQ(r.master->counts().restart_failures, 1U);
+  ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kNodeLost);
+  // Start at 2.05 s and every 1.1 s after (0.5 s + 3 heartbeat periods) until 12.05 s: 10 times.
+  const auto frames = r.Frames();
+  EXPECT_EQ(std::count(frames.begin(), frames.end(), "000#0102"), 11);  // and the start's
   EXPECT_THAT(r.notes, Contains("node 2 (phi) was not restarted after its reboot: no heartbeat saying operational "
-                                "within 1.1 s after Start remote node (last state: pre-operational)"));
+                                "within 10.0 s (Start remote node sent 10 times; last state: pre-operational): "
+                                "the acquisition ends"));
+  EXPECT_THAT(r.master->errors(), ElementsAre(HasSubstr("node 2 (phi) was not restarted after its reboot")));
+}
+
+// A running node dropped to pre-operational without a reboot, by another master's NMT command and
+// by its own error behaviour (CiA 301 1029h: EMCY, error register set, pre-operational, which
+// NMT Start cannot end until the error clears): the master sends Start at once and again until
+// the node's heartbeat says operational.
+TEST(Master, ANodeThatLeavesOperationalIsStartedAgain) {
+  DeviceSimConfig sc = Booting();
+  sc.heartbeat_period_s = 0.1;
+  sc.faults.reboots = {{2, 3.0, false, NodeFaultKind::kError, 1.0}};
+  Rig r(sc);
+  r.bus.ProduceSync(kT0 + 10 * kMs, 10 * kMs);
+  r.master->Begin(kT0);
+  r.bus.RunUntil(kT0 + 2000 * kMs);
+  ASSERT_EQ(r.master->phase(), CanopenMaster::Phase::kRunning);
+  r.bus.Send(EncodeNmt(NmtCommand::kEnterPreOperational, 3));  // another master's command
+  r.bus.RunUntil(kT0 + 2500 * kMs);
+  EXPECT_EQ(r.sim.NodeState(3), 0x05);
+  const auto frames = r.Frames();
+  const auto after = [&frames](std::size_t from, const std::string& frame) {
+    return static_cast<std::size_t>(std::find(frames.begin() + static_cast<std::ptrdiff_t>(from), frames.end(), frame) -
+                                    frames.begin());
+  };
+  // Its heartbeat at once says pre-operational; the master's Start follows; operational again.
+  const std::size_t preop = r.IndexOf("000#8003");
+  const std::size_t hb_preop = after(preop, "703#7F");
+  const std::size_t start = after(hb_preop, "000#0103");
+  const std::size_t hb_op = after(start, "703#05");
+  ASSERT_LT(hb_op, frames.size());
+  EXPECT_LT(r.bus.log()[start].t_ns - r.bus.log()[hb_preop].t_ns, kMs);  // at once
+  EXPECT_THAT(r.logs, Contains("node 3 (probe): heartbeat says pre-operational: it left operational; sending Start "
+                               "remote node"));
+  EXPECT_THAT(r.logs, Contains("node 3 (probe): restarted, operational again"));
+  // The error: EMCY 0x8100 with register 0x11, pre-operational; Start does not hold until the
+  // error reset (EMCY 0x0000) 1 s later; the next Start after it does.
+  r.bus.RunUntil(kT0 + 6000 * kMs);
+  EXPECT_EQ(r.sim.NodeState(2), 0x05);
+  const auto all = r.Frames();
+  const std::size_t emcy = r.IndexOf("082#0081110000000000");
+  const std::size_t reset = r.IndexOf("082#0000000000000000");
+  ASSERT_LT(emcy, all.size());
+  ASSERT_LT(reset, all.size());
+  const auto starts = std::count(all.begin() + static_cast<std::ptrdiff_t>(emcy), all.end(), "000#0102");
+  EXPECT_GE(starts, 2);  // one at once (refused: the error), one after the reset
+  EXPECT_EQ(r.master->counts().left_operational, 2U);
+  EXPECT_EQ(r.master->counts().restarts, 2U);
+  EXPECT_GE(r.master->counts().start_retries, 1U);
+  EXPECT_EQ(r.master->counts().restart_failures, 0U);
+  EXPECT_EQ(r.master->phase(), CanopenMaster::Phase::kRunning);
 }
 
 TEST(Master, ConfigurationErrors) {

@@ -1,10 +1,12 @@
 #include "sph/can/pipeline.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "sph/can/device_sim.hpp"
 #include "sph/can/error_frame.hpp"
 #include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
 
 namespace sph::can {
 namespace {
@@ -226,6 +228,109 @@ TEST(Pipeline, HeartbeatLossStateChangesEmcyAndErrorFrames) {
   }
   EXPECT_TRUE(saw_emcy);
   EXPECT_TRUE(saw_lost);
+}
+
+// What the bus and the nodes tell goes into the file as a comment at its place among the rows (a
+// row is written when its cycle is resolved, after events of later times came): EMCY, the error
+// state it opens (the rows in it counted) and its reset, an error frame, a full transmit queue, a
+// node leaving operational (a gap, closed by its first PDO after), a heartbeat lost and back.
+TEST(Pipeline, WhatTheBusAndTheNodesTellIsWrittenAtItsPlaceAmongTheRows) {
+  PipelineConfig c = SmallConfig();
+  c.heartbeat_timeout_s = 0.0035;
+  std::vector<std::string> file;  // rows and comments, in the order written
+  AcquisitionPipeline p(c, {[&](const Sample& s) { file.push_back(internal::Format("row %.4f", s.t_s - 1.7e9)); },
+                            [&](const std::string& n) { file.push_back("# " + n); }, nullptr});
+  const auto at = [](double ms) { return kT0 + static_cast<std::int64_t>(ms * 1e6); };
+  const auto heartbeat = [&](int node, NmtState state, double ms) {
+    CanFrame hb = EncodeHeartbeat(node, state);
+    hb.t_ns = at(ms);
+    p.OnFrame(hb);
+  };
+  const auto emcy = [&](std::uint16_t code, std::uint8_t reg, double ms) {
+    CanFrame e = EncodeEmergency({3, code, reg, {}});
+    e.t_ns = at(ms);
+    p.OnFrame(e);
+  };
+  // Nodes 1 and 3 send a heartbeat in every cycle, node 2 until cycle 8.
+  NmtState phi = NmtState::kOperational;
+  const auto cycle = [&](int k, int skip = -1) {
+    Cycle(p, c, k, skip);
+    heartbeat(1, NmtState::kOperational, k + 0.5);
+    heartbeat(3, NmtState::kOperational, k + 0.5);
+    if (k <= 8) heartbeat(2, phi, k + 0.5);
+  };
+  for (int k = 0; k < 3; ++k) cycle(k);
+  emcy(0x4210, 0x09, 2.7);  // temperature: an error state
+  for (int k = 3; k < 6; ++k) cycle(k);
+  CanFrame err = MakeErrorFrame(kErrController, {0, 0x04});
+  err.t_ns = at(5.7);
+  p.OnFrame(err);
+  p.OnTxQueueFull("SYNC", at(5.75));
+  emcy(0x0000, 0x00, 5.8);  // error reset
+  phi = NmtState::kPreOperational;
+  heartbeat(2, phi, 5.9);
+  for (int k = 6; k < 8; ++k) cycle(k, kPhi);  // no phi PDO while pre-operational
+  phi = NmtState::kOperational;
+  heartbeat(2, phi, 7.8);
+  for (int k = 8; k < 13; ++k) cycle(k);  // node 2's last heartbeat at 8.5 ms: lost after 12 ms
+  heartbeat(2, phi, 13.2);
+  cycle(13);
+  p.Finish();
+  const std::vector<std::string> expected{
+      "row 0.0000",
+      "row 0.0010",
+      "row 0.0020",
+      "# EMCY t_s 1700000000.002700: probe node 3: EMCY 0x4210 (temperature), error register 0x09, data 00 00 00 00 "
+      "00",
+      "# error state start t_s 1700000000.002700: node 3 (probe) signals an error (error register 0x09): the rows "
+      "until its error state ends come from a device in an error state",
+      "row 0.0030",
+      "row 0.0040",
+      "row 0.0050",
+      "# error frame t_s 1700000000.005700: controller-problem{rx-error-warning}",
+      "# transmit queue full t_s 1700000000.005750: a SYNC was not sent",
+      "# EMCY t_s 1700000000.005800: probe node 3: EMCY 0x0000 (error reset or no error), error register 0x00, data "
+      "00 00 00 00 00",
+      "# error state end t_s 1700000000.005800: node 3 (probe): error reset (EMCY 0x0000) after 0.003 s; 3 rows "
+      "written in the error state",
+      "# node state t_s 1700000000.005900: node 2 (phi): pre-operational (was operational)",
+      "# gap start t_s 1700000000.005900: phi (node 2) left operational (pre-operational): no phi values until it "
+      "sends again",
+      "# 2 incomplete SYNC cycles from t_s 1700000000.006000 to 1700000000.007000 (no sample written): phi no frame "
+      "(not operational)",
+      "# node state t_s 1700000000.007800: node 2 (phi): operational (was pre-operational)",
+      "# gap end t_s 1700000000.008000: phi (node 2) sends again, 0.002 s after it left operational (2 SYNC cycles "
+      "without it)",
+      "row 0.0080",
+      "row 0.0090",
+      "row 0.0100",
+      "row 0.0110",
+      "row 0.0120",
+      "# heartbeat lost t_s 1700000000.012100: node 2 (phi): heartbeat lost (none for 0.004 s)",
+      "row 0.0130",
+      "# heartbeat back t_s 1700000000.013200: node 2 (phi): heartbeat back after 0.005 s without (operational)",
+  };
+
+  EXPECT_EQ(file, expected);
+  EXPECT_EQ(p.counts().error_states, 1U);
+  EXPECT_EQ(p.counts().error_state_rows, 3U);
+  EXPECT_EQ(p.counts().tx_queue_full, 1U);
+  EXPECT_EQ(p.counts().heartbeats_back, 1U);
+}
+
+// A heartbeat never seen and then back: the gap is the time since the start, not an epoch time.
+TEST(Pipeline, AHeartbeatBackAfterNeverBeingSeenTellsTheGap) {
+  PipelineConfig c = SmallConfig();
+  c.heartbeat_timeout_s = 1.5;
+  Sink sink;
+  AcquisitionPipeline p(c, sink.Callbacks());
+  p.OnTime(kT0);
+  p.OnTime(kT0 + 1600 * kMs);
+  CanFrame hb = EncodeHeartbeat(2, NmtState::kOperational);
+  hb.t_ns = kT0 + 3002 * kMs;
+  p.OnFrame(hb);
+  EXPECT_THAT(sink.logs, ::testing::Contains("node 2 (phi): heartbeat lost (never seen in 1.600 s)"));
+  EXPECT_THAT(sink.logs, ::testing::Contains("node 2 (phi): heartbeat back after 3.002 s without (operational)"));
 }
 
 TEST(Pipeline, PointsModeAveragesEachStop) {

@@ -3,7 +3,8 @@
 # tests/vm/run-in-vcan-vm.sh (vcan0 up, can-utils on PATH), with the two programs in /work.
 # The bytes of the NMT and SDO frames are checked as candump shows them (CiA 301: NMT 000#cs nn,
 # SDO requests 600h + node, answers 580h + node, boot-up 700h + node with state 00), also where the
-# daemon configures a node's heartbeat (1017h) and SYNC counter (1019h).
+# daemon configures a node's heartbeat (1017h) and SYNC counter (1019h), restarts a node that left
+# operational, reads a REAL32 probe, and leaves the bus as found after a refused start.
 # Prints one line per check and "N passed, N failed"; exits 1 if any check failed.
 cd /work || exit 1
 pass=0
@@ -361,6 +362,147 @@ check "candump: 1019h = 240 written (601#2F 19 10 00 F0), confirmed (581#60 19 1
 check "candump: counted SYNCs (080#01, 080#02, ...)" test -n "$(grep -m1 -F ' 080#01' bus11.log)"
 check "candump: no EMCY 0x8240 (unexpected SYNC length) from any node" test -z "$(grep -m1 -E ' 08[123]#4082' bus11.log)"
 check "rows from the configured devices: $(rows counted.txt)" test "$(rows counted.txt)" -ge 150
+
+echo "== 12. nodes dropped to pre-operational mid-run (another sender's NMT, a simulated error): started again"
+candump -L vcan0 >bus12.log &
+cd_pid=$!
+# Node 2 has a communication error 4 s after power-on (EMCY 0x8100, error register 0x11,
+# pre-operational, cleared 1 s later); node 3 is sent Enter pre-operational by another sender.
+"${SIM[@]}" --sync-source external --sync-period-ms 10 --heartbeat-period-s 0.2 --fault error:2@4 2>sim12.err &
+sim_pid=$!
+sleep 1
+./sph_acquired --iface vcan0 -o left.txt --sync-period-ms 10 --duration-s 7 2>acq12.err &
+acq=$!
+sleep 4.5
+cansend vcan0 000#8003
+wait $acq
+rc=$?
+sleep 0.2
+kill $sim_pid 2>/dev/null; wait $sim_pid
+kill $cd_pid 2>/dev/null; wait $cd_pid
+after() {  # after LINE FRAME: the first line after LINE with FRAME
+  awk -v s="$1" -v f=" $2" 'NR > s && index($0, f) {print NR; exit}' bus12.log
+}
+other=$(grep -n -m1 -F ' 000#8003' bus12.log | cut -d: -f1)
+hb3=$(after "${other:-0}" '703#7F')
+start3=$(after "${hb3:-0}" '000#0103')
+op3=$(after "${start3:-0}" '703#05')
+echo "   candump, node 3:"
+for l in $other $hb3 $start3 $op3; do sed -n "${l}p" bus12.log | sed 's/^/     /'; done
+emcy2=$(grep -n -m1 -F ' 082#0081' bus12.log | cut -d: -f1)
+reset2=$(grep -n -m1 -F ' 082#0000' bus12.log | cut -d: -f1)
+start2=$(after "${reset2:-0}" '000#0102')
+op2=$(after "${start2:-0}" '702#05')
+echo "   candump, node 2:"
+for l in $emcy2 $(after "${emcy2:-0}" '000#0102') $reset2 $start2 $op2; do sed -n "${l}p" bus12.log | sed 's/^/     /'; done
+grep -E 'left operational|restarted|not operational yet|EMCY' acq12.err | head -8 | sed 's/^/   /'
+echo "   the points file around it:"
+grep -n -E '^# (node state|gap|EMCY|error state)' left.txt | head -12 | sed 's/^/     /'
+rows3=$(awk '/node 3 \(probe\): operational \(was pre-operational\)/ {on = 1; next} on && !/^#/ {n++} END {print n + 0}' left.txt)
+rows2=$(awk '/node 2 \(phi\): operational \(was pre-operational\)/ {on = 1; next} on && !/^#/ {n++} END {print n + 0}' left.txt)
+check "daemon stopped cleanly, exit $rc (0, or 1: the cycles without the nodes)" test "$rc" -le 1
+check "candump: another sender's Enter pre-operational (000#80 03), node 3's heartbeat 7F, the daemon's Start (000#01 03), 05" \
+  test -n "$other" -a -n "$hb3" -a -n "$start3" -a -n "$op3"
+check "candump: node 2's EMCY 0x8100, its error reset (082#00 00), the daemon's Start after it, 702#05" \
+  test -n "$emcy2" -a -n "$reset2" -a -n "$start2" -a -n "$op2"
+check "the daemon said so" grep -q 'node 3 (probe): restarted, operational again' acq12.err
+check "... for node 2 too" grep -q 'node 2 (phi): restarted, operational again' acq12.err
+check "the points file: node 3 left operational, a gap, and back" \
+  grep -q '^# gap start t_s .*: probe (node 3) left operational (pre-operational)' left.txt
+check "the points file: node 2's EMCY and its error state, start and end" \
+  test -n "$(grep -m1 '^# EMCY t_s .*: phi node 2: EMCY 0x8100' left.txt)" -a \
+  -n "$(grep -m1 '^# error state end t_s .*: node 2 (phi): error reset (EMCY 0x0000)' left.txt)"
+check "rows after node 3 was back: $rows3 (about 250)" test "$rows3" -ge 150
+check "rows after node 2 was back: $rows2" test "$rows2" -ge 100
+
+echo "== 13. a REAL32 probe"
+REAL=(--probe-data-type real32 --probe-scale-um-per-count 1000)
+"${SIM[@]}" --sync-source external --sync-period-ms 10 "${REAL[@]}" --record rec13.txt 2>sim13.err &
+sim_pid=$!
+sleep 1
+candump -L vcan0 >bus13.log &
+cd_pid=$!
+sleep 0.2
+./sph_acquired --iface vcan0 -o real.txt --sync-period-ms 10 --duration-s 4 "${REAL[@]}" --probe-pdo-object 0x2000:00 \
+  2>acq13.err
+rc=$?
+sleep 0.2
+kill $cd_pid 2>/dev/null; wait $cd_pid
+kill $sim_pid 2>/dev/null; wait $sim_pid
+n13=$(rows real.txt)
+bad13=$(awk 'function abs(x) { return x < 0 ? -x : x }
+  NR == FNR { if ($1 !~ /^#/ && $5 != "-") { m++; rt[m] = $1; rr[m] = $5 } next }
+  !/^#/ { while (j < m && (j == 0 || abs(rt[j + 1] - $4) <= abs(rt[j] - $4))) j++
+    if (j == 0 || abs(rt[j] - $4) >= 0.002 || rr[j] != $3) bad++ }
+  END { print bad + 0 }' rec13.txt real.txt)
+echo "   a probe frame: $(grep -m1 -E ' 183#' bus13.log); a row: $(grep -m1 -v '^#' real.txt)"
+check "daemon stopped cleanly, exit $rc (0 or 1)" test "$rc" -le 1
+check "candump: the mapped object 0x2000:00 read over SDO, 4 bytes (583#43 00 20 00 ...)" \
+  grep -q -E ' 583#43002000' bus13.log
+check "rows of the REAL32 probe: $n13" test "$n13" -ge 200
+check "each row's r is the value the probe sent for its SYNC: $bad13 different" test "$bad13" -eq 0
+
+echo "== 14. a segmented download to a 16-byte object; a TPDO made invalid while operational"
+"${SIM[@]}" --sync-source external --sync-period-ms 10 2>sim14.err &
+sim_pid=$!
+sleep 0.5
+candump -L vcan0 >bus14.log &
+cd_pid=$!
+sleep 0.2
+for f in 601#2100210010000000 601#006C616220332C20 601#1062656E63682032 601#0B20200000000000 \
+  601#4000210000000000 601#6000000000000000 601#7000000000000000 601#6000000000000000; do
+  cansend vcan0 "$f"
+  sleep 0.05
+done
+cansend vcan0 000#0100
+sleep 0.1
+for f in 080# 080# 601#2300180181010080 080# 080#; do  # the first SYNC starts the simulated pattern
+  cansend vcan0 "$f"
+  sleep 0.05
+done
+sleep 0.2
+kill $cd_pid 2>/dev/null; wait $cd_pid
+kill $sim_pid 2>/dev/null; wait $sim_pid
+grep -E ' 60[1]#| 58[1]#| 18[123]#| 080#' bus14.log | sed 's/^/   /'
+sdo() { grep -A3 -F " 601#$1" bus14.log | grep -q -F " 581#$2"; }
+check "initiate (21: segmented, size 16) answered 60" sdo 2100210010000000 6000210000000000
+check "segment toggle 0 answered 20, toggle 1 answered 30, the last (0B: 2 bytes, c) answered 20" \
+  eval 'sdo 006C616220332C20 2000000000000000 && sdo 1062656E63682032 3000000000000000 && sdo 0B20200000000000 2000000000000000'
+check "read back: 16 bytes, 'lab 3, ' 'bench 2' '  ' (the last segment: 0B)" \
+  eval 'sdo 4000210000000000 4100210010000000 && sdo 6000000000000000 006C616220332C20 &&
+    sdo 7000000000000000 1062656E63682032 && grep -q -F " 581#0B20200000000000" bus14.log'
+pdo_before=$(awk '/ 601#2300180181010080/ {exit} / 181#/ {n++} END {print n + 0}' bus14.log)
+pdo_after=$(awk '/ 601#2300180181010080/ {on = 1} on && / 181#/ {n++} END {print n + 0}' bus14.log)
+others_after=$(awk '/ 601#2300180181010080/ {on = 1} on && / 18[23]#/ {n++} END {print n + 0}' bus14.log)
+check "COB-ID 0x80000181 written while operational (581#60 00 18 01)" sdo 2300180181010080 6000180100000000
+check "node 1's PDO before ($pdo_before), none after ($pdo_after); the other nodes' go on ($others_after)" \
+  test "$pdo_before" -ge 1 -a "$pdo_after" -eq 0 -a "$others_after" -ge 2
+
+echo "== 15. a start refused after NMT Start leaves the bus as found"
+# Node 2 rebooted without its settings before the daemon began: 1017h 0 and an error, so NMT Start
+# cannot make it operational; the daemon gives it a heartbeat (1017h 100 ms), starts every node,
+# and refuses the start.
+"${SIM[@]}" --sync-source external --sync-period-ms 10 --fault settings-lost:2@0.2 2>sim15.err &
+sim_pid=$!
+sleep 1
+candump -L vcan0 >bus15.log &
+cd_pid=$!
+sleep 0.2
+./sph_acquired --iface vcan0 -o refused.txt --sync-period-ms 10 --duration-s 4 2>acq15.err
+rc=$?
+sleep 1.5
+kill $cd_pid 2>/dev/null; wait $cd_pid
+kill $sim_pid 2>/dev/null; wait $sim_pid
+grep -E 'refused|leaving the bus' acq15.err | sed 's/^/   /'
+undo=$(grep -n -m1 -F ' 000#8001' bus15.log | cut -d: -f1)
+echo "   candump after the refusal:"; sed -n "${undo:-1},+5p" bus15.log | sed 's/^/     /'
+check "exit 5, got $rc" test "$rc" -eq 5
+check "candump: the nodes started go back to pre-operational (000#80 01, 000#80 03)" \
+  test -n "$undo" -a -n "$(grep -m1 -F ' 000#8003' bus15.log)"
+check "candump: node 2's 1017h written back to 0 (602#2B 17 10 00 00 00)" grep -q -F ' 602#2B17100000000000' bus15.log
+check "candump: node 1's last heartbeat says pre-operational (701#7F)" \
+  test "$(grep -F ' 701#' bus15.log | tail -1 | sed 's/.*#//')" = 7F
+check "no points file" test ! -e refused.txt
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

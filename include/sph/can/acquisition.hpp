@@ -26,10 +26,10 @@
 #include "sph/can/run_control.hpp"
 #include "sph/can/sdo.hpp"
 #include "sph/can/standstill.hpp"
-#include "sph/io/points_file.hpp"
-#include "sph/io/points_writer.hpp"
 #include "sph/core/ranges.hpp"
 #include "sph/core/valid_range.hpp"
+#include "sph/io/points_file.hpp"
+#include "sph/io/points_writer.hpp"
 
 namespace sph::can {
 
@@ -60,12 +60,18 @@ struct AcquisitionOptions {
   /// Header: this setup measures another sphere than the reference one, of this radius [mm].
   std::optional<double> other_sphere_radius_mm;
   SyncMode sync_mode = SyncMode::kProduce;
-  double heartbeat_timeout_s = 0.0;  ///< a node without heartbeat this long is lost; 0: off
-  StandstillConfig standstill;       ///< points mode: --standstill-tol-deg, --dwell-s, --average-s, --min-samples
-  double duration_s = 0.0;           ///< live: stop after this long; 0: until RunControl::stop
-  double replay_speed = 0.0;         ///< replay: 1 = the log's own pace; 0: as fast as possible
-  double reopen_interval_s = 0.5;    ///< live: how often to look whether a lost interface is back
-  int rcvbuf_bytes = 0;              ///< live: the socket's receive buffer (SO_RCVBUF); 0: the kernel's
+  /// A node without heartbeat this long is lost; 0: off; -1: three of the longest producer
+  /// heartbeat time the master found or set in the nodes (off without NMT or SDO).
+  double heartbeat_timeout_s = -1.0;
+  /// The bus's bitrate [kbit/s]: the SYNC cycle's load is checked against it (sph/can/bus_load.hpp)
+  /// and, without --sync-period-ms, the period chosen from it; 0: the interface's, where the
+  /// kernel reports it (live), else not checked.
+  double bitrate_kbit_s = 0.0;
+  StandstillConfig standstill;     ///< points mode: --standstill-tol-deg, --dwell-s, --average-s, --min-samples
+  double duration_s = 0.0;         ///< live: stop after this long; 0: until RunControl::stop
+  double replay_speed = 0.0;       ///< replay: 1 = the log's own pace; 0: as fast as possible
+  double reopen_interval_s = 0.5;  ///< live: how often to look whether a lost interface is back
+  int rcvbuf_bytes = 0;            ///< live: the socket's receive buffer (SO_RCVBUF); 0: the kernel's
   // the CANopen master
   bool no_nmt = false;             ///< send no NMT command: another master starts the devices
   bool nmt_broadcast = false;      ///< one Start to all nodes (node 0)
@@ -77,6 +83,9 @@ struct AcquisitionOptions {
   bool configure_pdo = false;      ///< write the TPDO settings and 1019h, verify by reading back
   double sdo_timeout_ms = 500.0;
   double boot_timeout_s = 5.0;
+  /// A node that left operational mid-run (rebooted, or its heartbeat says another state) is
+  /// started again; not operational within this, it ends the run (AcquisitionStatus::kNodeLost).
+  double node_return_timeout_s = 10.0;
   int node_heartbeat_ms = 100;  ///< written into a node whose 1017h is 0; 0: none
   /// --probe-pdo-object: the object the probe's TPDO maps at its offset byte (checked, and
   /// written with configure_pdo); none: the probe's mapping is not checked.
@@ -102,6 +111,8 @@ inline constexpr ValidRange kRcvbufBytes{0.0, 1073741824.0, "bytes"};
 inline constexpr ValidRange kNodeHeartbeatMs{0.0, 65535.0, ""};
 inline constexpr ValidRange kSdoTimeoutMs{1.0, 60000.0, "ms"};
 inline constexpr ValidRange kBootTimeoutS{0.01, 600.0, "s"};
+inline constexpr ValidRange kNodeReturnTimeoutS{0.1, 86400.0, "s"};
+inline constexpr ValidRange kBitrateKbitS{10.0, 1000.0, "kbit/s"};  ///< classic CAN; or 0: the interface's
 }  // namespace ranges
 
 /// Throws sph::Error naming the option when a value is out of its range or the options do not go
@@ -114,6 +125,13 @@ void CheckAcquisitionOptions(const AcquisitionOptions& options);
 /// and the SYNC period (without sync_period_ms, 0 for a replay or a followed producer: as
 /// observed). Throws sph::Error as CheckAcquisitionOptions() does.
 PipelineConfig AcquisitionPipelineConfig(const AcquisitionOptions& options);
+
+/// The load of the SYNC cycle on a bus of `bitrate_bit_s` (0: not known: nothing is checked).
+/// Where the acquisition produces SYNC: without sync_period_ms, `pipeline`'s period becomes the
+/// one DefaultSyncPeriodS() chooses; a period whose load is over the bus's capacity throws
+/// sph::Error naming --sync-period-ms and the shortest period it can carry. Returns a warning when
+/// the load is over half the capacity ("" otherwise).
+std::string CheckBusLoad(const AcquisitionOptions& options, PipelineConfig* pipeline, double bitrate_bit_s);
 
 /// The master's configuration of `options`, its nodes from `pipeline`, its messages naming the
 /// options (--theta-counts-per-rev). Throws sph::Error on contradicting master flags.
@@ -133,6 +151,8 @@ enum class AcquisitionStatus {
   kOutputError,     ///< an output cannot be continued or written (everything written before is intact)
   kInterfaceError,  ///< the CAN interface cannot be used (no such interface, no CAN support)
   kStartRefused,    ///< a device did not answer or does not match the configuration: no output made
+  kNodeLost,        ///< a node left operational mid-run and was not back within the return timeout:
+                    ///< the outputs are finished cleanly up to that point
 };
 
 /// What a run made and counted.
@@ -152,6 +172,9 @@ struct AcquisitionResult {
   bool frame_log = false;           ///< a frame log was written
   std::uint64_t frames_logged = 0;  ///< frames this run wrote into it
   std::uint64_t losses = 0;         ///< samples lost (PipelineCounts::Losses())
+  /// The nodes no frame came from during the run ("node 3 (probe)"): with --no-sdo a node that is
+  /// not there is started without a word.
+  std::vector<std::string> never_heard;
   /// What the operator must know about the outcome, also logged as warnings: samples lost, a run
   /// stopped before the devices were started, an incomplete line of an earlier run cut off.
   std::vector<std::string> warnings;

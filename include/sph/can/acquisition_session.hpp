@@ -7,6 +7,7 @@
 //   acquiring: once every node runs, the points file is opened with the devices' identity in its
 //              header, the frame log with the frames kept so far; the pipeline gets every frame
 //   failed:    the start was refused (no output is made) or an output failed
+//   node lost: a node left operational mid-run and did not come back (the outputs are finished)
 #ifndef SPH_CAN_ACQUISITION_SESSION_HPP_
 #define SPH_CAN_ACQUISITION_SESSION_HPP_
 
@@ -33,7 +34,7 @@ class OutputError : public Error {
 
 class AcquisitionSession {
  public:
-  enum class State { kStarting, kAcquiring, kStartRefused, kOutputFailed };
+  enum class State { kStarting, kAcquiring, kStartRefused, kOutputFailed, kNodeLost };
   using Log = std::function<void(LogLevel, const std::string&)>;
 
   /// `options` (kept by reference: it must outlive the session) give the outputs and the header;
@@ -59,15 +60,24 @@ class AcquisitionSession {
   void OnRxOverflow(std::uint64_t drops, std::int64_t now_ns);
   void OnMalformedInput(const std::string& what);
   void OnLinkEvent(const std::string& what, std::int64_t now_ns);
+  /// A frame (`what`: "SYNC") was not sent: the transmit queue was full.
+  void OnTxQueueFull(const std::string& what, std::int64_t now_ns);
   /// Flushes the frame log, syncs the outputs when due. Throws OutputError.
   void FlushOutputs();
   /// The end: the pipeline's last cycle and stop, the outputs closed. Throws OutputError.
   void Finish();
   /// Closes the outputs after an output error, reporting nothing more.
   void Abandon();
+  /// After a start that was refused (done by the session itself) or stopped before it completed:
+  /// sends CanopenMaster::UndoStart()'s frames, so that the bus is left as found, and logs them.
+  void UndoStart();
 
   State state() const { return state_; }
   bool acquiring() const { return state_ == State::kAcquiring; }
+  /// Whether the run can go no further: a refused start, a failed output, a node lost.
+  bool ended() const {
+    return state_ == State::kStartRefused || state_ == State::kOutputFailed || state_ == State::kNodeLost;
+  }
   /// The master's next timeout (INT64_MAX: none).
   std::int64_t NextDeadline() const { return master_.NextDeadline(); }
   const CanopenMaster& master() const { return master_; }
@@ -81,7 +91,7 @@ class AcquisitionSession {
   /// the start that the frame log misses), also logged.
   const std::vector<std::string>& warnings() const { return warnings_; }
   /// Why the session failed (kStartRefused: the master's errors, one a line; kOutputFailed: the
-  /// output that could not be opened); "" otherwise.
+  /// output that could not be opened; kNodeLost: the node that did not come back); "" otherwise.
   const std::string& error() const { return error_; }
 
  private:
@@ -102,6 +112,7 @@ class AcquisitionSession {
   std::unique_ptr<CandumpWriter> frame_log_;
   std::vector<CanFrame> early_frames_;  ///< received before the acquisition began
   std::uint64_t early_dropped_ = 0;
+  std::int64_t now_ns_ = 0;  ///< the time of the frame or timeout being handled
   std::vector<std::string> warnings_;
   std::string error_;
   State state_ = State::kStarting;

@@ -64,8 +64,9 @@ inline constexpr ValidRange kNodesSyncCounterMax{-1.0, 240.0, ""};
 Silence ParseSilence(const std::string& text);
 /// "device:at_s:code" (--emcy): an EMCY frame, the code in hex.
 EmcyEvent ParseEmcy(const std::string& text);
-/// "reboot:NODE@T" or "settings-lost:NODE@T" (--fault): NODE a node id 1..127 or theta, phi,
-/// probe (their nodes in `devices`), T in s after the start.
+/// "reboot:NODE@T", "settings-lost:NODE@T", "preop:NODE@T" or "error:NODE@T" (--fault, see
+/// NodeFaultKind; an error clears 1 s later): NODE a node id 1..127 or theta, phi, probe (their
+/// nodes in `devices`), T in s after the start.
 RebootEvent ParseFault(const std::string& text, const DeviceOptions& devices);
 
 /// Throws sph::Error naming the option when a value is out of its range or the options do not go

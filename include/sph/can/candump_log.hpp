@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "sph/can/frame.hpp"
-#include "sph/io/append_file.hpp"
 #include "sph/core/text_input.hpp"
+#include "sph/io/append_file.hpp"
 
 namespace sph::can {
 

@@ -190,7 +190,23 @@ struct ProbeConfig {
   int status_offset_byte = -1;          ///< a status byte in the frame, -1 = none
   std::uint8_t status_error_mask = 0xFF;
   int tpdo = 0;  ///< as EncoderConfig::tpdo
+  /// The field holds an IEEE 754 single (REAL32, 4 bytes, not signed as an integer): the value
+  /// is offset_mm + scale_mm_per_count * the number; NaN is a device error, an infinity out of
+  /// range; the raw range and error codes do not apply.
+  bool real32 = false;
 };
+
+/// A probe value's CANopen data type (CiA 301): its field's width and signedness, or REAL32.
+struct ProbeDataType {
+  const char* name;  ///< "integer8", ..., "real32"
+  int width_bytes;
+  bool is_signed;
+  bool real32;
+};
+/// The data types a probe's value may have: INTEGER8/16/32, UNSIGNED8/16/32, REAL32.
+const std::vector<ProbeDataType>& ProbeDataTypes();
+/// The data type named `name` (as ProbeDataTypes() names them); null for another name.
+const ProbeDataType* FindProbeDataType(const std::string& name);
 
 /// The TPDO number a device's `tpdo` setting means: itself, else the predefined one of its
 /// COB-ID and node, else 1.

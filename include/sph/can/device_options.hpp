@@ -50,6 +50,10 @@ struct DeviceOptions {
   int probe_status_error_mask = 0xFF;
   int probe_tpdo = 0;
   int probe_sync_counter_byte = -1;
+  /// --probe-data-type: the value's CANopen data type (FindProbeDataType(): integer8 ... real32),
+  /// which sets its width and signedness (and REAL32 decoding); empty: --probe-width-bytes and
+  /// --probe-unsigned.
+  std::string probe_data_type;
   std::uint32_t sync_cob_id = 0x80;
   int sync_counter_max = 0;  ///< 0: SYNC without counter; else 2..240
   /// SYNC period [ms]; not given: kDefaultSyncPeriodMs where SYNC is produced, else (a daemon

@@ -9,7 +9,8 @@
 //   serial), 1019h synchronous counter overflow value, 1800h/1A00h + k - 1 the TPDO's
 //   communication (COB-ID, transmission type, event timer) and mapping; an encoder 6001h
 //   measuring units per revolution, 6002h total measuring range, 6004h position value; the
-//   probe 2000h reading [counts], 2001h status; 2010h the counter of the last SYNC (mappable).
+//   probe 2000h reading [counts], 2001h status; 2010h the counter of the last SYNC (mappable);
+//   2100h a 16-byte location text, read-write (a segmented download; not kept across a reboot).
 // 1005h, 1014h, 1017h and 1019h are read-write, as CiA 301 makes them and CANopenNode checks them:
 // a node takes SYNC on the id of its 1005h and sends EMCY on that of its 1014h (bit 31: none); a
 // written 1017h sends a heartbeat at once and then every new period (0: none); 1019h 1 or above
@@ -22,12 +23,15 @@
 // boot-up message and is pre-operational: heartbeats, SDO, no PDO. NMT Start makes it
 // operational (PDOs), Stop stopped (heartbeats only), Enter pre-operational pre-operational. A
 // node that reboots without its stored settings comes back with 1017h and 1019h 0 and an error
-// (EMCY 0x5000, device hardware, after its boot-up message), so it stays pre-operational.
+// (EMCY 0x5000, device hardware, after its boot-up message), so it stays pre-operational. A node
+// can also drop to pre-operational without a reboot (NodeFaultKind), as real ones do after an
+// error (1029h) or another master's NMT command.
 // The TPDO's content follows its mapping and its transmission type (1..240: every n-th SYNC;
-// 0: on SYNC when the value changed; 254, 255: every event-timer period, without SYNC). PDO
-// parameters cannot be written while the node is operational (abort 0x08000022), a COB-ID not
-// while the PDO is valid (0x06090030), a mapping entry not while the count is non-zero
-// (0x06010000). Log mode (no master) starts the nodes operational.
+// 0: on SYNC when the value changed; 254, 255: every event-timer period, without SYNC). While the
+// node is operational and its PDO valid, only the COB-ID may be written (to make the PDO invalid:
+// CiA 301), its other parameters not (abort 0x08000022); a COB-ID's id not while the PDO is valid
+// (0x06090030), a mapping entry not while the count is non-zero (0x06010000). Log mode (no master) starts the nodes
+// operational.
 //
 // Timeline: the axes stand at pattern point 0 for stop_s, move to point 1 in move_s (cosine
 // velocity profile: u' = (1 - cos(pi u)) / 2), stand for stop_s, and so on; the pattern starts at
@@ -47,8 +51,8 @@
 #include "sph/can/frame.hpp"
 #include "sph/can/pipeline.hpp"
 #include "sph/can/sdo.hpp"
-#include "sph/stats/random.hpp"
 #include "sph/simulation/simulate.hpp"
+#include "sph/stats/random.hpp"
 
 namespace sph::can {
 
@@ -66,11 +70,22 @@ struct EmcyEvent {
   std::uint16_t code = 0x5000;
 };
 
-/// Node `node_id` reboots (power glitch) at `at_s` after the start.
+/// What happens to a node in a RebootEvent.
+enum class NodeFaultKind {
+  kReboot,          ///< a power glitch: silent, boot-up message, pre-operational
+  kPreOperational,  ///< it enters pre-operational by itself, without a word (no EMCY, no reboot)
+  kError,           ///< a communication error (CiA 301 error behaviour, 1029h): EMCY 0x8100 with
+                    ///< error register 0x11, pre-operational; cleared clears_after_s later (EMCY
+                    ///< 0x0000), after which NMT Start makes it operational again
+};
+
+/// Node `node_id` reboots (power glitch), or another NodeFaultKind, at `at_s` after the start.
 struct RebootEvent {
   int node_id = 1;
   double at_s = 0.0;
   bool settings_lost = false;  ///< it comes back without its stored settings (see the file comment)
+  NodeFaultKind kind = NodeFaultKind::kReboot;
+  double clears_after_s = 1.0;  ///< kError: its error clears this long after
 };
 
 struct SimFaults {
@@ -122,6 +137,7 @@ struct SimInjected {
   std::uint64_t emergencies = 0;
   std::uint64_t heartbeats = 0;
   std::uint64_t reboots = 0;       ///< reboot faults
+  std::uint64_t state_faults = 0;  ///< nodes dropped to pre-operational without a reboot
   std::uint64_t boot_ups = 0;      ///< boot-up messages sent
   std::uint64_t nmt_commands = 0;  ///< NMT commands received
   std::uint64_t sdo_requests = 0;  ///< SDO requests answered (aborts included)
@@ -200,7 +216,7 @@ class DeviceSimulator {
 
   DeviceSimConfig config_;
   std::int64_t now_ns_ = 0;  ///< the time of the frame being taken (for the nodes' side effects)
-  Random rng_;  // the same numbers with every standard library
+  Random rng_;               // the same numbers with every standard library
   Eigen::Matrix3d body_to_theta_ = Eigen::Matrix3d::Identity();  // the sphere's mount rotation
   std::vector<std::unique_ptr<Node>> nodes_;
   std::int64_t start_ns_ = 0;

@@ -10,7 +10,10 @@
 // 5. read and check each TPDO, 1019h and the resolution (a mismatch refuses the start unless the
 // configuration is trusted), 6. once every node passed, NMT Start; a node is operational only when
 // its heartbeat says so. A node that reboots mid-run runs steps 2 to 6 again, if it is the same
-// device. Each step, with the objects and the checks: docs/method/acquisition.md.
+// device; a node whose heartbeat leaves operational mid-run is sent Start again (and again, each
+// time the wait for its heartbeat runs out). A node not operational again within the return
+// timeout ends the acquisition (Phase::kNodeLost). Each step, with the objects and the checks:
+// docs/method/acquisition.md.
 #ifndef SPH_CAN_MASTER_HPP_
 #define SPH_CAN_MASTER_HPP_
 
@@ -45,6 +48,10 @@ struct MasterDevice {
   std::string cpr_name = "the configured counts per revolution";
   std::string cob_name = "the configured COB-ID";
   std::string layout_name = "the configured layout";
+  /// The size of the mapped object's value [bytes] by its configured data type, checked by
+  /// reading the object over SDO (0: not checked); named in messages as `type_name`.
+  int value_bytes = 0;
+  std::string type_name;
 };
 
 struct MasterNode {
@@ -73,6 +80,9 @@ struct MasterConfig {
   /// After Start remote node: a node that produces heartbeats must report operational within
   /// this plus three of its heartbeat periods.
   std::int64_t operational_timeout_ns = 500'000'000;
+  /// Mid-run: a node that left operational (rebooted, or its heartbeat says another state) must be
+  /// operational again within this, else the acquisition ends (Phase::kNodeLost).
+  std::int64_t return_timeout_ns = 10'000'000'000;
 
   /// Throws sph::Error (configure_pdo without nmt, node ids, TPDO numbers, ...).
   void Validate() const;
@@ -96,7 +106,8 @@ struct NodeIdentity {
 
 class CanopenMaster {
  public:
-  enum class Phase { kStarting, kRunning, kFailed };
+  /// kNodeLost: a node did not come back mid-run (errors() says which and why).
+  enum class Phase { kStarting, kRunning, kFailed, kNodeLost };
   struct Callbacks {
     std::function<void(const CanFrame&)> send;
     std::function<void(LogLevel, const std::string&)> log;
@@ -106,6 +117,8 @@ class CanopenMaster {
     std::uint64_t boot_ups = 0;          ///< mid-run boot-up messages of running nodes
     std::uint64_t restarts = 0;          ///< nodes brought back to operational after one
     std::uint64_t restart_failures = 0;  ///< nodes that could not be restarted
+    std::uint64_t left_operational = 0;  ///< running nodes whose heartbeat left operational (sent Start)
+    std::uint64_t start_retries = 0;     ///< Start sent again to a node not yet operational
     std::uint64_t unconfirmed = 0;       ///< nodes started without a heartbeat to confirm it
     std::uint64_t sdo_transfers = 0;
     std::uint64_t nmt_commands = 0;
@@ -127,7 +140,8 @@ class CanopenMaster {
   std::int64_t NextDeadline() const;
 
   Phase phase() const { return phase_; }
-  /// Why the start failed (phase() == kFailed): one line per problem.
+  /// Why the start failed (phase() == kFailed) or which node was lost (kNodeLost): one line per
+  /// problem.
   const std::vector<std::string>& errors() const { return errors_; }
   const Counts& counts() const { return counts_; }
   const MasterConfig& config() const { return config_; }
@@ -138,6 +152,17 @@ class CanopenMaster {
   std::vector<std::pair<std::string, std::string>> HeaderFields() const;
   /// The NMT frames that bring every node to `command` (at exit); none without nmt.
   std::vector<CanFrame> CommandAll(NmtCommand command) const;
+  /// The frames that leave the bus as the start found it, after a refused or aborted start: each
+  /// node the master started back to the state its heartbeat showed before (pre-operational
+  /// unless it was operational or stopped), and each producer heartbeat time 1017h it wrote
+  /// written back (SDO download, its answer not awaited). None without nmt.
+  std::vector<CanFrame> UndoStart() const;
+  /// The longest producer heartbeat time [ms] of the identified nodes, as found or set (0: none
+  /// known: without SDO, or no node sends heartbeats).
+  std::uint16_t LongestHeartbeatMs() const;
+  /// The nodes no frame came from (heartbeat, EMCY, SDO answer, a PDO of its devices) since
+  /// Begin(): "node 3 (probe)".
+  std::vector<std::string> NeverHeard() const;
 
  private:
   struct NodeState;
@@ -148,7 +173,12 @@ class CanopenMaster {
   void FinishSdo(NodeState& n, std::int64_t now_ns);
   void SendStart(NodeState& n, std::int64_t now_ns);
   void AwaitOperational(NodeState& n, std::int64_t now_ns);
-  void NodeFailed(NodeState& n, const std::string& why);
+  /// Mid-run, a failure that retrying cannot mend (`permanent`) or past the return timeout ends
+  /// the acquisition; another waits for a boot-up until then.
+  void NodeFailed(NodeState& n, const std::string& why, bool permanent = false);
+  void NodeLost(NodeState& n, const std::string& why);
+  /// A running node's heartbeat says `state` (not operational, not boot-up): Start again.
+  void LeftOperational(NodeState& n, std::uint8_t state, std::int64_t now_ns);
   /// The node runs: `confirmed` by its heartbeat saying operational (or without NMT, identified).
   void NodeRunning(NodeState& n, bool confirmed);
   /// After a read of 1017h: the write (and read back) of the heartbeat the master wants of the node.
@@ -163,6 +193,7 @@ class CanopenMaster {
   std::vector<std::unique_ptr<NodeState>> nodes_;
   Phase phase_ = Phase::kStarting;
   bool start_sent_ = false;
+  std::int64_t now_ns_ = 0;  ///< the time of the frame or timeout being handled
   std::vector<std::string> errors_;
   Counts counts_;
 };

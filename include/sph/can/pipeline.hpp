@@ -13,7 +13,10 @@
 // come up to one period late; a SYNC repeated with its counter is taken once); any other has no
 // sample for the devices it lacks, is counted per device and reason, logged and written into the
 // points file as a comment, never filled from a neighbouring cycle. A boot-up message of a
-// device's node opens a gap mark.
+// device's node, or its heartbeat leaving operational, opens a gap mark. What the bus and the
+// nodes tell (EMCY, error frames, heartbeats lost and back, state changes, a full transmit queue)
+// is written as a comment at its place among the rows; a node's error state (an EMCY with its
+// error register set, until its error reset) is marked where it starts and ends.
 // The rules in full: docs/method/acquisition.md.
 #ifndef SPH_CAN_PIPELINE_HPP_
 #define SPH_CAN_PIPELINE_HPP_
@@ -21,6 +24,8 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -86,6 +91,10 @@ struct PipelineCounts {
   std::uint64_t emergencies = 0;
   std::uint64_t heartbeats_lost = 0;
   std::uint64_t not_operational = 0;    ///< a node's heartbeat left the operational state
+  std::uint64_t heartbeats_back = 0;    ///< heartbeats that came back after being lost
+  std::uint64_t error_states = 0;       ///< nodes that entered an error state (EMCY, register set)
+  std::uint64_t error_state_rows = 0;   ///< rows written while a device's node was in an error state
+  std::uint64_t tx_queue_full = 0;      ///< frames not sent: the transmit queue was full
   std::uint64_t reboots = 0;            ///< boot-up messages of the devices' nodes (gap marks)
   std::uint64_t rx_overflow_drops = 0;  ///< frames the kernel dropped (SO_RXQ_OVFL)
   std::uint64_t other_frames = 0;       ///< frames of no configured device
@@ -121,6 +130,10 @@ class AcquisitionPipeline {
   void OnMalformedInput(const std::string& what);
   /// The interface went down or came back (live mode): the open cycle is closed, noted in the file.
   void OnLinkEvent(const std::string& what, std::int64_t now_ns);
+  /// A frame (`what`: "SYNC") was not sent at `now_ns`: the transmit queue was full. Counted, noted.
+  void OnTxQueueFull(const std::string& what, std::int64_t now_ns);
+  /// A comment of an event at `t_ns` (the master's), written at its place among the rows.
+  void AddEvent(std::int64_t t_ns, const std::string& text);
   /// End of the acquisition (a stop, --duration-s, the end of a replayed log): resolves the open
   /// window and closes the open stop, reports pending incomplete runs. The last cycle, whose
   /// PDOs may simply have come after the end, is a sample when complete, else noted as cut by
@@ -158,17 +171,35 @@ class AcquisitionPipeline {
     std::int64_t first_ns = 0, last_ns = 0;
     std::string reason;
   };
+  /// A node's error state: from its EMCY to its error reset; the rows of that time.
+  struct ErrorSpan {
+    std::int64_t since_ns = 0;
+    std::int64_t end_ns = std::numeric_limits<std::int64_t>::max();
+    std::uint64_t rows = 0;
+  };
   struct Node {
     int node_id = 0;
     std::string name;
     std::int64_t last_ns = 0;
+    std::int64_t lost_since_ns = 0;  ///< its last heartbeat (or the start) when it was lost
     bool seen = false, lost = false;
     std::uint8_t state = static_cast<std::uint8_t>(NmtState::kOperational);
+    /// Its error states whose rows may still be written (the last one open: in an error state).
+    std::vector<std::shared_ptr<ErrorSpan>> errors;
+    bool InError() const {
+      return !errors.empty() && errors.back()->end_ns == std::numeric_limits<std::int64_t>::max();
+    }
   };
   struct Gap {
     bool open = false;
     std::int64_t start_ns = 0;
     std::uint64_t missing_cycles = 0;  ///< cycles since without a PDO of the device
+    const char* cause = "its reboot";  ///< "it left operational"
+  };
+  struct PendingNote {
+    std::int64_t t_ns = 0;
+    std::string text;
+    std::shared_ptr<ErrorSpan> span;  ///< an error state's end: its rows are told when written
   };
 
   void OnSync(const CanFrame& frame, SyncInfo sync);
@@ -196,7 +227,17 @@ class AcquisitionPipeline {
   void EmitCycle(const std::array<Slot, kNumDevices>& slots, std::int64_t t_ns);
   /// Gap end marks for rebooted devices that have a PDO in this cycle.
   void CloseGaps(const std::array<Slot, kNumDevices>& slots, std::int64_t t_ns);
-  void OnBootUp(const Node& node, std::int64_t t_ns);
+  /// Gap start marks for the devices of `node` ("rebooted (boot-up message)" etc.).
+  void OpenGaps(const Node& node, std::int64_t t_ns, const char* cause, const std::string& what);
+  void OnHeartbeat(Node& node, const CanFrame& frame, std::uint8_t state);
+  void OnEmergency(Node& node, const Emergency& emcy, std::int64_t t_ns);
+  void EndErrorState(Node& node, std::int64_t t_ns, const std::string& why);
+  /// A comment at `t_ns`, written before the first row after it (see FlushEvents).
+  void NoteAt(std::int64_t t_ns, const std::string& text);
+  /// Writes the events before `t_ns` (after the incomplete cycles before them).
+  void FlushEvents(std::int64_t t_ns);
+  /// A row of time `t_ns` written: counted for the error states it lies in.
+  void RowWritten(std::int64_t t_ns);
   void EmitPoint(const StopPoint& point);
   void NoteIncomplete(const std::string& reason, std::int64_t t_ns);
   void FlushIncomplete();
@@ -234,6 +275,7 @@ class AcquisitionPipeline {
   bool have_sync_ = false;
   std::int64_t start_ns_ = 0;
   std::vector<Node> nodes_;
+  std::vector<PendingNote> events_;  ///< comments waiting for their place among the rows
   std::optional<StandstillDetector> stops_;
 };
 

@@ -14,6 +14,7 @@
 #define SPH_CAN_SOCKET_HPP_
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -100,6 +101,10 @@ std::uint64_t AdvanceDropCounter(std::uint32_t* last, std::uint32_t counter);
 /// Whether the interface exists and is administratively up (SIOCGIFFLAGS IFF_UP); false when
 /// there is no such interface or no CAN support to ask with.
 bool InterfaceIsUp(const std::string& iface);
+
+/// The interface's bitrate [bit/s] as the kernel reports it (rtnetlink: IFLA_CAN_BITTIMING of a
+/// CAN controller's driver); none for an interface without one (vcan) or that cannot be asked.
+std::optional<std::uint32_t> InterfaceBitrate(const std::string& iface);
 
 /// Whether this kernel can make CAN_RAW sockets; `why` gets strerror otherwise.
 bool CanSupported(std::string* why);
