@@ -80,6 +80,20 @@ std::string FirmwareCSourceOf(const Calibration& cal, const std::string& symbol,
   return s.str();
 }
 
+void StageFirmwareExport(const Calibration& cal, const FirmwareExportPaths& out, const std::string& source,
+                         OutputFiles& files) {
+  if (!out.blob_path.empty()) {
+    const std::vector<std::uint8_t> blob = FirmwareBlobOf(cal);
+    files.Stage(out.blob_path, [&](std::ostream& f) {
+      f.write(reinterpret_cast<const char*>(blob.data()), static_cast<std::streamsize>(blob.size()));
+    });
+  }
+  if (!out.c_source_path.empty()) {
+    const std::string text = FirmwareCSourceOf(cal, out.symbol, source);
+    files.Stage(out.c_source_path, [&](std::ostream& f) { f << text; });
+  }
+}
+
 void ExportFirmwareCalibration(const std::string& calibration_path, const FirmwareExportPaths& out) {
   if (out.blob_path.empty() && out.c_source_path.empty()) throw Error("no output for the firmware export named");
   RunPaths paths;
@@ -90,16 +104,7 @@ void ExportFirmwareCalibration(const std::string& calibration_path, const Firmwa
   if (!cal.IsValid())
     throw Error(calibration_path + ": the calibration is not valid: it cannot be exported for firmware");
   OutputFiles files;
-  if (!out.blob_path.empty()) {
-    const std::vector<std::uint8_t> blob = FirmwareBlobOf(cal);
-    files.Stage(out.blob_path, [&](std::ostream& f) {
-      f.write(reinterpret_cast<const char*>(blob.data()), static_cast<std::streamsize>(blob.size()));
-    });
-  }
-  if (!out.c_source_path.empty()) {
-    const std::string source = FirmwareCSourceOf(cal, out.symbol, calibration_path);
-    files.Stage(out.c_source_path, [&](std::ostream& f) { f << source; });
-  }
+  StageFirmwareExport(cal, out, calibration_path, files);
   files.Commit();
 }
 
