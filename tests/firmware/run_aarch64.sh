@@ -20,7 +20,13 @@ cmake -S "$src/tests/firmware/aarch64" -B "$work" -G Ninja -DCMAKE_BUILD_TYPE=Re
 cmake --build "$work" -j2 >"$work.build.log" 2>&1 || { tail -50 "$work.build.log"; exit 1; }
 built=$(date +%s)
 echo "built for aarch64 in $((built - start)) s"
-file "$work/core_test" | sed 's/,.*BuildID.*//'
+# The ELF header's e_machine: 183 is AArch64.
+machine=$(od -An -tu2 -j18 -N2 "$work/core_test" | tr -d ' ')
+if [ "$machine" != 183 ]; then
+  echo "FAIL: core_test is no aarch64 program (ELF machine $machine)"
+  exit 1
+fi
+echo "core_test and model_test: ELF for AArch64 (e_machine 183), run by qemu-aarch64"
 ctest --test-dir "$work" -j2 --output-on-failure 2>&1 | tail -15
 status=${PIPESTATUS[0]}
 echo "ran under qemu-aarch64 in $(($(date +%s) - built)) s"

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "sph/model/compensation.hpp"
@@ -40,14 +41,12 @@ TEST(FixedVector, ConvertsNestedVectorsBothWays) {
   EXPECT_EQ(back, values[0]);
 }
 
-TEST(FixedVector, StopsTheProgramRatherThanWritePastItsCapacity) {
-  EXPECT_DEATH(
-      {
-        FixedVector<int, 2> v{1, 2};
-        v.push_back(3);
-      },
-      "");
+void PushBeyondTheCapacity() {
+  FixedVector<int, 2> v{1, 2};
+  v.push_back(3);
 }
+
+TEST(FixedVector, StopsTheProgramRatherThanWritePastItsCapacity) { EXPECT_DEATH(PushBeyondTheCapacity(), ""); }
 
 TEST(FixedVector, HoldsTheLargestTermOfTheCatalogue) {
   // The bound of a term's components: both axes of a two-axis effect of the first order 1, cos and

@@ -139,8 +139,8 @@ class FixedVector {
   }
   [[noreturn]] static void Overflow() { __builtin_trap(); }
 
+  size_type size_ = 0;  // first: beside the first elements, in the cache line a loop reads first
   T items_[N]{};
-  size_type size_ = 0;
 };
 
 }  // namespace sph
