@@ -26,7 +26,7 @@ echo "uptime: $(uptime | sed 's/.*load/load/')"
 for ((i = 1; i <= rounds; ++i)); do
   for which in before after; do
     "$work/$which" --benchmark_min_time=0.5 --benchmark_format=csv 2>/dev/null |
-      awk -F, -v w="$which" -v r="$i" '/^"BM_Compensate/ {gsub(/"/, "", $1); printf "%s %s round %d %s ns/point\n", w, $1, r, $NF}'
+      awk -F, -v w="$which" -v r="$i" '/^"BM_Compensate/ {gsub(/"/, "", $1); printf "%s %s round %d %.1f ns/point\n", w, $1, r, $NF * 1e9}'
   done
 done | tee "$work/rows"
 echo "medians (ns per point):"

@@ -2,11 +2,13 @@
 // with effects of every kind but the probe's incidence and drift, in batches of 1152 readings (the
 // grid of data/example/separation). Header-only and written against the API that has not changed,
 // so that bench/compensation_before_after.sh builds it against an earlier commit too and runs both
-// side by side. `--checksum` prints the bits of every point instead, to compare two builds.
+// side by side. `--checksum` prints the bits of every point instead, to compare two builds;
+// `--repeat N` compensates N batches with the effects, a fixed work for `perf stat`.
 #include <benchmark/benchmark.h>
 
 #include <cinttypes>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -58,7 +60,7 @@ void BM_Compensate(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * readings.size()));
-  state.counters["ns_per_point"] = benchmark::Counter(static_cast<double>(state.iterations() * readings.size()),
+  state.counters["s_per_point"] = benchmark::Counter(static_cast<double>(state.iterations() * readings.size()),
                                                       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_Compensate)->ArgName("effects")->Arg(0)->Arg(1);
@@ -82,10 +84,26 @@ int Checksum() {
   return 0;
 }
 
+/// A fixed amount of work, for counters of instructions and cycles (perf stat): `rounds` batches
+/// with the effects.
+int Repeat(int rounds) {
+  const sph::Calibration cal = MakeCalibration(true);
+  const std::vector<sph::RawReading> readings = Readings();
+  std::vector<Eigen::Vector3d> points(readings.size());
+  double sum = 0.0;
+  for (int i = 0; i < rounds; ++i) {
+    sph::Compensate(cal, readings.data(), readings.size(), points.data());
+    sum += points[static_cast<std::size_t>(i) % points.size()][0];
+  }
+  std::printf("%d batches of %zu points, sum %.17g\n", rounds, readings.size(), sum);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc == 2 && std::strcmp(argv[1], "--checksum") == 0) return Checksum();
+  if (argc == 3 && std::strcmp(argv[1], "--repeat") == 0) return Repeat(std::atoi(argv[2]));
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
