@@ -1,22 +1,9 @@
 // A calibration as a few hundred bytes for firmware: what compensation needs (the seven errors, d,
 // the effects, their normalisation and values), versioned and checked by a CRC-32, so that a target
 // that does not parse JSON can load a calibration (sph/c/compensation.h reads it). Header-only, no
-// heap, no exceptions. Written by the host from a calibration file (sph/io/firmware_export.hpp);
-// the format: docs/formats/calibration-files.md#the-firmware-blob.
-//
-// Layout, little-endian, no padding (every field read byte by byte):
-//   0   "SPHC"                       magic
-//   4   u16 version (1), u16 0
-//   8   u32 size of the whole blob [bytes], its CRC included
-//   12  f64 x 7  the seven errors (rad, mm), ScmsParam order
-//   68  f64      d, the nominal probe zero distance [mm]
-//   76  f64 x 7  r_ref_mm, r_half_range_mm, t_start_s, t_span_s, r_fit_min_mm, r_fit_max_mm,
-//                phi_wobble_pivot_mm
-//   132 u32      number of terms; then per term: u8 effect (Effect), u8 number of components,
-//                u16 0, per component u8 order, u8 axis, u8 sine, u8 0, then f64 x n its values
-//                (rad, mm), in component order
-//   end u32      CRC-32 (IEEE 802.3, as zlib's crc32()) of every byte before it
-// The covariance is not carried: compensation does not use it.
+// heap, no exceptions. The host writes it from a calibration (sph/io/firmware_export.hpp). Its
+// layout, little-endian without padding, every field read byte by byte:
+// docs/formats/calibration-files.md#the-firmware-blob. The covariance is not carried.
 #ifndef SPH_MODEL_CALIBRATION_BLOB_HPP_
 #define SPH_MODEL_CALIBRATION_BLOB_HPP_
 

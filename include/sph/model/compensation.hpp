@@ -15,7 +15,9 @@
 // Its reader stays in sph::core, which has no Ceres either (sph::LoadCalibration() fills this
 // struct): reading a file is a library-boundary job (it reports bad files by throwing sph::Error
 // with the file and field), and one validated reader of the format is better than two. A host that
-// cannot link sph::core fills Calibration from its own configuration store; the struct is plain data.
+// cannot link sph::core fills Calibration from its own configuration store (the struct is plain data,
+// held without the heap), or reads the calibration's firmware blob (sph/model/calibration_blob.hpp;
+// from C: sph/c/compensation.h). What Compensate() applies and what not: docs/library.md.
 #ifndef SPH_MODEL_COMPENSATION_HPP_
 #define SPH_MODEL_COMPENSATION_HPP_
 
