@@ -119,6 +119,10 @@ TEST(CInterface, NamesEachFaultOfABlob) {
   Reseal(b);
   EXPECT_EQ(Load(b, cal.get()), SPH_ERROR_BLOB_INVALID);
   b = good;
+  internal::PutF64(b.data() + 12, 1.0);  // alpha 1 rad (57 deg): beyond the 10 deg a calibration file takes
+  Reseal(b);
+  EXPECT_EQ(Load(b, cal.get()), SPH_ERROR_BLOB_INVALID);
+  b = good;
   b[kCalibrationBlobHeaderBytes] = 7;  // the first term made a probe_drift
   Reseal(b);
   EXPECT_EQ(Load(b, cal.get()), SPH_ERROR_BLOB_INVALID);

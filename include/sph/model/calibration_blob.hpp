@@ -116,7 +116,9 @@ BlobStatus ReadBlobInto(const void* blob, std::size_t size, BasicCalibration<T>&
 
 /// Reads a blob of `size` bytes into `cal`, in the scalar T (values rounded to it), in place (no
 /// copy of the calibration on the stack). Checks the size, magic, version, CRC-32, each term's
-/// effect and components against the catalogue, and then Calibration::IsValid(). Any result but
+/// effect and components against the catalogue, every value against the bounds of the calibration
+/// file (the seven errors' ScmsParamInfo::max_abs_report, d and the lengths within kMaxPivotMm,
+/// the effects' kMaxEffectArcsec and kMaxEffectUm), and then Calibration::IsValid(). Any result but
 /// kOk leaves `cal` empty and invalid (d = 0), so that compensating with it gives NaN.
 template <typename T>
 BlobStatus ReadCalibrationBlob(const void* blob, std::size_t size, BasicCalibration<T>* cal) {
@@ -147,18 +149,33 @@ BlobStatus ReadBlobInto(const void* blob, std::size_t size, BasicCalibration<T>&
   out.covariance.reset();
   out.effects.terms.clear();
   out.effect_values.clear();
+  // Every value within what the calibration file accepts (sph/io/calibration_file.hpp), so that
+  // no finite but absurd value reaches the model: an error of a working machine, not another one.
+  const auto within = [](double v, double bound) { return std::abs(v) <= bound; };  // false for NaN
   const std::uint8_t* q = p + 12;
-  for (T& v : out.geometry) {
-    v = T(GetF64(q));
-    q += 8;
+  for (std::size_t i = 0; i < out.geometry.size(); ++i, q += 8) {
+    const ScmsParamInfo& info = kScmsParamInfo[i];
+    const double v = GetF64(q);
+    if (!within(v, info.max_abs_report * (info.quantity == Quantity::kAngle ? kRadPerDeg : 1.0))) {
+      return BlobStatus::kInvalid;
+    }
+    out.geometry[i] = T(v);
   }
-  out.probe_offset_mm = T(GetF64(q));
+  const double d = GetF64(q);
   q += 8;
+  if (!(d > 0.0 && d <= kMaxPivotMm)) return BlobStatus::kInvalid;
+  out.probe_offset_mm = T(d);
   EffectReference& ref = out.effects.reference;
   for (double* v : {&ref.r_ref_mm, &ref.r_half_range_mm, &ref.t_start_s, &ref.t_span_s, &ref.r_fit_min_mm,
                     &ref.r_fit_max_mm, &out.effects.phi_wobble_pivot_mm}) {
     *v = GetF64(q);
     q += 8;
+  }
+  for (const double v : {ref.r_ref_mm, ref.r_half_range_mm, out.effects.phi_wobble_pivot_mm}) {
+    if (!within(v, kMaxPivotMm)) return BlobStatus::kInvalid;
+  }
+  for (const double v : {ref.r_fit_min_mm, ref.r_fit_max_mm}) {
+    if (!std::isnan(v) && !within(v, kMaxPivotMm)) return BlobStatus::kInvalid;
   }
   const std::uint32_t num_terms = GetU32(q);
   q += 4;
@@ -191,7 +208,13 @@ BlobStatus ReadBlobInto(const void* blob, std::size_t size, BasicCalibration<T>&
     if (out.effects.Find(term.effect) >= 0) return BlobStatus::kInvalid;
     out.effects.terms.push_back(term);
     out.effect_values.emplace_back();
-    for (std::size_t i = 0; i < n; ++i, q += 8) out.effect_values.back().push_back(T(GetF64(q)));
+    const double bound =
+        term.info().quantity == Quantity::kAngle ? kMaxEffectArcsec * kRadPerArcsec : kMaxEffectUm * kMmPerUm;
+    for (std::size_t i = 0; i < n; ++i, q += 8) {
+      const double v = GetF64(q);
+      if (!within(v, bound)) return BlobStatus::kInvalid;
+      out.effect_values.back().push_back(T(v));
+    }
   }
   return q == end && out.IsValid() ? BlobStatus::kOk : BlobStatus::kInvalid;
 }
