@@ -7,6 +7,7 @@
 #include "app_common.hpp"
 #include "calibrate_plots.hpp"
 #include "sph/io/calibration_file.hpp"
+#include "sph/io/firmware_export.hpp"
 #include "sph/io/output_files.hpp"
 #include "sph/io/parameter_settings.hpp"
 #include "sph/model/effect_terms.hpp"
@@ -25,27 +26,35 @@ RunPaths PathsOf(const CalibrateOptions& o, bool text) {
   paths.Output("the text report (-q leaves it out)", text ? "-" : "")
       .Output("--json", o.json_path)
       .Output("--report", o.report_path)
-      .Output("--output", o.output_path);
+      .Output("--output", o.output_path)
+      .Output("--firmware-blob", o.firmware_blob_path)
+      .Output("--firmware-c", o.firmware_c_path);
   if (!o.plot_dir.empty()) {
     for (const std::string& f : kTracePlotFiles) paths.Output("--plot-dir", o.plot_dir + "/" + f);
   }
   return paths;
 }
 
-// The calibration file staged to o.output_path, or the reason it is not written on err.
+// The calibration file staged to o.output_path and the firmware's to theirs, or the reason they are
+// not written on err.
 void StageCalibrationFile(const CalibrateOptions& o, const CalibrationWorkflowResult& run, OutputFiles& files,
                           std::ostream& err) {
+  std::string names;
+  for (const std::string* p : {&o.output_path, &o.firmware_blob_path, &o.firmware_c_path}) {
+    if (!p->empty()) names += (names.empty() ? "" : ", ") + *p;
+  }
   if (!run.usability.usable) {
-    err << "sph_calibrate: not writing " << o.output_path << ": the calibration is not usable\n";
+    err << "sph_calibrate: not writing " << names << ": the calibration is not usable\n";
     return;
   }
   bool drift_left_out = false;
   const CalibrationFile file = run.MakeCalibrationFile(&drift_left_out);
   if (drift_left_out) {
-    err << "sph_calibrate: note: " << o.output_path
-        << " leaves out probe_drift: a drift belongs to the run it was measured in\n";
+    err << "sph_calibrate: note: " << names << " leave" << (names.find(", ") == std::string::npos ? "s" : "")
+        << " out probe_drift: a drift belongs to the run it was measured in\n";
   }
-  files.Stage(o.output_path, [&](std::ostream& f) { WriteCalibration(f, file); });
+  if (!o.output_path.empty()) files.Stage(o.output_path, [&](std::ostream& f) { WriteCalibration(f, file); });
+  StageFirmwareExport(ToCalibration(file), {o.firmware_blob_path, o.firmware_c_path}, o.points_path, files);
 }
 
 // The workflow's options: the app's as parsed, the texts of --fix, --prior, --robust-loss and
@@ -95,7 +104,9 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
       const std::string report = run.HtmlReport();
       files.Stage(o.report_path, [&](std::ostream& f) { f << report; });
     }
-    if (!o.output_path.empty()) StageCalibrationFile(o, run, files, err);
+    if (!o.output_path.empty() || !o.firmware_blob_path.empty() || !o.firmware_c_path.empty()) {
+      StageCalibrationFile(o, run, files, err);
+    }
     if (run.trace && !o.plot_dir.empty()) {
       plot_folder.Make();
       PlotTrace(o.plot_dir, run.points, run.settings, *run.trace, o.plot_timeout_s, files);

@@ -26,6 +26,8 @@ struct CalibrateOptions {
   std::string json_path;                         ///< JSON report ("-" for stdout), empty: none
   std::string report_path;                       ///< HTML report ("-" for stdout), empty: none
   std::string output_path;                       ///< calibration file, empty: none
+  std::string firmware_blob_path;                ///< the calibration as the firmware blob, empty: none
+  std::string firmware_c_path;                   ///< the same as a C source, empty: none
   bool quiet = false;                            ///< no text report on stdout
   std::string plot_dir;                          ///< residual plots (PNG, gnuplot) into this folder
   double plot_timeout_s = kDefaultPlotTimeoutS;  ///< gnuplot is stopped after this long

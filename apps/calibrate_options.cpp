@@ -131,6 +131,12 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "Write the report as one self-contained HTML document (printable: A4) to this file ('-' for stdout)");
   app.add_option("-o,--output", o.output_path,
                  "Write the calibration file (JSON) that compensation loads; written only when usable");
+  app.add_option("--firmware-blob", o.firmware_blob_path,
+                 "Write the calibration as the blob that firmware loads through sph/c/compensation.h (binary, "
+                 "CRC-checked); written only when usable");
+  app.add_option("--firmware-c", o.firmware_c_path,
+                 "Write that blob as a C source of constants (the array sph_calibration_blob); written only when "
+                 "usable");
   app.add_option("--max-std-um", o.workflow.fit.max_std_um,
                  "A parameter whose standard uncertainty, as a displacement of the probed point (angles times "
                  "R0), exceeds this is undetermined [um]")

@@ -5,8 +5,9 @@ include(CMakePackageConfigHelpers)
 
 set(SPH_INSTALL_CMAKEDIR "${CMAKE_INSTALL_LIBDIR}/cmake/sph" CACHE STRING "Where sphConfig.cmake is installed")
 
-install(DIRECTORY include/sph/model DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph" COMPONENT model)
-install(TARGETS sph_model EXPORT sph-model-targets)
+install(DIRECTORY include/sph/model include/sph/c DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph" COMPONENT model)
+install(TARGETS sph_model sph_c EXPORT sph-model-targets ARCHIVE DESTINATION "${CMAKE_INSTALL_LIBDIR}"
+        LIBRARY DESTINATION "${CMAKE_INSTALL_LIBDIR}")
 install(EXPORT sph-model-targets NAMESPACE sph:: DESTINATION "${SPH_INSTALL_CMAKEDIR}" COMPONENT model)
 
 install(DIRECTORY include/sph/core include/sph/io include/sph/simulation include/sph/stats include/sph/measure include/sph/sphere DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/sph" COMPONENT core)

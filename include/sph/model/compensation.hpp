@@ -15,7 +15,9 @@
 // Its reader stays in sph::core, which has no Ceres either (sph::LoadCalibration() fills this
 // struct): reading a file is a library-boundary job (it reports bad files by throwing sph::Error
 // with the file and field), and one validated reader of the format is better than two. A host that
-// cannot link sph::core fills Calibration from its own configuration store; the struct is plain data.
+// cannot link sph::core fills Calibration from its own configuration store (the struct is plain data,
+// held without the heap), or reads the calibration's firmware blob (sph/model/calibration_blob.hpp;
+// from C: sph/c/compensation.h). What Compensate() applies and what not: docs/library.md.
 #ifndef SPH_MODEL_COMPENSATION_HPP_
 #define SPH_MODEL_COMPENSATION_HPP_
 
@@ -29,6 +31,7 @@
 #include <Eigen/Core>
 
 #include "sph/model/effects.hpp"
+#include "sph/model/fixed_vector.hpp"
 #include "sph/model/reading.hpp"
 #include "sph/model/scms_model.hpp"
 #include "sph/model/units.hpp"
@@ -42,24 +45,32 @@ inline constexpr double kMinProbeHalfRangeMm = 1e-3;
 /// Covariance of the seven geometric errors, internal units (rad, mm), in ScmsParam order.
 using ScmsCovariance = Eigen::Matrix<double, kNumScmsParams, kNumScmsParams>;
 
-/// What compensation needs from a calibration, in internal units.
+/// The parameter blocks of a calibration's effects, one per term, held without the heap.
+template <typename T>
+using EffectValues = FixedVector<FixedVector<T, kMaxTermComponents>, kNumEffects>;
+
+/// What compensation needs from a calibration, in internal units. Plain data held without the heap
+/// (a few kB, bounded by the effect catalogue), so that firmware can hold one. T: the scalar of
+/// the seven errors and the effects' values (double; float for firmware without double hardware).
 /// Class invariant for Compensate(): IsValid().
-struct Calibration {
-  ScmsGeometry geometry{};       ///< the seven errors (rad, mm), ScmsParam order
-  double probe_offset_mm = 0.0;  ///< nominal probe zero distance d the errors refer to
+template <typename T>
+struct BasicCalibration {
+  std::array<T, kNumScmsParams> geometry{};  ///< the seven errors (rad, mm), ScmsParam order
+  T probe_offset_mm = T(0.0);                ///< nominal probe zero distance d the errors refer to
   /// Covariance of the seven errors (rad, mm), when the calibration computed one; it lets a
   /// measurement state how much of its result the calibration's own uncertainty can explain.
   std::optional<ScmsCovariance> covariance;
   /// Further effects of the machine (no probe_drift) and their values, one block per term (rad, mm).
-  EffectModel effects;
-  std::vector<std::vector<double>> effect_values;
+  EffectTerms effects;
+  EffectValues<T> effect_values;
 
   /// d positive, every value finite, at most one term per effect, no probe_drift, one block of the
   /// right size per term and a positive normalisation.
   bool IsValid() const {
-    if (!(probe_offset_mm > 0.0) || !std::isfinite(probe_offset_mm)) return false;
-    for (const double v : geometry) {
-      if (!std::isfinite(v)) return false;
+    using std::isfinite;
+    if (!(probe_offset_mm > T(0.0)) || !isfinite(probe_offset_mm)) return false;
+    for (const T v : geometry) {
+      if (!isfinite(v)) return false;
     }
     if (effects.terms.size() > static_cast<std::size_t>(kNumEffects) || effect_values.size() != effects.terms.size()) {
       return false;
@@ -68,49 +79,78 @@ struct Calibration {
       const EffectTerm& term = effects.terms[t];
       if (term.effect == Effect::kProbeDrift || effects.Find(term.effect) != static_cast<int>(t)) return false;
       if (effect_values[t].size() != term.components.size()) return false;
-      for (const double v : effect_values[t]) {
-        if (!std::isfinite(v)) return false;
+      for (const T v : effect_values[t]) {
+        if (!isfinite(v)) return false;
       }
     }
     const EffectReference& ref = effects.reference;
-    if (!effects.Empty() && !(ref.r_half_range_mm >= kMinProbeHalfRangeMm && std::isfinite(ref.r_half_range_mm) &&
-                              std::isfinite(ref.r_ref_mm) && ref.t_span_s > 0.0 && std::isfinite(ref.t_span_s))) {
+    if (!effects.Empty() && !(ref.r_half_range_mm >= kMinProbeHalfRangeMm && isfinite(ref.r_half_range_mm) &&
+                              isfinite(ref.r_ref_mm) && ref.t_span_s > 0.0 && isfinite(ref.t_span_s))) {
       return false;
     }
     return !covariance || covariance->allFinite();
   }
 };
 
+/// The calibration of the host: double throughout.
+using Calibration = BasicCalibration<double>;
+
+/// `cal` with its seven errors, d and the effects' values rounded to the scalar T (float, for a
+/// target whose floating-point unit has single precision only); the rest as it is.
+template <typename T, typename S>
+BasicCalibration<T> CalibrationOf(const BasicCalibration<S>& cal) {
+  BasicCalibration<T> out;
+  for (std::size_t i = 0; i < cal.geometry.size(); ++i) out.geometry[i] = T(cal.geometry[i]);
+  out.probe_offset_mm = T(cal.probe_offset_mm);
+  out.covariance = cal.covariance;
+  out.effects = cal.effects;
+  for (const auto& block : cal.effect_values) {
+    out.effect_values.emplace_back();
+    for (const S v : block) out.effect_values.back().push_back(T(v));
+  }
+  return out;
+}
+
 namespace internal {
 /// What compensation computes once per calibration: the angle errors' trig and the effects'
 /// parameter blocks (no allocation: at most one term per effect).
-struct CompensationContext {
-  ScmsErrorTrig<double> trig;
-  std::array<const double*, kNumEffects> blocks{};
+template <typename T>
+struct BasicCompensationContext {
+  ScmsErrorTrig<T> trig;
+  std::array<const T*, kNumEffects> blocks{};
   bool valid;  ///< cal.IsValid(): otherwise every point is NaN (no exceptions here)
 
-  explicit CompensationContext(const Calibration& cal) : trig(ErrorTrigOf(cal.geometry.data())), valid(cal.IsValid()) {
+  explicit BasicCompensationContext(const BasicCalibration<T>& cal)
+      : BasicCompensationContext(cal, ErrorTrigOf(cal.geometry.data()), cal.IsValid()) {}
+  /// With the trig of cal's angle errors and cal.IsValid() known (for single readings of a
+  /// calibration that was checked once).
+  BasicCompensationContext(const BasicCalibration<T>& cal, const ScmsErrorTrig<T>& known_trig, bool is_valid)
+      : trig(known_trig), valid(is_valid) {
     for (std::size_t t = 0; valid && t < cal.effect_values.size(); ++t) blocks[t] = cal.effect_values[t].data();
   }
 };
+using CompensationContext = BasicCompensationContext<double>;
 
 /// Compensate() with the context given, of a reading whose sines and cosines are computed (for
 /// readings compensated many times, as by the calibration's uncertainty). center_mm: the measured
 /// sphere's centre, for a probe_incidence term (left out without it).
-inline Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const EffectReading& x,
-                                      const double* center_mm = nullptr) {
-  if (!ctx.valid) return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  if (cal.effects.Empty()) return ScmsPoint(cal.geometry.data(), ctx.trig, x.theta, x.phi, x.r_mm, cal.probe_offset_mm);
-  return EffectScmsPoint(cal.geometry.data(), ctx.trig, cal.effects, ctx.blocks.data(), x, cal.probe_offset_mm, nullptr,
-                         center_mm);
+template <typename T>
+Vec3<T> CompensateWith(const BasicCalibration<T>& cal, const BasicCompensationContext<T>& ctx,
+                       const BasicEffectReading<T>& x, const typename NonDeduced<T>::type* center_mm = nullptr) {
+  if (!ctx.valid) return Vec3<T>::Constant(std::numeric_limits<T>::quiet_NaN());
+  if (cal.effects.Empty()) {
+    return ScmsPoint(cal.geometry.data(), ctx.trig, x.theta, x.phi, x.r_mm, cal.probe_offset_mm);
+  }
+  return EffectScmsPoint(cal.geometry.data(), ctx.trig, cal.effects, ctx.blocks.data(), x,
+                         static_cast<double>(cal.probe_offset_mm), nullptr, center_mm);
 }
 
 /// Compensate() with the context given, for batches. `Reading` has members theta_deg, phi_deg
 /// [deg] and r_mm [mm].
-template <typename Reading>
-Eigen::Vector3d CompensateWith(const Calibration& cal, const CompensationContext& ctx, const Reading& r,
-                               const double* center_mm = nullptr) {
-  return CompensateWith(cal, ctx, EffectReading(r.theta_deg, r.phi_deg, r.r_mm, 0.0), center_mm);
+template <typename T, typename Reading>
+Vec3<T> CompensateWith(const BasicCalibration<T>& cal, const BasicCompensationContext<T>& ctx, const Reading& r,
+                       const typename NonDeduced<T>::type* center_mm = nullptr) {
+  return CompensateWith(cal, ctx, BasicEffectReading<T>(T(r.theta_deg), T(r.phi_deg), T(r.r_mm), T(0.0)), center_mm);
 }
 }  // namespace internal
 
@@ -129,6 +169,13 @@ std::size_t ProbeExtrapolations(const Calibration& cal, const Readings& readings
 /// The compensated point [mm] of one reading (theta_deg, phi_deg in deg, r_mm in mm).
 inline Eigen::Vector3d Compensate(const Calibration& cal, double theta_deg, double phi_deg, double r_mm) {
   return internal::CompensateWith(cal, internal::CompensationContext(cal), RawReading{theta_deg, phi_deg, r_mm});
+}
+
+/// The same in the scalar of `cal` (float: a calibration of CalibrationOf<float>()).
+template <typename T>
+Vec3<T> Compensate(const BasicCalibration<T>& cal, T theta_deg, T phi_deg, T r_mm) {
+  return internal::CompensateWith(cal, internal::BasicCompensationContext<T>(cal),
+                                  BasicEffectReading<T>(theta_deg, phi_deg, r_mm, T(0.0)));
 }
 
 /// The compensated point [mm] of one reading.

@@ -65,6 +65,7 @@
 #include <string_view>
 #include <vector>
 
+#include "sph/model/fixed_vector.hpp"
 #include "sph/model/scms_model.hpp"
 
 namespace sph {
@@ -168,11 +169,21 @@ struct EffectComponent {
   bool sine = false;  ///< sin(k x) rather than cos(k x); false for powers
 };
 
+/// Highest harmonic order and highest power of time that parameter names may carry.
+inline constexpr int kMaxEffectHarmonic = 12;
+/// The most components a term can have: the harmonics of orders 1 to kMaxEffectHarmonic, cos and
+/// sin, of both axes of a two-axis effect (phi_wobble). A term's components are distinct, so the
+/// catalogue bounds them; the other bounds hold with room (3 powers of time, 2 of incidence).
+inline constexpr std::size_t kMaxTermComponents = 2 * 2 * kMaxEffectHarmonic;
+
+/// The components of one term, held without the heap.
+using EffectComponents = FixedVector<EffectComponent, kMaxTermComponents>;
+
 /// An effect in a model, with the components it has; its parameter block holds one value per
 /// component, in this order (rad or mm, EffectInfo::quantity).
 struct EffectTerm {
   Effect effect = Effect::kThetaEncoder;
-  std::vector<EffectComponent> components;
+  EffectComponents components;
 
   int size() const { return static_cast<int>(components.size()); }
   const EffectInfo& info() const { return InfoOf(effect); }
@@ -236,8 +247,6 @@ inline EffectTerm DefaultTerm(Effect e, int harmonics = 4, int drift_order = 1) 
   return DefaultTerm(e, HarmonicOrders{harmonics, harmonics}, drift_order);
 }
 
-/// Highest harmonic order and highest power of time that parameter names may carry.
-inline constexpr int kMaxEffectHarmonic = 12;
 /// The largest magnitude files and options accept for one parameter of an effect: 3600 arcsec
 /// (1 deg) for an angle, 1000 um for a length. Larger is not an error of a working machine.
 inline constexpr double kMaxEffectArcsec = 3600.0;

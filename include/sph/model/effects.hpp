@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "sph/model/effect_terms.hpp"
+#include "sph/model/fixed_vector.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/reading.hpp"
 #include "sph/model/scms_model.hpp"
@@ -33,13 +34,12 @@
 
 namespace sph {
 
-/// The effects of a model and their normalisation, and the sphere's own form. The parameter blocks
-/// are passed separately, one per term, in term order (the form's coefficients apart: they do not
-/// move the probed point, they move the surface it meets, sph/model/form_model.hpp).
-struct EffectModel {
-  std::vector<EffectTerm> terms;
+/// The effects of a model and their normalisation: what the forward model applies to a reading.
+/// The parameter blocks are passed separately, one per term, in term order. Held without the heap
+/// (at most one term per effect), so that firmware can hold a calibration's effects.
+struct EffectTerms {
+  FixedVector<EffectTerm, kNumEffects> terms;
   EffectReference reference;
-  FormModel form;
   /// Where the Phi axis pivots when it tilts (phi_wobble): the distance from the Phi frame's origin
   /// along the axis to the bearing [mm], a constant of the machine taken from its drawing, not
   /// fitted. 0: the tilt turns about the frame's origin.
@@ -60,57 +60,72 @@ struct EffectModel {
   }
 };
 
+/// The effects of a fit and the sphere's own form (the form's coefficients apart: they do not move
+/// the probed point, they move the surface it meets, sph/model/form_model.hpp).
+struct EffectModel : EffectTerms {
+  FormModel form;
+};
+
 /// One reading as the effect model uses it: the readings (rad, mm, s), their sin and cos, and the
 /// direction in which each axis approached it (MotionDirection; 0 when not known: a reversal term
-/// then shifts the reading by nothing, the mean of the two directions).
-struct EffectReading {
-  double theta_rad = 0.0;
-  double phi_rad = 0.0;
-  double r_mm = 0.0;
-  double t_s = 0.0;
-  SinCos<double> theta{0.0, 1.0};
-  SinCos<double> phi{0.0, 1.0};
+/// then shifts the reading by nothing, the mean of the two directions). A: its scalar (double, or
+/// float where the whole evaluation is in float).
+template <typename A>
+struct BasicEffectReading {
+  A theta_rad = A(0.0);
+  A phi_rad = A(0.0);
+  A r_mm = A(0.0);
+  A t_s = A(0.0);
+  SinCos<A> theta{A(0.0), A(1.0)};
+  SinCos<A> phi{A(0.0), A(1.0)};
   MotionDirection direction;
 
-  EffectReading() = default;
+  BasicEffectReading() = default;
   /// From a reading as the machine gives it (a points file's row is one), its time [s] and the
   /// direction of approach of its axes.
-  EffectReading(const RawReading& reading, double time_s, MotionDirection approach = {})
-      : theta_rad(reading.theta_rad()),
-        phi_rad(reading.phi_rad()),
-        r_mm(reading.r_mm),
-        t_s(time_s),
+  BasicEffectReading(const RawReading& reading, double time_s, MotionDirection approach = {})
+      : theta_rad(A(reading.theta_rad())),
+        phi_rad(A(reading.phi_rad())),
+        r_mm(A(reading.r_mm)),
+        t_s(A(time_s)),
         theta(SinCosOf(theta_rad)),
         phi(SinCosOf(phi_rad)),
         direction(approach) {}
   /// The same from its parts: axis angles in deg, probe in mm, time in s.
-  EffectReading(double theta_deg, double phi_deg, double probe_mm, double time_s)
-      : EffectReading(RawReading{theta_deg, phi_deg, probe_mm}, time_s) {}
+  BasicEffectReading(A theta_deg, A phi_deg, A probe_mm, A time_s)
+      : theta_rad(theta_deg * A(kRadPerDeg)),
+        phi_rad(phi_deg * A(kRadPerDeg)),
+        r_mm(probe_mm),
+        t_s(time_s),
+        theta(SinCosOf(theta_rad)),
+        phi(SinCosOf(phi_rad)) {}
 };
+using EffectReading = BasicEffectReading<double>;
 
 /// The value of component `c` of a term of effect `e` at reading x: cos(k x) or sin(k x) of the
 /// reading the effect follows, the power of u or tau, or half the direction of approach of a
 /// reversal term's axis (+-1/2, 0 unknown). NaN for probe_incidence, whose sin^2 psi is no function
 /// of the reading alone (EffectScmsPoint() computes it).
-inline double EffectBasis(const EffectTerm& term, const EffectComponent& c, const EffectReference& ref,
-                          const EffectReading& x) {
+template <typename A>
+A EffectBasis(const EffectTerm& term, const EffectComponent& c, const EffectReference& ref,
+              const BasicEffectReading<A>& x) {
   const EffectInfo& info = term.info();
-  if (term.effect == Effect::kProbeIncidence) return std::numeric_limits<double>::quiet_NaN();
-  if (term.effect == Effect::kThetaReversal) return 0.5 * x.direction.theta;
-  if (term.effect == Effect::kPhiReversal) return 0.5 * x.direction.phi;
+  if (term.effect == Effect::kProbeIncidence) return std::numeric_limits<A>::quiet_NaN();
+  if (term.effect == Effect::kThetaReversal) return A(0.5) * A(x.direction.theta);
+  if (term.effect == Effect::kPhiReversal) return A(0.5) * A(x.direction.phi);
   if (info.harmonic) {
-    const double angle = std::strcmp(info.variable, "theta") == 0 ? x.theta_rad : x.phi_rad;
-    return c.sine ? std::sin(c.order * angle) : std::cos(c.order * angle);
+    const A angle = std::strcmp(info.variable, "theta") == 0 ? x.theta_rad : x.phi_rad;
+    return c.sine ? std::sin(A(c.order) * angle) : std::cos(A(c.order) * angle);
   }
-  const double v = term.effect == Effect::kProbeDrift ? (x.t_s - ref.t_start_s) / ref.t_span_s
-                                                      : (x.r_mm - ref.r_ref_mm) / ref.r_half_range_mm;
-  return std::pow(v, c.order);
+  const A v = term.effect == Effect::kProbeDrift ? (x.t_s - A(ref.t_start_s)) / A(ref.t_span_s)
+                                                 : (x.r_mm - A(ref.r_ref_mm)) / A(ref.r_half_range_mm);
+  return A(std::pow(v, c.order));
 }
 
 /// The basis values of every component of every term of `model` at one reading, in term and then
 /// component order: what EffectScmsPoint() evaluates. A fit, which evaluates each reading many
 /// times, computes them once.
-inline std::vector<double> EffectBasisOf(const EffectModel& model, const EffectReading& x) {
+inline std::vector<double> EffectBasisOf(const EffectTerms& model, const EffectReading& x) {
   std::vector<double> out;
   out.reserve(static_cast<std::size_t>(model.NumParams()));
   for (const EffectTerm& term : model.terms) {
@@ -123,7 +138,8 @@ inline std::vector<double> EffectBasisOf(const EffectModel& model, const EffectR
 /// (r - r_ref) / r_half) stretch a change of the reading, its noise included; values: one block per
 /// term of `model`. probe_incidence's change with the reading, through the point where its angle
 /// is taken, is of order i (e / R0)^2 / R0 (3e-5 for i1 = 30 um, e = 2 mm, R0 = 20 mm) and left out.
-inline double ReadingSlope(const EffectModel& model, const std::vector<std::vector<double>>& values, double r_mm) {
+template <typename Values>
+double ReadingSlope(const EffectTerms& model, const Values& values, double r_mm) {
   const EffectReference& ref = model.reference;
   const double u = (r_mm - ref.r_ref_mm) / ref.r_half_range_mm;
   double slope = 1.0;
@@ -140,11 +156,17 @@ inline double ReadingSlope(const EffectModel& model, const std::vector<std::vect
 
 namespace internal {
 
+/// T itself, where a parameter must not take part in deducing T.
+template <typename T>
+struct NonDeduced {
+  using type = T;
+};
+
 /// sum_i p[i] * basis[i] over the components of `term` on `axis`; basis: the term's values of
 /// EffectBasisOf(), or nullptr to compute them here.
-template <typename T>
-T EffectSum(const EffectTerm& term, const T* p, const double* basis, const EffectReference& ref, const EffectReading& x,
-            int axis) {
+template <typename T, typename A>
+T EffectSum(const EffectTerm& term, const T* p, const A* basis, const EffectReference& ref,
+            const BasicEffectReading<A>& x, int axis) {
   T sum(0.0);
   for (std::size_t i = 0; i < term.components.size(); ++i) {
     const EffectComponent& c = term.components[i];
@@ -163,12 +185,13 @@ struct EffectInputs {
   int incidence = -1;  ///< the term of probe_incidence, or -1
 
   /// The probed point at z on the probe line (the chain of the file comment).
-  Vec3<T> PointAt(const T* g, const ScmsErrorTrig<T>& et, const EffectModel& model, const EffectReading& x,
+  template <typename A>
+  Vec3<T> PointAt(const T* g, const ScmsErrorTrig<T>& et, const EffectTerms& model, const BasicEffectReading<A>& x,
                   const T& z) const {
     Vec3<T> s = phi_enc ? ProbeToPhiFrame(g, et, SinCosOf(T(x.phi_rad) + dphi), z) : ProbeToPhiFrame(g, et, x.phi, z);
     if (wobble) {
       // L e_z + Rx(wx) Ry(wy) (s - L e_z).
-      const T pivot(model.phi_wobble_pivot_mm);
+      const T pivot = T(model.phi_wobble_pivot_mm);
       const T s2 = s[2] - pivot;
       const SinCos<T> cx = SinCosOf(wx), cy = SinCosOf(wy);
       const T vx = cy.cos * s[0] + cy.sin * s2;
@@ -189,15 +212,15 @@ struct EffectInputs {
 };
 
 /// The inputs of every term of `model` but probe_incidence (whose term is only located).
-template <typename T>
-EffectInputs<T> EffectInputsOf(const EffectModel& model, const T* const* blocks, const EffectReading& x,
-                               const double* basis) {
+template <typename T, typename A>
+EffectInputs<T> EffectInputsOf(const EffectTerms& model, const T* const* blocks, const BasicEffectReading<A>& x,
+                               const A* basis) {
   EffectInputs<T> in;
   const EffectReference& ref = model.reference;
   for (std::size_t i = 0; i < model.terms.size(); ++i) {
     const EffectTerm& term = model.terms[i];
     const T* p = blocks[i];
-    const double* b = basis;
+    const A* b = basis;
     if (basis) basis += term.components.size();
     switch (term.effect) {
       case Effect::kThetaEncoder:
@@ -252,9 +275,9 @@ EffectInputs<T> EffectInputsOf(const EffectModel& model, const T* const* blocks,
 /// The probe_incidence error [mm] of the inputs `in` (in.incidence >= 0): sin^2 psi at the point
 /// of the reading without the probe's terms, the beam the direction of the (affine) line z -> p,
 /// the normal the direction from the centre.
-template <typename T>
-T IncidenceError(const EffectInputs<T>& in, const T* g, const ScmsErrorTrig<T>& et, const EffectModel& model,
-                 const T* const* blocks, const EffectReading& x, double d, const T* center) {
+template <typename T, typename A>
+T IncidenceError(const EffectInputs<T>& in, const T* g, const ScmsErrorTrig<T>& et, const EffectTerms& model,
+                 const T* const* blocks, const BasicEffectReading<A>& x, double d, const T* center) {
   using std::sqrt;
   const T z0 = T(x.r_mm) - (T(d) + g[kDPrime]);
   const Vec3<T> p0 = in.PointAt(g, et, model, x, z0);
@@ -280,9 +303,13 @@ T IncidenceError(const EffectInputs<T>& in, const T* g, const ScmsErrorTrig<T>& 
 /// d: nominal probe zero distance [mm]. basis: EffectBasisOf(model, x), or nullptr to compute it.
 /// center: the sphere's centre O [mm], which a probe_incidence term needs (the normal there is
 /// (p - O) / |p - O|); without it that term is left out.
-template <typename T>
-Vec3<T> EffectScmsPoint(const T* g, const ScmsErrorTrig<T>& et, const EffectModel& model, const T* const* blocks,
-                        const EffectReading& x, double d, const double* basis = nullptr, const T* center = nullptr) {
+/// T: the scalar of the parameters (double, float, ceres::Jet), A: of the reading (double, or float
+/// with T float).
+template <typename T, typename A>
+Vec3<T> EffectScmsPoint(const T* g, const ScmsErrorTrig<T>& et, const EffectTerms& model, const T* const* blocks,
+                        const BasicEffectReading<A>& x, double d,
+                        const typename internal::NonDeduced<A>::type* basis = nullptr,
+                        const typename internal::NonDeduced<T>::type* center = nullptr) {
   internal::EffectInputs<T> in = internal::EffectInputsOf(model, blocks, x, basis);
   if (in.incidence >= 0 && center) in.dr += internal::IncidenceError(in, g, et, model, blocks, x, d, center);
   return in.PointAt(g, et, model, x, (T(x.r_mm) + in.dr) - (T(d) + g[kDPrime]));
@@ -290,18 +317,18 @@ Vec3<T> EffectScmsPoint(const T* g, const ScmsErrorTrig<T>& et, const EffectMode
 
 /// The probe_incidence error of one reading [mm], as EffectScmsPoint() adds it to the reading
 /// (arguments as there; 0 without such a term).
-template <typename T>
-T ProbeIncidenceError(const T* g, const ScmsErrorTrig<T>& et, const EffectModel& model, const T* const* blocks,
-                      const EffectReading& x, double d, const T* center) {
-  const internal::EffectInputs<T> in = internal::EffectInputsOf(model, blocks, x, nullptr);
+template <typename T, typename A>
+T ProbeIncidenceError(const T* g, const ScmsErrorTrig<T>& et, const EffectTerms& model, const T* const* blocks,
+                      const BasicEffectReading<A>& x, double d, const T* center) {
+  const internal::EffectInputs<T> in = internal::EffectInputsOf(model, blocks, x, static_cast<const A*>(nullptr));
   return in.incidence >= 0 ? internal::IncidenceError(in, g, et, model, blocks, x, d, center) : T(0.0);
 }
 
 /// EffectScmsPoint() in double with the parameter blocks as vectors (one per term); center_mm:
 /// the sphere's centre, for a probe_incidence term.
-inline Eigen::Vector3d EffectScmsPoint(const ScmsGeometry& g, const EffectModel& model,
-                                       const std::vector<std::vector<double>>& params, const EffectReading& x, double d,
-                                       const Eigen::Vector3d* center_mm = nullptr) {
+template <typename Values = std::vector<std::vector<double>>>
+Eigen::Vector3d EffectScmsPoint(const ScmsGeometry& g, const EffectTerms& model, const Values& params,
+                                const EffectReading& x, double d, const Eigen::Vector3d* center_mm = nullptr) {
   std::vector<const double*> blocks;
   for (const auto& p : params) blocks.push_back(p.data());
   return EffectScmsPoint(g.data(), ErrorTrigOf(g.data()), model, blocks.data(), x, d, nullptr,
