@@ -15,11 +15,11 @@
 
 #include <Eigen/Core>
 
-#include "sph/stats/gum.hpp"
-#include "sph/measure/noise_floor.hpp"
 #include "sph/io/setup_checks.hpp"
+#include "sph/measure/noise_floor.hpp"
 #include "sph/measure/sphere_measurement.hpp"
 #include "sph/model/compensation.hpp"
+#include "sph/stats/gum.hpp"
 
 namespace sph {
 
@@ -63,6 +63,10 @@ struct MeasuredPoints {
   std::string form_note;                            ///< what the calibration file says of the calibration sphere's form
   std::vector<std::string> warnings;                ///< readings that parse but look wrong (PlausibilityWarnings)
   std::optional<double> calibration_fit_rms_um;     ///< the calibration file's source.fit_rms_um
+  /// The points file's header fields beyond those read (PointsHeader::metadata); none for x y z input.
+  std::vector<std::pair<std::string, std::string>> metadata;
+  /// The calibration file's "source" (the points file it was made from, its header's fields).
+  std::vector<std::pair<std::string, std::string>> calibration_source;
 };
 
 /// The noise floor of the form values, or why there is none.
