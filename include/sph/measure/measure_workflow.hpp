@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include "sph/io/dcc.hpp"
 #include "sph/io/setup_checks.hpp"
 #include "sph/measure/noise_floor.hpp"
 #include "sph/measure/sphere_measurement.hpp"
@@ -111,6 +112,11 @@ struct MeasurementWorkflowResult {
   /// The report as one self-contained HTML document (sph/io/html_report.hpp): its numbers are
   /// JsonReport()'s, with the date it was made and the form map as embedded SVG.
   std::string HtmlReport() const;
+  /// The Digital Calibration Certificate (sph/io/dcc.hpp; docs/dcc.md): the sphere as the item, the
+  /// SCMS with its calibration as the equipment, the radius and the sphericities with their U as
+  /// results, JsonReport()'s numbers in SI units rounded as GUM 7.2.6 states them. Throws
+  /// sph::Error naming each administrative key that `lab` (the laboratory's settings) and the points header lack.
+  std::string Dcc(const dcc::Settings& lab) const;
   /// The form-error map as a gnuplot script (data inline): the radial residuals about the
   /// least-squares sphere over the sphere, azimuth about a pole against the angle from it, colour
   /// the residual [um]. The pole is the z axis (for an SCMS the Theta axis, so that the map is the
