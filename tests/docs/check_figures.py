@@ -5,9 +5,9 @@ Usage: check_figures.py [--source-dir DIR] [PAGE ...]   (default: docs/validatio
 
 A figure is a paragraph, list item or table of a page's prose that states a measured number: a
 decimal number, a percentage, a ratio "N×", a count "N of M" or "N / M" (a heading, a code block
-and an inline code span are not prose). It is backed when its own text, or the block just before
-it (for a list item or a table row: the paragraph the list or table hangs from, with a code block
-after it), gives
+and an inline code span are not prose). It is backed when its own text, the paragraph the lists
+and tables before it hang from (with a code block after that paragraph) or, for a paragraph, the
+block just before it gives
 - a command: an inline code span or a code block that runs something (`build/…`, `sph_…`, `ctest`,
   `tests/…`, `bench/…`, a GoogleTest name `Suite.Test`, `python3 …`), and
 - a commit: an inline code span of 7 to 40 hexadecimal digits, or the page's re-run mark
@@ -22,7 +22,7 @@ import sys
 NUMBER = re.compile(r"(?<![\w.`])(\d+\.\d+|\d+(\.\d+)?\s?%|\d+(\.\d+)?\s?×|\d+ of \d+|\d+ / \d+)")
 CODE = re.compile(r"`([^`]+)`")
 COMMIT = re.compile(r"^[0-9a-f]{7,40}$")
-RUNS = re.compile(r"^(build/|sph_|ctest|tests/|bench/|python3|/usr/bin/python3|cmake|valgrind|[A-Z]\w+\.[A-Z*]\w*)")
+RUNS = re.compile(r"^(nice -n \d+ )?(build/|sph_|ctest|tests/|bench/|python3|/usr/bin/python3|cmake|valgrind|[A-Z]\w+\.[A-Z*]\w*)")
 
 
 def blocks(lines):
@@ -87,7 +87,7 @@ def check(path):
             lead = previous = ("", False)
             continue
         item = not code_block and text.startswith(("- ", "* ", "| "))
-        context = [(text, code_block), lead if item else previous]
+        context = [(text, code_block), lead] if item else [(text, code_block), previous, lead]
         if not code_block:
             prose = CODE.sub("", text)
             if NUMBER.search(prose):
