@@ -45,6 +45,17 @@ void AddPlotTimeoutOption(CLI::App& app, double& timeout_s) {
       ->check(InRange(ranges::kPlotTimeoutS));
 }
 
+void AddDccOptions(CLI::App& app, std::string& dcc_path, std::string& settings_path) {
+  CLI::Option* dcc = app.add_option(
+      "--dcc", dcc_path,
+      "Write a Digital Calibration Certificate (PTB's DCC 3.1.2, XML) to this file ('-' for stdout): the results "
+      "in SI units with U; the administrative data from --dcc-settings and the points header (docs/dcc.md)");
+  app.add_option("--dcc-settings", settings_path,
+                 "The laboratory's settings of the certificate: `key: value` lines (laboratory, customer, persons, "
+                 "identifier; docs/dcc.md); the points header's keys of the same names win")
+      ->needs(dcc);
+}
+
 void AddConditionOptions(CLI::App& app, SphereConditions& conditions, const std::string& source) {
   for (const ConditionField& c : kConditionFields) {
     std::string name = std::string("--") + c.key;

@@ -54,6 +54,9 @@ CLI::Option* AddSeedOption(CLI::App& app, std::uint64_t& seed, const std::string
 /// Adds --plot-timeout-s: how long each run of gnuplot may take before it is stopped (default 60 s,
 /// within ranges::kPlotTimeoutS).
 void AddPlotTimeoutOption(CLI::App& app, double& timeout_s);
+/// --dcc FILE, the Digital Calibration Certificate to write, and --dcc-settings FILE, the
+/// laboratory's settings it takes its administrative data from (docs/dcc.md).
+void AddDccOptions(CLI::App& app, std::string& dcc_path, std::string& settings_path);
 
 /// The options of the uncertainty inputs, one per field of kConditionFields ("--sphere-radius-u-um"
 /// for the header field sphere_radius_u_um), with the same ranges. `source` ends the help text:

@@ -21,11 +21,13 @@ RunPaths PathsOf(const CalibrateOptions& o, bool text) {
   RunPaths paths;
   paths.Input("points", o.points_path)
       .Input("--validate", o.workflow.validate_path)
-      .Input("--compare", o.workflow.compare_path);
+      .Input("--compare", o.workflow.compare_path)
+      .Input("--dcc-settings", o.dcc_settings_path);
   for (const std::string& f : o.workflow.sphere_form_paths) paths.Input("--sphere-form", f);
   paths.Output("the text report (-q leaves it out)", text ? "-" : "")
       .Output("--json", o.json_path)
       .Output("--report", o.report_path)
+      .Output("--dcc", o.dcc_path)
       .Output("--output", o.output_path)
       .Output("--firmware-blob", o.firmware_blob_path)
       .Output("--firmware-c", o.firmware_c_path);
@@ -81,8 +83,10 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
   const std::string prog = "sph_calibrate";
   const PlotFolder plot_folder(o.plot_dir);  // removed again when a failed run leaves it empty
   try {
-    const bool text = !o.quiet && o.json_path != "-" && o.report_path != "-";
+    const bool text = !o.quiet && o.json_path != "-" && o.report_path != "-" && o.dcc_path != "-";
     PathsOf(o, text);
+    const dcc::Settings settings =
+        o.dcc_settings_path.empty() ? dcc::Settings{} : dcc::ReadSettings(o.dcc_settings_path);
     Progress progress(prog, err, o.progress);
     CalibrationWorkflowOptions workflow = WorkflowOf(o);
     workflow.on_stage = [&](const std::string& stage) { progress.Stage(stage); };
@@ -103,6 +107,10 @@ int RunCalibrate(const CalibrateOptions& o, std::ostream& out, std::ostream& err
     if (!o.report_path.empty()) {
       const std::string report = run.HtmlReport();
       files.Stage(o.report_path, [&](std::ostream& f) { f << report; });
+    }
+    if (!o.dcc_path.empty()) {
+      const std::string certificate = run.Dcc(settings);
+      files.Stage(o.dcc_path, [&](std::ostream& f) { f << certificate; });
     }
     if (!o.output_path.empty() || !o.firmware_blob_path.empty() || !o.firmware_c_path.empty()) {
       StageCalibrationFile(o, run, files, err);

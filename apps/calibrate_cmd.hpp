@@ -25,6 +25,8 @@ struct CalibrateOptions {
   std::string robust_loss;                       ///< "huber" or "cauchy", into workflow.fit.robust_loss
   std::string json_path;                         ///< JSON report ("-" for stdout), empty: none
   std::string report_path;                       ///< HTML report ("-" for stdout), empty: none
+  std::string dcc_path;                          ///< Digital Calibration Certificate ("-" for stdout), empty: none
+  std::string dcc_settings_path;                 ///< its administrative data, empty: the points header's alone
   std::string output_path;                       ///< calibration file, empty: none
   std::string firmware_blob_path;                ///< the calibration as the firmware blob, empty: none
   std::string firmware_c_path;                   ///< the same as a C source, empty: none

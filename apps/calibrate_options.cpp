@@ -129,6 +129,7 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
   app.add_option("--json", o.json_path, "Write the report as JSON to this file ('-' for stdout)");
   app.add_option("--report", o.report_path,
                  "Write the report as one self-contained HTML document (printable: A4) to this file ('-' for stdout)");
+  AddDccOptions(app, o.dcc_path, o.dcc_settings_path);
   app.add_option("-o,--output", o.output_path,
                  "Write the calibration file (JSON) that compensation loads; written only when usable");
   app.add_option("--firmware-blob", o.firmware_blob_path,

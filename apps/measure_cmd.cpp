@@ -67,6 +67,7 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
   app.add_option("--json", o.json_path, "Write the results as JSON to this file ('-' for stdout)");
   app.add_option("--report", o.report_path,
                  "Write the report as one self-contained HTML document (printable: A4) to this file ('-' for stdout)");
+  AddDccOptions(app, o.dcc_path, o.dcc_settings_path);
   app.add_option("-o,--output", o.output_path, "Write the compensated points (x_mm y_mm z_mm) to this file");
   app.add_option("--plot", o.plot_path, "Draw the form-error map to this PNG file (needs gnuplot)");
   app.add_option("--plot-script", o.plot_script_path,
@@ -103,16 +104,20 @@ void SetupMeasureApp(CLI::App& app, MeasureOptions& o) {
 int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
   try {
     o.workflow.Check();
-    const bool text = !o.quiet && o.json_path != "-" && o.report_path != "-";
+    const bool text = !o.quiet && o.json_path != "-" && o.report_path != "-" && o.dcc_path != "-";
     RunPaths()
         .Input("points", o.points_path)
         .Input("--calibration", o.workflow.calibration_path)
+        .Input("--dcc-settings", o.dcc_settings_path)
         .Output("the text report (-q leaves it out)", text ? "-" : "")
         .Output("--json", o.json_path)
         .Output("--report", o.report_path)
+        .Output("--dcc", o.dcc_path)
         .Output("--output", o.output_path)
         .Output("--plot", o.plot_path)
         .Output("--plot-script", o.plot_script_path);
+    const dcc::Settings settings =
+        o.dcc_settings_path.empty() ? dcc::Settings{} : dcc::ReadSettings(o.dcc_settings_path);
     Progress progress(kProgram, err, o.progress);
     MeasurementWorkflowOptions workflow = o.workflow;
     workflow.on_progress = [&](const std::string& stage, long done, long total) {
@@ -132,6 +137,10 @@ int RunMeasure(const MeasureOptions& o, std::ostream& out, std::ostream& err) {
     if (!o.report_path.empty()) {
       const std::string report = run.HtmlReport();
       files.Stage(o.report_path, [&](std::ostream& f) { f << report; });
+    }
+    if (!o.dcc_path.empty()) {
+      const std::string certificate = run.Dcc(settings);
+      files.Stage(o.dcc_path, [&](std::ostream& f) { f << certificate; });
     }
     if (!o.output_path.empty()) files.Stage(o.output_path, [&](std::ostream& f) { run.WritePoints(f); });
     if (!o.plot_path.empty() || !o.plot_script_path.empty()) {

@@ -24,6 +24,8 @@ struct MeasureOptions {
   MeasurementWorkflowOptions workflow;
   std::string json_path;                         ///< JSON report ("-" for stdout), empty: none
   std::string report_path;                       ///< HTML report ("-" for stdout), empty: none
+  std::string dcc_path;                          ///< Digital Calibration Certificate ("-" for stdout), empty: none
+  std::string dcc_settings_path;                 ///< its administrative data, empty: the points header's alone
   std::string output_path;                       ///< compensated points (x_mm y_mm z_mm), empty: none
   std::string plot_path;                         ///< form-error map (PNG, drawn by gnuplot), empty: none
   std::string plot_script_path;                  ///< the gnuplot script of the map, empty: none

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <functional>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <type_traits>
@@ -18,15 +19,16 @@
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/calib/montecarlo_options.hpp"
-#include "sph/io/calibration_file.hpp"
 #include "sph/core/error.hpp"
-#include "sph/measure/measure_workflow.hpp"
+#include "sph/io/calibration_file.hpp"
+#include "sph/io/dcc.hpp"
 #include "sph/io/parameter_settings.hpp"
 #include "sph/io/points_file.hpp"
-#include "sph/simulation/simulation_options.hpp"
+#include "sph/measure/measure_workflow.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/effect_terms.hpp"
 #include "sph/model/units.hpp"
+#include "sph/simulation/simulation_options.hpp"
 
 namespace py = pybind11;
 
@@ -238,6 +240,7 @@ struct Calibration {
   py::array_t<double> covariance;
   py::array_t<double> residuals_um;        // the reported calibration's, file order
   py::array_t<double> residuals_seven_um;  // the seven-error fit's
+  std::shared_ptr<const sph::CalibrationWorkflowResult> run;  // for dcc()
 };
 
 py::array_t<double> Micrometres(const std::vector<double>& mm) {
@@ -251,10 +254,13 @@ py::array_t<double> Micrometres(const std::vector<double>& mm) {
 struct RenderedCalibration {
   std::string json, text, file;
   std::vector<double> residuals_mm, residuals_seven_mm;
+  std::shared_ptr<const sph::CalibrationWorkflowResult> run;
 };
 
-RenderedCalibration Render(const sph::CalibrationWorkflowResult& run) {
+RenderedCalibration Render(sph::CalibrationWorkflowResult&& result) {
   RenderedCalibration r;
+  r.run = std::make_shared<const sph::CalibrationWorkflowResult>(std::move(result));
+  const sph::CalibrationWorkflowResult& run = *r.run;
   r.json = run.JsonReport();
   std::ostringstream out;
   run.WriteTextReport(out);
@@ -288,6 +294,7 @@ Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
   c.calibration_file = std::move(r.file);
   c.residuals_um = Micrometres(r.residuals_mm);
   c.residuals_seven_um = Micrometres(r.residuals_seven_mm);
+  c.run = r.run;
   const py::dict params = c.report["parameters"];
   for (auto name : c.report["parameter_order"]) c.parameter_names.push_back(py::cast<std::string>(name));
   const auto n = static_cast<py::ssize_t>(c.parameter_names.size());
@@ -370,7 +377,40 @@ struct Measurement {
   py::dict report;
   std::string text;
   py::array_t<double> points_mm;
+  std::shared_ptr<const sph::MeasurementWorkflowResult> run;  // for dcc()
 };
+
+// The laboratory's settings of a certificate: the file `settings` (a path, or None), then the
+// keywords (each key of the settings file, a str or a list of them), which replace its values.
+sph::dcc::Settings DccSettingsOf(const py::object& settings, const py::kwargs& keys) {
+  sph::dcc::Settings s;
+  if (!settings.is_none()) s = sph::dcc::ReadSettings(PathOf(settings));
+  std::string text;
+  for (const auto& [k, v] : keys) {
+    const std::string key = py::cast<std::string>(k);
+    std::vector<std::string> values;
+    if (py::isinstance<py::str>(v)) {
+      values.push_back(py::cast<std::string>(v));
+    } else {
+      values = py::cast<std::vector<std::string>>(v);
+    }
+    for (const std::string& value : values) {
+      if (value.find('\n') != std::string::npos) throw sph::Error("dcc: " + key + ": a value of one line is expected");
+      text += key + ": " + value + "\n";
+    }
+  }
+  std::istringstream in(text);
+  const sph::dcc::Settings given = sph::dcc::ParseSettings(in, "<keywords>");
+  std::vector<sph::dcc::Field> kept;
+  for (const sph::dcc::Field& f : s.fields) {
+    const bool replaced =
+        std::any_of(given.fields.begin(), given.fields.end(), [&](const sph::dcc::Field& g) { return g.key == f.key; });
+    if (!replaced) kept.push_back(f);
+  }
+  kept.insert(kept.end(), given.fields.begin(), given.fields.end());
+  s.fields = kept;
+  return s;
+}
 
 // sph_measure's options as keyword arguments (its names with '_' for '-', calibration for -c).
 sph::MeasurementWorkflowOptions MeasurementOptionsOf(const py::kwargs& kwargs) {
@@ -418,9 +458,11 @@ Measurement Measure(const py::object& path_like, const py::kwargs& kwargs) {
   const std::string path = PathOf(path_like);
   std::string json, text;
   std::vector<Eigen::Vector3d> points;
+  std::shared_ptr<const sph::MeasurementWorkflowResult> result;
   {
     py::gil_scoped_release release;
-    const sph::MeasurementWorkflowResult run = sph::RunMeasurementWorkflow(path, options);
+    result = std::make_shared<const sph::MeasurementWorkflowResult>(sph::RunMeasurementWorkflow(path, options));
+    const sph::MeasurementWorkflowResult& run = *result;
     json = run.JsonReport();
     std::ostringstream out;
     run.WriteTextReport(out);
@@ -428,6 +470,7 @@ Measurement Measure(const py::object& path_like, const py::kwargs& kwargs) {
     points = run.input.points_mm;
   }
   Measurement r;
+  r.run = result;
   r.report = py::module_::import("json").attr("loads")(json);
   r.text = std::move(text);
   r.points_mm = py::array_t<double>({static_cast<py::ssize_t>(points.size()), py::ssize_t{3}});
@@ -729,6 +772,18 @@ PYBIND11_MODULE(sph, m) {
       .def_property_readonly(
           "usable", [](const Calibration& c) { return py::cast<bool>(c.report["usable"]); },
           "Whether the calibration is usable (the report's verdict)")
+      .def(
+          "dcc",
+          [](const Calibration& c, const py::object& settings, const py::kwargs& keys) {
+            const sph::dcc::Settings lab = DccSettingsOf(settings, keys);
+            py::gil_scoped_release release;
+            return c.run->Dcc(lab);
+          },
+          py::arg("settings") = py::none(),
+          "The Digital Calibration Certificate as sph_calibrate --dcc writes it (XML text; docs/dcc.md): the\n"
+          "administrative data from the settings file `settings` and the keywords (its keys: certificate_id=...,\n"
+          "responsible_person=[...]), which replace the file's, and the points header. Raises sph.Error\n"
+          "naming each key missing.")
       .def("__repr__", [](const Calibration& c) {
         std::ostringstream s;
         s << "<sph.CalibrationResult '" << std::string(py::str(c.report["points_file"]))
@@ -762,6 +817,16 @@ PYBIND11_MODULE(sph, m) {
       .def_readonly("report", &Measurement::report, "The report as sph_measure --json writes it, as a dict")
       .def_readonly("text", &Measurement::text, "The text report as sph_measure prints it")
       .def_readonly("points_mm", &Measurement::points_mm, "The compensated points [mm], shape (n, 3) x y z")
+      .def(
+          "dcc",
+          [](const Measurement& r, const py::object& settings, const py::kwargs& keys) {
+            const sph::dcc::Settings lab = DccSettingsOf(settings, keys);
+            py::gil_scoped_release release;
+            return r.run->Dcc(lab);
+          },
+          py::arg("settings") = py::none(),
+          "The Digital Calibration Certificate as sph_measure --dcc writes it (XML text; docs/dcc.md), the\n"
+          "administrative data as CalibrationResult.dcc() takes them.")
       .def("__repr__", [](const Measurement& r) {
         return "<sph.MeasurementResult: " + std::to_string(r.points_mm.shape(0)) + " points>";
       });

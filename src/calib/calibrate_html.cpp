@@ -10,11 +10,12 @@
 #include <nlohmann/json.hpp>
 
 #include "sph/calib/calibrate_workflow.hpp"
-#include "sph/io/html_report.hpp"
+#include "sph/internal/format.hpp"
 #include "sph/internal/html_json.hpp"
+#include "sph/io/html_report.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"
-#include "sph/internal/format.hpp"
+#include "sph/stats/rounding.hpp"
 
 namespace sph {
 
@@ -37,28 +38,7 @@ std::string Identification(const json& j, const CalibrationWorkflowResult& run) 
       {"R0 [mm]", At(j, "sphere_radius_mm")},
       {"d (nominal) [mm]", At(j, "probe_offset_mm")},
   };
-  std::string body = html::Table({"item", "value"}, rows);
-  body += "<h3>The points file's header</h3>\n";
-  std::vector<std::vector<std::string>> meta;
-  if (j.contains("metadata")) {
-    for (const auto& [key, value] : j.at("metadata").items()) meta.push_back({Escape(key), Cell(value)});
-  }
-  body += meta.empty() ? "<p>No further header fields.</p>\n" : html::Table({"field", "value"}, meta);
-  // The devices sph_acquired identified over SDO (the header's device_* fields, as parsed).
-  std::vector<std::vector<std::string>> devices;
-  for (const json& d : j.value("devices", json::array())) {
-    std::string other;
-    for (const json& o : d.value("other", json::array())) other += (other.empty() ? "" : "; ") + Cell(o);
-    const auto code = [&](const char* key) { return "<span class=\"nw\">" + At(d, key) + "</span>"; };
-    devices.push_back({At(d, "node"), code("role"), At(d, "name"), code("vendor_id"), code("product_code"),
-                       code("revision"), code("serial"), other});
-  }
-  body += "<h3>Devices identified over SDO</h3>\n";
-  body += devices.empty()
-              ? "<p>None: the points file names no device (it was not acquired by sph_acquired, or its devices "
-                "did not answer).</p>\n"
-              : html::Table({"node", "role", "name", "vendor", "product", "revision", "serial", "further"}, devices);
-  return body;
+  return html::Table({"item", "value"}, rows) + html::HeaderTables(j);
 }
 
 std::string Method(const json& j, const CalibrationWorkflowResult& run) {
@@ -90,80 +70,194 @@ std::string Method(const json& j, const CalibrationWorkflowResult& run) {
   return body + html::Table({"item", "value"}, rows);
 }
 
+// Where an input not stated would be given: the key in its note's last parentheses ("not stated:
+// R0 taken as exact (sphere_radius_u_um)").
+std::string StatedBy(const json& in) {
+  const std::string note = in.value("note", "");
+  const std::size_t close = note.rfind(')'), open = note.rfind('(', close);
+  return close == std::string::npos || open == std::string::npos ? "" : note.substr(open + 1, close - open - 1);
+}
+
+// Whether an uncertainty input was stated (a Type B input of u 0 was not: taken as exact).
+bool Stated(const json& in) { return in.value("type", "") == "A" || in.value("u", 0.0) > 0.0; }
+
+// The inputs not stated, in one line: "R0 (certificate) (sphere_radius_u_um), ...".
+std::string NotStated(const json& j) {
+  std::string names;
+  for (const json& in : j.value("uncertainty_inputs", json::array())) {
+    if (Stated(in)) continue;
+    const std::string key = StatedBy(in);
+    names += (names.empty() ? "" : ", ") + Cell(in.at("input")) +
+             (key.empty() ? "" : " (<span class=\"nw\">" + Escape(key) + "</span>)");
+  }
+  return names.empty() ? "" : "<p>Not stated, taken as exact: " + names + ".</p>\n";
+}
+
 std::string Conditions(const json& j) {
   std::vector<std::vector<std::string>> rows;
-  std::string assumed;
   for (const json& in : j.value("uncertainty_inputs", json::array())) {
+    if (!Stated(in)) continue;
     const std::string unit = in.contains("unit") ? " [" + Cell(in.at("unit")) + "]" : "";
     rows.push_back({Cell(in.at("input")) + unit, At(in, "type"), in.contains("u") ? Cell(in.at("u")) : "-",
-                    in.contains("dof") ? Cell(in.at("dof")) : "-", in.contains("note") ? Cell(in.at("note")) : ""});
-    if (in.contains("note")) assumed += "<li>" + Cell(in.at("input")) + ": " + Cell(in.at("note")) + "</li>\n";
+                    in.contains("dof") && in.at("dof").is_number()
+                        ? internal::Format("%.0f", in.at("dof").get<double>())
+                        : "-",
+                    in.contains("note") ? Cell(in.at("note")) : ""});
   }
-  std::string body = html::Table({"input", "type", "u", "degrees of freedom", "note"}, rows);
-  body += "<h3>Inputs assumed</h3>\n";
-  body += assumed.empty() ? "<p>None: every input is stated.</p>\n" : "<ul>\n" + assumed + "</ul>\n";
-  return body;
+  return html::Table({"input", "type", "u", "degrees of freedom", "note"}, rows) + NotStated(j);
+}
+
+// The report unit of a JSON unit, and the factor to it: deg to urad, mm to um, others as they are.
+std::pair<std::string, double> Fine(const std::string& unit) {
+  if (unit == "deg") return {"urad", kUradPerRad * kRadPerDeg};
+  if (unit == "mm") return {"um", kUmPerMm};
+  return {unit, 1.0};
+}
+
+// Whether a parameter is a centre of the sphere ("center_x", "center_x@1").
+bool Centre(const std::string& name) { return name.rfind("center_", 0) == 0; }
+
+// The effective degrees of freedom as the text report prints them: whole, ">1e6", "inf".
+std::string Dof(const json& p) {
+  if (!p.contains("dof") || !p.at("dof").is_number()) return "inf";
+  const double dof = p.at("dof").get<double>();
+  return dof > 1e6 ? ">1e6" : internal::Format("%.0f", dof);
+}
+
+// A parameter's ISO 230 name, or a dash and where the model names it.
+std::string IsoName(const json& p) {
+  const std::string iso = p.value("iso_name", "");
+  return iso.empty() ? "&mdash;, see the model page" : "<span class=\"words\">" + Escape(iso) + "</span>";
+}
+
+// The seven errors as GUM 7.2.6 states them: U to two significant digits, the value to the same
+// place, in urad and um.
+std::string ErrorsTable(const json& j) {
+  std::vector<std::vector<std::string>> rows;
+  for (const json& name : j.at("parameter_order")) {
+    const std::string key = name.get<std::string>();
+    if (Centre(key)) continue;  // the sphere's centres: in the JSON
+    const json& p = j.at("parameters").at(key);
+    const auto [unit, to_fine] = Fine(p.value("unit", ""));
+    const double value = p.value("value", std::nan("")) * to_fine;
+    std::vector<std::string> row = {Escape(key), IsoName(p)};
+    if (p.contains("held")) {
+      row.insert(row.end(), {gum::RoundResult(value, 0.0).value_text, At(p, "held"), "", "", "", Escape(unit)});
+    } else if (!p.value("determined", true) || !p.contains("U") || !p.at("U").is_number()) {
+      const double u =
+          p.contains("std") && p.at("std").is_number() ? p.at("std").get<double>() * to_fine : std::nan("");
+      const gum::RoundedResult r = gum::RoundResult(value, u);
+      row.insert(row.end(), {p.value("determined", true) ? r.value_text : "undetermined", r.uncertainty_text, "-", "-",
+                             "-", Escape(unit)});
+    } else {
+      const double u = p.at("u").get<double>() * to_fine, U = p.at("U").get<double>() * to_fine;
+      const gum::RoundedResult r = gum::RoundResult(value, U);
+      row.insert(row.end(), {r.value_text, gum::SignificantText(u), r.uncertainty_text,
+                             html::Fixed(p.value("k", 0.0), 2), Dof(p), Escape(unit)});
+    }
+    rows.push_back(row);
+  }
+  return html::Table({"parameter", "ISO 230 name", "value", "u", "U = k u", "k", "degrees of freedom", "unit"}, rows) +
+         "<p class=\"note\">GUM 7.2.6: U to two significant digits, the value to the same decimal place (the JSON "
+         "report and the calibration file hold every digit). u: standard uncertainty; U: expanded uncertainty "
+         "with coverage factor k. The sphere's centres of each setup are in the JSON report.</p>\n";
+}
+
+// The budget of one group of parameters (the angles, the lengths), in their fine unit: each stated
+// input's contribution |c_i| u(x_i) with its sensitivity c_i, u, nu_eff, k, U.
+std::string BudgetTable(const json& j, const std::string& group_unit) {
+  std::vector<std::string> inputs;  // the stated inputs, in the budget's order
+  for (const json& in : j.value("uncertainty_inputs", json::array())) {
+    if (Stated(in)) inputs.push_back(in.at("input").get<std::string>());
+  }
+  std::vector<std::vector<std::string>> rows;
+  for (const json& name : j.at("parameter_order")) {
+    const json& p = j.at("parameters").at(name.get<std::string>());
+    if (Centre(name.get<std::string>()) || !p.contains("budget")) continue;
+    const auto [unit, to_fine] = Fine(p.value("unit", ""));
+    if (unit != group_unit) continue;
+    std::vector<std::string> row = {Escape(name.get<std::string>())};
+    for (const std::string& input : inputs) {
+      std::string cell = "-";
+      for (const json& b : p.at("budget")) {
+        if (b.at("input") != input) continue;
+        cell = gum::SignificantText(b.value("u_contribution", 0.0) * to_fine);
+        if (b.value("type", "") == "B") {
+          cell += "<br><span class=\"note nw\">c = " + gum::SignificantText(b.value("sensitivity", 0.0) * to_fine, 3) +
+                  " " + Escape(unit) + "/" + Cell(b.at("input_unit")) + "</span>";
+        }
+        break;
+      }
+      row.push_back(cell);
+    }
+    row.insert(row.end(), {gum::SignificantText(p.value("u", 0.0) * to_fine), Dof(p),
+                           html::Fixed(p.value("k", 0.0), 2), gum::SignificantText(p.value("U", 0.0) * to_fine)});
+    rows.push_back(row);
+  }
+  if (rows.empty()) return "";
+  std::vector<std::string> header = {"parameter"};
+  for (const std::string& input : inputs) header.push_back(Escape(input));
+  header.insert(header.end(), {"u", "degrees of freedom", "k", "U"});
+  return "<h4>" + std::string(group_unit == "urad" ? "The angles" : "The lengths") + " [" + Escape(group_unit) +
+         "]</h4>\n" + html::Table(header, rows);
 }
 
 std::string Errors(const json& j) {
-  std::vector<std::vector<std::string>> rows;
-  std::string budget;
-  for (const json& name : j.at("parameter_order")) {
-    const std::string key = name.get<std::string>();
-    const json& p = j.at("parameters").at(key);
-    if (key.find('@') != std::string::npos) continue;  // the sphere's centres: in the JSON
-    const std::string unit = Cell(p.at("unit"));
-    rows.push_back({Escape(key), At(p, "iso_name"), unit, At(p, "value"), At(p, "u"), At(p, "k"), At(p, "U"),
-                    At(p, "dof"), At(p, "determined")});
-    for (const json& b : p.value("budget", json::array())) {
-      budget += "<tr><td>" + Escape(key) + " [" + unit + "]</td><td>" + Cell(b.at("input")) + " [" +
-                Cell(b.at("input_unit")) + "]</td><td>" + Cell(b.at("type")) + "</td><td class=\"n\">" +
-                Cell(b.at("u_input")) + "</td><td class=\"n\">" + Cell(b.at("sensitivity")) + "</td><td class=\"n\">" +
-                Cell(b.at("u_contribution")) + "</td></tr>\n";
-    }
-  }
-  std::string body = html::Table({"parameter", "ISO 230 name", "unit", "value", "u", "k", "U = k u",
-                                  "degrees of freedom", "determined"},
-                                 rows);
-  body += "<p class=\"note\">u: standard uncertainty; U: expanded uncertainty with coverage factor k. The sphere "
-          "centres of each setup are in the JSON report.</p>\n";
-  body += "<h3>Uncertainty budget</h3>\n<table>\n<thead><tr><th>parameter</th><th>input</th><th>type</th>"
-          "<th>u of the input (input's unit)</th><th>sensitivity (parameter's unit per input's unit)</th>"
-          "<th>contribution to u (parameter's unit)</th></tr></thead>\n"
-          "<tbody>\n" +
-          budget + "</tbody>\n</table>\n";
-  return body;
+  std::string body = ErrorsTable(j);
+  const std::string angles = BudgetTable(j, "urad"), lengths = BudgetTable(j, "um");
+  if (angles.empty() && lengths.empty()) return body;
+  return body +
+         "<h3>Uncertainty budget</h3>\n<p class=\"note\">Each stated input's contribution |c<sub>i</sub>| "
+         "u(x<sub>i</sub>) to u, two significant digits, with its sensitivity c<sub>i</sub> under it.</p>\n" +
+         angles + lengths + NotStated(j);
+}
+
+// A RMS or a peak to valley of the JSON, in um, to 0.1 nm.
+std::string Um(const json& j, const char* key) {
+  return j.contains(key) && j.at(key).is_number() ? html::Fixed(j.at(key).get<double>(), 4) : "-";
 }
 
 std::string Effects(const json& j) {
   std::vector<std::vector<std::string>> rows;
   for (const json& e : j.value("effects", json::array())) {
     for (const json& p : e.at("parameters")) {
-      rows.push_back({At(e, "id"), At(e, "iso_name"), At(p, "name"), At(p, "unit"), At(p, "value"), At(p, "std")});
+      const double u = p.contains("std") && p.at("std").is_number() ? p.at("std").get<double>() : std::nan("");
+      const gum::RoundedResult r = gum::RoundResult(p.value("value", std::nan("")), u);
+      rows.push_back({At(e, "id"), IsoName(e), At(p, "name"), r.value_text, r.uncertainty_text, At(p, "unit")});
     }
   }
   std::string body = rows.empty() ? "<p>No effect beyond the seven errors.</p>\n"
-                                  : html::Table({"effect", "ISO 230 name", "parameter", "unit", "value", "u"}, rows);
+                                  : html::Table({"effect", "ISO 230 name", "parameter", "value", "u", "unit"}, rows) +
+                                        "<p class=\"note\">u to two significant digits, the value to the same "
+                                        "place.</p>\n";
   if (j.contains("before") && j.contains("after")) {
     const json &b = j.at("before"), &a = j.at("after");
     body += "<h3>Before and after</h3>\n";
     body += html::Table({"residual", "seven errors", "with the effects"},
-                        {{"rms [um]", At(b, "rms_um"), At(a, "rms_um")},
-                         {"peak to valley [um]", At(b, "pv_um"), At(a, "pv_um")},
-                         {"cross-validated rms [um]", At(b, "cv_rms_um"), At(a, "cv_rms_um")},
-                         {"leave-one-setup-out rms [um]", At(b, "loso_rms_um"), At(a, "loso_rms_um")},
+                        {{"rms [um]", Um(b, "rms_um"), Um(a, "rms_um")},
+                         {"peak to valley [um]", Um(b, "pv_um"), Um(a, "pv_um")},
+                         {"cross-validated rms [um]", Um(b, "cv_rms_um"), Um(a, "cv_rms_um")},
+                         {"leave-one-setup-out rms [um]", Um(b, "loso_rms_um"), Um(a, "loso_rms_um")},
                          {"parameters", At(b, "n_params"), At(a, "n_params")}});
   }
   if (j.contains("validation")) {
     const json& v = j.at("validation");
     body += "<h3>Validation on " + At(v, "points_file") + "</h3>\n";
-    body += html::Table({"validation file", "before", "after"},
-                        {{"rms [um]", At(v, "before_rms_um"), At(v, "after_rms_um")},
-                         {"least-squares sphericity [um]", At(v, "before_ls_sphericity_um"),
-                          At(v, "after_ls_sphericity_um")}});
+    body += html::Table(
+        {"validation file", "before", "after"},
+        {{"rms [um]", Um(v, "before_rms_um"), Um(v, "after_rms_um")},
+         {"least-squares sphericity [um]", Um(v, "before_ls_sphericity_um"), Um(v, "after_ls_sphericity_um")}});
     if (v.contains("note")) body += "<p class=\"note\">" + Cell(v.at("note")) + "</p>\n";
   }
   return body;
+}
+
+// A curve's range or error motion value with its U95, as GUM 7.2.6 states them.
+std::string RangeText(const json& c, const std::string& unit) {
+  const json &pv = c.at("pv_" + unit), &u95 = c.at("pv_u95_" + unit);
+  if (!pv.is_number()) return "-";
+  const gum::RoundedResult r = gum::RoundResult(pv.get<double>(), u95.is_number() ? u95.get<double>() : std::nan(""));
+  return r.value_text + " ± " + r.uncertainty_text + " (U95)";
 }
 
 // The error curves: per curve its convention, range, components and certificate value from the
@@ -172,9 +266,10 @@ std::string Effects(const json& j) {
 std::string Curves(const json& j, const CalibrationWorkflowResult& run) {
   const json curves = j.value("error_curves", json::array());
   if (curves.empty() || !run.trace) return "";
-  std::string body = "<h3>Error curves</h3>\n<p>Each effect of an axis angle as its curve over the measured range, "
-                     "about its mean over the measured angles (a constant is a zero of the axis or a centre, not "
-                     "determined), with the 95 % band of the curve from the fitted components' covariance.</p>\n";
+  std::string body =
+      "<p>Each effect of an axis angle as its curve over the measured range, "
+      "about its mean over the measured angles (a constant is a zero of the axis or a centre, not "
+      "determined), with the 95 % band of the curve from the fitted components' covariance.</p>\n";
   for (std::size_t i = 0; i < curves.size() && i < run.trace->curves.size(); ++i) {
     const json& c = curves[i];
     const ErrorCurve& curve = run.trace->curves[i];
@@ -196,7 +291,7 @@ std::string Curves(const json& j, const CalibrationWorkflowResult& run) {
          left.empty() ? "none" : left},
         {std::string(curve.encoder ? "range of the positional deviation" : "error motion value (peak to valley)") +
              " [" + Escape(unit) + "]",
-         At(c, ("pv_" + unit).c_str()) + " ± " + At(c, ("pv_u95_" + unit).c_str()) + " (U95)"},
+         RangeText(c, unit)},
         {"coverage factor k of the band", At(c, "coverage_factor")},
     };
     body += html::Table({"item", "value"}, rows);
@@ -235,9 +330,10 @@ std::string Curves(const json& j, const CalibrationWorkflowResult& run) {
       std::vector<std::string> head = {Escape(curve.variable) + " [deg]"};
       std::vector<std::string> value_row = {"value [" + Escape(unit) + "]"}, u_row = {"U95 [" + Escape(unit) + "]"};
       for (std::size_t k = k0; k < std::min(angles.size(), k0 + 12); ++k) {
+        const gum::RoundedResult r = gum::RoundResult(values[k].get<double>(), u95[k].get<double>());
         head.push_back(Cell(angles[k]));
-        value_row.push_back(html::Fixed(values[k].get<double>(), 3));
-        u_row.push_back(html::Fixed(u95[k].get<double>(), 3));
+        value_row.push_back(r.value_text);
+        u_row.push_back(r.uncertainty_text);
       }
       body += html::Table(head, {value_row, u_row});
     }
@@ -250,14 +346,20 @@ std::string Form(const json& j) {
   const json& f = j.at("sphere_form");
   std::string body = "<p>" + At(f, "design") + "</p>\n";
   if (f.contains("rms_um")) {
-    body += html::Table({"the sphere's form", "value"}, {{"rms [um]", At(f, "rms_um")},
-                                                         {"u of the rms [um]", At(f, "rms_std_um")},
-                                                         {"peak to valley [um]", At(f, "pv_um")},
+    const json& rms_u = f.value("rms_std_um", json());
+    const gum::RoundedResult rms =
+        gum::RoundResult(f.at("rms_um").get<double>(), rms_u.is_number() ? rms_u.get<double>() : std::nan(""));
+    body += html::Table({"the sphere's form", "value"}, {{"rms [um]", rms.value_text},
+                                                         {"u of the rms [um]", rms.uncertainty_text},
+                                                         {"peak to valley [um]", Um(f, "pv_um")},
                                                          {"highest degree", At(f, "degree_max")}});
   }
   std::vector<std::vector<std::string>> rows;
   for (const json& t : f.value("terms", json::array())) {
-    rows.push_back({At(t, "l"), At(t, "m"), At(t, "value_um"), At(t, "std_um")});
+    const json& u = t.value("std_um", json());
+    const gum::RoundedResult r =
+        gum::RoundResult(t.value("value_um", std::nan("")), u.is_number() ? u.get<double>() : std::nan(""));
+    rows.push_back({At(t, "l"), At(t, "m"), r.value_text, r.uncertainty_text});
   }
   if (rows.empty()) return body;
   // The map of the form over the sphere's body frame, from the coefficients as reported.
@@ -287,7 +389,21 @@ std::string Form(const json& j) {
   body += html::Figure(html::SvgMap(axes, azimuth, polar, form_um), axes.title,
                        "The fitted form F(u) [um] at each direction u of the sphere's body frame [deg], from the "
                        "coefficients below.");
-  return body + html::Table({"degree l", "order m", "coefficient [um]", "u [um]"}, rows);
+  // The coefficients in two column groups side by side: half the length.
+  const std::size_t half = (rows.size() + 1) / 2;
+  std::vector<std::vector<std::string>> pairs;
+  for (std::size_t i = 0; i < half; ++i) {
+    std::vector<std::string> row = rows[i];
+    if (half + i < rows.size()) {
+      row.insert(row.end(), rows[half + i].begin(), rows[half + i].end());
+    } else {
+      row.insert(row.end(), 4, "");
+    }
+    pairs.push_back(row);
+  }
+  return body + html::Table({"degree l", "order m", "coefficient [um]", "u [um]", "degree l", "order m",
+                             "coefficient [um]", "u [um]"},
+                            pairs);
 }
 
 std::string Ambiguous(const json& j) {
@@ -317,12 +433,18 @@ std::string Comparison(const json& j) {
   std::vector<std::vector<std::string>> rows;
   std::string counted;
   for (const json& c : j.at("comparison")) {
-    std::string previous = At(c, "previous"), now = At(c, "now");
+    // GUM 7.2.6: the difference's U to two significant digits, the values to the same place.
+    const double U = c.at("U").is_number() ? c.at("U").get<double>() : std::nan("");
+    const auto at_u = [&](const char* key) {
+      return c.at(key).is_number() ? gum::RoundResult(c.at(key).get<double>(), U).value_text : std::string("-");
+    };
+    std::string previous = at_u("previous"), now = at_u("now");
     if (c.at("found_in") == "now") previous = "(now only)";
     if (c.at("found_in") == "previous") now = "(previous only)";
     const std::string en = c.at("En").is_number() ? html::Fixed(c.at("En").get<double>(), 2) : "-";
     const std::string model = c.at("model") == "previous" ? "earlier, refitted" : "today's";
-    rows.push_back({At(c, "parameter"), model, At(c, "unit"), previous, now, At(c, "difference"), At(c, "U"), en});
+    rows.push_back({At(c, "parameter"), model, At(c, "unit"), previous, now, at_u("difference"),
+                    std::isfinite(U) ? gum::SignificantText(U) : "-", en});
     if (c.contains("note")) counted += "<li>" + At(c, "parameter") + ": " + At(c, "note") + "</li>\n";
   }
   body += html::Table({"parameter", "model", "unit", "previous", "now", "difference", "U (k = 2)", "En"}, rows);
@@ -374,38 +496,72 @@ std::string KnownForm(const json& k) {
   return body;
 }
 
+// The residual maps of the seven errors' fit and of the reported fit beside it, on one colour
+// scale; one map when the seven errors are the reported fit.
+std::string ResidualMaps(const CalibrationWorkflowResult& run) {
+  const auto residuals = [&](const CalibrationResult& fit, std::vector<double>& theta, std::vector<double>& phi,
+                             std::vector<double>& um) {
+    for (std::size_t i = 0; i < run.points.samples.size() && i < fit.residuals_mm.size(); ++i) {
+      theta.push_back(run.points.samples[i].theta_deg);
+      phi.push_back(run.points.samples[i].phi_deg);
+      um.push_back(fit.residuals_mm[i] * kUmPerMm);
+    }
+  };
+  std::vector<double> theta0, phi0, before, theta1, phi1, after;
+  residuals(run.seven, theta0, phi0, before);
+  const bool both = run.Extended();
+  if (both) residuals(run.Reported(), theta1, phi1, after);
+  html::MapAxes axes;
+  axes.x_label = "theta [deg]";
+  axes.y_label = "phi [deg]";
+  axes.value_label = "residual [um]";
+  const std::string caption =
+      "Each reading's residual |p - O| - R [um] at its axis readings theta, phi [deg]; the setups drawn over each "
+      "other in file order";
+  if (!both) {
+    axes.title = "Residuals of the seven errors' fit (the reported fit)";
+    return html::Figure(html::SvgMap(axes, theta0, phi0, before), axes.title, caption + ".");
+  }
+  double lo = 0.0, hi = 0.0;
+  for (const std::vector<double>* values : {&before, &after}) {
+    for (const double v : *values) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  }
+  axes.value_lo = lo;
+  axes.value_hi = hi;
+  axes.plot_width = 260;
+  axes.plot_height = 150;
+  html::MapAxes after_axes = axes;
+  axes.title = "Before: the seven errors";
+  after_axes.title = "After: with the effects found";
+  return html::FigureRow(
+      {html::Figure(html::SvgMap(axes, theta0, phi0, before), axes.title, caption + ", with the seven errors alone."),
+       html::Figure(html::SvgMap(after_axes, theta1, phi1, after), after_axes.title,
+                    caption + ", with the effects found; one colour scale for both.")});
+}
+
 }  // namespace
 
 std::string CalibrationWorkflowResult::HtmlReport() const {
   const json j = json::parse(JsonReport());
-  const CalibrationResult& fit = Reported();
-  std::vector<double> theta, phi, residual_um;
-  for (std::size_t i = 0; i < points.samples.size() && i < fit.residuals_mm.size(); ++i) {
-    theta.push_back(points.samples[i].theta_deg);
-    phi.push_back(points.samples[i].phi_deg);
-    residual_um.push_back(fit.residuals_mm[i] * 1e3);
-  }
   const std::string usable = j.value("usable", false) ? "usable" : "not usable";
   std::string body = "<h1>Calibration report</h1>\n<p>" + At(j, "points_file") + " — " + At(j, "program") +
                      " — the calibration is <strong>" + usable + "</strong>.</p>\n";
   std::string told = List(j.value("warnings", json::array()));
   if (!j.value("why_not_usable", json::array()).empty()) told += List(j.at("why_not_usable"));
   body += "<div class=\"warn\"><h3>Warnings</h3>\n" + told + "</div>\n";
-  body += Section("Identification", Identification(j, *this), true);
-  body += Section("Method", Method(j, *this));
-  body += Section("Conditions and uncertainty inputs", Conditions(j));
+  using html::NewPage;
+  body += Section("Identification", Identification(j, *this), NewPage::kNo);
+  body += Section("Method", Method(j, *this), NewPage::kNo);
+  body += Section("Conditions and uncertainty inputs", Conditions(j), NewPage::kNo);
   body += Section("The seven errors", Errors(j));
-  body += Section("Effects found", Effects(j) + Curves(j, *this));
-  html::MapAxes axes;
-  axes.title = "Residuals of the reported fit";
-  axes.x_label = "theta [deg]";
-  axes.y_label = "phi [deg]";
-  axes.value_label = "residual [um]";
-  body += Section("Residual map",
-                  html::Figure(html::SvgMap(axes, theta, phi, residual_um), axes.title,
-                               "Each reading's residual |p - O| - R [um] at its axis readings theta, phi [deg]; the "
-                               "setups drawn over each other in file order."));
-  body += Section("The sphere's form", Form(j));
+  body += Section("Effects found", Effects(j), NewPage::kNo);
+  const std::string curves = Curves(j, *this);
+  if (!curves.empty()) body += Section("Error curves", curves, NewPage::kNo);
+  body += Section("Residual maps", ResidualMaps(*this), NewPage::kNo);
+  body += Section("The sphere's form", Form(j), NewPage::kNo);
   if (j.contains("known_form")) {
     std::string known = KnownForm(j.at("known_form"));
     for (const json& k : j.value("known_forms_of_other_spheres", json::array())) {
@@ -413,10 +569,10 @@ std::string CalibrationWorkflowResult::HtmlReport() const {
       for (const json& s : k.at("setups")) setups += (setups.empty() ? "" : ", ") + Cell(s);
       known += "<h3>The known form of the sphere of setups " + setups + "</h3>\n" + KnownForm(k);
     }
-    body += Section("The sphere's known form", known);
+    body += Section("The sphere's known form", known, NewPage::kNo);
   }
-  body += Section("What stays ambiguous", Ambiguous(j));
-  if (j.contains("comparison")) body += Section("Comparison with an earlier calibration", Comparison(j));
+  body += Section("What stays ambiguous", Ambiguous(j), NewPage::kNo);
+  if (j.contains("comparison")) body += Section("Comparison with an earlier calibration", Comparison(j), NewPage::kNo);
   return html::Page("Calibration report: " + points_path, body);
 }
 

@@ -6,10 +6,12 @@
 
 #include "sph/calib/known_form.hpp"
 #include "sph/calib/usability.hpp"
-#include "sph/io/points_file.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/internal/header_json.hpp"
+#include "sph/io/points_file.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace_report.hpp"
+#include "sph/stats/rounding.hpp"
 #include "trace_json.hpp"
 
 namespace sph {
@@ -70,6 +72,35 @@ std::string HeldText(const ObservabilityReport& rep, std::size_t i) {
   return rep.held[i] == Held::kFixed ? "fixed" : "at bound";
 }
 
+// Parameter i of the results' table as GUM 7.2.6 states it: U (u when there is no budget) to two
+// significant digits and the value to the same decimal place, angles in urad and lengths in um, a
+// centre's value in mm beside its uncertainty in um; a held parameter's value in full.
+std::string ResultRowText(const CalibrationResult& r, const ReportContext& ctx, std::size_t i,
+                          const std::string& name) {
+  const ObservabilityReport& rep = r.analysis;
+  const bool centre = i >= kNumScmsParams;
+  const ReportUnits units = ReportUnitsOf(centre ? Quantity::kLength : kScmsParamInfo[i].quantity);
+  const double to_value = centre ? 1.0 : units.to_fine;
+  const char* value_unit = centre ? "mm" : units.fine;
+  const double value = ParamValue(r, i);
+  const std::string held = rep.Empty() ? "" : HeldText(rep, i);
+  if (!held.empty()) {
+    return Format("%-12s %14s %-4s %9s %9s %5s %-4s", name.c_str(),
+                  gum::RoundResult(value * to_value, 0.0).value_text.c_str(), value_unit, held.c_str(), "", "", "");
+  }
+  const gum::UncertaintyStatement* st =
+      ctx.budget != nullptr && i < ctx.budget->statements.size() && !ctx.budget->statements[i].inputs.empty()
+          ? &ctx.budget->statements[i]
+          : nullptr;
+  const double u = st != nullptr ? st->u : rep.Empty() ? std::nan("") : rep.std(static_cast<Eigen::Index>(i));
+  // The value rounded where its U (or u) is, in the value's unit; the uncertainties in urad or um.
+  const gum::RoundedResult stated = gum::RoundResult(value * to_value, (st != nullptr ? st->U : u) * to_value);
+  return Format("%-12s %14s %-4s %9s %9s %5s %-4s", name.c_str(), stated.value_text.c_str(), value_unit,
+                gum::SignificantText(u * units.to_fine).c_str(),
+                st != nullptr ? gum::SignificantText(st->U * units.to_fine).c_str() : "-",
+                st != nullptr ? Format("%.2f", st->k).c_str() : "-", units.fine);
+}
+
 std::string WeakText(const ObservabilityReport& rep, const WeakCombination& w) {
   std::string s;
   for (const auto& [j, c] : w.terms) {
@@ -79,31 +110,57 @@ std::string WeakText(const ObservabilityReport& rep, const WeakCombination& w) {
   return s;
 }
 
-// The seven errors' budgets: each input's contribution |c_i| u(x_i), u, nu_eff, k and U, in urad
-// or um; then what each input is and where its value comes from.
+// Where a Type B input that is not stated would be given: the key in its note's last parentheses
+// ("not stated: R0 taken as exact (sphere_radius_u_um)").
+std::string StatedBy(const std::string& note) {
+  const std::size_t close = note.rfind(')'), open = note.rfind('(', close);
+  if (close == std::string::npos || open == std::string::npos) return "";
+  return note.substr(open + 1, close - open - 1);
+}
+
+// The seven errors' budgets: each stated input's contribution |c_i| u(x_i), u, nu_eff, k and U,
+// in urad or um, two significant digits; the inputs not stated (u = 0) in one line; then what
+// each stated input is and where its value comes from.
 void WriteBudgetText(std::ostream& out, const CalibrationResult& r, const CalibrationBudget& b) {
+  std::vector<std::size_t> stated;
+  std::string not_stated;
+  for (std::size_t c = 0; c < b.inputs.size(); ++c) {
+    if (b.inputs[c].u > 0.0) {
+      stated.push_back(c);
+    } else {
+      const std::string key = StatedBy(b.inputs[c].note);
+      not_stated += (not_stated.empty() ? "" : ", ") + b.inputs[c].input + (key.empty() ? "" : " (" + key + ")");
+    }
+  }
   out << "uncertainty (GUM): contributions |c_i| u(x_i), combined u, effective degrees of freedom, U = k u\n";
-  out << Format("%-12s %11s", "parameter", "fit (A)");
-  for (const BudgetSensitivity& s : b.inputs) out << Format(" %11s", s.column.c_str());
-  out << Format(" %10s %8s %5s %10s %-4s\n", "u", "nu_eff", "k", "U", "unit");
+  out << Format("%-12s %9s", "parameter", "fit (A)");
+  for (const std::size_t c : stated) out << Format(" %11s", b.inputs[c].column.c_str());
+  out << Format(" %9s %8s %5s %9s %-4s\n", "u", "nu_eff", "k", "U", "unit");
   for (std::size_t i = 0; i < kNumScmsParams && i < b.statements.size(); ++i) {
     const UncertaintyStatement& st = b.statements[i];
     const ReportUnits u = ReportUnitsOf(kScmsParamInfo[i].quantity);
     const std::string name = r.analysis.Empty() ? kScmsParamInfo[i].name : r.analysis.parameters[i].name;
     const std::string held = r.analysis.Empty() ? "" : HeldText(r.analysis, i);
     if (!held.empty() || st.inputs.empty()) {
-      out << Format("%-12s %10s\n", name.c_str(), held.empty() ? "undetermined" : held.c_str());
+      out << Format("%-12s %9s\n", name.c_str(), held.empty() ? "undetermined" : held.c_str());
       continue;
     }
-    out << Format("%-12s", name.c_str());
-    for (const BudgetInput& in : st.inputs) out << Format(" %11.4f", in.Contribution() * u.to_fine);
+    // The statement's inputs: the fit's first, then the Type B inputs in the budget's order.
+    out << Format("%-12s %9s", name.c_str(), gum::SignificantText(st.inputs[0].Contribution() * u.to_fine).c_str());
+    for (const std::size_t c : stated) {
+      const double contribution = c + 1 < st.inputs.size() ? st.inputs[c + 1].Contribution() : 0.0;
+      out << Format(" %11s", gum::SignificantText(contribution * u.to_fine).c_str());
+    }
     const std::string dof = !std::isfinite(st.dof) ? "inf" : st.dof > 1e6 ? ">1e6" : Format("%.0f", st.dof);
-    out << Format(" %10.4f %8s %5.2f %10.4f %-4s\n", st.u * u.to_fine, dof.c_str(), st.k, st.U * u.to_fine, u.fine);
+    out << Format(" %9s %8s %5.2f %9s %-4s\n", gum::SignificantText(st.u * u.to_fine).c_str(), dof.c_str(), st.k,
+                  gum::SignificantText(st.U * u.to_fine).c_str(), u.fine);
   }
   out << "  fit (A): the fit's covariance, " << Format("%.0f", b.type_a_dof) << " degrees of freedom\n";
-  for (const BudgetSensitivity& s : b.inputs) {
+  for (const std::size_t c : stated) {
+    const BudgetSensitivity& s = b.inputs[c];
     out << "  " << s.input << ": u = " << Format("%.6g", s.u) << " " << s.unit << " (" << s.note << ")\n";
   }
+  if (!not_stated.empty()) out << "  not stated, taken as exact: " << not_stated << "\n";
   out << gum::CoverageSentence(b.coverage, "parameter") << "\n\n";
 }
 
@@ -144,11 +201,17 @@ void WriteComparisonText(std::ostream& out, const CalibrationComparison& cmp) {
     out << Format("%-26s %13s %13s %12s %10s %7s %s\n", "parameter", "previous", "now", "difference", "U", "En",
                   "unit");
     for (const ComparedParameter& c : rows) {
-      std::string previous = number(c.previous, "%.4f"), now = number(c.now, "%.4f");
+      // GUM 7.2.6: the difference's U to two significant digits, the values to the same place.
+      const auto at_u = [&](double v) {
+        return std::isfinite(v) ? gum::RoundResult(v, std::isfinite(c.U) ? c.U : std::nan("")).value_text
+                                : std::string("-");
+      };
+      std::string previous = at_u(c.previous), now = at_u(c.now), difference = at_u(c.difference);
+      if (std::isfinite(c.difference) && c.difference >= 0.0) difference = "+" + difference;
       if (c.found == ComparedParameter::Found::kNowOnly) previous = "(now only)";
       if (c.found == ComparedParameter::Found::kPreviousOnly) now = "(previous only)";
       out << Format("%-26s %13s %13s %12s %10s %7s %s\n", c.parameter.c_str(), previous.c_str(), now.c_str(),
-                    number(c.difference, "%+.4f").c_str(), number(c.U, "%.4f").c_str(),
+                    difference.c_str(), std::isfinite(c.U) ? gum::SignificantText(c.U).c_str() : "-",
                     number(c.En, "%+.2f").c_str(), c.unit.c_str());
       if (!c.note.empty()) out << "  " << c.parameter << ": " << c.note << "\n";
     }
@@ -207,30 +270,24 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
   out << ", d = " << Format("%.6g", ctx.probe_offset_mm) << " mm\n";
   for (const auto& [k, v] : ctx.metadata) out << "  " << k << ": " << v << "\n";
   out << "\n";
-  out << Format("%-12s %15s %12s %-4s | %12s %10s %-4s\n", "parameter", "value", "std", "unit", "value", "std", "unit");
+  const bool budget = ctx.budget != nullptr;
+  out << (budget ? "results (GUM 7.2.6: U to two significant digits, the value to the same place; the JSON report and "
+                   "the calibration file hold every digit):\n"
+                 : "results (GUM 7.2.6: u to two significant digits, the value to the same place; the JSON report and "
+                   "the calibration file hold every digit):\n");
+  out << Format("%-12s %14s %-4s %9s %9s %5s %-4s\n", "parameter", "value", "unit", "u", "U", "k", "unit");
   const std::size_t n = kNumScmsParams + 3 * r.centers_mm.size();
   for (std::size_t i = 0; i < n; ++i) {
     const bool analysed = !rep.Empty();
     const std::string name =
         analysed ? rep.parameters[i].name : (i < kNumScmsParams ? kScmsParamInfo[i].name : "center");
-    const Quantity q = i < kNumScmsParams ? kScmsParamInfo[i].quantity : Quantity::kLength;
-    const ReportUnits u = ReportUnitsOf(q);
-    const double value = ParamValue(r, i);
     if (analysed && !rep.determined[i]) {
       const double disp = rep.StdAsDisplacementUm(static_cast<int>(i));
-      out << Format("%-12s %15s  (std %s um as a displacement: not determined by these data)\n", name.c_str(),
+      out << Format("%-12s %14s  (std %s um as a displacement: not determined by these data)\n", name.c_str(),
                     "undetermined", std::isfinite(disp) ? Format("%.3g", disp).c_str() : "infinite");
       continue;
     }
-    const std::string held = analysed ? HeldText(rep, i) : "";
-    if (!held.empty()) {
-      out << Format("%-12s %15.9f %12s %-4s | %12.4f %10s %-4s\n", name.c_str(), value * u.to_coarse, held.c_str(),
-                    u.coarse, value * u.to_fine, held.c_str(), u.fine);
-      continue;
-    }
-    const double sd = analysed ? rep.std(static_cast<Eigen::Index>(i)) : std::nan("");
-    out << Format("%-12s %15.9f %12.9f %-4s | %12.4f %10.4f %-4s\n", name.c_str(), value * u.to_coarse,
-                  sd * u.to_coarse, u.coarse, value * u.to_fine, sd * u.to_fine, u.fine);
+    out << ResultRowText(r, ctx, i, name) << "\n";
   }
   out << "\n";
   if (ctx.budget != nullptr) WriteBudgetText(out, r, *ctx.budget);
@@ -286,22 +343,8 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
     j["sphere_radii_mm"] = radii;
   }
   j["probe_offset_mm"] = ctx.probe_offset_mm;
-  json meta = json::object();
-  for (const auto& [k, v] : ctx.metadata) meta[k] = v;
-  j["metadata"] = meta;
-  json devices = json::array();
-  for (const HeaderDevice& d : DevicesOf(ctx.metadata)) {
-    json dev = {{"role", d.role}};
-    const std::pair<const char*, const std::string*> fields[] = {
-        {"node", &d.node},         {"name", &d.name},         {"vendor_id", &d.vendor_id},
-        {"product_code", &d.product_code}, {"revision", &d.revision}, {"serial", &d.serial}};
-    for (const auto& [key, value] : fields) {
-      if (!value->empty()) dev[key] = *value;
-    }
-    dev["other"] = d.other;
-    devices.push_back(dev);
-  }
-  j["devices"] = devices;
+  j["metadata"] = internal::MetadataJson(ctx.metadata);
+  j["devices"] = internal::DevicesJson(ctx.metadata);
   json params = json::object();
   json order = json::array();
   json undetermined = json::array();

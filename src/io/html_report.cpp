@@ -63,6 +63,31 @@ std::string JsonList(const nlohmann::json& items) {
   return out + "</ul>\n";
 }
 
+std::string HeaderTables(const nlohmann::json& j) {
+  using nlohmann::json;
+  std::string body = "<h3>The points file's header</h3>\n";
+  std::vector<std::vector<std::string>> meta;
+  if (j.contains("metadata")) {
+    for (const auto& [key, value] : j.at("metadata").items()) meta.push_back({Escape(key), JsonText(value)});
+  }
+  body += meta.empty() ? "<p>No further header fields.</p>\n" : Table({"field", "value"}, meta);
+  // The devices sph_acquired identified over SDO (the header's device_* fields, as parsed).
+  std::vector<std::vector<std::string>> devices;
+  for (const json& d : j.value("devices", json::array())) {
+    std::string other;
+    for (const json& o : d.value("other", json::array())) other += (other.empty() ? "" : "; ") + JsonText(o);
+    const auto code = [&](const char* key) { return "<span class=\"nw\">" + JsonField(d, key) + "</span>"; };
+    devices.push_back({JsonField(d, "node"), code("role"), "<span class=\"words\">" + JsonField(d, "name") + "</span>",
+                       code("vendor_id"), code("product_code"), code("revision"), code("serial"), other});
+  }
+  body += "<h3>Devices identified over SDO</h3>\n";
+  body += devices.empty()
+              ? "<p>None: the points file names no device (it was not acquired by sph_acquired, or its "
+                "devices did not answer).</p>\n"
+              : Table({"node", "role", "name", "vendor", "product", "revision", "serial", "further"}, devices);
+  return body;
+}
+
 std::string UtcNow() {
   const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   std::tm tm{};
@@ -89,11 +114,14 @@ td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowra
 .note { color: #333; font-size: 0.95em; }
 .warn { border-left: 4px solid #000; padding-left: 0.5em; }
 .figure img { max-width: 100%; height: auto; }
+.row { display: flex; flex-wrap: wrap; gap: 1em; }
+.row .figure { flex: 1 1 20em; }
+.words { overflow-wrap: normal; }  /* a name that breaks between its words only */
 @page { size: A4; margin: 15mm; }
 @media print {
   body { margin: 0; max-width: none; padding: 0; font-size: 9.5pt; }
-  .section { break-before: page; }
-  .section.first { break-before: auto; }
+  .section.page { break-before: page; }
+  h2, h3, h4 { break-after: avoid; }
   table, .figure, img, tr { break-inside: avoid; }
   thead { display: table-header-group; }
   th { background: #e8e8e8 !important; -webkit-print-color-adjust: exact; print-color-adjust: exact; }
@@ -152,9 +180,15 @@ std::string Figure(const std::string& svg, const std::string& alt, const std::st
          "\"><p class=\"note\">" + Escape(caption) + "</p></div>\n";
 }
 
-std::string Section(const std::string& title, const std::string& body, bool first) {
-  return std::string(first ? "<div class=\"section first\">" : "<div class=\"section\">") + "\n<h2>" +
-         Escape(title) + "</h2>\n" + body + "</div>\n";
+std::string Section(const std::string& title, const std::string& body, NewPage new_page) {
+  return std::string(new_page == NewPage::kYes ? "<div class=\"section page\">" : "<div class=\"section\">") +
+         "\n<h2>" + Escape(title) + "</h2>\n" + body + "</div>\n";
+}
+
+std::string FigureRow(const std::vector<std::string>& figures) {
+  std::string out = "<div class=\"row\">\n";
+  for (const std::string& f : figures) out += f;
+  return out + "</div>\n";
 }
 
 std::string Page(const std::string& title, const std::string& body) {
@@ -186,10 +220,14 @@ std::string SvgMap(const MapAxes& a, const std::vector<double>& x_deg, const std
   if (x_deg.size() != y_deg.size() || x_deg.size() != value.size()) {
     throw Error("html map: the coordinates and the values differ in number");
   }
-  constexpr double kLeft = 60, kTop = 30, kW = 480, kH = 240, kLegendX = kLeft + kW + 40, kLegendW = 16;
+  constexpr double kLeft = 60, kTop = 30, kLegendW = 16;
+  const double kW = a.plot_width, kH = a.plot_height, kLegendX = kLeft + kW + 40;
   const double width = kLegendX + kLegendW + 80, height = kTop + kH + 50;
   double lo = 0.0, hi = 0.0;
-  if (!value.empty()) {
+  if (std::isfinite(a.value_lo) && std::isfinite(a.value_hi)) {
+    lo = a.value_lo;
+    hi = a.value_hi;
+  } else if (!value.empty()) {
     const auto [mn, mx] = std::minmax_element(value.begin(), value.end());
     lo = *mn;
     hi = *mx;
@@ -221,8 +259,8 @@ std::string SvgMap(const MapAxes& a, const std::vector<double>& x_deg, const std
       s += Format("<rect x=\"%.1f\" y=\"%.1f\" width=\"%.1f\" height=\"%.1f\" fill=\"%s\"/>\n", px(x0), py(y0),
                   px(x1) - px(x0) + 0.3, py(y1) - py(y0) + 0.3, colour.c_str());
     } else {
-      s += Format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"%s\"/>\n", px(x_deg[i]), py(y_deg[i]),
-                  colour.c_str());
+      s += Format("<circle cx=\"%.1f\" cy=\"%.1f\" r=\"%.1f\" fill=\"%s\"/>\n", px(x_deg[i]), py(y_deg[i]),
+                  std::max(2.5, 4.0 * kW / 480), colour.c_str());
     }
   }
   // The legend: the scale from lo (bottom) to hi (top), with its unit.

@@ -8,10 +8,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "sph/internal/html_json.hpp"
 #include "sph/io/html_report.hpp"
 #include "sph/measure/measure_workflow.hpp"
-#include "sph/internal/html_json.hpp"
 #include "sph/model/units.hpp"
+#include "sph/stats/rounding.hpp"
 
 namespace sph {
 
@@ -35,14 +36,30 @@ std::string Vector(const json& v) {
   return out;
 }
 
+// A budgeted result of the JSON (budget.radius, ...) as GUM 7.2.6 states it: U to two significant
+// digits, the value to the same place (the radius in mm, U in um).
+std::pair<std::string, std::string> Stated(const json& j, const char* key) {
+  if (!j.contains("budget") || !j.at("budget").contains(key)) return {"-", "-"};
+  const json& r = j.at("budget").at(key);
+  const bool mm = r.value("value_unit", "") == "mm";
+  const double U_um = r.value("U", std::nan(""));
+  const gum::RoundedResult stated = gum::RoundResult(r.value("value", std::nan("")), mm ? U_um / kUmPerMm : U_um);
+  return {stated.value_text + (mm ? " mm" : " um"), gum::SignificantText(U_um) + " um"};
+}
+
 std::string Results(const json& j) {
-  return html::Table({"result", "value"},
-                     {{"radius [mm]", Mm(j, "radius_mm")},
-                      {"diameter [mm]", Mm(j, "diameter_mm")},
+  const auto [radius, radius_U] = Stated(j, "radius");
+  const auto [ls, ls_U] = Stated(j, "sphericity_ls");
+  const auto [mz, mz_U] = Stated(j, "sphericity_mz");
+  return html::Table({"result", "value", "U (k as in the budget)"}, {{"radius", radius, radius_U},
+                                                                     {"least-squares sphericity", ls, ls_U},
+                                                                     {"minimum-zone sphericity", mz, mz_U}}) +
+         "<p class=\"note\">GUM 7.2.6: U to two significant digits, the value to the same decimal place (the JSON "
+         "report holds every digit). The evaluation's further values, at its resolution:</p>\n" +
+         html::Table({"of the evaluation", "value"},
+                     {{"diameter [mm]", Mm(j, "diameter_mm")},
                       {"radius minus the stated radius [um]", JsonField(j, "radius_deviation_um")},
                       {"least-squares centre x, y, z [mm]", Vector(j.value("center_mm", json()))},
-                      {"least-squares sphericity [um]", JsonField(j, "sphericity_ls_um")},
-                      {"minimum-zone sphericity [um]", JsonField(j, "sphericity_mz_um")},
                       {"minimum-zone centre x, y, z [mm]", Vector(j.value("mz_center_mm", json()))},
                       {"minimum-zone inner radius [mm]", Mm(j, "mz_inner_radius_mm")},
                       {"minimum-zone outer radius [mm]", Mm(j, "mz_outer_radius_mm")},
@@ -91,20 +108,25 @@ std::string Budget(const json& j) {
     } else if (r.contains("mc_note")) {
       verdict = JsonField(r, "mc_note");
     }
-    const bool mm = r.value("value_unit", "") == "mm";
-    results.push_back({name, mm ? Mm(r, "value") + " mm" : JsonField(r, "value") + " " + JsonField(r, "value_unit"),
-                       unit, JsonField(r, "u"), JsonField(r, "k"),
-                       JsonField(r, "U"), JsonField(r, "dof"), verdict});
+    const auto [value, U] = Stated(j, key);
+    results.push_back({name, value, unit, gum::SignificantText(r.value("u", std::nan(""))), JsonField(r, "k"), U,
+                       JsonField(r, "dof"), verdict});
     std::vector<std::vector<std::string>> rows;
+    std::string not_stated;
     for (const json& in : r.value("budget", json::array())) {
+      if (in.value("type", "") == "B" && in.value("u_input", 0.0) == 0.0) {
+        not_stated += (not_stated.empty() ? "" : ", ") + html::JsonText(in.at("input"));
+        continue;
+      }
       rows.push_back({html::JsonText(in.at("input")) + " [" + JsonField(in, "input_unit") + "]", JsonField(in, "type"),
-                      JsonField(in, "u_input"), JsonField(in, "sensitivity"), JsonField(in, "u_contribution"),
-                      JsonField(in, "dof")});
+                      JsonField(in, "u_input"), gum::SignificantText(in.value("sensitivity", std::nan("")), 4),
+                      gum::SignificantText(in.value("u_contribution", std::nan(""))), JsonField(in, "dof")});
     }
     body += "<h3>Budget of the " + std::string(name) + " [" + unit + "]</h3>\n" +
             html::Table({"input", "type", "u of the input (input's unit)", "sensitivity",
                          "contribution to u [" + unit + "]", "degrees of freedom"},
-                        rows);
+                        rows) +
+            (not_stated.empty() ? "" : "<p>Not stated, taken as exact: " + not_stated + ".</p>\n");
   }
   return html::Table({"result", "value", "unit of u, U", "u", "k", "U = k u", "degrees of freedom",
                       "JCGM 101 check"},
@@ -120,6 +142,7 @@ std::string MeasurementWorkflowResult::HtmlReport() const {
   std::string body = "<h1>Sphere measurement report</h1>\n<p>" + JsonField(in, "points_file") + " \u2014 " +
                      JsonField(j, "created_by") + "</p>\n";
   body += "<div class=\"warn\"><h3>Warnings</h3>\n" + html::JsonList(j.value("warnings", json::array())) + "</div>\n";
+  using html::NewPage;
   body += Section("Identification",
                   html::Table({"item", "value"}, {{"points file", JsonField(in, "points_file")},
                                                   {"format", JsonField(in, "format")},
@@ -127,9 +150,10 @@ std::string MeasurementWorkflowResult::HtmlReport() const {
                                                   {"setup", JsonField(in, "setup")},
                                                   {"points", JsonField(in, "n_points")},
                                                   {"program", JsonField(j, "created_by")},
-                                                  {"report made", Escape(html::UtcNow())}}),
-                  true);
-  body += Section("Results", Results(j));
+                                                  {"report made", Escape(html::UtcNow())}}) +
+                      html::HeaderTables(j),
+                  NewPage::kNo);
+  body += Section("Results", Results(j), NewPage::kNo);
   // The form map: each point's residual about the least-squares sphere at its direction from the
   // centre (azimuth 0-360 deg, polar angle from +z).
   std::vector<double> azimuth, polar, residual_um;
@@ -150,7 +174,7 @@ std::string MeasurementWorkflowResult::HtmlReport() const {
   body += Section("Form map", html::Figure(html::SvgMap(axes, azimuth, polar, residual_um), axes.title,
                                            "Each point's radial deviation from the least-squares sphere [um] at "
                                            "its direction from the centre [deg]."));
-  body += Section("Noise floor", NoiseFloor(j));
+  body += Section("Noise floor", NoiseFloor(j), NewPage::kNo);
   body += Section("Uncertainty budget", Budget(j));
   return html::Page("Sphere measurement report: " + points_path, body);
 }

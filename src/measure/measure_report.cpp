@@ -4,9 +4,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "sph/measure/measure_workflow.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/internal/header_json.hpp"
+#include "sph/measure/measure_workflow.hpp"
 #include "sph/model/units.hpp"
+#include "sph/stats/rounding.hpp"
 
 namespace sph {
 namespace {
@@ -75,11 +77,20 @@ void WriteBudgetText(std::ostream& out, const MeasurementBudgets& b, int mc_digi
   for (const MeasuredResultBudget& r : b.results) {
     const gum::UncertaintyStatement& st = r.statement;
     const std::string dof = !std::isfinite(st.dof) ? "inf" : st.dof > 1e6 ? ">1e6" : Format("%.0f", st.dof);
-    const std::string value =
-        r.which == MeasuredResult::kRadius ? Format("%.9f", r.value_mm) : Format("%.4f", r.value_mm * kUmPerMm);
-    out << Format("  %-18s %s   u %.4f   nu_eff %s   k %.2f   U %.4f\n", r.name, value.c_str(), st.u * kUmPerMm,
-                  dof.c_str(), st.k, st.U * kUmPerMm);
+    // GUM 7.2.6: U to two significant digits, the value to the same place (the radius in mm, the
+    // sphericities in um; u and U in um).
+    const bool radius = r.which == MeasuredResult::kRadius;
+    const double to_value = radius ? 1.0 : kUmPerMm;
+    const gum::RoundedResult stated = gum::RoundResult(r.value_mm * to_value, st.U * to_value);
+    out << Format("  %-18s %s   u %s   nu_eff %s   k %.2f   U %s\n", r.name, stated.value_text.c_str(),
+                  gum::SignificantText(st.u * kUmPerMm).c_str(), dof.c_str(), st.k,
+                  gum::SignificantText(st.U * kUmPerMm).c_str());
+    std::string not_stated;
     for (const BudgetInput& in : st.inputs) {
+      if (in.type == EvaluationType::kB && in.standard_uncertainty == 0.0) {
+        not_stated += (not_stated.empty() ? "" : ", ") + in.name;
+        continue;
+      }
       std::string detail = in.type == EvaluationType::kA
                                ? (std::isfinite(in.dof) ? Format("A, %.0f degrees of freedom", in.dof) : "A")
                                : "B";
@@ -87,8 +98,10 @@ void WriteBudgetText(std::ostream& out, const MeasurementBudgets& b, int mc_digi
         detail += Format(", u %.4g ", in.standard_uncertainty) + in.unit +
                   Format(", sensitivity %.4g um/", in.sensitivity * kUmPerMm) + in.unit;
       }
-      out << Format("    %-44s %.4f   (%s)\n", in.name.c_str(), in.Contribution() * kUmPerMm, detail.c_str());
+      out << Format("    %-44s %-8s (%s)\n", in.name.c_str(),
+                    gum::SignificantText(in.Contribution() * kUmPerMm).c_str(), detail.c_str());
     }
+    if (!not_stated.empty()) out << "    not stated, taken as exact: " << not_stated << "\n";
     if (r.mc) {
       const gum::PropagationResult& mc = *r.mc;
       const double lo = r.value_mm - st.U, hi = r.value_mm + st.U;
@@ -277,13 +290,13 @@ void MeasurementWorkflowResult::WriteTextReport(std::ostream& out) const {
         "  calibration_form_p95_um  %.4f   (form error the calibration's uncertainty alone produces in 95 %% "
         "of draws)\n",
         u->calibration_form_p95_mm * kUmPerMm);
-    out << Format(
-               u->form_exceeds_calibration
-                   ? "  the form error (sphericity_ls %.4f um) exceeds it: it is in the measurement (the part or the "
-                     "probe), not an artefact of the calibration\n"
-                   : "  the form error (sphericity_ls %.4f um) is within it: it may be an artefact of the "
-                     "calibration's uncertainty\n",
-               ev.sphericity_ls_mm * kUmPerMm)
+    out << Format(u->form_exceeds_calibration
+                      ? "  the form error (sphericity_ls %.4f um) exceeds it: it is in the measurement (the part's "
+                        "form or "
+                        "the probe's noise, which the noise floor tells apart), not an artefact of the calibration\n"
+                      : "  the form error (sphericity_ls %.4f um) is within it: it may be an artefact of the "
+                        "calibration's uncertainty\n",
+                  ev.sphericity_ls_mm * kUmPerMm)
         << "\n";
   } else {
     out << "uncertainty from the calibration: " << uncertainty_note << "\n\n";
@@ -310,6 +323,8 @@ std::string MeasurementWorkflowResult::JsonReport() const {
                 {"calibration_file", o.calibration_path.empty() ? json(nullptr) : json(o.calibration_path)},
                 {"setup", in.setup ? json(*in.setup) : json(nullptr)},
                 {"n_points", ev.n_points}};
+  j["metadata"] = internal::MetadataJson(in.metadata);
+  j["devices"] = internal::DevicesJson(in.metadata);
   j["center_mm"] = Vec3Json(ev.ls.sphere.center);
   j["radius_mm"] = ev.ls.sphere.radius;
   j["diameter_mm"] = 2.0 * ev.ls.sphere.radius;

@@ -171,6 +171,8 @@ MeasuredPoints ReadInput(const Args& o) {
   in.covariance_note = CovarianceNote(o, applied, cal);
   in.applied = std::move(applied);
   in.calibration_fit_rms_um = FitRmsOf(file);
+  in.metadata = data.header.metadata;
+  in.calibration_source = file.source;
   in.header_radius = SphereRadiusOfSetup(data.header, in.setup.value_or(0));
   in.description = std::to_string(in.readings.size()) + " readings" +
                    (in.setup ? " (setup " + std::to_string(*in.setup) + ")" : "") + ", compensated with " +

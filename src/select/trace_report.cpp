@@ -10,13 +10,14 @@
 
 #include "sph/calib/report.hpp"
 #include "sph/core/error.hpp"
-#include "sph/io/setup_checks.hpp"
 #include "sph/internal/format.hpp"
+#include "sph/io/setup_checks.hpp"
 #include "sph/model/compensation.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/form_report.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
+#include "sph/stats/rounding.hpp"
 #include "trace_json.hpp"
 
 namespace sph {
@@ -95,8 +96,9 @@ json SphereFormJson(const SphereFormResult& f) {
 void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
   const std::string which =
       f.setups.empty() ? "" : " of setup(s) " + f.setups.substr(1) + " (unknown orientation or another sphere)";
-  out << Format("  sphere form%s: degrees 2..%d, rms %.4f +- %.4f um, peak to valley %.4f um over the whole sphere\n",
-                which.c_str(), f.degree_max, f.rms_um, f.rms_std_um, f.pv_um);
+  const gum::RoundedResult rms = gum::RoundResult(f.rms_um, f.rms_std_um);
+  out << Format("  sphere form%s: degrees 2..%d, rms %s +- %s um, peak to valley %.4f um over the whole sphere\n",
+                which.c_str(), f.degree_max, rms.value_text.c_str(), rms.uncertainty_text.c_str(), f.pv_um);
   out << Format(
       "    (rms: the coefficients' %.4f um with their noise's share %.4f um taken out in quadrature, +- %.4f "
       "from the noise",
@@ -113,7 +115,9 @@ void WriteSphereFormText(std::ostream& out, const SphereFormResult& f) {
   std::string line;
   int on_line = 0;
   for (const FormTermValue& t : f.terms) {
-    line += Format("    S(%d,%d) %+.4f +- %.4f", t.l, t.m, t.value_um, t.std_um);
+    const gum::RoundedResult v = gum::RoundResult(t.value_um, t.std_um);
+    line += Format("    S(%d,%d) %s%s +- %s", t.l, t.m, v.value < 0 || v.value_text[0] == '-' ? "" : "+",
+                   v.value_text.c_str(), v.uncertainty_text.c_str());
     if (++on_line == 4) {
       out << line << "\n";
       line.clear();
@@ -267,8 +271,11 @@ void WriteEffectValues(std::ostream& out, const TraceResult& r) {
                       std::isfinite(disp) ? Format("%.3g", disp).c_str() : "infinite");
         continue;
       }
-      out << Format("    %-30s %12.5f +- %.5f %s\n", term.ParamName(i).c_str(), a.fit.values[t][i] * u.per_internal,
-                    rep.Empty() ? std::nan("") : rep.std(col) * u.per_internal, u.name);
+      // GUM 7.2.6: u to two significant digits, the value to the same place (the JSON has every digit).
+      const gum::RoundedResult v = gum::RoundResult(a.fit.values[t][i] * u.per_internal,
+                                                    rep.Empty() ? std::nan("") : rep.std(col) * u.per_internal);
+      out << Format("    %-30s %12s +- %s %s\n", term.ParamName(i).c_str(), v.value_text.c_str(),
+                    v.uncertainty_text.c_str(), u.name);
     }
   }
   for (const auto& [e, cost] : r.removed) {
@@ -324,9 +331,10 @@ void WriteErrorCurves(std::ostream& out, const TraceResult& r) {
     } else {
       out << "    band: the noise of the components fitted alone (the models about them could not be fitted)\n";
     }
-    out << Format("    %s %.4g +- %.2g %s (max at %.6g deg, min at %.6g deg)\n",
-                  c.encoder ? "range of the positional deviation" : "error motion value (peak to valley)", c.pv,
-                  c.pv_u95, c.unit.c_str(), c.max_angle_deg, c.min_angle_deg);
+    const gum::RoundedResult pv = gum::RoundResult(c.pv, c.pv_u95);
+    out << Format("    %s %s +- %s %s (U95; max at %.6g deg, min at %.6g deg)\n",
+                  c.encoder ? "range of the positional deviation" : "error motion value (peak to valley)",
+                  pv.value_text.c_str(), pv.uncertainty_text.c_str(), c.unit.c_str(), c.max_angle_deg, c.min_angle_deg);
     constexpr std::size_t kPerLine = 12;
     for (std::size_t i0 = 0; i0 < c.angle_deg.size(); i0 += kPerLine) {
       std::string a = Format("    %-10s", (c.variable + " deg").c_str());

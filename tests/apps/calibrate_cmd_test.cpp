@@ -134,8 +134,8 @@ TEST_F(CalibrateCmd, FixAndPriorFromTheHeaderAndTheOptions) {
   o.fix = {"d_prime_mm=-0.062"};  // over the header's -0.05
   const RunOutput r = Calibrate(o);
   ASSERT_EQ(r.code, kExitOk) << r.err;
-  EXPECT_THAT(r.out, HasSubstr("d_prime         -0.062000000        fixed mm   |     -62.0000      fixed um"));
-  EXPECT_THAT(r.out, HasSubstr("beta             0.000000000        fixed deg"));
+  EXPECT_THAT(r.out, HasSubstr("d_prime                 -62 um       fixed"));  // held: its value in full
+  EXPECT_THAT(r.out, HasSubstr("beta                      0 urad     fixed"));
   EXPECT_THAT(r.out, HasSubstr("prior on alpha: u = 1.74533 urad"));
   const nlohmann::json j = nlohmann::json::parse(sph::testing::ReadWholeFile(o.json_path));
   EXPECT_EQ(j["parameters"]["d_prime"]["held"], "fixed");

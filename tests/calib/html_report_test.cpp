@@ -8,8 +8,10 @@
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/core/error.hpp"
 #include "sph/io/html_report.hpp"
-#include "sph/measure/measure_workflow.hpp"
 #include "sph/io/points_file.hpp"
+#include "sph/measure/measure_workflow.hpp"
+#include "sph/model/units.hpp"
+#include "sph/stats/rounding.hpp"
 
 namespace sph {
 namespace {
@@ -65,7 +67,10 @@ TEST(HtmlReport, MapHasItsAxesAndLegendWithUnits) {
   EXPECT_THAT(svg, HasSubstr("fill=\"#fde725\""));
 }
 
-TEST(CalibrationHtml, HoldsTheJsonReportsValuesAndNothingFromElsewhere) {
+// The seven errors as GUM 7.2.6 states them, from the JSON's values: U to two significant digits
+// and the value to the same place, in urad and um; the budget with the inputs stated and one line
+// of those not stated.
+TEST(CalibrationHtml, HoldsTheJsonReportsValuesRoundedAsTheGumStatesThem) {
   const CalibrationWorkflowResult run = RunCalibrationWorkflow(kUndeclared, {});
   const std::string page = run.HtmlReport();
   const json j = json::parse(run.JsonReport());
@@ -75,24 +80,41 @@ TEST(CalibrationHtml, HoldsTheJsonReportsValuesAndNothingFromElsewhere) {
     const std::string key = name.get<std::string>();
     if (key.find('@') != std::string::npos) continue;
     const json& p = j.at("parameters").at(key);
-    for (const char* field : {"value", "u", "k", "U"}) {
-      const std::string printed = html::Number(p.at(field).get<double>());
-      EXPECT_TRUE(HasCell(page, printed)) << key << "." << field << " " << printed;
+    const double to_fine = p.at("unit") == "deg" ? kUradPerRad * kRadPerDeg : kUmPerMm;
+    const gum::RoundedResult stated =
+        gum::RoundResult(p.at("value").get<double>() * to_fine, p.at("U").get<double>() * to_fine);
+    EXPECT_LE(stated.uncertainty_text.find_first_not_of("0."), stated.uncertainty_text.size() - 2) << key;
+    for (const std::string& printed :
+         {stated.value_text, stated.uncertainty_text, gum::SignificantText(p.at("u").get<double>() * to_fine),
+          html::Fixed(p.at("k").get<double>(), 2)}) {
+      EXPECT_TRUE(HasCell(page, printed)) << key << " " << printed;
       ++found;
     }
-    EXPECT_TRUE(HasCell(page, p.at("iso_name").get<std::string>())) << key;
+    const std::string iso = p.at("iso_name").get<std::string>();
+    EXPECT_TRUE(iso.empty() ? HasCell(page, "&mdash;, see the model page")
+                            : HasCell(page, "<span class=\"words\">" + iso + "</span>"))
+        << key;
   }
   EXPECT_EQ(found, 7 * 4);
+  EXPECT_TRUE(HasCell(page, "350.2"));  // alpha, U 3.4 urad: by hand from the JSON's 0.0200632 deg
   ASSERT_FALSE(j.at("effects").empty());
   for (const json& e : j.at("effects")) {
     for (const json& p : e.at("parameters")) {
-      EXPECT_TRUE(HasCell(page, html::Number(p.at("value").get<double>()))) << p.at("name");
+      const gum::RoundedResult r = gum::RoundResult(p.at("value").get<double>(), p.at("std").get<double>());
+      EXPECT_TRUE(HasCell(page, r.value_text)) << p.at("name");
+      EXPECT_TRUE(HasCell(page, r.uncertainty_text)) << p.at("name");
     }
   }
-  EXPECT_TRUE(HasCell(page, html::Number(j.at("after").at("rms_um").get<double>())));
-  EXPECT_TRUE(HasCell(page, html::Number(j.at("before").at("cv_rms_um").get<double>())));
-  EXPECT_THAT(page, HasSubstr("R0 taken as exact"));  // an input assumed
+  EXPECT_TRUE(HasCell(page, html::Fixed(j.at("after").at("rms_um").get<double>(), 4)));
+  EXPECT_TRUE(HasCell(page, html::Fixed(j.at("before").at("cv_rms_um").get<double>(), 4)));
+  // The example states no Type B input: the budget has the fit's column alone, and says so.
+  EXPECT_THAT(page, HasSubstr("<th>fit (scatter of the points)</th>"));
+  EXPECT_THAT(page, Not(HasSubstr("<th>R0 (certificate)</th>")));
+  EXPECT_THAT(page, HasSubstr("Not stated, taken as exact: R0 (certificate) (<span class=\"nw\">sphere_radius_u_um"));
   EXPECT_THAT(page, HasSubstr(j.at("program").get<std::string>()));
+  // The residual maps before and after, side by side.
+  EXPECT_THAT(page, HasSubstr("<img alt=\"Before: the seven errors\""));
+  EXPECT_THAT(page, HasSubstr("<img alt=\"After: with the effects found\""));
 }
 
 TEST(HtmlReport, CurveHasItsAxesWithUnitsAndItsBandAsALightFillBesideABlackLine) {
@@ -120,14 +142,16 @@ TEST(CalibrationHtml, ShowsTheErrorCurvesWithTheJsonsValues) {
   ASSERT_FALSE(j.at("error_curves").empty());  // the example's Theta encoder
   for (const json& c : j.at("error_curves")) {
     const std::string unit = c.at("unit").get<std::string>();
-    EXPECT_THAT(page, HasSubstr(html::Number(c.at("pv_" + unit).get<double>()) + " ± " +
-                                html::Number(c.at("pv_u95_" + unit).get<double>())));
+    const gum::RoundedResult range =
+        gum::RoundResult(c.at("pv_" + unit).get<double>(), c.at("pv_u95_" + unit).get<double>());
+    EXPECT_THAT(page, HasSubstr(range.value_text + " ± " + range.uncertainty_text + " (U95)"));
     const json& values = c.at("value_" + unit);
     const json& u95 = c.at("u95_" + unit);
     ASSERT_EQ(values.size(), c.at("angle_deg").size());
     for (std::size_t k = 0; k < values.size(); ++k) {
-      EXPECT_TRUE(HasCell(page, html::Fixed(values[k].get<double>(), 3))) << k;
-      EXPECT_TRUE(HasCell(page, html::Fixed(u95[k].get<double>(), 3))) << k;
+      const gum::RoundedResult r = gum::RoundResult(values[k].get<double>(), u95[k].get<double>());
+      EXPECT_TRUE(HasCell(page, r.value_text)) << k;
+      EXPECT_TRUE(HasCell(page, r.uncertainty_text)) << k;
     }
     EXPECT_THAT(page, HasSubstr("<img alt=\"" + c.at("id").get<std::string>() + " (" +
                                 c.at("iso_name").get<std::string>() + ")\" src=\"data:image/svg+xml;base64,"));
@@ -160,9 +184,12 @@ TEST(CalibrationHtml, ListsTheDevicesThatThePointsHeaderNames) {
   EXPECT_FALSE(j.at("devices")[1].contains("serial"));  // not on its line
   const std::string page = run.HtmlReport();
   EXPECT_THAT(page, HasSubstr("<h3>Devices identified over SDO</h3>"));
-  for (const char* cell : {"1", "sph_cansim theta encoder", "3", "probe &lt;7&gt;"}) {
-    EXPECT_TRUE(HasCell(page, cell)) << cell;
+  for (const char* cell : {"1", "3"}) EXPECT_TRUE(HasCell(page, cell)) << cell;
+  // A name breaks between its words only, never inside one.
+  for (const char* name : {"sph_cansim theta encoder", "probe &lt;7&gt;"}) {
+    EXPECT_TRUE(HasCell(page, std::string("<span class=\"words\">") + name + "</span>")) << name;
   }
+  EXPECT_THAT(page, HasSubstr(".words { overflow-wrap: normal; }"));
   // Identifiers and codes kept on one line.
   for (const char* code : {"theta_encoder", "0x00535048", "0x00004060", "0x00010000", "0x00010001", "probe"}) {
     EXPECT_TRUE(HasCell(page, std::string("<span class=\"nw\">") + code + "</span>")) << code;
@@ -194,10 +221,18 @@ TEST(MeasurementHtml, HoldsTheJsonReportsValuesAndNothingFromElsewhere) {
   const std::string page = run.HtmlReport();
   const json j = json::parse(run.JsonReport());
   ExpectSelfContained(page);
-  EXPECT_TRUE(HasCell(page, html::Fixed(j.at("radius_mm").get<double>(), 6)));
   EXPECT_TRUE(HasCell(page, html::Fixed(j.at("diameter_mm").get<double>(), 6)));
-  EXPECT_TRUE(HasCell(page, html::Number(j.at("sphericity_ls_um").get<double>())));
-  EXPECT_TRUE(HasCell(page, html::Number(j.at("sphericity_mz_um").get<double>())));
+  // The radius and the sphericities as GUM 7.2.6 states them, with their U (in um).
+  const json& b = j.at("budget");
+  const gum::RoundedResult radius =
+      gum::RoundResult(b.at("radius").at("value").get<double>(), b.at("radius").at("U").get<double>() / kUmPerMm);
+  EXPECT_TRUE(HasCell(page, radius.value_text + " mm"));
+  EXPECT_TRUE(HasCell(page, gum::SignificantText(b.at("radius").at("U").get<double>()) + " um"));
+  for (const char* key : {"sphericity_ls", "sphericity_mz"}) {
+    const gum::RoundedResult r = gum::RoundResult(b.at(key).at("value").get<double>(), b.at(key).at("U").get<double>());
+    EXPECT_TRUE(HasCell(page, r.value_text + " um")) << key;
+  }
+  EXPECT_THAT(page, HasSubstr("<h3>The points file's header</h3>"));
   // The form map is there, its SVG as a data: URL.
   EXPECT_THAT(page, HasSubstr("<img alt=\"Form error about the least-squares sphere\" src=\"data:image/svg+xml;base64,"));
 }

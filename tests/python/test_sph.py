@@ -188,6 +188,31 @@ def test_measure_and_compensate_equal_sph_measure(source_dir, tmp_path):
     assert np.array_equal(sph.compensate(p, sph.calibrate(_undeclared(source_dir, "points.txt"))), m.points_mm)
 
 
+def test_dcc_equals_the_apps_and_names_what_is_missing(source_dir, tmp_path):
+    lab = os.path.join(source_dir, "tests", "data", "dcc", "lab.txt")
+    dated = tmp_path / "lab.txt"  # the laboratory's settings and the day of the readings
+    dated.write_text(open(lab).read() + "performance_date: 2026-12-04\n")
+    points = _undeclared(source_dir, "points.txt")
+    out, cal = tmp_path / "cal.xml", tmp_path / "cal.json"
+    subprocess.run([os.environ["SPH_CALIBRATE"], points, "-q", "-o", str(cal), "--dcc", str(out), "--dcc-settings",
+                    str(dated)], check=True, capture_output=True)
+    result = sph.calibrate(points)
+    assert result.dcc(dated) == out.read_text()
+    assert result.dcc(lab, performance_date="2026-12-04") == out.read_text()  # a keyword as a line of the file
+    with pytest.raises(sph.Error, match="performance_date"):
+        result.dcc(lab)
+    validate = _undeclared(source_dir, "validate.txt")
+    measured = tmp_path / "m.xml"
+    subprocess.run([os.environ["SPH_MEASURE"], validate, "-c", str(cal), "-q", "--dcc", str(measured),
+                    "--dcc-settings", str(dated)], check=True, capture_output=True)
+    m = sph.measure(validate, calibration=cal)
+    assert m.dcc(dated) == measured.read_text()
+    with pytest.raises(sph.Error, match="(?s)certificate_id.*laboratory_name"):
+        m.dcc(performance_date="2026-12-04")
+    with pytest.raises(sph.Error, match="country_code: 'Germany' is not an ISO 3166-1"):
+        m.dcc(dated, country_code="Germany")
+
+
 def test_measure_errors(source_dir):
     with pytest.raises(TypeError, match="'calib'"):
         sph.measure(_undeclared(source_dir, "validate.txt"), calib="x.json")

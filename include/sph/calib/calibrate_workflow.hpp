@@ -17,10 +17,11 @@
 #include "sph/calib/known_form.hpp"
 #include "sph/calib/report.hpp"
 #include "sph/calib/usability.hpp"
+#include "sph/core/ranges.hpp"
 #include "sph/io/calibration_comparison.hpp"
 #include "sph/io/calibration_file.hpp"
+#include "sph/io/dcc.hpp"
 #include "sph/io/points_file.hpp"
-#include "sph/core/ranges.hpp"
 #include "sph/select/trace.hpp"
 #include "sph/select/trace_report.hpp"
 
@@ -116,6 +117,12 @@ struct CalibrationWorkflowResult {
   /// JsonReport()'s, with the date it was made, the points file's header fields (escaped) and the
   /// residual map as inline SVG.
   std::string HtmlReport() const;
+  /// The Digital Calibration Certificate (sph/io/dcc.hpp; docs/dcc.md): the SCMS and its devices
+  /// as the items, the reference sphere with its certificate as the equipment, the model, R0 and the
+  /// temperature as the conditions, the seven errors, the effects, the form and the comparison as
+  /// results, JsonReport()'s numbers in SI units rounded as GUM 7.2.6 states them. Throws
+  /// sph::Error naming each administrative key that `lab` (the laboratory's settings) and the points header lack.
+  std::string Dcc(const dcc::Settings& lab) const;
   /// The calibration file for compensation: the seven errors, the trace's effects but
   /// probe_drift (`*drift_left_out` says whether one was left out), the covariance. Throws
   /// sph::Error when the calibration is not usable.

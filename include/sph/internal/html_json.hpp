@@ -16,6 +16,9 @@ std::string JsonText(const nlohmann::json& value);
 std::string JsonField(const nlohmann::json& j, const char* key);
 /// A <ul> of the array's items by JsonText(), or "<p>None.</p>" for an empty or missing one.
 std::string JsonList(const nlohmann::json& items);
+/// A report's points file header: the table of its "metadata" and the devices of its "devices"
+/// (sph/internal/header_json.hpp), each name kept whole (broken between words only).
+std::string HeaderTables(const nlohmann::json& report);
 
 }  // namespace sph::html
 

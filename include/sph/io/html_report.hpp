@@ -1,10 +1,11 @@
 // The pieces of sph's HTML reports: escaping, a self-contained page with its screen and print
-// style (A4, each section on a new page, tables that wrap instead of being clipped), tables, and
+// style (A4, the major sections on a new page, tables that wrap instead of being clipped), tables, and
 // figures as SVG held in the page itself. Nothing a page made here holds refers to another file
 // or the network.
 #ifndef SPH_IO_HTML_REPORT_HPP_
 #define SPH_IO_HTML_REPORT_HPP_
 
+#include <limits>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -33,9 +34,15 @@ std::string Page(const std::string& title, const std::string& body);
 /// alternative text and caption (both escaped).
 std::string Figure(const std::string& svg, const std::string& alt, const std::string& caption);
 
-/// A section of the report: its title (escaped) and body (HTML as given); each but the `first`
-/// starts a new page in print.
-std::string Section(const std::string& title, const std::string& body, bool first = false);
+/// Whether a section starts a new page in print.
+enum class NewPage { kYes, kNo };
+
+/// A section of the report: its title (escaped) and body (HTML as given), from a new page in print
+/// or after what precedes it.
+std::string Section(const std::string& title, const std::string& body, NewPage new_page = NewPage::kYes);
+
+/// Figures side by side on a wide page (each a Figure()), one under the other on a narrow one.
+std::string FigureRow(const std::vector<std::string>& figures);
 
 /// A table: the header cells and the rows, each cell HTML as given (escape text first).
 std::string Table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows);
@@ -52,6 +59,12 @@ struct MapAxes {
   double x_lo = 0.0, x_hi = 360.0, y_lo = 0.0, y_hi = 180.0;
   /// > 0: the values are on a grid of this step [deg], each drawn as the cell it centres; 0: a dot each
   double cell_deg = 0.0;
+  /// The colour scale's ends, in value_label's unit; both NaN (the default): the values' own
+  /// minimum and maximum. Two maps to be compared share one.
+  double value_lo = std::numeric_limits<double>::quiet_NaN(), value_hi = std::numeric_limits<double>::quiet_NaN();
+  /// The plot area [px]: a map meant for half a page's width is smaller, so that its text keeps
+  /// its size.
+  double plot_width = 480, plot_height = 240;
 };
 std::string SvgMap(const MapAxes& axes, const std::vector<double>& x_deg, const std::vector<double>& y_deg,
                    const std::vector<double>& value);

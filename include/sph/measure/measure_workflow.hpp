@@ -15,11 +15,12 @@
 
 #include <Eigen/Core>
 
-#include "sph/stats/gum.hpp"
-#include "sph/measure/noise_floor.hpp"
+#include "sph/io/dcc.hpp"
 #include "sph/io/setup_checks.hpp"
+#include "sph/measure/noise_floor.hpp"
 #include "sph/measure/sphere_measurement.hpp"
 #include "sph/model/compensation.hpp"
+#include "sph/stats/gum.hpp"
 
 namespace sph {
 
@@ -63,6 +64,10 @@ struct MeasuredPoints {
   std::string form_note;                            ///< what the calibration file says of the calibration sphere's form
   std::vector<std::string> warnings;                ///< readings that parse but look wrong (PlausibilityWarnings)
   std::optional<double> calibration_fit_rms_um;     ///< the calibration file's source.fit_rms_um
+  /// The points file's header fields beyond those read (PointsHeader::metadata); none for x y z input.
+  std::vector<std::pair<std::string, std::string>> metadata;
+  /// The calibration file's "source" (the points file it was made from, its header's fields).
+  std::vector<std::pair<std::string, std::string>> calibration_source;
 };
 
 /// The noise floor of the form values, or why there is none.
@@ -107,6 +112,11 @@ struct MeasurementWorkflowResult {
   /// The report as one self-contained HTML document (sph/io/html_report.hpp): its numbers are
   /// JsonReport()'s, with the date it was made and the form map as embedded SVG.
   std::string HtmlReport() const;
+  /// The Digital Calibration Certificate (sph/io/dcc.hpp; docs/dcc.md): the sphere as the item, the
+  /// SCMS with its calibration as the equipment, the radius and the sphericities with their U as
+  /// results, JsonReport()'s numbers in SI units rounded as GUM 7.2.6 states them. Throws
+  /// sph::Error naming each administrative key that `lab` (the laboratory's settings) and the points header lack.
+  std::string Dcc(const dcc::Settings& lab) const;
   /// The form-error map as a gnuplot script (data inline): the radial residuals about the
   /// least-squares sphere over the sphere, azimuth about a pole against the angle from it, colour
   /// the residual [um]. The pole is the z axis (for an SCMS the Theta axis, so that the map is the
