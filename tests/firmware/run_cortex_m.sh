@@ -55,7 +55,8 @@ while read -r _ size _ name; do
 done < <(arm-none-eabi-nm -S "$elf")
 echo "of its text, the fixture (readings and calibration blob): $fixture bytes"
 echo "largest stack frames (-fstack-usage):"
-find "$work/build" -name '*.su' -exec cat {} + | sort -t$'\t' -k2 -n -r | head -4 | sed 's/^.*include\///; s/^.*src\///' 
+# awk, not head: head would close the pipe early and sort's SIGPIPE fail the script under pipefail.
+find "$work/build" -name '*.su' -exec cat {} + | sort -t$'\t' -k2 -n -r | awk 'NR <= 4' | sed 's/^.*include\///; s/^.*src\///' 
 rm -f "$work/target.txt"
 timeout 120 qemu-system-arm -M mps2-an500 -display none -monitor none -serial none -icount shift=0 \
   -chardev file,id=sh,path="$work/target.txt" -semihosting-config enable=on,target=native,chardev=sh \
