@@ -28,6 +28,12 @@ void AddFitSettingOptions(CLI::App& app, CalibrateOptions& o) {
                  "uncertainty, e.g. alpha_deg=0.02,0.0005; listed in the uncertainty budget as an input of its own; "
                  "repeatable; overrides the file's 'prior'")
       ->group(told);
+  app.add_flag("--accept-rejected", o.workflow.accept_rejected,
+               "Accept the statements of the lab (--prior, --fix, the header's, --sphere-form and its orientation, "
+               "--sphere-form-rms-um) that the readings reject: the calibration is then not unusable for them, the "
+               "trace adds nothing on top of them, and the calibration file says they were accepted against the "
+               "readings")
+      ->group(told);
   auto* robust =
       app.add_option("--robust-loss", o.robust_loss,
                      "Fit with a robust loss instead of least squares and the outlier rule, every reading kept at a "
@@ -106,6 +112,7 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
   AddPlotTimeoutOption(app, o.plot_timeout_s);
   AddEffectModelOptions(app, o);
   AddConditionOptions(app, o.workflow.conditions, "(overrides the file's ");
+  app.get_option("--sphere-form-rms-um")->excludes(no_trace);  // a prior on the form, which --no-trace has not
   AddFitSettingOptions(app, o);
   app.add_option("--coverage", o.workflow.coverage,
                  "Coverage probability of the expanded uncertainties U = k u (k from the effective degrees of "

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sph/calib/statements.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/units.hpp"
 #include "sph/select/trace.hpp"
@@ -120,6 +121,22 @@ void JudgeBounds(const CalibrationResult& r, const ReportContext& ctx, Usability
   }
 }
 
+// Each statement of the lab the readings reject, unless the user accepted it.
+void JudgeStatements(const ReportContext& ctx, Usability& u) {
+  if (ctx.statements == nullptr) return;
+  for (const StatementCheck& s : *ctx.statements) {
+    if (!s.rejected || s.accepted) continue;
+    std::string why = "the readings reject " + s.statement + ": stated " + s.stated + ", the readings give " +
+                      s.readings + " without it; " +
+                      Format("chi-square %.3g for %d degree%s of freedom, p %s, below %g", s.chi_square, s.dof,
+                             s.dof == 1 ? "" : "s", PValueText(s.p_value).c_str(), kStatementP);
+    if (s.orientation) why += "; " + s.orientation->text;
+    u.reasons.push_back(why +
+                        ". The trace adds nothing on top of it; correct the statement, or accept it against the "
+                        "readings (--accept-rejected)");
+  }
+}
+
 }  // namespace
 
 Usability JudgeUsability(const CalibrationResult& result, const ReportContext& ctx) {
@@ -128,6 +145,7 @@ Usability JudgeUsability(const CalibrationResult& result, const ReportContext& c
   JudgeBudget(result, ctx, u);
   JudgeZeroError(result, ctx, u);
   JudgeBounds(result, ctx, u);
+  JudgeStatements(ctx, u);
   u.usable = u.reasons.empty();
   return u;
 }

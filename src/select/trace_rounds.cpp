@@ -147,8 +147,10 @@ bool SameComponents(const EffectTerm& a, const EffectTerm& b) {
 // with FitCandidate()'s rule, and taken when the extended BIC falls.
 void RefreshComponents(const Readings& data, const CalibrationOptions& options, const TraceOptions& trace_options,
                        TracedFit& current) {
+  const std::vector<Effect> stated = StatedEffects(options);  // their components as stated
   for (std::size_t t = 0; t + 1 < current.fit.model.terms.size(); ++t) {
     const EffectTerm& term = current.fit.model.terms[t];
+    if (std::find(stated.begin(), stated.end(), term.effect) != stated.end()) continue;
     const EffectTerm full = DefaultTerm(term.effect, trace_options.harmonics, trace_options.drift_order);
     if (SameComponents(term, full)) continue;
     EffectModel model = current.fit.model;
@@ -370,6 +372,7 @@ void RemoveUnneeded(const Readings& data, const CalibrationOptions& options, con
     double least = std::numeric_limits<double>::infinity();
     EffectFit without_weakest;
     for (std::size_t t = 0; t < current.fit.model.terms.size(); ++t) {
+      if (std::find(r.stated.begin(), r.stated.end(), current.fit.model.terms[t].effect) != r.stated.end()) continue;
       EffectModel model = current.fit.model;
       model.terms.erase(model.terms.begin() + static_cast<std::ptrdiff_t>(t));
       EffectFitStart start = EffectFitStart::From(current.fit);

@@ -17,7 +17,9 @@
 //     R0 - d': a |d'| of that size says the stated R0 or d does not describe the set-up; a real
 //     zero error that large is taken into d), and at most the probe's measuring range when stated;
 //   - every error and effect lies within what a calibration file holds (an error of the machine,
-//     not another machine: kScmsParamInfo's bounds, |d'| below d; kMaxEffectArcsec, kMaxEffectUm).
+//     not another machine: kScmsParamInfo's bounds, |d'| below d; kMaxEffectArcsec, kMaxEffectUm);
+//   - the readings reject none of the lab's statements (sph/calib/statements.hpp) that the user did
+//     not accept against them.
 #ifndef SPH_CALIB_USABILITY_HPP_
 #define SPH_CALIB_USABILITY_HPP_
 
