@@ -140,9 +140,16 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "Write the calibration file (JSON) that compensation loads; written only when usable");
   app.add_option("--max-std-um", o.workflow.fit.max_std_um,
                  "A parameter whose standard uncertainty, as a displacement of the probed point (angles times "
-                 "R0), exceeds this is undetermined [um]")
+                 "R0), exceeds this is undetermined [um]; given, it is the requirement the calibration is usable "
+                 "against, in place of the default (each of the seven errors within twice what the reference "
+                 "pattern predicts for this set-up at the readings' noise)")
       ->capture_default_str()
-      ->check(InRange(ranges::kStdUm));
+      ->check(InRange(ranges::kStdUm))
+      ->each([&o](const std::string&) { o.workflow.requirement.max_std_stated = true; });
+  app.add_option("--target-u", o.target_u,
+                 "The requirement the calibration is usable against: NAME_UNIT=U, the largest expanded uncertainty "
+                 "U (k as the budget's) of a parameter the use allows, e.g. alpha_urad=5 or "
+                 "theta_encoder.c2_arcsec=0.5; repeatable; in place of the default requirement");
   app.add_option("--max-iterations", o.workflow.fit.max_iterations, "Levenberg-Marquardt iteration limit")
       ->capture_default_str()
       ->check(IntRange(ranges::kMaxIterations));

@@ -10,7 +10,7 @@
 //       or z; 0, 1 or 2 true effects (seed s takes the (s mod 4)-th of the study's four effects, or
 //       pair); sigma_r 0.03 and 0.05 um; the known form from a separation run at that noise
 //   build/bench/statement_study --false-alarms [RUNS [THREADS]]  (default 500 runs without an
-//       effect, RUNS / 5 with each single effect of the library): the right orientation stated
+//       effect, RUNS / 10 with each single effect of the library): the right orientation stated
 //   build/bench/statement_study --bound [SEEDS [THREADS]]        (default 40 per ratio) the
 //       certificate's bound 0.1 to 10 times form28's RMS, as the prior, one placement
 //   build/bench/statement_study --prior [SEEDS [THREADS]]        (default 100 per offset) a prior on
@@ -295,12 +295,12 @@ int FalseAlarms(int runs, int threads) {
   std::printf(
       "the right orientation stated, form28 known from a separation, one placement, sigma 0.03 and 0.05 um; "
       "%d runs without an effect, %d with each; a statement rejected when p < %g (its nominal level)\n",
-      runs, std::max(1, runs / 5), sph::kStatementP);
+      runs, std::max(1, runs / 10), sph::kStatementP);
   for (const double noise : {0.03, 0.05}) {
     const std::string form = Separate(noise);
     int all = 0, all_rejected = 0;
     for (const auto& [name, effects] : cases) {
-      const int n = effects.empty() ? runs : std::max(1, runs / 5);
+      const int n = effects.empty() ? runs : std::max(1, runs / 10);
       std::vector<Outcome> out(static_cast<std::size_t>(n));
       sph::internal::ParallelFor(out.size(), threads, [&] {
         return [&](std::size_t i) {
@@ -360,10 +360,11 @@ int Bound(int seeds, int threads) {
   return 0;
 }
 
-// P(|N(delta, 1)| > z) for the two-sided level kStatementP: the test's power at an offset of delta
-// of its own standard deviations.
+// P(|N(delta, 1)| > z) for the two-sided level kStatementP (0.001): the test's power at an offset of
+// delta of its own standard deviations.
 double Power(double delta) {
-  const double z = 2.5758293035489;  // the 0.995 quantile of N(0, 1)
+  static_assert(sph::kStatementP == 0.001, "the quantile below is that of the level");
+  const double z = 3.2905267314919;  // the 0.9995 quantile of N(0, 1)
   return 0.5 * std::erfc((z - delta) / std::sqrt(2.0)) + 0.5 * std::erfc((z + delta) / std::sqrt(2.0));
 }
 
@@ -390,6 +391,7 @@ int Prior(int seeds, int threads) {
           sph::SimulationSpec s;
           s.seed = 4000 + i;
           sph::CalibrationWorkflowOptions o = Options();
+          o.trace = false;  // the seven errors: what a prior on alpha is tested in
           if (held == 1) {
             o.fit.fixed.push_back({"alpha", truth + delta * u_x});
           } else {

@@ -418,7 +418,8 @@ std::string CalibrationWorkflowResult::HtmlReport() const {
   }
   const std::string usable = j.value("usable", false) ? "usable" : "not usable";
   std::string body = "<h1>Calibration report</h1>\n<p>" + At(j, "points_file") + " — " + At(j, "program") +
-                     " — the calibration is <strong>" + usable + "</strong>.</p>\n";
+                     " — the calibration is <strong>" + usable + "</strong>, judged against " +
+                     At(j, "usable_against") + ".</p>\n";
   std::string told = List(j.value("warnings", json::array()));
   if (!j.value("why_not_usable", json::array()).empty()) told += List(j.at("why_not_usable"));
   body += "<div class=\"warn\"><h3>Warnings</h3>\n" + told + "</div>\n";

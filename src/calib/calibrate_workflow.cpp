@@ -7,6 +7,8 @@
 #include <memory>
 #include <utility>
 
+#include <Eigen/Eigenvalues>
+
 #include "fit_problem.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/ranges.hpp"
@@ -16,6 +18,7 @@
 #include "sph/io/parameter_settings.hpp"
 #include "sph/io/setup_checks.hpp"
 #include "sph/model/units.hpp"
+#include "sph/stats/gum.hpp"
 
 namespace sph {
 
@@ -651,6 +654,69 @@ void CheckStatements(CalibrationWorkflowResult& run, const CalibrationWorkflowOp
            " not applied; the calibration is the model of the statements alone");
 }
 
+// What the comparison takes from the earlier calibration file `previous` (named `path`): its model,
+// which states that the machine has none of the effects today's own model found beyond it. Tested
+// on today's fit: their parameters against zero with today's covariance, chi-square on as many
+// degrees of freedom. Nothing when today's model holds no effect the earlier lacks. The comparison
+// informs: a rejection is told, it does not make the calibration unusable.
+std::optional<StatementCheck> EarlierModelStatement(const CalibrationWorkflowResult& run,
+                                                    const CalibrationFile& previous, const std::string& path) {
+  if (!run.Extended()) return std::nullopt;
+  const EffectFit& fit = run.trace->after.fit;
+  const ObservabilityReport& a = fit.calibration.analysis;
+  std::vector<int> columns;
+  std::vector<double> values;
+  std::string ids, earlier;
+  for (const EffectTerm& t : previous.effects.terms)
+    earlier += (earlier.empty() ? "" : ", ") + std::string(t.info().id);
+  if (!previous.probe_drift_powers.empty()) earlier += (earlier.empty() ? "" : ", ") + std::string("probe_drift");
+  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
+    const Effect e = fit.model.terms[t].effect;
+    const bool held = e == Effect::kProbeDrift ? !previous.probe_drift_powers.empty() : previous.effects.Find(e) >= 0;
+    if (held) continue;
+    ids += (ids.empty() ? "" : ", ") + std::string(InfoOf(e).id);
+    for (std::size_t i = 0; i < fit.values[t].size(); ++i) {
+      columns.push_back(fit.TermOffset(t) + static_cast<int>(i));
+      values.push_back(fit.values[t][i]);
+    }
+  }
+  if (columns.empty() || a.Empty()) return std::nullopt;
+  StatementCheck s;
+  s.kind = StatementKind::kEarlierModel;
+  s.statement =
+      "--compare " + path + ": its model (" + (earlier.empty() ? std::string("the seven errors") : earlier) + ")";
+  s.stated = "no " + ids;
+  const auto n = static_cast<Eigen::Index>(columns.size());
+  Eigen::MatrixXd c(n, n);
+  Eigen::VectorXd v(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    v(i) = values[static_cast<std::size_t>(i)];
+    for (Eigen::Index j = 0; j < n; ++j) {
+      c(i, j) = a.covariance(columns[static_cast<std::size_t>(i)], columns[static_cast<std::size_t>(j)]);
+    }
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(c);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double ev = eig.eigenvalues()(i);
+    if (!(ev > 0.0) || !std::isfinite(ev)) continue;
+    const double along = eig.eigenvectors().col(i).dot(v);
+    s.chi_square += along * along / ev;
+    ++s.dof;
+  }
+  s.readings = ids + " in today's own model";
+  if (s.dof > 0) s.p_value = gum::ChiSquareSf(s.chi_square, s.dof);
+  s.rejected = s.dof > 0 && s.p_value < kStatementP;
+  s.verdict = Format(
+      "today's readings %s the model of the earlier calibration %s: they show %s, which it lacks "
+      "(chi-square %.3g for %d degrees of freedom, p %s)%s",
+      s.rejected ? "reject" : "do not reject", path.c_str(), ids.c_str(), s.chi_square, s.dof,
+      PValueText(s.p_value).c_str(),
+      s.rejected ? ": the like-for-like comparison refits them with a model they do not support; the "
+                   "machine has changed in what it has, or the earlier calibration missed it"
+                 : "");
+  return s;
+}
+
 // The calibration file's content, usable or not: the seven errors, the trace's effects but
 // probe_drift (`*drift_left_out` says whether one was left out), the covariance.
 CalibrationFile FileOf(const CalibrationWorkflowResult& run, bool* drift_left_out) {
@@ -791,6 +857,7 @@ ReportContext CalibrationWorkflowResult::Context() const {
   ctx.statements = &statements;
   ctx.withheld = &withheld;
   ctx.run_warnings = &warnings;
+  ctx.requirement = &requirement;
   return ctx;
 }
 
@@ -841,12 +908,23 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   CheckStatements(run, options, form_files);
   if (options.search_orientation) SearchOrientations(run, options, evidence);
   MakeBudget(run, options);
+  run.requirement = options.requirement;
+  const CalibrationResult& reported = run.Reported();
+  if (options.requirement.target_u.empty() && !options.requirement.max_std_stated && !reported.analysis.Empty()) {
+    run.requirement.reference_noise_um = reported.analysis.residual_sigma_mm * kUmPerMm;
+    run.requirement.reference_um = ReferenceUncertaintyUm(run.settings.sphere_radius_mm, run.settings.probe_offset_mm,
+                                                          reported.geometry, run.requirement.reference_noise_um);
+  }
   run.usability = JudgeUsability(run.Reported(), run.Context());
   if (previous) {
     Tell(options.on_stage, "comparing with " + options.compare_path);
     run.comparison = CompareWithEarlier(run, *previous, options.compare_path, options);
     if (run.comparison->model == kTodaysModel && !run.comparison->models.empty()) {
       Warn(run, options, run.comparison->models);
+    }
+    if (std::optional<StatementCheck> earlier = EarlierModelStatement(run, *previous, options.compare_path)) {
+      if (earlier->rejected) Warn(run, options, earlier->verdict);
+      run.statements.push_back(std::move(*earlier));
     }
   }
   return run;

@@ -340,6 +340,7 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
   }
   const Usability usability = JudgeUsability(r, ctx);
   out << "\nresult: " << (usability.usable ? "usable calibration" : "NOT a usable calibration") << "\n";
+  out << "  judged against " << usability.requirement << "\n";
   for (const std::string& why : usability.reasons) out << "  why: " << why << "\n";
   WriteStatementsText(out, ctx);
   if (ctx.known_form != nullptr) WriteKnownFormText(out, *ctx.known_form);
@@ -458,6 +459,7 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   const Usability usability = JudgeUsability(r, ctx);
   j["usable"] = usability.usable;
   j["why_not_usable"] = usability.reasons;
+  j["usable_against"] = usability.requirement;
   json outliers = json::array();
   for (const Outlier& o : r.outliers) outliers.push_back({{"sample", o.sample + 1}, {"residual_um", o.residual_um}});
   j["outliers"] = outliers;

@@ -75,6 +75,9 @@ struct CalibrationWorkflowOptions {
   /// calibration file say that it was accepted against the readings. Either way the trace adds
   /// nothing on top of a rejected statement.
   bool accept_rejected = false;
+  /// What "usable" is judged against (sph/calib/usability.hpp): the lab's targets or max_std_um
+  /// stated; else the default, whose reference the workflow predicts for the run's set-up.
+  UsabilityRequirement requirement;
   /// When the readings reject a known form, search the mount orientation they support
   /// (SupportedOrientationOf()); false: only test the stated one.
   bool search_orientation = true;
@@ -122,6 +125,9 @@ struct CalibrationWorkflowResult {
   /// reported calibration is the model of the statements alone); empty otherwise.
   std::vector<Effect> withheld;
   std::vector<std::string> warnings;  ///< the readings' plausibility, the budget's absence, the statements
+  /// What "usable" was judged against: the options' requirement, with the default's reference when
+  /// neither targets nor max_std_um were stated.
+  UsabilityRequirement requirement;
   Usability usability;
 
   /// Whether the reported calibration is the trace's (it added effects or a form).

@@ -21,6 +21,7 @@ namespace sph {
 struct TraceResult;  // sph/select/trace.hpp
 struct KnownFormCheck;  // sph/calib/known_form.hpp
 struct StatementCheck;  // sph/calib/statements.hpp
+struct UsabilityRequirement;  // sph/calib/usability.hpp
 struct Validation;   // sph/select/trace_report.hpp
 
 /// What the report says about where the data came from.
@@ -53,6 +54,8 @@ struct ReportContext {
   /// The run's warnings besides the fit's (the readings' plausibility, the budget's absence, the
   /// known forms, the statements; may be null): the reports' warnings hold both. Not owned.
   const std::vector<std::string>* run_warnings = nullptr;
+  /// What "usable" is judged against besides max_std_um (may be null: max_std_um alone). Not owned.
+  const UsabilityRequirement* requirement = nullptr;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,

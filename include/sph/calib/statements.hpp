@@ -28,7 +28,7 @@
 namespace sph {
 
 /// The level of the test: a statement whose p-value is below it is rejected by the readings.
-inline constexpr double kStatementP = 0.01;
+inline constexpr double kStatementP = 0.001;
 
 /// What a statement is about.
 enum class StatementKind {
