@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <map>
 #include <memory>
 #include <utility>
@@ -909,11 +910,18 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   if (options.search_orientation) SearchOrientations(run, options, evidence);
   MakeBudget(run, options);
   run.requirement = options.requirement;
-  const CalibrationResult& reported = run.Reported();
-  if (options.requirement.target_u.empty() && !options.requirement.max_std_stated && !reported.analysis.Empty()) {
-    run.requirement.reference_noise_um = reported.analysis.residual_sigma_mm * kUmPerMm;
+  const ObservabilityReport& seven = run.seven.analysis;
+  if (options.requirement.target_u.empty() && !options.requirement.max_std_stated && !seven.Empty()) {
+    run.requirement.reference_noise_um = seven.residual_sigma_mm * kUmPerMm;
     run.requirement.reference_um = ReferenceUncertaintyUm(run.settings.sphere_radius_mm, run.settings.probe_offset_mm,
-                                                          reported.geometry, run.requirement.reference_noise_um);
+                                                          run.seven.geometry, run.requirement.reference_noise_um);
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      const ParameterDescription& d = seven.parameters[static_cast<std::size_t>(p)];
+      const double u = seven.IsHeld(p) || !seven.determined[static_cast<std::size_t>(p)]
+                           ? std::numeric_limits<double>::infinity()
+                           : seven.std(p) * (d.quantity == Quantity::kAngle ? d.lever_mm : 1.0) * kUmPerMm;
+      run.requirement.seven_um.push_back(u);
+    }
   }
   run.usability = JudgeUsability(run.Reported(), run.Context());
   if (previous) {

@@ -54,6 +54,8 @@ json KnownFormJson(const KnownFormCheck& k) {
           {"conflict_chi_square", k.conflict_chi_square},
           {"conflict_degrees_of_freedom", k.conflict_dof},
           {"conflict_p_value", k.conflict_p_value},
+          {"difference_rms_um", k.difference_rms_um},
+          {"difference_expected_um", k.difference_expected_um},
           {"exceeds_bound", k.exceeds_bound},
           {"agrees", k.agrees},
           {"verdict", k.verdict},

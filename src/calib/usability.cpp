@@ -182,21 +182,20 @@ void JudgeRequirement(const CalibrationResult& r, const ReportContext& ctx, Usab
                         TargetText(t));
   }
   if (!q.target_u.empty() || q.max_std_stated) return;
-  for (int p = 0; p < kNumScmsParams && p < static_cast<int>(q.reference_um.size()); ++p) {
+  for (int p = 0;
+       p < kNumScmsParams && p < static_cast<int>(q.reference_um.size()) && p < static_cast<int>(q.seven_um.size());
+       ++p) {
     const double reference = q.reference_um[static_cast<std::size_t>(p)];
-    if (!(reference > 0.0) || !std::isfinite(reference) || !rep.determined[static_cast<std::size_t>(p)] ||
-        rep.IsHeld(p)) {
-      continue;
-    }
-    const double u_um = AsDisplacementUm(rep, static_cast<std::size_t>(p), rep.std(p));
+    const double u_um = q.seven_um[static_cast<std::size_t>(p)];
+    if (!(reference > 0.0) || !std::isfinite(reference) || !std::isfinite(u_um) || rep.IsHeld(p)) continue;
     if (u_um <= kReferenceFactor * reference) continue;
     u.reasons.push_back(Format(
-        "%s has a standard uncertainty of %.3g um as a displacement, more than %g times the %.3g um the reference "
-        "pattern (one placement at 2 mm, 24 x 12 readings) predicts for this set-up at the readings' noise of "
-        "%.3g um: the readings do not determine it as well as this set-up can (too few readings, or too little of "
-        "the sphere); state the requirement the use needs (--max-std-um, --target-u) if this is enough",
-        rep.parameters[static_cast<std::size_t>(p)].name.c_str(), u_um, kReferenceFactor, reference,
-        q.reference_noise_um));
+        "the readings determine %s to %.3g um as a displacement (the seven errors fitted alone), more than %g "
+        "times the %.3g um the reference pattern (one placement at 2 mm, 24 x 12 readings) gives this set-up at "
+        "their noise of %.3g um: the pattern does not determine the machine as this set-up can (too few readings, "
+        "or too little of the sphere); state the requirement the use needs (--max-std-um, --target-u) if this is "
+        "enough",
+        kScmsParamInfo[static_cast<std::size_t>(p)].name, u_um, kReferenceFactor, reference, q.reference_noise_um));
   }
 }
 

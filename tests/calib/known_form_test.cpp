@@ -216,7 +216,7 @@ TEST(KnownForm, AWrongOrientationIsRejectedAndTheRightOneNamed) {
   ASSERT_TRUE(right.known_form.has_value());
   EXPECT_TRUE(right.known_form->agrees) << right.known_form->verdict;
   EXPECT_TRUE(Added(right, Effect::kProbeDrift));
-  EXPECT_TRUE(right.usability.usable);
+  EXPECT_TRUE(right.usability.usable) << (right.usability.reasons.empty() ? "" : right.usability.reasons[0]);
   const CalibrationWorkflowResult wrong = RunCalibrationWorkflow(Daily(2, 90.0, false), "daily", Options(form));
   ASSERT_TRUE(wrong.known_form.has_value());
   EXPECT_FALSE(wrong.known_form->agrees) << wrong.known_form->verdict;

@@ -22,9 +22,10 @@
 //     not accept against them;
 //   - the requirement (UsabilityRequirement): the lab's, when stated (a target expanded
 //     uncertainty U per parameter, or max_std_um given), else the default that the set-up can
-//     reach: each of the seven errors' standard uncertainty from the fit, as a displacement, at most
-//     twice what the reference pattern predicts for this set-up at the readings' noise
-//     (ReferenceUncertaintyUm()). The verdict says which was applied.
+//     reach: each of the seven errors' standard uncertainty from the seven-error fit of the
+//     readings, as a displacement, at most twice what the reference pattern predicts for this
+//     set-up at that fit's noise (ReferenceUncertaintyUm()): the pattern and the readings determine
+//     the machine at least half as well as the reference. The verdict says which was applied.
 #ifndef SPH_CALIB_USABILITY_HPP_
 #define SPH_CALIB_USABILITY_HPP_
 
@@ -52,6 +53,11 @@ struct UsabilityRequirement {
   /// set-up [um] (ReferenceUncertaintyUm()); empty: not computed (no default judged).
   std::vector<double> reference_um;
   double reference_noise_um = 0.0;  ///< the noise the reference was predicted at [um]
+  /// Per error of the seven, its standard uncertainty as a displacement from the seven-error fit of
+  /// the same readings [um]: what the pattern and the readings determine, judged against
+  /// reference_um (the effects a trace adds beside them, and their correlations, are judged by
+  /// max_std_um alone).
+  std::vector<double> seven_um;
 
   /// The requirement applied, in words (the report's verdict names it).
   std::string Text(double max_std_um) const;
