@@ -565,20 +565,21 @@ SupportedOrientation SupportedOrientationFrom(const CalibrationWorkflowResult& r
                                                  : std::string(
                                                        "the turn about one axis not determined: the form looks "
                                                        "the same turned about it");
-  const std::string turn =
-      right_angle ? VectorText(out.right_angle_deg) + " (fitted " + VectorText(out.fitted_deg) + ", " + u + ")"
-                  : VectorText(out.fitted_deg) + " (" + u + "; " + Format("%.3g", out.offset_deg) +
-                        " deg from the turn by right angles " + VectorText(out.right_angle_deg) + ")";
+  const std::string turn = VectorText(right_angle ? out.right_angle_deg : out.fitted_deg);
+  const std::string detail =
+      Format("p %.2g; ", out.p_value) +
+      (right_angle ? "fitted with the form held " + VectorText(out.fitted_deg) + " deg, " + u
+                   : u + ", " + Format("%.3g", out.offset_deg) + " deg from the turn by right angles " +
+                         VectorText(out.right_angle_deg));
   const std::string key = MountRotationKey(out.setup);
-  out.text =
-      (out.agrees ? "the readings fit the known form turned " + turn + Format(" (p %.2g)", out.p_value)
-                  : "no mount orientation of the known form agrees with the readings: the closest, turned " + turn +
-                        Format(", is rejected too (p %.2g); the sphere may have changed since its form "
-                               "was separated, or the form is another sphere's",
-                               out.p_value)) +
-      "; " + run.points_path +
-      (stated == h.mount_rotations.end() ? " states no " + key + " (the reference orientation)"
-                                         : " states " + key + ": " + VectorText(out.stated_deg));
+  out.text = (out.agrees ? "the readings fit the known form turned " + turn + " (" + detail + ")"
+                         : "no mount orientation of the known form agrees with the readings: the closest, turned " +
+                               turn + ", is rejected too (" + detail +
+                               "); the sphere may have changed since its form was separated, or the form is another "
+                               "sphere's") +
+             "; " + run.points_path +
+             (stated == h.mount_rotations.end() ? " states no " + key + " (the reference orientation)"
+                                                : " states " + key + ": " + VectorText(out.stated_deg));
   return out;
 }
 

@@ -259,8 +259,10 @@ StatementCheck StatementOf(const KnownFormCheck& k, StatementKind kind, const st
                          "a form of %.3g um RMS in the %d directions they determine (%.3g um expected within "
                          "the bound)",
                          k.difference_rms_um, k.conflict_dof, k.difference_expected_um)
-                   : Format("%.3g um RMS from it in the %d directions they determine (%.3g um expected)",
-                            k.difference_rms_um, k.conflict_dof, k.difference_expected_um);
+                   : Format(
+                         "a form that differs from it by %.3g um RMS in the %d directions they determine (%.3g um "
+                         "expected from both uncertainties)",
+                         k.difference_rms_um, k.conflict_dof, k.difference_expected_um);
   s.chi_square = k.conflict_chi_square;
   s.dof = k.conflict_dof;
   s.p_value = k.conflict_p_value;

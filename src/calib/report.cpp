@@ -73,8 +73,8 @@ void WriteStatementsText(std::ostream& out, const ReportContext& ctx) {
                           : s.accepted  ? "REJECTED, accepted"
                                         : "REJECTED";
     out << "  " << verdict << ": " << s.statement << "\n";
-    out << "    stated " << s.stated << "; the readings " << (s.dof == 0 ? "" : "give ") << s.readings
-        << (s.dof == 0 ? "" : " without it") << "\n";
+    out << "    stated: " << s.stated << "\n";
+    out << "    the readings without it: " << s.readings << "\n";
     if (s.dof > 0) {
       out << Format("    chi-square %.4g for %d degree%s of freedom, p %s\n", s.chi_square, s.dof,
                     s.dof == 1 ? "" : "s", PValueText(s.p_value).c_str());

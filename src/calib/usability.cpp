@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 #include "sph/calib/design.hpp"
 #include "sph/calib/statements.hpp"
@@ -128,8 +129,8 @@ void JudgeStatements(const ReportContext& ctx, Usability& u) {
   if (ctx.statements == nullptr) return;
   for (const StatementCheck& s : *ctx.statements) {
     if (!s.rejected || s.accepted || s.kind == StatementKind::kEarlierModel) continue;  // the comparison informs
-    std::string why = "the readings reject " + s.statement + ": stated " + s.stated + ", the readings give " +
-                      s.readings + " without it; " +
+    std::string why = "the readings reject " + s.statement + ": stated " + s.stated + ", the readings without it " +
+                      s.readings + "; " +
                       Format("chi-square %.3g for %d degree%s of freedom, p %s, below %g", s.chi_square, s.dof,
                              s.dof == 1 ? "" : "s", PValueText(s.p_value).c_str(), kStatementP);
     if (s.orientation) why += "; " + s.orientation->text;
@@ -151,6 +152,16 @@ std::string ShortValueText(const std::string& name, double value) {
 
 // "beta_urad=300": a target's text, as the lab wrote it.
 std::string TargetText(const TargetUncertainty& t) { return t.text.empty() ? ShortValueText(t.name, t.U) : t.text; }
+
+// `value` (rad or mm) in the unit target `t` was written in ("beta_urad=689" beside "beta_urad=5"),
+// or as ShortValueText() when the target has no text.
+std::string InTargetsUnit(const TargetUncertainty& t, double value) {
+  const std::size_t eq = t.text.find('=');
+  const std::string head = eq == std::string::npos ? std::string() : t.text.substr(0, eq);
+  const double written = eq == std::string::npos ? 0.0 : std::strtod(t.text.c_str() + eq + 1, nullptr);
+  if (head.empty() || !(written > 0.0) || !(t.U > 0.0)) return ShortValueText(t.name, value);
+  return head + "=" + Format("%.3g", value / t.U * written);
+}
 
 // The column of parameter `name` in the reported calibration's analysis (the seven errors, then
 // the effects' parameters of the trace's final fit); -1 when it has none.
@@ -177,7 +188,7 @@ void JudgeRequirement(const CalibrationResult& r, const ReportContext& ctx, Usab
                         !ctx.budget->statements[static_cast<std::size_t>(i)].inputs.empty();
     const double big_u = budget ? ctx.budget->statements[static_cast<std::size_t>(i)].U : 2.0 * rep.std(i);
     if (big_u <= t.U) continue;
-    u.reasons.push_back(t.name + ": its expanded uncertainty " + ShortValueText(t.name, big_u) +
+    u.reasons.push_back(t.name + ": its expanded uncertainty " + InTargetsUnit(t, big_u) +
                         (budget ? "" : " (2 u from the fit: no budget)") + " is above the stated target --target-u " +
                         TargetText(t));
   }
