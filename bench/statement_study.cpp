@@ -42,6 +42,7 @@
 #include "sph/model/spherical_harmonics.hpp"
 #include "sph/model/units.hpp"
 #include "sph/simulation/simulate.hpp"
+#include "sph/stats/gum.hpp"
 #include "study_designs.hpp"
 
 namespace {
@@ -200,8 +201,8 @@ const sph::StatementCheck* FormStatement(const sph::CalibrationWorkflowResult& r
 // What one daily run with a known form gave.
 struct Outcome {
   bool usable = false, rejected = false, named = false, searched = false;
-  int added = 0, withheld = 0;
-  double p = 1.0;
+  int added = 0, withheld = 0, dof = 0;
+  double p = 1.0, chi_square = 0.0;
 };
 
 Outcome Judge(const sph::CalibrationWorkflowResult& run) {
@@ -211,6 +212,8 @@ Outcome Judge(const sph::CalibrationWorkflowResult& run) {
   if (c != nullptr) {
     o.rejected = c->rejected;
     o.p = c->p_value;
+    o.chi_square = c->chi_square;
+    o.dof = c->dof;
     if (c->orientation) {
       o.searched = true;
       const sph::SupportedOrientation& s = *c->orientation;
@@ -228,14 +231,42 @@ Outcome Judge(const sph::CalibrationWorkflowResult& run) {
   return o;
 }
 
+// The critical value of the statements' test on `dof` degrees of freedom: P(chi^2 > c) = kStatementP.
+double Critical(int dof) {
+  double lo = 0.0, hi = 1000.0 + 20.0 * dof;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (sph::gum::ChiSquareSf(mid, dof) > sph::kStatementP ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// The test's power against a noncentrality `lambda` on `dof` degrees of freedom: P(chi'^2 > c), the
+// noncentral chi-square as the Poisson mixture of central ones.
+double NoncentralPower(double lambda, int dof) {
+  if (dof <= 0) return 0.0;
+  const double c = Critical(dof), half = std::max(0.0, 0.5 * lambda);
+  double power = 0.0, weight = std::exp(-half);
+  for (int j = 0; j < 2000; ++j) {
+    if (j > 0) weight *= half / j;
+    power += weight * sph::gum::ChiSquareSf(c, dof + 2.0 * j);
+    if (j > half && weight < 1e-16) break;
+  }
+  return std::min(1.0, power);
+}
+
 int Orientation(int seeds, int threads) {
   const std::vector<std::pair<std::string, Eigen::Vector3d>> wrong = WrongOrientations();
   std::printf(
       "wrong mount orientations stated for form28 (0.050 um rms), one placement; %d seeds per cell; the known form "
-      "from a separation at the same noise; a statement rejected when p < %g\n",
+      "from a separation at the same noise; a statement rejected when p < %g. diff: the rms over the sphere of the "
+      "form turned less the form; chi2/dof: the test's means over the cell; power: the test's power at the "
+      "noncentrality mean(chi2 - dof) (resolvable: at least 99 %%); named: of the rejected, the reference "
+      "orientation named; added: rejected runs with an effect added; withheld: effects found and not applied, per "
+      "run\n",
       seeds, sph::kStatementP);
-  std::printf("%-6s %-2s %-18s %9s %5s %11s %9s %7s %9s %11s\n", "sigma", "n", "stated", "diff um", "runs",
-              "not usable", "rejected", "named", "added", "withheld");
+  std::printf("%-6s %-2s %-18s %7s %7s %5s %7s %5s %11s %9s %7s %6s %9s\n", "sigma", "n", "stated", "diff um", "chi2",
+              "dof", "power", "runs", "not usable", "rejected", "named", "added", "withheld");
   for (const double noise : {0.03, 0.05}) {
     const std::string form = Separate(noise);
     int total_runs = 0, total_rejected = 0, total_named = 0, total_added_rejected = 0, total_resolvable = 0,
@@ -254,20 +285,24 @@ int Orientation(int seeds, int threads) {
           };
         });
         int not_usable = 0, rejected = 0, named = 0, added_rejected = 0, withheld = 0;
+        double chi2 = 0.0, dof = 0.0;
         for (const Outcome& x : out) {
           not_usable += x.usable ? 0 : 1;
           rejected += x.rejected ? 1 : 0;
           named += x.named ? 1 : 0;
           added_rejected += x.rejected && x.added > 0 ? 1 : 0;
           withheld += x.withheld;
+          chi2 += x.chi_square / seeds;
+          dof += static_cast<double>(x.dof) / seeds;
         }
         const double diff_um = TurnedDifferenceRmsUm(rotation);
-        // Resolvable (crudely): 288 readings of noise sigma see the difference with a noncentrality
-        // 288 d^2 / sigma^2 of at least 100.
-        const bool resolvable = 288.0 * diff_um * diff_um / (noise * noise) >= 100.0;
-        std::printf("%-6.2f %-2d %-18s %9.4f %5d %11d %9d %7d %9d %11.2f%s\n", noise, count, label.c_str(), diff_um,
-                    seeds, not_usable, rejected, named, added_rejected, static_cast<double>(withheld) / seeds,
-                    resolvable ? "" : "  (not resolvable)");
+        // Resolvable: the test at its level detects the difference the readings see (their mean
+        // chi-square less its degrees of freedom: the noncentrality) at least 99 % of the time.
+        const double power = NoncentralPower(chi2 - dof, static_cast<int>(std::lround(dof)));
+        const bool resolvable = power >= 0.99;
+        std::printf("%-6.2f %-2d %-18s %7.4f %7.1f %5.1f %6.1f%% %5d %11d %9d %7d %6d %9.2f%s\n", noise, count,
+                    label.c_str(), diff_um, chi2, dof, 100.0 * power, seeds, not_usable, rejected, named,
+                    added_rejected, static_cast<double>(withheld) / seeds, resolvable ? "" : "  (not resolvable)");
         std::fflush(stdout);
         total_runs += seeds;
         total_rejected += rejected;
