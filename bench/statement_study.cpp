@@ -4,7 +4,8 @@
 // right one. A study program, run by hand (docs/validation.md, "The lab's statements against the
 // readings"):
 //
-//   build/bench/statement_study --orientation [SEEDS [THREADS]]   (default 20 seeds per cell)
+//   build/bench/statement_study --orientation [SEEDS [THREADS [FIRST [SIGMA_UM]]]]   (default 20
+//       seeds per cell from 1, both noises; each run's outcome also on stderr, one line)
 //       the sphere of form28 in the reference orientation, the daily one-placement run stating
 //       it turned by each of the 23 other turns by right angles, or by 5, 15 or 45 deg about x, y
 //       or z; 0, 1 or 2 true effects (seed s takes the (s mod 4)-th of the study's four effects, or
@@ -28,6 +29,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <mutex>
 #include <string>
@@ -36,6 +38,7 @@
 #include <unistd.h>
 
 #include "sph/calib/calibrate_workflow.hpp"
+#include "sph/calib/known_form.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/internal/parallel.hpp"
 #include "sph/model/form_model.hpp"
@@ -231,12 +234,14 @@ Outcome Judge(const sph::CalibrationWorkflowResult& run) {
   return o;
 }
 
-// The critical value of the statements' test on `dof` degrees of freedom: P(chi^2 > c) = kStatementP.
+// The critical value of a known form's test on `dof` degrees of freedom: P(chi^2 > c) = kStatementP
+// over the number of its tests (sph::kConflictDetermined; the one of the smaller p is reported).
 double Critical(int dof) {
+  const double level = sph::kStatementP / static_cast<double>(std::size(sph::kConflictDetermined));
   double lo = 0.0, hi = 1000.0 + 20.0 * dof;
   for (int i = 0; i < 200; ++i) {
     const double mid = 0.5 * (lo + hi);
-    (sph::gum::ChiSquareSf(mid, dof) > sph::kStatementP ? lo : hi) = mid;
+    (sph::gum::ChiSquareSf(mid, dof) > level ? lo : hi) = mid;
   }
   return 0.5 * (lo + hi);
 }
@@ -255,19 +260,22 @@ double NoncentralPower(double lambda, int dof) {
   return std::min(1.0, power);
 }
 
-int Orientation(int seeds, int threads) {
+int Orientation(int seeds, int threads, int first, double only_sigma) {
   const std::vector<std::pair<std::string, Eigen::Vector3d>> wrong = WrongOrientations();
+  std::mutex print;
   std::printf(
       "wrong mount orientations stated for form28 (0.050 um rms), one placement; %d seeds per cell; the known form "
       "from a separation at the same noise; a statement rejected when p < %g. diff: the rms over the sphere of the "
-      "form turned less the form; chi2/dof: the test's means over the cell; power: the test's power at the "
-      "noncentrality mean(chi2 - dof) (resolvable: at least 99 %%); named: of the rejected, the reference "
+      "form turned less the form; chi2/dof: the means over the cell of the test reported (of its two, the one of "
+      "the smaller p); power: that test's power at half the level and the noncentrality mean(chi2 - dof), an "
+      "estimate (resolvable: at least 99 %%); named: of the rejected, the reference "
       "orientation named; added: rejected runs with an effect added; withheld: effects found and not applied, per "
-      "run\n",
-      seeds, sph::kStatementP);
+      "run; seeds %d..%d; each run on stderr\n",
+      seeds, sph::kStatementP, first, first + seeds - 1);
   std::printf("%-6s %-2s %-18s %7s %7s %5s %7s %5s %11s %9s %7s %6s %9s\n", "sigma", "n", "stated", "diff um", "chi2",
               "dof", "power", "runs", "not usable", "rejected", "named", "added", "withheld");
   for (const double noise : {0.03, 0.05}) {
+    if (only_sigma > 0.0 && std::abs(noise - only_sigma) > 1e-9) continue;
     const std::string form = Separate(noise);
     int total_runs = 0, total_rejected = 0, total_named = 0, total_added_rejected = 0, total_resolvable = 0,
         total_rejected_resolvable = 0;
@@ -276,12 +284,21 @@ int Orientation(int seeds, int threads) {
         std::vector<Outcome> out(static_cast<std::size_t>(seeds));
         sph::internal::ParallelFor(out.size(), threads, [&] {
           return [&](std::size_t i) {
-            const int seed = static_cast<int>(i) + 1;
+            const int seed = static_cast<int>(i) + first;
             sph::PointsData points = Daily(TrueEffects(count, seed), noise, static_cast<std::uint64_t>(seed));
             points.header.mount_rotations[0] = sph::MountRotation::Known(rotation);
             sph::CalibrationWorkflowOptions o = Options();
             o.sphere_form_paths = {form};
             out[i] = Judge(sph::RunCalibrationWorkflow(std::move(points), "daily", o));
+            const Outcome& x = out[i];
+            std::string tag = label;
+            std::replace(tag.begin(), tag.end(), ' ', '_');
+            const std::lock_guard<std::mutex> lock(print);
+            std::fprintf(
+                stderr,
+                "run %.2f %d %s %d rejected %d usable %d named %d added %d withheld %d chi2 %.6g dof %d p %.3g\n",
+                noise, count, tag.c_str(), seed, x.rejected, x.usable, x.named, x.added, x.withheld, x.chi_square,
+                x.dof, x.p);
           };
         });
         int not_usable = 0, rejected = 0, named = 0, added_rejected = 0, withheld = 0;
@@ -476,7 +493,9 @@ int OneCase(const std::string& rotation, const std::string& ids, double noise_um
 
 int main(int argc, char** argv) {
   const auto arg = [&](int i, int fallback) { return argc > i ? std::atoi(argv[i]) : fallback; };
-  if (argc >= 2 && std::strcmp(argv[1], "--orientation") == 0) return Orientation(arg(2, 20), arg(3, 1));
+  if (argc >= 2 && std::strcmp(argv[1], "--orientation") == 0) {
+    return Orientation(arg(2, 20), arg(3, 1), arg(4, 1), argc > 5 ? std::atof(argv[5]) : 0.0);
+  }
   if (argc >= 2 && std::strcmp(argv[1], "--false-alarms") == 0) return FalseAlarms(arg(2, 500), arg(3, 1));
   if (argc >= 2 && std::strcmp(argv[1], "--bound") == 0) return Bound(arg(2, 40), arg(3, 1));
   if (argc >= 2 && std::strcmp(argv[1], "--prior") == 0) return Prior(arg(2, 100), arg(3, 1));
@@ -484,7 +503,8 @@ int main(int argc, char** argv) {
     return OneCase(argv[2], argv[3], std::atof(argv[4]), static_cast<std::uint64_t>(std::atoll(argv[5])));
   }
   std::fprintf(stderr,
-               "usage: statement_study --orientation [SEEDS [THREADS]] | --false-alarms [RUNS [THREADS]] | --bound "
+               "usage: statement_study --orientation [SEEDS [THREADS [FIRST [SIGMA_UM]]]] | --false-alarms [RUNS "
+               "[THREADS]] | --bound "
                "[SEEDS [THREADS]] | --prior [SEEDS [THREADS]] | --case ROTATION EFFECTS SIGMA_UM SEED\n");
   return 2;
 }

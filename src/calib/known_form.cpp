@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #include <Eigen/Cholesky>
@@ -92,26 +93,39 @@ void PriorConflict(const EffectFit& fit, int group, const Eigen::MatrixXd& l, co
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(determined);
   // The readings' own estimate less the statement, in coefficients (d = L sum_i u_i y_i), and its
   // mean square over the sphere when the statement holds (y_i of variance 1 / lambda_i).
-  Eigen::VectorXd difference = Eigen::VectorXd::Zero(n);
-  double expected_ms = 0.0;
   const auto sphere_ms = [&](const Eigen::VectorXd& c) {  // mean square over the sphere of coefficients c
     double sum = 0.0;
     for (Eigen::Index i = 0; i < n; ++i) sum += c(i) * c(i) / (2.0 * terms[static_cast<std::size_t>(i)].l + 1.0);
     return sum;
   };
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const double lambda = std::min(eig.eigenvalues()(i), 1.0);
-    if (!(lambda >= kConflictDetermined)) continue;
-    const double along = eig.eigenvectors().col(i).dot(w);
-    k->conflict_chi_square += along * along / lambda;
-    ++k->conflict_dof;
-    const Eigen::VectorXd direction = l.triangularView<Eigen::Lower>() * eig.eigenvectors().col(i);
-    difference += direction * (along / lambda);
-    expected_ms += sphere_ms(direction) / lambda;
+  // One test per set of directions (kConflictDetermined), each at the level over their number: the
+  // one of the smaller p is reported, its p multiplied by their number (Bonferroni).
+  constexpr auto kTests = static_cast<double>(std::size(kConflictDetermined));
+  double best_p = 2.0;
+  for (const double at_least : kConflictDetermined) {
+    double chi_square = 0.0, expected_ms = 0.0;
+    int dof = 0;
+    Eigen::VectorXd difference = Eigen::VectorXd::Zero(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double lambda = std::min(eig.eigenvalues()(i), 1.0);
+      if (!(lambda >= at_least)) continue;
+      const double along = eig.eigenvectors().col(i).dot(w);
+      chi_square += along * along / lambda;
+      ++dof;
+      const Eigen::VectorXd direction = l.triangularView<Eigen::Lower>() * eig.eigenvectors().col(i);
+      difference += direction * (along / lambda);
+      expected_ms += sphere_ms(direction) / lambda;
+    }
+    if (dof == 0) continue;
+    const double p = gum::ChiSquareSf(chi_square, dof);
+    if (!(p < best_p)) continue;
+    best_p = p;
+    k->conflict_chi_square = chi_square;
+    k->conflict_dof = dof;
+    k->conflict_p_value = std::min(1.0, kTests * p);
+    k->difference_rms_um = std::sqrt(sphere_ms(difference)) * kUmPerMm;
+    k->difference_expected_um = std::sqrt(expected_ms) * kUmPerMm;
   }
-  if (k->conflict_dof > 0) k->conflict_p_value = gum::ChiSquareSf(k->conflict_chi_square, k->conflict_dof);
-  k->difference_rms_um = std::sqrt(sphere_ms(difference)) * kUmPerMm;
-  k->difference_expected_um = std::sqrt(expected_ms) * kUmPerMm;
 }
 
 // CheckKnownForm() of the reference sphere's form (`setup` < 0) or of another sphere's, by `setup`

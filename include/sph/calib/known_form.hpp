@@ -40,9 +40,12 @@ void CheckSameSphere(const CalibrationFile& file, const std::string& path, doubl
 inline constexpr double kKnownFormP = kStatementP;
 
 /// The fraction of the prior's variance the readings must determine along a direction for the
-/// direction to count in KnownFormCheck::conflict_chi_square: a direction they determine less
-/// carries too little of them to tell apart from the rounding of the covariance.
-inline constexpr double kConflictDetermined = 0.01;
+/// direction to count in KnownFormCheck::conflict_chi_square, for each of the two tests: the
+/// directions they determine well (a form a few times its prior's scale shows there alone; the
+/// other directions would dilute it), and all they determine to 1 % (a form spread over many, as a
+/// known form turned the wrong way); a direction they determine less carries too little of them
+/// to tell apart from the rounding of the covariance.
+inline constexpr double kConflictDetermined[] = {0.1, 0.01};
 
 /// How the readings agree with the known form of a calibration (`fit`, whose model has it).
 struct KnownFormCheck {
@@ -71,9 +74,10 @@ struct KnownFormCheck {
   /// I - L^-1 C L^-T (C the fitted coefficients' covariance, at the prior's noise); if the form is
   /// as stated, u_i^T z has variance lambda_i, and the readings' own estimate along u_i,
   /// u_i^T z / lambda_i, differs from the statement by N(0, 1 / lambda_i): the prior's variance and
-  /// the readings'. The sum of (u_i^T z)^2 / lambda_i over the directions with lambda_i >=
-  /// kConflictDetermined is chi-square with as many degrees of freedom; its upper tail is
-  /// conflict_p_value.
+  /// the readings'. The sum of (u_i^T z)^2 / lambda_i over the directions with lambda_i >= one of
+  /// kConflictDetermined is chi-square with as many degrees of freedom; of the two tests, the one
+  /// of the smaller upper tail is reported, conflict_p_value that tail times two (Bonferroni: the
+  /// two together reject a right statement at most at the level).
   double conflict_chi_square = 0.0;
   int conflict_dof = 0;
   double conflict_p_value = 1.0;
