@@ -6,6 +6,7 @@
 
 #include "app_common.hpp"
 #include "calibrate_plots.hpp"
+#include "sph/core/error.hpp"
 #include "sph/io/calibration_file.hpp"
 #include "sph/io/firmware_export.hpp"
 #include "sph/io/output_files.hpp"
@@ -67,6 +68,15 @@ CalibrationWorkflowOptions WorkflowOf(const CalibrateOptions& o) {
   for (const std::string& text : o.fix) workflow.fit.fixed.push_back(ParseFixedParameter(text, "--fix " + text));
   for (const std::string& text : o.prior) {
     workflow.fit.priors.push_back(ParseParameterPrior(text, "--prior " + text));
+  }
+  for (const std::string& text : o.target_u) {
+    const FixedParameter f = ParseFixedParameter(text, "--target-u " + text);
+    if (!f.value || !(*f.value > 0.0)) {
+      throw Error("--target-u " + text +
+                  ": expected NAME_UNIT=U, U the largest expanded uncertainty (> 0) the use "
+                  "allows, e.g. alpha_urad=5");
+    }
+    workflow.requirement.target_u.push_back({f.name, *f.value, text});
   }
   if (!o.robust_loss.empty()) {
     workflow.fit.robust_loss = o.robust_loss == "cauchy" ? RobustLoss::kCauchy : RobustLoss::kHuber;

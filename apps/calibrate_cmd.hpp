@@ -22,6 +22,7 @@ struct CalibrateOptions {
   std::vector<std::string> effects;              ///< --effects' ids, into workflow.effects
   std::vector<std::string> fix;                  ///< parameters held: NAME or NAME_UNIT=VALUE, into workflow.fit.fixed
   std::vector<std::string> prior;                ///< Gaussian priors: NAME_UNIT=VALUE,U, into workflow.fit.priors
+  std::vector<std::string> target_u;             ///< NAME_UNIT=U, into workflow.requirement.target_u
   std::string robust_loss;                       ///< "huber" or "cauchy", into workflow.fit.robust_loss
   std::string json_path;                         ///< JSON report ("-" for stdout), empty: none
   std::string report_path;                       ///< HTML report ("-" for stdout), empty: none

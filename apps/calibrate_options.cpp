@@ -28,6 +28,12 @@ void AddFitSettingOptions(CLI::App& app, CalibrateOptions& o) {
                  "uncertainty, e.g. alpha_deg=0.02,0.0005; listed in the uncertainty budget as an input of its own; "
                  "repeatable; overrides the file's 'prior'")
       ->group(told);
+  app.add_flag("--accept-rejected", o.workflow.accept_rejected,
+               "Accept the statements of the lab (--prior, --fix, the header's, --sphere-form and its orientation, "
+               "--sphere-form-rms-um) that the readings reject: the calibration is then not unusable for them, the "
+               "trace adds nothing on top of them, and the calibration file says they were accepted against the "
+               "readings")
+      ->group(told);
   auto* robust =
       app.add_option("--robust-loss", o.robust_loss,
                      "Fit with a robust loss instead of least squares and the outlier rule, every reading kept at a "
@@ -106,6 +112,7 @@ void AddTraceOptions(CLI::App& app, CalibrateOptions& o) {
   AddPlotTimeoutOption(app, o.plot_timeout_s);
   AddEffectModelOptions(app, o);
   AddConditionOptions(app, o.workflow.conditions, "(overrides the file's ");
+  app.get_option("--sphere-form-rms-um")->excludes(no_trace);  // a prior on the form, which --no-trace has not
   AddFitSettingOptions(app, o);
   app.add_option("--coverage", o.workflow.coverage,
                  "Coverage probability of the expanded uncertainties U = k u (k from the effective degrees of "
@@ -140,9 +147,16 @@ void SetupCalibrateApp(CLI::App& app, CalibrateOptions& o) {
                  "usable");
   app.add_option("--max-std-um", o.workflow.fit.max_std_um,
                  "A parameter whose standard uncertainty, as a displacement of the probed point (angles times "
-                 "R0), exceeds this is undetermined [um]")
+                 "R0), exceeds this is undetermined [um]; given, it is the requirement the calibration is usable "
+                 "against, in place of the default (each of the seven errors within twice what the reference "
+                 "pattern predicts for this set-up at the readings' noise)")
       ->capture_default_str()
-      ->check(InRange(ranges::kStdUm));
+      ->check(InRange(ranges::kStdUm))
+      ->each([&o](const std::string&) { o.workflow.requirement.max_std_stated = true; });
+  app.add_option("--target-u", o.target_u,
+                 "The requirement the calibration is usable against: NAME_UNIT=U, the largest expanded uncertainty "
+                 "U (k as the budget's) of a parameter the use allows, e.g. alpha_urad=5 or "
+                 "theta_encoder.c2_arcsec=0.5; repeatable; in place of the default requirement");
   app.add_option("--max-iterations", o.workflow.fit.max_iterations, "Levenberg-Marquardt iteration limit")
       ->capture_default_str()
       ->check(IntRange(ranges::kMaxIterations));

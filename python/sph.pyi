@@ -85,6 +85,8 @@ def calibrate(
     hold_confounded: bool = ...,
     seed: int = ...,
     coverage: float = ...,
+    accept_rejected: bool = ...,
+    target_u: Union[str, Sequence[str]] = ...,
     sphere_radius_u_um: float = ...,
     sphere_temperature_c: float = ...,
     sphere_temperature_u_c: float = ...,

@@ -137,7 +137,9 @@ constexpr const char* kCalibrateKeywords[] = {"no_trace",
                                               "drift_order",
                                               "hold_confounded",
                                               "seed",
-                                              "coverage"};
+                                              "coverage",
+                                              "accept_rejected",
+                                              "target_u"};
 constexpr const char* kMeasureKeywords[] = {
     "calibration",  "xyz",          "subtract_sphere_form", "setup",    "uncertainty_samples", "seed",
     "max_dilution", "noise_um",     "noise_floor_draws",    "coverage", "mc_max_trials",       "mc_batch_trials",
@@ -204,6 +206,19 @@ sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
       o.fit.robust_scale_sigma = py::cast<double>(v);
     } else if (key == "max_std_um") {
       o.fit.max_std_um = py::cast<double>(v);
+      o.requirement.max_std_stated = true;  // given, it is the requirement (as sph_calibrate's option)
+    } else if (key == "accept_rejected") {
+      o.accept_rejected = py::cast<bool>(v);
+    } else if (key == "target_u") {
+      for (const std::string& t : Strings(v)) {
+        const sph::FixedParameter f = sph::ParseFixedParameter(t, "target_u " + t);
+        if (!f.value || !(*f.value > 0.0)) {
+          throw sph::Error("target_u " + t +
+                           ": expected NAME_UNIT=U, U the largest expanded uncertainty (> 0) the use "
+                           "allows, e.g. alpha_urad=5");
+        }
+        o.requirement.target_u.push_back({f.name, *f.value, t});
+      }
     } else if (key == "max_iterations") {
       o.fit.max_iterations = py::cast<int>(v);
     } else if (key == "harmonics") {

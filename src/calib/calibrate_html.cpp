@@ -542,13 +542,45 @@ std::string ResidualMaps(const CalibrationWorkflowResult& run) {
                     caption + ", with the effects found; one colour scale for both.")});
 }
 
+// The statements of the lab tested against the readings (JSON "statements"): one row each, the
+// orientation the readings support under a rejected known form, the effects not applied.
+std::string Statements(const json& j) {
+  const json& st = j.at("statements");
+  std::vector<std::vector<std::string>> rows;
+  std::string notes;
+  for (const json& t : st.at("tests")) {
+    const bool rejected = t.value("rejected", false);
+    const std::string verdict = t.value("degrees_of_freedom", 0) == 0 ? "not tested"
+                                : !rejected                           ? "agrees"
+                                : t.value("accepted", false)          ? "<strong>REJECTED</strong>, accepted"
+                                                                      : "<strong>REJECTED</strong>";
+    rows.push_back({At(t, "statement"), At(t, "stated"), At(t, "readings"), At(t, "chi_square"),
+                    At(t, "degrees_of_freedom"), At(t, "p_value"), verdict});
+    if (t.contains("supported_orientation")) notes += "<li>" + At(t.at("supported_orientation"), "text") + "</li>\n";
+  }
+  std::string body =
+      "<p>Each statement is tested against the readings' own estimate of what it states (the "
+      "statement left out, the effects found kept), with both covariances; it is rejected when p < " +
+      At(st, "p_level") + ".</p>\n";
+  body += html::Table(
+      {"statement", "stated", "the readings without it", "chi-square", "degrees of freedom", "p", "verdict"}, rows);
+  if (!notes.empty()) body += "<ul>\n" + notes + "</ul>\n";
+  std::string withheld;
+  for (const json& e : st.at("withheld_effects")) withheld += (withheld.empty() ? "" : ", ") + Cell(e);
+  if (!withheld.empty()) {
+    body += "<p>The trace adds nothing on top of a rejected statement: " + withheld + " not applied.</p>\n";
+  }
+  return body;
+}
+
 }  // namespace
 
 std::string CalibrationWorkflowResult::HtmlReport() const {
   const json j = json::parse(JsonReport());
   const std::string usable = j.value("usable", false) ? "usable" : "not usable";
   std::string body = "<h1>Calibration report</h1>\n<p>" + At(j, "points_file") + " — " + At(j, "program") +
-                     " — the calibration is <strong>" + usable + "</strong>.</p>\n";
+                     " — the calibration is <strong>" + usable + "</strong>, judged against " +
+                     At(j, "usable_against") + ".</p>\n";
   std::string told = List(j.value("warnings", json::array()));
   if (!j.value("why_not_usable", json::array()).empty()) told += List(j.at("why_not_usable"));
   body += "<div class=\"warn\"><h3>Warnings</h3>\n" + told + "</div>\n";
@@ -556,6 +588,9 @@ std::string CalibrationWorkflowResult::HtmlReport() const {
   body += Section("Identification", Identification(j, *this), NewPage::kNo);
   body += Section("Method", Method(j, *this), NewPage::kNo);
   body += Section("Conditions and uncertainty inputs", Conditions(j), NewPage::kNo);
+  if (j.contains("statements")) {
+    body += Section("The lab's statements, tested against the readings", Statements(j), NewPage::kNo);
+  }
   body += Section("The seven errors", Errors(j));
   body += Section("Effects found", Effects(j), NewPage::kNo);
   const std::string curves = Curves(j, *this);

@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <map>
+#include <memory>
 #include <utility>
+
+#include <Eigen/Eigenvalues>
 
 #include "fit_problem.hpp"
 #include "sph/core/error.hpp"
@@ -15,6 +19,7 @@
 #include "sph/io/parameter_settings.hpp"
 #include "sph/io/setup_checks.hpp"
 #include "sph/model/units.hpp"
+#include "sph/stats/gum.hpp"
 
 namespace sph {
 
@@ -135,6 +140,18 @@ PointsSphere& SphereOfFile(std::vector<PointsSphere>& spheres, const Calibration
   return sphere;
 }
 
+// Whether a setup of the reference sphere (no radius of its own) is of known orientation: what
+// the reference sphere's known form and its certificate's bound apply to.
+bool ReferenceOrientationKnown(const CalibrationWorkflowResult& run) {
+  const PointsHeader& h = run.points.header;
+  for (const Sample& s : run.points.samples) {
+    if (h.sphere_radii_mm.count(s.setup) != 0) continue;
+    const auto r = h.mount_rotations.find(s.setup);
+    if (r == h.mount_rotations.end() || r->second.known()) return true;
+  }
+  return false;
+}
+
 // The spheres' forms as known: each file's (matched to its sphere), else the reference sphere's
 // certificate's bound.
 KnownFormFiles SettleKnownForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
@@ -158,6 +175,11 @@ KnownFormFiles SettleKnownForm(CalibrationWorkflowResult& run, const Calibration
     const PointsSphere& sphere =
         *std::find_if(spheres.begin(), spheres.end(), [&](const PointsSphere& s) { return s.file == path; });
     if (sphere.setups.empty()) {
+      if (!ReferenceOrientationKnown(run)) {
+        throw Error(path + ": holds the form of the reference sphere of " + run.points_path +
+                    ", but every setup of that sphere is of unknown orientation (mount_rotation_deg@<setup>: "
+                    "unknown): the known form applies to none of them");
+      }
       run.settings.form_prior = std::move(prior);
       continue;
     }
@@ -175,11 +197,28 @@ KnownFormFiles SettleKnownForm(CalibrationWorkflowResult& run, const Calibration
   }
   if (run.settings.form_prior.Empty() && bound_um && o.trace) {
     const int l_max = FormDegreeLimit(run.points, o.trace_options);
-    if (l_max >= 2) {
+    // The bound as a prior on the form of the setups of known orientation: with none, or no form
+    // the pattern resolves, it applies to nothing (refused when the options give it, a warning for
+    // the header's, which states the sphere's certificate whatever the run does with it).
+    const std::string nothing = !ReferenceOrientationKnown(run)
+                                    ? "every setup of the reference sphere is of unknown orientation "
+                                      "(mount_rotation_deg@<setup>: unknown), whose forms are each their own"
+                                : l_max < 2 ? "the pattern resolves no form of degree 2 or more"
+                                            : "";
+    if (nothing.empty()) {
       run.settings.form_prior = CertificateFormPrior(*bound_um * kMmPerUm, l_max);
+    } else if (o.conditions.sphere_form_rms_um) {
+      throw Error("--sphere-form-rms-um " + Format("%g", *bound_um) + ": " + nothing +
+                  ": the certificate's bound applies to nothing");
     } else {
-      Warn(run, o, "sphere_form_rms_um: the pattern resolves no form of degree 2 or more: the bound is not used");
+      Warn(run, o,
+           "sphere_form_rms_um (the header of " + run.points_path + "): " + nothing +
+               ": the certificate's bound is not used");
     }
+  } else if (bound_um && !o.trace && !o.conditions.sphere_form_rms_um) {
+    Warn(run, o,
+         "sphere_form_rms_um (the header of " + run.points_path +
+             "): the seven errors alone (no trace) have no form: the certificate's bound is not used");
   }
   if (!files.others.empty() && run.settings.form_prior.Empty()) {
     throw Error(run.points_path + ": a known form of another sphere (" + files.others.begin()->second +
@@ -189,6 +228,35 @@ KnownFormFiles SettleKnownForm(CalibrationWorkflowResult& run, const Calibration
   }
   files.reference = spheres[0].file;
   return files;
+}
+
+// A fixed value or a prior of an effect's parameter states that the effect exists: refused
+// (sph::Error, where it came from and why) when the calibration's model cannot hold the effect: the
+// seven errors alone (no trace), or a fixed model (`effects`) without it.
+void RefuseEffectStatementsOfNothing(const CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) {
+  const auto refuse = [&](const std::string& name, const std::string& kind, const std::string& text) {
+    const auto dot = name.find('.');
+    if (dot == std::string::npos) return;  // one of the seven errors: every calibration has it
+    Effect e{};
+    if (!EffectFromId(name.substr(0, dot), &e)) return;  // CheckParameterSettings() names it
+    const std::string id = InfoOf(e).id;
+    const std::string& origin = run.statement_origins.at(name);
+    const std::string what = origin.rfind("--", 0) == 0 ? origin + " " + text : kind + " " + text + " (" + origin + ")";
+    if (!o.trace) {
+      throw Error(what + ": " + name + " is a parameter of the effect " + id +
+                  ", which a calibration of the seven errors alone (--no-trace) does not have: the statement "
+                  "applies to nothing. With the trace, " +
+                  id + " is in the model from the start");
+    }
+    if (!o.effects.empty() && std::find(o.effects.begin(), o.effects.end(), e) == o.effects.end()) {
+      std::string fitted;
+      for (const Effect f : o.effects) fitted += (fitted.empty() ? "" : ",") + std::string(InfoOf(f).id);
+      throw Error(what + ": " + name + " is a parameter of the effect " + id + ", which the fixed model --effects " +
+                  fitted + " does not have: the statement applies to nothing; add " + id + " to --effects");
+    }
+  };
+  for (const FixedParameter& f : run.settings.fixed) refuse(f.name, "fix", FixedParameterText(f));
+  for (const ParameterPrior& p : run.settings.priors) refuse(p.name, "prior", ParameterPriorText(p));
 }
 
 // The fit's settings from the options and the points' header (the options win); run.inputs gets
@@ -225,14 +293,22 @@ KnownFormFiles Settle(CalibrationWorkflowResult& run, const CalibrationWorkflowO
   };
   run.settings.fixed.clear();
   run.settings.priors.clear();
+  const std::string in_header = "the header of " + run.points_path;
   for (const FixedParameter& f : FixedParametersOf(header)) {
-    if (!named(f.name)) run.settings.fixed.push_back(f);
+    if (named(f.name)) continue;
+    run.settings.fixed.push_back(f);
+    run.statement_origins[f.name] = in_header;
   }
   for (const ParameterPrior& p : ParameterPriorsOf(header)) {
-    if (!named(p.name)) run.settings.priors.push_back(p);
+    if (named(p.name)) continue;
+    run.settings.priors.push_back(p);
+    run.statement_origins[p.name] = in_header;
   }
   run.settings.fixed.insert(run.settings.fixed.end(), o.fit.fixed.begin(), o.fit.fixed.end());
   run.settings.priors.insert(run.settings.priors.end(), o.fit.priors.begin(), o.fit.priors.end());
+  for (const FixedParameter& f : o.fit.fixed) run.statement_origins[f.name] = "--fix";
+  for (const ParameterPrior& p : o.fit.priors) run.statement_origins[p.name] = "--prior";
+  RefuseEffectStatementsOfNothing(run, o);
   if (o.fit.robust_loss != RobustLoss::kNone && o.trace && o.effects.empty()) {
     throw Error(
         "--robust-loss keeps every reading at a weight, which the trace's selection of effects does not "
@@ -271,17 +347,376 @@ void Trace(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o) 
   }
 }
 
-// How the readings agree with the known forms, their warnings among the run's.
-void CheckForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o, const KnownFormFiles& files) {
-  if (run.settings.form_prior.Empty() || !run.trace || run.trace->after.fit.model.form.Empty()) return;
-  const std::string& file = files.reference;
-  run.known_form = CheckKnownForm(run.points, run.settings, run.trace->after.fit,
-                                  file.empty() ? "the certificate's bound" : file, FormBoundUm(run, o), !file.empty());
-  for (const std::string& w : run.known_form->warnings) Warn(run, o, w);
-  for (const auto& [setup, path] : files.others) {
-    run.other_known_forms.push_back(CheckOtherKnownForm(run.points, run.settings, run.trace->after.fit, setup, path));
-    for (const std::string& w : run.other_known_forms.back().warnings) Warn(run, o, w);
+// The seven-error calibration as a fit without effects (what the statements are tested on
+// without a trace).
+EffectFit SevenAsFit(const CalibrationWorkflowResult& run) {
+  EffectFit fit;
+  fit.model.reference = EffectReferenceOf(run.points.samples);
+  fit.calibration = run.seven;
+  fit.n_params = kNumScmsParams + 3 * static_cast<int>(run.seven.centers_mm.size());
+  return fit;
+}
+
+// "mount_rotation_deg@0: 0 0 90" for each setup of `setups` (all the setups of known orientation
+// of the reference sphere when empty), "the reference orientation" for a setup without the field.
+std::string OrientationsText(const CalibrationWorkflowResult& run, const std::vector<int>& setups) {
+  const PointsHeader& h = run.points.header;
+  std::vector<int> ids = setups;
+  if (ids.empty()) {
+    for (const int id : run.seven.setup_ids) {
+      const auto r = h.mount_rotations.find(id);
+      if (h.sphere_radii_mm.count(id) == 0 && (r == h.mount_rotations.end() || r->second.known())) ids.push_back(id);
+    }
   }
+  std::string text;
+  for (const int id : ids) {
+    const auto r = h.mount_rotations.find(id);
+    text += (text.empty() ? "" : ", ") + (r == h.mount_rotations.end()
+                                              ? "setup " + std::to_string(id) + " in the reference orientation"
+                                              : MountRotationKey(id) + ": " + MountRotationValue(r->second));
+  }
+  return text;
+}
+
+// What the readings say of a known form's orientation: the turn by right angles of one of its
+// setups that fits them best with the form held (BestRightAngleTurn()), whether it fits clearly
+// better than the stated orientation, and the workflow run with it stated (when it does, or when
+// the orientation the readings support is searched).
+struct TurnEvidence {
+  std::optional<MountRotationFit> best;
+  bool better = false;  // the readings' sum of squares lower by at least 10 sigma^2
+  std::shared_ptr<const CalibrationWorkflowResult> at_turn;
+};
+
+// The setups of known orientation of the sphere of the known form `prior_setup` (< 0: the reference
+// sphere's).
+std::vector<int> SetupsOfForm(const CalibrationWorkflowResult& run, int prior_setup) {
+  const PointsHeader& h = run.points.header;
+  const std::optional<double> radius =
+      prior_setup < 0 ? std::nullopt : std::optional<double>(run.settings.sphere_radii_mm.at(prior_setup));
+  std::vector<int> setups;
+  for (const int id : run.seven.setup_ids) {
+    const auto r = h.mount_rotations.find(id);
+    if (r != h.mount_rotations.end() && !r->second.known()) continue;
+    const auto own = run.settings.sphere_radii_mm.find(id);
+    if (radius ? (own != run.settings.sphere_radii_mm.end() && own->second == *radius)
+               : own == run.settings.sphere_radii_mm.end()) {
+      setups.push_back(id);
+    }
+  }
+  return setups;
+}
+
+TurnEvidence BestTurnOf(const CalibrationWorkflowResult& run, int prior_setup) {
+  TurnEvidence ev;
+  const EffectFit fit = run.Extended() ? run.trace->after.fit : SevenAsFit(run);
+  for (const int id : SetupsOfForm(run, prior_setup)) {
+    MountRotationFit f = BestRightAngleTurn(run.points, run.settings, fit, id, prior_setup);
+    if (!ev.best || f.rms_um * f.rms_um - f.stated_rms_um * f.stated_rms_um <
+                        ev.best->rms_um * ev.best->rms_um - ev.best->stated_rms_um * ev.best->stated_rms_um) {
+      ev.best = f;
+    }
+  }
+  if (!ev.best) return ev;
+  const double sigma_um =
+      fit.calibration.analysis.Empty() ? fit.calibration.rms_um : fit.calibration.analysis.residual_sigma_mm * kUmPerMm;
+  const double m = static_cast<double>(fit.calibration.n_points);
+  ev.better = sigma_um > 0.0 && (ev.best->stated_rms_um * ev.best->stated_rms_um - ev.best->rms_um * ev.best->rms_um) *
+                                        m / (sigma_um * sigma_um) >=
+                                    10.0;
+  return ev;
+}
+
+// `run`'s workflow again with setup's mount rotation `rotation_deg` in place of the file's
+// (options without the comparison, the validation and the orientation's search).
+std::shared_ptr<const CalibrationWorkflowResult> TurnedRun(const CalibrationWorkflowResult& run,
+                                                           const CalibrationWorkflowOptions& options, int setup,
+                                                           const Eigen::Vector3d& rotation_deg) {
+  PointsData turned = run.points;
+  turned.header.mount_rotations[setup] = MountRotation::Known(rotation_deg);
+  CalibrationWorkflowOptions again = options;
+  again.search_orientation = false;
+  again.accept_rejected = false;
+  again.compare_path.clear();
+  again.validate_path.clear();
+  again.on_stage = nullptr;
+  again.on_warning = nullptr;
+  again.trace_options.progress = nullptr;
+  return std::make_shared<const CalibrationWorkflowResult>(
+      RunCalibrationWorkflow(std::move(turned), run.points_path, again));
+}
+
+// The check of the known form `prior_setup` (< 0: the reference sphere's) of `points` on `fit`.
+KnownFormCheck CheckOn(const CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o,
+                       const KnownFormFiles& files, int prior_setup, const PointsData& points, const EffectFit& fit) {
+  if (prior_setup >= 0)
+    return CheckOtherKnownForm(points, run.settings, fit, prior_setup, files.others.at(prior_setup));
+  const std::string& file = files.reference;
+  return CheckKnownForm(points, run.settings, fit, file.empty() ? "the certificate's bound" : file, FormBoundUm(run, o),
+                        !file.empty());
+}
+
+// How the readings agree with the known forms, their warnings among the run's. A form of a file
+// is tested with the effects the trace found beside it, and, when another turn of its sphere by
+// right angles fits the readings clearly better (`evidence`, with the workflow there), with the
+// effects found under that turn too: effects found beside a wrongly turned form can take up its
+// misfit, which the test with them kept then does not see.
+void CheckForm(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o, const KnownFormFiles& files,
+               std::map<int, TurnEvidence>* evidence) {
+  if (run.settings.form_prior.Empty() || !run.trace || run.trace->after.fit.model.form.Empty()) return;
+  const EffectFit& fit = run.trace->after.fit;
+  run.known_form = CheckOn(run, o, files, -1, run.points, fit);
+  for (const auto& [setup, path] : files.others) {
+    run.other_known_forms.push_back(CheckOn(run, o, files, setup, run.points, fit));
+  }
+  std::vector<std::pair<int, KnownFormCheck*>> forms;
+  if (!files.reference.empty()) forms.emplace_back(-1, &*run.known_form);
+  std::size_t i = 0;
+  for (const auto& [setup, path] : files.others) forms.emplace_back(setup, &run.other_known_forms[i++]);
+  for (const auto& [prior_setup, check] : forms) {
+    if (!o.search_orientation) break;
+    TurnEvidence ev = BestTurnOf(run, prior_setup);
+    if (ev.better) {
+      ev.at_turn = TurnedRun(run, o, ev.best->setup, ev.best->right_angle_deg);
+      const CalibrationWorkflowResult& there = *ev.at_turn;
+      if (there.trace && !there.trace->after.fit.model.terms.empty()) {
+        // The stated orientation with the effects found under the turn that fits better.
+        const PointsData kept = WithoutOutliers(run.points, fit.calibration);
+        EffectModel model = fit.model;
+        model.terms = there.trace->after.fit.model.terms;
+        model.reference = there.trace->after.fit.model.reference;
+        EffectFitStart start = EffectFitStart::From(there.trace->after.fit);
+        start.form_values = fit.form_values;
+        const EffectFit with = FitEffects(kept, run.settings, model, start);
+        KnownFormCheck k = CheckOn(run, o, files, prior_setup, kept, with);
+        if (!k.agrees && check->agrees) {
+          std::string ids;
+          for (const EffectTerm& t : model.terms) ids += (ids.empty() ? "" : ", ") + std::string(t.info().id);
+          k.verdict += "; tested with the effects found under the turn that fits the readings better (" + ids +
+                       "), for those found beside the form as stated (" + std::to_string(fit.model.terms.size()) +
+                       ") may take up its misfit";
+          for (std::string& w : k.warnings)
+            w += " (tested with " + ids + ", the effects found under the turn " + "that fits the readings better)";
+          *check = std::move(k);
+        }
+      }
+    }
+    (*evidence)[prior_setup] = std::move(ev);
+  }
+  for (const std::string& w : run.known_form->warnings) Warn(run, o, w);
+  for (const KnownFormCheck& k : run.other_known_forms) {
+    for (const std::string& w : k.warnings) Warn(run, o, w);
+  }
+}
+
+std::string VectorText(const Eigen::Vector3d& v) {
+  const auto clean = [](double x) { return std::abs(x) < 5e-5 ? 0.0 : x; };
+  return Format("%.4g %.4g %.4g", clean(v.x()), clean(v.y()), clean(v.z()));
+}
+
+const StatementCheck* FormStatement(const CalibrationWorkflowResult& run, StatementKind kind, std::size_t nth) {
+  std::size_t i = 0;
+  for (const StatementCheck& c : run.statements) {
+    if (c.kind == kind && (kind == StatementKind::kKnownForm || i++ == nth)) return &c;
+  }
+  return nullptr;
+}
+
+// SupportedOrientationOf() from what BestTurnOf() found (and its workflow at the turn, when run).
+SupportedOrientation SupportedOrientationFrom(const CalibrationWorkflowResult& run,
+                                              const CalibrationWorkflowOptions& options, int prior_setup,
+                                              TurnEvidence ev) {
+  SupportedOrientation out;
+  if (!ev.best) return out;
+  const PointsHeader& h = run.points.header;
+  out.setup = ev.best->setup;
+  const auto stated = h.mount_rotations.find(out.setup);
+  out.stated_deg = stated == h.mount_rotations.end() ? Eigen::Vector3d::Zero() : *stated->second.rotation_deg;
+  out.right_angle_deg = ev.best->right_angle_deg;
+  const StatementKind kind = prior_setup < 0 ? StatementKind::kKnownForm : StatementKind::kOtherForm;
+  std::size_t nth = 0;  // the other sphere's statement: by its place among them
+  for (const auto& [key, prior] : run.settings.other_form_priors) {
+    if (key == prior_setup) break;
+    ++nth;
+  }
+  // The workflow at that turn; the rotation refined from it with the effects found there.
+  if (!ev.at_turn) ev.at_turn = TurnedRun(run, options, out.setup, out.right_angle_deg);
+  const CalibrationWorkflowResult& at_turn = *ev.at_turn;
+  const EffectFit there = at_turn.Extended() ? at_turn.trace->after.fit : SevenAsFit(at_turn);
+  const MountRotationFit refined = RefineMountRotation(at_turn.points, at_turn.settings, there, out.setup, prior_setup);
+  out.fitted_deg = refined.fitted_deg;
+  out.u_deg = refined.u_deg;
+  out.offset_deg = refined.offset_deg;
+  // The turn by right angles when the fitted rotation is within its uncertainty of it (3 u, at
+  // least half a degree), else the fitted one, is tested.
+  const bool right_angle =
+      std::isfinite(out.u_deg) ? out.offset_deg <= std::max(3.0 * out.u_deg, 0.5) : out.offset_deg <= 0.5;
+  const StatementCheck* test = FormStatement(at_turn, kind, nth);
+  std::shared_ptr<const CalibrationWorkflowResult> at_fitted;
+  if (!right_angle) {
+    at_fitted = TurnedRun(run, options, out.setup, out.fitted_deg);
+    test = FormStatement(*at_fitted, kind, nth);
+  }
+  if (test != nullptr) {
+    out.p_value = test->p_value;
+    out.agrees = !test->rejected;
+  }
+  const std::string u = std::isfinite(out.u_deg) ? Format("u %.2g deg", out.u_deg)
+                                                 : std::string(
+                                                       "the turn about one axis not determined: the form looks "
+                                                       "the same turned about it");
+  const std::string turn = VectorText(right_angle ? out.right_angle_deg : out.fitted_deg);
+  const std::string detail =
+      Format("p %.2g; ", out.p_value) +
+      (right_angle ? "fitted with the form held " + VectorText(out.fitted_deg) + " deg, " + u
+                   : u + ", " + Format("%.3g", out.offset_deg) + " deg from the turn by right angles " +
+                         VectorText(out.right_angle_deg));
+  const std::string key = MountRotationKey(out.setup);
+  out.text = (out.agrees ? "the readings fit the known form turned " + turn + " (" + detail + ")"
+                         : "no mount orientation of the known form agrees with the readings: the closest, turned " +
+                               turn + ", is rejected too (" + detail +
+                               "); the sphere may have changed since its form was separated, or the form is another "
+                               "sphere's") +
+             "; " + run.points_path +
+             (stated == h.mount_rotations.end() ? " states no " + key + " (the reference orientation)"
+                                                : " states " + key + ": " + VectorText(out.stated_deg));
+  return out;
+}
+
+// For each known form the readings reject, the orientation they support, named in its statement's
+// verdict and among the warnings.
+void SearchOrientations(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o,
+                        std::map<int, TurnEvidence>& evidence) {
+  auto other = run.settings.other_form_priors.begin();
+  for (StatementCheck& c : run.statements) {
+    if (c.kind != StatementKind::kKnownForm && c.kind != StatementKind::kOtherForm) continue;
+    const int prior_setup = c.kind == StatementKind::kKnownForm ? -1 : (other++)->first;
+    if (!c.rejected) continue;
+    Tell(o.on_stage, "searching the mount orientation the readings support");
+    const auto known = evidence.find(prior_setup);
+    c.orientation = SupportedOrientationFrom(run, o, prior_setup,
+                                             known != evidence.end() ? known->second : BestTurnOf(run, prior_setup));
+    c.verdict += "; " + c.orientation->text;
+    Warn(run, o, c.orientation->text);
+  }
+}
+
+// The statements of the lab tested against the readings (sph/calib/statements.hpp), into
+// run.statements and its warnings. A rejected one (accepted or not) leaves the trace's additions
+// out: the reported calibration is then the model of the statements alone (the known form, the
+// effects a fixed value or a prior names), and run.withheld names what the trace had added.
+void CheckStatements(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions& o, const KnownFormFiles& files) {
+  if (run.known_form) {
+    const bool bound = files.reference.empty();
+    const std::optional<double> b = FormBoundUm(run, o);
+    const std::string statement = !bound ? "--sphere-form " + files.reference + " at " + OrientationsText(run, {})
+                                  : o.conditions.sphere_form_rms_um ? "--sphere-form-rms-um " + Format("%g", *b)
+                                                                    : "sphere_form_rms_um " + Format("%g", *b) +
+                                                                          " (the header of " + run.points_path + ")";
+    run.statements.push_back(
+        StatementOf(*run.known_form, bound ? StatementKind::kFormBound : StatementKind::kKnownForm, statement));
+  }
+  for (const KnownFormCheck& k : run.other_known_forms) {
+    run.statements.push_back(StatementOf(k, StatementKind::kOtherForm,
+                                         "--sphere-form " + k.source + " at " + OrientationsText(run, k.setups)));
+  }
+  const EffectFit fit = run.Extended() ? run.trace->after.fit : SevenAsFit(run);
+  for (StatementCheck& c : CheckParameterStatements(run.points, run.settings, fit, run.statement_origins)) {
+    run.statements.push_back(std::move(c));
+  }
+  bool rejected = false;
+  for (StatementCheck& c : run.statements) {
+    if (!c.rejected) continue;
+    rejected = true;
+    c.accepted = o.accept_rejected;
+    if (c.kind == StatementKind::kPrior || c.kind == StatementKind::kFixed) Warn(run, o, c.verdict);
+  }
+  if (!rejected || !run.trace) return;
+  std::vector<EffectTerm> stated;
+  for (const EffectTerm& t : run.trace->after.fit.model.terms) {
+    if (std::find(run.trace->stated.begin(), run.trace->stated.end(), t.effect) != run.trace->stated.end()) {
+      stated.push_back(t);
+    } else {
+      run.withheld.push_back(t.effect);
+    }
+  }
+  const bool form_added = run.settings.form_prior.Empty() && !run.trace->after.fit.model.form.Empty();
+  if (run.withheld.empty() && !form_added) return;
+  TraceOptions trace_options = o.trace_options;
+  trace_options.probe_range_mm = run.probe_range_mm;
+  trace_options.progress = nullptr;
+  run.trace = FitGivenModel(run.points, run.settings, run.seven, stated, {}, trace_options);
+  run.trace->stated.clear();
+  for (const EffectTerm& t : stated) run.trace->stated.push_back(t.effect);
+  std::string ids;
+  for (const Effect e : run.withheld) ids += (ids.empty() ? "" : ", ") + std::string(InfoOf(e).id);
+  Warn(run, o,
+       "the trace adds nothing on top of a statement the readings reject: " +
+           (ids.empty() ? std::string("the sphere's form it fitted") : ids) +
+           " not applied; the calibration is the model of the statements alone");
+}
+
+// What the comparison takes from the earlier calibration file `previous` (named `path`): its model,
+// which states that the machine has none of the effects today's own model found beyond it. Tested
+// on today's fit: their parameters against zero with today's covariance, chi-square on as many
+// degrees of freedom. Nothing when today's model holds no effect the earlier lacks. The comparison
+// informs: a rejection is told, it does not make the calibration unusable.
+std::optional<StatementCheck> EarlierModelStatement(const CalibrationWorkflowResult& run,
+                                                    const CalibrationFile& previous, const std::string& path) {
+  if (!run.Extended()) return std::nullopt;
+  const EffectFit& fit = run.trace->after.fit;
+  const ObservabilityReport& a = fit.calibration.analysis;
+  std::vector<int> columns;
+  std::vector<double> values;
+  std::string ids, earlier;
+  for (const EffectTerm& t : previous.effects.terms)
+    earlier += (earlier.empty() ? "" : ", ") + std::string(t.info().id);
+  if (!previous.probe_drift_powers.empty()) earlier += (earlier.empty() ? "" : ", ") + std::string("probe_drift");
+  for (std::size_t t = 0; t < fit.model.terms.size(); ++t) {
+    const Effect e = fit.model.terms[t].effect;
+    const bool held = e == Effect::kProbeDrift ? !previous.probe_drift_powers.empty() : previous.effects.Find(e) >= 0;
+    if (held) continue;
+    ids += (ids.empty() ? "" : ", ") + std::string(InfoOf(e).id);
+    for (std::size_t i = 0; i < fit.values[t].size(); ++i) {
+      columns.push_back(fit.TermOffset(t) + static_cast<int>(i));
+      values.push_back(fit.values[t][i]);
+    }
+  }
+  if (columns.empty() || a.Empty()) return std::nullopt;
+  StatementCheck s;
+  s.kind = StatementKind::kEarlierModel;
+  s.statement =
+      "--compare " + path + ": its model (" + (earlier.empty() ? std::string("the seven errors") : earlier) + ")";
+  s.stated = "no " + ids;
+  const auto n = static_cast<Eigen::Index>(columns.size());
+  Eigen::MatrixXd c(n, n);
+  Eigen::VectorXd v(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    v(i) = values[static_cast<std::size_t>(i)];
+    for (Eigen::Index j = 0; j < n; ++j) {
+      c(i, j) = a.covariance(columns[static_cast<std::size_t>(i)], columns[static_cast<std::size_t>(j)]);
+    }
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(c);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double ev = eig.eigenvalues()(i);
+    if (!(ev > 0.0) || !std::isfinite(ev)) continue;
+    const double along = eig.eigenvectors().col(i).dot(v);
+    s.chi_square += along * along / ev;
+    ++s.dof;
+  }
+  s.readings = ids + " in today's own model";
+  if (s.dof > 0) s.p_value = gum::ChiSquareSf(s.chi_square, s.dof);
+  s.rejected = s.dof > 0 && s.p_value < kStatementP;
+  s.verdict = Format(
+      "today's readings %s the model of the earlier calibration %s: they show %s, which it lacks "
+      "(chi-square %.3g for %d degrees of freedom, p %s)%s",
+      s.rejected ? "reject" : "do not reject", path.c_str(), ids.c_str(), s.chi_square, s.dof,
+      PValueText(s.p_value).c_str(),
+      s.rejected ? ": the like-for-like comparison refits them with a model they do not support; the "
+                   "machine has changed in what it has, or the earlier calibration missed it"
+                 : "");
+  return s;
 }
 
 // The calibration file's content, usable or not: the seven errors, the trace's effects but
@@ -294,6 +729,11 @@ CalibrationFile FileOf(const CalibrationWorkflowResult& run, bool* drift_left_ou
   for (int p = 0; p < kNumScmsParams; ++p) columns.push_back(p);
   if (run.Extended()) columns = AppliedColumns(run.trace->after.fit);
   AddCovarianceToCalibrationFile(columns, run.Reported(), run.budget ? &*run.budget : nullptr, file);
+  std::string accepted;  // statements the readings reject, accepted as stated
+  for (const StatementCheck& c : run.statements) {
+    if (c.rejected && c.accepted) accepted += (accepted.empty() ? "" : "; ") + c.verdict;
+  }
+  if (!accepted.empty()) file.source.emplace_back("accepted_against_the_readings", accepted);
   return file;
 }
 
@@ -362,6 +802,11 @@ CalibrationComparison CompareWithEarlier(const CalibrationWorkflowResult& run, c
   return NotLikeForLike(std::move(own), why);
 }
 
+SupportedOrientation SupportedOrientationOf(const CalibrationWorkflowResult& run,
+                                            const CalibrationWorkflowOptions& options, int prior_setup) {
+  return SupportedOrientationFrom(run, options, prior_setup, BestTurnOf(run, prior_setup));
+}
+
 void CalibrationWorkflowOptions::Check() const {
   const std::string what = "calibration options: ";
   if (sphere_radius_mm) CheckedValue(*sphere_radius_mm, ranges::kSphereRadiusMm, what + "sphere_radius_mm");
@@ -374,6 +819,11 @@ void CalibrationWorkflowOptions::Check() const {
   CheckedValue(trace_options.phi_wobble_pivot_mm, ranges::kPivotMm, what + "trace_options.phi_wobble_pivot_mm");
   if (coverage) CheckedValue(*coverage, ranges::kCoverageProbability, what + "coverage");
   if (!trace && !effects.empty()) throw Error(what + "effects need trace (a fixed model is fitted in its place)");
+  if (!trace && conditions.sphere_form_rms_um) {
+    throw Error(what +
+                "conditions.sphere_form_rms_um needs trace (the certificate's bound is a prior on the sphere's form, "
+                "which the seven errors alone do not have)");
+  }
   if (!trace && !sphere_form_paths.empty()) {
     throw Error(what + "sphere_form_paths needs trace (the known form is fitted with the effects' model)");
   }
@@ -406,6 +856,10 @@ ReportContext CalibrationWorkflowResult::Context() const {
   ctx.comparison = comparison ? &*comparison : nullptr;
   ctx.known_form = known_form ? &*known_form : nullptr;
   ctx.other_known_forms = &other_known_forms;
+  ctx.statements = &statements;
+  ctx.withheld = &withheld;
+  ctx.run_warnings = &warnings;
+  ctx.requirement = &requirement;
   return ctx;
 }
 
@@ -451,14 +905,35 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   Tell(options.on_stage, "calibrating the seven errors");
   run.seven = Calibrate(run.points, run.settings);
   if (options.trace) Trace(run, options);
-  CheckForm(run, options, form_files);
+  std::map<int, TurnEvidence> evidence;
+  CheckForm(run, options, form_files, &evidence);
+  CheckStatements(run, options, form_files);
+  if (options.search_orientation) SearchOrientations(run, options, evidence);
   MakeBudget(run, options);
+  run.requirement = options.requirement;
+  const ObservabilityReport& seven = run.seven.analysis;
+  if (options.requirement.target_u.empty() && !options.requirement.max_std_stated && !seven.Empty()) {
+    run.requirement.reference_noise_um = seven.residual_sigma_mm * kUmPerMm;
+    run.requirement.reference_um = ReferenceUncertaintyUm(run.settings.sphere_radius_mm, run.settings.probe_offset_mm,
+                                                          run.seven.geometry, run.requirement.reference_noise_um);
+    for (int p = 0; p < kNumScmsParams; ++p) {
+      const ParameterDescription& d = seven.parameters[static_cast<std::size_t>(p)];
+      const double u = seven.IsHeld(p) || !seven.determined[static_cast<std::size_t>(p)]
+                           ? std::numeric_limits<double>::infinity()
+                           : seven.std(p) * (d.quantity == Quantity::kAngle ? d.lever_mm : 1.0) * kUmPerMm;
+      run.requirement.seven_um.push_back(u);
+    }
+  }
   run.usability = JudgeUsability(run.Reported(), run.Context());
   if (previous) {
     Tell(options.on_stage, "comparing with " + options.compare_path);
     run.comparison = CompareWithEarlier(run, *previous, options.compare_path, options);
     if (run.comparison->model == kTodaysModel && !run.comparison->models.empty()) {
       Warn(run, options, run.comparison->models);
+    }
+    if (std::optional<StatementCheck> earlier = EarlierModelStatement(run, *previous, options.compare_path)) {
+      if (earlier->rejected) Warn(run, options, earlier->verdict);
+      run.statements.push_back(std::move(*earlier));
     }
   }
   return run;

@@ -1,10 +1,12 @@
 #include "sph/calib/report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "sph/calib/known_form.hpp"
+#include "sph/calib/statements.hpp"
 #include "sph/calib/usability.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/internal/header_json.hpp"
@@ -54,10 +56,84 @@ json KnownFormJson(const KnownFormCheck& k) {
           {"conflict_chi_square", k.conflict_chi_square},
           {"conflict_degrees_of_freedom", k.conflict_dof},
           {"conflict_p_value", k.conflict_p_value},
+          {"difference_rms_um", k.difference_rms_um},
+          {"difference_expected_um", k.difference_expected_um},
           {"exceeds_bound", k.exceeds_bound},
           {"agrees", k.agrees},
           {"verdict", k.verdict},
           {"warnings", k.warnings}};
+}
+
+// The statements of the lab and their tests, in the text report.
+void WriteStatementsText(std::ostream& out, const ReportContext& ctx) {
+  if (ctx.statements == nullptr || ctx.statements->empty()) return;
+  out << "\nstatements of the lab, tested against the readings (each rejected when p < " << Format("%g", kStatementP)
+      << "):\n";
+  for (const StatementCheck& s : *ctx.statements) {
+    const char* verdict = s.dof == 0    ? "not tested"
+                          : !s.rejected ? "agrees"
+                          : s.accepted  ? "REJECTED, accepted"
+                                        : "REJECTED";
+    out << "  " << verdict << ": " << s.statement << "\n";
+    out << "    stated: " << s.stated << "\n";
+    out << "    the readings without it: " << s.readings << "\n";
+    if (s.dof > 0) {
+      out << Format("    chi-square %.4g for %d degree%s of freedom, p %s\n", s.chi_square, s.dof,
+                    s.dof == 1 ? "" : "s", PValueText(s.p_value).c_str());
+    }
+    if (s.orientation) out << "    " << s.orientation->text << "\n";
+  }
+  if (ctx.withheld != nullptr && !ctx.withheld->empty()) {
+    std::string ids;
+    for (const Effect e : *ctx.withheld) ids += (ids.empty() ? "" : ", ") + std::string(InfoOf(e).id);
+    out << "  the trace adds nothing on top of a rejected statement: " << ids << " not applied\n";
+  }
+}
+
+json StatementsJson(const ReportContext& ctx) {
+  json tests = json::array();
+  for (const StatementCheck& s : *ctx.statements) {
+    json t = {{"kind", StatementKindId(s.kind)},
+              {"statement", s.statement},
+              {"parameter", s.parameter.empty() ? json(nullptr) : json(s.parameter)},
+              {"stated", s.stated},
+              {"readings", s.readings},
+              {"chi_square", s.chi_square},
+              {"degrees_of_freedom", s.dof},
+              {"p_value", s.p_value},
+              {"rejected", s.rejected},
+              {"accepted", s.accepted},
+              {"verdict", s.verdict}};
+    if (s.orientation) {
+      const SupportedOrientation& o = *s.orientation;
+      const auto vec = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
+      t["supported_orientation"] = {{"setup", o.setup},
+                                    {"stated_deg", vec(o.stated_deg)},
+                                    {"right_angle_deg", vec(o.right_angle_deg)},
+                                    {"fitted_deg", vec(o.fitted_deg)},
+                                    {"u_deg", std::isfinite(o.u_deg) ? json(o.u_deg) : json(nullptr)},
+                                    {"offset_deg", o.offset_deg},
+                                    {"p_value", o.p_value},
+                                    {"agrees", o.agrees},
+                                    {"text", o.text}};
+    }
+    tests.push_back(std::move(t));
+  }
+  json withheld = json::array();
+  if (ctx.withheld != nullptr) {
+    for (const Effect e : *ctx.withheld) withheld.push_back(InfoOf(e).id);
+  }
+  return {{"p_level", kStatementP}, {"tests", tests}, {"withheld_effects", withheld}};
+}
+
+// The fit's warnings, then the run's that are not among them.
+std::vector<std::string> AllWarnings(const CalibrationResult& r, const ReportContext& ctx) {
+  std::vector<std::string> all = r.warnings;
+  if (ctx.run_warnings == nullptr) return all;
+  for (const std::string& w : *ctx.run_warnings) {
+    if (std::find(all.begin(), all.end(), w) == all.end()) all.push_back(w);
+  }
+  return all;
 }
 
 double ParamValue(const CalibrationResult& r, std::size_t i) {
@@ -316,13 +392,16 @@ void WriteTextReport(std::ostream& out, const CalibrationResult& r, const Report
       out << "\n";
     }
   }
-  if (!r.warnings.empty()) {
+  const std::vector<std::string> warnings = AllWarnings(r, ctx);
+  if (!warnings.empty()) {
     out << "\nwarnings:\n";
-    for (const auto& w : r.warnings) out << "  - " << w << "\n";
+    for (const auto& w : warnings) out << "  - " << w << "\n";
   }
   const Usability usability = JudgeUsability(r, ctx);
   out << "\nresult: " << (usability.usable ? "usable calibration" : "NOT a usable calibration") << "\n";
+  out << "  judged against " << usability.requirement << "\n";
   for (const std::string& why : usability.reasons) out << "  why: " << why << "\n";
+  WriteStatementsText(out, ctx);
   if (ctx.known_form != nullptr) WriteKnownFormText(out, *ctx.known_form);
   if (ctx.other_known_forms != nullptr) {
     for (const KnownFormCheck& k : *ctx.other_known_forms) WriteKnownFormText(out, k);
@@ -425,6 +504,7 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
   const Usability usability = JudgeUsability(r, ctx);
   j["usable"] = usability.usable;
   j["why_not_usable"] = usability.reasons;
+  j["usable_against"] = usability.requirement;
   json outliers = json::array();
   for (const Outlier& o : r.outliers) outliers.push_back({{"sample", o.sample + 1}, {"residual_um", o.residual_um}});
   j["outliers"] = outliers;
@@ -439,7 +519,8 @@ std::string JsonReport(const CalibrationResult& r, const ReportContext& ctx) {
                         {"weighted_readings", weighted}};
   }
   if (r.prior_sigma_mm > 0.0) j["prior_noise_um"] = r.prior_sigma_mm * kUmPerMm;
-  j["warnings"] = r.warnings;
+  j["warnings"] = AllWarnings(r, ctx);
+  if (ctx.statements != nullptr && !ctx.statements->empty()) j["statements"] = StatementsJson(ctx);
   if (ctx.known_form != nullptr) j["known_form"] = KnownFormJson(*ctx.known_form);
   if (ctx.other_known_forms != nullptr && !ctx.other_known_forms->empty()) {
     json others = json::array();

@@ -5,6 +5,7 @@
 
 #include "sph/core/error.hpp"
 #include "sph/core/text_input.hpp"
+#include "sph/core/valid_range.hpp"
 #include "sph/internal/format.hpp"
 #include "sph/model/effect_terms.hpp"
 #include "sph/model/units.hpp"
@@ -29,8 +30,24 @@ const char* kNames =
     "one of the seven errors (alpha, a, beta, b, epsilon, c, d_prime) or an effect's parameter (e.g. "
     "theta_encoder.c2, probe_drift.t1)";
 
-// The parameter and unit of "NAME_UNIT"; the unit's factor into internal units.
-std::string NameAndUnit(const std::string& key, const std::string& what, double* to_internal) {
+// The largest magnitude of parameter `name`'s values (internal units): a seven error's
+// kScmsParamInfo bound (its report unit deg or mm), an effect's kMaxEffectArcsec or kMaxEffectUm.
+double MaxAbsInternal(const std::string& name) {
+  for (const ScmsParamInfo& info : kScmsParamInfo) {
+    if (name == info.name) return info.max_abs_report * (info.quantity == Quantity::kAngle ? kRadPerDeg : 1.0);
+  }
+  return ParameterQuantity(name) == Quantity::kAngle ? kMaxEffectArcsec * kRadPerArcsec : kMaxEffectUm * kMmPerUm;
+}
+
+// The smallest standard uncertainty a prior may state (internal units): 1e-12 rad (2e-5 nm at a
+// 20 mm lever) or 1e-9 mm (1e-3 nm), far below what any reading resolves; smaller, the prior's
+// weight against the readings overflows the fit's sums, and a value known that well is held (fix).
+double MinPriorUInternal(const std::string& name) { return ParameterQuantity(name) == Quantity::kAngle ? 1e-12 : 1e-9; }
+
+// The parameter and unit of "NAME_UNIT"; the unit's factor into internal units; `unit_out` gets the
+// unit.
+std::string NameAndUnit(const std::string& key, const std::string& what, double* to_internal,
+                        const char** unit_out = nullptr) {
   for (const UnitOf& u : kUnits) {
     const std::string suffix = std::string("_") + u.suffix;
     if (key.size() <= suffix.size() || key.compare(key.size() - suffix.size(), suffix.size(), suffix) != 0) continue;
@@ -44,6 +61,7 @@ std::string NameAndUnit(const std::string& key, const std::string& what, double*
           name + (*q == Quantity::kAngle ? "_deg=...)" : "_mm=...)"));
     }
     *to_internal = u.to_internal;
+    if (unit_out != nullptr) *unit_out = u.suffix;
     return name;
   }
   const std::optional<Quantity> q = ParameterQuantity(key);
@@ -99,8 +117,13 @@ FixedParameter ParseFixedParameter(const std::string& text, const std::string& w
     return f;
   }
   double to_internal = 1.0;
-  f.name = NameAndUnit(text.substr(0, eq), what, &to_internal);
-  f.value = ParseNumber(text.substr(eq + 1), f.name, what + ": ") * to_internal;
+  const char* unit = "";
+  f.name = NameAndUnit(text.substr(0, eq), what, &to_internal, &unit);
+  const std::string value = text.substr(eq + 1);
+  const double max = MaxAbsInternal(f.name) / to_internal;
+  f.value =
+      CheckedValue(ParseNumber(value, f.name, what + ": "), ValidRange{-max, max, unit}, what + ": " + f.name, value) *
+      to_internal;
   return f;
 }
 
@@ -113,12 +136,20 @@ ParameterPrior ParseParameterPrior(const std::string& text, const std::string& w
   }
   ParameterPrior p;
   double to_internal = 1.0;
-  p.name = NameAndUnit(text.substr(0, eq), what, &to_internal);
-  p.value = ParseNumber(text.substr(eq + 1, comma - eq - 1), p.name, what + ": ") * to_internal;
+  const char* unit = "";
+  p.name = NameAndUnit(text.substr(0, eq), what, &to_internal, &unit);
+  const std::string value = text.substr(eq + 1, comma - eq - 1);
+  const double max = MaxAbsInternal(p.name) / to_internal;
+  p.value =
+      CheckedValue(ParseNumber(value, p.name, what + ": "), ValidRange{-max, max, unit}, what + ": " + p.name, value) *
+      to_internal;
   const std::string u = text.substr(comma + 1);
-  p.u = ParseNumber(u, p.name + " standard uncertainty", what + ": ") * to_internal;
-  if (!(p.u > 0.0))
-    throw Error(what + ": the standard uncertainty of " + p.name + " must be positive, got " + Quoted(u));
+  // As every number, in the range its parameter's values have: from what a reading resolves to
+  // the parameter's largest magnitude.
+  p.u = CheckedValue(ParseNumber(u, p.name + " standard uncertainty", what + ": "),
+                     ValidRange{MinPriorUInternal(p.name) / to_internal, max, unit},
+                     what + ": the standard uncertainty of " + p.name, u) *
+        to_internal;
   return p;
 }
 

@@ -182,7 +182,7 @@ class PointsParser {
     if (!f) return;
     const auto at = f->key.find('@');
     if (at != std::string::npos) {
-      SetupLine(f->key, at, f->value, fail);
+      if (!SetupLine(f->key, at, f->value, fail)) RefuseSetupSuffix(f->key, at, fail);
     } else if (IsKnownKey(f->key)) {
       const std::string first = std::to_string(data_.sample_lines.front());
       if (f->key == kColumnsKey) {
@@ -215,6 +215,7 @@ class PointsParser {
     if (!seen_keys_.insert(key).second) fail("header key " + Quoted(key) + " is given twice");
     const auto at = key.find('@');
     if (SetupLine(key, at, value, fail)) return;
+    if (at != std::string::npos) RefuseSetupSuffix(key, at, fail);
     if (key == kRadiusKey || key == kProbeOffsetKey) return LengthLine(key, value, fail);
     if (key == kColumnsKey) {
       data_.header.columns = SplitWhitespace(value);
@@ -232,6 +233,15 @@ class PointsParser {
       }
     }
     data_.header.metadata.emplace_back(key, value);
+  }
+
+  // A key with a setup suffix (its '@' at `at`) whose name is a field of the whole file ("fix@0",
+  // "sphere_form_rms_um@0"): refused, for it would otherwise be kept as metadata and state nothing.
+  static void RefuseSetupSuffix(const std::string& key, std::size_t at, const LineError& fail) {
+    const std::string name = key.substr(0, at);
+    if (!IsKnownKey(name) && name != kFixKey && name != kPriorKey) return;
+    fail("header key " + Quoted(key) + ": " + name + " belongs to the whole file and takes no setup suffix (@" +
+         key.substr(at + 1) + "); only " + kMountRotationKey + " and " + kRadiusKey + " are given per setup");
   }
 
   // A header key this reader takes a value from (not metadata).

@@ -221,6 +221,31 @@ EffectFit WithKnownForm(const Readings& data, const CalibrationOptions& options,
   return internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
 }
 
+// `base`'s model with the effects `stated` (TraceResult::stated): each effect's default term
+// with the components a fixed value or a prior names, fitted from `base`.
+EffectFit WithStatedEffects(const Readings& data, const CalibrationOptions& options, const EffectFit& base,
+                            const std::vector<Effect>& stated, const TraceOptions& trace_options) {
+  EffectModel model = base.model;
+  for (const Effect e : stated) {
+    EffectTerm term = DefaultTerm(e, trace_options.harmonics, trace_options.drift_order);
+    std::vector<std::string> names;
+    for (const FixedParameter& f : options.fixed) names.push_back(f.name);
+    for (const ParameterPrior& p : options.priors) names.push_back(p.name);
+    for (const std::string& name : names) {
+      EffectComponent c;
+      if (name.rfind(std::string(InfoOf(e).id) + ".", 0) != 0 || !FindComponent(e, name, &c)) continue;
+      const bool has = std::any_of(term.components.begin(), term.components.end(), [&](const EffectComponent& k) {
+        return k.order == c.order && k.axis == c.axis && k.sine == c.sine;
+      });
+      if (!has) term.components.push_back(c);
+    }
+    model.terms.push_back(term);
+  }
+  EffectFitStart start = EffectFitStart::From(base);
+  start.values.resize(model.terms.size());
+  return internal::FitEffectsRows(data.points, data.table, nullptr, options, model, start);
+}
+
 // The form selection of a trace whose form is known (FormSelection::known).
 void KnownFormSelection(const CalibrationOptions& options, FormSelection* sel) {
   int l_max = 0;
@@ -264,13 +289,14 @@ using internal::ConfoundedFormTerms;
 using internal::Finish;
 using internal::FormDesign;
 using internal::ForwardRound;
-using internal::KnownFormSelection;
 using internal::HigherDegrees;
+using internal::KnownFormSelection;
 using internal::Readings;
 using internal::RemoveUnneeded;
 using internal::SelectFormDegree;
 using internal::TraceStart;
 using internal::WithKnownForm;
+using internal::WithStatedEffects;
 
 TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& options, const CalibrationResult& base,
                           TraceOptions trace_options) {
@@ -292,6 +318,13 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
     EffectFit with_form = SelectFormDegree(data, options, r.before.fit, trace_options, &r.form);
     if (!with_form.model.form.Empty()) current = Analysed(std::move(with_form), data, options, trace_options);
   }
+  // The effects a fixed value or a prior states, in the model from the start.
+  r.stated = StatedEffects(options);
+  if (!r.stated.empty()) {
+    current =
+        Analysed(WithStatedEffects(data, options, current.fit, r.stated, trace_options), data, options, trace_options);
+    r.added = r.stated;
+  }
   // A round that adds a set of k effects counts k among max_effects; one that holds back counts one.
   for (int round = 1, left = trace_options.max_effects; left > 0; ++round) {
     const std::size_t before = r.added.size();
@@ -310,6 +343,20 @@ TraceResult TraceResidual(const PointsData& all, const CalibrationOptions& optio
   r.after = std::move(current);
   Finish(all, options, base, trace_options, &r);
   return r;
+}
+
+std::vector<Effect> StatedEffects(const CalibrationOptions& options) {
+  std::vector<std::string> names;
+  for (const FixedParameter& f : options.fixed) names.push_back(f.name);
+  for (const ParameterPrior& p : options.priors) names.push_back(p.name);
+  std::vector<Effect> stated;
+  for (const std::string& name : names) {
+    const auto dot = name.find('.');
+    Effect e{};
+    if (dot == std::string::npos || !EffectFromId(name.substr(0, dot), &e)) continue;
+    if (std::find(stated.begin(), stated.end(), e) == stated.end()) stated.push_back(e);
+  }
+  return stated;
 }
 
 namespace {

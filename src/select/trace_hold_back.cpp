@@ -134,10 +134,13 @@ bool Rival(const Readings& data, const CalibrationOptions& options, const Traced
   const CandidateScore& c = tried[i].first;
   const CandidateScore& chosen = tried[best].first;
   if (i == best || !Admissible(c, current, trace_options)) return false;
-  // A candidate held back in an earlier round (TraceOptions::hold_confounded) may score better than
-  // the one chosen now: it is about equal only when the two are within ambiguity_bic either way.
+  // A candidate held back in an earlier round (TraceOptions::hold_confounded), or any beside a member
+  // of a set added together (the round's best single may score far better than the member), may
+  // score better than the one chosen now: it is about equal only when the two are within
+  // ambiguity_bic either way.
   const double gap = c.delta_bic - chosen.delta_bic;
-  const bool near = (c.held ? std::abs(gap) : gap) < trace_options.ambiguity_bic;
+  const bool either_way = c.held || !chosen.set.empty();
+  const bool near = (either_way ? std::abs(gap) : gap) < trace_options.ambiguity_bic;
   if (close != nullptr) *close = near;
   return near ||
          ConfoundedByDesign(data, options, current.fit, c, tried[i].second, chosen, tried[best].second, trace_options);

@@ -74,8 +74,16 @@ void NoteWhyNotAdded(CandidateScore& c, bool admissible, bool form_wins, const C
   std::string why;
   if (admissible && form_wins) {
     why = "qualifies, but a pattern fixed on the sphere explains as much or more";
-  } else if (admissible && best != nullptr) {
+  } else if (admissible && best != nullptr && best->delta_bic <= c.delta_bic) {
     why = "qualifies; " + best->Id() + Format(" scored better (delta BIC %.1f)", best->delta_bic);
+  } else if (admissible && best != nullptr) {
+    // A better score, but not eligible: a pattern fixed on the sphere explains about as much, and
+    // its own variable does not show it beyond that pattern, as it does the one added.
+    why = Format(
+              "qualifies with a better score than %s (delta BIC %.1f against %.1f), but a pattern fixed on the "
+              "sphere explains about as much and its own variable does not show it beyond that pattern; ",
+              best->Id().c_str(), c.delta_bic, best->delta_bic) +
+          best->Id() + "'s does";
   } else if (!c.term.components.empty() && c.determined) {
     if (c.delta_bic > -trace_options.min_delta_bic) {
       why = "too small a gain (delta BIC above -" + Format("%g", trace_options.min_delta_bic) + ")";
@@ -147,8 +155,10 @@ bool SameComponents(const EffectTerm& a, const EffectTerm& b) {
 // with FitCandidate()'s rule, and taken when the extended BIC falls.
 void RefreshComponents(const Readings& data, const CalibrationOptions& options, const TraceOptions& trace_options,
                        TracedFit& current) {
+  const std::vector<Effect> stated = StatedEffects(options);  // their components as stated
   for (std::size_t t = 0; t + 1 < current.fit.model.terms.size(); ++t) {
     const EffectTerm& term = current.fit.model.terms[t];
+    if (std::find(stated.begin(), stated.end(), term.effect) != stated.end()) continue;
     const EffectTerm full = DefaultTerm(term.effect, trace_options.harmonics, trace_options.drift_order);
     if (SameComponents(term, full)) continue;
     EffectModel model = current.fit.model;
@@ -236,7 +246,11 @@ void AddSet(const Readings& data, const CalibrationOptions& options, const Trace
     } else if (not_beyond_form.count(c.effect) == 0) {
       if (Admissible(c, current, trace_options)) {
         c.note += std::string(c.note.empty() ? "" : "; ") +
-                  Format("qualifies; the set %s scored better (delta BIC %.1f)", all.c_str(), set.delta_bic);
+                  (set.delta_bic <= c.delta_bic
+                       ? Format("qualifies; the set %s scored better (delta BIC %.1f)", all.c_str(), set.delta_bic)
+                       : Format("qualifies; the set %s was chosen (delta BIC %.1f, charged for the search among "
+                                "sets, against this one's %.1f)",
+                                all.c_str(), set.delta_bic, c.delta_bic));
       } else {
         NoteWhyNotAdded(c, false, false, nullptr, current, trace_options);
       }
@@ -370,6 +384,7 @@ void RemoveUnneeded(const Readings& data, const CalibrationOptions& options, con
     double least = std::numeric_limits<double>::infinity();
     EffectFit without_weakest;
     for (std::size_t t = 0; t < current.fit.model.terms.size(); ++t) {
+      if (std::find(r.stated.begin(), r.stated.end(), current.fit.model.terms[t].effect) != r.stated.end()) continue;
       EffectModel model = current.fit.model;
       model.terms.erase(model.terms.begin() + static_cast<std::ptrdiff_t>(t));
       EffectFitStart start = EffectFitStart::From(current.fit);

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/core/error.hpp"
+#include "sph/io/parameter_settings.hpp"
 #include "sph/io/points_file.hpp"
 #include "sph/model/units.hpp"
 #include "sph/simulation/simulate.hpp"
@@ -219,6 +220,103 @@ TEST(CalibrateWorkflow, ComparesTodaysModelWhenTheEarlierCannotBeFitted) {
                                     "calibration's model could not be fitted to today's readings ("));
   EXPECT_THAT(cmp.verdict, HasSubstr("found in one calibration only: theta_reversal.b (previous only)"));
   for (const ComparedParameter& c : cmp.parameters) EXPECT_EQ(c.model, kTodaysModel);
+}
+
+// A prior the readings contradict: the example's alpha is 0.0202 deg, stated 0.03 deg with a
+// standard uncertainty of 1e-6 deg. Taken on trust it would pull alpha there and the residual with
+// it; tested, it is rejected, the calibration is not usable and the reason names both values.
+TEST(CalibrateWorkflow, APriorTheReadingsRejectMakesTheCalibrationUnusable) {
+  CalibrationWorkflowOptions o;
+  o.trace = false;
+  o.fit.priors.push_back(ParseParameterPrior("alpha_deg=0.03,1e-6", "--prior alpha_deg=0.03,1e-6"));
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(kPoints, o);
+  ASSERT_EQ(run.statements.size(), 1u);
+  const StatementCheck& s = run.statements[0];
+  EXPECT_EQ(s.kind, StatementKind::kPrior);
+  EXPECT_EQ(s.dof, 1);
+  EXPECT_TRUE(s.rejected);
+  EXPECT_EQ(s.statement, "--prior alpha_deg=0.03,1e-06");
+  EXPECT_EQ(s.readings, "alpha_deg=0.02022,0.00019");
+  EXPECT_FALSE(run.usability.usable);
+  ASSERT_FALSE(run.usability.reasons.empty());
+  EXPECT_THAT(run.usability.reasons.back(),
+              HasSubstr("the readings reject --prior alpha_deg=0.03,1e-06: stated alpha_deg=0.03,1e-06, the readings "
+                        "without it alpha_deg=0.02022,0.00019"));
+  EXPECT_THROW(run.MakeCalibrationFile(), Error);
+  // Accepted against the readings: usable, and the calibration file says so.
+  o.accept_rejected = true;
+  const CalibrationWorkflowResult accepted = RunCalibrationWorkflow(kPoints, o);
+  EXPECT_TRUE(accepted.usability.usable);
+  ASSERT_EQ(accepted.statements.size(), 1u);
+  EXPECT_TRUE(accepted.statements[0].rejected);
+  EXPECT_TRUE(accepted.statements[0].accepted);
+  bool said = false;
+  for (const auto& [key, value] : accepted.MakeCalibrationFile().source) {
+    said |= key == "accepted_against_the_readings" && value.find("--prior alpha_deg=0.03,1e-06") != std::string::npos;
+  }
+  EXPECT_TRUE(said);
+  // A prior the readings agree with is used, and reported as agreeing.
+  o.accept_rejected = false;
+  o.fit.priors = {ParseParameterPrior("alpha_deg=0.0202,0.0005", "--prior alpha_deg=0.0202,0.0005")};
+  const CalibrationWorkflowResult agreed = RunCalibrationWorkflow(kPoints, o);
+  ASSERT_EQ(agreed.statements.size(), 1u);
+  EXPECT_FALSE(agreed.statements[0].rejected);
+  EXPECT_TRUE(agreed.usability.usable);
+}
+
+// A held value of an effect's parameter states that the effect exists: with the trace the effect is
+// in the model from the start (a probe gain the example's machine does not have), never removed,
+// and the held value is tested like any statement: the readings, the gain free, give -1.9 +- 0.95 um
+// against 3 um held.
+TEST(CalibrateWorkflow, AFixedEffectParameterPutsItsEffectInTheModelAndIsTested) {
+  CalibrationWorkflowOptions o;
+  o.fit.fixed.push_back(ParseFixedParameter("probe_gain.u1_um=3", "--fix probe_gain.u1_um=3"));
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(kPoints, o);
+  ASSERT_TRUE(run.trace.has_value());
+  ASSERT_EQ(run.trace->stated.size(), 1u);
+  EXPECT_EQ(run.trace->stated[0], Effect::kProbeGain);
+  EXPECT_GE(run.trace->after.fit.model.Find(Effect::kProbeGain), 0);
+  ASSERT_FALSE(run.statements.empty());
+  EXPECT_EQ(run.statements[0].kind, StatementKind::kFixed);
+  EXPECT_EQ(run.statements[0].parameter, "probe_gain.u1");
+  EXPECT_EQ(run.statements[0].dof, 1);
+  EXPECT_TRUE(run.statements[0].rejected) << run.statements[0].verdict;
+  EXPECT_EQ(run.statements[0].readings, "probe_gain.u1_um=-1.91,0.95");
+  EXPECT_FALSE(run.usability.usable);
+  // Nothing the trace found beside it is applied: the model is the statement's.
+  ASSERT_EQ(run.trace->added.size(), 1u);
+  EXPECT_EQ(run.trace->added[0], Effect::kProbeGain);
+}
+
+// What usable is judged against: 40 readings of the example's machine (8 x 5) determine beta, b,
+// epsilon and c far worse than the reference pattern does at their noise; the default says so and
+// names itself, a stated requirement is applied instead and named.
+TEST(CalibrateWorkflow, UsableAgainstTheDefaultRequirementOrTheStatedOne) {
+  SimulationSpec spec;
+  spec.pattern = GridPattern(8, 5);
+  CalibrationWorkflowOptions o;
+  o.trace = false;
+  const CalibrationWorkflowResult run = RunCalibrationWorkflow(Simulate(spec), "h40.txt", o);
+  EXPECT_FALSE(run.usability.usable);
+  EXPECT_THAT(run.usability.requirement, HasSubstr("the default requirement"));
+  bool beta = false;
+  for (const std::string& why : run.usability.reasons) beta |= why.find("the readings determine beta to ") == 0;
+  EXPECT_TRUE(beta);
+  EXPECT_THAT(run.JsonReport(), HasSubstr("\"usable_against\": \"the default requirement"));
+  o.requirement.max_std_stated = true;  // --max-std-um 10
+  const CalibrationWorkflowResult stated = RunCalibrationWorkflow(Simulate(spec), "h40.txt", o);
+  EXPECT_TRUE(stated.usability.usable);
+  EXPECT_THAT(stated.usability.requirement, HasSubstr("the stated requirement"));
+  o.requirement.max_std_stated = false;
+  o.requirement.target_u = {{"beta", 100e-6, "beta_urad=100"}};
+  const CalibrationWorkflowResult target = RunCalibrationWorkflow(Simulate(spec), "h40.txt", o);
+  EXPECT_FALSE(target.usability.usable);
+  ASSERT_EQ(target.usability.reasons.size(), 1u);
+  EXPECT_THAT(target.usability.reasons[0], HasSubstr("above the stated target --target-u beta_urad=100"));
+  // The paper's pattern of the same machine is usable by default.
+  SimulationSpec paper;
+  o.requirement.target_u.clear();
+  EXPECT_TRUE(RunCalibrationWorkflow(Simulate(paper), "paper.txt", o).usability.usable);
 }
 
 TEST(CalibrateWorkflow, RefusesPointsWithoutARadius) {

@@ -203,25 +203,96 @@ TEST(KnownForm, FindsADriftInOnePlacementThatAnUnknownFormHides) {
 }
 
 // The sphere turned by 90 deg about Theta: stated in the header, the known form is seen through
-// that rotation and agrees; not stated (the reference orientation assumed), the form as known fits
-// the readings worse than no form, they disagree with it and the warning names the orientation.
-// (The prior's chi-square alone does not show it here: the fitted form leans on its prior.)
-TEST(KnownForm, AWrongOrientationIsReportedAsDisagreeing) {
+// that rotation and agrees, the drift is found. Not stated (the reference orientation assumed), the
+// trace takes up the misfit with four effects of the Phi axis and the drift, beside which the test
+// would not see it; the turn by right angles that fits the readings clearly better (by 90 deg about
+// Theta) finds only the drift, and with that effect the readings reject the form as stated: the
+// calibration is not usable, the trace adds nothing on top of it, and the orientation the readings
+// support is named.
+TEST(KnownForm, AWrongOrientationIsRejectedAndTheRightOneNamed) {
   const std::string dir = sph::testing::MakeTempDir("known_form_turned");
   const std::string form = FormFile(dir, 0.002);
   const CalibrationWorkflowResult right = RunCalibrationWorkflow(Daily(2, 90.0, true), "daily", Options(form));
   ASSERT_TRUE(right.known_form.has_value());
   EXPECT_TRUE(right.known_form->agrees) << right.known_form->verdict;
   EXPECT_TRUE(Added(right, Effect::kProbeDrift));
+  EXPECT_TRUE(right.usability.usable) << (right.usability.reasons.empty() ? "" : right.usability.reasons[0]);
   const CalibrationWorkflowResult wrong = RunCalibrationWorkflow(Daily(2, 90.0, false), "daily", Options(form));
   ASSERT_TRUE(wrong.known_form.has_value());
   EXPECT_FALSE(wrong.known_form->agrees) << wrong.known_form->verdict;
-  EXPECT_GT(wrong.known_form->rms_with_um, wrong.known_form->rms_without_um);
-  ASSERT_FALSE(wrong.known_form->warnings.empty());
-  EXPECT_THAT(wrong.known_form->warnings[0], HasSubstr("mount_rotation_deg"));
+  EXPECT_LT(wrong.known_form->conflict_p_value, kStatementP);
+  ASSERT_EQ(wrong.statements.size(), 1u);
+  const StatementCheck& s = wrong.statements[0];
+  EXPECT_EQ(s.kind, StatementKind::kKnownForm);
+  EXPECT_TRUE(s.rejected);
+  EXPECT_GT(s.dof, 0);
+  EXPECT_THAT(s.statement, HasSubstr("--sphere-form " + form + " at setup 0 in the reference orientation"));
+  ASSERT_TRUE(s.orientation.has_value());
+  EXPECT_TRUE(s.orientation->agrees) << s.orientation->text;
+  EXPECT_LT((s.orientation->right_angle_deg - Eigen::Vector3d(0, 0, 90)).norm(), 1e-6) << s.orientation->text;
+  EXPECT_THAT(s.orientation->text, HasSubstr("the readings fit the known form turned 0 0 90 ("));
+  // Not usable, the reason naming the statement and both values; nothing added on top of it.
+  EXPECT_FALSE(wrong.usability.usable);
+  ASSERT_FALSE(wrong.usability.reasons.empty());
+  EXPECT_THAT(wrong.usability.reasons[0], HasSubstr("the readings reject --sphere-form " + form));
+  EXPECT_THAT(wrong.usability.reasons[0], HasSubstr("stated a form of RMS 0.0426 um over the sphere"));
+  EXPECT_THAT(wrong.usability.reasons[0], HasSubstr("the readings without it a form that differs from it by "));
+  ASSERT_TRUE(wrong.trace.has_value());
+  EXPECT_TRUE(wrong.trace->added.empty());
+  EXPECT_FALSE(wrong.withheld.empty());
+  // Among the warnings of the run and of the JSON report, whose "statements" carry the test.
   bool warned = false;
-  for (const std::string& w : wrong.warnings) warned |= w.find("disagree") != std::string::npos;
+  for (const std::string& w : wrong.warnings) warned |= w.find("the readings reject the known form") == 0;
   EXPECT_TRUE(warned);
+  const nlohmann::json j = nlohmann::json::parse(wrong.JsonReport());
+  bool in_json = false;
+  for (const auto& w : j.at("warnings")) in_json |= w.get<std::string>().find("the readings reject") == 0;
+  EXPECT_TRUE(in_json);
+  EXPECT_FALSE(j.at("usable").get<bool>());
+  EXPECT_TRUE(j.at("statements").at("tests").at(0).at("rejected").get<bool>());
+  EXPECT_NEAR(
+      j.at("statements").at("tests").at(0).at("supported_orientation").at("right_angle_deg").at(2).get<double>(), 90.0,
+      1e-9);
+  EXPECT_THROW(wrong.MakeCalibrationFile(), Error);
+}
+
+// The right orientation stated beside a real drift of 0.4 um: the form as known, judged on the
+// seven errors alone, fits the readings worse than none (the drift dominates both fits), but the
+// test is the readings' own estimate with the drift the trace found kept: not rejected, usable.
+TEST(KnownForm, TheRightOrientationBesideARealDriftIsNotRejected) {
+  const std::string dir = sph::testing::MakeTempDir("known_form_right_drift");
+  const std::string form = FormFile(dir, 0.002);
+  for (const std::uint64_t seed : {3, 4, 5}) {
+    const CalibrationWorkflowResult run = RunCalibrationWorkflow(Daily(seed), "daily", Options(form));
+    ASSERT_TRUE(run.known_form.has_value());
+    EXPECT_TRUE(run.known_form->agrees) << "seed " << seed << ": " << run.known_form->verdict;
+    EXPECT_TRUE(run.usability.usable) << "seed " << seed;
+    bool warned = false;
+    for (const std::string& w : run.warnings) warned |= w.find("known form") != std::string::npos;
+    EXPECT_FALSE(warned) << "seed " << seed;
+  }
+}
+
+// A certificate's bound ten times too tight: the example's one-placement sphere has a form of
+// 0.047 um RMS, the bound states 0.005 um. The readings reject the bound as a prior (a form of
+// several times it in the directions they determine), the calibration is not usable, and the
+// effects the trace found beside the bound (they took up the form it held small) are not applied.
+TEST(KnownForm, ABoundTooTightForTheExampleSphereIsRejected) {
+  CalibrationWorkflowOptions o;
+  o.conditions.sphere_form_rms_um = 0.005;
+  const CalibrationWorkflowResult run =
+      RunCalibrationWorkflow(SPH_SOURCE_DIR "/data/example/separation/one_placement.txt", o);
+  ASSERT_TRUE(run.known_form.has_value());
+  EXPECT_TRUE(run.known_form->exceeds_bound) << run.known_form->verdict;
+  EXPECT_GT(run.known_form->conflict_dof, 0);
+  ASSERT_EQ(run.statements.size(), 1u);
+  EXPECT_EQ(run.statements[0].kind, StatementKind::kFormBound);
+  EXPECT_EQ(run.statements[0].statement, "--sphere-form-rms-um 0.005");
+  EXPECT_TRUE(run.statements[0].rejected);
+  EXPECT_FALSE(run.usability.usable);
+  ASSERT_TRUE(run.trace.has_value());
+  EXPECT_TRUE(run.trace->added.empty());
+  EXPECT_FALSE(run.withheld.empty());
 }
 
 // A cubic probe nonlinearity in one placement: a power of the reading is then a form of low

@@ -392,6 +392,30 @@ TEST(TraceResidual, NamesASetAndTheSingleThatScoresAboutAsWell) {
 // back, reported as two explanations with the placement that separates them, and the residual
 // they explain uncompensated. With a second sphere position the design separates them, and the
 // encoder error is added.
+// The words of a candidate's note agree with its numbers: a Theta encoder error and a drift in one
+// placement, where a pattern fixed on the sphere explains about as much as the encoder error and
+// its own variable does not show it beyond that pattern, while the drift's does. The encoder error
+// scores better than the drift added in the round (seed 4): its note says so and why, never that the
+// drift "scored better".
+TEST(TraceResidual, ANoteNamesACandidateThatScoredBetterOnlyWhenItDid) {
+  SimulationSpec spec;
+  spec.seed = 4;
+  spec.effects.model.terms = {{Effect::kThetaEncoder, {{2, 0, false}}}, {Effect::kProbeDrift, {{1, 0, false}}}};
+  spec.effects.values = {{10.0 * kRadPerArcsec}, {1.0 * kMmPerUm}};
+  const TraceResult r = Trace(Simulate(spec));
+  bool better_told = false;
+  for (const CandidateScore& c : r.candidates) {
+    const std::size_t at = c.note.find(" scored better (delta BIC ");
+    if (at != std::string::npos) {
+      const double other = std::stod(c.note.substr(at + 26));
+      EXPECT_LE(other, c.delta_bic) << InfoOf(c.effect).id << ": " << c.note;
+    }
+    better_told |= c.round == 1 && c.effect == Effect::kThetaEncoder &&
+                   c.note.find("qualifies with a better score than probe_drift") != std::string::npos;
+  }
+  EXPECT_TRUE(better_told) << Describe(r);
+}
+
 TEST(TraceResidual, HeldBackAddsNeitherOfTwoEffectsItCannotTellApart) {
   const PointsData points = WithEffect(Effect::kThetaEncoder, {{2, 0, false}}, {10 * kRadPerArcsec});
   TraceOptions hold;

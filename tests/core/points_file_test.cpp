@@ -125,12 +125,54 @@ TEST(PointsFile, BadFixAndPriorNamedAtTheirLine) {
   EXPECT_THAT(ErrorOf(h + "# prior: alpha_deg=0.02\n1 2 3\n"),
               HasSubstr("pts.txt:4: prior: expected NAME_UNIT=VALUE,U"));
   EXPECT_THAT(ErrorOf(h + "# prior: alpha_deg=0.02,0\n1 2 3\n"),
-              HasSubstr("pts.txt:4: prior: the standard uncertainty of alpha must be positive, got '0'"));
+              HasSubstr("pts.txt:4: prior: the standard uncertainty of alpha: must be >= 5.72958e-11 and <= 10 deg, "
+                        "got 0"));
   EXPECT_THAT(ErrorOf(h + "# prior: theta_encoder.q2_arcsec=1,1\n1 2 3\n"),
               HasSubstr("pts.txt:4: prior: unknown parameter 'theta_encoder.q2'"));
   EXPECT_THAT(ErrorOf(h + "# prior: alpha_deg=x,1\n1 2 3\n"),
               HasSubstr("pts.txt:4: prior: alpha: 'x' is not a number"));
   EXPECT_THAT(ErrorOf(h + "# fix:\n1 2 3\n"), HasSubstr("pts.txt:4: fix: names no parameter"));
+}
+
+// A prior's value and standard uncertainty, and a held value, lie in the range the parameter's
+// values have (kScmsParamInfo's bounds, an effect's kMaxEffectArcsec or kMaxEffectUm); a standard
+// uncertainty also above what any reading resolves (1e-12 rad, 1e-9 mm): a smaller one would
+// overflow the fit's sums.
+TEST(PointsFile, PriorsAndFixedValuesOutOfTheirParametersRangeAreRefused) {
+  const std::string h = kHeader;
+  EXPECT_THAT(ErrorOf(h + "# prior: alpha_deg=0.02,1e200\n1 2 3\n"),
+              HasSubstr("pts.txt:4: prior: the standard uncertainty of alpha: must be >= 5.72958e-11 and <= 10 deg, "
+                        "got 1e200"));
+  EXPECT_THAT(ErrorOf(h + "# prior: alpha_deg=0.02,1e-300\n1 2 3\n"),
+              HasSubstr("the standard uncertainty of alpha: must be >= 5.72958e-11 and <= 10 deg, got 1e-300"));
+  EXPECT_THAT(ErrorOf(h + "# prior: alpha_deg=20,0.1\n1 2 3\n"),
+              HasSubstr("pts.txt:4: prior: alpha: must be >= -10 and <= 10 deg, got 20"));
+  EXPECT_THAT(ErrorOf(h + "# prior: theta_encoder.c2_arcsec=5,5000\n1 2 3\n"),
+              HasSubstr("the standard uncertainty of theta_encoder.c2: must be >= 2.06265e-07 and <= 3600 arcsec"));
+  EXPECT_THAT(ErrorOf(h + "# prior: d_prime_um=-62,1e-7\n1 2 3\n"),
+              HasSubstr("the standard uncertainty of d_prime: must be >= 1e-06 and <= 100000 um, got 1e-7"));
+  EXPECT_THAT(ErrorOf(h + "# fix: probe_gain.u1_um=2000\n1 2 3\n"),
+              HasSubstr("pts.txt:4: fix: probe_gain.u1: must be >= -1000 and <= 1000 um, got 2000"));
+  const PointsData ok = Parse("# prior: alpha_deg=0.02,1e-6 d_prime_um=-62,0.001\n1 2 3\n");
+  ASSERT_EQ(ParameterPriorsOf(ok.header).size(), 2u);
+}
+
+// A field of the whole file with a setup's suffix would be kept as metadata and state nothing: it
+// is refused at its line, before the samples and between them.
+TEST(PointsFile, AFieldOfTheWholeFileWithASetupSuffixIsRefused) {
+  const std::string h = kHeader;
+  EXPECT_THAT(ErrorOf(h + "# fix@0: alpha\n1 2 3\n"),
+              HasSubstr("pts.txt:4: header key 'fix@0': fix belongs to the whole file and takes no setup suffix (@0); "
+                        "only mount_rotation_deg and sphere_radius_mm are given per setup"));
+  EXPECT_THAT(ErrorOf(h + "# sphere_form_rms_um@0: 0.02\n1 2 3\n"),
+              HasSubstr("pts.txt:4: header key 'sphere_form_rms_um@0': sphere_form_rms_um belongs to the whole file"));
+  EXPECT_THAT(ErrorOf(h + "# prior@1: alpha_deg=0.02,0.001\n1 2 3\n"), HasSubstr("header key 'prior@1'"));
+  EXPECT_THAT(ErrorOf(h + "# probe_offset_mm@2: 25\n1 2 3\n"), HasSubstr("header key 'probe_offset_mm@2'"));
+  EXPECT_THAT(ErrorOf(h + "1 2 3\n# fix@0: alpha\n4 5 6\n"), HasSubstr("pts.txt:5: header key 'fix@0'"));
+  // Metadata of the lab's own with a suffix stays metadata.
+  const PointsData d = Parse("# operator@site: A. N. Other\n1 2 3\n");
+  ASSERT_EQ(d.header.metadata.size(), 1u);
+  EXPECT_EQ(d.header.metadata[0].first, "operator@site");
 }
 
 TEST(PointsFile, DefaultColumnsAndRowIndexAsTime) {

@@ -96,6 +96,28 @@ def test_calibrate_sphere_form_equals_the_apps(source_dir, tmp_path):
     assert app["known_form"]["source"] == str(cal)
 
 
+def test_calibrate_statements_and_requirement_equal_the_apps(example_points, tmp_path):
+    out, cal = tmp_path / "app.json", tmp_path / "cal.json"
+    # A prior the readings reject, accepted against them; a target the example's beta meets.
+    args = ["--no-trace", "--prior", "alpha_deg=0.03,1e-6", "--accept-rejected", "--target-u", "alpha_urad=5"]
+    subprocess.run([os.environ["SPH_CALIBRATE"], example_points, *args, "--json", str(out), "-o", str(cal), "-q"],
+                   check=True)
+    result = sph.calibrate(example_points, no_trace=True, prior="alpha_deg=0.03,1e-6", accept_rejected=True,
+                           target_u="alpha_urad=5")
+    assert result.report == json.loads(out.read_text())
+    assert result.calibration_file == cal.read_text()
+    test = result.report["statements"]["tests"][0]
+    assert test["rejected"] and test["accepted"] and test["statement"] == "--prior alpha_deg=0.03,1e-06"
+    assert result.report["usable_against"].startswith("the stated requirement: expanded uncertainties within "
+                                                      "--target-u alpha_urad=5")
+    # Not accepted, the same prior makes the calibration not usable.
+    refused = sph.calibrate(example_points, no_trace=True, prior="alpha_deg=0.03,1e-6")
+    assert not refused.usable
+    assert any(w.startswith("the readings reject --prior alpha_deg=0.03,1e-06") for w in refused.report["why_not_usable"])
+    with pytest.raises(sph.Error, match="target_u alpha: expected NAME_UNIT=U"):
+        sph.calibrate(example_points, no_trace=True, target_u="alpha")
+
+
 def test_calibrate_result_views(example_points):
     r = sph.calibrate(example_points, no_trace=True)
     names = r.report["parameter_order"]
@@ -108,7 +130,10 @@ def test_calibrate_result_views(example_points):
     # The report's correlations are symmetric to their last bit (2.2e-16 apart at most).
     assert np.allclose(r.covariance, r.covariance.T, rtol=1e-15, atol=0)
     assert r.usable and json.loads(r.calibration_file)
-    assert r.text.endswith("result: usable calibration\n")
+    # The report ends with the verdict and the requirement it was judged against.
+    verdict = r.text[r.text.rindex("\nresult: ") + 1 :]
+    assert verdict.startswith("result: usable calibration\n  judged against the default requirement: ")
+    assert verdict.count("\n") == 2 and r.report["usable_against"] in verdict
     assert "usable" in repr(r) and "10 parameters" in repr(r)
 
 

@@ -7,6 +7,7 @@
 #define SPH_CALIB_CALIBRATE_WORKFLOW_HPP_
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -16,6 +17,7 @@
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/known_form.hpp"
 #include "sph/calib/report.hpp"
+#include "sph/calib/statements.hpp"
 #include "sph/calib/usability.hpp"
 #include "sph/core/ranges.hpp"
 #include "sph/io/calibration_comparison.hpp"
@@ -69,6 +71,17 @@ struct CalibrationWorkflowOptions {
   /// without a file of the reference sphere, that bound is its prior (CertificateFormPrior(),
   /// degrees 2 to FormDegreeLimit()).
   std::vector<std::string> sphere_form_paths;
+  /// A statement the readings reject (sph/calib/statements.hpp) makes the calibration not usable;
+  /// true: the lab insists on its statements, a rejected one does not, and the report and the
+  /// calibration file say that it was accepted against the readings. Either way the trace adds
+  /// nothing on top of a rejected statement.
+  bool accept_rejected = false;
+  /// What "usable" is judged against (sph/calib/usability.hpp): the lab's targets or max_std_um
+  /// stated; else the default, whose reference the workflow predicts for the run's set-up.
+  UsabilityRequirement requirement;
+  /// When the readings reject a known form, search the mount orientation they support
+  /// (SupportedOrientationOf()); false: only test the stated one.
+  bool search_orientation = true;
   SphereConditions conditions;     ///< the uncertainty inputs and the probe range; override the header's
   std::optional<double> coverage;  ///< coverage probability of U; empty: k = 2
   std::string program;             ///< the reports' "program"; empty: "sph_calibrate <version>"
@@ -102,7 +115,20 @@ struct CalibrationWorkflowResult {
   std::optional<KnownFormCheck> known_form;
   /// The same for each other sphere whose known form was given, by its first setup.
   std::vector<KnownFormCheck> other_known_forms;
-  std::vector<std::string> warnings;        ///< the readings' plausibility, the budget's absence
+  /// Every statement of the lab tested against the readings (sph/calib/statements.hpp): the known
+  /// forms, the certificate's bound when it is the prior, the priors and fixed values, the earlier
+  /// model of the comparison.
+  std::vector<StatementCheck> statements;
+  /// Where each prior or fixed value came from, by parameter: "--prior", "--fix" or "the header of
+  /// <points>".
+  std::map<std::string, std::string> statement_origins;
+  /// The effects the trace had added beside a statement the readings reject: not applied (the
+  /// reported calibration is the model of the statements alone); empty otherwise.
+  std::vector<Effect> withheld;
+  std::vector<std::string> warnings;  ///< the readings' plausibility, the budget's absence, the statements
+  /// What "usable" was judged against: the options' requirement, with the default's reference when
+  /// neither targets nor max_std_um were stated.
+  UsabilityRequirement requirement;
   Usability usability;
 
   /// Whether the reported calibration is the trace's (it added effects or a form).
@@ -143,6 +169,15 @@ struct CalibrationWorkflowResult {
 CalibrationComparison CompareWithEarlier(const CalibrationWorkflowResult& run, const CalibrationFile& previous,
                                          const std::string& previous_source,
                                          const CalibrationWorkflowOptions& options);
+
+/// The mount orientation the readings of `run` support for a known form they reject: the reference
+/// sphere's (`prior_setup` < 0) or another sphere's (its key in run.settings.other_form_priors).
+/// Each setup of known orientation of that sphere in turn: FitMountRotation() (the 24 turns by
+/// right angles, then refined with the form held); the best setup's fitted rotation is then
+/// stated in place of the file's and the workflow run again (`options`, without the comparison,
+/// the validation and this search), whose test of the same statement gives the p-value.
+SupportedOrientation SupportedOrientationOf(const CalibrationWorkflowResult& run,
+                                            const CalibrationWorkflowOptions& options, int prior_setup);
 
 /// Runs the workflow on the points file `points_path` (read with ReadPointsFile()). Throws
 /// sph::Error on bad input: a setting out of range, R0 or d given nowhere, a reading beyond the

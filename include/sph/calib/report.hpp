@@ -20,6 +20,8 @@ namespace sph {
 
 struct TraceResult;  // sph/select/trace.hpp
 struct KnownFormCheck;  // sph/calib/known_form.hpp
+struct StatementCheck;  // sph/calib/statements.hpp
+struct UsabilityRequirement;  // sph/calib/usability.hpp
 struct Validation;   // sph/select/trace_report.hpp
 
 /// What the report says about where the data came from.
@@ -44,6 +46,16 @@ struct ReportContext {
   const KnownFormCheck* known_form = nullptr;
   /// The same for each other sphere whose known form was given (may be null). Not owned.
   const std::vector<KnownFormCheck>* other_known_forms = nullptr;
+  /// The statements of the lab tested against the readings (sph/calib/statements.hpp; may be
+  /// null): a rejected one that was not accepted makes the calibration not usable. Not owned.
+  const std::vector<StatementCheck>* statements = nullptr;
+  /// The effects the trace had added beside a rejected statement, not applied (may be null).
+  const std::vector<Effect>* withheld = nullptr;
+  /// The run's warnings besides the fit's (the readings' plausibility, the budget's absence, the
+  /// known forms, the statements; may be null): the reports' warnings hold both. Not owned.
+  const std::vector<std::string>* run_warnings = nullptr;
+  /// What "usable" is judged against besides max_std_um (may be null: max_std_um alone). Not owned.
+  const UsabilityRequirement* requirement = nullptr;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,

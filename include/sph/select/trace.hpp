@@ -205,7 +205,11 @@ struct TracedFit {
 struct TraceResult {
   TracedFit before;           ///< seven errors only
   TracedFit after;            ///< with the effects added
-  std::vector<Effect> added;  ///< in the order added (less those removed)
+  std::vector<Effect> added;  ///< in the order added (less those removed); the stated ones first
+  /// The effects a fixed value or a prior of CalibrationOptions names a parameter of: a statement
+  /// that they exist, so the model holds them from the start (their default terms, with the named
+  /// components), never removed (they are in `added` too).
+  std::vector<Effect> stated;
   /// Effects held back as confounded with another (TraceOptions::hold_confounded).
   std::vector<Effect> held;
   /// Effects removed by the backward step, with the BIC without them minus with them.
@@ -240,13 +244,17 @@ TraceResult TraceResidual(const PointsData& points, const CalibrationOptions& op
 
 /// With options.form_prior the reference sphere's form is in the model from the start, at the
 /// prior's terms and informed by it (FormSelection::known), and the effects are judged beside it.
-/// Traces as above otherwise.
+/// An effect a fixed value or a prior of options names a parameter of is in the model from the
+/// start too (TraceResult::stated). Traces as above otherwise.
 ///
 /// Fits a fixed model: the seven errors and the default terms of `effects` (no selection, nothing
 /// left out), with the same residual analysis and cross-validation (and the known form of
 /// options.form_prior, when given); `after` holds the fit.
 TraceResult FitFixedEffects(const PointsData& points, const CalibrationOptions& options, const CalibrationResult& base,
                             const std::vector<Effect>& effects, TraceOptions trace_options);
+
+/// The effects a fixed value or a prior of `options` names a parameter of, in the order named.
+std::vector<Effect> StatedEffects(const CalibrationOptions& options);
 
 /// Fits a given model as FitFixedEffects() does: the seven errors, `terms` as they are (their
 /// components, none added or left out) and the sphere's form of `form_terms` (none when empty; with
