@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "fit_problem.hpp"
+#include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/ranges.hpp"
 #include "sph/core/valid_range.hpp"
@@ -47,6 +48,8 @@ void MakeBudget(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions
   };
   try {
     run.budget = MakeCalibrationBudget(WithoutOutliers(run.points, result), run.settings, result, run.inputs, refit);
+  } catch (const Cancelled&) {
+    throw;
   } catch (const std::exception& e) {
     run.warnings.push_back(std::string("no uncertainty budget: ") + e.what());
     if (o.on_warning) o.on_warning(run.warnings.back());
@@ -356,6 +359,8 @@ CalibrationComparison CompareWithEarlier(const CalibrationWorkflowResult& run, c
     }
     for (const std::string& reason : like.usability.reasons) why += (why.empty() ? "" : "; ") + reason;
     for (const std::string& warning : like.warnings) why += (why.empty() ? "" : "; ") + warning;
+  } catch (const Cancelled&) {
+    throw;
   } catch (const std::exception& e) {
     why = e.what();
   }

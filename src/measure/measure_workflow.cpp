@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "sph/io/calibration_file.hpp"
+#include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
 #include "sph/io/points_file.hpp"
 #include "sph/io/xyz_file.hpp"
@@ -25,7 +26,9 @@ struct Args : MeasurementWorkflowOptions {
   std::string points_path;
 };
 
+// Each step told is also where a cancellation is seen (sph/core/cancellation.hpp).
 void Tell(const Args& o, const std::string& stage, long done = 0, long total = 0) {
+  ThrowIfCancelled();
   if (o.on_progress) o.on_progress(stage, done, total);
 }
 

@@ -9,6 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
 #include "sph/io/points_file.hpp"
 #include "sph/model/units.hpp"
@@ -231,6 +232,20 @@ TEST(CalibrateWorkflow, RefusesPointsWithoutARadius) {
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("mine.txt: the reference sphere radius R0 is not given"));
   }
+}
+
+TEST(CalibrateWorkflow, StopsWithCancelledWhenItsCancellationIsRequested) {
+  Cancellation cancellation;
+  const CancellationScope scope(&cancellation);
+  CalibrationWorkflowOptions o;
+  o.on_stage = [&](const std::string& stage) {
+    if (stage == "calibrating the seven errors") cancellation.Request();
+  };
+  EXPECT_THROW(RunCalibrationWorkflow(kUndeclared, o), Cancelled);
+  // Another cancellation, never requested, lets it run.
+  Cancellation other;
+  const CancellationScope other_scope(&other);
+  EXPECT_TRUE(RunCalibrationWorkflow(kPoints, o).usability.usable);
 }
 
 TEST(CalibrateWorkflow, CheckNamesTheSettingOutOfRange) {
