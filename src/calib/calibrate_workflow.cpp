@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "fit_problem.hpp"
+#include "sph/calib/misreading.hpp"
 #include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/ranges.hpp"
@@ -411,6 +412,7 @@ ReportContext CalibrationWorkflowResult::Context() const {
   ctx.comparison = comparison ? &*comparison : nullptr;
   ctx.known_form = known_form ? &*known_form : nullptr;
   ctx.other_known_forms = &other_known_forms;
+  ctx.likely_cause = likely_cause;
   return ctx;
 }
 
@@ -458,6 +460,7 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
   if (options.trace) Trace(run, options);
   CheckForm(run, options, form_files);
   MakeBudget(run, options);
+  if (const auto m = LikelyMisreading(run.points, run.settings, run.seven)) run.likely_cause = m->Reason();
   run.usability = JudgeUsability(run.Reported(), run.Context());
   if (previous) {
     Tell(options.on_stage, "comparing with " + options.compare_path);

@@ -128,6 +128,7 @@ Usability JudgeUsability(const CalibrationResult& result, const ReportContext& c
   JudgeBudget(result, ctx, u);
   JudgeZeroError(result, ctx, u);
   JudgeBounds(result, ctx, u);
+  if (!u.reasons.empty() && !ctx.likely_cause.empty()) u.reasons.push_back(ctx.likely_cause);
   u.usable = u.reasons.empty();
   return u;
 }

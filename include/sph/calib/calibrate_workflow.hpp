@@ -102,6 +102,9 @@ struct CalibrationWorkflowResult {
   /// The same for each other sphere whose known form was given, by its first setup.
   std::vector<KnownFormCheck> other_known_forms;
   std::vector<std::string> warnings;        ///< the readings' plausibility, the budget's absence
+  /// When the seven-error fit fails as a misreading makes it fail: what the readings show was
+  /// misread (LikelyMisreading()'s Reason()), the last of the usability's reasons; else "".
+  std::string likely_cause;
   Usability usability;
 
   /// Whether the reported calibration is the trace's (it added effects or a form).

@@ -44,6 +44,9 @@ struct ReportContext {
   const KnownFormCheck* known_form = nullptr;
   /// The same for each other sphere whose known form was given (may be null). Not owned.
   const std::vector<KnownFormCheck>* other_known_forms = nullptr;
+  /// What the readings show was misread when the set-up does not fit (LikelyMisreading()'s
+  /// Reason(), sph/calib/misreading.hpp); "" when nothing.
+  std::string likely_cause;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,

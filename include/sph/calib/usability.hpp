@@ -18,6 +18,7 @@
 //     zero error that large is taken into d), and at most the probe's measuring range when stated;
 //   - every error and effect lies within what a calibration file holds (an error of the machine,
 //     not another machine: kScmsParamInfo's bounds, |d'| below d; kMaxEffectArcsec, kMaxEffectUm).
+// When it is not, the context's likely cause (what the readings show was misread) ends the reasons.
 #ifndef SPH_CALIB_USABILITY_HPP_
 #define SPH_CALIB_USABILITY_HPP_
 
