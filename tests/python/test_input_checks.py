@@ -169,7 +169,7 @@ def calibration():
     ((0.0, 10.0, np.nan), r"sample 2: column r_mm: 'nan' is not a finite number"),
     ((np.inf, 10.0, 5.0), r"sample 2: column theta_deg: 'inf' is not a finite number"),
     ((0.0, 10.0, 1e300), r"sample 2: column r_mm: '1e\+300' is beyond 1e\+06 mm from 0: not a probe reading in mm"),
-])
+], ids=["nan", "inf", "far"])
 def test_compensate_checks_its_arrays_as_the_reader_does(calibration, row, message):
     readings = np.array([(0.0, 10.0, 5.0), row])
     with pytest.raises(sph.Error, match="^compensate: readings: " + message):
@@ -197,3 +197,18 @@ def test_measure_takes_points(source_dir, tmp_path):
     assert np.array_equal(from_points.points_mm, from_file.points_mm)
     with pytest.raises(sph.Error, match="not x y z coordinates"):
         sph.measure(sph.read_points(validate), xyz=True)
+
+
+# ---- what a design cannot resolve ---------------------------------------------------------------------
+
+def test_harmonics_the_angles_cannot_resolve_are_null(example_points):
+    p = sph.read_points(example_points)
+    at = p.theta_deg % 45 == 0  # 8 angles of theta: harmonics up to order 3
+    eight = sph.Points(p.theta_deg[at], p.phi_deg[at], p.r_mm[at], t_s=p.t_s[at], header=p.header)
+    r = sph.calibrate(eight)
+    for fit in ("before", "after"):
+        amplitudes = r.report[fit]["theta_harmonics_um"]
+        assert len(amplitudes) == 8
+        assert all(isinstance(a, float) and a < 1 for a in amplitudes[:3]), amplitudes
+        assert amplitudes[3:] == [None] * 5, amplitudes
+    assert " 4: unresolved 5: unresolved 6: unresolved 7: unresolved 8: unresolved\n" in r.text
