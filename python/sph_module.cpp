@@ -1,14 +1,21 @@
 // The Python module `sph`: the library's points files, its calibration and measurement workflows,
 // the simulator and the Monte Carlo study for scripts, with NumPy arrays in and out. Thin, as the
-// apps are: it converts, calls the library (the GIL released) and returns what the library renders;
-// sph::Error becomes sph.Error (a ValueError) with the library's message.
+// apps are: it converts, calls the library (the GIL released, Ctrl-C stopping it) and returns what
+// the library renders; sph::Error becomes sph.Error (a ValueError) with the library's message.
 #include <algorithm>
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
+#include <exception>
 #include <functional>
+#include <limits>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -19,7 +26,9 @@
 
 #include "sph/calib/calibrate_workflow.hpp"
 #include "sph/calib/montecarlo_options.hpp"
+#include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/ranges.hpp"
 #include "sph/io/calibration_file.hpp"
 #include "sph/io/dcc.hpp"
 #include "sph/io/parameter_settings.hpp"
@@ -68,44 +77,94 @@ struct Points {
   sph::PointsData data;
 };
 
-// Points from arrays and a header dict: written as the file they state and read back by the
-// library's reader, so that they are checked as a file is ("<source>:<line>: problem").
-Points MakePoints(py::array_t<double, py::array::c_style | py::array::forcecast> theta_deg,
-                  py::array_t<double, py::array::c_style | py::array::forcecast> phi_deg,
-                  py::array_t<double, py::array::c_style | py::array::forcecast> r_mm, py::object t_s, py::object setup,
-                  py::object header, const std::string& source) {
-  const auto n = theta_deg.size();
-  if (theta_deg.ndim() != 1 || phi_deg.ndim() != 1 || r_mm.ndim() != 1 || phi_deg.size() != n || r_mm.size() != n) {
+// Runs `work` (the library's, without the GIL) on a thread of its own while this thread waits and
+// checks for signals every 50 ms: when a handler raises (Ctrl-C's KeyboardInterrupt), the work is
+// asked to stop (sph/core/cancellation.hpp), and once it has, that exception is raised here.
+template <typename Work>
+auto Interruptible(Work work) -> decltype(work()) {
+  using Result = decltype(work());
+  sph::Cancellation cancellation;
+  std::optional<Result> result;
+  std::exception_ptr failure;
+  std::mutex mutex;
+  std::condition_variable finished;
+  bool done = false, interrupted = false;
+  {
+    py::gil_scoped_release release;
+    std::thread worker([&] {
+      const sph::CancellationScope scope(&cancellation);
+      try {
+        result.emplace(work());
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      const std::lock_guard<std::mutex> lock(mutex);
+      done = true;
+      finished.notify_one();
+    });
+    std::unique_lock<std::mutex> lock(mutex);
+    while (!finished.wait_for(lock, std::chrono::milliseconds(50), [&] { return done; })) {
+      if (interrupted) continue;
+      lock.unlock();
+      {
+        const py::gil_scoped_acquire gil;
+        interrupted = PyErr_CheckSignals() != 0;  // the handler's exception is now set
+      }
+      if (interrupted) cancellation.Request();
+      lock.lock();
+    }
+    lock.unlock();
+    worker.join();
+  }
+  if (interrupted) throw py::error_already_set();
+  if (failure) std::rethrow_exception(failure);
+  return std::move(*result);
+}
+
+// A 1-D float64 array of `name`, without a copy when it is one already (C order).
+py::array_t<double, py::array::c_style | py::array::forcecast> Column1D(const py::handle& values, const char* name,
+                                                                        const std::string& source) {
+  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(values);
+  if (!a) {
+    PyErr_Clear();
+    throw sph::Error(source + ": " + name + " must be an array of numbers");
+  }
+  if (a.ndim() != 1) throw sph::Error(source + ": " + name + " must be a 1-D array");
+  return a;
+}
+
+// Points from arrays and a header dict, checked as a file is (sph::PointsFromColumns(): the
+// header's "<source>:<line>: problem", a reading's "<source>: sample <i>: problem"), without
+// copies of the arrays beyond the readings the points hold; the GIL released while they are made.
+Points MakePoints(const py::handle& theta_deg, const py::handle& phi_deg, const py::handle& r_mm, const py::object& t_s,
+                  const py::object& setup, const py::object& header, const std::string& source) {
+  const auto theta = Column1D(theta_deg, "theta_deg", source), phi = Column1D(phi_deg, "phi_deg", source),
+             r = Column1D(r_mm, "r_mm", source);
+  const auto n = theta.size();
+  if (phi.size() != n || r.size() != n) {
     throw sph::Error(source + ": theta_deg, phi_deg and r_mm must be 1-D arrays of one length");
   }
-  py::array_t<double, py::array::c_style | py::array::forcecast> t;
-  py::array_t<std::int64_t, py::array::c_style | py::array::forcecast> s;
-  const bool has_t = !t_s.is_none(), has_s = !setup.is_none();
-  if (has_t) t = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(t_s);
-  if (has_s) s = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(setup);
-  if ((has_t && (!t || t.ndim() != 1 || t.size() != n)) || (has_s && (!s || s.ndim() != 1 || s.size() != n))) {
+  std::optional<py::array_t<double, py::array::c_style | py::array::forcecast>> t, s;
+  if (!t_s.is_none()) t = Column1D(t_s, "t_s", source);
+  if (!setup.is_none()) s = Column1D(setup, "setup", source);
+  if ((t && t->size() != n) || (s && s->size() != n)) {
     throw sph::Error(source + ": t_s and setup must be 1-D arrays of the readings' length");
   }
-  std::ostringstream text;
-  text.precision(17);
-  text << "# sph-points 1\n";
+  std::vector<sph::HeaderField> fields;
   if (!header.is_none()) {
     for (auto item : py::cast<py::dict>(header)) {
-      const std::string key = py::str(item.first);
-      if (key == sph::kColumnsKey) continue;  // the arrays given say which columns there are
-      text << "# " << key << ": " << std::string(py::str(item.second)) << "\n";
+      fields.push_back({py::str(item.first), py::str(item.second)});
     }
   }
-  text << "# columns: theta_deg phi_deg r_mm" << (has_t ? " t_s" : "") << (has_s ? " setup" : "") << "\n";
-  const double *th = theta_deg.data(), *ph = phi_deg.data(), *r = r_mm.data();
-  for (py::ssize_t i = 0; i < n; ++i) {
-    text << th[i] << ' ' << ph[i] << ' ' << r[i];
-    if (has_t) text << ' ' << t.data()[i];
-    if (has_s) text << ' ' << s.data()[i];
-    text << '\n';
-  }
-  std::istringstream in(text.str());
-  return Points{sph::ParsePoints(in, source)};
+  sph::PointsColumns columns;
+  columns.n = static_cast<std::size_t>(n);
+  columns.theta_deg = theta.data();
+  columns.phi_deg = phi.data();
+  columns.r_mm = r.data();
+  columns.t_s = t ? t->data() : nullptr;
+  columns.setup = s ? s->data() : nullptr;
+  py::gil_scoped_release release;
+  return Points{sph::PointsFromColumns(fields, columns, source)};
 }
 
 // A path given as str or os.PathLike (pathlib.Path).
@@ -290,18 +349,21 @@ RenderedCalibration Render(sph::CalibrationWorkflowResult&& result) {
   return r;
 }
 
+// `key` of the report's dict `d`, or None when the report leaves it out.
+py::object Get(const py::dict& d, const char* key) { return d.contains(key) ? py::object(d[key]) : py::none(); }
+
 Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
   const sph::CalibrationWorkflowOptions options = CalibrationOptionsOf(kwargs);
   RenderedCalibration r;
   if (py::isinstance<Points>(path_or_points)) {
     Points points = py::cast<Points>(path_or_points);  // a copy: the workflow takes its points
-    py::gil_scoped_release release;
-    const std::string source = points.data.source;
-    r = Render(sph::RunCalibrationWorkflow(std::move(points.data), source, options));
+    r = Interruptible([&] {
+      const std::string source = points.data.source;
+      return Render(sph::RunCalibrationWorkflow(std::move(points.data), source, options));
+    });
   } else {
     const std::string path = PathOf(path_or_points);
-    py::gil_scoped_release release;
-    r = Render(sph::RunCalibrationWorkflow(path, options));
+    r = Interruptible([&] { return Render(sph::RunCalibrationWorkflow(path, options)); });
   }
   Calibration c;
   c.report = py::module_::import("json").attr("loads")(r.json);
@@ -313,27 +375,33 @@ Calibration Calibrate(py::object path_or_points, const py::kwargs& kwargs) {
   const py::dict params = c.report["parameters"];
   for (auto name : c.report["parameter_order"]) c.parameter_names.push_back(py::cast<std::string>(name));
   const auto n = static_cast<py::ssize_t>(c.parameter_names.size());
-  std::vector<double> std_of(c.parameter_names.size());
+  // Each parameter's standard uncertainty; NaN where the report states none (undetermined, or the
+  // fit not analysed). A held parameter's is 0.
+  std::vector<double> std_of(c.parameter_names.size(), std::numeric_limits<double>::quiet_NaN());
   for (py::ssize_t i = 0; i < n; ++i) {
     const py::dict p = params[py::str(c.parameter_names[i])];
-    std_of[i] = py::cast<double>(p["std"]);
+    const py::object sd = Get(p, "std");
+    if (!sd.is_none()) std_of[i] = py::cast<double>(sd);
     py::dict entry;
     entry["value"] = p["value"];
-    entry["std"] = p["std"];
-    entry["U"] = p["U"];
+    entry["std"] = sd;
+    entry["U"] = Get(p, "U");  // none for a parameter held or undetermined, or without a budget
     entry["unit"] = p["unit"];
     c.parameters[py::str(c.parameter_names[i])] = entry;
   }
   // The covariance in the report's units: its correlations scaled by the standard uncertainties
-  // (a held parameter, std 0, has none with the others).
+  // (a held parameter, std 0, has none with the others; NaN where a standard uncertainty or a
+  // correlation is not stated).
   c.covariance = py::array_t<double>({n, n});
   auto cov = c.covariance.mutable_unchecked<2>();
-  const py::list rows = c.report["correlation"];
+  const py::object rows = Get(c.report, "correlation");
   for (py::ssize_t i = 0; i < n; ++i) {
-    const py::list row = rows[i];
+    const py::list row = rows.is_none() ? py::list(n) : py::list(rows[py::int_(i)]);  // None: not stated
     for (py::ssize_t j = 0; j < n; ++j) {
-      const double rho = row[j].is_none() ? 0.0 : py::cast<double>(row[j]);
-      cov(i, j) = (std_of[i] == 0.0 || std_of[j] == 0.0) ? 0.0 : rho * (std_of[i] * std_of[j]);
+      const bool held = std_of[i] == 0.0 || std_of[j] == 0.0;
+      cov(i, j) = held               ? 0.0
+                  : row[j].is_none() ? std::numeric_limits<double>::quiet_NaN()
+                                     : py::cast<double>(row[j]) * (std_of[i] * std_of[j]);
     }
   }
   return c;
@@ -354,30 +422,45 @@ sph::Calibration CalibrationOf(const py::handle& calibration) {
   return sph::LoadCalibration(path);
 }
 
-// The compensated points [mm] of readings: sph.Points or an (n, 3) array of theta_deg phi_deg r_mm.
+// The compensated points [mm] of readings: sph.Points or an (n, 3) array of theta_deg phi_deg r_mm,
+// which is checked as a points file's rows are (sph::PointsFromColumns()).
 py::array_t<double> Compensate(const py::object& readings, const py::object& calibration, const py::object& center_mm) {
-  std::vector<sph::RawReading> raw;
+  const std::vector<sph::Sample>* samples = nullptr;
+  std::optional<sph::PointsData> checked;
   if (py::isinstance<Points>(readings)) {
-    for (const sph::Sample& s : py::cast<const Points&>(readings).data.samples) raw.push_back(s);
+    samples = &py::cast<const Points&>(readings).data.samples;
   } else {
     const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(readings);
     if (!a || a.ndim() != 2 || a.shape(1) != 3) {
+      PyErr_Clear();
       throw sph::Error("compensate: readings must be sph.Points or an (n, 3) array of theta_deg phi_deg r_mm");
     }
-    const auto r = a.unchecked<2>();
-    for (py::ssize_t i = 0; i < a.shape(0); ++i) raw.push_back({r(i, 0), r(i, 1), r(i, 2)});
+    sph::PointsColumns columns;
+    columns.n = static_cast<std::size_t>(a.shape(0));
+    columns.stride = 3;
+    columns.theta_deg = a.data();
+    columns.phi_deg = a.data() + 1;
+    columns.r_mm = a.data() + 2;
+    {
+      py::gil_scoped_release release;
+      checked = sph::PointsFromColumns({}, columns, "compensate: readings");
+    }
+    samples = &checked->samples;
+  }
+  std::optional<Eigen::Vector3d> center;
+  if (!center_mm.is_none()) {
+    const auto c = py::cast<std::vector<double>>(center_mm);
+    if (c.size() != 3) throw sph::Error("compensate: center_mm must be 3 numbers (x y z)");
+    for (std::size_t k = 0; k < 3; ++k) {
+      sph::CheckedValue(c[k], sph::ranges::kCenterMm, std::string("compensate: center_mm ") + "xyz"[k]);
+    }
+    center = Eigen::Vector3d(c[0], c[1], c[2]);
   }
   const sph::Calibration cal = CalibrationOf(calibration);
   std::vector<Eigen::Vector3d> points;
   {
-    std::optional<Eigen::Vector3d> center;
-    if (!center_mm.is_none()) {
-      const auto c = py::cast<std::vector<double>>(center_mm);
-      if (c.size() != 3) throw sph::Error("compensate: center_mm must be 3 numbers (x y z)");
-      center = Eigen::Vector3d(c[0], c[1], c[2]);
-    }
     py::gil_scoped_release release;
-    points = center ? sph::CompensateAll(cal, raw, *center) : sph::CompensateAll(cal, raw);
+    points = center ? sph::CompensateAll(cal, *samples, *center) : sph::CompensateAll(cal, *samples);
   }
   py::array_t<double> out({static_cast<py::ssize_t>(points.size()), py::ssize_t{3}});
   auto m = out.mutable_unchecked<2>();
@@ -468,30 +551,46 @@ sph::MeasurementWorkflowOptions MeasurementOptionsOf(const py::kwargs& kwargs) {
   return o;
 }
 
-Measurement Measure(const py::object& path_like, const py::kwargs& kwargs) {
-  const sph::MeasurementWorkflowOptions options = MeasurementOptionsOf(kwargs);
-  const std::string path = PathOf(path_like);
+// What a measurement run renders, taken while the GIL is released.
+struct RenderedMeasurement {
   std::string json, text;
   std::vector<Eigen::Vector3d> points;
-  std::shared_ptr<const sph::MeasurementWorkflowResult> result;
-  {
-    py::gil_scoped_release release;
-    result = std::make_shared<const sph::MeasurementWorkflowResult>(sph::RunMeasurementWorkflow(path, options));
-    const sph::MeasurementWorkflowResult& run = *result;
-    json = run.JsonReport();
-    std::ostringstream out;
-    run.WriteTextReport(out);
-    text = out.str();
-    points = run.input.points_mm;
+  std::shared_ptr<const sph::MeasurementWorkflowResult> run;
+};
+
+RenderedMeasurement Render(sph::MeasurementWorkflowResult&& result) {
+  RenderedMeasurement r;
+  r.run = std::make_shared<const sph::MeasurementWorkflowResult>(std::move(result));
+  const sph::MeasurementWorkflowResult& run = *r.run;
+  r.json = run.JsonReport();
+  std::ostringstream out;
+  run.WriteTextReport(out);
+  r.text = out.str();
+  r.points = run.input.points_mm;
+  return r;
+}
+
+Measurement Measure(const py::object& path_or_points, const py::kwargs& kwargs) {
+  const sph::MeasurementWorkflowOptions options = MeasurementOptionsOf(kwargs);
+  RenderedMeasurement run;
+  if (py::isinstance<Points>(path_or_points)) {
+    Points points = py::cast<Points>(path_or_points);  // a copy: the workflow takes its points
+    run = Interruptible([&] {
+      const std::string source = points.data.source;
+      return Render(sph::RunMeasurementWorkflow(std::move(points.data), source, options));
+    });
+  } else {
+    const std::string path = PathOf(path_or_points);
+    run = Interruptible([&] { return Render(sph::RunMeasurementWorkflow(path, options)); });
   }
   Measurement r;
-  r.run = result;
-  r.report = py::module_::import("json").attr("loads")(json);
-  r.text = std::move(text);
-  r.points_mm = py::array_t<double>({static_cast<py::ssize_t>(points.size()), py::ssize_t{3}});
+  r.run = run.run;
+  r.report = py::module_::import("json").attr("loads")(run.json);
+  r.text = std::move(run.text);
+  r.points_mm = py::array_t<double>({static_cast<py::ssize_t>(run.points.size()), py::ssize_t{3}});
   auto m = r.points_mm.mutable_unchecked<2>();
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    for (int k = 0; k < 3; ++k) m(static_cast<py::ssize_t>(i), k) = points[i][k];
+  for (std::size_t i = 0; i < run.points.size(); ++i) {
+    for (int k = 0; k < 3; ++k) m(static_cast<py::ssize_t>(i), k) = run.points[i][k];
   }
   return r;
 }
@@ -639,11 +738,7 @@ Options OptionsOf(const py::kwargs& kwargs, const std::vector<Keyword<Options>>&
 
 py::tuple Simulate(const py::kwargs& kwargs) {
   const auto options = OptionsOf(kwargs, SimulateKeywords(), "simulate");
-  sph::SimulationRun run;
-  {
-    py::gil_scoped_release release;
-    run = sph::RunSimulation(options);
-  }
+  sph::SimulationRun run = Interruptible([&] { return sph::RunSimulation(options); });
   run.points.source = "<simulated>";
   return py::make_tuple(Points{std::move(run.points)}, py::module_::import("json").attr("loads")(run.truth_json));
 }
@@ -658,11 +753,11 @@ MonteCarloResult MonteCarlo(const py::kwargs& kwargs) {
   const auto options = OptionsOf(kwargs, MonteCarloKeywords(), "monte_carlo");
   sph::MonteCarloRun run;
   std::string json;
-  {
-    py::gil_scoped_release release;
-    run = sph::RunMonteCarloStudy(options);
-    json = run.JsonReport();
-  }
+  std::tie(run, json) = Interruptible([&] {
+    sph::MonteCarloRun study = sph::RunMonteCarloStudy(options);
+    std::string report = study.JsonReport();
+    return std::make_pair(std::move(study), std::move(report));
+  });
   MonteCarloResult r;
   r.report = py::module_::import("json").attr("loads")(json);
   // The per-trial table: one row per converged trial, eccentricity by eccentricity, trials numbered
@@ -718,8 +813,9 @@ PYBIND11_MODULE(sph, m) {
       .def(py::init(&MakePoints), py::arg("theta_deg"), py::arg("phi_deg"), py::arg("r_mm"),
            py::arg("t_s") = py::none(), py::arg("setup") = py::none(), py::arg("header") = py::none(),
            py::arg("source") = "<points>",
-           "Points from arrays and a header dict (key -> value as a file states it), checked as a file is; "
-           "`source` names them in messages.")
+           "Points from arrays and a header dict (key -> value as a file states it), checked as a file is "
+           "(a key that is not a header key, a value with a line break, a setup that is not an integer "
+           "are refused); `source` names them in messages. Float64 arrays in C order are read without a copy.")
       .def_property_readonly(
           "theta_deg",
           [](const Points& p) { return Column<double>(p.data, [](const sph::Sample& s) { return s.theta_deg; }); },
@@ -775,10 +871,12 @@ PYBIND11_MODULE(sph, m) {
       .def_readonly("calibration_file", &Calibration::calibration_file,
                     "The calibration file's content (sph_calibrate -o), JSON text; '' when not usable")
       .def_readonly("parameters", &Calibration::parameters,
-                    "name -> {'value', 'std', 'U', 'unit'} in the report's units")
+                    "name -> {'value', 'std', 'U', 'unit'} in the report's units; 'std' and 'U' None where\n"
+                    "the report states none (a parameter held or undetermined, a fit without a budget)")
       .def_readonly("parameter_names", &Calibration::parameter_names, "The covariance's row and column order")
       .def_readonly("covariance", &Calibration::covariance,
-                    "Covariance of the parameters in the report's units (squared), shape (n, n)")
+                    "Covariance of the parameters in the report's units (squared), shape (n, n); 0 for a\n"
+                    "held parameter, NaN where the report states no standard uncertainty or correlation")
       .def_readonly(
           "residuals_um", &Calibration::residuals_um,
           "Residual of each reading, |p - O| - R, of the calibration reported [um], file order (outliers too)")
@@ -787,6 +885,12 @@ PYBIND11_MODULE(sph, m) {
       .def_property_readonly(
           "usable", [](const Calibration& c) { return py::cast<bool>(c.report["usable"]); },
           "Whether the calibration is usable (the report's verdict)")
+      .def_property_readonly(
+          "why_not_usable",
+          [](const Calibration& c) {
+            return c.report.contains("why_not_usable") ? py::list(c.report["why_not_usable"]) : py::list();
+          },
+          "Why it is not usable, the report's reasons (empty when usable)")
       .def(
           "dcc",
           [](const Calibration& c, const py::object& settings, const py::kwargs& keys) {
@@ -845,12 +949,13 @@ PYBIND11_MODULE(sph, m) {
       .def("__repr__", [](const Measurement& r) {
         return "<sph.MeasurementResult: " + std::to_string(r.points_mm.shape(0)) + " points>";
       });
-  m.def("measure", &Measure, py::arg("path"),
-        "Measures a sphere (what sph_measure does): readings compensated with calibration=<file>, the\n"
-        "least-squares and minimum-zone spheres, their uncertainties. Options are sph_measure's, '_'\n"
-        "for '-': calibration, xyz, subtract_sphere_form, setup, uncertainty_samples, seed,\n"
-        "max_dilution, noise_um, noise_floor_draws, coverage, mc_max_trials, mc_batch_trials,\n"
-        "mc_digits, mc_max_points. Raises TypeError on an unknown option, sph.Error on bad input.");
+  m.def("measure", &Measure, py::arg("path_or_points"),
+        "Measures a sphere (what sph_measure does) of a points file's path or of sph.Points: the\n"
+        "readings compensated with calibration=<file>, the least-squares and minimum-zone spheres, their\n"
+        "uncertainties. Options are sph_measure's, '_' for '-': calibration, xyz, subtract_sphere_form,\n"
+        "setup, uncertainty_samples, seed, max_dilution, noise_um, noise_floor_draws, coverage,\n"
+        "mc_max_trials, mc_batch_trials, mc_digits, mc_max_points. Raises TypeError on an unknown option, sph.Error on "
+        "bad input.");
 
   m.def("simulate", &Simulate,
         "Simulated readings of a known machine (what sph_simulate writes): returns (points, truth), the\n"

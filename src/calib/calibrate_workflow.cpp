@@ -11,6 +11,8 @@
 #include <Eigen/Eigenvalues>
 
 #include "fit_problem.hpp"
+#include "sph/calib/misreading.hpp"
+#include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
 #include "sph/core/ranges.hpp"
 #include "sph/core/valid_range.hpp"
@@ -52,6 +54,8 @@ void MakeBudget(CalibrationWorkflowResult& run, const CalibrationWorkflowOptions
   };
   try {
     run.budget = MakeCalibrationBudget(WithoutOutliers(run.points, result), run.settings, result, run.inputs, refit);
+  } catch (const Cancelled&) {
+    throw;
   } catch (const std::exception& e) {
     run.warnings.push_back(std::string("no uncertainty budget: ") + e.what());
     if (o.on_warning) o.on_warning(run.warnings.back());
@@ -796,6 +800,8 @@ CalibrationComparison CompareWithEarlier(const CalibrationWorkflowResult& run, c
     }
     for (const std::string& reason : like.usability.reasons) why += (why.empty() ? "" : "; ") + reason;
     for (const std::string& warning : like.warnings) why += (why.empty() ? "" : "; ") + warning;
+  } catch (const Cancelled&) {
+    throw;
   } catch (const std::exception& e) {
     why = e.what();
   }
@@ -860,6 +866,7 @@ ReportContext CalibrationWorkflowResult::Context() const {
   ctx.withheld = &withheld;
   ctx.run_warnings = &warnings;
   ctx.requirement = &requirement;
+  ctx.likely_cause = likely_cause;
   return ctx;
 }
 
@@ -924,6 +931,7 @@ CalibrationWorkflowResult RunCalibrationWorkflow(PointsData points, const std::s
       run.requirement.seven_um.push_back(u);
     }
   }
+  if (const auto m = LikelyMisreading(run.points, run.settings, run.seven)) run.likely_cause = m->Reason();
   run.usability = JudgeUsability(run.Reported(), run.Context());
   if (previous) {
     Tell(options.on_stage, "comparing with " + options.compare_path);

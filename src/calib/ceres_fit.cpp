@@ -9,6 +9,7 @@
 
 #include <ceres/cost_function.h>
 #include <ceres/crs_matrix.h>
+#include <ceres/iteration_callback.h>
 #include <ceres/loss_function.h>
 #include <ceres/manifold.h>
 #include <ceres/ordered_groups.h>
@@ -16,8 +17,23 @@
 #include <ceres/solver.h>
 #include <Eigen/Cholesky>
 
+#include "sph/core/cancellation.hpp"
+
 namespace sph::internal {
 namespace {
+
+// Ends a solve at its next iteration when the thread's cancellation was requested (Solve() then
+// throws sph::Cancelled): no exception passes through Ceres.
+class CancellationCallback : public ceres::IterationCallback {
+ public:
+  explicit CancellationCallback(const Cancellation* cancellation) : cancellation_(cancellation) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return cancellation_ != nullptr && cancellation_->Requested() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const Cancellation* cancellation_;
+};
 
 // A setup's parameter blocks as Ceres passes them, in the order of SetupCost's blocks.
 SetupParams SetupParamsOf(const SphereFitProblem& problem, double const* const* parameters) {
@@ -372,8 +388,13 @@ SolveSummary FitSolver::Solve(Eigen::VectorXd& x, int max_iterations) {
   Impl& s = *impl_;
   s.state = x;
   s.options.max_num_iterations = max_iterations;
+  ThrowIfCancelled();
+  CancellationCallback cancellation(CurrentCancellation());
+  s.options.callbacks = {&cancellation};
   ceres::Solver::Summary summary;
   ceres::Solve(s.options, s.ceres_problem.get(), &summary);
+  s.options.callbacks.clear();
+  ThrowIfCancelled();
   x = s.state;
   SolveSummary out;
   out.converged = summary.termination_type == ceres::CONVERGENCE;

@@ -90,7 +90,8 @@ class FitSolver {
 
   /// Minimises from x (updated in place; the fixed columns keep their values) with the
   /// calibrations' settings: Levenberg-Marquardt stopping on a relative cost change of 1e-6 or a
-  /// relative step of 1e-12, at most max_iterations iterations.
+  /// relative step of 1e-12, at most max_iterations iterations. Throws sph::Cancelled when the
+  /// thread's cancellation (sph/core/cancellation.hpp) is requested before or during the solve.
   SolveSummary Solve(Eigen::VectorXd& x, int max_iterations);
 
   /// The residuals and the Jacobian (columns as x) of every residual block at x as Ceres evaluates

@@ -51,7 +51,11 @@ FormPrior FormPriorOfFile(const CalibrationFile& file, const std::string& path, 
 
 void CheckSameSphere(const CalibrationFile& file, const std::string& path, double radius_mm, double radius_u_um,
                      const std::string& what) {
-  if (!file.sphere_radius_mm) return;
+  if (!file.sphere_radius_mm) {
+    throw Error(path + ": states no sphere_radius_mm, so it cannot be told whether its form is that of the sphere of " +
+                what + " (sphere_radius_mm " + Format("%.9g", radius_mm) +
+                " mm): the known form belongs to its own sphere");
+  }
   double file_u_um = 0.0;
   for (const CalibrationFile::CovarianceInput& in : file.covariance_inputs) {
     if (in.input == "R0 (certificate)" && in.unit == "um") file_u_um = in.u;

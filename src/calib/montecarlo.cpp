@@ -11,12 +11,13 @@
 #include "calibrate_rows.hpp"
 #include "sph/calib/calibrator.hpp"
 #include "sph/calib/design.hpp"
+#include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
-#include "sph/stats/gum.hpp"
 #include "sph/internal/parallel.hpp"
 #include "sph/model/units.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
+#include "sph/stats/gum.hpp"
 
 namespace sph {
 namespace {
@@ -146,6 +147,8 @@ std::vector<Trial> RunTrials(const MonteCarloStudyOptions& spec, const std::func
     return [&, scratch = TrialScratch(n_ecc)](std::size_t i) mutable {
       try {
         trials[i] = RunTrial(spec, i / n_trials, i % n_trials, exact, scratch);
+      } catch (const Cancelled&) {
+        throw;  // stops the loop
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(error_mutex);
         if (error.empty()) error = e.what();

@@ -254,6 +254,7 @@ Usability JudgeUsability(const CalibrationResult& result, const ReportContext& c
   u.requirement = ctx.requirement != nullptr
                       ? ctx.requirement->Text(ctx.max_std_um)
                       : Format("every standard uncertainty within %g um as a displacement", ctx.max_std_um);
+  if (!u.reasons.empty() && !ctx.likely_cause.empty()) u.reasons.push_back(ctx.likely_cause);
   u.usable = u.reasons.empty();
   return u;
 }

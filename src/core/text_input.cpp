@@ -90,6 +90,43 @@ int ParseInteger(const std::string& token, const std::string& what, const std::s
   return v;
 }
 
+std::size_t Utf8CharLength(std::string_view text) {
+  if (text.empty()) return 0;
+  const auto b = [&](std::size_t i) { return static_cast<unsigned char>(text[i]); };
+  const unsigned char lead = b(0);
+  if (lead < 0x80) return 1;
+  // The second byte's range depends on the lead (no overlong forms, no surrogates, <= U+10FFFF).
+  std::size_t length = 0;
+  unsigned char lo = 0x80, hi = 0xBF;
+  if (lead >= 0xC2 && lead <= 0xDF) {
+    length = 2;
+  } else if (lead >= 0xE0 && lead <= 0xEF) {
+    length = 3;
+    if (lead == 0xE0) lo = 0xA0;
+    if (lead == 0xED) hi = 0x9F;
+  } else if (lead >= 0xF0 && lead <= 0xF4) {
+    length = 4;
+    if (lead == 0xF0) lo = 0x90;
+    if (lead == 0xF4) hi = 0x8F;
+  } else {
+    return 0;
+  }
+  if (text.size() < length || b(1) < lo || b(1) > hi) return 0;
+  for (std::size_t i = 2; i < length; ++i) {
+    if (b(i) < 0x80 || b(i) > 0xBF) return 0;
+  }
+  return length;
+}
+
+std::size_t FirstNonUtf8(std::string_view text) {
+  for (std::size_t i = 0; i < text.size();) {
+    const std::size_t n = Utf8CharLength(text.substr(i));
+    if (n == 0) return i;
+    i += n;
+  }
+  return std::string_view::npos;
+}
+
 bool ParseHex(const std::string& token, unsigned long long max, unsigned long long* value) {
   const char* first = token.data();
   const char* last = token.data() + token.size();

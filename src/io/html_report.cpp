@@ -108,6 +108,7 @@ table { border-collapse: collapse; margin: 0.5em 0; max-width: 100%; }
 th, td { border: 1px solid #999; padding: 0.15em 0.45em; text-align: left; vertical-align: top;
          overflow-wrap: anywhere; }
 th, td:first-child { overflow-wrap: normal; }  /* names and headers break between words only */
+td:first-child { max-width: 30em; overflow-wrap: break-word; }  /* at most 30em: a longer word breaks */
 th { background: #e8e8e8; }
 td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 .nw { white-space: nowrap; }  /* an identifier or code that must not break */

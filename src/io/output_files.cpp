@@ -14,8 +14,9 @@
 #include <sstream>
 #include <streambuf>
 
-#include "sph/io/cleanup.hpp"
 #include "sph/core/error.hpp"
+#include "sph/core/text_input.hpp"
+#include "sph/io/cleanup.hpp"
 
 namespace sph {
 namespace {
@@ -36,31 +37,91 @@ int WriteAll(int fd, const char* data, std::size_t size) {
   return 0;
 }
 
-// An output stream buffer over a file descriptor that remembers the first write error.
+// What a terminal would act on instead of showing it, written so that it shows: the C0 controls
+// but tab and line feed, DEL and the C1 controls (U+0080 to U+009F) as \u00hh (JSON's own escape,
+// so a JSON text stays JSON with the same strings), bytes that are no UTF-8 as \xHH. Text a file
+// brought in (a header field in a report) can then neither move the cursor, retitle or clear the
+// terminal nor hide what is printed. The bytes [begin, end) are escaped into `out`; the return is
+// where an unfinished character at the end starts (kept for the next bytes), or `end` when `last`.
+const char* EscapeControls(const char* begin, const char* end, bool last, std::string& out) {
+  char hex[8];
+  for (const char* p = begin; p < end;) {
+    const auto c = static_cast<unsigned char>(*p);
+    if (c < 0x80) {
+      if ((c < 0x20 && c != '\n' && c != '\t') || c == 0x7F) {
+        std::snprintf(hex, sizeof hex, "\\u%04x", c);
+        out += hex;
+      } else {
+        out += static_cast<char>(c);
+      }
+      ++p;
+      continue;
+    }
+    const std::size_t n = Utf8CharLength(std::string_view(p, static_cast<std::size_t>(end - p)));
+    if (n == 0) {
+      const std::size_t want = c >= 0xF0 ? 4 : c >= 0xE0 ? 3 : 2;
+      bool unfinished = !last && c >= 0xC2 && c <= 0xF4 && static_cast<std::size_t>(end - p) < want;
+      for (const char* q = p + 1; unfinished && q < end; ++q) {
+        unfinished = (static_cast<unsigned char>(*q) & 0xC0) == 0x80;
+      }
+      if (unfinished) return p;
+      std::snprintf(hex, sizeof hex, "\\x%02X", c);
+      out += hex;
+      ++p;
+    } else if (n == 2 && c == 0xC2 && static_cast<unsigned char>(p[1]) < 0xA0) {
+      std::snprintf(hex, sizeof hex, "\\u%04x", static_cast<unsigned char>(p[1]));
+      out += hex;
+      p += 2;
+    } else {
+      out.append(p, n);
+      p += n;
+    }
+  }
+  return end;
+}
+
+// An output stream buffer over a file descriptor that remembers the first write error; with
+// `escape`, what it writes goes through EscapeControls() (standard output).
 class FdStreamBuf : public std::streambuf {
  public:
-  explicit FdStreamBuf(int fd) : fd_(fd) { setp(buffer_, buffer_ + sizeof buffer_); }
+  explicit FdStreamBuf(int fd, bool escape = false) : fd_(fd), escape_(escape) {
+    setp(buffer_, buffer_ + sizeof buffer_);
+  }
   int error() const { return error_; }
 
  protected:
   int overflow(int c) override {
-    if (!Drain()) return traits_type::eof();
+    if (!Drain(false)) return traits_type::eof();
     if (!traits_type::eq_int_type(c, traits_type::eof())) {
       *pptr() = traits_type::to_char_type(c);
       pbump(1);
     }
     return traits_type::not_eof(c);
   }
-  int sync() override { return Drain() ? 0 : -1; }
+  int sync() override { return Drain(true) ? 0 : -1; }
 
  private:
-  bool Drain() {
-    if (error_ == 0 && pptr() > pbase()) error_ = WriteAll(fd_, pbase(), static_cast<std::size_t>(pptr() - pbase()));
+  // Writes the buffer; `last`: nothing follows soon (a flush), so an unfinished character is
+  // escaped rather than kept.
+  bool Drain(bool last) {
+    const char* end = pptr();
+    if (!escape_) {
+      if (error_ == 0 && end > pbase()) error_ = WriteAll(fd_, pbase(), static_cast<std::size_t>(end - pbase()));
+      setp(buffer_, buffer_ + sizeof buffer_);
+      return error_ == 0;
+    }
+    std::string out;
+    const char* kept = EscapeControls(pbase(), end, last, out);
+    if (error_ == 0 && !out.empty()) error_ = WriteAll(fd_, out.data(), out.size());
+    const auto left = static_cast<int>(end - kept);
+    std::memmove(buffer_, kept, static_cast<std::size_t>(left));
     setp(buffer_, buffer_ + sizeof buffer_);
+    pbump(left);
     return error_ == 0;
   }
 
   int fd_;
+  bool escape_;
   int error_ = 0;
   char buffer_[1 << 16];
 };
@@ -94,6 +155,20 @@ Target Resolve(const std::string& path) {
   }
   t.exists = true;
   return t;
+}
+
+// An existing regular file `path` (`real` the file itself) that the user may not write is not
+// replaced, as cp and sort -o refuse: its permissions deny the user writing it (access(2)), or it
+// grants writing to nobody (no w bit, which root could otherwise override). Throws sph::Error.
+void CheckReplaceable(const std::string& path, const std::string& real, mode_t mode) {
+  if (!S_ISREG(mode)) return;
+  const int denied = ::access(real.c_str(), W_OK) != 0 ? errno : 0;
+  if (denied == 0 && (mode & 0222) != 0) return;
+  char octal[8];
+  std::snprintf(octal, sizeof octal, "%04o", static_cast<unsigned>(mode & 07777));
+  throw Error(path + ": cannot write: " + (denied != 0 ? ErrnoText(denied) : std::string("it is read-only")) +
+              " (mode " + octal +
+              "): refusing to replace a file that may not be written; make it writable or give another name");
 }
 
 const char* RefusedKind(mode_t mode) {
@@ -161,6 +236,7 @@ RunPaths& RunPaths::Input(const std::string& name, const std::string& path) {
 RunPaths& RunPaths::Output(const std::string& name, const std::string& path) {
   if (path.empty()) return *this;
   const auto out = Identify(name, path, true);
+  if (out->exists && !out->is_std) CheckReplaceable(out->Describe(), path, out->mode);
   if (!Shareable(*out)) {
     for (const auto& in : inputs_) {
       if (SameFile(*out, *in)) {
@@ -235,6 +311,7 @@ void OutputFiles::Stage(const std::string& path, const std::function<void(std::o
     if (t.exists) {
       if (const char* why = RefusedKind(t.st.st_mode)) throw Error(path + ": " + why);
       if (S_ISREG(t.st.st_mode)) {
+        CheckReplaceable(path, t.path, t.st.st_mode);
         mode = t.st.st_mode & 07777;
       } else {
         s->kind = Staged::kDirect;  // a FIFO or a character device: written, never replaced
@@ -281,6 +358,7 @@ std::string OutputFiles::StageProduced(const std::string& path) {
     const char* why = RefusedKind(t.st.st_mode);
     throw Error(path + ": " + (why ? why : "is not a regular file: an image is written to a regular file only"));
   }
+  if (t.exists) CheckReplaceable(path, t.path, t.st.st_mode);
   const int fd = CreateTemp(path, s->target, &s->tmp, &s->cleanup);
   const int err = ::fchmod(fd, t.exists ? t.st.st_mode & 07777 : 0644) != 0 ? errno : 0;
   ::close(fd);
@@ -346,7 +424,7 @@ void WriteFileAtomically(const std::string& path, const std::function<void(std::
 }
 
 struct StandardOutput::Buffer : FdStreamBuf {
-  Buffer() : FdStreamBuf(STDOUT_FILENO) {}
+  Buffer() : FdStreamBuf(STDOUT_FILENO, true) {}
   bool told = false;  // the failure was reported
 };
 

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <fstream>
 #include <istream>
+#include <limits>
 #include <map>
 #include <ostream>
 #include <set>
@@ -62,6 +63,18 @@ class LineError {
  private:
   std::string where_;
 };
+
+// A header field's text is copied into reports and JSON files: it must be UTF-8 (a report cannot
+// say what other bytes mean).
+void CheckHeaderText(const HeaderField& f, const LineError& fail) {
+  for (const std::string* text : {&f.key, &f.value}) {
+    const std::size_t bad = FirstNonUtf8(*text);
+    if (bad == std::string::npos) continue;
+    fail((text == &f.key ? "header key " : f.key + ": ") + Quoted(*text) + " is not UTF-8 text (the byte " +
+         internal::Format("0x%02X", static_cast<unsigned char>((*text)[bad])) + " at character " +
+         std::to_string(bad + 1) + "): save the file as UTF-8, for the reports copy the header's text");
+  }
+}
 
 }  // namespace
 
@@ -212,6 +225,7 @@ class PointsParser {
     if (!f) return;  // a plain comment, or prose that happens to contain a colon
     const std::string& key = f->key;
     const std::string& value = f->value;
+    CheckHeaderText(*f, fail);
     if (!seen_keys_.insert(key).second) fail("header key " + Quoted(key) + " is given twice");
     const auto at = key.find('@');
     if (SetupLine(key, at, value, fail)) return;
@@ -335,39 +349,101 @@ class PointsParser {
     header_done_ = true;
     const auto tokens = SplitWhitespace(text);
     const std::size_t n_columns = data_.header.columns.size();
+    // Values separated by commas (a CSV export) or written with a decimal comma.
+    const std::string commas =
+        text.find(',') == std::string::npos
+            ? ""
+            : " (the line holds commas: a points file separates its values by spaces or tabs, and a decimal point "
+              "is '.')";
     if (tokens.size() != n_columns) {
       std::string names;
       for (const auto& c : data_.header.columns) names += (names.empty() ? "" : " ") + c;
       fail("expected " + std::to_string(n_columns) + " columns (" + names + "), found " +
-           std::to_string(tokens.size()));
+           std::to_string(tokens.size()) + commas);
     }
     Sample s;
     auto col = [&](int k) { return tokens[static_cast<std::size_t>(index_[static_cast<std::size_t>(k)])]; };
-    auto name = [&](int k) { return std::string("column ") + kColumnNames[static_cast<std::size_t>(k)]; };
-    s.theta_deg = ParseNumber(col(kTheta), name(kTheta), fail.where());
-    s.phi_deg = ParseNumber(col(kPhi), name(kPhi), fail.where());
-    s.r_mm = ParseNumber(col(kR), name(kR), fail.where());
-    for (const auto& [k, value, limit, unit, what] :
-         {std::make_tuple(kTheta, s.theta_deg, kMaxAngleDeg, " deg", "an encoder's angle"),
-          std::make_tuple(kPhi, s.phi_deg, kMaxAngleDeg, " deg", "an encoder's angle"),
-          std::make_tuple(kR, s.r_mm, kMaxReadingMm, " mm", "a probe reading in mm")}) {
-      if (std::abs(value) > limit) {
-        fail(name(k) + ": " + Quoted(col(k)) + " is beyond " + internal::Format("%g", limit) + unit +
-             " from 0: not " + what);
-      }
+    try {
+      s.theta_deg = ParseNumber(col(kTheta), ColumnName(kTheta), fail.where());
+      s.phi_deg = ParseNumber(col(kPhi), ColumnName(kPhi), fail.where());
+      s.r_mm = ParseNumber(col(kR), ColumnName(kR), fail.where());
+      if (data_.has_time) s.t_s = ParseNumber(col(kTime), ColumnName(kTime), fail.where());
+      s.setup = data_.has_setup ? ParseInteger(col(kSetup), ColumnName(kSetup), fail.where()) : 0;
+    } catch (const Error& e) {
+      throw Error(e.what() + commas);
     }
-    s.t_s = static_cast<double>(data_.samples.size());
-    if (data_.has_time) {
-      s.t_s = ParseNumber(col(kTime), name(kTime), fail.where());
-      if (std::abs(s.t_s) > kMaxTimeS) {
-        fail(name(kTime) + ": " + Quoted(col(kTime)) + " is beyond " + internal::Format("%g", kMaxTimeS) +
-             " s from 0: not a time of a measurement");
-      }
-    }
-    s.setup = data_.has_setup ? ParseInteger(col(kSetup), name(kSetup), fail.where()) : 0;
+    if (!data_.has_time) s.t_s = static_cast<double>(data_.samples.size());
+    const int beyond = ColumnBeyondLimit(s, data_.has_time);
+    if (beyond >= 0) fail(BeyondLimit(beyond, col(beyond)));
     data_.samples.push_back(s);
     data_.sample_lines.push_back(line_no_);
     first_rows_.emplace(s.setup, line_no_);
+  }
+
+ public:
+  // Samples of a host's arrays after the header (PointsFromColumns()), each checked as a row is and
+  // named "<source>: sample <i>: " (from 1).
+  void ColumnSamples(const PointsColumns& c) {
+    if (!columns_fixed_) FixColumns(LineError(data_.source + ": "));
+    header_done_ = true;
+    data_.samples.resize(c.n);
+    for (std::size_t i = 0; i < c.n; ++i) {
+      const std::size_t at = i * c.stride;
+      Sample& s = data_.samples[i];
+      s.theta_deg = c.theta_deg[at];
+      s.phi_deg = c.phi_deg[at];
+      s.r_mm = c.r_mm[at];
+      s.t_s = c.t_s != nullptr ? c.t_s[at] : static_cast<double>(i);
+      const double setup = c.setup != nullptr ? c.setup[at] : 0.0;
+      const double values[kNumColumns] = {s.theta_deg, s.phi_deg, s.r_mm, s.t_s, setup};
+      for (int k = 0; k < kNumColumns; ++k) {
+        const double v = values[k];
+        if (std::isfinite(v)) continue;
+        SampleError(i, ColumnName(k) + ": " + Quoted(internal::Format("%g", v)) + " is not a finite number");
+      }
+      if (setup != std::trunc(setup)) {
+        SampleError(i, ColumnName(kSetup) + ": " + Quoted(internal::Shortest(setup)) + " is not an integer");
+      }
+      if (setup < std::numeric_limits<int>::min() || setup > std::numeric_limits<int>::max()) {
+        SampleError(i, ColumnName(kSetup) + ": " + Quoted(internal::Shortest(setup)) +
+                           " is out of the range of an integer (" + std::to_string(std::numeric_limits<int>::min()) +
+                           " to " + std::to_string(std::numeric_limits<int>::max()) + ")");
+      }
+      s.setup = static_cast<int>(setup);
+      const int beyond = ColumnBeyondLimit(s, c.t_s != nullptr);
+      if (beyond >= 0) SampleError(i, BeyondLimit(beyond, internal::Shortest(values[beyond])));
+    }
+  }
+
+ private:
+  [[noreturn]] void SampleError(std::size_t i, const std::string& what) const {
+    throw Error(data_.source + ": sample " + std::to_string(i + 1) + ": " + what);
+  }
+
+  static std::string ColumnName(int k) { return std::string("column ") + kColumnNames[static_cast<std::size_t>(k)]; }
+
+  // The first column of `s` whose value is beyond what files accept (kMaxAngleDeg, kMaxReadingMm,
+  // kMaxTimeS), or -1.
+  static int ColumnBeyondLimit(const Sample& s, bool has_time) {
+    if (std::abs(s.theta_deg) > kMaxAngleDeg) return kTheta;
+    if (std::abs(s.phi_deg) > kMaxAngleDeg) return kPhi;
+    if (std::abs(s.r_mm) > kMaxReadingMm) return kR;
+    if (has_time && std::abs(s.t_s) > kMaxTimeS) return kTime;
+    return -1;
+  }
+
+  // The refusal of column k's value (`text` as given) beyond its limit.
+  static std::string BeyondLimit(int k, const std::string& text) {
+    const std::string start = ColumnName(k) + ": " + Quoted(text) + " is beyond ";
+    switch (k) {
+      case kTheta:
+      case kPhi:
+        return start + internal::Format("%g", kMaxAngleDeg) + " deg from 0: not an encoder's angle";
+      case kR:
+        return start + internal::Format("%g", kMaxReadingMm) + " mm from 0: not a probe reading in mm";
+      default:
+        return start + internal::Format("%g", kMaxTimeS) + " s from 0: not a time of a measurement";
+    }
   }
 
   // A field of a setup that has no samples: a typo in the setup id, or a setup whose rows went
@@ -405,6 +481,45 @@ PointsData ParsePoints(std::istream& in, const std::string& source) {
   TextLines lines(in, source, "a points file");
   std::string line;
   while (lines.Next(line)) parser.Line(Trim(line), lines.line_no(), LineError(lines.Where()));
+  return parser.Finish();
+}
+
+namespace {
+
+// Why "# key: value" would not be the header field (key, value) in a file: "" when it would.
+std::string HeaderFieldProblem(const std::string& key, const std::string& value) {
+  if (!IsHeaderKey(key)) {
+    return "header key " + Quoted(key) +
+           " is not a header key (a name of letters, digits, '_' and '-', then '@' and a setup id for a "
+           "setup's field)";
+  }
+  if (value.find_first_of("\n\r") != std::string::npos) {
+    return key + ": " + Quoted(value) +
+           " holds a line break: a header field is one line (the rest would be read as lines of their own)";
+  }
+  return "";
+}
+
+}  // namespace
+
+PointsData PointsFromColumns(const std::vector<HeaderField>& header, const PointsColumns& columns,
+                             const std::string& source) {
+  PointsParser parser(source);
+  long line = 1;
+  const auto where = [&] { return LineError(source + ":" + std::to_string(line) + ": "); };
+  parser.Line("# sph-points " + std::to_string(kPointsFormatVersion), line, where());
+  for (const HeaderField& f : header) {
+    if (f.key == kColumnsKey) continue;  // the columns given say which there are
+    ++line;
+    const std::string problem = HeaderFieldProblem(f.key, f.value);
+    if (!problem.empty()) where()(problem);
+    parser.Line("# " + f.key + ": " + f.value, line, where());
+  }
+  ++line;
+  parser.Line(std::string("# ") + kColumnsKey + ": theta_deg phi_deg r_mm" + (columns.t_s != nullptr ? " t_s" : "") +
+                  (columns.setup != nullptr ? " setup" : ""),
+              line, where());
+  parser.ColumnSamples(columns);
   return parser.Finish();
 }
 
@@ -546,6 +661,10 @@ std::vector<ParameterPrior> ParameterPriorsOf(const PointsHeader& header) {
 }
 
 void WritePoints(std::ostream& out, const PointsData& data) {
+  for (const auto& [key, value] : data.header.metadata) {
+    const std::string problem = HeaderFieldProblem(key, value);
+    if (!problem.empty()) throw Error(data.source + ": " + problem);
+  }
   out << "# sph-points " << kPointsFormatVersion << "\n";
   char buf[160];
   if (data.header.sphere_radius_mm) {

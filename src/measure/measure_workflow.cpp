@@ -4,13 +4,15 @@
 #include <array>
 #include <cmath>
 #include <cstdlib>
+#include <optional>
 #include <utility>
 
-#include "sph/io/calibration_file.hpp"
+#include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
+#include "sph/internal/format.hpp"
+#include "sph/io/calibration_file.hpp"
 #include "sph/io/points_file.hpp"
 #include "sph/io/xyz_file.hpp"
-#include "sph/internal/format.hpp"
 #include "sph/model/form_model.hpp"
 #include "sph/model/units.hpp"
 #include "sph/sphere/sphere_fit.hpp"
@@ -20,12 +22,16 @@ namespace {
 
 using internal::Format;
 
-// The options with the path of the points they measure (named in the messages).
+// The options with the path of the points they measure (named in the messages), and the points
+// when they were given in memory.
 struct Args : MeasurementWorkflowOptions {
   std::string points_path;
+  std::optional<PointsData> points;
 };
 
+// Each step told is also where a cancellation is seen (sph/core/cancellation.hpp).
 void Tell(const Args& o, const std::string& stage, long done = 0, long total = 0) {
+  ThrowIfCancelled();
   if (o.on_progress) o.on_progress(stage, done, total);
 }
 
@@ -138,6 +144,11 @@ std::optional<double> FitRmsOf(const CalibrationFile& file) {
 }
 
 MeasuredPoints ReadInput(const Args& o) {
+  if (o.xyz && o.points) {
+    throw Error(o.points_path +
+                ": readings (theta, phi, r) given in memory are not x y z coordinates: --xyz reads "
+                "a file of them");
+  }
   if (o.xyz) return ReadXyzInput(o);
   if (o.calibration_path.empty()) {
     throw Error(o.points_path +
@@ -145,7 +156,8 @@ MeasuredPoints ReadInput(const Args& o) {
                 "--calibration FILE, or --xyz when the file holds x y z coordinates");
   }
   MeasuredPoints in;
-  const PointsData data = ReadPointsFile(o.points_path);
+  std::optional<PointsData> read;
+  const PointsData& data = o.points ? *o.points : read.emplace(ReadPointsFile(o.points_path));
   in.warnings = PlausibilityWarnings(data);
   const CalibrationFile file = ReadCalibrationFile(o.calibration_path);
   Calibration cal = ToCalibration(file);
@@ -280,12 +292,33 @@ void MeasurementWorkflowResult::WritePoints(std::ostream& out) const {
            {Program() + ": " + points_path + ", " + input.description, "columns: x_mm y_mm z_mm"});
 }
 
+namespace {
+MeasurementWorkflowResult Run(Args& o);
+}  // namespace
+
 MeasurementWorkflowResult RunMeasurementWorkflow(const std::string& points_path,
                                                  const MeasurementWorkflowOptions& options) {
   options.Check();
   Args o;
   static_cast<MeasurementWorkflowOptions&>(o) = options;
   o.points_path = points_path;
+  return Run(o);
+}
+
+MeasurementWorkflowResult RunMeasurementWorkflow(PointsData points, const std::string& source,
+                                                 const MeasurementWorkflowOptions& options) {
+  options.Check();
+  Args o;
+  static_cast<MeasurementWorkflowOptions&>(o) = options;
+  o.points_path = source;
+  o.points = std::move(points);
+  return Run(o);
+}
+
+namespace {
+MeasurementWorkflowResult Run(Args& o) {
+  const std::string& points_path = o.points_path;
+  const MeasurementWorkflowOptions& options = o;
   MeasurementWorkflowResult run;
   run.points_path = points_path;
   run.options = options;
@@ -316,5 +349,6 @@ MeasurementWorkflowResult RunMeasurementWorkflow(const std::string& points_path,
   run.budgets = BudgetsOf(o, in, run.evaluation, run.noise_floor);
   return run;
 }
+}  // namespace
 
 }  // namespace sph

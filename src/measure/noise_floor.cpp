@@ -4,10 +4,11 @@
 #include <cmath>
 #include <limits>
 
+#include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
-#include "sph/stats/gum.hpp"
 #include "sph/sphere/sphere_fit.hpp"
 #include "sph/sphere/sphere_form.hpp"
+#include "sph/stats/gum.hpp"
 
 namespace sph {
 
@@ -31,6 +32,7 @@ FormNoiseFloor EstimateFormNoiseFloor(const std::vector<Eigen::Vector3d>& points
   std::vector<double> pv, mz;
   std::vector<Eigen::Vector3d> noisy(n);
   for (int d = 0; d < options.draws; ++d) {
+    ThrowIfCancelled();
     for (std::size_t i = 0; i < n; ++i) noisy[i] = center_mm + (radius_mm + sigma_mm * random.Normal()) * directions[i];
     const LeastSquaresSphere ls = FitSphereLeastSquares(noisy);
     if (!ls.sphere.ok) throw Error("noise floor: a draw determined no sphere");

@@ -77,6 +77,12 @@ TracedFit Analysed(EffectFit fit, const Readings& data, const CalibrationOptions
                    const TraceOptions& trace_options) {
   TracedFit t = Factored(std::move(fit), data, options);
   t.structure = AnalyseResidualStructure(t.factor);
+  // A harmonic of theta above what the pattern resolves aliases onto a lower one (or onto a
+  // constant, or has no sine on the readings): fitted alone it has no amplitude of its own.
+  const auto resolved = static_cast<std::size_t>(PatternOrders(data.points).theta);
+  for (std::size_t k = resolved; k < t.structure.theta_harmonics_um.size(); ++k) {
+    t.structure.theta_harmonics_um[k] = std::numeric_limits<double>::quiet_NaN();
+  }
   t.cv_rms_um =
       CrossValidated(data, options, t.fit.model, EffectFitStart::From(t.fit), trace_options.folds, trace_options.seed);
   std::set<int> not_judged;

@@ -56,6 +56,12 @@ json GroupJson(const StructureGroup& g) {
 
 json NumberOrNull(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
+json NumbersOrNulls(const std::vector<double>& values) {
+  json out = json::array();
+  for (const double v : values) out.push_back(NumberOrNull(v));
+  return out;
+}
+
 json FitJson(const TracedFit& f) {
   json structure = json::object();
   for (const StructureGroup& g : f.structure.groups) structure[g.variable] = GroupJson(g);
@@ -67,7 +73,7 @@ json FitJson(const TracedFit& f) {
           {"loso_not_judged_setups", f.loso_not_judged},
           {"structure_p_value", f.structure.all.p_value},
           {"structure", structure},
-          {"theta_harmonics_um", f.structure.theta_harmonics_um},
+          {"theta_harmonics_um", NumbersOrNulls(f.structure.theta_harmonics_um)},
           {"n_params", f.fit.n_params},
           {"bic", f.fit.Bic()}};
 }
@@ -229,7 +235,8 @@ void WriteStructure(std::ostream& out, const TraceResult& r) {
   }
   out << "  harmonics of theta before, amplitude fitted alone [um]:";
   for (std::size_t k = 0; k < b.structure.theta_harmonics_um.size(); ++k) {
-    out << Format(" %zu: %.4f", k + 1, b.structure.theta_harmonics_um[k]);
+    const double a = b.structure.theta_harmonics_um[k];
+    out << " " << k + 1 << ": " << (std::isfinite(a) ? Format("%.4f", a) : "unresolved");
   }
   out << "\n";
 }

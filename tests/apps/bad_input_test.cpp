@@ -9,6 +9,7 @@
 #include <sys/sysmacros.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <string>
@@ -18,6 +19,7 @@
 #include <gtest/gtest.h>
 
 #include "program_run.hpp"
+#include "sph/internal/format.hpp"
 #include "test_util.hpp"
 
 namespace sph::testing {
@@ -167,6 +169,34 @@ std::string TwoSpheres(const std::string& radius = "15") {
     } else {
       out += line + (!line.empty() && line[0] != '#' ? (n++ < 144 ? " 0" : " 1") : "") + "\n";
     }
+  }
+  return out;
+}
+
+// The example with each probe reading r replaced by 10 - r: a probe that reads the other way.
+std::string ExampleReadingTheOtherWay() {
+  std::istringstream in(Example());
+  std::string out, line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#') {
+      std::istringstream ls(line);
+      double theta = 0.0, phi = 0.0, r = 0.0, t = 0.0;
+      ls >> theta >> phi >> r >> t;
+      line = internal::Format("%.10f %.10f %.10f %.2f", theta, phi, 10.0 - r, t);
+    }
+    out += line + "\n";
+  }
+  return out;
+}
+
+// The example's readings at theta 0, 45, ..., 315 deg only: a pattern of 8 angles, which resolves
+// harmonics of theta up to order 3.
+std::string ExampleAtEightThetas() {
+  std::istringstream in(Example());
+  std::string out, line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#' && std::fmod(std::stod(line), 45.0) != 0.0) continue;
+    out += line + "\n";
   }
   return out;
 }
@@ -704,6 +734,122 @@ std::vector<MatrixCase> CalibrateCases() {
         "cauchy", "--robust-scale-sigma", "3"},
        0,
        ""},
+      // Header text is copied into every report: UTF-8 or refused at its line before any fit.
+      {"latin1_header_value_refused_at_its_line",
+       {"x.txt", "--no-trace", "-o", "c.json", "--json", "j.json", "--report", "r.html"},
+       2,
+       e + "x.txt:4: operator: 'caf\\xE9' is not UTF-8 text (the byte 0xE9 at character 4): save the file as "
+           "UTF-8, for the reports copy the header's text",
+       {{"x.txt", ExampleWithHeader("# operator: caf\xE9\n")}}},
+      {"utf8_header_value_kept",
+       {"x.txt", "--no-trace", "--json", "j.json"},
+       0,
+       "",
+       {{"x.txt", ExampleWithHeader("# operator: caf\xC3\xA9\n")}},
+       {"j.json"},
+       "",
+       "",
+       {},
+       {{"-", "operator: caf\xC3\xA9\n"}, {"j.json", "\"operator\": \"caf\xC3\xA9\""}}},
+      // A file's escape sequences (retitle, clear the screen) are printed as text.
+      {"escape_sequences_in_the_header_printed_escaped",
+       {"x.txt", "--no-trace"},
+       0,
+       "",
+       {{"x.txt", ExampleWithHeader("# operator: \x1b]0;pwned\x07\x1b[2J\xC2\x9B\n")}},
+       {},
+       "",
+       "",
+       {},
+       {{"-", "operator: \\u001b]0;pwned\\u0007\\u001b[2J\\u009b\n"}}},
+      {"escape_sequences_in_json_on_standard_output",
+       {"x.txt", "--no-trace", "-q", "--json", "-"},
+       0,
+       "",
+       {{"x.txt", ExampleWithHeader("# operator: \x1b]0;pwned\x07\x7F\n")}},
+       {},
+       "",
+       "",
+       {},
+       {{"-", "\"operator\": \"\\u001b]0;pwned\\u0007\\u007f\""}}},
+      // A key of 3000 characters: the report's first column holds at most 30em, a longer word breaks.
+      {"long_metadata_key_wraps_in_html",
+       {"x.txt", "--no-trace", "-q", "--report", "r.html"},
+       0,
+       "",
+       {{"x.txt", ExampleWithHeader("# " + std::string(3000, 'k') + ": v\n")}},
+       {"r.html"},
+       "",
+       "",
+       {},
+       {{"r.html", "td:first-child { max-width: 30em; overflow-wrap: break-word; }"}}},
+      // An output the user may not write is not replaced, as cp refuses it.
+      {"read_only_report_not_replaced",
+       {"P.txt", "--no-trace", "-q", "--report", "r.html"},
+       2,
+       "(mode 0444): refusing to replace a file that may not be written; make it writable or give another name",
+       {{"r.html", "an old report\n"}},
+       {},
+       "",
+       "",
+       {},
+       {},
+       {"r.html"}},
+      {"read_only_calibration_file_not_replaced",
+       {"P.txt", "--no-trace", "-q", "-o", "c.json"},
+       2,
+       e + "--output c.json: cannot write: ",
+       {{"c.json", "{}\n"}},
+       {},
+       "",
+       "",
+       {},
+       {},
+       {"c.json"}},
+      {"sphere_form_file_without_a_radius",
+       {"P.txt", "--sphere-form", "f.json"},
+       2,
+       e + "f.json: states no sphere_radius_mm, so it cannot be told whether its form is that of the sphere of P.txt "
+           "(sphere_radius_mm 20 mm): the known form belongs to its own sphere",
+       {{"f.json", [] {
+           std::string f = FormFile("20");
+           const std::string radius = "\"sphere_radius_mm\": 20, ";
+           return f.erase(f.find(radius), radius.size());
+         }()}}},
+      // Harmonics of theta that 8 angles cannot resolve (orders 4 to 8) are marked, not printed as numbers.
+      {"harmonics_the_pattern_cannot_resolve_marked",
+       {"x.txt"},
+       0,
+       "",
+       {{"x.txt", ExampleAtEightThetas()}},
+       {},
+       "",
+       "",
+       {},
+       {{"-", " 3: 0.0"}, {"-", " 4: unresolved 5: unresolved 6: unresolved 7: unresolved 8: unresolved\n"}}},
+      // A probe that reads the other way: the cause named.
+      {"probe_reading_the_other_way_named",
+       {"x.txt", "--no-trace"},
+       1,
+       "",
+       {{"x.txt", ExampleReadingTheOtherWay()}},
+       {},
+       "",
+       "",
+       {},
+       {{"-", "why: likely cause: the probe's reading runs the other way (with r taken as 2 x median(r) - r"}}},
+      // Commas: a CSV export, a decimal comma.
+      {"comma_separated_values_named",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 1 (the line holds commas: a points file "
+           "separates its values by spaces or tabs, and a decimal point is '.')",
+       {{"x.txt", h + "0,7.5,4.8\n"}}},
+      {"decimal_comma_named",
+       {"x.txt"},
+       2,
+       e + "x.txt:4: column phi_deg: '7,5' is not a number (the line holds commas",
+       {{"x.txt", h + "0 7,5 4,8\n"}}},
   };
 }
 INSTANTIATE_TEST_SUITE_P(Calibrate, CalibrateMatrix, ::testing::ValuesIn(CalibrateCases()), CaseName);

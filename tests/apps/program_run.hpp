@@ -175,7 +175,28 @@ struct MatrixCase {
   /// A script run as gnuplot (FakeGnuplot()); "" runs the gnuplot installed, when a case draws.
   std::string gnuplot = "";
   std::map<std::string, std::string> links = {};  ///< symbolic links made in the folder: name, target
+  /// Expected in what the run wrote, by where: "-" standard output, else a file of the folder.
+  std::map<std::string, std::string> shows = {};
+  std::vector<std::string> read_only = {};  ///< files of the folder made read-only (mode 0444) before the run
 };
+
+/// The first byte of `text` that a terminal would act on rather than show (a control character
+/// but tab and line feed, DEL, a C1 control U+0080..U+009F, or a byte that is not UTF-8), or npos.
+inline std::size_t RawControlAt(const std::string& text) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if ((c < 0x20 && c != '\n' && c != '\t') || c == 0x7F) return i;
+    if (c < 0x80) continue;
+    const std::size_t n = c >= 0xF0 ? 4 : c >= 0xE0 ? 3 : c >= 0xC2 ? 2 : 0;
+    if (n == 0 || i + n > text.size() || c > 0xF4) return i;
+    for (std::size_t k = 1; k < n; ++k) {
+      if ((static_cast<unsigned char>(text[i + k]) & 0xC0) != 0x80) return i;
+    }
+    if (c == 0xC2 && static_cast<unsigned char>(text[i + 1]) < 0xA0) return i;
+    i += n - 1;
+  }
+  return std::string::npos;
+}
 
 inline std::ostream& operator<<(std::ostream& os, const MatrixCase& c) { return os << c.name; }
 
@@ -197,11 +218,13 @@ inline bool UsesDeviceNodes(const MatrixCase& c) {
 }
 
 /// Runs `program` with the case's arguments in `dir` (which holds the case's files) and checks the
-/// exit code, the message, and that the folder is byte for byte as before, apart from the case's
-/// outputs, each of which must be written (made, or changed).
+/// exit code, the message, what it shows, that no control character reaches standard output or
+/// error raw, and that the folder is byte for byte as before, apart from the case's outputs, each
+/// of which must be written (made, or changed).
 inline ProgramResult RunMatrixCase(const char* program, const MatrixCase& c, const std::string& dir) {
   for (const auto& [name, target] : c.links)
     EXPECT_EQ(::symlink(target.c_str(), (dir + "/" + name).c_str()), 0) << name;
+  for (const std::string& name : c.read_only) EXPECT_EQ(::chmod((dir + "/" + name).c_str(), 0444), 0) << name;
   std::vector<std::string> env;
   if (!c.gnuplot.empty()) env.push_back(FakeGnuplot(dir, c.gnuplot));
   const auto before = FolderState(dir);
@@ -212,6 +235,12 @@ inline ProgramResult RunMatrixCase(const char* program, const MatrixCase& c, con
   if (!c.message.empty()) {
     EXPECT_THAT(r.err, ::testing::HasSubstr(c.message));
   }
+  for (const auto& [where, text] : c.shows) {
+    EXPECT_THAT(where == "-" ? r.out : ReadWholeFile(dir + "/" + where), ::testing::HasSubstr(text)) << where;
+  }
+  // Whatever a file held, nothing reaches the user's terminal raw.
+  EXPECT_EQ(RawControlAt(r.out), std::string::npos) << "standard output: " << r.out.substr(0, 2000);
+  EXPECT_EQ(RawControlAt(r.err), std::string::npos) << "standard error: " << r.err.substr(0, 2000);
   auto after = FolderState(dir);
   auto unchanged = before;
   for (const std::string& made : c.writes) {

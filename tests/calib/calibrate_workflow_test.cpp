@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -9,6 +10,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "sph/calib/misreading.hpp"
+#include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
 #include "sph/io/parameter_settings.hpp"
 #include "sph/io/points_file.hpp"
@@ -329,6 +332,56 @@ TEST(CalibrateWorkflow, RefusesPointsWithoutARadius) {
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("mine.txt: the reference sphere radius R0 is not given"));
   }
+}
+
+TEST(CalibrateWorkflow, StopsWithCancelledWhenItsCancellationIsRequested) {
+  Cancellation cancellation;
+  const CancellationScope scope(&cancellation);
+  CalibrationWorkflowOptions o;
+  o.on_stage = [&](const std::string& stage) {
+    if (stage == "calibrating the seven errors") cancellation.Request();
+  };
+  EXPECT_THROW(RunCalibrationWorkflow(kUndeclared, o), Cancelled);
+  // Another cancellation, never requested, lets it run.
+  Cancellation other;
+  const CancellationScope other_scope(&other);
+  EXPECT_TRUE(RunCalibrationWorkflow(kPoints, o).usability.usable);
+}
+
+// The example with each sample changed by `take`.
+PointsData ExampleTaken(void (*take)(Sample&)) {
+  PointsData p = ReadPointsFile(kPoints);
+  for (Sample& s : p.samples) take(s);
+  return p;
+}
+
+TEST(CalibrateWorkflow, NamesTheLikelyCauseOfASetUpThatDoesNotFit) {
+  CalibrationWorkflowOptions o;
+  o.trace = false;
+  // A probe that reads the other way: as given, d' and beta far beyond a machine's; taken the other way
+  // round, the readings fit to their noise.
+  const CalibrationWorkflowResult reversed =
+      RunCalibrationWorkflow(ExampleTaken([](Sample& s) { s.r_mm = 10.0 - s.r_mm; }), "reversed.txt", o);
+  EXPECT_FALSE(reversed.usability.usable);
+  EXPECT_THAT(reversed.likely_cause,
+              HasSubstr("likely cause: the probe's reading runs the other way (with r taken as 2 x median(r) - r"));
+  EXPECT_EQ(reversed.usability.reasons.back(), reversed.likely_cause);
+  EXPECT_THAT(reversed.JsonReport(), HasSubstr("likely cause: the probe's reading runs the other way"));
+  const std::optional<Misreading> m = LikelyMisreading(reversed.points, reversed.settings, reversed.seven);
+  ASSERT_TRUE(m.has_value());
+  EXPECT_LT(m->rms_um, 0.1);  // the example's noise, 0.05 um
+  EXPECT_GT(m->given_rms_um, 1.0);
+  // Readings in um.
+  const CalibrationWorkflowResult in_um =
+      RunCalibrationWorkflow(ExampleTaken([](Sample& s) { s.r_mm *= 1000.0; }), "um.txt", o);
+  EXPECT_THAT(in_um.likely_cause, HasSubstr("likely cause: the probe's readings are in um, not mm"));
+  // Theta in the other sense fits as well as the true one, with alpha and epsilon of the other sign:
+  // the readings do not show it, nothing is named.
+  const CalibrationWorkflowResult theta =
+      RunCalibrationWorkflow(ExampleTaken([](Sample& s) { s.theta_deg = -s.theta_deg; }), "theta.txt", o);
+  EXPECT_TRUE(theta.usability.usable);
+  EXPECT_EQ(theta.likely_cause, "");
+  EXPECT_FALSE(FitsAsAMisreading(theta.points, theta.settings, theta.seven));
 }
 
 TEST(CalibrateWorkflow, CheckNamesTheSettingOutOfRange) {

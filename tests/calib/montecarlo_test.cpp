@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "sph/calib/design.hpp"
+#include "sph/core/cancellation.hpp"
 #include "sph/model/units.hpp"
 
 namespace sph {
@@ -28,6 +29,23 @@ TEST(RunMonteCarlo, DependsOnTheSeedOnlyNotOnThreads) {
   }
   spec.seed = 2;
   EXPECT_NE(RunMonteCarlo(spec).rows[0].params[kC].mean, one.rows[0].params[kC].mean);
+}
+
+TEST(RunMonteCarlo, StopsWithCancelledWhenItsCancellationIsRequested) {
+  MonteCarloStudyOptions spec;
+  spec.trials = 100000;  // minutes of work: stopped after its first progress step
+  spec.eccentricities_mm = {2.0};
+  spec.threads = 2;
+  Cancellation cancellation;
+  const CancellationScope scope(&cancellation);
+  long told = 0;
+  EXPECT_THROW(RunMonteCarlo(spec, [&](long done, long) {
+                 told = done;
+                 cancellation.Request();
+               }),
+               Cancelled);  // not an sph::Error of a failed trial
+  EXPECT_GT(told, 0);
+  EXPECT_LT(told, 5000);
 }
 
 // The paper's study at 1000 trials. The estimator is unbiased and efficient (std = Cramer-Rao)

@@ -9,6 +9,8 @@
 #include <chrono>
 #include <csignal>
 #include <fstream>
+#include <functional>
+#include <iostream>
 #include <sstream>
 #include <thread>
 
@@ -316,6 +318,76 @@ TEST(SameFile, OneFileByAnyNameAndNoOther) {
 TEST(RunPaths, CharacterDevicesMayTakeSeveralOutputs) {
   RunPaths paths;
   EXPECT_NO_THROW(paths.Input("points", "/dev/null").Output("--json", "/dev/null").Output("--output", "/dev/null"));
+}
+
+TEST(WriteFileAtomically, RefusesToReplaceAFileThatMayNotBeWritten) {
+  const std::string dir = sph::testing::MakeTempDir("atomic_read_only");
+  Put(dir + "/r.html", "old\n");
+  ASSERT_EQ(::chmod((dir + "/r.html").c_str(), 0444), 0);
+  ASSERT_EQ(::symlink("r.html", (dir + "/link.html").c_str()), 0);
+  for (const std::string name : {"r.html", "link.html"}) {
+    // As root too: a file nobody may write is not replaced (cp refuses it for every other user).
+    EXPECT_THAT(ErrorOf([&] { WriteFileAtomically(dir + "/" + name, [](std::ostream& o) { o << "new\n"; }); }),
+                HasSubstr(dir + "/" + name + ": cannot write: ")) << name;
+    EXPECT_THAT(ErrorOf([&] { OutputFiles().StageProduced(dir + "/" + name); }),
+                HasSubstr("(mode 0444): refusing to replace a file that may not be written")) << name;
+  }
+  EXPECT_EQ(ReadWholeFile(dir + "/r.html"), "old\n");
+  EXPECT_EQ(Entries(dir), (std::vector<std::string>{"link.html", "r.html"}));
+  ASSERT_EQ(::chmod((dir + "/r.html").c_str(), 0644), 0);  // writable again: replaced
+  WriteFileAtomically(dir + "/r.html", [](std::ostream& o) { o << "new\n"; });
+  EXPECT_EQ(ReadWholeFile(dir + "/r.html"), "new\n");
+}
+
+TEST(RunPaths, RefusesAnOutputThatMayNotBeWrittenBeforeAnythingIsComputed) {
+  const std::string dir = sph::testing::MakeTempDir("paths_read_only");
+  Put(dir + "/c.json", "{}\n");
+  ASSERT_EQ(::chmod((dir + "/c.json").c_str(), 0444), 0);
+  RunPaths paths;
+  EXPECT_THAT(ErrorOf([&] { paths.Output("--output", dir + "/c.json"); }),
+              HasSubstr("--output " + dir + "/c.json: cannot write: "));
+  EXPECT_NO_THROW(RunPaths().Output("--output", dir + "/new.json").Output("--json", "/dev/null"));
+}
+
+// What a program writes to std::cout through its StandardOutput, captured from file descriptor 1.
+std::string ThroughStandardOutput(const std::string& dir, const std::function<void()>& write) {
+  std::cout.flush();
+  const int saved = ::dup(STDOUT_FILENO);
+  const int file = ::open((dir + "/stdout").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  ::dup2(file, STDOUT_FILENO);
+  ::close(file);
+  {
+    const StandardOutput standard_output;
+    write();
+    FlushStandardOutput();
+  }
+  ::dup2(saved, STDOUT_FILENO);
+  ::close(saved);
+  return ReadWholeFile(dir + "/stdout");
+}
+
+TEST(StandardOutput, WritesWhatATerminalWouldActOnAsText) {
+  const std::string dir = sph::testing::MakeTempDir("stdout_escape");
+  // A title sequence, a screen clear, a carriage return, DEL, a C1 control (CSI, U+009B) and a byte that
+  // is no UTF-8; tabs, line feeds and UTF-8 text as they are.
+  EXPECT_EQ(ThroughStandardOutput(dir,
+                                  [] {
+                                    std::cout << "operator: \x1b]0;pwned\x07\x1b[2J\r\x7F\xC2\x9B caf\xE9\tcaf\xC3\xA9 "
+                                                 "\xE2\x82\xAC\n";
+                                  }),
+            "operator: \\u001b]0;pwned\\u0007\\u001b[2J\\u000d\\u007f\\u009b caf\\xE9\tcaf\xC3\xA9 \xE2\x82\xAC\n");
+  // A character split between two writes, and one split by the buffer's end (its first byte the
+  // 65536th of the output), pass whole.
+  std::string long_text(65529, 'x');
+  long_text += "\xC3\xA9\n";
+  EXPECT_EQ(ThroughStandardOutput(dir,
+                                  [&] {
+                                    std::cout << "caf\xC3";
+                                    std::cout << "\xA9\n" << long_text;
+                                  }),
+            "caf\xC3\xA9\n" + long_text);
+  // JSON with a DEL in a string stays JSON with the same string.
+  EXPECT_EQ(ThroughStandardOutput(dir, [] { std::cout << "{\"a\": \"x\x7Fy\"}\n"; }), "{\"a\": \"x\\u007fy\"}\n");
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <functional>
@@ -67,6 +68,45 @@ TEST(ParallelFor, DoesNothingForNoIndicesAndPassesAFailureToMakeTheTask) {
   EXPECT_FALSE(made);
   EXPECT_THROW(ParallelFor(3, 2, []() -> std::function<void(std::size_t)> { throw std::runtime_error("no scratch"); }),
                std::runtime_error);
+}
+
+TEST(ParallelFor, StopsWithCancelledWhenTheCallersCancellationIsRequested) {
+  Cancellation cancellation;
+  const CancellationScope scope(&cancellation);
+  std::atomic<int> runs{0};
+  std::atomic<int> tasks{0}, tasks_under_it{0};
+  EXPECT_THROW(ParallelFor(100000, 4,
+                           [&] {
+                             // Each thread makes its task under the caller's cancellation.
+                             ++tasks;
+                             if (CurrentCancellation() == &cancellation) ++tasks_under_it;
+                             return [&](std::size_t i) {
+                               if (i == 100) cancellation.Request();
+                               ++runs;
+                             };
+                           }),
+               Cancelled);
+  EXPECT_EQ(tasks_under_it.load(), tasks.load());
+  EXPECT_LT(runs.load(), 1000);  // each thread stops at its next index
+  EXPECT_EQ(CurrentCancellation(), &cancellation);
+}
+
+TEST(ParallelFor, RunsWithoutACancellationAndOutsideItsScope) {
+  EXPECT_EQ(CurrentCancellation(), nullptr);
+  Cancellation requested;
+  requested.Request();
+  {
+    const CancellationScope scope(&requested);
+    EXPECT_THROW(ThrowIfCancelled(), Cancelled);
+    {
+      const CancellationScope none(nullptr);  // a scope of its own wins until it ends
+      EXPECT_NO_THROW(ThrowIfCancelled());
+    }
+    EXPECT_THROW(ParallelFor(3, 2, [] { return [](std::size_t) {}; }), Cancelled);
+  }
+  std::vector<int> runs(10, 0);
+  ParallelFor(runs.size(), 2, [&] { return [&](std::size_t i) { ++runs[i]; }; });
+  EXPECT_EQ(std::count(runs.begin(), runs.end(), 1), 10);
 }
 
 }  // namespace

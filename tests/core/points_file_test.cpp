@@ -637,5 +637,118 @@ TEST(DevicesOf, ReadsTheIdentityLinesOfTheHeaderAsTheDaemonWritesThem) {
   EXPECT_EQ(d[1].other, (std::vector<std::string>{"odd"}));
 }
 
+TEST(Utf8CharLength, TakesWellFormedUtf8Only) {
+  EXPECT_EQ(Utf8CharLength("a"), 1u);
+  EXPECT_EQ(Utf8CharLength("\xC3\xA9"), 2u);          // e acute
+  EXPECT_EQ(Utf8CharLength("\xE2\x82\xAC"), 3u);      // the euro sign
+  EXPECT_EQ(Utf8CharLength("\xF0\x9F\x98\x80"), 4u);  // an emoji
+  EXPECT_EQ(Utf8CharLength("\xE9"), 0u);              // Latin-1 e acute
+  EXPECT_EQ(Utf8CharLength("\xA9"), 0u);              // a stray continuation byte
+  EXPECT_EQ(Utf8CharLength("\xC0\xAF"), 0u);          // an overlong '/'
+  EXPECT_EQ(Utf8CharLength("\xE0\x80\xAF"), 0u);      // another
+  EXPECT_EQ(Utf8CharLength("\xED\xA0\x80"), 0u);      // a surrogate
+  EXPECT_EQ(Utf8CharLength("\xF4\x90\x80\x80"), 0u);  // beyond U+10FFFF
+  EXPECT_EQ(Utf8CharLength("\xE2\x82"), 0u);          // cut short
+  EXPECT_EQ(FirstNonUtf8("caf\xC3\xA9 ok"), std::string::npos);
+  EXPECT_EQ(FirstNonUtf8("caf\xE9"), 3u);
+}
+
+TEST(PointsFile, HeaderTextThatIsNotUtf8IsRefusedAtItsLine) {
+  EXPECT_EQ(ErrorOf(std::string(kHeader) + "# operator: caf\xE9\n0 7.5 4.8\n"),
+            "pts.txt:4: operator: 'caf\\xE9' is not UTF-8 text (the byte 0xE9 at character 4): save the file as "
+            "UTF-8, for the reports copy the header's text");
+  EXPECT_THAT(ErrorOf(std::string(kHeader) + "# op@caf\xE9: x\n0 7.5 4.8\n"),
+              HasSubstr("pts.txt:4: header key 'op@caf\\xE9' is not UTF-8 text"));
+  const PointsData p = Parse(std::string(kHeader) + "# operator: caf\xC3\xA9 \x1b[2J\n0 7.5 4.8\n");
+  ASSERT_EQ(p.header.metadata.size(), 1u);
+  EXPECT_EQ(p.header.metadata[0].second, "caf\xC3\xA9 \x1b[2J");  // kept as the bytes it is
+  // A comment line is no field: its text goes nowhere.
+  EXPECT_NO_THROW(Parse(std::string(kHeader) + "# caf\xE9 without a colon\n0 7.5 4.8\n"));
+}
+
+TEST(PointsFile, ARowWithCommasSaysSo) {
+  EXPECT_EQ(ErrorOf(std::string(kHeader) + "0,7.5,4.8\n"),
+            "pts.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 1 (the line holds commas: a points file "
+            "separates its values by spaces or tabs, and a decimal point is '.')");
+  EXPECT_EQ(ErrorOf(std::string(kHeader) + "0 7,5 4,8\n"),
+            "pts.txt:4: column phi_deg: '7,5' is not a number (the line holds commas: a points file separates its "
+            "values by spaces or tabs, and a decimal point is '.')");
+  EXPECT_EQ(ErrorOf(std::string(kHeader) + "0 7.5\n"), "pts.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 2");
+}
+
+TEST(PointsFromColumns, ReadsTheHeaderAsAFileAndChecksEachReadingAsARow) {
+  const double theta[] = {0.0, 90.0}, phi[] = {10.0, 20.0}, r[] = {5.0, 5.1}, setup[] = {0.0, 1.0};
+  PointsColumns c;
+  c.n = 2;
+  c.theta_deg = theta;
+  c.phi_deg = phi;
+  c.r_mm = r;
+  c.setup = setup;
+  const PointsData p = PointsFromColumns({{"sphere_radius_mm", "20"}, {"operator", "A. Smith"}, {"columns", "x"}}, c,
+                                         "mine");
+  EXPECT_EQ(p.source, "mine");
+  EXPECT_EQ(p.header.sphere_radius_mm, 20.0);
+  EXPECT_EQ(p.header.metadata, (std::vector<std::pair<std::string, std::string>>{{"operator", "A. Smith"}}));
+  ASSERT_EQ(p.samples.size(), 2u);
+  EXPECT_EQ(p.samples[1].theta_deg, 90.0);
+  EXPECT_EQ(p.samples[1].r_mm, 5.1);
+  EXPECT_EQ(p.samples[1].t_s, 1.0);  // the row index without times
+  EXPECT_EQ(p.samples[1].setup, 1);
+  EXPECT_TRUE(p.has_setup);
+  EXPECT_FALSE(p.has_time);
+  EXPECT_TRUE(p.sample_lines.empty());
+  EXPECT_EQ(p.WhereIs(1), "mine: sample 2");
+  const auto error = [&](const std::vector<HeaderField>& header, const PointsColumns& columns) {
+    try {
+      PointsFromColumns(header, columns, "mine");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  // The header as the lines of a file: "# sph-points 1" is line 1.
+  EXPECT_THAT(error({{"sphere_radius_mm", "-1"}}, c), HasSubstr("mine:2: sphere_radius_mm must be positive"));
+  EXPECT_EQ(error({{"a", "1"}, {"my key!", "x"}}, c),
+            "mine:3: header key 'my key!' is not a header key (a name of letters, digits, '_' and '-', then '@' and "
+            "a setup id for a setup's field)");
+  EXPECT_EQ(error({{"operator", "bob\n# probe_offset_mm: 30"}}, c),
+            "mine:2: operator: 'bob\\x0A# probe_offset_mm: 30' holds a line break: a header field is one line (the "
+            "rest would be read as lines of their own)");
+  EXPECT_THAT(error({{"mount_rotation_deg@7", "0 0 90"}}, c), HasSubstr("mine:2: mount_rotation_deg@7: setup 7 has no samples"));
+  const double bad_setup[] = {0.0, 0.4}, nan_r[] = {5.0, std::nan("")}, far_r[] = {5.0, 1e300};
+  PointsColumns d = c;
+  d.setup = bad_setup;
+  EXPECT_EQ(error({}, d), "mine: sample 2: column setup: '0.4' is not an integer");
+  d = c;
+  d.r_mm = nan_r;
+  EXPECT_EQ(error({}, d), "mine: sample 2: column r_mm: 'nan' is not a finite number");
+  d.r_mm = far_r;
+  EXPECT_EQ(error({}, d), "mine: sample 2: column r_mm: '1e+300' is beyond 1e+06 mm from 0: not a probe reading in mm");
+  // Three columns of one (n, 3) array.
+  const double rows[] = {0.0, 10.0, 5.0, 90.0, 20.0, 5.1};
+  PointsColumns e;
+  e.n = 2;
+  e.stride = 3;
+  e.theta_deg = rows;
+  e.phi_deg = rows + 1;
+  e.r_mm = rows + 2;
+  const PointsData q = PointsFromColumns({}, e, "rows");
+  EXPECT_EQ(q.samples[1].phi_deg, 20.0);
+  EXPECT_EQ(q.samples[1].r_mm, 5.1);
+}
+
+TEST(WritePoints, RefusesMetadataThatAFileCouldNotHoldAsOneLine) {
+  PointsData p = Parse(std::string(kHeader) + "0 7.5 4.8\n");
+  p.header.metadata.emplace_back("operator", "bob\n# probe_offset_mm: 30");
+  std::ostringstream out;
+  EXPECT_THROW(WritePoints(out, p), Error);
+  EXPECT_EQ(out.str(), "");  // nothing written
+  p.header.metadata.back() = {"my key!", "x"};
+  EXPECT_THROW(WritePoints(out, p), Error);
+  p.header.metadata.back() = {"my_key", "x: y"};
+  WritePoints(out, p);
+  EXPECT_EQ(Parse(out.str()).header.metadata, p.header.metadata);
+}
+
 }  // namespace
 }  // namespace sph

@@ -129,6 +129,9 @@ struct CalibrationWorkflowResult {
   /// What "usable" was judged against: the options' requirement, with the default's reference when
   /// neither targets nor max_std_um were stated.
   UsabilityRequirement requirement;
+  /// When the seven-error fit fails as a misreading makes it fail: what the readings show was
+  /// misread (LikelyMisreading()'s Reason()), the last of the usability's reasons; else "".
+  std::string likely_cause;
   Usability usability;
 
   /// Whether the reported calibration is the trace's (it added effects or a form).

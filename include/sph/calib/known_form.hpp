@@ -31,7 +31,7 @@ FormPrior FormPriorOfFile(const CalibrationFile& file, const std::string& path,
 /// certificate's standard uncertainty `radius_u_um`; `what` names the calibration) differs from
 /// the R0 of the form's file `path` by more than the sum of their standard uncertainties (the file's:
 /// its covariance input "R0 (certificate)"; 1 nm of rounding allowed): the form belongs to
-/// another sphere. Nothing when the file does not state R0.
+/// another sphere; also when the file does not state R0 (whose sphere it is cannot be told).
 void CheckSameSphere(const CalibrationFile& file, const std::string& path, double radius_mm, double radius_u_um,
                      const std::string& what);
 

@@ -56,6 +56,9 @@ struct ReportContext {
   const std::vector<std::string>* run_warnings = nullptr;
   /// What "usable" is judged against besides max_std_um (may be null: max_std_um alone). Not owned.
   const UsabilityRequirement* requirement = nullptr;
+  /// What the readings show was misread when the set-up does not fit (LikelyMisreading()'s
+  /// Reason(), sph/calib/misreading.hpp); "" when nothing.
+  std::string likely_cause;
 };
 
 /// A table of value +- std in the paper's units (deg, mm) and in urad and um, the fit summary,

@@ -26,6 +26,7 @@
 //     readings, as a displacement, at most twice what the reference pattern predicts for this
 //     set-up at that fit's noise (ReferenceUncertaintyUm()): the pattern and the readings determine
 //     the machine at least half as well as the reference. The verdict says which was applied.
+// When it is not, the context's likely cause (what the readings show was misread) ends the reasons.
 #ifndef SPH_CALIB_USABILITY_HPP_
 #define SPH_CALIB_USABILITY_HPP_
 

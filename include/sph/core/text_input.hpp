@@ -7,6 +7,7 @@
 #include <fstream>
 #include <istream>
 #include <string>
+#include <string_view>
 
 namespace sph {
 
@@ -68,6 +69,15 @@ int ParseInteger(const std::string& token, const std::string& what, const std::s
 /// "8130"): true with it in `*value`; false for anything else (a sign, a space, no digit, a larger
 /// value), the caller saying what it expected.
 bool ParseHex(const std::string& token, unsigned long long max, unsigned long long* value);
+
+/// The length in bytes (1 to 4) of the well-formed UTF-8 character (RFC 3629) that `text` starts
+/// with, or 0 when it starts with none: a stray continuation byte, an overlong form, a surrogate, a
+/// code point beyond U+10FFFF, or a character cut short by the end of `text`.
+std::size_t Utf8CharLength(std::string_view text);
+
+/// The offset of the first byte of `text` that is not part of well-formed UTF-8, or npos when all
+/// of it is (what a text of a file must be before a report or a JSON file copies it).
+std::size_t FirstNonUtf8(std::string_view text);
 
 }  // namespace sph
 

@@ -12,6 +12,8 @@
 #include <thread>
 #include <vector>
 
+#include "sph/core/cancellation.hpp"
+
 namespace sph::internal {
 
 /// Runs task(i) for every i in [0, n) on up to `threads` threads (0: one per hardware thread,
@@ -23,17 +25,24 @@ namespace sph::internal {
 /// The first exception a task throws stops the loop (the other threads finish the index they are
 /// on and take no more) and is rethrown here once every thread has joined. A caller that wants
 /// every index run whatever fails catches inside its task. When the system gives no more
-/// threads, those already running (at least the caller's) do the rest.
+/// threads, those already running (at least the caller's) do the rest. The caller's cancellation
+/// (sph/core/cancellation.hpp) holds on every thread, and is checked before each index: a
+/// requested one stops the loop as a failure does, with sph::Cancelled.
 template <typename MakeTask>
 void ParallelFor(std::size_t n, int threads, MakeTask make_task) {
   if (n == 0) return;
   std::atomic<std::size_t> next{0};
   std::mutex failure_mutex;
   std::exception_ptr failure;
+  const Cancellation* cancellation = CurrentCancellation();
   auto run = [&] {
+    const CancellationScope scope(cancellation);
     try {
       auto task = make_task();
-      for (std::size_t i; (i = next++) < n;) task(i);
+      for (std::size_t i; (i = next++) < n;) {
+        ThrowIfCancelled();
+        task(i);
+      }
     } catch (...) {
       const std::lock_guard<std::mutex> lock(failure_mutex);
       if (!failure) failure = std::current_exception();

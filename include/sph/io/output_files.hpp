@@ -7,7 +7,8 @@
 //    to a temporary file beside it, fsync'ed, and renamed over the name only when the whole run
 //    succeeded, its standard output included; a symbolic link is followed and its target
 //    replaced. A FIFO, a terminal, /dev/null or standard output is written directly and is never
-//    replaced by a regular file. A directory, a block device or a socket is refused. A failure
+//    replaced by a regular file. A directory, a block device or a socket is refused, and so is an
+//    existing file the user may not write or that nobody may (as cp refuses it). A failure
 //    or a signal leaves no temporary file behind (OutputFiles, and the signal handlers of
 //    sph/io/cleanup.hpp).
 #ifndef SPH_IO_OUTPUT_FILES_HPP_
@@ -34,7 +35,8 @@ class RunPaths {
   /// Adds an input; an empty path is ignored.
   RunPaths& Input(const std::string& name, const std::string& path);
   /// Adds an output; an empty path is ignored. Throws sph::Error when it is an input or another
-  /// output already added.
+  /// output already added, or an existing regular file the user may not write or that grants
+  /// writing to nobody (mode 0444: "r.html: cannot write: it is read-only (mode 0444): ...").
   RunPaths& Output(const std::string& name, const std::string& path);
 
   struct Entry;  ///< one named path and what it is (defined in the implementation)
@@ -100,7 +102,11 @@ bool SameFile(const std::string& a, const std::string& b);
 void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write);
 
 /// Routes std::cout, while it lives, through a buffer that remembers why its first write failed
-/// (std::cout's own state only says that one did). A program's main() makes one.
+/// (std::cout's own state only says that one did) and that writes what a terminal would act on
+/// rather than show as text: the control characters but tab and line feed, DEL and U+0080 to
+/// U+009F as \u00hh (JSON's escape: JSON stays JSON), bytes that are no UTF-8 as \xHH. Text from
+/// a file (a header field a report prints) thus never reaches a terminal raw. A program's main()
+/// makes one.
 class StandardOutput {
  public:
   StandardOutput();

@@ -196,18 +196,48 @@ std::vector<MotionDirection> MotionDirections(const std::vector<Sample>& samples
 
 /// Reads a points file. Throws sph::Error with "path:line: problem" on any defect: unreadable
 /// file, a NUL byte or a line longer than kMaxLineBytes (sph/core/text_input.hpp), unsupported
-/// format version, duplicate header key, bad or non-positive radius or offset, a bad mount
+/// format version, duplicate header key, a header field whose text is not UTF-8 (reports and JSON
+/// copy it), bad or non-positive radius or offset, a bad mount
 /// rotation (not three numbers within kMaxMountRotationDeg nor "unknown") or radius of a setup's
 /// sphere, a per-setup field that names no setup or whose setup id is not an integer, is given
 /// twice, stands after a row of its setup (it would apply to rows recorded before it) or has no
 /// samples (named at its header line), a columns line or another header field the reader takes
 /// after the first sample, unknown, duplicate or missing column, wrong column count, a value that
 /// is not a number or not finite, an angle beyond kMaxAngleDeg, a reading beyond kMaxReadingMm, a
-/// time beyond kMaxTimeS, a non-integer setup id, no samples.
+/// time beyond kMaxTimeS, a non-integer setup id, no samples. A row's message says when the line
+/// holds commas (values separated by commas, or a decimal comma).
 PointsData ReadPointsFile(const std::string& path);
 
 /// As ReadPointsFile(), from a stream; `source` names it in messages.
 PointsData ParsePoints(std::istream& in, const std::string& source);
+
+/// A header field: its key and value.
+struct HeaderField {
+  std::string key, value;
+};
+
+/// Readings a host holds in memory (arrays): `n` readings, each column's values `stride` apart
+/// (1: an array of its own; 3: the columns of one (n, 3) array). t_s and setup may be null: not
+/// given (the row index and setup 0, as a file without those columns).
+struct PointsColumns {
+  std::size_t n = 0;
+  std::size_t stride = 1;
+  const double* theta_deg = nullptr;
+  const double* phi_deg = nullptr;
+  const double* r_mm = nullptr;
+  const double* t_s = nullptr;
+  const double* setup = nullptr;  ///< integers, as doubles (a host's array of any number type)
+};
+
+/// Points of a host: the header fields (key, value) read as the lines "# key: value" of a file
+/// after its format line (numbered 2, 3, ... in messages; a "columns" field is passed over, for
+/// the columns given say which there are) and each reading checked as a row is, named
+/// "<source>: sample <i>" (from 1): as ParsePoints() of the file WritePoints() would make, without
+/// the text. Throws sph::Error as ParsePoints() does, and for a key that is not a header key
+/// (IsHeaderKey()) or a value with a line break (which would begin another line of the file), a
+/// value that is not finite, or a setup that is not an integer.
+PointsData PointsFromColumns(const std::vector<HeaderField>& header, const PointsColumns& columns,
+                             const std::string& source);
 
 /// What looks wrong in readings that parsed well, in words, one warning each: angle columns that
 /// span no more than a radian measure would (theta within 0..2 pi, phi within 0..pi: degrees are
@@ -219,6 +249,8 @@ std::vector<std::string> PlausibilityWarnings(const PointsData& data);
 /// Writes `data` in format sph-points 1 (header, then one row a sample). Columns: theta_deg
 /// phi_deg r_mm, then t_s if data.has_time, then setup if data.has_setup. Mount rotations and the
 /// radii of setups' spheres are written with the shortest digits that read back to the same doubles.
+/// Throws sph::Error, before writing anything, for a metadata field that a file could not hold
+/// as the one line "# key: value" (a key that is not a header key, a value with a line break).
 void WritePoints(std::ostream& out, const PointsData& data);
 
 /// WritePoints() to a file, atomically (sph/io/output_files.hpp).
@@ -254,11 +286,6 @@ inline constexpr const char* kMountRotationKey = "mount_rotation_deg";
 /// spaces here, none too; the reader checks that it is an integer for the keys it knows).
 /// Anything else before a colon is prose in a comment.
 bool IsHeaderKey(std::string_view key);
-
-/// A header field: its key and value.
-struct HeaderField {
-  std::string key, value;
-};
 
 /// The header field of a comment line, given as `body`, the text after its '#': "key: value" with
 /// key and value trimmed and a valid key (IsHeaderKey()); nothing for a plain comment or prose

@@ -132,6 +132,11 @@ struct MeasurementWorkflowResult {
 MeasurementWorkflowResult RunMeasurementWorkflow(const std::string& points_path,
                                                  const MeasurementWorkflowOptions& options);
 
+/// The same of readings in memory (a host's, sph::PointsFromColumns()), which `source` names in
+/// the messages and reports as a path would; options.xyz is refused (it reads a file).
+MeasurementWorkflowResult RunMeasurementWorkflow(PointsData points, const std::string& source,
+                                                 const MeasurementWorkflowOptions& options);
+
 }  // namespace sph
 
 #endif  // SPH_MEASURE_MEASURE_WORKFLOW_HPP_

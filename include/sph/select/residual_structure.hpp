@@ -58,7 +58,9 @@ struct StructureGroup {
 struct ResidualStructure {
   std::vector<StructureGroup> groups;      ///< theta, phi, r, t, direction, sphere
   StructureGroup all;                      ///< every function together: the test of remaining structure
-  std::vector<double> theta_harmonics_um;  ///< amplitude of harmonic k = 1.. of theta, fitted alone [um]
+  /// The amplitude of harmonic k = 1.. of theta, fitted alone [um]; the trace sets NaN for an order
+  /// above what the readings' pattern resolves (PatternOrders()), which has none of its own.
+  std::vector<double> theta_harmonics_um;
   /// The F test of harmonic k = 1.. of theta (cos and sin) alone against white noise, off the fit's
   /// Jacobian as the groups: its p-value (1 when the fit absorbs it).
   std::vector<double> theta_harmonic_p;
