@@ -14,7 +14,7 @@ secs=25
 if [[ ${1:-} == -t ]]; then secs=$2; shift 2; fi
 targets=("$@")
 [[ ${#targets[@]} -gt 0 ]] ||
-  targets=(fuzz_points fuzz_xyz fuzz_calibration fuzz_calibration_nesting fuzz_calibration_blob fuzz_candump fuzz_can_frames fuzz_sdo_nmt
+  targets=(fuzz_points fuzz_xyz fuzz_calibration fuzz_calibration_nesting fuzz_calibration_blob fuzz_dcc_settings fuzz_candump fuzz_can_frames fuzz_sdo_nmt
            fuzz_acquired_config)
 build=build-asan
 passed=0 failed=0
