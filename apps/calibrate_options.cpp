@@ -43,7 +43,7 @@ void AddFitSettingOptions(CLI::App& app, CalibrateOptions& o) {
   app.add_option("--robust-scale-sigma", o.workflow.fit.robust_scale_sigma,
                  "The robust loss' scale in units of the readings' noise (1.4826 median absolute deviation of the "
                  "residuals); default: huber 1.345, cauchy 2.385")
-      ->check(CLI::Range(0.01, 100.0))
+      ->check(InRange(ranges::kRobustScaleSigma))
       ->needs(robust)
       ->group(told);
 }

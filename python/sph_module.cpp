@@ -172,9 +172,45 @@ std::string PathOf(const py::handle& path) {
   return py::cast<std::string>(py::module_::import("os").attr("fspath")(path));
 }
 
-std::vector<std::string> Strings(const py::handle& value) {
+// What a keyword of type T takes, in Python's words, for the TypeError of a value it cannot take.
+template <typename T>
+std::string Expected() {
+  if constexpr (std::is_same_v<T, bool>) {
+    return "a bool";
+  } else if constexpr (std::is_integral_v<T>) {
+    return "an int from " + std::to_string(std::numeric_limits<T>::min()) + " to " +
+           std::to_string(std::numeric_limits<T>::max());
+  } else if constexpr (std::is_floating_point_v<T>) {
+    return "a float (or an int)";
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    return "a str";
+  } else {
+    return "a str or a sequence of str";
+  }
+}
+
+// A value as the TypeError names it: its type and its repr, cut to 40 characters.
+std::string Described(const py::handle& value) {
+  std::string repr = py::str(py::repr(value));
+  if (repr.size() > 40) repr = repr.substr(0, 37) + "...";
+  return "the " + std::string(py::str(py::type::of(value).attr("__name__"))) + " " + repr;
+}
+
+// The value of keyword `key` of `function` as a T; a TypeError naming the keyword, the type it
+// takes and the value given when it is not one (or out of T's range).
+template <typename T>
+T Cast(const py::handle& value, const std::string& key, const char* function) {
+  try {
+    return py::cast<T>(value);
+  } catch (const py::cast_error&) {
+  }
+  throw py::type_error(std::string(function) + "(): " + key + " takes " + Expected<T>() + ", not " +
+                       Described(value));
+}
+
+std::vector<std::string> Strings(const py::handle& value, const std::string& key, const char* function) {
   if (py::isinstance<py::str>(value)) return {py::cast<std::string>(value)};
-  return py::cast<std::vector<std::string>>(value);
+  return Cast<std::vector<std::string>>(value, key, function);
 }
 
 // The keywords of calibrate() besides the conditions (kConditionFields) and of measure().
@@ -227,10 +263,10 @@ sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
     CheckKeyword(key, kCalibrateKeywords, "calibrate", true);
     if (v.is_none()) continue;  // not given
     if (key == "no_trace") {
-      o.trace = !py::cast<bool>(v);
+      o.trace = !Cast<bool>(v, key, "calibrate");
     } else if (key == "effects") {
       std::vector<std::string> ids;
-      for (const std::string& text : Strings(v)) {
+      for (const std::string& text : Strings(v, key, "calibrate")) {
         std::istringstream list(text);
         for (std::string id; std::getline(list, id, ',');) ids.push_back(id);
       }
@@ -248,28 +284,28 @@ sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
         for (const py::handle path : v) o.sphere_form_paths.push_back(PathOf(path));  // one per sphere
       }
     } else if (key == "sphere_radius_mm") {
-      o.sphere_radius_mm = py::cast<double>(v);
+      o.sphere_radius_mm = Cast<double>(v, key, "calibrate");
     } else if (key == "probe_offset_mm") {
-      o.probe_offset_mm = py::cast<double>(v);
+      o.probe_offset_mm = Cast<double>(v, key, "calibrate");
     } else if (key == "fix") {
-      for (const std::string& t : Strings(v)) o.fit.fixed.push_back(sph::ParseFixedParameter(t, "fix " + t));
+      for (const std::string& t : Strings(v, key, "calibrate")) o.fit.fixed.push_back(sph::ParseFixedParameter(t, "fix " + t));
     } else if (key == "prior") {
-      for (const std::string& t : Strings(v)) o.fit.priors.push_back(sph::ParseParameterPrior(t, "prior " + t));
+      for (const std::string& t : Strings(v, key, "calibrate")) o.fit.priors.push_back(sph::ParseParameterPrior(t, "prior " + t));
     } else if (key == "robust_loss") {
-      const std::string loss = py::cast<std::string>(v);
+      const std::string loss = Cast<std::string>(v, key, "calibrate");
       if (loss != "huber" && loss != "cauchy") {
         throw sph::Error("robust_loss: expected 'huber' or 'cauchy', got '" + loss + "'");
       }
       o.fit.robust_loss = loss == "cauchy" ? sph::RobustLoss::kCauchy : sph::RobustLoss::kHuber;
     } else if (key == "robust_scale_sigma") {
-      o.fit.robust_scale_sigma = py::cast<double>(v);
+      o.fit.robust_scale_sigma = Cast<double>(v, key, "calibrate");
     } else if (key == "max_std_um") {
-      o.fit.max_std_um = py::cast<double>(v);
+      o.fit.max_std_um = Cast<double>(v, key, "calibrate");
       o.requirement.max_std_stated = true;  // given, it is the requirement (as sph_calibrate's option)
     } else if (key == "accept_rejected") {
-      o.accept_rejected = py::cast<bool>(v);
+      o.accept_rejected = Cast<bool>(v, key, "calibrate");
     } else if (key == "target_u") {
-      for (const std::string& t : Strings(v)) {
+      for (const std::string& t : Strings(v, key, "calibrate")) {
         const sph::FixedParameter f = sph::ParseFixedParameter(t, "target_u " + t);
         if (!f.value || !(*f.value > 0.0)) {
           throw sph::Error("target_u " + t +
@@ -279,23 +315,23 @@ sph::CalibrationWorkflowOptions CalibrationOptionsOf(const py::kwargs& kwargs) {
         o.requirement.target_u.push_back({f.name, *f.value, t});
       }
     } else if (key == "max_iterations") {
-      o.fit.max_iterations = py::cast<int>(v);
+      o.fit.max_iterations = Cast<int>(v, key, "calibrate");
     } else if (key == "harmonics") {
-      const int h = py::cast<int>(v);
+      const int h = Cast<int>(v, key, "calibrate");
       o.trace_options.harmonics = {h, h};
     } else if (key == "phi_wobble_pivot_mm") {
-      o.trace_options.phi_wobble_pivot_mm = py::cast<double>(v);
+      o.trace_options.phi_wobble_pivot_mm = Cast<double>(v, key, "calibrate");
     } else if (key == "drift_order") {
-      o.trace_options.drift_order = py::cast<int>(v);
+      o.trace_options.drift_order = Cast<int>(v, key, "calibrate");
     } else if (key == "hold_confounded") {
-      o.trace_options.hold_confounded = py::cast<bool>(v);
+      o.trace_options.hold_confounded = Cast<bool>(v, key, "calibrate");
     } else if (key == "seed") {
-      o.trace_options.seed = py::cast<std::uint64_t>(v);
+      o.trace_options.seed = Cast<std::uint64_t>(v, key, "calibrate");
     } else if (key == "coverage") {
-      o.coverage = py::cast<double>(v);
+      o.coverage = Cast<double>(v, key, "calibrate");
     } else {
       for (const sph::ConditionField& f : sph::kConditionFields) {
-        if (key == f.key) o.conditions.*f.field = py::cast<double>(v);
+        if (key == f.key) o.conditions.*f.field = Cast<double>(v, key, "calibrate");
       }
     }
   }
@@ -521,31 +557,31 @@ sph::MeasurementWorkflowOptions MeasurementOptionsOf(const py::kwargs& kwargs) {
     if (key == "calibration")
       o.calibration_path = PathOf(v);
     else if (key == "xyz")
-      o.xyz = py::cast<bool>(v);
+      o.xyz = Cast<bool>(v, key, "measure");
     else if (key == "subtract_sphere_form")
-      o.subtract_sphere_form = py::cast<bool>(v);
+      o.subtract_sphere_form = Cast<bool>(v, key, "measure");
     else if (key == "setup")
-      o.setup = py::cast<int>(v);
+      o.setup = Cast<int>(v, key, "measure");
     else if (key == "uncertainty_samples")
-      o.uncertainty_samples = py::cast<int>(v);
+      o.uncertainty_samples = Cast<int>(v, key, "measure");
     else if (key == "seed")
-      o.seed = py::cast<std::uint64_t>(v);
+      o.seed = Cast<std::uint64_t>(v, key, "measure");
     else if (key == "max_dilution")
-      o.max_dilution = py::cast<double>(v);
+      o.max_dilution = Cast<double>(v, key, "measure");
     else if (key == "noise_um")
-      o.noise_um = py::cast<double>(v);
+      o.noise_um = Cast<double>(v, key, "measure");
     else if (key == "noise_floor_draws")
-      o.noise_floor_draws = py::cast<int>(v);
+      o.noise_floor_draws = Cast<int>(v, key, "measure");
     else if (key == "coverage")
-      o.coverage = py::cast<double>(v);
+      o.coverage = Cast<double>(v, key, "measure");
     else if (key == "mc_max_trials")
-      o.mc_max_trials = py::cast<long>(v);
+      o.mc_max_trials = Cast<long>(v, key, "measure");
     else if (key == "mc_batch_trials")
-      o.mc_batch_trials = py::cast<long>(v);
+      o.mc_batch_trials = Cast<long>(v, key, "measure");
     else if (key == "mc_digits")
-      o.mc_digits = py::cast<int>(v);
+      o.mc_digits = Cast<int>(v, key, "measure");
     else if (key == "mc_max_points")
-      o.mc_max_points = py::cast<long>(v);
+      o.mc_max_points = Cast<long>(v, key, "measure");
   }
   o.Check();
   return o;
@@ -627,11 +663,12 @@ template <typename Options>
 struct Keyword {
   const char* name;
   std::function<void(Options&, const py::handle&)> set;
+  std::string expected = "a str, a number or a sequence of them";  // what `set` takes, for a TypeError
 };
 
 template <typename Options, typename T>
 Keyword<Options> Number(const char* name, T Options::*field) {
-  return {name, [field](Options& o, const py::handle& v) { o.*field = py::cast<T>(v); }};
+  return {name, [field](Options& o, const py::handle& v) { o.*field = py::cast<T>(v); }, Expected<T>()};
 }
 
 // The simulated machine's keywords (sph_simulate's and sph_montecarlo's --alpha-deg ... --noise-phi-arcsec).
@@ -639,7 +676,8 @@ template <typename Options>
 void AddMachineKeywords(std::vector<Keyword<Options>>& k) {
   const auto machine = [](const char* name, auto sph::MachineOptions::*field) {
     using T = std::remove_reference_t<decltype(std::declval<sph::MachineOptions>().*field)>;
-    return Keyword<Options>{name, [field](Options& o, const py::handle& v) { o.machine.*field = py::cast<T>(v); }};
+    return Keyword<Options>{name, [field](Options& o, const py::handle& v) { o.machine.*field = py::cast<T>(v); },
+                            Expected<T>()};
   };
   using M = sph::MachineOptions;
   k.push_back(machine("alpha_deg", &M::alpha_deg));
@@ -653,7 +691,7 @@ void AddMachineKeywords(std::vector<Keyword<Options>>& k) {
   k.push_back(machine("probe_offset_mm", &M::probe_offset_mm));
   k.push_back(machine("theta_steps", &M::theta_steps));
   k.push_back(machine("phi_steps", &M::phi_steps));
-  k.push_back({"angles", [](Options& o, const py::handle& v) { o.machine.angles_path = PathOf(v); }});
+  k.push_back({"angles", [](Options& o, const py::handle& v) { o.machine.angles_path = PathOf(v); }, "a str or a path"});
   k.push_back(machine("noise_r_um", &M::noise_r_um));
   k.push_back(machine("noise_theta_arcsec", &M::noise_theta_arcsec));
   k.push_back(machine("noise_phi_arcsec", &M::noise_phi_arcsec));
@@ -675,7 +713,7 @@ const std::vector<Keyword<sph::SimulationOptions>>& SimulateKeywords() {
     k.push_back(Number("sample_period_s", &S::sample_period_s));
     k.push_back(Texts("effect_arcsec", &S::effects_arcsec));
     k.push_back(Texts("effect_um", &S::effects_um));
-    k.push_back({"probe_range_mm", [](S& o, const py::handle& v) { o.probe_range_mm = py::cast<double>(v); }});
+    k.push_back({"probe_range_mm", [](S& o, const py::handle& v) { o.probe_range_mm = py::cast<double>(v); }, Expected<double>()});
     k.push_back(Number("phi_wobble_pivot_mm", &S::phi_wobble_pivot_mm));
     k.push_back(Texts("mount_rotation_deg", &S::mount_rotations_deg));
     k.push_back(Texts("mount_unknown", &S::mount_unknown));
@@ -700,7 +738,8 @@ const std::vector<Keyword<sph::MonteCarloOptions>>& MonteCarloKeywords() {
     k.push_back({"eccentricities_mm", [](C& o, const py::handle& v) {
                    o.eccentricities_mm = py::isinstance<py::sequence>(v) ? py::cast<std::vector<double>>(v)
                                                                          : std::vector<double>{py::cast<double>(v)};
-                 }});
+                 },
+                 "a float or a sequence of floats"});
     k.push_back({"direction", [](C& o, const py::handle& v) { o.direction = OptionText(v); }});
     k.push_back(Number("random_direction", &C::random_direction));
     k.push_back(Number("setups", &C::setups));
@@ -728,9 +767,8 @@ Options OptionsOf(const py::kwargs& kwargs, const std::vector<Keyword<Options>>&
     try {
       if (!item.second.is_none()) k->set(o, item.second);  // None: not given
     } catch (const py::cast_error&) {
-      throw py::type_error(std::string(function) + "() keyword argument '" + key + "' got a " +
-                           std::string(py::str(py::type::of(item.second).attr("__name__"))) +
-                           ", which it does not take");
+      throw py::type_error(std::string(function) + "(): " + key + " takes " + k->expected + ", not " +
+                           Described(item.second));
     }
   }
   return o;

@@ -11,6 +11,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "fit_problem.hpp"
+#include "solve_fit.hpp"
 #include "sph/calib/misreading.hpp"
 #include "sph/core/cancellation.hpp"
 #include "sph/core/error.hpp"
@@ -824,6 +825,17 @@ void CalibrationWorkflowOptions::Check() const {
   CheckedValue(trace_options.drift_order, ranges::kDriftOrder, what + "trace_options.drift_order");
   CheckedValue(trace_options.phi_wobble_pivot_mm, ranges::kPivotMm, what + "trace_options.phi_wobble_pivot_mm");
   if (coverage) CheckedValue(*coverage, ranges::kCoverageProbability, what + "coverage");
+  // 0: the robust loss' own default scale.
+  if (fit.robust_scale_sigma != 0.0) {
+    CheckedValue(fit.robust_scale_sigma, ranges::kRobustScaleSigma, what + "fit.robust_scale_sigma");
+  }
+  for (const ConditionField& f : kConditionFields) {
+    const std::optional<double>& v = conditions.*f.field;
+    if (v) CheckedValue(*v, ValidRange{f.min, f.max, f.unit}, what + "conditions." + f.key);
+  }
+  // The options' own fixed values and priors (a parameter held twice, held and informed): the
+  // points header's join them later, checked with the file.
+  internal::CheckParameterSettings(fit, "calibration options");
   if (!trace && !effects.empty()) throw Error(what + "effects need trace (a fixed model is fitted in its place)");
   if (!trace && conditions.sphere_form_rms_um) {
     throw Error(what +

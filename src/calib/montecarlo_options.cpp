@@ -27,6 +27,7 @@ MonteCarloStudyOptions MonteCarloSpecOf(const MonteCarloOptions& o) {
   spec.seed = o.seed;
   spec.threads = o.threads;
   spec.max_std_um = o.max_std_um;
+  if (spec.eccentricities_mm.empty()) throw Error("--eccentricities-mm: no eccentricity given (the study needs one)");
   for (double e : spec.eccentricities_mm) {
     if (!(e >= 0.0) || !(e < o.machine.sphere_radius_mm)) {
       throw Error("--eccentricities-mm: " + Format("%g", e) + " is not in [0, R0)");

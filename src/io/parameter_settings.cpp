@@ -92,6 +92,16 @@ std::vector<std::string> Entries(const std::string& value) {
   return out;
 }
 
+// A parameter named twice in one list of `what`.
+template <typename Entry>
+void RefuseTwice(const std::vector<Entry>& entries, const std::string& what, const char* twice) {
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (entries[i].name == entries[j].name) throw Error(what + ": " + entries[i].name + " " + twice);
+    }
+  }
+}
+
 }  // namespace
 
 std::optional<Quantity> ParameterQuantity(const std::string& name) {
@@ -157,6 +167,7 @@ std::vector<FixedParameter> ParseFixedParameters(const std::string& value, const
   std::vector<FixedParameter> out;
   for (const std::string& entry : Entries(value)) out.push_back(ParseFixedParameter(entry, what));
   if (out.empty()) throw Error(what + ": names no parameter");
+  RefuseTwice(out, what, "is held twice");
   return out;
 }
 
@@ -164,6 +175,7 @@ std::vector<ParameterPrior> ParseParameterPriors(const std::string& value, const
   std::vector<ParameterPrior> out;
   for (const std::string& entry : Entries(value)) out.push_back(ParseParameterPrior(entry, what));
   if (out.empty()) throw Error(what + ": names no parameter");
+  RefuseTwice(out, what, "has two priors");
   return out;
 }
 

@@ -17,10 +17,10 @@ import sph
 
 @pytest.mark.parametrize("options, app_args", [
     ({"max_std_um": 0.01}, ["--max-std-um", "0.01"]),  # every error undetermined: not usable
-    ({"fix": "a_mm=1e6"}, ["--fix", "a_mm=1e6"]),  # a held value no machine has: not usable
+    ({"fix": "a_mm=5"}, ["--fix", "a_mm=5"]),  # a held value far from the machine's: no convergence, not usable
     ({"fix": "beta"}, ["--fix", "beta"]),  # usable, beta held (no U)
-    ({"prior": "alpha_deg=0.02,1e200"}, ["--prior", "alpha_deg=0.02,1e200"]),
-], ids=["undetermined", "held_far_off", "held", "prior_of_no_weight"])
+    ({"prior": "alpha_deg=0.03,1e-6"}, ["--prior", "alpha_deg=0.03,1e-6"]),  # rejected by the readings: not usable
+], ids=["undetermined", "held_far_off", "held", "prior_rejected"])
 def test_every_result_the_app_gives_is_a_result(example_points, tmp_path, options, app_args):
     out = tmp_path / "app.json"
     app = subprocess.run([os.environ["SPH_CALIBRATE"], example_points, "--no-trace", *app_args, "--json", str(out),

@@ -334,12 +334,46 @@ def test_simulate_takes_a_setup_as_a_number():
                         mount_unknown=[1])[0].header == points.header
 
 
+def test_a_keyword_out_of_its_range_is_refused_by_the_librarys_check(example_points):
+    cases = {"sphere_radius_u_um": (-5, r"must be >= 0 and <= 1000 um, got -5$"),
+             "sphere_temperature_u_c": (-1, r"must be >= 0 and <= 50 K, got -1$"),
+             "probe_range_mm": (math.inf, r"must be >= 0.002 and <= 10000 mm, got inf$"),
+             "sphere_cte_per_k": (5, r"must be >= 0 and <= 0.001 1/K, got 5$"),
+             "robust_scale_sigma": (1e300, r"must be >= 0.01 and <= 100, got 1e\+300$")}
+    for key, (value, message) in cases.items():
+        with pytest.raises(sph.Error, match=r"^calibration options: .*" + key + ": " + message):
+            sph.calibrate(example_points, no_trace=True, **{key: value})
+    with pytest.raises(sph.Error, match=r"^calibration options: alpha is held twice$"):
+        sph.calibrate(example_points, no_trace=True, fix=["alpha", "alpha"])
+    with pytest.raises(sph.Error, match=r"^calibration options: alpha is both held and given a prior"):
+        sph.calibrate(example_points, no_trace=True, fix="alpha", prior="alpha_deg=0.02,0.001")
+
+
+def test_a_keyword_of_the_wrong_type_is_named_with_the_type_it_takes(example_points):
+    with pytest.raises(TypeError, match=r"^calibrate\(\): sphere_radius_mm takes a float \(or an int\), "
+                                        r"not the str '20'$"):
+        sph.calibrate(example_points, sphere_radius_mm="20")
+    with pytest.raises(TypeError, match=r"^calibrate\(\): seed takes an int from 0 to \d+, not the int -1$"):
+        sph.calibrate(example_points, seed=-1)
+    with pytest.raises(TypeError, match=r"^calibrate\(\): effects takes a str or a sequence of str, not the int 5$"):
+        sph.calibrate(example_points, effects=5)
+    with pytest.raises(TypeError, match=r"^measure\(\): setup takes an int from -2147483648 to 2147483647, "
+                                        r"not the str '1'$"):
+        sph.measure(example_points, calibration="c.json", setup="1")
+    with pytest.raises(TypeError, match=r"^monte_carlo\(\): trials takes an int from -2147483648 to 2147483647, "
+                                        r"not the int 1099511627776$"):
+        sph.monte_carlo(trials=2**40)
+    with pytest.raises(sph.Error, match=r"^--eccentricities-mm: no eccentricity given"):
+        sph.monte_carlo(trials=2, eccentricities_mm=[])
+
+
 def test_simulate_errors():
     with pytest.raises(TypeError, match="'noise_um'"):
         sph.simulate(noise_um=0.1)
-    with pytest.raises(TypeError, match=r"^simulate\(\) keyword argument 'seed' got a str, which it does not take$"):
+    with pytest.raises(TypeError, match=r"^simulate\(\): seed takes an int from 0 to 18446744073709551615, "
+                                        r"not the str '7'$"):
         sph.simulate(seed="7")
-    with pytest.raises(TypeError, match="'center_mm' got a dict"):
+    with pytest.raises(TypeError, match="center_mm takes a str, a number or a sequence of them, not the dict"):
         sph.simulate(center_mm={"x": 2})
     with pytest.raises(sph.Error, match=r"^--noise-r-um: must be >= 0 and <= 1000 um, got -1$"):
         sph.simulate(noise_r_um=-1)

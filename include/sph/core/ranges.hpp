@@ -35,6 +35,7 @@ inline constexpr ValidRange kFormDepthUm{0.0, kMaxEffectUm, "um", true};
 inline constexpr ValidRange kFormWidthDeg{0.0, 180.0, "deg", true};
 inline constexpr ValidRange kDirection{-1e6, 1e6, ""};  ///< each component of a direction (any length > 0)
 inline constexpr ValidRange kCoverageProbability{0.5, 0.9999, ""};
+inline constexpr ValidRange kRobustScaleSigma{0.01, 100.0, ""};  ///< the robust loss' scale, in units of the noise
 /// The simulators' grid (positions per ring, rings), time step, outliers and probe range.
 inline constexpr ValidRange kGridSteps{1.0, 1000000.0, ""};
 inline constexpr ValidRange kSamplePeriodS{0.0, 86400.0, "s"};
