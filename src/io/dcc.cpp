@@ -169,7 +169,13 @@ class Xml {
           out += "&quot;";
           break;
         default:
-          out += c;
+          // XML 1.0 holds no control character but tab (not even as a reference): written as the
+          // output layer writes them, \u00hh.
+          if ((static_cast<unsigned char>(c) < 0x20 && c != '\t') || c == '\x7f') {
+            out += internal::Format("\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
+          } else {
+            out += c;
+          }
       }
     }
     return out;
@@ -451,6 +457,20 @@ Settings ParseSettings(std::istream& in, const std::string& source) {
       throw Error(lines.Where() + "unknown key " + Quoted(key) + " (the keys: docs/dcc.md)");
     }
     if (!seen.insert(key).second && !info->repeated) throw Error(lines.Where() + key + " is given twice");
+    // The XML is UTF-8 and holds no control character: a value must be text of one line.
+    if (const std::size_t bad = FirstNonUtf8(value); bad != std::string::npos) {
+      throw Error(lines.Where() + key + ": " + Quoted(value) + " is not UTF-8 text (the byte " +
+                  internal::Format("0x%02X", static_cast<unsigned char>(value[bad])) + " at character " +
+                  std::to_string(bad + 1) + "): save the file as UTF-8");
+    }
+    for (std::size_t i = 0; i < value.size(); ++i) {
+      const auto c = static_cast<unsigned char>(value[i]);
+      if ((c < 0x20 && c != '\t') || c == 0x7f) {
+        throw Error(lines.Where() + key + ": " + Quoted(value) + " holds a control character (" +
+                    internal::Format("0x%02X", c) + " at character " + std::to_string(i + 1) +
+                    "): a value is text of one line");
+      }
+    }
     const std::string why = Refusal(key, value);
     if (!why.empty()) throw Error(lines.Where() + why);
     s.fields.push_back({key, value, lines.Where().substr(0, lines.Where().size() - 2)});

@@ -67,6 +67,10 @@ class LineError {
 // A header field's text is copied into reports and JSON files: it must be UTF-8 (a report cannot
 // say what other bytes mean).
 void CheckHeaderText(const HeaderField& f, const LineError& fail) {
+  if (f.value.find('\r') != std::string::npos) {
+    fail(f.key + ": " + Quoted(f.value) +
+         " holds a carriage return: a header field is one line (a line ends in LF or CR LF, never CR alone)");
+  }
   for (const std::string* text : {&f.key, &f.value}) {
     const std::size_t bad = FirstNonUtf8(*text);
     if (bad == std::string::npos) continue;

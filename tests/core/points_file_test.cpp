@@ -666,6 +666,17 @@ TEST(PointsFile, HeaderTextThatIsNotUtf8IsRefusedAtItsLine) {
   EXPECT_NO_THROW(Parse(std::string(kHeader) + "# caf\xE9 without a colon\n0 7.5 4.8\n"));
 }
 
+TEST(PointsFile, AHeaderValueWithACarriageReturnInsideIsRefusedAtItsLine) {
+  // A writer could not write it back as one line: refused where it is read.
+  const std::string e = ErrorOf(std::string(kHeader) + "# operator: 12\r.7\n0 7.5 4.8\n");
+  EXPECT_THAT(e, HasSubstr("pts.txt:4: operator: "));
+  EXPECT_THAT(e, HasSubstr("holds a carriage return: a header field is one line"));
+  // A line's end in CR LF is a line's end.
+  const PointsData p = Parse(std::string(kHeader) + "# operator: bob\r\n0 7.5 4.8\r\n");
+  ASSERT_EQ(p.header.metadata.size(), 1u);
+  EXPECT_EQ(p.header.metadata[0].second, "bob");
+}
+
 TEST(PointsFile, ARowWithCommasSaysSo) {
   EXPECT_EQ(ErrorOf(std::string(kHeader) + "0,7.5,4.8\n"),
             "pts.txt:4: expected 3 columns (theta_deg phi_deg r_mm), found 1 (the line holds commas: a points file "
