@@ -550,12 +550,22 @@ std::string Statements(const json& j) {
   std::string notes;
   for (const json& t : st.at("tests")) {
     const bool rejected = t.value("rejected", false);
-    const std::string verdict = t.value("degrees_of_freedom", 0) == 0 ? "not tested"
-                                : !rejected                           ? "agrees"
-                                : t.value("accepted", false)          ? "<strong>REJECTED</strong>, accepted"
-                                                                      : "<strong>REJECTED</strong>";
-    rows.push_back({At(t, "statement"), At(t, "stated"), At(t, "readings"), At(t, "chi_square"),
-                    At(t, "degrees_of_freedom"), At(t, "p_value"), verdict});
+    const int dof = t.value("degrees_of_freedom", 0);
+    const std::string verdict = dof == 0                     ? "not tested"
+                                : !rejected                  ? "agrees"
+                                : t.value("accepted", false) ? "<strong class=\"nw\">REJECTED</strong>, accepted"
+                                                             : "<strong class=\"nw\">REJECTED</strong>";
+    // The numbers as the text report gives them: chi-square to 4 digits, p to 2.
+    std::string chi_square = "-", p = "-";
+    if (dof > 0 && t.contains("chi_square") && t.at("chi_square").is_number()) {
+      chi_square = internal::Format("%.4g", t.at("chi_square").get<double>());
+    }
+    if (dof > 0 && t.contains("p_value") && t.at("p_value").is_number()) {
+      const double value = t.at("p_value").get<double>();
+      p = Escape(value > 0.0 ? internal::Format("%.2g", value) : std::string("< 1e-300"));
+    }
+    rows.push_back({At(t, "statement"), At(t, "stated"), At(t, "readings"), chi_square, At(t, "degrees_of_freedom"), p,
+                    verdict});
     if (t.contains("supported_orientation")) notes += "<li>" + At(t.at("supported_orientation"), "text") + "</li>\n";
   }
   std::string body =
