@@ -127,6 +127,13 @@ std::size_t FirstNonUtf8(std::string_view text) {
   return std::string_view::npos;
 }
 
+std::string NotUtf8Reason(std::string_view text) {
+  const std::size_t bad = FirstNonUtf8(text);
+  if (bad == std::string_view::npos) return "";
+  return internal::Format("is not UTF-8 text (the byte 0x%02X at character %zu)", static_cast<unsigned char>(text[bad]),
+                          bad + 1);
+}
+
 bool ParseHex(const std::string& token, unsigned long long max, unsigned long long* value) {
   const char* first = token.data();
   const char* last = token.data() + token.size();

@@ -359,15 +359,20 @@ void CheckRequired(const Values& v, const Content& c, const std::string& begin) 
   }
 }
 
-void WriteAdministrativeData(Xml& x, const Values& v, const Content& c, const std::string& begin,
-                             const std::string& end) {
-  x.Open("dcc:administrativeData");
-  x.Open("dcc:dccSoftware");
+// The software that made the certificate (dcc:software), as dccSoftware and usedSoftware name it.
+void WriteSoftware(Xml& x, const Content& c) {
   x.Open("dcc:software");
   x.Text("dcc:name", c.software);
   x.Leaf("dcc:release", c.release);
   x.Leaf("dcc:type", "application");
   x.Close();
+}
+
+void WriteAdministrativeData(Xml& x, const Values& v, const Content& c, const std::string& begin,
+                             const std::string& end) {
+  x.Open("dcc:administrativeData");
+  x.Open("dcc:dccSoftware");
+  WriteSoftware(x, c);
   x.Close();
   x.Open("dcc:coreData");
   x.Leaf("dcc:countryCodeISO3166_1", v.Get("country_code"));
@@ -458,10 +463,8 @@ Settings ParseSettings(std::istream& in, const std::string& source) {
     }
     if (!seen.insert(key).second && !info->repeated) throw Error(lines.Where() + key + " is given twice");
     // The XML is UTF-8 and holds no control character: a value must be text of one line.
-    if (const std::size_t bad = FirstNonUtf8(value); bad != std::string::npos) {
-      throw Error(lines.Where() + key + ": " + Quoted(value) + " is not UTF-8 text (the byte " +
-                  internal::Format("0x%02X", static_cast<unsigned char>(value[bad])) + " at character " +
-                  std::to_string(bad + 1) + "): save the file as UTF-8");
+    if (const std::string reason = NotUtf8Reason(value); !reason.empty()) {
+      throw Error(lines.Where() + key + ": " + Quoted(value) + " " + reason + ": save the file as UTF-8");
     }
     for (std::size_t i = 0; i < value.size(); ++i) {
       const auto c = static_cast<unsigned char>(value[i]);
@@ -516,11 +519,7 @@ std::string WriteCertificate(const Content& c, const Settings& settings) {
     x.Close();
   }
   x.Open("dcc:usedSoftware");
-  x.Open("dcc:software");
-  x.Text("dcc:name", c.software);
-  x.Leaf("dcc:release", c.release);
-  x.Leaf("dcc:type", "application");
-  x.Close();
+  WriteSoftware(x, c);
   x.Close();
   x.Open("dcc:measuringEquipments");
   if (c.kind == Kind::kCalibration) {

@@ -72,11 +72,10 @@ void CheckHeaderText(const HeaderField& f, const LineError& fail) {
          " holds a carriage return: a header field is one line (a line ends in LF or CR LF, never CR alone)");
   }
   for (const std::string* text : {&f.key, &f.value}) {
-    const std::size_t bad = FirstNonUtf8(*text);
-    if (bad == std::string::npos) continue;
-    fail((text == &f.key ? "header key " : f.key + ": ") + Quoted(*text) + " is not UTF-8 text (the byte " +
-         internal::Format("0x%02X", static_cast<unsigned char>((*text)[bad])) + " at character " +
-         std::to_string(bad + 1) + "): save the file as UTF-8, for the reports copy the header's text");
+    const std::string reason = NotUtf8Reason(*text);
+    if (reason.empty()) continue;
+    fail((text == &f.key ? "header key " : f.key + ": ") + Quoted(*text) + " " + reason +
+         ": save the file as UTF-8, for the reports copy the header's text");
   }
 }
 

@@ -79,6 +79,10 @@ std::size_t Utf8CharLength(std::string_view text);
 /// of it is (what a text of a file must be before a report or a JSON file copies it).
 std::size_t FirstNonUtf8(std::string_view text);
 
+/// "is not UTF-8 text (the byte 0xE9 at character 4)" for the first byte of `text` that is not
+/// well-formed UTF-8, or "" when all of it is: the reason a reader gives for refusing it.
+std::string NotUtf8Reason(std::string_view text);
+
 }  // namespace sph
 
 #endif  // SPH_CORE_TEXT_INPUT_HPP_
